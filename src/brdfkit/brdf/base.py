@@ -1,0 +1,482 @@
+"""The BRDF protocol, parameter validation, the model registry, and composition (``+``, ``*``).
+
+Conventions (DESIGN.md §1): arguments are *local* unit vectors of shape ``(..., 3)`` with z the
+normal; ``wi`` points towards the light, ``wo`` towards the viewer. ``eval`` returns f_r with no
+cosine, of shape ``(..., C)``; ``pdf`` is the solid-angle density of :meth:`BRDF.sample`
+choosing ``wi`` given ``wo``, of shape ``(...,)``. Parameters broadcast against ``batch + (C,)``,
+which gives spatially varying BRDFs for free. Delta lobes contribute nothing to ``eval`` and
+``pdf`` and appear only in ``sample``, flagged as delta.
+
+References
+----------
+.. [1] F. E. Nicodemus et al., "Geometrical considerations and nomenclature for reflectance",
+       NBS Monograph 160, 1977.
+.. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., ch. 9, 2023.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from brdfkit._array import Array, asarray, constant, namespace, to_numpy
+
+MODELS: dict[str, type[BRDF]] = {}
+"""Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
+
+
+def register(name: str) -> Callable[[type[BRDF]], type[BRDF]]:
+    """Class decorator: make a model known to the spec parser and the CLI under ``name``."""
+
+    def decorate(cls: type[BRDF]) -> type[BRDF]:
+        if name in MODELS and MODELS[name] is not cls:
+            raise ValueError(f"model name {name!r} is registered twice")
+        MODELS[name] = cls
+        cls.spec_name = name
+        return cls
+
+    return decorate
+
+
+# --------------------------------------------------------------------------- validation
+def check_param(
+    name: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    hint: str = "",
+) -> Any:
+    """Validate a model parameter at construction: finite and inside ``[lo, hi]``.
+
+    The value is returned unchanged (a torch tensor keeps its autograd graph); checks run on a
+    detached NumPy copy.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, the offending value and the allowed range.
+    """
+    values = to_numpy(value).astype(np.float64, copy=False)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{name} must be finite; got {_show(value)}")
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    allowed = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+    low_bad = lo is not None and (np.any(values <= lo) if lo_open else np.any(values < lo))
+    high_bad = hi is not None and (np.any(values >= hi) if hi_open else np.any(values > hi))
+    if low_bad or high_bad:
+        bad = values[(values <= lo if lo_open else values < lo) if low_bad else
+                     (values >= hi if hi_open else values > hi)].ravel()[0]
+        extra = f" ({hint})" if hint else ""
+        raise ValueError(f"{name} must be in {allowed}; got {bad:g}{extra}")
+    return value
+
+
+def _show(value: Any) -> str:
+    arr = to_numpy(value)
+    return f"{arr.item():g}" if arr.size == 1 else f"an array of shape {arr.shape}"
+
+
+def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
+    """The channel count C implied by channel-valued parameters (their trailing axis).
+
+    Scalars count as 1 and broadcast to any C; two parameters with different trailing sizes > 1
+    are an error that names both.
+    """
+    count, owner = 1, None
+    for i, value in enumerate(values):
+        shape = np.shape(to_numpy(value))
+        c = shape[-1] if shape else 1
+        if c == 1:
+            continue
+        if count not in (1, c):
+            this = names[i] if i < len(names) else f"parameter {i}"
+            raise ValueError(
+                f"{this} has {c} channels but {owner} has {count}; channel-valued parameters "
+                "must share their last axis (or have length 1)"
+            )
+        count, owner = c, names[i] if i < len(names) else f"parameter {i}"
+    return count
+
+
+def param(value: Any, like: Array) -> Array:
+    """A parameter as an array in the namespace, dtype and device of ``like``, at least 1-d.
+
+    Parameters broadcast against ``batch + (C,)``: a scalar becomes shape ``(1,)``.
+    """
+    xp = namespace(like, value)
+    arr = asarray(value, xp, like=like)
+    return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
+
+
+# --------------------------------------------------------------------------- samples
+@dataclass(frozen=True, eq=False)
+class Sample:
+    """One importance sample per batch element.
+
+    Attributes
+    ----------
+    wi : (..., 3) sampled direction towards the light (below the surface for transmission).
+    weight : (..., C) Monte Carlo throughput f·|cos θi| / pdf (for delta lobes, the lobe's
+        reflectance); 0 where sampling failed.
+    pdf : (...,) solid-angle density of ``wi`` (0 for a delta lobe or a failed sample).
+    delta : (...,) bool, whether ``wi`` came from a delta lobe.
+    """
+
+    wi: Array
+    weight: Array
+    pdf: Array
+    delta: Array
+
+
+# --------------------------------------------------------------------------- the protocol
+class BRDF:
+    """Base class of every reflectance model: the protocol of DESIGN.md §3 and composition.
+
+    Subclasses are frozen dataclasses (``@dataclass(frozen=True, eq=False)``) that implement
+    :meth:`eval`, :meth:`pdf`, :meth:`sample` and set :attr:`channels`; :meth:`albedo` has a
+    Monte Carlo default that models with closed forms override. Class attributes state the
+    physics a model claims, and the property tests prove it.
+    """
+
+    spec_name: ClassVar[str] = ""
+    reciprocal: ClassVar[bool] = True
+    """Whether f(wi, wo) = f(wo, wi) for every parameter value (Helmholtz reciprocity)."""
+    energy_conserving: ClassVar[bool] = True
+    """Whether the directional albedo is ≤ 1 for every valid parameter value."""
+    isotropic: ClassVar[bool] = True
+    """Whether f is invariant under rotation about the normal (for the default parameters)."""
+    has_delta: ClassVar[bool] = False
+    """Whether the model has delta lobes (which ``eval``/``pdf`` do not see)."""
+    transmits: ClassVar[bool] = False
+    """Whether the model is a BSDF that also scatters into the lower hemisphere."""
+
+    channels: int = 1
+
+    # -- the four methods -------------------------------------------------------------------
+    def eval(self, wi: Array, wo: Array) -> Array:
+        """f_r(wi, wo), no cosine; shape ``(..., C)``."""
+        raise NotImplementedError
+
+    def pdf(self, wi: Array, wo: Array) -> Array:
+        """Solid-angle pdf of :meth:`sample` choosing ``wi`` given ``wo``; shape ``(...,)``."""
+        raise NotImplementedError
+
+    def sample(self, wo: Array, u: Array) -> Sample:
+        """Importance-sample ``wi`` given ``wo`` from uniforms ``u`` of shape ``(..., 2)``."""
+        raise NotImplementedError
+
+    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
+        """Directional-hemispherical reflectance ρ(wo) = ∫ f(wi, wo) cos θi dωi, ``(..., C)``.
+
+        The default is a Monte Carlo estimate with ``samples`` scrambled-Sobol importance samples
+        per direction (:meth:`albedo_estimate` gives its standard error); only reflected samples
+        (``wi.z > 0``) count.
+        """
+        return self.albedo_estimate(wo, samples=samples, seed=seed)[0]
+
+    def albedo_estimate(
+        self, wo: Array, samples: int = 4096, seed: int = 0
+    ) -> tuple[Array, Array]:
+        """Monte Carlo albedo ``(mean, standard_error)``, both ``(..., C)``."""
+        from scipy.stats import qmc
+
+        xp = namespace(wo)
+        wo = asarray(wo, xp)
+        u_np = qmc.Sobol(d=3, scramble=True, seed=seed).random(samples)
+        u = asarray(u_np, xp, like=wo)
+        batch = wo.shape[:-1]
+        wo_b = xp.broadcast_to(wo[..., None, :], (*batch, samples, 3))
+        u_b = xp.broadcast_to(u, (*batch, samples, 3))
+        s = self.sample(wo_b, u_b)
+        upper = (s.wi[..., 2] > 0)[..., None]
+        w = xp.where(upper, s.weight, xp.zeros_like(s.weight))
+        mean = xp.mean(w, axis=-2)
+        var = xp.mean(w * w, axis=-2) - mean * mean
+        stderr = xp.sqrt(xp.maximum(var, xp.zeros_like(var)) / samples)
+        return mean, stderr
+
+    def sampling_weight(self, wo: Array) -> Array:
+        """A cheap estimate of this lobe's albedo at ``wo`` (grey, ``(...,)``), ≥ 0.
+
+        A sum of lobes chooses which lobe to sample in proportion to it. Models override it with
+        a closed form; the default is a 64-sample Monte Carlo albedo.
+        """
+        xp = namespace(wo)
+        return xp.mean(self.albedo(wo, samples=64), axis=-1)
+
+    # -- description ------------------------------------------------------------------------
+    def params(self) -> dict[str, Any]:
+        """The model's parameters by name (dataclass fields)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+
+    def to_spec(self) -> str:
+        """This model as a spec string that :func:`brdfkit.brdf.parse` reads back."""
+        args = ", ".join(f"{k}={_spec_value(v)}" for k, v in self.params().items())
+        return f"{self.spec_name}({args})"
+
+    def __repr__(self) -> str:
+        return self.to_spec()
+
+    # -- composition ------------------------------------------------------------------------
+    def __add__(self, other: BRDF) -> BRDF:
+        if not isinstance(other, BRDF):
+            return NotImplemented
+        left = self.lobes if isinstance(self, Sum) else (self,)
+        right = other.lobes if isinstance(other, Sum) else (other,)
+        return Sum((*left, *right))
+
+    def __mul__(self, k: Any) -> BRDF:
+        if isinstance(k, BRDF):
+            return NotImplemented
+        return Scaled(k, self)
+
+    __rmul__ = __mul__
+
+
+def _spec_value(v: Any) -> str:
+    if isinstance(v, str):
+        return repr(v)
+    if isinstance(v, bool):
+        return str(v)
+    arr = to_numpy(v)
+    if arr.ndim == 0:
+        return f"{float(arr):.10g}"
+    if arr.ndim == 1:
+        return "[" + ", ".join(f"{float(x):.10g}" for x in arr) + "]"
+    raise ValueError("a spatially varying parameter has no spec-string form")
+
+
+def broadcast_channels(value: Array, batch: tuple[int, ...], channels: int) -> Array:
+    """``value`` broadcast to ``batch + (channels,)``."""
+    xp = namespace(value)
+    return xp.broadcast_to(value, (*batch, channels))
+
+
+def result_shape(*arrays: Array) -> tuple[int, ...]:
+    """Broadcast batch shape of direction arrays (their last axis dropped)."""
+    return tuple(np.broadcast_shapes(*(tuple(a.shape[:-1]) for a in arrays)))
+
+
+def upper_hemisphere(wi: Array, wo: Array) -> Array:
+    """``(..., 1)`` bool mask: both directions strictly above the surface."""
+    return ((wi[..., 2] > 0) & (wo[..., 2] > 0))[..., None]
+
+
+# --------------------------------------------------------------------------- composition
+@dataclass(frozen=True, eq=False)
+class Sum(BRDF):
+    """The sum of lobes, e.g. the dichromatic model ``Lambertian(...) + CookTorrance(...)``.
+
+    ``eval`` adds the lobes. ``sample`` picks lobe k with probability proportional to its
+    :meth:`BRDF.sampling_weight` (an albedo estimate) at ``wo``, using the first uniform for the
+    choice and re-stretching it for the lobe, so that two uniforms suffice; ``pdf`` is the
+    matching mixture of the non-delta lobes' densities (one-sample MIS with the balance
+    heuristic, Veach 1997 §9.2.4).
+
+    Reciprocal / energy-conserving exactly when every lobe is and (for energy) when the lobes'
+    albedos add to ≤ 1, which the property checks measure.
+    """
+
+    lobes: tuple[BRDF, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.lobes) < 1:
+            raise ValueError("lobes must hold at least one BRDF; got none")
+        counts = {lobe.channels for lobe in self.lobes} - {1}
+        if len(counts) > 1:
+            raise ValueError(f"lobes must share a channel count (or have 1); got {sorted(counts)}")
+
+    @property
+    def channels(self) -> int:  # type: ignore[override]
+        return max(lobe.channels for lobe in self.lobes)
+
+    @property
+    def reciprocal(self) -> bool:  # type: ignore[override]
+        return all(lobe.reciprocal for lobe in self.lobes)
+
+    @property
+    def energy_conserving(self) -> bool:  # type: ignore[override]
+        return False  # holds only if the albedos add to ≤ 1: measured, not claimed
+
+    @property
+    def isotropic(self) -> bool:  # type: ignore[override]
+        return all(lobe.isotropic for lobe in self.lobes)
+
+    @property
+    def has_delta(self) -> bool:  # type: ignore[override]
+        return any(lobe.has_delta for lobe in self.lobes)
+
+    @property
+    def transmits(self) -> bool:  # type: ignore[override]
+        return any(lobe.transmits for lobe in self.lobes)
+
+    def eval(self, wi: Array, wo: Array) -> Array:
+        total = self.lobes[0].eval(wi, wo)
+        for lobe in self.lobes[1:]:
+            total = total + lobe.eval(wi, wo)
+        return total
+
+    def _probabilities(self, wo: Array) -> list[Array]:
+        xp = namespace(wo)
+        weights = [xp.maximum(lobe.sampling_weight(wo), xp.zeros_like(wo[..., 0]))
+                   for lobe in self.lobes]
+        total = weights[0]
+        for w in weights[1:]:
+            total = total + w
+        uniform = constant(1.0 / len(self.lobes), total)
+        positive = total > 0
+        safe_total = xp.where(positive, total, xp.ones_like(total))
+        return [xp.where(positive, w / safe_total, uniform) for w in weights]
+
+    def pdf(self, wi: Array, wo: Array) -> Array:
+        probs = self._probabilities(wo)
+        total = None
+        for p, lobe in zip(probs, self.lobes, strict=True):
+            term = p * lobe.pdf(wi, wo)
+            total = term if total is None else total + term
+        return total
+
+    def sample(self, wo: Array, u: Array) -> Sample:
+        xp = namespace(wo, u)
+        probs = self._probabilities(wo)
+        u0 = u[..., 0]
+        lo = xp.zeros_like(u0)
+        chosen_wi = chosen_w = chosen_delta = None
+        chosen_pdf = None
+        for k, (p, lobe) in enumerate(zip(probs, self.lobes, strict=True)):
+            hi = lo + p if k < len(self.lobes) - 1 else xp.ones_like(lo)
+            pick = (u0 >= lo) & (u0 < hi) if k < len(self.lobes) - 1 else (u0 >= lo)
+            span = xp.where(p > 0, p, xp.ones_like(p))
+            u_k = xp.stack(
+                [xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7), *[u[..., j] for j in range(1, u.shape[-1])]],
+                axis=-1,
+            )
+            s = lobe.sample(wo, u_k)
+            p_safe = xp.where(p > 0, p, xp.ones_like(p))
+            delta_w = s.weight / p_safe[..., None]
+            if chosen_wi is None:
+                chosen_wi, chosen_w = s.wi, delta_w
+                chosen_delta, chosen_pdf = s.delta, s.pdf * p
+            else:
+                chosen_wi = xp.where(pick[..., None], s.wi, chosen_wi)
+                chosen_w = xp.where(pick[..., None], delta_w, chosen_w)
+                chosen_delta = xp.where(pick, s.delta, chosen_delta)
+                chosen_pdf = xp.where(pick, s.pdf * p, chosen_pdf)
+            lo = hi
+        # Non-delta picks: the mixture density and the full f give the MIS-balanced weight.
+        mix_pdf = self.pdf(chosen_wi, wo)
+        f = self.eval(chosen_wi, wo)
+        cos_theta_i = xp.abs(chosen_wi[..., 2])
+        ok = (mix_pdf > 0) & ~chosen_delta
+        safe_pdf = xp.where(ok, mix_pdf, xp.ones_like(mix_pdf))
+        smooth_w = xp.where(ok[..., None], f * (cos_theta_i / safe_pdf)[..., None], xp.zeros_like(f))
+        weight = xp.where(chosen_delta[..., None], chosen_w, smooth_w)
+        pdf = xp.where(chosen_delta, chosen_pdf, xp.where(ok, mix_pdf, xp.zeros_like(mix_pdf)))
+        return Sample(chosen_wi, weight, pdf, chosen_delta)
+
+    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
+        total = self.lobes[0].albedo(wo, samples=samples, seed=seed)
+        for lobe in self.lobes[1:]:
+            total = total + lobe.albedo(wo, samples=samples, seed=seed)
+        return total
+
+    def sampling_weight(self, wo: Array) -> Array:
+        total = self.lobes[0].sampling_weight(wo)
+        for lobe in self.lobes[1:]:
+            total = total + lobe.sampling_weight(wo)
+        return total
+
+    def params(self) -> dict[str, Any]:
+        return {"lobes": self.lobes}
+
+    def to_spec(self) -> str:
+        return " + ".join(lobe.to_spec() for lobe in self.lobes)
+
+
+@dataclass(frozen=True, eq=False)
+class Scaled(BRDF):
+    """``k * brdf``: every value and sample weight multiplied by ``k`` (scalar or per channel).
+
+    Reciprocal when the inner model is; energy-conserving only when measured so (k may be > 1).
+    """
+
+    k: Any
+    inner: BRDF
+
+    def __post_init__(self) -> None:
+        check_param("k", self.k, 0.0)
+        channel_count(self.k, np.zeros(self.inner.channels), names=("k", "inner model"))
+
+    @property
+    def channels(self) -> int:  # type: ignore[override]
+        return channel_count(self.k, np.zeros(self.inner.channels))
+
+    @property
+    def reciprocal(self) -> bool:  # type: ignore[override]
+        return self.inner.reciprocal
+
+    @property
+    def energy_conserving(self) -> bool:  # type: ignore[override]
+        return self.inner.energy_conserving and bool(np.all(to_numpy(self.k) <= 1))
+
+    @property
+    def isotropic(self) -> bool:  # type: ignore[override]
+        return self.inner.isotropic
+
+    @property
+    def has_delta(self) -> bool:  # type: ignore[override]
+        return self.inner.has_delta
+
+    @property
+    def transmits(self) -> bool:  # type: ignore[override]
+        return self.inner.transmits
+
+    def eval(self, wi: Array, wo: Array) -> Array:
+        return param(self.k, wi) * self.inner.eval(wi, wo)
+
+    def pdf(self, wi: Array, wo: Array) -> Array:
+        return self.inner.pdf(wi, wo)
+
+    def sample(self, wo: Array, u: Array) -> Sample:
+        s = self.inner.sample(wo, u)
+        return Sample(s.wi, param(self.k, wo) * s.weight, s.pdf, s.delta)
+
+    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
+        return param(self.k, wo) * self.inner.albedo(wo, samples=samples, seed=seed)
+
+    def sampling_weight(self, wo: Array) -> Array:
+        xp = namespace(wo)
+        return xp.mean(param(self.k, wo), axis=-1) * self.inner.sampling_weight(wo)
+
+    def params(self) -> dict[str, Any]:
+        return {"k": self.k, "inner": self.inner}
+
+    def to_spec(self) -> str:
+        inner = self.inner.to_spec()
+        if isinstance(self.inner, Sum):
+            inner = f"({inner})"
+        return f"{_spec_value(self.k)} * {inner}"
+
+
+__all__ = [
+    "BRDF",
+    "MODELS",
+    "Sample",
+    "Scaled",
+    "Sum",
+    "broadcast_channels",
+    "channel_count",
+    "check_param",
+    "param",
+    "register",
+    "result_shape",
+    "upper_hemisphere",
+]

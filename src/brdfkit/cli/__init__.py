@@ -1,0 +1,25 @@
+"""The ``brdfkit`` command.
+
+Each subcommand lives in its own module of this package and registers itself on :data:`app`;
+importing the package imports them all. Modules import heavy dependencies (matplotlib, torch)
+inside their command functions, so that ``brdfkit --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+from brdfkit.cli._app import app
+
+for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+    if not _module.name.startswith("_"):
+        importlib.import_module(f"{__name__}.{_module.name}")
+
+
+def main() -> None:
+    """Entry point of the ``brdfkit`` console script."""
+    app()
+
+
+__all__ = ["app", "main"]
