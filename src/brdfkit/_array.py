@@ -93,6 +93,13 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
         else:
             dtype = float_dtype(xp, x)
     device = array_api_compat.device(like) if like is not None and hasattr(like, "shape") else None
+    if (
+        hasattr(x, "dtype")
+        and namespace(x) is xp
+        and x.dtype == dtype
+        and (device is None or array_api_compat.device(x) == device)
+    ):
+        return x  # already right: no copy, autograd graph kept
     if device is None and hasattr(x, "shape") and namespace(x) is xp:
         device = array_api_compat.device(x)
     return xp.asarray(x, dtype=dtype, device=device)

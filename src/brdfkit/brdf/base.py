@@ -213,6 +213,14 @@ class BRDF:
         return xp.mean(self.albedo(wo, samples=64), axis=-1)
 
     # -- description ------------------------------------------------------------------------
+    @classmethod
+    def examples(cls) -> list[BRDF]:
+        """Representative instances (a sweep of valid parameters) for tests, checks and the atlas.
+
+        Models override this with a handful of settings that span their parameter ranges.
+        """
+        return [cls()]
+
     def params(self) -> dict[str, Any]:
         """The model's parameters by name (dataclass fields)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
