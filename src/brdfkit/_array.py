@@ -63,7 +63,7 @@ def float_dtype(xp: Any, *arrays: Any) -> Any:
     dtypes = [
         a.dtype
         for a in arrays
-        if hasattr(a, "dtype") and xp.isdtype(a.dtype, "real floating")
+        if hasattr(a, "dtype") and namespace(a) is xp and xp.isdtype(a.dtype, "real floating")
     ]
     if dtypes:
         widest = dtypes[0]
@@ -85,22 +85,24 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
     """
     if xp is None:
         xp = namespace(x, like)
+    native = hasattr(x, "dtype") and namespace(x) is xp
     if dtype is None:
         if like is not None and hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating"):
             dtype = like.dtype
-            if hasattr(x, "dtype") and xp.isdtype(x.dtype, "real floating"):
+            if native and xp.isdtype(x.dtype, "real floating"):
                 dtype = xp.result_type(x.dtype, like.dtype)
+        elif hasattr(x, "dtype") and not native and np.issubdtype(np.dtype(x.dtype), np.floating):
+            dtype = None  # a foreign float array (NumPy into torch): conversion keeps its width
         else:
             dtype = float_dtype(xp, x)
     device = array_api_compat.device(like) if like is not None and hasattr(like, "shape") else None
     if (
-        hasattr(x, "dtype")
-        and namespace(x) is xp
+        native
         and x.dtype == dtype
         and (device is None or array_api_compat.device(x) == device)
     ):
         return x  # already right: no copy, autograd graph kept
-    if device is None and hasattr(x, "shape") and namespace(x) is xp:
+    if device is None and native:
         device = array_api_compat.device(x)
     return xp.asarray(x, dtype=dtype, device=device)
 
@@ -197,7 +199,6 @@ def erf(x: Array) -> Array:
 
 
 _ERF_TERMS = 80
-_ERF_SATURATION = 6.0
 
 
 def erf_basic(x: Array) -> Array:
@@ -205,14 +206,16 @@ def erf_basic(x: Array) -> Array:
 
     Uses the everywhere-convergent series with positive terms (A&S 7.1.6)
     ``erf(x) = 2/√π · exp(−x²) · Σₙ 2ⁿ x^(2n+1) / (1·3·…·(2n+1))``, which has no cancellation;
-    for ``|x| ≥ 6`` erf is ±1 to double precision.
+    beyond ``|x| = 6`` (float64) or ``|x| = 4`` (narrower types) erf is ±1 to that precision,
+    and stopping there keeps rounding in the growing partial sums small.
 
     References
     ----------
     .. [1] M. Abramowitz and I. A. Stegun, *Handbook of Mathematical Functions*, eq. 7.1.6.
     """
     xp = namespace(x)
-    a = xp.minimum(xp.abs(x), constant(_ERF_SATURATION, x))
+    saturation = 6.0 if x.dtype == xp.float64 else 4.0
+    a = xp.minimum(xp.abs(x), constant(saturation, x))
     two_a2 = 2 * a * a
     term = a
     total = a
