@@ -34,8 +34,10 @@ def upper_directions(n: int, seed: int = 0) -> np.ndarray:
 
 
 angles = st.tuples(
-    st.floats(0.01, math.pi / 2 - 0.01), st.floats(-math.pi, math.pi),
-    st.floats(0.01, math.pi / 2 - 0.01), st.floats(-math.pi, math.pi),
+    st.floats(0.01, math.pi / 2 - 0.01),
+    st.floats(-math.pi, math.pi),
+    st.floats(0.01, math.pi / 2 - 0.01),
+    st.floats(-math.pi, math.pi),
 )
 
 
@@ -155,8 +157,9 @@ def test_float32_is_kept():
 def test_isotropic_reduction_is_rotation_invariant():
     wi, wo = upper_directions(100, 4), upper_directions(100, 5)
     angle = 0.7
-    rot = np.array([[math.cos(angle), -math.sin(angle), 0], [math.sin(angle), math.cos(angle), 0],
-                    [0, 0, 1]])
+    rot = np.array(
+        [[math.cos(angle), -math.sin(angle), 0], [math.sin(angle), math.cos(angle), 0], [0, 0, 1]]
+    )
     a = np.stack(to_isotropic(wi, wo))
     b = np.stack(to_isotropic(wi @ rot.T, wo @ rot.T))
     np.testing.assert_allclose(a, b, atol=1e-9)
@@ -170,7 +173,10 @@ def test_isotropic_reduction_is_rotation_invariant():
         (lambda: refract(np.array([0, 0, 1.0]), 0.0), "eta must be > 0"),
         (lambda: refract(np.array([0, 0, 1.0]), -1.5), "eta must be > 0"),
         (lambda: refract(np.array([np.nan, 0, 1.0]), 1.5), "w must be finite"),
-        (lambda: to_half_diff(np.array([0, 0, 1.0]), np.array([0, np.inf, 1.0])), "wo must be finite"),
+        (
+            lambda: to_half_diff(np.array([0, 0, 1.0]), np.array([0, np.inf, 1.0])),
+            "wo must be finite",
+        ),
         (lambda: critical_angle(0.5), "eta must be >= 1"),
     ],
 )

@@ -96,11 +96,7 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
         else:
             dtype = float_dtype(xp, x)
     device = array_api_compat.device(like) if like is not None and hasattr(like, "shape") else None
-    if (
-        native
-        and x.dtype == dtype
-        and (device is None or array_api_compat.device(x) == device)
-    ):
+    if native and x.dtype == dtype and (device is None or array_api_compat.device(x) == device):
         return x  # already right: no copy, autograd graph kept
     if device is None and native:
         device = array_api_compat.device(x)
@@ -238,7 +234,9 @@ def check_vectors(name: str, v: Array, *, finite: bool = True) -> Array:
     xp = namespace(v)
     v = asarray(v, xp)
     if v.ndim == 0 or v.shape[-1] != 3:
-        raise ValueError(f"{name} must have a last axis of length 3 (x, y, z); got shape {tuple(v.shape)}")
+        raise ValueError(
+            f"{name} must have a last axis of length 3 (x, y, z); got shape {tuple(v.shape)}"
+        )
     if finite:
         check_finite(name, v)
     return v

@@ -128,8 +128,10 @@ def refract(w: Array, eta: Array | float, normal: Array | None = None) -> tuple[
     check_finite("eta", eta)
     if not bool(xp.all(eta > 0)):
         raise ValueError(f"eta must be > 0; got {float(xp.min(eta)):g}")
-    n = xp.asarray([0.0, 0.0, 1.0], dtype=w.dtype) if normal is None else normalize(
-        asarray(check_vectors("normal", normal), xp, like=w)
+    n = (
+        xp.asarray([0.0, 0.0, 1.0], dtype=w.dtype)
+        if normal is None
+        else normalize(asarray(check_vectors("normal", normal), xp, like=w))
     )
     cos_theta_i = dot(w, n)
     entering = cos_theta_i > 0
@@ -145,12 +147,14 @@ def refract(w: Array, eta: Array | float, normal: Array | None = None) -> tuple[
 
 
 def critical_angle(eta: Array | float) -> Array:
-    """Critical angle θ_c = arcsin(1/η) (radians) for light leaving a medium of relative index η > 1."""
+    """Critical angle θ_c = arcsin(1/η) (radians) for light leaving a medium of relative index η."""
     xp = namespace(eta)
     eta = asarray(eta, xp)
     check_finite("eta", eta)
     if not bool(xp.all(eta >= 1)):
-        raise ValueError(f"eta must be >= 1 for a critical angle to exist; got {float(xp.min(eta)):g}")
+        raise ValueError(
+            f"eta must be >= 1 for a critical angle to exist; got {float(xp.min(eta)):g}"
+        )
     return xp.asin(1 / eta)
 
 
@@ -163,13 +167,17 @@ def half_vector(wi: Array, wo: Array) -> Array:
 def _rotate_z(v: Array, angle: Array) -> Array:
     xp = namespace(v, angle)
     c, s = xp.cos(angle), xp.sin(angle)
-    return xp.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1], v[..., 2]], axis=-1)
+    return xp.stack(
+        [c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1], v[..., 2]], axis=-1
+    )
 
 
 def _rotate_y(v: Array, angle: Array) -> Array:
     xp = namespace(v, angle)
     c, s = xp.cos(angle), xp.sin(angle)
-    return xp.stack([c * v[..., 0] + s * v[..., 2], v[..., 1], -s * v[..., 0] + c * v[..., 2]], axis=-1)
+    return xp.stack(
+        [c * v[..., 0] + s * v[..., 2], v[..., 1], -s * v[..., 0] + c * v[..., 2]], axis=-1
+    )
 
 
 def to_half_diff(wi: Array, wo: Array) -> tuple[Array, Array, Array, Array]:
@@ -188,7 +196,9 @@ def to_half_diff(wi: Array, wo: Array) -> tuple[Array, Array, Array, Array]:
     return theta_h, phi_h, theta_d, phi_d
 
 
-def from_half_diff(theta_h: Array, phi_h: Array, theta_d: Array, phi_d: Array) -> tuple[Array, Array]:
+def from_half_diff(
+    theta_h: Array, phi_h: Array, theta_d: Array, phi_d: Array
+) -> tuple[Array, Array]:
     """Inverse of :func:`to_half_diff`: the pair ``(wi, wo)`` from half/difference angles."""
     xp = namespace(theta_h, phi_h, theta_d, phi_d)
     h = spherical_to_cartesian(theta_h, phi_h)

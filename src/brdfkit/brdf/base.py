@@ -72,8 +72,11 @@ def check_param(
     low_bad = lo is not None and (np.any(values <= lo) if lo_open else np.any(values < lo))
     high_bad = hi is not None and (np.any(values >= hi) if hi_open else np.any(values > hi))
     if low_bad or high_bad:
-        bad = values[(values <= lo if lo_open else values < lo) if low_bad else
-                     (values >= hi if hi_open else values > hi)].ravel()[0]
+        bad = values[
+            (values <= lo if lo_open else values < lo)
+            if low_bad
+            else (values >= hi if hi_open else values > hi)
+        ].ravel()[0]
         extra = f" ({hint})" if hint else ""
         raise ValueError(f"{name} must be in {allowed}; got {bad:g}{extra}")
     return value
@@ -182,9 +185,7 @@ class BRDF:
         """
         return self.albedo_estimate(wo, samples=samples, seed=seed)[0]
 
-    def albedo_estimate(
-        self, wo: Array, samples: int = 4096, seed: int = 0
-    ) -> tuple[Array, Array]:
+    def albedo_estimate(self, wo: Array, samples: int = 4096, seed: int = 0) -> tuple[Array, Array]:
         """Monte Carlo albedo ``(mean, standard_error)``, both ``(..., C)``."""
         from scipy.stats import qmc
 
@@ -334,8 +335,9 @@ class Sum(BRDF):
 
     def _probabilities(self, wo: Array) -> list[Array]:
         xp = namespace(wo)
-        weights = [xp.maximum(lobe.sampling_weight(wo), xp.zeros_like(wo[..., 0]))
-                   for lobe in self.lobes]
+        weights = [
+            xp.maximum(lobe.sampling_weight(wo), xp.zeros_like(wo[..., 0])) for lobe in self.lobes
+        ]
         total = weights[0]
         for w in weights[1:]:
             total = total + w
@@ -364,7 +366,10 @@ class Sum(BRDF):
             pick = (u0 >= lo) & (u0 < hi) if k < len(self.lobes) - 1 else (u0 >= lo)
             span = xp.where(p > 0, p, xp.ones_like(p))
             u_k = xp.stack(
-                [xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7), *[u[..., j] for j in range(1, u.shape[-1])]],
+                [
+                    xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7),
+                    *[u[..., j] for j in range(1, u.shape[-1])],
+                ],
                 axis=-1,
             )
             s = lobe.sample(wo, u_k)
@@ -385,7 +390,9 @@ class Sum(BRDF):
         cos_theta_i = xp.abs(chosen_wi[..., 2])
         ok = (mix_pdf > 0) & ~chosen_delta
         safe_pdf = xp.where(ok, mix_pdf, xp.ones_like(mix_pdf))
-        smooth_w = xp.where(ok[..., None], f * (cos_theta_i / safe_pdf)[..., None], xp.zeros_like(f))
+        smooth_w = xp.where(
+            ok[..., None], f * (cos_theta_i / safe_pdf)[..., None], xp.zeros_like(f)
+        )
         weight = xp.where(chosen_delta[..., None], chosen_w, smooth_w)
         pdf = xp.where(chosen_delta, chosen_pdf, xp.where(ok, mix_pdf, xp.zeros_like(mix_pdf)))
         return Sample(chosen_wi, weight, pdf, chosen_delta)

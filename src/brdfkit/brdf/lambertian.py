@@ -43,8 +43,13 @@ class Lambertian(BRDF):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        check_param("albedo", self.albedo, 0.0, None if self.allow_unphysical else 1.0,
-                    hint="pass allow_unphysical=True for ρ > 1")
+        check_param(
+            "albedo",
+            self.albedo,
+            0.0,
+            None if self.allow_unphysical else 1.0,
+            hint="pass allow_unphysical=True for ρ > 1",
+        )
         object.__setattr__(self, "channels", channel_count(self.albedo, names=("albedo",)))
 
     @classmethod
