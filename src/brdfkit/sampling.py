@@ -1,0 +1,738 @@
+r"""Warps from the unit square to the sphere, disk and triangles, their densities,
+piecewise-constant 2D distributions and low-discrepancy points.
+
+Every warp maps uniform variates ``u`` of shape ``(..., 2)`` in :math:`[0, 1)^2` to a point of the
+target domain, and comes with a ``*_pdf`` function giving the density of that point with respect to
+the target's measure (solid angle for directions, area for the disk and triangle). The names and the
+component conventions follow Mitsuba 3's ``warp`` module (``u[..., 0]`` drives the azimuth,
+``u[..., 1]`` the polar coordinate), so results agree with ``mitsuba.warp`` sample for sample.
+
+Directions are in the local frame of DESIGN.md (z the normal); all functions run on any array
+backend through :mod:`brdfkit._array`, keep the input dtype and let gradients flow from ``u``.
+
+References
+----------
+.. [1] P. Shirley and K. Chiu, "A low distortion map between disk and square", Journal of
+       Graphics Tools 2(3), 1997.
+.. [2] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
+.. [3] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §A.5 and ch. 13,
+       2023.
+.. [4] W. Jakob et al., Mitsuba 3, ``include/mitsuba/core/warp.h``, 2022.
+.. [5] I. M. Sobol', "On the distribution of points in a cube and the approximate evaluation of
+       integrals", USSR Comput. Math. Math. Phys. 7(4), 1967.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import array_api_compat
+import numpy as np
+
+from brdfkit._array import (
+    Array,
+    asarray,
+    check_finite,
+    check_vectors,
+    clamp,
+    constant,
+    cross,
+    dot,
+    is_jax,
+    namespace,
+    norm,
+    normalize,
+    safe_div,
+    safe_sqrt,
+    to_numpy,
+)
+
+__all__ = [
+    "Distribution2D",
+    "sobol",
+    "square_to_cosine_hemisphere",
+    "square_to_cosine_hemisphere_pdf",
+    "square_to_spherical_triangle",
+    "square_to_spherical_triangle_pdf",
+    "square_to_uniform_cone",
+    "square_to_uniform_cone_pdf",
+    "square_to_uniform_disk_concentric",
+    "square_to_uniform_disk_concentric_pdf",
+    "square_to_uniform_hemisphere",
+    "square_to_uniform_hemisphere_pdf",
+    "square_to_uniform_sphere",
+    "square_to_uniform_sphere_pdf",
+    "square_to_uniform_triangle",
+    "square_to_uniform_triangle_pdf",
+]
+
+
+# --------------------------------------------------------------------------- validation
+def _check_pairs(name: str, v: Array) -> Array:
+    """``v`` as a floating array with a last axis of length 2 and finite values."""
+    v = asarray(v)
+    if v.ndim == 0 or v.shape[-1] != 2:
+        raise ValueError(f"{name} must have a last axis of length 2; got shape {tuple(v.shape)}")
+    return check_finite(name, v)
+
+
+def _check_unit_square(name: str, u: Array) -> Array:
+    """``u`` validated as points of the closed unit square, shape ``(..., 2)``."""
+    u = _check_pairs(name, u)
+    xp = namespace(u)
+    if is_jax(xp):
+        import jax
+
+        if isinstance(u, jax.core.Tracer):
+            return u
+    if not bool(xp.all((u >= 0) & (u <= 1))):
+        values = to_numpy(u)
+        bad = values[(values < 0) | (values > 1)].ravel()[0]
+        raise ValueError(f"{name} must lie in the unit square [0, 1]²; got a value of {bad:g}")
+    return u
+
+
+def _check_cos_cutoff(cos_cutoff: Array | float, like: Array) -> Array:
+    """``cos_cutoff`` as an array like ``like``, each value in [-1, 1)."""
+    values = to_numpy(cos_cutoff).astype(np.float64, copy=False)
+    if not np.all(np.isfinite(values) & (values >= -1) & (values < 1)):
+        bad = values[~(np.isfinite(values) & (values >= -1) & (values < 1))].ravel()[0]
+        raise ValueError(
+            f"cos_cutoff must be in [-1, 1) (the cosine of the cone's half-angle); got {bad:g}"
+        )
+    return asarray(cos_cutoff, namespace(like, cos_cutoff), like=like)
+
+
+def _uniform_density(value: float, mask: Array, like: Array) -> Array:
+    """``value`` where ``mask`` holds, else 0, with the dtype and device of ``like``."""
+    xp = namespace(like)
+    density = xp.full(mask.shape, value, dtype=like.dtype, device=array_api_compat.device(like))
+    return xp.where(mask, density, xp.zeros_like(density))
+
+
+# --------------------------------------------------------------------------- disk
+def square_to_uniform_disk_concentric(u: Array) -> Array:
+    r"""Shirley–Chiu concentric map of the square onto the unit disk, area-preserving.
+
+    With :math:`(a, b) = 2u - 1`, the square's concentric squares map to the disk's concentric
+    circles: for :math:`|a| > |b|`, :math:`r = a,\ \phi = \tfrac{\pi}{4}\, b / a`; otherwise
+    :math:`r = b,\ \phi = \tfrac{\pi}{2} - \tfrac{\pi}{4}\, a / b`; the point is
+    :math:`r(\cos\phi, \sin\phi)`. Its Jacobian determinant is the constant :math:`\pi/4` (per
+    unit of :math:`(a, b)`), so uniform ``u`` gives uniform points, with less distortion than the
+    polar map.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+
+    Returns
+    -------
+    (..., 2) points of the unit disk.
+
+    References
+    ----------
+    .. [1] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+    .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.1.
+    """
+    u = _check_unit_square("u", u)
+    xp = namespace(u)
+    a = 2 * u[..., 0] - 1
+    b = 2 * u[..., 1] - 1
+    quadrant_1_or_3 = xp.abs(a) < xp.abs(b)
+    r = xp.where(quadrant_1_or_3, b, a)
+    r_other = xp.where(quadrant_1_or_3, a, b)
+    phi = (math.pi / 4) * safe_div(r_other, r)
+    phi = xp.where(quadrant_1_or_3, math.pi / 2 - phi, phi)
+    return xp.stack([r * xp.cos(phi), r * xp.sin(phi)], axis=-1)
+
+
+def square_to_uniform_disk_concentric_pdf(p: Array) -> Array:
+    r"""Area density of :func:`square_to_uniform_disk_concentric`: :math:`1/\pi` on the unit disk,
+    0 outside.
+
+    Parameters
+    ----------
+    p : (..., 2) points of the plane.
+
+    Returns
+    -------
+    (...,) density per unit area.
+
+    References
+    ----------
+    .. [1] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+    """
+    p = _check_pairs("p", p)
+    return _uniform_density(1 / math.pi, dot(p, p) <= 1, p)
+
+
+# --------------------------------------------------------------------------- sphere, hemisphere
+def square_to_uniform_sphere(u: Array) -> Array:
+    r"""Uniform directions on the unit sphere: :math:`z = 1 - 2u_1,\ \phi = 2\pi u_0`.
+
+    By Archimedes' hat-box theorem the band :math:`dz` has area :math:`2\pi\,dz`, so linear ``z``
+    is uniform in solid angle.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+
+    Returns
+    -------
+    (..., 3) unit directions.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.2.
+    """
+    u = _check_unit_square("u", u)
+    xp = namespace(u)
+    z = 1 - 2 * u[..., 1]
+    r = safe_sqrt(1 - z * z)
+    phi = (2 * math.pi) * u[..., 0]
+    return xp.stack([r * xp.cos(phi), r * xp.sin(phi), z], axis=-1)
+
+
+def square_to_uniform_sphere_pdf(v: Array) -> Array:
+    r"""Solid-angle density of :func:`square_to_uniform_sphere`: :math:`1/(4\pi)`.
+
+    Parameters
+    ----------
+    v : (..., 3) directions.
+
+    Returns
+    -------
+    (...,) density per steradian.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.2.
+    """
+    v = check_vectors("v", v)
+    xp = namespace(v)
+    return _uniform_density(1 / (4 * math.pi), xp.ones_like(v[..., 2], dtype=xp.bool), v)
+
+
+def square_to_uniform_hemisphere(u: Array) -> Array:
+    r"""Uniform directions on the upper hemisphere (z ≥ 0), through the concentric disk.
+
+    With :math:`p` the concentric disk point of ``u`` (:func:`square_to_uniform_disk_concentric`),
+    :math:`z = 1 - |p|^2` and :math:`(x, y) = p\sqrt{1 + z}` (Lambert's azimuthal equal-area
+    projection), which is uniform in solid angle and less distorted than :math:`z = u_1`.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+
+    Returns
+    -------
+    (..., 3) unit directions with z ≥ 0.
+
+    References
+    ----------
+    .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_hemisphere``, 2022.
+    .. [2] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+    """
+    p = square_to_uniform_disk_concentric(u)
+    xp = namespace(p)
+    z = 1 - dot(p, p)
+    p = p * xp.sqrt(z + 1)[..., None]
+    return xp.concat([p, z[..., None]], axis=-1)
+
+
+def square_to_uniform_hemisphere_pdf(v: Array) -> Array:
+    r"""Solid-angle density of :func:`square_to_uniform_hemisphere`: :math:`1/(2\pi)` for
+    :math:`z \ge 0`, 0 below the surface.
+
+    Parameters
+    ----------
+    v : (..., 3) directions.
+
+    Returns
+    -------
+    (...,) density per steradian.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.2.
+    """
+    v = check_vectors("v", v)
+    return _uniform_density(1 / (2 * math.pi), v[..., 2] >= 0, v)
+
+
+def square_to_cosine_hemisphere(u: Array) -> Array:
+    r"""Cosine-weighted directions on the upper hemisphere by Malley's method.
+
+    A uniform point :math:`p` of the unit disk (concentric map) is lifted to the hemisphere,
+    :math:`\omega = (p_x, p_y, \sqrt{1 - |p|^2})`; projecting solid angle onto the disk multiplies
+    it by :math:`\cos\theta`, so the density is :math:`\cos\theta / \pi`.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+
+    Returns
+    -------
+    (..., 3) unit directions with z ≥ 0.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.3 (Malley's method).
+    .. [2] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+    """
+    p = square_to_uniform_disk_concentric(u)
+    xp = namespace(p)
+    z = safe_sqrt(1 - dot(p, p))
+    return xp.concat([p, z[..., None]], axis=-1)
+
+
+def square_to_cosine_hemisphere_pdf(v: Array) -> Array:
+    r"""Solid-angle density of :func:`square_to_cosine_hemisphere`:
+    :math:`\max(\cos\theta, 0)/\pi`.
+
+    Parameters
+    ----------
+    v : (..., 3) unit directions.
+
+    Returns
+    -------
+    (...,) density per steradian.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.3.
+    """
+    v = check_vectors("v", v)
+    return clamp(v[..., 2], 0.0) / math.pi
+
+
+def square_to_uniform_cone(u: Array, cos_cutoff: Array | float) -> Array:
+    r"""Uniform directions in the cone :math:`\cos\theta \ge \cos\theta_{max}` about +z.
+
+    With :math:`p` the concentric disk point of ``u`` and :math:`k = 1 - \cos\theta_{max}`,
+    :math:`z = 1 - k|p|^2` and :math:`(x, y) = p\sqrt{k(2 - k|p|^2)}`: the cap area above ``z`` is
+    linear in :math:`|p|^2`, hence uniform in solid angle.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+    cos_cutoff : cosine of the cone's half-angle, in [-1, 1); broadcasts against ``u[..., 0]``.
+
+    Returns
+    -------
+    (..., 3) unit directions.
+
+    References
+    ----------
+    .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_cone``, 2022.
+    .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
+    """
+    p = square_to_uniform_disk_concentric(u)
+    xp = namespace(p, cos_cutoff)
+    one_minus_cos = 1 - _check_cos_cutoff(cos_cutoff, p)
+    r2 = dot(p, p)
+    scale = safe_sqrt(one_minus_cos * (2 - one_minus_cos * r2))
+    z = 1 - one_minus_cos * r2
+    return xp.stack([p[..., 0] * scale, p[..., 1] * scale, z], axis=-1)
+
+
+def square_to_uniform_cone_pdf(v: Array, cos_cutoff: Array | float) -> Array:
+    r"""Solid-angle density of :func:`square_to_uniform_cone`:
+    :math:`1 / (2\pi(1 - \cos\theta_{max}))` inside the cone, 0 outside.
+
+    Parameters
+    ----------
+    v : (..., 3) unit directions.
+    cos_cutoff : cosine of the cone's half-angle, in [-1, 1).
+
+    Returns
+    -------
+    (...,) density per steradian.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
+    """
+    v = check_vectors("v", v)
+    xp = namespace(v, cos_cutoff)
+    cos_cutoff = _check_cos_cutoff(cos_cutoff, v)
+    density = 1 / (2 * math.pi * (1 - cos_cutoff))
+    density = xp.broadcast_to(density, xp.broadcast_shapes(density.shape, v.shape[:-1]))
+    return xp.where(v[..., 2] >= cos_cutoff, density, xp.zeros_like(density))
+
+
+# --------------------------------------------------------------------------- triangles
+def square_to_uniform_triangle(u: Array) -> Array:
+    r"""Uniform barycentric coordinates on a triangle: :math:`t = \sqrt{1 - u_0}`,
+    :math:`(b_1, b_2) = (1 - t,\ t\,u_1)`.
+
+    The point is :math:`(1 - b_1 - b_2)\,a + b_1\,b + b_2\,c` for vertices :math:`a, b, c`
+    (Mitsuba's convention).
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+
+    Returns
+    -------
+    (..., 2) barycentrics :math:`(b_1, b_2)` with :math:`b_1, b_2 \ge 0,\ b_1 + b_2 \le 1`.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 3rd ed., §13.6.5.
+    .. [2] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_triangle``, 2022.
+    """
+    u = _check_unit_square("u", u)
+    xp = namespace(u)
+    t = safe_sqrt(1 - u[..., 0])
+    return xp.stack([1 - t, t * u[..., 1]], axis=-1)
+
+
+def square_to_uniform_triangle_pdf(p: Array) -> Array:
+    r"""Density of :func:`square_to_uniform_triangle` in the barycentric plane: 2 on the triangle
+    :math:`b_1, b_2 \ge 0,\ b_1 + b_2 \le 1` (of area 1/2), 0 outside.
+
+    Parameters
+    ----------
+    p : (..., 2) barycentrics :math:`(b_1, b_2)`.
+
+    Returns
+    -------
+    (...,) density per unit barycentric area.
+
+    References
+    ----------
+    .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_triangle_pdf``, 2022.
+    """
+    p = _check_pairs("p", p)
+    inside = (p[..., 0] >= 0) & (p[..., 1] >= 0) & (p[..., 0] + p[..., 1] <= 1)
+    return _uniform_density(2.0, inside, p)
+
+
+def _angle_between(v1: Array, v2: Array) -> Array:
+    """Angle between unit vectors, accurate near 0 and π (PBRT's ``AngleBetween``)."""
+    xp = namespace(v1, v2)
+    near = 2 * xp.asin(clamp(norm(v2 - v1) / 2, hi=1.0))
+    far = math.pi - 2 * xp.asin(clamp(norm(v1 + v2) / 2, hi=1.0))
+    return xp.where(dot(v1, v2) < 0, far, near)
+
+
+def _spherical_triangle(
+    a: Array, b: Array, c: Array, like: Array
+) -> tuple[Array, Array, Array, Array, Array, Array]:
+    """Normalised vertices, the inward normals of the edge planes, the vertex angle at ``a``
+    and the solid angle of the spherical triangle ``abc``."""
+    xp = namespace(like, a, b, c)
+    a, b, c = (
+        normalize(check_vectors(name, asarray(v, xp, like=like)))
+        for name, v in (("a", a), ("b", b), ("c", c))
+    )
+    n_ab, n_bc, n_ca = normalize(cross(a, b)), normalize(cross(b, c)), normalize(cross(c, a))
+    alpha = _angle_between(n_ab, -n_ca)
+    beta = _angle_between(n_bc, -n_ab)
+    gamma = _angle_between(n_ca, -n_bc)
+    solid_angle = alpha + beta + gamma - math.pi
+    degenerate = (norm(n_ab) == 0) | (norm(n_bc) == 0) | (norm(n_ca) == 0) | (solid_angle <= 0)
+    if bool(xp.any(degenerate)):
+        raise ValueError(
+            "a, b, c must span a spherical triangle of positive solid angle; got collinear or "
+            "coincident vertices"
+        )
+    orientation = xp.sign(dot(a, cross(b, c)))
+    return (
+        a,
+        b,
+        c,
+        orientation[..., None, None] * xp.stack([n_ab, n_bc, n_ca], axis=-2),
+        alpha,
+        solid_angle,
+    )
+
+
+def square_to_spherical_triangle(u: Array, a: Array, b: Array, c: Array) -> Array:
+    r"""Uniform directions on the spherical triangle with vertices ``a``, ``b``, ``c`` (Arvo 1995).
+
+    :math:`u_0` picks the sub-triangle :math:`a\,b\,\hat c` of area :math:`A' = u_0 A`, where
+    :math:`A = \alpha + \beta + \gamma - \pi` is the solid angle; :math:`\hat c` on the arc
+    :math:`ac` follows in closed form from the spherical law of cosines,
+    :math:`\cos\hat b = \frac{k_2 + (k_2\cos\phi - k_1\sin\phi)\cos\alpha}
+    {(k_2\sin\phi + k_1\cos\phi)\sin\alpha}` with :math:`\phi = A' - \alpha`,
+    :math:`k_1 = \cos\phi + \cos\alpha`, :math:`k_2 = \sin\phi - \sin\alpha\,(a\cdot b)`; then
+    :math:`u_1` picks :math:`\cos\theta = 1 - u_1(1 - \hat c\cdot b)` along the arc from ``b``
+    towards :math:`\hat c`. The density is :math:`1/A`.
+
+    Parameters
+    ----------
+    u : (..., 2) uniform variates in [0, 1)².
+    a, b, c : (..., 3) vertex directions (normalised here), broadcasting against ``u[..., 0]``.
+
+    Returns
+    -------
+    (..., 3) unit directions inside the triangle.
+
+    References
+    ----------
+    .. [1] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
+    .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §6.5.4 (the robust form used).
+    """
+    u = _check_unit_square("u", u)
+    a, b, c, _, alpha, solid_angle = _spherical_triangle(a, b, c, u)
+    xp = namespace(u, a)
+    area_pi = u[..., 0] * solid_angle + math.pi  # A' + π, so that φ = A' − α = (A' + π) − α − π
+    cos_alpha, sin_alpha = xp.cos(alpha), xp.sin(alpha)
+    sin_phi = xp.sin(area_pi) * cos_alpha - xp.cos(area_pi) * sin_alpha
+    cos_phi = xp.cos(area_pi) * cos_alpha + xp.sin(area_pi) * sin_alpha
+    k1 = cos_phi + cos_alpha
+    k2 = sin_phi - sin_alpha * dot(a, b)
+    cos_b_hat = safe_div(
+        k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha, (k2 * sin_phi + k1 * cos_phi) * sin_alpha
+    )
+    cos_b_hat = clamp(cos_b_hat, -1.0, 1.0)
+    c_perp = normalize(c - dot(c, a, keepdims=True) * a)
+    c_hat = cos_b_hat[..., None] * a + safe_sqrt(1 - cos_b_hat * cos_b_hat)[..., None] * c_perp
+    cos_theta = 1 - u[..., 1] * (1 - dot(c_hat, b))
+    sin_theta = safe_sqrt(1 - cos_theta * cos_theta)
+    c_hat_perp = normalize(c_hat - dot(c_hat, b, keepdims=True) * b)
+    return cos_theta[..., None] * b + sin_theta[..., None] * c_hat_perp
+
+
+def square_to_spherical_triangle_pdf(v: Array, a: Array, b: Array, c: Array) -> Array:
+    r"""Solid-angle density of :func:`square_to_spherical_triangle`: :math:`1/\Omega` inside the
+    triangle, 0 outside, with :math:`\Omega = \alpha + \beta + \gamma - \pi` (Girard's theorem).
+
+    Parameters
+    ----------
+    v : (..., 3) directions.
+    a, b, c : (..., 3) vertex directions.
+
+    Returns
+    -------
+    (...,) density per steradian.
+
+    References
+    ----------
+    .. [1] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
+    """
+    v = check_vectors("v", v)
+    xp = namespace(v, a, b, c)
+    _, _, _, normals, _, solid_angle = _spherical_triangle(a, b, c, v)
+    inside = xp.all(xp.sum(v[..., None, :] * normals, axis=-1) >= 0, axis=-1)
+    density = 1 / solid_angle
+    density = xp.broadcast_to(density, xp.broadcast_shapes(density.shape, inside.shape))
+    return xp.where(inside, density, xp.zeros_like(density))
+
+
+# --------------------------------------------------------------------------- 2D distributions
+def _find_interval(cdf: Array, base: Array, u: Array, count: int) -> Array:
+    """Per sample, ``k`` in ``[0, count)`` with ``cdf[base + k] <= u < cdf[base + k + 1]``.
+
+    A vectorised bisection on the flat table ``cdf`` (rows of ``count + 1`` entries starting at
+    ``base``); it only needs ``take``, so it works on every backend and for many rows at once.
+    """
+    xp = namespace(cdf, u)
+    lo = xp.zeros_like(base)
+    hi = xp.full_like(base, count)
+    for _ in range(max(1, math.ceil(math.log2(count))) + 1):
+        mid = (lo + hi) // 2
+        right = xp.take(cdf, base + mid) <= u
+        lo = xp.where(right, mid, lo)
+        hi = xp.where(right, hi, mid)
+    return lo
+
+
+class Distribution2D:
+    r"""A piecewise-constant distribution on :math:`[0, 1)^2` proportional to an image.
+
+    Texel ``f[i, j]`` (row ``i`` along y, column ``j`` along x) covers
+    :math:`[j/W, (j+1)/W) \times [i/H, (i+1)/H)`; the density w.r.t. the unit square is
+    :math:`p(x, y) = f_{ij} / \bar f` with :math:`\bar f` the image mean. Sampling inverts the
+    marginal CDF over rows with :math:`u_1` and then the row's conditional CDF over columns with
+    :math:`u_0`, linearly inside the texel, so :meth:`invert` is its exact inverse. For an
+    environment map pass luminance·sin θ and convert the density to solid angle with
+    :math:`p_\omega = p / (2\pi^2 \sin\theta)`.
+
+    The tables are built once in float64 NumPy from ``image`` (a constant: no gradient flows to
+    it); :meth:`sample`, :meth:`pdf` and :meth:`invert` run in the namespace of their argument and
+    return its dtype, with gradients flowing from ``u`` to the points.
+
+    Parameters
+    ----------
+    image : (H, W) non-negative finite values, not all zero (any backend).
+
+    Attributes
+    ----------
+    shape : (H, W).
+    integral : :math:`\bar f`, the integral of the image over the unit square.
+    density : (H, W) float64 NumPy array, :math:`f / \bar f`.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.4.2 (``PiecewiseConstant2D``).
+    .. [2] W. Jakob et al., Mitsuba 3, ``DiscreteDistribution2D``, 2022.
+    """
+
+    def __init__(self, image: Any) -> None:
+        f = to_numpy(image).astype(np.float64)
+        if f.ndim != 2 or f.size == 0:
+            raise ValueError(f"image must be a non-empty 2D array (H, W); got shape {f.shape}")
+        if not np.all(np.isfinite(f)):
+            raise ValueError(f"image must be finite; got a value of {f[~np.isfinite(f)][0]}")
+        if np.any(f < 0):
+            raise ValueError(f"image must be non-negative; got a value of {f[f < 0][0]:g}")
+        if not np.any(f > 0):
+            raise ValueError("image must have a positive value somewhere; got all zeros")
+        height, width = f.shape
+        self.shape: tuple[int, int] = (height, width)
+        self.integral: float = float(f.mean())
+        self.density: np.ndarray = f / self.integral
+        row_sums = f.sum(axis=1)
+        marginal = np.concatenate([[0.0], np.cumsum(row_sums)]) / row_sums.sum()
+        marginal[-1] = 1.0
+        conditional = np.concatenate([np.zeros((height, 1)), np.cumsum(f, axis=1)], axis=1)
+        # A row of zeros is never sampled; it gets a uniform CDF so that invert() stays defined.
+        empty = row_sums == 0
+        conditional[empty] = np.arange(width + 1)
+        conditional /= conditional[:, -1:]
+        conditional[:, -1] = 1.0
+        self._marginal = marginal
+        self._conditional = conditional.ravel()
+
+    def _tables(self, like: Array) -> tuple[Array, Array, Array]:
+        """The marginal CDF, flat conditional CDFs and flat density in the namespace of ``like``."""
+        xp = namespace(like)
+        device = array_api_compat.device(like)
+        return tuple(
+            xp.asarray(t, dtype=xp.float64, device=device)
+            for t in (self._marginal, self._conditional, self.density.ravel())
+        )
+
+    def sample(self, u: Array) -> tuple[Array, Array]:
+        r"""Points distributed as the image, and their density w.r.t. the unit square.
+
+        Parameters
+        ----------
+        u : (..., 2) uniform variates in [0, 1)²; :math:`u_1` picks the row (y),
+            :math:`u_0` the column (x).
+
+        Returns
+        -------
+        points : (..., 2) in [0, 1)², ``(x, y)``.
+        pdf : (...,) :math:`f_{ij}/\bar f` at the points.
+        """
+        u = _check_unit_square("u", u)
+        xp = namespace(u)
+        height, width = self.shape
+        marginal, conditional, density = self._tables(u)
+        # Flat batch (``take`` needs 1-D indices); float64 so that the CDFs are resolved exactly.
+        u64 = xp.reshape(xp.astype(u, xp.float64), (-1, 2))
+        u64 = xp.minimum(u64, constant(1 - xp.finfo(xp.float64).eps / 2, u64))
+        u0, u1 = u64[:, 0], u64[:, 1]
+        zero = xp.zeros(u1.shape, dtype=xp.int64, device=array_api_compat.device(u))
+        row = _find_interval(marginal, zero, u1, height)
+        base = row * (width + 1)
+        col = _find_interval(conditional, base, u0, width)
+        m0, m1 = xp.take(marginal, row), xp.take(marginal, row + 1)
+        c0, c1 = xp.take(conditional, base + col), xp.take(conditional, base + col + 1)
+        x = (xp.astype(col, xp.float64) + (u0 - c0) / (c1 - c0)) / width
+        y = (xp.astype(row, xp.float64) + (u1 - m0) / (m1 - m0)) / height
+        points = xp.astype(xp.stack([x, y], axis=-1), u.dtype)
+        # Rounding (to float32 especially) may reach 1.0: keep the points inside [0, 1).
+        points = xp.minimum(points, constant(1 - xp.finfo(u.dtype).eps / 2, points))
+        pdf = xp.take(density, row * width + col)
+        points = xp.reshape(points, u.shape)
+        pdf = xp.reshape(xp.astype(pdf, u.dtype), u.shape[:-1])
+        return points, pdf
+
+    def _cells(self, points: Array) -> tuple[Array, Array, Array, Array]:
+        """Row and column of each point of the flattened batch (clipped into the grid) and the
+        offsets inside the texel, in float64."""
+        xp = namespace(points)
+        height, width = self.shape
+        p64 = xp.reshape(xp.astype(points, xp.float64), (-1, 2))
+        x, y = p64[:, 0] * width, p64[:, 1] * height
+        col = xp.astype(xp.clip(xp.floor(x), 0, width - 1), xp.int64)
+        row = xp.astype(xp.clip(xp.floor(y), 0, height - 1), xp.int64)
+        return row, col, x - xp.astype(col, xp.float64), y - xp.astype(row, xp.float64)
+
+    def pdf(self, points: Array) -> Array:
+        r"""Density :math:`f_{ij}/\bar f` of :meth:`sample` at ``points`` (0 outside [0, 1)²).
+
+        Parameters
+        ----------
+        points : (..., 2) ``(x, y)``.
+
+        Returns
+        -------
+        (...,) density w.r.t. the unit square.
+        """
+        points = _check_pairs("points", points)
+        xp = namespace(points)
+        _, _, density = self._tables(points)
+        row, col, _, _ = self._cells(points)
+        value = xp.reshape(xp.take(density, row * self.shape[1] + col), points.shape[:-1])
+        value = xp.astype(value, points.dtype)
+        inside = xp.all((points >= 0) & (points < 1), axis=-1)
+        return xp.where(inside, value, xp.zeros_like(value))
+
+    def invert(self, points: Array) -> Array:
+        r"""The variates ``u`` that :meth:`sample` maps to ``points``: the CDFs evaluated there.
+
+        :math:`u_1 = P(i) + (yH - i)\,p(i)` and :math:`u_0 = P_i(j) + (xW - j)\,p_i(j)`, with
+        :math:`P, p` the cumulative and discrete probabilities of the marginal over rows and
+        :math:`P_i, p_i` those of row ``i``'s conditional distribution over columns.
+
+        Parameters
+        ----------
+        points : (..., 2) ``(x, y)`` in [0, 1]².
+
+        Returns
+        -------
+        (..., 2) variates in [0, 1]².
+        """
+        points = _check_unit_square("points", points)
+        xp = namespace(points)
+        marginal, conditional, _ = self._tables(points)
+        row, col, du, dv = self._cells(points)
+        m0, m1 = xp.take(marginal, row), xp.take(marginal, row + 1)
+        flat = row * (self.shape[1] + 1) + col
+        c0, c1 = xp.take(conditional, flat), xp.take(conditional, flat + 1)
+        u = xp.stack([c0 + du * (c1 - c0), m0 + dv * (m1 - m0)], axis=-1)
+        return xp.reshape(xp.astype(u, points.dtype), points.shape)
+
+
+# --------------------------------------------------------------------------- low discrepancy
+def sobol(n: int, dim: int, seed: int | None = None, scramble: bool = True) -> np.ndarray:
+    r"""The first ``n`` points of the ``dim``-dimensional Sobol' sequence in :math:`[0, 1)^{dim}`.
+
+    A thin wrapper over :class:`scipy.stats.qmc.Sobol` (direction numbers of Joe and Kuo) that
+    returns a float64 NumPy array; convert it to another backend with
+    ``brdfkit._array.asarray(points, xp)``. Owen scrambling (``scramble=True``, the default) makes
+    every point uniformly distributed while keeping the low discrepancy, so estimates are unbiased
+    and ``seed`` gives independent replicates. Powers of two keep the balance properties (SciPy
+    warns otherwise).
+
+    Parameters
+    ----------
+    n : number of points, ≥ 1.
+    dim : dimension, in [1, 21201].
+    seed : seed of the scrambling (ignored without ``scramble``).
+    scramble : whether to apply Owen-type scrambling.
+
+    Returns
+    -------
+    (n, dim) float64 array.
+
+    References
+    ----------
+    .. [1] I. M. Sobol', USSR Comput. Math. Math. Phys. 7(4), 1967.
+    .. [2] S. Joe and F. Y. Kuo, "Constructing Sobol sequences with better two-dimensional
+           projections", SIAM J. Sci. Comput. 30, 2008.
+    """
+    from scipy.stats import qmc
+
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+        raise ValueError(f"n must be a positive integer; got {n!r}")
+    if isinstance(dim, bool) or not isinstance(dim, int | np.integer) or not 1 <= dim <= 21201:
+        raise ValueError(f"dim must be an integer in [1, 21201]; got {dim!r}")
+    return qmc.Sobol(int(dim), scramble=scramble, seed=seed).random(int(n))
