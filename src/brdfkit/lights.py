@@ -1,0 +1,655 @@
+"""Light sources: directional, point, Lambertian area lights, uniform sky, environment maps.
+
+Every light answers three questions about a receiving point ``x`` (world coordinates, shape
+``(..., 3)``):
+
+- :meth:`Light.sample` — pick a direction ``wi`` towards the light from uniforms ``u``; returns a
+  :class:`LightSample` whose ``value`` is what multiplies ``f·cos θi`` in a Monte Carlo estimate:
+  L_i/pdf for extended lights, and for delta lights the irradiance E⊥ on a surface facing the
+  light (directional: E; point: I/r², the inverse-square law).
+- :meth:`Light.incident_radiance` — the incident radiance L_i(x, wi) (zero for delta lights).
+- :meth:`Light.pdf` — the solid-angle density with which :meth:`Light.sample` picks ``wi``.
+
+Radiometric units: radiance W·m⁻²·sr⁻¹, irradiance W·m⁻², intensity W·sr⁻¹ (DESIGN.md §1).
+Occlusion by other geometry is not modelled (direct lighting of convex shapes).
+
+References
+----------
+.. [1] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., ch. 12.
+.. [2] P. Debevec, "Rendering synthetic objects into real scenes", SIGGRAPH 1998.
+.. [3] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from brdfkit._array import (
+    Array,
+    asarray,
+    check_vectors,
+    constant,
+    cross,
+    dot,
+    namespace,
+    norm,
+    normalize,
+    safe_sqrt,
+    to_numpy,
+)
+from brdfkit.brdf.base import channel_count, check_param, param
+from brdfkit.geometry import frame_from_normal, to_world
+from brdfkit.sampling import (
+    square_to_uniform_cone,
+    square_to_uniform_cone_pdf,
+    square_to_uniform_disk_concentric,
+    square_to_uniform_hemisphere,
+    square_to_uniform_hemisphere_pdf,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class LightSample:
+    """A direction towards a light and its Monte Carlo value.
+
+    Attributes
+    ----------
+    wi : (..., 3) unit direction from the receiving point towards the light (world frame).
+    value : (..., C) L_i(wi)/pdf for extended lights; E⊥ (irradiance facing the light) for
+        delta lights. Zero where the sample missed the light.
+    pdf : (...,) solid-angle density (1 for delta lights, whose density is a Dirac).
+    distance : (...,) distance to the sampled point on the light (inf for distant lights).
+    delta : whether the light is a delta light (directional or point).
+    """
+
+    wi: Array
+    value: Array
+    pdf: Array
+    distance: Array
+    delta: bool
+
+
+class Light:
+    """Base class of light sources (see the module docstring for the protocol)."""
+
+    delta: ClassVar[bool] = False
+    channels: int = 1
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        """Sample a direction towards the light from each point."""
+        raise NotImplementedError
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        """Incident radiance at ``points`` from directions ``wi``, ``(..., C)``."""
+        raise NotImplementedError
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        """Solid-angle density of :meth:`sample` choosing ``wi`` at ``points``, ``(...,)``."""
+        raise NotImplementedError
+
+
+def _batch(*arrays: Array) -> tuple[int, ...]:
+    return tuple(np.broadcast_shapes(*(tuple(a.shape[:-1]) for a in arrays)))
+
+
+def _zeros_pdf(like: Array) -> Array:
+    xp = namespace(like)
+    return xp.zeros(like.shape[:-1], dtype=like.dtype)
+
+
+def _vector(name: str, value: Any, like: Array) -> Array:
+    return asarray(check_vectors(name, asarray(value)), like=like)
+
+
+# --------------------------------------------------------------------------- delta lights
+@dataclass(frozen=True, eq=False)
+class DirectionalLight(Light):
+    """A distant light from ``direction`` delivering irradiance ``irradiance`` (W·m⁻²) on a
+    surface facing it: E(n) = E·max(0, n·l).
+
+    References
+    ----------
+    .. [1] CMU 16-385 Lecture 14, "directional light"; PBRT 4th ed. §12.4.
+    """
+
+    direction: Any = (0.0, 0.0, 1.0)
+    irradiance: Any = 1.0
+    delta: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        d = np.asarray(check_vectors("direction", np.asarray(self.direction, dtype=float)))
+        if np.linalg.norm(d) == 0:
+            raise ValueError("direction must be a non-zero vector; got (0, 0, 0)")
+        object.__setattr__(self, "direction", d / np.linalg.norm(d, axis=-1, keepdims=True))
+        check_param("irradiance", self.irradiance, 0.0)
+        object.__setattr__(self, "channels", channel_count(self.irradiance, names=("irradiance",)))
+
+    def sample(self, points: Array, u: Array | None = None) -> LightSample:
+        xp = namespace(points)
+        batch = tuple(points.shape[:-1])
+        wi = xp.broadcast_to(_vector("direction", self.direction, points), (*batch, 3))
+        e = param(self.irradiance, points)
+        value = xp.broadcast_to(e, (*batch, e.shape[-1]))
+        ones = xp.ones(batch, dtype=points.dtype)
+        return LightSample(wi, value, ones, ones * math.inf, True)
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        return xp.zeros((*_batch(points, wi), self.channels), dtype=wi.dtype)
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        return _zeros_pdf(wi)
+
+
+@dataclass(frozen=True, eq=False)
+class PointLight(Light):
+    """An isotropic point light of intensity ``intensity`` (W·sr⁻¹) at ``position``.
+
+    The irradiance at distance r on a surface facing it is E⊥ = I/r² (inverse-square law).
+    """
+
+    position: Any = (0.0, 0.0, 1.0)
+    intensity: Any = 1.0
+    delta: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self,
+            "position",
+            np.asarray(check_vectors("position", np.asarray(self.position, dtype=float))),
+        )
+        check_param("intensity", self.intensity, 0.0)
+        object.__setattr__(self, "channels", channel_count(self.intensity, names=("intensity",)))
+
+    def sample(self, points: Array, u: Array | None = None) -> LightSample:
+        xp = namespace(points)
+        to_light = _vector("position", self.position, points) - points
+        r2 = dot(to_light, to_light)
+        if not bool(xp.all(r2 > 0)):
+            raise ValueError("points must not coincide with the point light's position")
+        value = param(self.intensity, points) / r2[..., None]
+        ones = xp.ones(r2.shape, dtype=points.dtype)
+        return LightSample(normalize(to_light), value, ones, xp.sqrt(r2), True)
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        return xp.zeros((*_batch(points, wi), self.channels), dtype=wi.dtype)
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        return _zeros_pdf(wi)
+
+
+# --------------------------------------------------------------------------- area lights
+def _check_radiance(obj: Any) -> None:
+    check_param("radiance", obj.radiance, 0.0)
+    object.__setattr__(obj, "channels", channel_count(obj.radiance, names=("radiance",)))
+
+
+@dataclass(frozen=True, eq=False)
+class SphereLight(Light):
+    """A Lambertian sphere of ``radius`` at ``center`` emitting uniform radiance ``radiance``.
+
+    Sampled uniformly in the cone of directions it subtends (solid-angle sampling, pdf
+    1/(2π(1 − cos α)) with sin α = R/d); a point facing it receives E = πL sin²α.
+    """
+
+    center: Any = (0.0, 0.0, 2.0)
+    radius: float = 0.5
+    radiance: Any = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self,
+            "center",
+            np.asarray(check_vectors("center", np.asarray(self.center, dtype=float))),
+        )
+        check_param("radius", self.radius, 0.0, lo_open=True)
+        _check_radiance(self)
+
+    def _cone(self, points: Array) -> tuple[Array, Array, Array]:
+        xp = namespace(points)
+        to_center = _vector("center", self.center, points) - points
+        d = norm(to_center)
+        if not bool(xp.all(d > self.radius)):
+            raise ValueError("points must lie outside the sphere light")
+        cos_alpha = safe_sqrt(1 - (self.radius / d) ** 2)
+        return to_center / d[..., None], cos_alpha, d
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        axis, cos_alpha, d = self._cone(points)
+        local = square_to_uniform_cone(u[..., :2], cos_alpha)
+        wi = to_world(local, frame_from_normal(axis))
+        pdf = square_to_uniform_cone_pdf(local, cos_alpha)
+        value = param(self.radiance, points) / pdf[..., None]
+        # distance to the first intersection along wi
+        b = dot(wi, axis) * d
+        dist = b - safe_sqrt(b * b - d * d + self.radius**2)
+        return LightSample(wi, value, pdf, dist, False)
+
+    def _hits(self, points: Array, wi: Array) -> tuple[Array, Array, Array]:
+        axis, cos_alpha, _ = self._cone(points)
+        return dot(normalize(wi), axis) >= cos_alpha, cos_alpha, axis
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        hit, _, _ = self._hits(points, wi)
+        value = param(self.radiance, wi)
+        shape = (*_batch(points, wi), value.shape[-1])
+        return xp.where(
+            hit[..., None], xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype)
+        )
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        hit, cos_alpha, _ = self._hits(points, wi)
+        density = 1 / (2 * math.pi * (1 - cos_alpha))
+        return xp.where(hit, density, xp.zeros_like(density))
+
+
+@dataclass(frozen=True, eq=False)
+class _PlanarLight(Light):
+    """Shared code of one-sided planar Lambertian emitters sampled by area."""
+
+    def _area(self) -> float:
+        raise NotImplementedError
+
+    def _sample_area(self, u: Array) -> Array:
+        raise NotImplementedError
+
+    def _inside(self, q: Array) -> Array:
+        raise NotImplementedError
+
+    def _plane(self, like: Array) -> tuple[Array, Array]:
+        raise NotImplementedError
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        xp = namespace(points, u)
+        _, n = self._plane(points)
+        q = self._sample_area(asarray(u[..., :2], xp, like=points))
+        to_light = q - points
+        dist2 = dot(to_light, to_light)
+        dist = xp.sqrt(dist2)
+        wi = to_light / dist[..., None]
+        cos_light = -dot(wi, n)  # emits towards +normal
+        ok = cos_light > 0
+        safe_cos = xp.where(ok, cos_light, xp.ones_like(cos_light))
+        pdf = xp.where(ok, dist2 / (safe_cos * self._area()), xp.zeros_like(dist2))
+        safe_pdf = xp.where(ok, pdf, xp.ones_like(pdf))
+        value = param(self.radiance, points) / safe_pdf[..., None]
+        value = xp.where(ok[..., None], value, xp.zeros_like(value))
+        return LightSample(wi, value, pdf, dist, False)
+
+    def _intersect(self, points: Array, wi: Array) -> tuple[Array, Array, Array]:
+        xp = namespace(points, wi)
+        origin, n = self._plane(points)
+        wi = normalize(wi)
+        cos_light = -dot(wi, n)
+        safe = xp.where(cos_light > 0, cos_light, xp.ones_like(cos_light))
+        t = dot(points - origin, n) / safe
+        q = points + t[..., None] * wi
+        hit = (cos_light > 0) & (t > 0) & self._inside(q)
+        return hit, t, safe
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        hit, _, _ = self._intersect(points, wi)
+        value = param(self.radiance, wi)
+        shape = (*_batch(points, wi), value.shape[-1])
+        return xp.where(
+            hit[..., None], xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype)
+        )
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        hit, t, cos_light = self._intersect(points, wi)
+        density = t * t / (cos_light * self._area())
+        return xp.where(hit, density, xp.zeros_like(density))
+
+
+@dataclass(frozen=True, eq=False)
+class DiskLight(_PlanarLight):
+    """A one-sided Lambertian disk of ``radius`` at ``center`` emitting ``radiance`` towards
+    ``normal``; sampled uniformly by area (concentric map), pdf converted to solid angle
+    r²/(A cos θ_l)."""
+
+    center: Any = (0.0, 0.0, 2.0)
+    normal: Any = (0.0, 0.0, -1.0)
+    radius: float = 0.5
+    radiance: Any = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self,
+            "center",
+            np.asarray(check_vectors("center", np.asarray(self.center, dtype=float))),
+        )
+        n = np.asarray(check_vectors("normal", np.asarray(self.normal, dtype=float)))
+        if np.linalg.norm(n) == 0:
+            raise ValueError("normal must be a non-zero vector; got (0, 0, 0)")
+        object.__setattr__(self, "normal", n / np.linalg.norm(n))
+        check_param("radius", self.radius, 0.0, lo_open=True)
+        _check_radiance(self)
+
+    def _area(self) -> float:
+        return math.pi * self.radius**2
+
+    def _plane(self, like: Array) -> tuple[Array, Array]:
+        return _vector("center", self.center, like), _vector("normal", self.normal, like)
+
+    def _sample_area(self, u: Array) -> Array:
+        xp = namespace(u)
+        disk = square_to_uniform_disk_concentric(u) * self.radius
+        local = xp.concat([disk, xp.zeros_like(disk[..., :1])], axis=-1)
+        center, n = self._plane(u)
+        return center + to_world(local, frame_from_normal(n))
+
+    def _inside(self, q: Array) -> Array:
+        center, _ = self._plane(q)
+        return dot(q - center, q - center) <= self.radius**2
+
+
+@dataclass(frozen=True, eq=False)
+class RectangleLight(_PlanarLight):
+    """A one-sided Lambertian parallelogram ``corner + s·edge_u + t·edge_v`` (s, t ∈ [0, 1])
+    emitting ``radiance`` towards ``edge_u × edge_v``; sampled uniformly by area."""
+
+    corner: Any = (-0.5, -0.5, 2.0)
+    edge_u: Any = (0.0, 1.0, 0.0)
+    edge_v: Any = (1.0, 0.0, 0.0)
+    radiance: Any = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("corner", "edge_u", "edge_v"):
+            object.__setattr__(
+                self,
+                name,
+                np.asarray(check_vectors(name, np.asarray(getattr(self, name), dtype=float))),
+            )
+        if np.linalg.norm(np.cross(self.edge_u, self.edge_v)) == 0:
+            raise ValueError("edge_u and edge_v must span a parallelogram; got parallel edges")
+        _check_radiance(self)
+
+    def _area(self) -> float:
+        return float(np.linalg.norm(np.cross(self.edge_u, self.edge_v)))
+
+    def _plane(self, like: Array) -> tuple[Array, Array]:
+        n = np.cross(self.edge_u, self.edge_v)
+        return _vector("corner", self.corner, like), _vector("normal", n / np.linalg.norm(n), like)
+
+    def _sample_area(self, u: Array) -> Array:
+        corner = _vector("corner", self.corner, u)
+        return (
+            corner
+            + u[..., 0:1] * _vector("edge_u", self.edge_u, u)
+            + u[..., 1:2] * _vector("edge_v", self.edge_v, u)
+        )
+
+    def _inside(self, q: Array) -> Array:
+        corner, n = self._plane(q)
+        eu, ev = _vector("edge_u", self.edge_u, q), _vector("edge_v", self.edge_v, q)
+        # Solve q - corner = s·eu + t·ev through the dual basis of the parallelogram.
+        d = q - corner
+        area_n = dot(cross(eu, ev), n)
+        s = dot(cross(d, ev), n) / area_n
+        t = dot(cross(eu, d), n) / area_n
+        return (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+
+
+# --------------------------------------------------------------------------- distant lights
+@dataclass(frozen=True, eq=False)
+class UniformSky(Light):
+    """Constant radiance ``radiance`` from every direction of the upper hemisphere (world +z).
+
+    A Lambertian surface of albedo ρ facing up under it has radiance ρL ("white-out").
+    Sampled uniformly over the upper hemisphere.
+    """
+
+    radiance: Any = 1.0
+
+    def __post_init__(self) -> None:
+        _check_radiance(self)
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        xp = namespace(points, u)
+        wi = square_to_uniform_hemisphere(asarray(u[..., :2], xp, like=points))
+        pdf = square_to_uniform_hemisphere_pdf(wi)
+        value = param(self.radiance, points) / pdf[..., None]
+        batch = _batch(points, wi)
+        return LightSample(
+            xp.broadcast_to(wi, (*batch, 3)),
+            xp.broadcast_to(value, (*batch, value.shape[-1])),
+            xp.broadcast_to(pdf, batch),
+            xp.full(batch, math.inf, dtype=points.dtype),
+            False,
+        )
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        value = param(self.radiance, wi)
+        shape = (*_batch(points, wi), value.shape[-1])
+        up = (wi[..., 2] > 0)[..., None]
+        return xp.where(up, xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype))
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        p = square_to_uniform_hemisphere_pdf(wi)
+        return xp.broadcast_to(p, _batch(points, wi))
+
+
+# --------------------------------------------------------------------------- environment maps
+@dataclass(frozen=True, eq=False)
+class EnvironmentMap(Light):
+    r"""Distant radiance from an equirectangular (lat-long) image, bilinearly interpolated.
+
+    The map follows :func:`brdfkit.sh.latlong_directions`: row 0 at +z (θ = 0), column 0 starting
+    at φ = 0 (+x) with φ growing towards +y. ``rotation`` (a 3×3 matrix) takes map directions to
+    world directions. Importance sampling draws pixels from a piecewise-constant distribution
+    proportional to luminance·sin θ (plus a small floor so that every direction the bilinear
+    lookup can light has a positive density), with solid-angle pdf
+    :math:`p_\omega = p_{uv} / (2\pi^2 \sin\theta)`.
+
+    Parameters
+    ----------
+    image : (H, W, C) non-negative radiance (W·m⁻²·sr⁻¹).
+    scale : multiplies the radiance.
+    rotation : (3, 3) rotation matrix map → world (default identity).
+
+    References
+    ----------
+    .. [1] P. Debevec, "Rendering synthetic objects into real scenes", SIGGRAPH 1998.
+    .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 3rd ed., §14.2.4.
+    """
+
+    image: Any = None
+    scale: float = 1.0
+    rotation: Any = None
+
+    def __post_init__(self) -> None:
+        from brdfkit.sampling import Distribution2D
+
+        img = to_numpy(self.image) if self.image is not None else None
+        if img is None or img.ndim != 3 or img.shape[0] < 2 or img.shape[1] < 2:
+            shape = None if img is None else img.shape
+            raise ValueError(
+                f"image must be an (H, W, C) lat-long array with H, W >= 2; got {shape}"
+            )
+        if not np.all(np.isfinite(img)) or np.any(img < 0):
+            raise ValueError("image must hold finite, non-negative radiance values")
+        check_param("scale", self.scale, 0.0)
+        rot = np.eye(3) if self.rotation is None else np.asarray(self.rotation, dtype=float)
+        if rot.shape != (3, 3) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
+            raise ValueError(f"rotation must be a 3×3 rotation matrix; got {rot!r}")
+        object.__setattr__(self, "image", np.ascontiguousarray(img, dtype=np.float32))
+        object.__setattr__(self, "rotation", rot)
+        object.__setattr__(self, "channels", img.shape[2])
+        height = img.shape[0]
+        sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
+        lum = img.mean(axis=2) if img.shape[2] != 3 else img @ np.array([0.2126, 0.7152, 0.0722])
+        weights = (lum + 1e-3 * max(lum.mean(), 1e-12)) * sin_theta
+        object.__setattr__(self, "_distribution", Distribution2D(weights))
+
+    @classmethod
+    def from_file(
+        cls, path: str | Path, scale: float = 1.0, rotation: Any = None
+    ) -> EnvironmentMap:
+        """Read a lat-long ``.hdr``/``.exr`` (or LDR, decoded to linear) environment map."""
+        from brdfkit.io import read_image
+
+        image = read_image(path)
+        if Path(path).suffix.lower() not in (".hdr", ".exr", ".pfm"):
+            from brdfkit.io import srgb_decode
+
+            image = srgb_decode(image)
+        return cls(image[..., :3], scale=scale, rotation=rotation)
+
+    @classmethod
+    def from_mirror_ball(
+        cls, photo: Any, height: int = 256, width: int = 512, scale: float = 1.0
+    ) -> EnvironmentMap:
+        """Convert a photograph of a mirror ball (cropped to the ball) to a lat-long map.
+
+        Orthographic view along the camera's −z; the camera frame (x right, y up, z towards the
+        camera) maps to the world frame as world = (z_cam, x_cam, y_cam): world +z is the
+        photo's up and world +x points towards the camera. For a world direction d the ball
+        normal reflecting the view direction v = +x into d is n = (d + v)/|d + v|, seen at
+        photo coordinates (x, y) = (n·x_cam, n·y_cam). Directions right behind the ball
+        (d ≈ −v) are not seen and come out poorly sampled.
+        """
+        from brdfkit.sh import latlong_directions
+
+        photo = to_numpy(photo).astype(np.float32)
+        if photo.ndim != 3 or photo.shape[0] < 2:
+            raise ValueError(f"photo must be an (H, W, C) image of the ball; got {photo.shape}")
+        d = latlong_directions(height, width)
+        v = np.array([1.0, 0.0, 0.0])
+        n = d + v
+        n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+        x_cam, y_cam = n[..., 1], n[..., 2]
+        ph, pw = photo.shape[:2]
+        col = (x_cam + 1) / 2 * pw - 0.5
+        row = (1 - y_cam) / 2 * ph - 0.5
+        image = _bilinear_np(photo, row, col)
+        return cls(image, scale=scale)
+
+    def _lookup(self, wi: Array) -> Array:
+        from brdfkit.geometry import cartesian_to_spherical
+
+        xp = namespace(wi)
+        rot_t = asarray(self.rotation.T, xp, like=wi)
+        wi_map = xp.matmul(wi, xp.permute_dims(rot_t, (1, 0)))
+        theta, phi = cartesian_to_spherical(wi_map)
+        height, width = self.image.shape[:2]
+        x = xp.remainder(phi, constant(2 * math.pi, phi)) / (2 * math.pi)
+        y = theta / math.pi
+        image = asarray(self.image, xp, like=wi)
+        value = _bilinear(image, y * height - 0.5, x * width - 0.5)
+        return value * self.scale
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        value = self._lookup(normalize(wi))
+        return xp.broadcast_to(value, (*_batch(points, wi), value.shape[-1]))
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        from brdfkit.geometry import spherical_to_cartesian
+
+        xp = namespace(points, u)
+        uv, pdf_uv = self._distribution.sample(asarray(u[..., :2], xp, like=points))
+        theta, phi = uv[..., 1] * math.pi, uv[..., 0] * (2 * math.pi)
+        wi_map = spherical_to_cartesian(theta, phi)
+        wi = xp.matmul(wi_map, xp.permute_dims(asarray(self.rotation, xp, like=points), (1, 0)))
+        sin_theta = xp.sin(theta)
+        ok = (sin_theta > 0) & (pdf_uv > 0)
+        pdf = xp.where(
+            ok,
+            pdf_uv / (2 * math.pi**2 * xp.where(ok, sin_theta, xp.ones_like(sin_theta))),
+            xp.zeros_like(pdf_uv),
+        )
+        radiance = self._lookup(wi)
+        value = xp.where(
+            ok[..., None],
+            radiance / xp.where(ok, pdf, xp.ones_like(pdf))[..., None],
+            xp.zeros_like(radiance),
+        )
+        batch = _batch(points, wi)
+        inf = xp.full(batch, math.inf, dtype=points.dtype)
+        return LightSample(
+            xp.broadcast_to(wi, (*batch, 3)),
+            xp.broadcast_to(value, (*batch, value.shape[-1])),
+            xp.broadcast_to(pdf, batch),
+            inf,
+            False,
+        )
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        from brdfkit.geometry import cartesian_to_spherical
+
+        xp = namespace(points, wi)
+        wi_map = xp.matmul(normalize(wi), asarray(self.rotation, xp, like=wi))
+        theta, phi = cartesian_to_spherical(wi_map)
+        x = xp.remainder(phi, constant(2 * math.pi, phi)) / (2 * math.pi)
+        uv = xp.stack([x, theta / math.pi], axis=-1)
+        pdf_uv = self._distribution.pdf(uv)
+        sin_theta = xp.sin(theta)
+        ok = sin_theta > 0
+        pdf = xp.where(
+            ok,
+            pdf_uv / (2 * math.pi**2 * xp.where(ok, sin_theta, xp.ones_like(sin_theta))),
+            xp.zeros_like(pdf_uv),
+        )
+        return xp.broadcast_to(pdf, _batch(points, wi))
+
+
+def _bilinear(image: Array, row: Array, col: Array) -> Array:
+    """Bilinear lookup of an (H, W, C) lat-long image at fractional pixel coordinates.
+
+    Columns wrap around (φ is periodic); rows clamp at the poles.
+    """
+    xp = namespace(image, row)
+    height, width, channels = image.shape
+    r0f, c0f = xp.floor(row), xp.floor(col)
+    fr, fc = (row - r0f)[..., None], (col - c0f)[..., None]
+    r0 = xp.clip(xp.astype(r0f, xp.int64), 0, height - 1)
+    r1 = xp.clip(r0 + 1, 0, height - 1)
+    c0 = xp.remainder(xp.astype(c0f, xp.int64), width)
+    c1 = xp.remainder(c0 + 1, width)
+    flat = xp.reshape(image, (height * width, channels))
+    shape = (*row.shape, channels)
+
+    def at(r: Array, c: Array) -> Array:
+        return xp.reshape(xp.take(flat, xp.reshape(r * width + c, (-1,)), axis=0), shape)
+
+    top = at(r0, c0) * (1 - fc) + at(r0, c1) * fc
+    bottom = at(r1, c0) * (1 - fc) + at(r1, c1) * fc
+    return top * (1 - fr) + bottom * fr
+
+
+def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
+    """Bilinear lookup clamped at every border (for photographs, which do not wrap)."""
+    from scipy.ndimage import map_coordinates
+
+    return np.stack(
+        [
+            map_coordinates(image[..., c], [row, col], order=1, mode="nearest")
+            for c in range(image.shape[2])
+        ],
+        axis=-1,
+    )
+
+
+__all__ = [
+    "DirectionalLight",
+    "DiskLight",
+    "EnvironmentMap",
+    "Light",
+    "LightSample",
+    "PointLight",
+    "RectangleLight",
+    "SphereLight",
+    "UniformSky",
+]
