@@ -1,0 +1,112 @@
+"""The reflection equation: white-out, closed forms, and agreement of all estimators."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from brdfkit.brdf import Lambertian
+from brdfkit.integrate import (
+    directional_albedo,
+    hemispherical_reflectance,
+    reflected_radiance,
+)
+from brdfkit.lights import DirectionalLight, EnvironmentMap, PointLight, SphereLight, UniformSky
+
+
+def _directions(n, seed=0, upper=True):
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    if upper:
+        v[:, 2] = np.abs(v[:, 2]) + 0.05
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@pytest.mark.parametrize("method", ["quadrature", "brdf", "light", "mis"])
+def test_white_out_lambertian_under_uniform_sky(method):
+    """ρ·L for every view when the normal faces the sky (lectures: "white-out")."""
+    rho, sky = 0.7, 2.5
+    wo = _directions(20, 1)
+    e = reflected_radiance(Lambertian(rho), UniformSky(sky), wo, method=method, samples=2048)
+    tol = 1e-9 if method in ("quadrature", "brdf") else 4 * float(e.stderr.max()) + 1e-12
+    np.testing.assert_allclose(e.value, rho * sky, atol=tol)
+
+
+def test_white_out_for_tilted_normals_with_a_full_sphere_sky():
+    """A uniform environment (all directions) gives ρL for any normal and view."""
+    env = EnvironmentMap(np.full((8, 16, 3), 1.5))
+    normals = _directions(10, 2, upper=False)
+    wo = normals + 0.3 * _directions(10, 3, upper=False)
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    q = reflected_radiance(Lambertian(0.4), env, wo, normal=normals, method="quadrature")
+    m = reflected_radiance(Lambertian(0.4), env, wo, normal=normals, method="mis", samples=4096)
+    np.testing.assert_allclose(q.value, 0.6, rtol=1e-6)
+    assert np.all(np.abs(m.value - 0.6) <= 4 * m.stderr + 1e-9)
+
+
+def test_directional_light_is_exact_closed_form():
+    d = np.array([0.3, -0.2, 0.9])
+    d /= np.linalg.norm(d)
+    normals = _directions(50, 4)
+    e = reflected_radiance(
+        Lambertian([0.8, 0.5, 0.2]), DirectionalLight(d, 3.0), normals, normal=normals
+    )
+    expected = np.array([0.8, 0.5, 0.2]) / math.pi * 3.0 * np.clip(normals @ d, 0, None)[:, None]
+    np.testing.assert_allclose(e.value, expected, rtol=1e-12)
+    assert np.all(e.stderr == 0)
+
+
+def test_point_light_inverse_square_on_a_plane():
+    light = PointLight(position=(0, 0, 2.0), intensity=10.0)
+    x = np.linspace(-3, 3, 13)
+    points = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=-1)
+    wo = np.tile([0, 0, 1.0], (13, 1))
+    e = reflected_radiance(Lambertian(1.0), light, wo, point=points)
+    r2 = x**2 + 4
+    expected = 10.0 / r2 * (2 / np.sqrt(r2)) / math.pi
+    np.testing.assert_allclose(e.value[:, 0], expected, rtol=1e-12)
+
+
+def test_sphere_light_estimators_agree_with_closed_form():
+    light = SphereLight(center=(0, 0, 4.0), radius=1.0, radiance=3.0)
+    wo = np.array([[0, 0, 1.0]])
+    exact = 0.5 / math.pi * math.pi * 3.0 * (1 / 16)  # ρ/π · πL sin²α
+    for method in ("light", "mis"):
+        e = reflected_radiance(Lambertian(0.5), light, wo, method=method, samples=20000)
+        assert abs(float(e.value[0, 0]) - exact) <= 4 * float(e.stderr[0, 0]) + 1e-12
+    q = reflected_radiance(
+        Lambertian(0.5), light, wo, method="quadrature", theta_steps=256, phi_steps=64
+    )
+    assert abs(float(q.value[0, 0]) - exact) / exact < 1e-2
+
+
+def test_directional_and_hemispherical_reflectance_of_lambertian():
+    wo = _directions(5, 5)
+    np.testing.assert_allclose(
+        directional_albedo(Lambertian(0.3), wo, method="quadrature").value, 0.3
+    )
+    np.testing.assert_allclose(
+        hemispherical_reflectance(Lambertian([0.2, 0.9]), method="quadrature"), [0.2, 0.9]
+    )
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="method must be one of"):
+        reflected_radiance(Lambertian(), UniformSky(), np.array([0, 0, 1.0]), method="magic")
+    with pytest.raises(ValueError, match="light must be a Light"):
+        reflected_radiance(Lambertian(), [], np.array([0, 0, 1.0]))
+    with pytest.raises(ValueError, match="samples must be >= 1"):
+        reflected_radiance(Lambertian(), UniformSky(), np.array([0, 0, 1.0]), samples=0)
+    with pytest.raises(ValueError, match="wo must have a last axis"):
+        reflected_radiance(Lambertian(), UniformSky(), np.array([0, 1.0]))
+
+
+def test_torch_backend_and_gradients_through_the_albedo():
+    torch = pytest.importorskip("torch")
+    rho = torch.tensor([0.5], dtype=torch.float64, requires_grad=True)
+    wo = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
+    e = reflected_radiance(Lambertian(rho), UniformSky(2.0), wo, method="quadrature")
+    assert isinstance(e.value, torch.Tensor)
+    e.value.sum().backward()
+    assert abs(float(rho.grad) - 2.0) < 1e-9
