@@ -1,0 +1,554 @@
+r"""Images (Radiance HDR, OpenEXR, PNG/JPEG/TGA/TIFF), sRGB encoding, tone mapping, data paths.
+
+Reading
+-------
+:func:`read_image` returns a float32 array of shape (H, W, C), whatever the file:
+
+- ``.hdr`` (Radiance RGBE) through OpenCV and ``.exr`` through the OpenEXR bindings: linear
+  radiance values as stored (half floats widened to float32).
+- ``.png``/``.tif``/``.tiff`` through OpenCV (which keeps 16 bits per channel; imageio's Pillow
+  plugin reduces 16-bit RGB PNGs to 8 bits) and ``.jpg``/``.jpeg``/``.tga``/``.bmp`` through
+  imageio: integer codes divided by their maximum (255 or 65535), i.e. values in [0, 1] *as
+  stored* — sRGB-encoded for ordinary photographs. Pass ``srgb_to_linear=True`` to decode them
+  to linear values. Alpha, when present, is returned as the last channel and never decoded.
+
+A missing, truncated or corrupt file raises :class:`ImageReadError` (a ``ValueError``) naming
+the file and the reason.
+
+Writing
+-------
+:func:`write_image` writes ``.exr`` (float32 or half), ``.hdr`` (RGBE) and ``.png`` (8 or 16 bits,
+sRGB-encoded from linear values by default) atomically: the data goes to a temporary file in the
+destination folder, which is then renamed over the destination, so a reader never sees a
+half-written image.
+
+References
+----------
+.. [1] IEC 61966-2-1:1999, *Multimedia systems and equipment — Colour measurement and
+   management — Part 2-1: Default RGB colour space — sRGB*.
+.. [2] G. Ward, "Real pixels", *Graphics Gems II*, 1991 (the RGBE format).
+.. [3] F. Kainz, R. Bogart and P. Stanczyk, *Technical Introduction to OpenEXR*, 2013.
+.. [4] ITU-R BT.709-6, *Parameter values for the HDTV standards*, 2015 (luminance weights).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+
+__all__ = [
+    "READ_EXTENSIONS",
+    "WRITE_EXTENSIONS",
+    "ImageNotFoundError",
+    "ImageReadError",
+    "data_path",
+    "luminance",
+    "read_image",
+    "srgb_decode",
+    "srgb_encode",
+    "tonemap",
+    "write_image",
+]
+
+READ_EXTENSIONS = (".hdr", ".exr", ".png", ".tif", ".tiff", ".jpg", ".jpeg", ".tga", ".bmp")
+"""File extensions :func:`read_image` understands."""
+
+WRITE_EXTENSIONS = (".exr", ".hdr", ".png")
+"""File extensions :func:`write_image` understands."""
+
+REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
+"""Rec. 709 / sRGB luminance weights of linear R, G, B."""
+
+# IEC 61966-2-1 piecewise sRGB transfer function.
+_SRGB_A = 0.055
+_SRGB_GAMMA = 2.4
+_SRGB_SLOPE = 12.92
+_SRGB_LINEAR_BREAK = 0.0031308
+_SRGB_ENCODED_BREAK = 0.04045
+
+
+class ImageReadError(ValueError):
+    """An image file could not be read: the message names the file and the reason."""
+
+
+class ImageNotFoundError(ImageReadError, FileNotFoundError):
+    """The image file does not exist (both a ``ValueError`` and a ``FileNotFoundError``)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Colour encodings (array API: NumPy, torch, JAX; dtype kept)
+
+
+def srgb_encode(linear: Array) -> Array:
+    r"""sRGB-encode linear values (IEC 61966-2-1 transfer function).
+
+    .. math::
+
+        V = \begin{cases} 12.92\,L & L \le 0.0031308 \\
+                          1.055\,L^{1/2.4} - 0.055 & L > 0.0031308 \end{cases}
+
+    Negative inputs are encoded as 0 and values above 1 follow the curve (no clipping).
+    Written against the array API (colour-science's ``cctf_encoding`` is NumPy-only) so that
+    it runs on torch with gradients.
+
+    Parameters
+    ----------
+    linear : array (...)
+        Linear values.
+
+    Returns
+    -------
+    array (...)
+        Encoded values, in the dtype of ``linear``.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999, §5.2, eq. (5).
+    """
+    xp = namespace(linear)
+    linear = asarray(linear, xp)
+    safe = xp.maximum(linear, xp.full_like(linear, _SRGB_LINEAR_BREAK))
+    curve = (1 + _SRGB_A) * safe ** (1 / _SRGB_GAMMA) - _SRGB_A
+    low = _SRGB_SLOPE * xp.maximum(linear, xp.zeros_like(linear))
+    return xp.where(linear <= _SRGB_LINEAR_BREAK, low, curve)
+
+
+def srgb_decode(encoded: Array) -> Array:
+    r"""Linear values from sRGB-encoded ones (inverse of :func:`srgb_encode`).
+
+    .. math::
+
+        L = \begin{cases} V / 12.92 & V \le 0.04045 \\
+                          ((V + 0.055)/1.055)^{2.4} & V > 0.04045 \end{cases}
+
+    Negative inputs decode to 0.
+
+    Parameters
+    ----------
+    encoded : array (...)
+        sRGB-encoded values.
+
+    Returns
+    -------
+    array (...)
+        Linear values, in the dtype of ``encoded``.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999, §5.2, eq. (4) (as corrected in Amendment 1, 2003).
+    """
+    xp = namespace(encoded)
+    encoded = asarray(encoded, xp)
+    safe = xp.maximum(encoded, xp.full_like(encoded, _SRGB_ENCODED_BREAK))
+    curve = ((safe + _SRGB_A) / (1 + _SRGB_A)) ** _SRGB_GAMMA
+    low = xp.maximum(encoded, xp.zeros_like(encoded)) / _SRGB_SLOPE
+    return xp.where(encoded <= _SRGB_ENCODED_BREAK, low, curve)
+
+
+def luminance(rgb: Array) -> Array:
+    r"""Relative luminance of linear RGB: :math:`Y = 0.2126 R + 0.7152 G + 0.0722 B`.
+
+    Parameters
+    ----------
+    rgb : array (..., 3)
+        Linear Rec. 709 / sRGB primaries.
+
+    Returns
+    -------
+    array (..., 1)
+        Keeps a channel axis of length 1, as every brdfkit result does.
+
+    References
+    ----------
+    .. [1] ITU-R BT.709-6, item 3.2.
+    """
+    xp = namespace(rgb)
+    rgb = asarray(rgb, xp)
+    if rgb.ndim == 0 or rgb.shape[-1] != 3:
+        raise ValueError(
+            f"rgb must have a last axis of length 3 (R, G, B); got shape {tuple(rgb.shape)}"
+        )
+    weights = asarray(REC709_WEIGHTS, xp, like=rgb)
+    return xp.sum(rgb * weights, axis=-1, keepdims=True)
+
+
+TONEMAP_METHODS = ("clip", "reinhard")
+"""Tone-mapping operators understood by :func:`tonemap`."""
+
+
+def tonemap(image: Array, exposure: float = 0.0, method: str = "clip") -> Array:
+    r"""Map linear HDR values to displayable linear values in [0, 1].
+
+    The image is first scaled by :math:`2^{\text{exposure}}` (exposure in stops), then
+
+    - ``"clip"``: each channel is clipped to [0, 1];
+    - ``"reinhard"``: Reinhard et al.'s global operator on luminance,
+      :math:`L_d = L / (1 + L)`, every channel scaled by :math:`L_d / L` (hue kept), then
+      clipped to [0, 1]. Needs 3 (RGB) channels; a single channel is its own luminance.
+
+    The result is still linear: :func:`srgb_encode` it for display (``write_image`` does).
+
+    Parameters
+    ----------
+    image : array (..., C)
+        Linear values.
+    exposure : float
+        Exposure adjustment in stops (powers of two).
+    method : {"clip", "reinhard"}
+
+    Returns
+    -------
+    array (..., C)
+
+    References
+    ----------
+    .. [1] E. Reinhard, M. Stark, P. Shirley and J. Ferwerda, "Photographic tone reproduction
+       for digital images", SIGGRAPH 2002, eq. 3.
+    """
+    if method not in TONEMAP_METHODS:
+        raise ValueError(f"method must be one of {TONEMAP_METHODS}; got {method!r}")
+    if not np.isfinite(exposure):
+        raise ValueError(f"exposure must be a finite number of stops; got {exposure!r}")
+    xp = namespace(image)
+    image = asarray(image, xp) * float(2.0**exposure)
+    if method == "reinhard":
+        if image.shape[-1] == 3:
+            lum = luminance(image)
+        elif image.shape[-1] == 1:
+            lum = image
+        else:
+            raise ValueError(
+                "image must have 1 or 3 channels for the Reinhard operator; "
+                f"got shape {tuple(image.shape)}"
+            )
+        lum = xp.maximum(lum, xp.zeros_like(lum))
+        image = image / (1 + lum)
+    return xp.clip(image, 0.0, 1.0)
+
+
+# --------------------------------------------------------------------------------------------
+# Reading
+
+
+def _cv2() -> Any:
+    try:
+        import cv2
+    except ImportError as error:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "reading and writing .hdr, .png and .tif files needs OpenCV: "
+            "pip install opencv-python-headless"
+        ) from error
+    return cv2
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            channels = {name: channel.pixels for name, channel in exr.channels().items()}
+    except Exception as error:  # the bindings raise RuntimeError, ValueError, OSError
+        raise ImageReadError(f"cannot read OpenEXR image {path}: {error}") from error
+    names = set(channels)
+    if {"R", "G", "B"} <= names:
+        order = ["R", "G", "B"] + (["A"] if "A" in names else [])
+    elif "Y" in names:
+        order = ["Y"] + (["A"] if "A" in names else [])
+    elif len(names) == 1:
+        order = list(names)
+    else:
+        raise ImageReadError(
+            f"cannot read OpenEXR image {path}: expected R, G, B (and A) or Y channels; "
+            f"found {sorted(names)}"
+        )
+    return np.stack([channels[name] for name in order], axis=-1).astype(np.float32)
+
+
+def _read_opencv(path: Path) -> np.ndarray:
+    cv2 = _cv2()
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ImageReadError(
+            f"cannot read image {path}: OpenCV could not decode it (truncated, corrupt or "
+            f"not a {path.suffix.lower()} file)"
+        )
+    if image.ndim == 3 and image.shape[-1] in (3, 4):  # OpenCV stores BGR(A)
+        image = image[..., [2, 1, 0, 3][: image.shape[-1]]]
+    return image
+
+
+def _read_imageio(path: Path) -> np.ndarray:
+    import imageio.v3 as iio
+
+    try:
+        return iio.imread(path, plugin="pillow")
+    except Exception as error:  # Pillow raises OSError, SyntaxError, ValueError, ...
+        raise ImageReadError(f"cannot read image {path}: {error}") from error
+
+
+_READERS: dict[str, Callable[[Path], np.ndarray]] = {
+    ".hdr": _read_opencv,
+    ".exr": _read_exr,
+    ".png": _read_opencv,
+    ".tif": _read_opencv,
+    ".tiff": _read_opencv,
+    ".jpg": _read_imageio,
+    ".jpeg": _read_imageio,
+    ".tga": _read_imageio,
+    ".bmp": _read_imageio,
+}
+
+
+def _as_float_image(image: np.ndarray, path: Path) -> np.ndarray:
+    if image.dtype == np.uint8 or image.dtype == np.uint16:
+        image = image.astype(np.float32) / np.iinfo(image.dtype).max
+    elif image.dtype.kind == "f":
+        image = image.astype(np.float32)
+    else:
+        raise ImageReadError(f"cannot read image {path}: unsupported sample type {image.dtype}")
+    return image[..., None] if image.ndim == 2 else image
+
+
+def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.ndarray:
+    """Read an image file as a float32 array of shape (H, W, C).
+
+    HDR formats (``.hdr``, ``.exr``) give the linear values stored in the file. 8- and 16-bit
+    formats (``.png``, ``.tif``, ``.jpg``, ``.tga``, ``.bmp``) give the stored codes divided by
+    their maximum, in [0, 1], still sRGB-encoded for ordinary images; with
+    ``srgb_to_linear=True`` the colour channels (not alpha) are decoded with
+    :func:`srgb_decode`. Greyscale images have ``C = 1``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Image file; the format follows the extension (:data:`READ_EXTENSIONS`).
+    srgb_to_linear : bool
+        Decode 8/16-bit images from sRGB to linear values (HDR formats are linear already and
+        are returned unchanged).
+
+    Returns
+    -------
+    numpy.ndarray (H, W, C), float32
+
+    Raises
+    ------
+    ImageNotFoundError
+        The file does not exist (a ``ValueError`` and a ``FileNotFoundError``).
+    ImageReadError
+        The file is truncated or corrupt, or its contents are not of the expected format.
+    ValueError
+        The extension is not supported.
+
+    References
+    ----------
+    .. [1] G. Ward, "Real pixels", *Graphics Gems II*, 1991.
+    .. [2] IEC 61966-2-1:1999.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in _READERS:
+        raise ValueError(
+            f"path {str(path)!r} has an unsupported extension {suffix!r}; "
+            f"expected one of {', '.join(READ_EXTENSIONS)}"
+        )
+    if not path.is_file():
+        raise ImageNotFoundError(f"cannot read image {path}: no such file")
+    image = _as_float_image(_READERS[suffix](path), path)
+    if srgb_to_linear and suffix not in (".hdr", ".exr"):
+        colour = 3 if image.shape[-1] >= 3 else 1
+        image[..., :colour] = srgb_decode(image[..., :colour])
+    return image
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+
+
+def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it over ``path``.
+
+    The temporary keeps ``path``'s extension (encoders choose the format from it) and is
+    removed if ``write`` fails, so ``path`` is either the old file or the complete new one.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(handle)
+    tmp = Path(name)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _write_exr(path: Path, image: np.ndarray, half: bool) -> None:
+    import OpenEXR
+
+    names = {1: ["Y"], 3: ["R", "G", "B"], 4: ["R", "G", "B", "A"]}[image.shape[-1]]
+    pixels = image.astype(np.float16 if half else np.float32)
+    channels = {name: np.ascontiguousarray(pixels[..., i]) for i, name in enumerate(names)}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, channels) as exr:
+        exr.write(str(path))
+
+
+def _write_opencv(path: Path, image: np.ndarray) -> None:
+    cv2 = _cv2()
+    if image.shape[-1] in (3, 4):
+        image = image[..., [2, 1, 0, 3][: image.shape[-1]]]
+    if not cv2.imwrite(str(path), np.ascontiguousarray(image)):
+        raise OSError(f"OpenCV could not write {path}")
+
+
+def write_image(
+    path: str | os.PathLike,
+    image: Array,
+    *,
+    exposure: float = 0.0,
+    bit_depth: int = 8,
+    srgb: bool = True,
+    half: bool = False,
+) -> Path:
+    r"""Write a linear image to ``.exr``, ``.hdr`` or ``.png``, atomically.
+
+    The image is first multiplied by :math:`2^{\text{exposure}}`. Then
+
+    - ``.exr``: stored as float32 (or half floats with ``half=True``), ZIP-compressed; channels
+      Y (C = 1), RGB (C = 3) or RGBA (C = 4).
+    - ``.hdr``: Radiance RGBE (about 1% relative precision); C = 1 is written as grey RGB,
+      C = 3 as RGB. Values must be non-negative.
+    - ``.png``: colour channels clipped to [0, 1] and, with ``srgb=True`` (the default),
+      sRGB-encoded (:func:`srgb_encode`); ``srgb=False`` stores them as they are (for normal
+      maps, masks or data already encoded). Alpha (C = 4) is clipped, never encoded.
+      Quantised to ``bit_depth`` 8 or 16 bits by rounding.
+
+    Nothing is ever half-written: the data goes to a temporary file in the same folder which
+    is renamed to ``path`` only once complete.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Destination; the format follows the extension (:data:`WRITE_EXTENSIONS`).
+    image : array (H, W) or (H, W, C)
+        Linear values, any backend (converted to NumPy here, at the I/O boundary).
+    exposure : float
+        Scale in stops applied before writing.
+    bit_depth : {8, 16}
+        PNG sample size.
+    srgb : bool
+        sRGB-encode PNG colour channels.
+    half : bool
+        Store EXR channels as 16-bit half floats.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    References
+    ----------
+    .. [1] IEC 61966-2-1:1999 (sRGB encoding).
+    .. [2] G. Ward, "Real pixels", *Graphics Gems II*, 1991 (RGBE).
+    .. [3] F. Kainz, R. Bogart and P. Stanczyk, *Technical Introduction to OpenEXR*, 2013.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in WRITE_EXTENSIONS:
+        raise ValueError(
+            f"path {str(path)!r} has an unsupported extension {suffix!r} for writing; "
+            f"expected one of {', '.join(WRITE_EXTENSIONS)}"
+        )
+    if bit_depth not in (8, 16):
+        raise ValueError(f"bit_depth must be 8 or 16; got {bit_depth!r}")
+    if not np.isfinite(exposure):
+        raise ValueError(f"exposure must be a finite number of stops; got {exposure!r}")
+    pixels = to_numpy(image)
+    if pixels.ndim == 2:
+        pixels = pixels[..., None]
+    allowed = {".exr": (1, 3, 4), ".hdr": (1, 3), ".png": (1, 3, 4)}[suffix]
+    if pixels.ndim != 3 or pixels.shape[-1] not in allowed or 0 in pixels.shape:
+        raise ValueError(
+            f"image must have shape (H, W) or (H, W, C) with C in {allowed} for {suffix}; "
+            f"got shape {tuple(pixels.shape)}"
+        )
+    if not np.issubdtype(pixels.dtype, np.number) or np.iscomplexobj(pixels):
+        raise ValueError(f"image must hold real numbers; got dtype {pixels.dtype}")
+    pixels = pixels.astype(np.float64) * 2.0**exposure
+
+    if suffix == ".exr":
+        _atomic_write(path, lambda tmp: _write_exr(tmp, pixels, half))
+        return path
+
+    check_finite("image", pixels)
+    if suffix == ".hdr":
+        if (pixels < 0).any():
+            raise ValueError(
+                f"image must be non-negative for .hdr (RGBE); got a minimum of {pixels.min():.6g}"
+            )
+        rgb = np.repeat(pixels, 3, axis=-1) if pixels.shape[-1] == 1 else pixels
+        _atomic_write(path, lambda tmp: _write_opencv(tmp, rgb.astype(np.float32)))
+        return path
+
+    colour = min(pixels.shape[-1], 3)
+    encoded = np.clip(pixels, 0.0, 1.0)
+    if srgb:
+        encoded[..., :colour] = srgb_encode(encoded[..., :colour])
+    dtype = np.uint8 if bit_depth == 8 else np.uint16
+    codes = np.rint(encoded * np.iinfo(dtype).max).astype(dtype)
+    _atomic_write(path, lambda tmp: _write_opencv(tmp, codes))
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# Data folder
+
+
+def data_path(*parts: str | os.PathLike) -> Path:
+    """Path of a file or folder in brdfkit's real-data folder.
+
+    The folder is ``$BRDFKIT_DATA`` when that variable is set; otherwise the first existing
+    of ``../shared/data`` relative to the current working directory and ``../shared/data``
+    beside the repository that holds this package (for an editable install).
+
+    Parameters
+    ----------
+    *parts : str or path-like
+        Components below the data folder, e.g. ``data_path("envmaps", "probulator",
+        "grace.hdr")``.
+
+    Returns
+    -------
+    pathlib.Path
+        An existing path.
+
+    Raises
+    ------
+    FileNotFoundError
+        No data folder was found (the message lists the places tried), or ``parts`` do not
+        name an existing file or folder in it.
+    """
+    environment = os.environ.get("BRDFKIT_DATA")
+    if environment:
+        candidates = [Path(environment)]
+    else:
+        repository = Path(__file__).resolve().parents[2]
+        candidates = [Path.cwd().parent / "shared" / "data", repository.parent / "shared" / "data"]
+    root = next((c for c in candidates if c.is_dir()), None)
+    if root is None:
+        tried = ", ".join(str(c) for c in candidates)
+        source = "BRDFKIT_DATA points to" if environment else "looked in"
+        raise FileNotFoundError(
+            f"brdfkit data folder not found ({source} {tried}); set BRDFKIT_DATA to the "
+            "shared/data folder"
+        )
+    target = root.joinpath(*parts)
+    if not target.exists():
+        raise FileNotFoundError(f"{target} does not exist in the brdfkit data folder {root}")
+    return target

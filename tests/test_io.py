@@ -1,0 +1,357 @@
+"""Image reading/writing, sRGB encoding, tone mapping and the data folder."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from brdfkit import io
+
+ENVMAPS = ("probulator", "polyhaven")
+
+
+def _hdr_paths(shared_data: Path) -> list[Path]:
+    paths = [
+        p for folder in ENVMAPS for p in sorted((shared_data / "envmaps" / folder).glob("*.hdr"))
+    ]
+    assert paths, "no .hdr maps found in the shared data"
+    return paths
+
+
+def _mitsuba():
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    return mi
+
+
+# -------------------------------------------------------------------------------- reading
+
+
+@pytest.mark.oracle
+@pytest.mark.data
+def test_hdr_matches_mitsuba(shared_data):
+    mi = _mitsuba()
+    for path in _hdr_paths(shared_data):
+        image = io.read_image(path)
+        assert image.dtype == np.float32 and image.ndim == 3 and image.shape[-1] == 3
+        np.testing.assert_array_equal(image, np.array(mi.Bitmap(str(path))), err_msg=path.name)
+
+
+@pytest.mark.data
+def test_exr_matches_openexr_and_mitsuba(shared_data):
+    import OpenEXR
+
+    path = shared_data / "envmaps" / "pbrt" / "grace_latlong.exr"
+    image = io.read_image(path)
+    assert image.shape == (512, 1024, 3) and image.dtype == np.float32
+    with OpenEXR.File(str(path)) as exr:
+        reference = exr.channels()["RGB"].pixels
+    assert reference.dtype == np.float16
+    np.testing.assert_array_equal(image, reference.astype(np.float32))
+    mi = _mitsuba()
+    np.testing.assert_array_equal(image, np.array(mi.Bitmap(str(path))).astype(np.float32))
+
+
+@pytest.mark.parametrize("suffix", [".tga", ".jpg", ".bmp", ".tif"])
+def test_8_bit_formats_read_codes_over_255(tmp_path, suffix):
+    from PIL import Image
+
+    codes = np.random.default_rng(7).integers(0, 256, (6, 5, 3), dtype=np.uint8)
+    path = tmp_path / f"a{suffix}"
+    Image.fromarray(codes).save(path, quality=100)
+    image = io.read_image(path)
+    assert image.shape == (6, 5, 3) and image.dtype == np.float32
+    if suffix == ".jpg":  # lossy: compare with the decoded codes
+        codes = np.asarray(Image.open(path))
+    np.testing.assert_array_equal(image, codes / np.float32(255))
+
+
+@pytest.mark.data
+def test_real_tga_set_reads(shared_data):
+    paths = sorted((shared_data / "photometric_stereo" / "psm" / "gray").glob("*.tga"))
+    image = io.read_image(paths[0])
+    assert image.shape == (340, 512, 3) and 0 <= image.min() and image.max() <= 1
+    assert image.max() > 0.5  # a lit sphere, not a black frame
+
+
+@pytest.mark.data
+def test_16_bit_png_keeps_all_bits(shared_data):
+    cv2 = pytest.importorskip("cv2")
+    path = shared_data / "normal_integration" / "diligent" / "bear" / "normal_map.png"
+    image = io.read_image(path)
+    codes = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    assert codes.dtype == np.uint16
+    np.testing.assert_array_equal(image, codes / np.float32(65535))
+    assert np.any((codes % 256) != 0)  # the low byte carries information
+
+
+def test_srgb_to_linear_decodes_colour_not_alpha(tmp_path):
+    rgba = np.random.default_rng(0).random((5, 6, 4))
+    path = io.write_image(tmp_path / "a.png", rgba, bit_depth=16)
+    stored = io.read_image(path)
+    linear = io.read_image(path, srgb_to_linear=True)
+    np.testing.assert_allclose(linear[..., :3], io.srgb_decode(stored[..., :3]), rtol=1e-6)
+    np.testing.assert_array_equal(linear[..., 3], stored[..., 3])
+    np.testing.assert_allclose(stored[..., 3], rgba[..., 3], atol=0.5 / 65535 + 1e-7)
+
+
+# -------------------------------------------------------------------------------- round trips
+
+
+@pytest.mark.data
+def test_exr_round_trip_half_and_float(shared_data, tmp_path):
+    image = io.read_image(shared_data / "envmaps" / "pbrt" / "grace_latlong.exr")
+    io.write_image(tmp_path / "half.exr", image, half=True)  # values are half floats already
+    np.testing.assert_array_equal(io.read_image(tmp_path / "half.exr"), image)
+    noise = np.random.default_rng(1).random((7, 9, 3)).astype(np.float32) * 1e3
+    io.write_image(tmp_path / "float.exr", noise)
+    np.testing.assert_array_equal(io.read_image(tmp_path / "float.exr"), noise)
+    io.write_image(tmp_path / "rounded.exr", noise, half=True)
+    np.testing.assert_array_equal(
+        io.read_image(tmp_path / "rounded.exr"), noise.astype(np.float16).astype(np.float32)
+    )
+
+
+@pytest.mark.parametrize("channels", [1, 4])
+def test_exr_grey_and_alpha_channels(tmp_path, channels):
+    image = np.random.default_rng(2).random((4, 5, channels)).astype(np.float32)
+    io.write_image(tmp_path / "a.exr", image)
+    np.testing.assert_array_equal(io.read_image(tmp_path / "a.exr"), image)
+
+
+@pytest.mark.data
+def test_hdr_round_trip(shared_data, tmp_path):
+    image = io.read_image(shared_data / "envmaps" / "probulator" / "grace.hdr")
+    io.write_image(tmp_path / "same.hdr", image)  # already RGBE-representable: exact
+    np.testing.assert_array_equal(io.read_image(tmp_path / "same.hdr"), image)
+    noise = np.random.default_rng(3).random((16, 16, 3)) * np.logspace(-3, 3, 16)[:, None, None]
+    io.write_image(tmp_path / "noise.hdr", noise)
+    back = io.read_image(tmp_path / "noise.hdr")
+    # RGBE: an 8-bit mantissa per channel and a shared exponent set by the largest channel.
+    largest = noise.max(axis=-1, keepdims=True)
+    assert np.all(np.abs(back - noise) <= largest / 128)
+    grey = noise[..., :1]
+    io.write_image(tmp_path / "grey.hdr", grey)
+    back = io.read_image(tmp_path / "grey.hdr")
+    assert back.shape == (16, 16, 3) and np.all(back[..., 0] == back[..., 2])
+
+
+@pytest.mark.parametrize("bit_depth", [8, 16])
+def test_png_round_trip(tmp_path, bit_depth):
+    linear = np.random.default_rng(4).random((6, 7, 3)) * 1.2 - 0.1
+    path = io.write_image(tmp_path / "a.png", linear, bit_depth=bit_depth)
+    maximum = 2**bit_depth - 1
+    expected = np.rint(io.srgb_encode(np.clip(linear, 0, 1)) * maximum) / maximum
+    np.testing.assert_allclose(io.read_image(path), expected, rtol=0, atol=1e-7)
+    back = io.read_image(path, srgb_to_linear=True)
+    step = np.abs(io.srgb_decode(expected + 0.5 / maximum) - io.srgb_decode(expected))
+    assert np.all(np.abs(back - np.clip(linear, 0, 1)) <= step + 1e-6)
+
+
+def test_png_exposure_and_raw_values(tmp_path):
+    linear = np.full((2, 3), 0.125)
+    io.write_image(tmp_path / "a.png", linear, exposure=2.0, srgb=False, bit_depth=16)
+    np.testing.assert_allclose(io.read_image(tmp_path / "a.png")[..., 0], 0.5, atol=1e-5)
+
+
+def test_png_matches_imageio_reader(tmp_path):
+    iio = pytest.importorskip("imageio.v3")
+    image = np.random.default_rng(5).random((8, 9, 3))
+    path = io.write_image(tmp_path / "a.png", image)
+    np.testing.assert_array_equal(io.read_image(path), iio.imread(path) / np.float32(255))
+
+
+def test_write_accepts_torch(tmp_path):
+    torch = pytest.importorskip("torch")
+    image = torch.rand(3, 4, 3, dtype=torch.float64)
+    io.write_image(tmp_path / "t.exr", image)
+    np.testing.assert_array_equal(
+        io.read_image(tmp_path / "t.exr"), image.numpy().astype(np.float32)
+    )
+
+
+# -------------------------------------------------------------------------------- atomic writes
+
+
+def test_failed_write_leaves_old_file_and_no_temporary(tmp_path, monkeypatch):
+    path = tmp_path / "out.png"
+    io.write_image(path, np.zeros((2, 2, 3)))
+    before = path.read_bytes()
+
+    def broken(tmp, image):
+        tmp.write_bytes(b"half")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(io, "_write_opencv", broken)
+    with pytest.raises(OSError, match="disk full"):
+        io.write_image(path, np.ones((2, 2, 3)))
+    assert path.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["out.png"]
+
+
+def test_write_creates_folders_and_overwrites(tmp_path):
+    path = tmp_path / "a" / "b" / "c.exr"
+    io.write_image(path, np.zeros((2, 2, 3)))
+    io.write_image(path, np.ones((2, 2, 3)))
+    np.testing.assert_array_equal(io.read_image(path), np.ones((2, 2, 3)))
+    assert sorted(os.listdir(path.parent)) == ["c.exr"]
+
+
+# -------------------------------------------------------------------------------- errors
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", ["probulator/grace.hdr", "pbrt/grace_latlong.exr"])
+@pytest.mark.parametrize("fraction", [0.01, 0.5, 0.99])
+def test_truncated_files_raise_naming_the_file(shared_data, tmp_path, name, fraction):
+    source = shared_data / "envmaps" / name
+    data = source.read_bytes()
+    path = tmp_path / f"cut{source.suffix}"
+    path.write_bytes(data[: int(len(data) * fraction)])
+    with pytest.raises(io.ImageReadError, match=str(path)):
+        io.read_image(path)
+
+
+@pytest.mark.parametrize("suffix", [".png", ".hdr", ".exr", ".tga", ".jpg", ".tif"])
+def test_text_file_with_image_extension_raises(tmp_path, suffix):
+    path = tmp_path / f"notes{suffix}"
+    path.write_text("this is not an image\n" * 20)
+    with pytest.raises(ValueError, match=str(path)):
+        io.read_image(path)
+
+
+def test_missing_file_is_value_and_file_not_found_error(tmp_path):
+    path = tmp_path / "nothing.exr"
+    with pytest.raises(io.ImageNotFoundError, match="no such file") as info:
+        io.read_image(path)
+    assert isinstance(info.value, ValueError) and isinstance(info.value, FileNotFoundError)
+    assert str(path) in str(info.value)
+
+
+def test_unknown_extension_lists_supported(tmp_path):
+    with pytest.raises(ValueError, match=r"\.hdr, \.exr, \.png"):
+        io.read_image(tmp_path / "a.webp")
+    with pytest.raises(ValueError, match=r"\.exr, \.hdr, \.png"):
+        io.write_image(tmp_path / "a.jpg", np.zeros((2, 2, 3)))
+
+
+@pytest.mark.parametrize(
+    ("name", "image", "kwargs", "message"),
+    [
+        ("a.png", np.zeros((2, 2, 2)), {}, "shape"),
+        ("a.png", np.zeros(5), {}, "shape"),
+        ("a.hdr", np.zeros((2, 2, 4)), {}, "shape"),
+        ("a.exr", np.zeros((2, 2, 5)), {}, "shape"),
+        ("a.hdr", -np.ones((2, 2, 3)), {}, "non-negative"),
+        ("a.png", np.full((2, 2, 3), np.nan), {}, "finite"),
+        ("a.png", np.zeros((2, 2, 3)), {"bit_depth": 12}, "bit_depth"),
+        ("a.png", np.zeros((2, 2, 3)), {"exposure": np.inf}, "exposure"),
+    ],
+)
+def test_write_rejects_bad_input(tmp_path, name, image, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        io.write_image(tmp_path / name, image, **kwargs)
+    assert not os.listdir(tmp_path)
+
+
+# -------------------------------------------------------------------------------- colour
+
+
+def test_srgb_matches_colour_science_and_inverts():
+    colour = pytest.importorskip("colour")
+    x = np.linspace(0.0, 1.5, 30001)
+    np.testing.assert_allclose(io.srgb_encode(x), colour.cctf_encoding(x, "sRGB"), atol=1e-12)
+    # colour-science decodes linearly up to 1.055·0.0031308^(1/2.4) − 0.055 = 0.0404482, the
+    # standard up to 0.04045; between the two the standard's pieces differ by ≤ 2.4e-9.
+    gap = abs(0.04045 / 12.92 - ((0.04045 + 0.055) / 1.055) ** 2.4)
+    assert gap < 2.4e-9
+    np.testing.assert_allclose(io.srgb_decode(x), colour.cctf_decoding(x, "sRGB"), atol=gap)
+    outside = (x < 0.0404482) | (x > 0.04045)
+    np.testing.assert_allclose(
+        io.srgb_decode(x[outside]), colour.cctf_decoding(x[outside], "sRGB"), atol=1e-12
+    )
+    np.testing.assert_allclose(io.srgb_decode(io.srgb_encode(x)), x, rtol=0, atol=1e-12)
+    x32 = x.astype(np.float32)
+    roundtrip = io.srgb_decode(io.srgb_encode(x32))
+    assert roundtrip.dtype == np.float32
+    np.testing.assert_allclose(roundtrip, x32, rtol=0, atol=1e-6)
+
+
+def test_srgb_clamps_negative_and_is_continuous():
+    assert io.srgb_encode(np.array(-0.2)) == 0.0 and io.srgb_decode(np.array(-0.2)) == 0.0
+    eps = 1e-12
+    for f, b in ((io.srgb_encode, 0.0031308), (io.srgb_decode, 0.04045)):
+        assert f(np.array(b - eps)) == pytest.approx(f(np.array(b + eps)), abs=1e-7)
+
+
+def test_srgb_torch_gradients():
+    torch = pytest.importorskip("torch")
+    x = torch.tensor([0.0, 0.002, 0.5, 1.0], dtype=torch.float32, requires_grad=True)
+    y = io.srgb_encode(x)
+    assert y.dtype == torch.float32
+    y.sum().backward()
+    assert torch.all(torch.isfinite(x.grad))
+    np.testing.assert_allclose(x.grad[1].item(), 12.92, rtol=1e-6)
+    np.testing.assert_allclose(x.grad[2].item(), 1.055 / 2.4 * 0.5 ** (1 / 2.4 - 1), rtol=1e-5)
+
+
+def test_luminance_rec709(backend):
+    colour = pytest.importorskip("colour")
+    rgb = np.random.default_rng(6).random((10, 3))
+    result = io.luminance(backend(rgb))
+    assert result.shape == (10, 1)
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    y_row = srgb.matrix_RGB_to_XYZ[1]  # the same primaries and white: weights agree to 1e-4
+    np.testing.assert_allclose(np.asarray(result)[:, 0], rgb @ y_row, atol=1e-4)
+    np.testing.assert_allclose(np.asarray(io.luminance(backend(np.ones(3)))), [1.0], rtol=1e-6)
+    with pytest.raises(ValueError, match="rgb"):
+        io.luminance(np.ones((4, 2)))
+
+
+def test_tonemap():
+    image = np.array([[0.25, 0.5, 4.0]])
+    np.testing.assert_allclose(io.tonemap(image), [[0.25, 0.5, 1.0]])
+    np.testing.assert_allclose(io.tonemap(image, exposure=1.0), [[0.5, 1.0, 1.0]])
+    bright = np.array([[0.5, 1.0, 1.5]])  # stays below 1 after the operator
+    mapped = io.tonemap(bright, method="reinhard")
+    lum = io.luminance(bright)
+    np.testing.assert_allclose(io.luminance(mapped), lum / (1 + lum))
+    np.testing.assert_allclose(mapped / mapped[..., :1], bright / bright[..., :1])  # hue kept
+    with pytest.raises(ValueError, match="method"):
+        io.tonemap(image, method="filmic")
+
+
+# -------------------------------------------------------------------------------- data folder
+
+
+def test_data_path_uses_environment(tmp_path, monkeypatch):
+    (tmp_path / "envmaps").mkdir()
+    monkeypatch.setenv("BRDFKIT_DATA", str(tmp_path))
+    assert io.data_path("envmaps") == tmp_path / "envmaps"
+    with pytest.raises(FileNotFoundError, match=r"missing\.hdr"):
+        io.data_path("envmaps", "missing.hdr")
+    monkeypatch.setenv("BRDFKIT_DATA", str(tmp_path / "nowhere"))
+    with pytest.raises(FileNotFoundError, match="BRDFKIT_DATA"):
+        io.data_path()
+
+
+@pytest.mark.data
+def test_data_path_default_finds_shared_folder(shared_data, monkeypatch, tmp_path):
+    monkeypatch.delenv("BRDFKIT_DATA", raising=False)
+    monkeypatch.chdir(tmp_path)  # not beside the data: the repository's location is used
+    if not (Path(io.__file__).resolve().parents[3] / "shared" / "data").is_dir():
+        pytest.skip("package not installed from a checkout beside shared/data")
+    assert io.data_path("envmaps", "probulator", "grace.hdr").samefile(
+        shared_data / "envmaps" / "probulator" / "grace.hdr"
+    )
+
+
+def test_copy_of_real_file_reads(tmp_path, shared_data):
+    source = shared_data / "envmaps" / "probulator" / "pisa.hdr"
+    copy = tmp_path / "PISA.HDR"  # extensions are case-insensitive
+    shutil.copy(source, copy)
+    np.testing.assert_array_equal(io.read_image(copy), io.read_image(source))
