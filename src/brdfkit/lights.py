@@ -642,7 +642,68 @@ def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndar
     )
 
 
+# --------------------------------------------------------------------------- light specs
+LIGHT_SPECS = {
+    "directional": "directional:X,Y,Z[:E]  (direction towards the light, irradiance E)",
+    "point": "point:X,Y,Z[:I]  (position, intensity I)",
+    "sky": "sky[:L]  (uniform radiance L over the upper hemisphere)",
+    "envmap": "envmap:PATH[:SCALE]  (lat-long .hdr/.exr; 'envmap' alone: the bundled map)",
+}
+
+
+def parse_light(spec: str) -> Light:
+    """A light from a short text spec, e.g. ``"directional:1,0.5,0.7:3"`` or ``"envmap:sky.hdr"``.
+
+    Raises
+    ------
+    ValueError
+        Naming the spec and listing the known forms (:data:`LIGHT_SPECS`).
+    """
+    kind, _, rest = spec.strip().partition(":")
+    known = "; ".join(LIGHT_SPECS.values())
+    try:
+        if kind == "directional":
+            direction, _, value = rest.partition(":")
+            return DirectionalLight(_floats(direction, 3), float(value or 1.0))
+        if kind == "point":
+            position, _, value = rest.partition(":")
+            return PointLight(_floats(position, 3), float(value or 1.0))
+        if kind == "sky":
+            return UniformSky(float(rest or 1.0))
+        if kind == "envmap":
+            path, scale = rest, 1.0
+            head, sep, tail = rest.rpartition(":")
+            if sep and _is_float(tail):
+                path, scale = head, float(tail)
+            if not path:
+                from brdfkit.data import default_envmap_path
+
+                path = str(default_envmap_path())
+            return EnvironmentMap.from_file(path, scale=scale)
+    except (TypeError, ValueError) as error:
+        raise ValueError(
+            f"light spec {spec!r} is invalid: {error}. Known forms: {known}"
+        ) from error
+    raise ValueError(f"light spec {spec!r} has an unknown kind {kind!r}. Known forms: {known}")
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _floats(text: str, count: int) -> tuple[float, ...]:
+    values = tuple(float(x) for x in text.split(","))
+    if len(values) != count:
+        raise ValueError(f"expected {count} comma-separated numbers, got {text!r}")
+    return values
+
+
 __all__ = [
+    "LIGHT_SPECS",
     "DirectionalLight",
     "DiskLight",
     "EnvironmentMap",
@@ -652,4 +713,5 @@ __all__ = [
     "RectangleLight",
     "SphereLight",
     "UniformSky",
+    "parse_light",
 ]

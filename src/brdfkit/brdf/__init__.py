@@ -8,9 +8,10 @@ spec parser and re-exports the names in each module's ``__all__`` here
 import importlib
 import pkgutil
 
+from brdfkit.brdf._spec import parse
 from brdfkit.brdf.base import BRDF, MODELS, Sample, Scaled, Sum
 
-__all__ = ["BRDF", "MODELS", "Sample", "Scaled", "Sum"]
+__all__ = ["BRDF", "MODELS", "Sample", "Scaled", "Sum", "parse"]
 
 for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if _module.name.startswith("_") or _module.name == "base":

@@ -1,0 +1,86 @@
+"""``brdfkit render``: render a sphere, plane, cylinder or normal map with a model under a light."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from brdfkit.cli._app import app, console, fail
+
+
+@app.command("render")
+def render_command(
+    shape: str = typer.Argument(
+        "sphere", help="sphere, plane, cylinder, or a normal map (.npy/.png/.exr)."
+    ),
+    brdf: str = typer.Option(
+        "lambertian(albedo=0.8)",
+        "--brdf",
+        "-b",
+        help="Model spec, e.g. \"ggx(alpha=0.3, material='Au')\".",
+    ),
+    light: list[str] = typer.Option(
+        ["envmap"],
+        "--light",
+        "-l",
+        help="Light spec (repeatable): directional:X,Y,Z[:E], point:X,Y,Z[:I], sky[:L], envmap[:PATH[:SCALE]].",
+    ),
+    output: Path = typer.Option(
+        Path("render.png"), "--output", "-o", help="Output image (.png sRGB, .hdr or .exr linear)."
+    ),
+    resolution: int = typer.Option(
+        256, "--resolution", "-r", min=8, max=8192, help="Image size in pixels."
+    ),
+    samples: int = typer.Option(
+        64, "--samples", "-s", min=1, help="Monte Carlo samples per pixel and strategy."
+    ),
+    exposure: float = typer.Option(0.0, "--exposure", help="Exposure in stops for PNG output."),
+    mask: Path | None = typer.Option(None, "--mask", help="Mask image for a normal-map input."),
+) -> None:
+    """Render what a surface looks like (direct lighting, linear radiance)."""
+    import numpy as np
+    from rich.progress import Progress
+
+    from brdfkit.brdf import parse
+    from brdfkit.io import read_image, write_image
+    from brdfkit.lights import parse_light
+    from brdfkit.render import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer, shade
+
+    try:
+        model = parse(brdf)
+        lights = [parse_light(spec) for spec in light]
+    except ValueError as error:
+        fail(str(error))
+    shapes = {"sphere": Sphere(), "plane": Plane(), "cylinder": Cylinder()}
+    if shape in shapes:
+        g = gbuffer(shapes[shape], None, resolution)
+    else:
+        path = Path(shape)
+        if not path.is_file():
+            fail(f"shape must be one of {sorted(shapes)} or a normal-map file; got {shape!r}")
+        try:
+            normals = np.load(path) if path.suffix == ".npy" else read_image(path)[..., :3] * 2 - 1
+            m = None if mask is None else read_image(mask)[..., 0] > 0.5
+            g = normal_map_gbuffer(normals, m)
+        except ValueError as error:
+            fail(str(error))
+    if output.suffix.lower() not in (".png", ".hdr", ".exr"):
+        fail(f"output must end in .png, .hdr or .exr; got {output.name!r}")
+    height = g.shape[0]
+    with Progress(console=console, transient=True) as progress:
+        task = progress.add_task(f"rendering {g.shape[1]}×{height}", total=height)
+        image = shade(
+            g,
+            model,
+            lights,
+            samples=samples,
+            progress=lambda done, total: progress.update(task, completed=done),
+        )
+    if image.shape[-1] == 1:
+        image = np.repeat(image, 3, axis=-1)
+    # write_image is atomic: it never leaves a half-written file.
+    write_image(
+        output, image.astype(np.float32), exposure=exposure if output.suffix == ".png" else 0.0
+    )
+    console.print(f"wrote {output} ({g.shape[1]}×{height}, {model.to_spec()})")
