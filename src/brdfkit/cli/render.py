@@ -24,7 +24,8 @@ def render_command(
         ["envmap"],
         "--light",
         "-l",
-        help="Light spec (repeatable): directional:X,Y,Z[:E], point:X,Y,Z[:I], sky[:L], envmap[:PATH[:SCALE]].",
+        help="Light spec (repeatable): directional:X,Y,Z[:E], point:X,Y,Z[:I], sky[:L], "
+        "envmap[:PATH[:SCALE]].",
     ),
     output: Path = typer.Option(
         Path("render.png"), "--output", "-o", help="Output image (.png sRGB, .hdr or .exr linear)."
