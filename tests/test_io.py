@@ -350,6 +350,7 @@ def test_data_path_default_finds_shared_folder(shared_data, monkeypatch, tmp_pat
     )
 
 
+@pytest.mark.data
 def test_copy_of_real_file_reads(tmp_path, shared_data):
     source = shared_data / "envmaps" / "probulator" / "pisa.hdr"
     copy = tmp_path / "PISA.HDR"  # extensions are case-insensitive
