@@ -21,18 +21,6 @@ ORIGIN = np.zeros(3)
 Z = np.array([0.0, 0.0, 1.0])
 
 
-def hemisphere_surface(center, radius):
-    """The upper hemisphere of ``radius`` about ``center``, θ ∈ [0, π/2], φ ∈ [0, 2π]."""
-
-    def evaluate(theta, phi):
-        r_hat = np.stack(
-            [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=-1
-        )
-        return center + radius * r_hat, radius**2 * np.sin(theta)[..., None] * r_hat
-
-    return evaluate
-
-
 def disk_oracle(radius: float, s: float, h: float) -> float:
     """Ω of a disk by scipy quadrature in polar coordinates about the foot of the point:
     Ω = ∫ [h/√(h²+ρ₁²) − h/√(h²+ρ₂²)] dφ, ρ₁,₂ where the ray from the foot crosses the rim."""
@@ -56,9 +44,7 @@ def disk_oracle(radius: float, s: float, h: float) -> float:
 
 # --------------------------------------------------------------------------- closed forms
 def test_hemisphere_by_surface_integral_is_two_pi():
-    omega = rad.solid_angle_surface(
-        hemisphere_surface(ORIGIN, 3.0), ORIGIN, u_range=(0, math.pi / 2), v_range=(0, 2 * math.pi)
-    )
+    omega = rad.solid_angle_surface(rad.cap_surface(ORIGIN, Z, 3.0, math.pi / 2), ORIGIN)
     assert omega == pytest.approx(rad.HEMISPHERE_SOLID_ANGLE, abs=1e-6)
     assert rad.HEMISPHERE_SOLID_ANGLE == pytest.approx(2 * math.pi)
     assert rad.SPHERE_SOLID_ANGLE == pytest.approx(4 * math.pi)
@@ -69,10 +55,19 @@ def test_cap_matches_two_pi_one_minus_cos_and_surface_integral(alpha):
     omega = rad.solid_angle_cap(alpha)
     assert omega == pytest.approx(2 * math.pi * (1 - math.cos(alpha)), abs=1e-6)
     if alpha > 0:
-        numeric = rad.solid_angle_surface(
-            hemisphere_surface(ORIGIN, 1.0), ORIGIN, u_range=(0, alpha), v_range=(0, 2 * math.pi)
-        )
+        axis = np.array([0.3, -0.5, 0.8])
+        numeric = rad.solid_angle_surface(rad.cap_surface(Z, axis, 2.0, alpha), Z)
         assert numeric == pytest.approx(omega, abs=1e-6)
+
+        def sphere(theta, phi):  # the unit sphere in (θ, φ) directly: x = r̂, dS = sin θ r̂
+            st = np.sin(theta)
+            r_hat = np.stack([st * np.cos(phi), st * np.sin(phi), np.cos(theta)], axis=-1)
+            return r_hat, st[..., None] * r_hat
+
+        ranged = rad.solid_angle_surface(
+            sphere, ORIGIN, u_range=(0.0, alpha), v_range=(0.0, 2 * math.pi)
+        )
+        assert ranged == pytest.approx(omega, abs=1e-6)
 
 
 def test_cap_ends_are_hemisphere_and_sphere():

@@ -599,6 +599,35 @@ def triangle_surface(a: Array, b: Array, c: Array) -> Surface:
     return evaluate
 
 
+def cap_surface(center: Array, axis: Array, radius: float, half_angle: float) -> Surface:
+    r"""The spherical cap of half-angle α about ``axis`` on the sphere (``center``, ``radius``)
+    as a :data:`Surface` on the unit square: θ = αu, φ = 2πv,
+    :math:`\mathbf x = \mathbf c + R\,\hat r(\theta, \phi)`,
+    :math:`dS = 2\pi\alpha R^2 \sin\theta\,\hat r` (outward). Seen from the centre it subtends
+    :func:`solid_angle_cap` (α = π/2: the lectures' hemisphere, 2π).
+
+    References
+    ----------
+    .. [1] CMU 16-385 lecture 14, "Suppose surface S is a hemisphere centered at O".
+    """
+    check_vectors("center", asarray(center))
+    check_vectors("axis", asarray(axis))
+    _positive("radius", asarray(radius))
+    if not (0 < half_angle <= math.pi):
+        raise ValueError(f"half_angle must be in (0, π] radians; got {half_angle!r}")
+
+    def evaluate(u: Array, v: Array) -> tuple[Array, Array]:
+        xp = namespace(u)
+        c = asarray(center, xp, like=u)[..., None, None, :]
+        s, t, n = (e[..., None, None, :] for e in frame_from_normal(asarray(axis, xp, like=u)))
+        theta, phi = half_angle * u[..., None], 2 * math.pi * v[..., None]
+        r_hat = xp.sin(theta) * (xp.cos(phi) * s + xp.sin(phi) * t) + xp.cos(theta) * n
+        jacobian = 2 * math.pi * half_angle * radius**2 * xp.sin(theta)
+        return c + radius * r_hat, jacobian * r_hat
+
+    return evaluate
+
+
 # --------------------------------------------------------------------------- irradiance
 def irradiance_point_source(
     intensity: Array | float, source: Array, point: Array, normal: Array
@@ -932,6 +961,7 @@ __all__ = [
     "SPHERE_SOLID_ANGLE",
     "Surface",
     "basic_radiance",
+    "cap_surface",
     "disk_surface",
     "intensity_lambertian",
     "irradiance_disk_source",
