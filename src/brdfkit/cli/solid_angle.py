@@ -1,0 +1,139 @@
+"""``brdfkit solid-angle``: the solid angle of a disk, rectangle, triangle or spherical cap, with
+the lectures' surface integral Ω = ∬ r·n̂ dS/|r|³ computed numerically as a cross-check."""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+
+import typer
+
+from brdfkit.cli._app import app, console, fail
+
+DEFAULT_VERTICES = "-0.5,-0.288675,0;0.5,-0.288675,0;0,0.57735,0"
+
+
+class Shape(StrEnum):
+    """The shapes the command knows."""
+
+    disk = "disk"
+    rectangle = "rectangle"
+    triangle = "triangle"
+    cap = "cap"
+
+
+def _parse_vertices(text: str) -> list[list[float]]:
+    try:
+        vertices = [[float(x) for x in part.split(",")] for part in text.split(";")]
+    except ValueError:
+        vertices = []
+    if len(vertices) != 3 or any(len(v) != 3 for v in vertices):
+        fail(f"--vertices must be three 'x,y,z' points separated by ';'; got {text!r}")
+    return vertices
+
+
+def _planar(shape: Shape, radius: float, width: float, height: float, vertices: str):
+    """(description, exact-method label, exact Ω(point), parametric surface) of a planar shape
+    lying in the plane z = 0."""
+    import numpy as np
+
+    from brdfkit import radiometry as rad
+
+    origin, z = np.zeros(3), np.array([0.0, 0.0, 1.0])
+    if shape is Shape.disk:
+        return (
+            f"disk, radius {radius:g}, centre at the origin, normal +z",
+            "rim contour integral (trapezoid)",
+            lambda p: rad.solid_angle_disk(origin, z, radius, p),
+            rad.disk_surface(origin, z, radius),
+        )
+    if shape is Shape.rectangle:
+        corner = np.array([-width / 2, -height / 2, 0.0])
+        eu, ev = np.array([width, 0.0, 0.0]), np.array([0.0, height, 0.0])
+        return (
+            f"rectangle {width:g} × {height:g}, centred at the origin in z = 0",
+            "two Van Oosterom–Strackee triangles",
+            lambda p: rad.solid_angle_rectangle(corner, eu, ev, p),
+            rad.rectangle_surface(corner, eu, ev),
+        )
+    a, b, c = (np.array(v) for v in _parse_vertices(vertices))
+    return (
+        "triangle " + " ".join(f"({v[0]:g}, {v[1]:g}, {v[2]:g})" for v in (a, b, c)),
+        "Van Oosterom–Strackee (1983)",
+        lambda p: rad.solid_angle_triangle(a, b, c, p),
+        rad.triangle_surface(a, b, c),
+    )
+
+
+@app.command("solid-angle")
+def solid_angle_command(
+    shape: Shape = typer.Argument(..., help="disk, rectangle, triangle or cap."),
+    radius: float = typer.Option(1.0, "--radius", "-r", help="Disk radius."),
+    width: float = typer.Option(1.0, "--width", help="Rectangle width (along x)."),
+    height: float = typer.Option(1.0, "--height", help="Rectangle height (along y)."),
+    vertices: str = typer.Option(
+        DEFAULT_VERTICES,
+        "--vertices",
+        help="Triangle vertices 'x,y,z;x,y,z;x,y,z' (default: unit equilateral, in z = 0).",
+    ),
+    distance: float = typer.Option(
+        1.0, "--distance", "-d", help="Observer height above the shape's plane (z)."
+    ),
+    offset: float = typer.Option(0.0, "--offset", help="Observer offset along x from the axis."),
+    half_angle: float = typer.Option(
+        90.0, "--half-angle", help="Cap half-angle α in degrees (90: the hemisphere)."
+    ),
+    order: int = typer.Option(
+        64, "--order", help="Gauss–Legendre nodes per parameter of the numerical integral."
+    ),
+) -> None:
+    """Solid angle Ω of a shape seen from a point, in sr and as a fraction of the hemisphere,
+    checked against the numerical surface integral Ω = ∬ r·n̂ dS / |r|³ (CMU 16-385 lecture 14).
+    """
+    import numpy as np
+    from rich.markup import escape
+    from rich.table import Table
+
+    from brdfkit import radiometry as rad
+
+    if order < 1:
+        fail(f"--order must be a positive integer; got {order}")
+    try:
+        if shape is Shape.cap:
+            if not 0.0 < half_angle <= 180.0:
+                fail(f"--half-angle must be in (0, 180] degrees; got {half_angle:g}")
+            alpha = math.radians(half_angle)
+            point = np.zeros(3)
+            description = f"spherical cap, half-angle {half_angle:g}°, seen from its centre"
+            method = "2π(1 − cos α)"
+            exact = float(rad.solid_angle_cap(alpha))
+            surface = rad.cap_surface(point, np.array([0.0, 0.0, 1.0]), 1.0, alpha)
+        else:
+            point = np.array([offset, 0.0, distance])
+            description, method, solid_angle, surface = _planar(
+                shape, radius, width, height, vertices
+            )
+            exact = float(solid_angle(point))
+        numeric = abs(float(rad.solid_angle_surface(surface, point, order=order)))
+    except ValueError as error:
+        fail(str(error))
+
+    rows = [(method, exact)]
+    if shape is Shape.disk and offset == 0.0 and distance != 0.0:
+        rows.append(
+            (
+                "on axis: 2π(1 − d/√(d²+R²))",
+                float(rad.solid_angle_disk_on_axis(radius, abs(distance))),
+            )
+        )
+    rows.append((f"∬ r·n̂ dS/|r|³ (Gauss–Legendre {order}²)", numeric))
+    table = Table(
+        title=f"{description}\nobserver at ({point[0]:g}, {point[1]:g}, {point[2]:g})",
+        caption=f"|numerical − exact| = {abs(numeric - exact):.3e} sr",
+    )
+    table.add_column("method")
+    table.add_column("Ω \\[sr]", justify="right")
+    table.add_column("Ω / 2π (of the hemisphere)", justify="right")
+    for label, omega in rows:
+        table.add_row(escape(label), f"{omega:.10f}", f"{omega / (2 * math.pi):.10f}")
+    console.print(table)
