@@ -42,7 +42,7 @@ class Lafortune(MixtureSampled):
         \bigl[C_{x,k}\,\omega_{i,x}\omega_{o,x} + C_{y,k}\,\omega_{i,y}\omega_{o,y}
         + C_{z,k}\,\omega_{i,z}\omega_{o,z}\bigr]^{n_k}
 
-    (a lobe is 0 where its bracket is ≤ 0). C_x = C_y = −C_z^{…} < 0 gives a Phong lobe about the
+    (a lobe is 0 where its bracket is ≤ 0). C_x = C_y < 0 < C_z gives a Phong lobe about the
     mirror direction (C_x = C_y = −1, C_z = 1 is exactly cosⁿ of the angle to reflect(ωo));
     C_x = C_y > 0 gives retro-reflection; |C_z| < |C_x| moves the peak towards grazing
     (off-specular reflection); C_x ≠ C_y makes the lobe **anisotropic**; C_x = C_y = 0
@@ -120,7 +120,7 @@ class Lafortune(MixtureSampled):
             cls(0.2, [-1.0], [-1.0], [0.8], [15.0]),  # off-specular
             cls(0.3, [0.9], [0.9], [0.9], [10.0]),  # retro-reflection
             cls(0.1, [-1.1], [-0.6], [1.0], [10.0]),  # anisotropic
-            cls([0.5, 0.3, 0.1], [-1.0, 0.0], [-1.0, 0.0], [1.0, 0.9], [40.0, 2.0]),  # two lobes
+            cls([0.2, 0.15, 0.1], [-1.0, 0.0], [-1.0, 0.0], [1.0, 0.6], [40.0, 2.0]),  # two lobes
         ]
 
     def _lobes(self, like: Array) -> list[tuple[Array, Array, Array, Array]]:

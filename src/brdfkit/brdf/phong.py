@@ -185,7 +185,7 @@ def _check_exponent(n: Any) -> None:
     check_param("n", n, 0.0, hint="the cosine exponent must be ≥ 0")
 
 
-def _check_albedos(kd: Any, ks: Any, allow_unphysical: bool) -> None:
+def check_albedos(kd: Any, ks: Any, allow_unphysical: bool) -> None:
     """ρd, ρs ∈ [0, 1] and ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``."""
     hint = "pass allow_unphysical=True to allow it"
     hi = None if allow_unphysical else 1.0
@@ -333,11 +333,11 @@ class ModifiedPhong(MixtureSampled):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        _check_albedos(self.kd, self.ks, self.allow_unphysical)
-        _check_exponent(self.n)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
+        check_albedos(self.kd, self.ks, self.allow_unphysical)
+        _check_exponent(self.n)
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -500,11 +500,11 @@ class BlinnPhong(MixtureSampled):
             raise ValueError(
                 f"normalization must be one of {_BLINN_NORMALIZATIONS}; got {self.normalization!r}"
             )
-        _check_albedos(self.kd, self.ks, self.allow_unphysical)
-        _check_exponent(self.n)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
+        check_albedos(self.kd, self.ks, self.allow_unphysical)
+        _check_exponent(self.n)
 
     @property
     def energy_conserving(self) -> bool:  # type: ignore[override]
