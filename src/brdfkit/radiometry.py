@@ -47,7 +47,7 @@ from brdfkit._array import (
     safe_sqrt,
     to_numpy,
 )
-from brdfkit.geometry import frame_from_normal
+from brdfkit.geometry import frame_from_normal, to_world
 
 HEMISPHERE_SOLID_ANGLE = 2.0 * math.pi
 """Solid angle of a hemisphere seen from its centre, 2π sr (CMU 16-385 lecture 14)."""
@@ -114,18 +114,22 @@ def _channels(light: Array, geometric: Array) -> Array:
     return light * geometric[..., None]
 
 
-def _gauss_legendre(order: int, lo: float, hi: float, like: Array) -> tuple[Array, Array]:
-    """Gauss–Legendre nodes and weights on ``[lo, hi]`` (NumPy's ``leggauss``) as ``like``."""
+def _check_order(order: int) -> None:
+    """Raise ``ValueError`` unless the quadrature ``order`` is a positive integer."""
     if not isinstance(order, int) or order < 1:
         raise ValueError(f"order must be a positive integer; got {order!r}")
+
+
+def _gauss_legendre(order: int, lo: float, hi: float, like: Array) -> tuple[Array, Array]:
+    """Gauss–Legendre nodes and weights on ``[lo, hi]`` (NumPy's ``leggauss``) as ``like``."""
+    _check_order(order)
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise ValueError(f"integration range must be finite with hi > lo; got ({lo}, {hi})")
     nodes, weights = np.polynomial.legendre.leggauss(order)
     half = 0.5 * (hi - lo)
     nodes, weights = half * nodes + 0.5 * (hi + lo), half * weights
-    return asarray(nodes, like=like, dtype=like.dtype), asarray(
-        weights, like=like, dtype=like.dtype
-    )
+    nodes, weights = (asarray(x, like=like, dtype=like.dtype) for x in (nodes, weights))
+    return nodes, weights
 
 
 def _grid(order: int, u_range: tuple[float, float], v_range: tuple[float, float], like: Array):
@@ -373,8 +377,7 @@ def solid_angle_disk(
     center, normal, radius, point = _common(center, normal, radius, point)
     center, normal, point = _vectors(center=center, normal=normal, point=point)
     _positive("radius", radius)
-    if not isinstance(order, int) or order < 1:
-        raise ValueError(f"order must be a positive integer; got {order!r}")
+    _check_order(order)
     xp = namespace(center, point)
     n = normalize(normal)
     offset = point - center
@@ -826,12 +829,11 @@ def radiant_flux(
     u, v, weights = _grid(order, (0.0, 1.0), (0.0, 1.0), like)
     points, area_normal = sensor(u, v)
     d_area = norm(area_normal)
-    frame = (e[..., None, None, :] for e in frame_from_normal(area_normal))
+    frame = tuple(e[..., None, None, :] for e in frame_from_normal(area_normal))
     mu, phi, angular_weights = _grid(order, (math.cos(half_angle), 1.0), (0.0, 2 * math.pi), like)
     sin_theta = safe_sqrt(1 - mu * mu)
     local = xp.stack([sin_theta * xp.cos(phi), sin_theta * xp.sin(phi), mu], axis=-1)
-    s, t, n = frame
-    directions = local[..., 0:1] * s + local[..., 1:2] * t + local[..., 2:3] * n
+    directions = to_world(local, frame)
     at = xp.broadcast_to(points[..., None, None, :], directions.shape)
     values = radiance(directions, at)
     inner = xp.sum(values * (mu * angular_weights)[..., None], axis=(-3, -2))
