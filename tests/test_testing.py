@@ -62,6 +62,27 @@ def test_the_wrong_pdf_fails():
     assert np.all(result.residuals()[4] > 3) and np.all(result.residuals()[0] < -3)
 
 
+def _sample_phong(exponent: float):
+    """Directions with density (n + 1)/(2π) cosⁿθ: cos θ = u₁^(1/(n+1)), φ = 2π u₀."""
+
+    def sample(u):
+        cos_theta = u[:, 1] ** (1 / (exponent + 1))
+        sin_theta = np.sqrt(1 - cos_theta**2)
+        phi = 2 * math.pi * u[:, 0]
+        return np.stack([sin_theta * np.cos(phi), sin_theta * np.sin(phi), cos_theta], axis=1)
+
+    return sample
+
+
+def test_sparse_cells_are_pooled():
+    # A narrow lobe leaves most cells with an expectation below 5: they are pooled, and the
+    # test still accepts the right pdf and rejects a slightly wrong exponent.
+    options = {"n_samples": 50_000, "binning": "theta", "sphere": False}
+    result = assert_chi2(_sample_phong(60.0), _phong_pdf(60.0), **options)
+    assert result.pooled_in > 0 and 0 < result.pooled_out < result.pooled_in
+    assert not chi2_test(_sample_phong(60.0), _phong_pdf(50.0), **options).passed
+
+
 def test_a_slightly_wrong_pdf_fails():
     # cos^1.1 against cosine samples: a 10 % error in the exponent is detected with 10⁶ samples.
     result = chi2_test(square_to_cosine_hemisphere, _phong_pdf(1.1))
@@ -100,7 +121,8 @@ def test_invalid_samples_are_accounted_for():
     # valid ones is 1/(4π) on the upper hemisphere and integrates to the valid fraction 1/2.
     def sample(u):
         v = square_to_uniform_sphere(u)
-        return v, v[:, 2] > 0
+        valid = v[:, 2] > 0
+        return np.where(valid[:, None], v, 0.0), valid  # failed samples hold zero vectors
 
     def half(v):
         return 0.5 * square_to_uniform_hemisphere_pdf(v)
@@ -248,6 +270,8 @@ def test_bad_arguments_are_rejected():
         chi2_test(*args, theta_bins=0)
     with pytest.raises(ValueError, match=r"binning must be 'cos' or 'theta'; got 'phi'"):
         chi2_test(*args, binning="phi")
+    with pytest.raises(ValueError, match=r"order must be an integer ≥ 3; got 2"):
+        chi2_test(*args, order=2)
     with pytest.raises(ValueError, match=r"n_samples must be a positive integer"):
         chi2_test(*args, n_samples=0)
     with pytest.raises(ValueError, match=r"last axis of length 3"):

@@ -244,15 +244,16 @@ def _integrate_cells(
     lo: np.ndarray,
     hi: np.ndarray,
     *,
-    order: int,
+    rule: tuple[np.ndarray, np.ndarray],
     tol: float,
     min_depth: int,
     max_depth: int,
 ) -> tuple[np.ndarray, float]:
     r"""Integrals of ``density`` over the rectangles ``[lo, hi]`` (shape (K, 2)), adaptively.
 
-    Each rectangle is integrated with the tensor ``order``-point Gauss–Lobatto rule and again as
-    the sum over its four quarters; it is accepted when the two agree to
+    Each rectangle is integrated with the tensor product of the 1D ``rule`` (nodes and weights on
+    [0, 1], Gauss–Lobatto from :func:`_gauss_lobatto`) and again as the sum over its four
+    quarters; it is accepted when the two agree to
     ``tol · max(area share, |integral|)`` and it is at least ``min_depth`` levels deep; otherwise
     its quarters are refined in turn, up to ``max_depth`` levels (vectorised: one ``density`` call
     per level and chunk). Lobatto nodes reach the rectangle's edges, so a discontinuity of the
@@ -265,12 +266,12 @@ def _integrate_cells(
     integrals : (K,).
     error : the summed disagreement of the rectangles still unresolved at ``max_depth``.
     """
-    nodes, weights = _gauss_lobatto(order)
+    nodes, weights = rule
     nodes = _EDGE_INSET + (1 - 2 * _EDGE_INSET) * nodes
     grid = np.stack(np.meshgrid(nodes, nodes, indexing="ij"), axis=-1).reshape(-1, 2)
     grid_weights = np.outer(weights, weights).ravel()
 
-    def rule(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    def integrate(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         size = hi - lo
         points = (lo[:, None, :] + size[:, None, :] * grid[None]).reshape(-1, 2)
         values = np.concatenate(
@@ -281,7 +282,7 @@ def _integrate_cells(
     total_area = float(np.sum(np.prod(hi - lo, axis=1)))
     integrals = np.zeros(len(lo))
     owner = np.arange(len(lo))
-    coarse = rule(lo, hi)
+    coarse = integrate(lo, hi)
     error = 0.0
     for depth in range(max_depth):
         mid = (lo + hi) / 2
@@ -291,14 +292,15 @@ def _integrate_cells(
         quarters_hi = np.stack(
             [mid, np.stack([hi[:, 0], mid[:, 1]], 1), np.stack([mid[:, 0], hi[:, 1]], 1), hi]
         )
-        parts = rule(quarters_lo.reshape(-1, 2), quarters_hi.reshape(-1, 2)).reshape(4, -1)
+        parts = integrate(quarters_lo.reshape(-1, 2), quarters_hi.reshape(-1, 2)).reshape(4, -1)
         fine = parts.sum(axis=0)
         difference = np.abs(fine - coarse)
         share = np.prod(hi - lo, axis=1) / total_area
-        done = (difference <= tol * np.maximum(share, np.abs(fine))) & (depth >= min_depth)
+        converged = difference <= tol * np.maximum(share, np.abs(fine))
+        done = converged & (depth >= min_depth)
         if depth == max_depth - 1:
+            error = float(np.sum(difference[~converged]))
             done[:] = True
-            error = float(np.sum(difference[difference > tol * np.maximum(share, np.abs(fine))]))
         np.add.at(integrals, owner[done], fine[done])
         refine = ~done
         if not np.any(refine):
@@ -368,6 +370,11 @@ def _run(
         raise ValueError(f"significance must be in (0, 1); got {significance}")
     if test_count < 1:
         raise ValueError(f"test_count must be a positive integer; got {test_count}")
+    if sample_dim < 1:
+        raise ValueError(f"sample_dim must be a positive integer; got {sample_dim}")
+    if max_depth < 1:
+        raise ValueError(f"max_depth must be a positive integer; got {max_depth}")
+    rule = _gauss_lobatto(order)
     to_backend = convert if convert is not None else (lambda a: a)
     messages: list[str] = []
 
@@ -383,15 +390,16 @@ def _run(
     finite = np.all(np.isfinite(points), axis=1)
     if np.any(valid & ~finite):
         messages.append(f"{np.count_nonzero(valid & ~finite)} valid samples are not finite")
-    params, inside, notes = domain.backward(np.where(finite[:, None], points, 0.0))
+    # Invalid samples may hold anything (zeros, say): only the valid ones are mapped and checked.
+    params, inside, notes = domain.backward(points[valid & finite])
     messages += notes
-    counted = valid & finite & inside
+    params = params[inside]
     edges0, edges1 = domain.edges
     shape = (len(edges0) - 1, len(edges1) - 1)
-    i = np.clip(np.searchsorted(edges0, params[counted, 0], side="right") - 1, 0, shape[0] - 1)
-    j = np.clip(np.searchsorted(edges1, params[counted, 1], side="right") - 1, 0, shape[1] - 1)
+    i = np.clip(np.searchsorted(edges0, params[:, 0], side="right") - 1, 0, shape[0] - 1)
+    j = np.clip(np.searchsorted(edges1, params[:, 1], side="right") - 1, 0, shape[1] - 1)
     observed = np.bincount(i * shape[1] + j, minlength=shape[0] * shape[1]).reshape(shape)
-    outside_observed = n_samples - int(np.count_nonzero(counted))
+    outside_observed = n_samples - len(params)
 
     # Expected counts: the pdf integrated over every cell.
     bad_pdf: list[float] = []
@@ -411,7 +419,7 @@ def _run(
         density,
         np.stack([lo0.ravel(), lo1.ravel()], axis=1),
         np.stack([hi0.ravel(), hi1.ravel()], axis=1),
-        order=order,
+        rule=rule,
         tol=0.01 / math.sqrt(n_samples),
         min_depth=_MIN_DEPTH,
         max_depth=max_depth,
