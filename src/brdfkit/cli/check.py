@@ -1,0 +1,45 @@
+"""``brdfkit check MODEL_SPEC``: measure a model's physics and compare it with its claims."""
+
+from __future__ import annotations
+
+import json
+
+import typer
+
+from brdfkit.cli._app import app, console, fail
+
+
+@app.command("check")
+def check_command(
+    spec: str = typer.Argument(
+        ..., help='Model spec, e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)" or "phong(n=20)".'
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
+    seed: int = typer.Option(0, help="Seed of the random directions and Monte Carlo samples."),
+) -> None:
+    """Check reciprocity, energy conservation, isotropy, non-negativity and sampling.
+
+    Exits with 0 when every measurement agrees with what the model claims (a model may claim
+    not to be reciprocal, as the original Phong model does), 1 when a check contradicts a
+    claim, and 2 on a bad spec.
+    """
+    from brdfkit.brdf._spec import parse
+    from brdfkit.properties import check
+
+    try:
+        brdf = parse(spec)
+    except ValueError as error:
+        fail(str(error))
+    with console.status("checking…") as status:
+        report = check(brdf, seed=seed, progress=lambda name: status.update(f"checking {name}…"))
+    if as_json:
+        typer.echo(json.dumps(report.to_dict(), indent=2, ensure_ascii=False))
+    else:
+        console.print(report.to_table())
+        if report.consistent:
+            console.print("[green]every measurement agrees with the model's claims[/]")
+        else:
+            names = ", ".join(r.name for r in report.contradictions)
+            console.print(f"[bold red]measurements contradict the model's claims:[/] {names}")
+    if not report.consistent:
+        raise typer.Exit(1)
