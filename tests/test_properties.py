@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
+from brdfkit.brdf import microfacet
 from brdfkit.brdf.base import Sample
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.properties import (
@@ -166,6 +167,23 @@ def test_beckmann_is_normalized_and_passes_the_white_furnace(alpha):
     normalization = check_normalization(distribution)
     assert normalization.passed, normalization.detail
     assert normalization.value < 1e-6
+    furnace = check_white_furnace(distribution)
+    assert furnace.passed, furnace.detail
+
+
+@pytest.mark.parametrize(
+    "distribution",
+    [
+        microfacet.GGX(0.1),
+        microfacet.GGX(0.02, 0.4),
+        microfacet.GGX([0.1, 0.3, 0.6]),
+        microfacet.Beckmann(0.7, 0.2),
+    ],
+    ids=repr,
+)
+def test_library_distributions_are_normalized_and_pass_the_white_furnace(distribution):
+    normalization = check_normalization(distribution)
+    assert normalization.passed, normalization.detail
     furnace = check_white_furnace(distribution)
     assert furnace.passed, furnace.detail
 

@@ -489,7 +489,7 @@ def _hemisphere_integral(integrand: Callable[[np.ndarray], Array]) -> np.ndarray
 
 
 def check_normalization(
-    distribution: MicrofacetDistribution, tolerance: float = 1e-4
+    distribution: MicrofacetDistribution, tolerance: float = 1e-6
 ) -> CheckResult:
     r"""Projected-area normalization of a microfacet distribution:
     :math:`\int_{H^2} D(\omega_m) \cos\theta_m \, d\omega_m = 1`.
@@ -512,7 +512,7 @@ def check_normalization(
 def check_white_furnace(
     distribution: MicrofacetDistribution,
     theta_o: tuple[float, ...] = (0.0, 0.5, 1.0, 1.3, 1.5),
-    tolerance: float = 1e-3,
+    tolerance: float = 1e-5,
 ) -> CheckResult:
     r"""The weak white furnace test of a microfacet distribution and its Smith masking:
     :math:`\int_{H^2} G_1(\omega_o, \omega_m) D(\omega_m) \langle\omega_o, \omega_m\rangle^+
