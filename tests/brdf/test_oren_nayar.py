@@ -73,6 +73,24 @@ def test_full_is_the_papers_formula():
     np.testing.assert_allclose(value, l1 + l2, rtol=1e-9)
 
 
+def test_full_model_is_clamped_where_the_published_fit_is_negative():
+    # Grazing forward scattering with a large σ: the published formula gives a negative value.
+    theta = math.radians(89.9)
+    wi = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    wo = np.array([-wi[0], 0.0, wi[2]])
+    rho, sigma = 0.05, 1.5
+    s2 = sigma**2
+    alpha = beta = theta
+    c1 = 1 - 0.5 * s2 / (s2 + 0.33)
+    c2 = 0.45 * s2 / (s2 + 0.09) * (math.sin(alpha) - (2 * beta / math.pi) ** 3)
+    published = rho / math.pi * (c1 - c2 * math.tan(beta)) + 0.17 * rho**2 / math.pi * s2 / (
+        s2 + 0.13
+    ) * (1 + (2 * beta / math.pi) ** 2)
+    assert published < 0
+    assert OrenNayar(rho, sigma, "full").eval(wi, wo)[0] == 0
+    assert OrenNayar(rho, 0.5, "full").eval(wi, wo)[0] > 0
+
+
 @pytest.mark.parametrize("model", ["qualitative", "full"])
 def test_reciprocal(model):
     wi, wo = _pairs(2000, seed=3)

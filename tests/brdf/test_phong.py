@@ -248,3 +248,4 @@ def test_allow_unphysical_admits_large_albedos():
     model = ModifiedPhong(0.7, 0.5, 10.0, allow_unphysical=True)
     mean, _ = model.albedo_estimate(np.array([[0.0, 0.0, 1.0]]), samples=1 << 12)
     assert mean[0, 0] > 1.1
+    assert not model.energy_conserving and ModifiedPhong().energy_conserving

@@ -41,6 +41,9 @@ class OrenNayar(MixtureSampled):
         C_3 = 0.125\frac{\sigma^2}{\sigma^2+0.09}\Bigl(\frac{4\alpha\beta}{\pi^2}\Bigr)^2
 
     with α = max(θi, θr), β = min(θi, θr), Δφ = φr − φi. σ = 0 gives exactly ρ/π (Lambertian).
+    The full model as published is negative for σ ≳ 1 rad at grazing forward-scattering pairs
+    (θi, θr → 90°, Δφ → π; down to −0.25 ρ/π for ρ = 0.05, σ = π/2, since the C2 term there is
+    negative and the ρ² interreflection term is small); ``eval`` clamps it at 0.
 
     **Reciprocal**: yes, both forms — every term depends on (θi, θr) only through the symmetric
     α, β and on cos Δφ (tested). **Energy**: not conserving (``energy_conserving = False``).
@@ -147,7 +150,8 @@ class OrenNayar(MixtureSampled):
                 / (sigma2 + 0.13)
                 * (1 - cos_delta_phi * two_beta_pi**2)
             )
-            value = direct + inter
+            # The published fit dips below 0 at grazing forward pairs for σ ≳ 1: clamp it.
+            value = xp.maximum(direct + inter, xp.zeros_like(direct))
         return xp.where(upper, value, xp.zeros_like(value))
 
     def components(self, wo: Array) -> list[Component]:

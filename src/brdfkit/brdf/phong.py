@@ -332,6 +332,10 @@ class ModifiedPhong(MixtureSampled):
     n: Any = 20.0
     allow_unphysical: bool = False
 
+    @property
+    def energy_conserving(self) -> bool:  # type: ignore[override]
+        return not self.allow_unphysical
+
     def __post_init__(self) -> None:
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
