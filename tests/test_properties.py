@@ -50,7 +50,7 @@ class Leaky(Lambertian):
     """ρ/π everywhere, including below the horizon."""
 
     def eval(self, wi, wo):
-        return np.broadcast_to(np.asarray(self.albedo) / math.pi, (*wi.shape[:-1], 1))
+        return np.broadcast_to(np.asarray(self.rho) / math.pi, (*wi.shape[:-1], 1))
 
 
 @dataclass(frozen=True, eq=False)

@@ -94,13 +94,22 @@ def test_unknown_model_lists_the_known_models():
 
 
 def test_unknown_parameter_names_the_model_and_its_parameters():
-    with pytest.raises(ValueError, match="model 'lambertian' has no parameter 'rho'") as info:
-        parse("lambertian(rho=0.5)")
-    assert "albedo, allow_unphysical" in str(info.value)
+    with pytest.raises(ValueError, match="model 'lambertian' has no parameter 'sigma'") as info:
+        parse("lambertian(sigma=0.5)")
+    assert "rho (or albedo), allow_unphysical" in str(info.value)
+
+
+def test_aliases_name_the_same_parameter():
+    wi, wo = _pairs(8)
+    by_alias = parse("lambertian(albedo=0.3)")
+    assert by_alias.to_spec() == parse("lambertian(rho=0.3)").to_spec()
+    np.testing.assert_allclose(by_alias.eval(wi, wo), np.full((8, 1), 0.3 / math.pi), rtol=1e-15)
+    with pytest.raises(ValueError, match="parameter 'rho' of model 'lambertian' is given twice"):
+        parse("lambertian(albedo=0.3, rho=0.3)")
 
 
 def test_bad_values_are_reported_with_the_model_name():
-    with pytest.raises(ValueError, match=r"lambertian: albedo must be in \[0.0, 1.0\]; got 2"):
+    with pytest.raises(ValueError, match=r"lambertian: rho must be in \[0.0, 1.0\]; got 2"):
         parse("lambertian(albedo=2)")
 
 

@@ -67,10 +67,7 @@ def test_json_report_is_strict_json_with_every_check():
     result = runner.invoke(app, ["check", "0.5 * lambertian + lambertian(albedo=0.2)", "--json"])
     assert result.exit_code == 0, result.output
     data = json.loads(result.stdout, parse_constant=pytest.fail)
-    assert data["model"] == (
-        "0.5 * lambertian(albedo=0.5, allow_unphysical=False) + "
-        "lambertian(albedo=0.2, allow_unphysical=False)"
-    )
+    assert data["model"] == (0.5 * Lambertian() + Lambertian(0.2)).to_spec()
     assert [c["name"] for c in data["checks"]] == [
         "non-negativity",
         "reciprocity",
@@ -100,9 +97,9 @@ def test_a_contradicted_claim_exits_with_1(monkeypatch, wide_console):
     ("spec", "message"),
     [
         ("lambertain", "unknown model 'lambertain'"),
-        ("lambertian(rho=1)", "has no parameter 'rho'"),
+        ("lambertian(sigma=1)", "has no parameter 'sigma'"),
         ("lambertian(", "not a valid model expression"),
-        ("lambertian(albedo=3)", "albedo must be in [0.0, 1.0]"),
+        ("lambertian(albedo=3)", "rho must be in [0.0, 1.0]"),
     ],
 )
 def test_bad_specs_exit_with_2_and_say_why(spec, message, wide_console):

@@ -29,7 +29,7 @@ def test_json_lists_every_registered_model_with_its_defaults_and_claims():
         spec = f"{name}({', '.join(f'{k}={v}' for k, v in given.items())})"
         assert parse(spec).to_spec() == cls().to_spec()
     lambertian = records["lambertian"]
-    assert lambertian["parameters"]["albedo"] == "0.5"
+    assert lambertian["parameters"]["rho"] == "0.5"
     assert lambertian["claims"]["reciprocal"] is True
     assert "math" not in lambertian["summary"]  # reST roles are stripped
     if "phong" in records:

@@ -14,6 +14,9 @@ Grammar (everything else is rejected)::
     term   := NAME | NAME "(" [NAME "=" value {"," NAME "=" value}] ")"
     factor := number | "[" number {"," number} "]" | factor "*" factor
     value  := number | string | True | False | None | "[" number {"," number} "]"
+
+Parameter names are the model's dataclass fields, or the aliases in its ``spec_aliases``
+(``lambertian(albedo=0.8)`` sets the field ``rho``).
     number := ["-"] (int | float)
 
 ``+`` builds :class:`~brdfkit.brdf.base.Sum`, ``*`` builds :class:`~brdfkit.brdf.base.Scaled`.
@@ -153,20 +156,19 @@ def _model(
     for keyword in keywords:
         if keyword.arg is None:
             raise _unsupported(node, spec, "parameters given as name=value")
-        if keyword.arg not in fields:
+        field = cls.spec_aliases.get(keyword.arg, keyword.arg)
+        if field not in fields:
+            aliases = {v: k for k, v in cls.spec_aliases.items()}
+            listed = ", ".join(f"{f} (or {aliases[f]})" if f in aliases else f for f in fields)
             raise ValueError(
                 f"model {name!r} has no parameter {keyword.arg!r} (in spec {spec!r}); "
-                f"its parameters are: {', '.join(fields) or '(none)'}"
+                f"its parameters are: {listed or '(none)'}"
             )
-        if keyword.arg in kwargs:
+        if field in kwargs:
             raise ValueError(
-                f"parameter {keyword.arg!r} of model {name!r} is given twice in spec {spec!r}"
+                f"parameter {field!r} of model {name!r} is given twice in spec {spec!r}"
             )
-        if keyword.arg in kwargs:
-            raise ValueError(
-                f"parameter {keyword.arg!r} of model {name!r} is given twice in spec {spec!r}"
-            )
-        kwargs[keyword.arg] = _literal(keyword.value, spec)
+        kwargs[field] = _literal(keyword.value, spec)
     try:
         return cls(**kwargs)
     except (TypeError, ValueError) as error:
