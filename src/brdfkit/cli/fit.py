@@ -1,0 +1,111 @@
+"""``brdfkit fit``: fit an analytic model to a measured BRDF file (MERL, RGL, Cornell)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from brdfkit.cli._app import app, atomic_output, console, fail
+
+_READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
+_LIGHT_DIRECTION = (-0.4, 0.5, 0.77)
+"""The directional light of the comparison spheres: from the upper left, in front."""
+
+
+@app.command("fit")
+def fit_command(
+    file: Path = typer.Argument(..., help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf."),
+    model: str = typer.Option(
+        "lambertian + ward(kd=0)",
+        "--model",
+        "-m",
+        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ward(kd=0)'.",
+    ),
+    objective: str = typer.Option(
+        "cosine", "--objective", help="cosine (Ngan et al. 2005), log or cube_root."
+    ),
+    mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
+    starts: int = typer.Option(4, "--starts", min=1, help="Restarts (the first is the spec)."),
+    fix: list[str] = typer.Option([], "--fix", help="Parameter to hold fixed (repeatable)."),
+    output: Path | None = typer.Option(
+        None, "--output", "-o", help="Folder for fit.json and a measured-vs-fitted sphere image."
+    ),
+    resolution: int = typer.Option(128, "--resolution", "-r", min=16, max=2048),
+    envmap: bool = typer.Option(
+        False, "--envmap", help="Also render under the bundled environment map (Monte Carlo)."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Seed of the subsets and random starts."),
+) -> None:
+    """Fit a model to measured data; print the parameters and errors, optionally save renders."""
+    import numpy as np
+    from rich.progress import Progress
+    from rich.table import Table
+
+    import brdfkit.measured as measured_io
+    from brdfkit.fit import fit
+
+    if not file.is_file():
+        fail(f"file {str(file)!r} does not exist")
+    reader = _READERS.get(file.suffix.lower())
+    if reader is None:
+        fail(f"file must end in {', '.join(_READERS)}; got {file.name!r}")
+    try:
+        measured = getattr(measured_io, reader)(file)
+        with Progress(console=console, transient=True) as bar:
+            task = bar.add_task("fitting", total=1)
+            result = fit(
+                measured,
+                model,
+                objective=objective,
+                mode=mode,
+                starts=starts,
+                fixed=fix,
+                seed=seed,
+                progress=lambda done, total, text: bar.update(
+                    task, completed=done, total=total, description=f"fitting: {text}"
+                ),
+            )
+    except ValueError as error:
+        fail(str(error))
+    table = Table(title=f"{file.name}: {model} ({objective}, {mode})")
+    table.add_column("parameter")
+    table.add_column("value", justify="right")
+    for name, value in result.params.items():
+        shown = ", ".join(f"{v:.4g}" for v in np.atleast_1d(value))
+        table.add_row(name, shown)
+    for name, value in result.errors.items():
+        table.add_row(f"[dim]error[/] {name}", f"{value:.4g}")
+    console.print(table)
+    console.print(f"spec: {result.spec}")
+    console.print(
+        f"{result.samples} samples, {result.nfev} evaluations, {result.seconds:.1f} s, "
+        f"{'converged' if result.success else 'not converged'}"
+    )
+    if output is not None:
+        _write_outputs(output, measured, result, resolution, envmap)
+        console.print(f"wrote {output}")
+
+
+def _write_outputs(output: Path, measured, result, resolution: int, envmap: bool) -> None:
+    """``fit.json`` and ``spheres.png`` (measured | fitted; a second row under the envmap)."""
+    import numpy as np
+
+    from brdfkit.data import default_envmap_path
+    from brdfkit.io import write_image
+    from brdfkit.lights import DirectionalLight, EnvironmentMap
+    from brdfkit.render import render_sphere
+
+    lights = [[DirectionalLight(direction=_LIGHT_DIRECTION, irradiance=np.pi)]]
+    if envmap:
+        lights.append([EnvironmentMap.from_file(default_envmap_path())])
+    rows = []
+    for light in lights:
+        pair = [render_sphere(brdf, light, resolution) for brdf in (measured, result.model)]
+        rows.append(np.concatenate(pair, axis=1))
+    image = np.concatenate(rows, axis=0)
+    with atomic_output(output) as folder:
+        folder.mkdir()
+        (folder / "fit.json").write_text(json.dumps(result.to_dict(), indent=2))
+        write_image(folder / "spheres.png", image)

@@ -1,0 +1,45 @@
+"""Measured BRDFs: MERL, RGL (EPFL) and Cornell files, and tabulated BRDFs.
+
+Every reader returns a :class:`~brdfkit.brdf.base.BRDF` (``eval``, ``pdf``, ``sample``,
+``albedo``), so checks, rendering, plots and fitting (:mod:`brdfkit.fit`) work on measured data
+unchanged. Measured BRDFs are data, not spec models: they are not registered with the spec
+parser. They sample the cosine-weighted hemisphere (no analytic sampler exists for a table).
+
+- :func:`read_merl` / :func:`write_merl` — MERL ``.binary`` (Matusik et al. 2003), bit-exact.
+- :func:`read_rgl` — RGL ``.bsdf`` tensor files (Dupuy & Jakob 2018), evaluated as Mitsuba 3's
+  ``measured`` plugin does.
+- :func:`read_cornell` — Cornell ``.brdf`` spectral samples, converted to linear sRGB.
+- :class:`TabulatedBRDF` — a regular half/difference grid (isotropic 3-D or anisotropic 4-D),
+  from any BRDF or from scattered samples (:class:`MeasuredSamples`).
+"""
+
+from brdfkit.measured.cornell import read_cornell, read_cornell_samples
+from brdfkit.measured.merl import MERL_SCALE, MERL_SHAPE, merl_values, read_merl, write_merl
+from brdfkit.measured.rgl import RGLBRDF, read_rgl, read_tensor_file
+from brdfkit.measured.tabulated import (
+    INTERPOLATIONS,
+    CosineSampled,
+    MeasuredSamples,
+    TabulatedBRDF,
+    lookup,
+    spectrum_to_rgb_matrix,
+)
+
+__all__ = [
+    "INTERPOLATIONS",
+    "MERL_SCALE",
+    "MERL_SHAPE",
+    "RGLBRDF",
+    "CosineSampled",
+    "MeasuredSamples",
+    "TabulatedBRDF",
+    "lookup",
+    "merl_values",
+    "read_cornell",
+    "read_cornell_samples",
+    "read_merl",
+    "read_rgl",
+    "read_tensor_file",
+    "spectrum_to_rgb_matrix",
+    "write_merl",
+]

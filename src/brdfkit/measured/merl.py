@@ -1,0 +1,128 @@
+r"""MERL BRDF database files (``.binary``): read and write, bit for bit.
+
+The published format (Matusik et al. 2003, ``BRDFRead.cpp``): three little-endian int32
+dimensions ``(90, 90, 180)`` — θh, θd, φd — then :math:`3\cdot 90\cdot 90\cdot 180` float64
+values, channel-major (all red, then all green, then all blue), each channel a C-order array
+``[θh][θd][φd]``. Indices: θh non-linearly, :math:`i = \lfloor\sqrt{\theta_h/(\pi/2)}\cdot 90
+\rfloor`; θd linearly, :math:`j = \lfloor\theta_d/(\pi/2)\cdot 90\rfloor`; φd folded into
+:math:`[0, \pi)` by adding π when negative (reciprocity), :math:`k = \lfloor\varphi_d/\pi\cdot
+180\rfloor`. Stored values are scaled by 1/1500, 1.15/1500 and 1.66/1500 for R, G, B. Negative
+values mean "not measured".
+
+A MERL file is a :class:`~brdfkit.measured.tabulated.TabulatedBRDF` of shape
+``(90, 90, 180, 3)`` with those scales; the raw doubles are kept, so :func:`write_merl` of a
+:func:`read_merl` result reproduces the file byte for byte.
+
+References
+----------
+.. [1] W. Matusik, H. Pfister, M. Brand, L. McMillan, "A data-driven reflectance model",
+       ACM TOG 22(3) (SIGGRAPH), 759–769, 2003; MERL BRDF database and ``BRDFRead.cpp``.
+.. [2] S. Rusinkiewicz, "A new change of variables for efficient BRDF representation",
+       EGWR 1998.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from brdfkit.brdf.base import BRDF
+from brdfkit.io import _atomic_write
+from brdfkit.measured.tabulated import TabulatedBRDF
+
+MERL_SHAPE = (90, 90, 180)
+"""Resolution (θh, θd, φd) of every MERL file."""
+
+MERL_SCALE = (1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0)
+"""Per-channel factors from stored values to BRDF values (sr⁻¹), as in ``BRDFRead.cpp``."""
+
+_HEADER = np.dtype("<i4")
+_VALUE = np.dtype("<f8")
+
+
+def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedBRDF:
+    """Read a MERL ``.binary`` file as a :class:`TabulatedBRDF` of shape ``(90, 90, 180, 3)``.
+
+    Parameters
+    ----------
+    path : the file.
+    interpolation : lookup mode, ``"bin"`` (default: exactly ``BRDFRead.cpp``), ``"nearest"``
+        or ``"linear"``.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, when the header is not ``(90, 90, 180)``, or the file is truncated or
+        longer than the header says.
+
+    References
+    ----------
+    .. [1] W. Matusik et al., SIGGRAPH 2003; ``BRDFRead.cpp``.
+    """
+    path = Path(path)
+    raw = path.read_bytes()
+    if len(raw) < 3 * _HEADER.itemsize:
+        raise ValueError(
+            f"MERL file {str(path)!r} is truncated: {len(raw)} bytes, shorter than its 12-byte "
+            "header"
+        )
+    dims = tuple(int(d) for d in np.frombuffer(raw, _HEADER, count=3))
+    if dims != MERL_SHAPE:
+        raise ValueError(
+            f"MERL file {str(path)!r} has header dimensions {dims}; expected {MERL_SHAPE} "
+            "(theta_h, theta_d, phi_d)"
+        )
+    count = 3 * int(np.prod(MERL_SHAPE))
+    expected = 3 * _HEADER.itemsize + count * _VALUE.itemsize
+    if len(raw) != expected:
+        state = "truncated" if len(raw) < expected else "longer than its header says"
+        raise ValueError(
+            f"MERL file {str(path)!r} is {state}: {len(raw)} bytes; expected {expected} "
+            f"(12-byte header + 3 x {int(np.prod(MERL_SHAPE))} float64 values)"
+        )
+    data = np.frombuffer(raw, _VALUE, count=count, offset=3 * _HEADER.itemsize)
+    values = np.moveaxis(data.reshape(3, *MERL_SHAPE), 0, -1).astype(np.float64)
+    return TabulatedBRDF(values, scale=MERL_SCALE, interpolation=interpolation, name=path.name)
+
+
+def merl_values(brdf: BRDF) -> np.ndarray:
+    """The stored (unscaled) MERL values of ``brdf``, shape ``(90, 90, 180, 3)``.
+
+    A :class:`TabulatedBRDF` with MERL's shape and scales gives its raw table unchanged (the
+    round trip is exact); any other table or model is tabulated at the MERL nodes and divided
+    by :data:`MERL_SCALE`. "Not measured" entries (negative) are written as −1.
+    """
+    if not isinstance(brdf, BRDF):
+        raise ValueError(f"brdf must be a BRDF; got {type(brdf).__name__}")
+    if brdf.channels not in (1, 3):
+        raise ValueError(f"a MERL file holds 1 or 3 channels; brdf has {brdf.channels}")
+    if not (isinstance(brdf, TabulatedBRDF) and brdf.shape == MERL_SHAPE):
+        brdf = TabulatedBRDF.from_brdf(brdf, MERL_SHAPE, channels=3)
+    scale = np.broadcast_to(np.asarray(brdf.scale, dtype=np.float64), (3,))
+    values = np.broadcast_to(brdf.values, (*MERL_SHAPE, 3))
+    if np.array_equal(scale, MERL_SCALE):
+        return values
+    return np.where(values < 0, -1.0, values * (scale / np.asarray(MERL_SCALE)))
+
+
+def write_merl(path: str | os.PathLike, brdf: BRDF) -> Path:
+    """Write ``brdf`` as a MERL ``.binary`` file, atomically; returns the path.
+
+    ``brdf`` is a table read by :func:`read_merl` (written back bit for bit) or any BRDF
+    (tabulated at the MERL nodes first, see :func:`merl_values`).
+
+    References
+    ----------
+    .. [1] W. Matusik et al., SIGGRAPH 2003; ``BRDFRead.cpp``.
+    """
+    path = Path(path)
+    values = merl_values(brdf)
+    header = np.asarray(MERL_SHAPE, dtype=_HEADER).tobytes()
+    body = np.ascontiguousarray(np.moveaxis(values, -1, 0), dtype=_VALUE).tobytes()
+    _atomic_write(path, lambda tmp: tmp.write_bytes(header + body))
+    return path
+
+
+__all__ = ["MERL_SCALE", "MERL_SHAPE", "merl_values", "read_merl", "write_merl"]
