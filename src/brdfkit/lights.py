@@ -449,7 +449,8 @@ class EnvironmentMap(Light):
     The map follows :func:`brdfkit.sh.latlong_directions`: row 0 at +z (θ = 0), column 0 starting
     at φ = 0 (+x) with φ growing towards +y. ``rotation`` (a 3×3 matrix) takes map directions to
     world directions. Importance sampling draws pixels from a piecewise-constant distribution
-    proportional to luminance·sin θ (plus a small floor so that every direction the bilinear
+    proportional to luminance·sin θ (the 3×3 maximum, since the bilinear lookup mixes
+    neighbours, plus a small floor so that every direction the bilinear
     lookup can light has a positive density), with solid-angle pdf
     :math:`p_\omega = p_{uv} / (2\pi^2 \sin\theta)`.
 
@@ -470,6 +471,8 @@ class EnvironmentMap(Light):
     rotation: Any = None
 
     def __post_init__(self) -> None:
+        from scipy.ndimage import maximum_filter
+
         from brdfkit.sampling import Distribution2D
 
         img = to_numpy(self.image) if self.image is not None else None
@@ -490,6 +493,9 @@ class EnvironmentMap(Light):
         height = img.shape[0]
         sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
         lum = img.mean(axis=2) if img.shape[2] != 3 else img @ np.array([0.2126, 0.7152, 0.0722])
+        # A bilinear lookup inside a pixel mixes its 3×3 neighbourhood: sampling by the
+        # neighbourhood's maximum keeps L/pdf bounded (no fireflies next to a bright sun).
+        lum = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
         weights = (lum + 1e-3 * max(lum.mean(), 1e-12)) * sin_theta
         object.__setattr__(self, "_distribution", Distribution2D(weights))
 
@@ -614,8 +620,9 @@ def _bilinear(image: Array, row: Array, col: Array) -> Array:
     height, width, channels = image.shape
     r0f, c0f = xp.floor(row), xp.floor(col)
     fr, fc = (row - r0f)[..., None], (col - c0f)[..., None]
-    r0 = xp.clip(xp.astype(r0f, xp.int64), 0, height - 1)
-    r1 = xp.clip(r0 + 1, 0, height - 1)
+    r_index = xp.astype(r0f, xp.int64)
+    r0 = xp.clip(r_index, 0, height - 1)
+    r1 = xp.clip(r_index + 1, 0, height - 1)
     c0 = xp.remainder(xp.astype(c0f, xp.int64), width)
     c1 = xp.remainder(c0 + 1, width)
     flat = xp.reshape(image, (height * width, channels))

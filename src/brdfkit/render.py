@@ -273,6 +273,7 @@ def shade(
     method: str = "auto",
     samples: int = 64,
     seed: int = 0,
+    sequence: str = "sobol",
     max_evaluations: int = 2_000_000,
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
@@ -280,8 +281,10 @@ def shade(
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
 
     Pixels are shaded in tiles of rows holding at most ``max_evaluations`` BRDF evaluations
-    (pixels × samples), which bounds memory (~1 KB per evaluation at most). ``progress(done,
-    total)`` is called after each tile.
+    (pixels × samples), which bounds memory (~1 KB per evaluation at most). Pixels use shifted
+    scrambled Sobol samples by default (``sequence``, see
+    :func:`~brdfkit.integrate.reflected_radiance`). ``progress(done, total)`` is called after each
+    tile.
     """
     height, width = g.shape
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
@@ -306,6 +309,7 @@ def shade(
                 method=method,
                 samples=samples,
                 seed=seed + r0,
+                sequence=sequence,
             )
             value = to_numpy(estimate.value)
             image[rows] = np.where(m[..., None], value, background)

@@ -150,6 +150,8 @@ class BRDF:
     """
 
     spec_name: ClassVar[str] = ""
+    spec_aliases: ClassVar[dict[str, str]] = {}
+    """Alternative parameter names that spec strings accept (``{"albedo": "rho"}``)."""
     reciprocal: ClassVar[bool] = True
     """Whether f(wi, wo) = f(wo, wi) for every parameter value (Helmholtz reciprocity)."""
     energy_conserving: ClassVar[bool] = True
@@ -257,9 +259,9 @@ def _spec_value(v: Any) -> str:
         return str(v)
     arr = to_numpy(v)
     if arr.ndim == 0:
-        return f"{float(arr):.10g}"
+        return repr(float(arr))  # the shortest string that reads back to the same float
     if arr.ndim == 1:
-        return "[" + ", ".join(f"{float(x):.10g}" for x in arr) + "]"
+        return "[" + ", ".join(repr(float(x)) for x in arr) + "]"
     raise ValueError("a spatially varying parameter has no spec-string form")
 
 

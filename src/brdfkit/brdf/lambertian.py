@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
@@ -30,8 +30,10 @@ class Lambertian(BRDF):
 
     Parameters
     ----------
-    albedo : ρ ∈ [0, 1], scalar, per channel (``[r, g, b]``) or a per-pixel texture
-        ``(..., C)``. ``allow_unphysical=True`` admits ρ > 1.
+    rho : the albedo ρ ∈ [0, 1], scalar, per channel (``[r, g, b]``) or a per-pixel texture
+        ``(..., C)``. ``allow_unphysical=True`` admits ρ > 1. Spec strings may call it
+        ``albedo`` (``"lambertian(albedo=0.8)"``); the field is ``rho`` because ``albedo`` is
+        the protocol's method.
 
     References
     ----------
@@ -39,18 +41,19 @@ class Lambertian(BRDF):
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §9.2.
     """
 
-    albedo: Any = 0.5
+    rho: Any = 0.5
     allow_unphysical: bool = False
+    spec_aliases: ClassVar[dict[str, str]] = {"albedo": "rho"}
 
     def __post_init__(self) -> None:
         check_param(
-            "albedo",
-            self.albedo,
+            "rho",
+            self.rho,
             0.0,
             None if self.allow_unphysical else 1.0,
             hint="pass allow_unphysical=True for ρ > 1",
         )
-        object.__setattr__(self, "channels", channel_count(self.albedo, names=("albedo",)))
+        object.__setattr__(self, "channels", channel_count(self.rho, names=("rho",)))
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -58,7 +61,7 @@ class Lambertian(BRDF):
 
     def eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
-        rho = param(self.albedo, wi)
+        rho = param(self.rho, wi)
         value = xp.broadcast_to(rho / math.pi, (*result_shape(wi, wo), rho.shape[-1]))
         return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
 
@@ -71,7 +74,7 @@ class Lambertian(BRDF):
         xp = namespace(wo, u)
         wi = square_to_cosine_hemisphere(u[..., :2])
         pdf = square_to_cosine_hemisphere_pdf(wi)
-        rho = param(self.albedo, wo)
+        rho = param(self.rho, wo)
         ok = ((wo[..., 2] > 0) & (pdf > 0))[..., None]
         weight = xp.broadcast_to(rho, (*result_shape(wi, wo), rho.shape[-1]))
         weight = xp.where(ok, weight, xp.zeros_like(weight))
@@ -81,7 +84,7 @@ class Lambertian(BRDF):
     def albedo_estimate(self, wo: Array, samples: int = 0, seed: int = 0) -> tuple[Array, Array]:
         """Exact: ρ(wo) = ρ for wo above the surface, with zero error."""
         xp = namespace(wo)
-        rho = param(self.albedo, wo)
+        rho = param(self.rho, wo)
         value = xp.broadcast_to(rho, (*wo.shape[:-1], rho.shape[-1]))
         value = xp.where((wo[..., 2] > 0)[..., None], value, xp.zeros_like(value))
         return value, xp.zeros_like(value)

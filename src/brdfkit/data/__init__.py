@@ -7,8 +7,8 @@ from pathlib import Path
 
 
 def default_envmap_path() -> Path:
-    """The bundled CC0 environment map: Poly Haven's "Royal Esplanade", 256×128 Radiance HDR."""
-    return Path(str(files(__name__) / "royal_esplanade_256x128.hdr"))
+    """The bundled CC0 environment map: Poly Haven's "Blouberg Sunrise 2", 256×128 Radiance HDR."""
+    return Path(str(files(__name__) / "blouberg_sunrise_2_256x128.hdr"))
 
 
 __all__ = ["default_envmap_path"]

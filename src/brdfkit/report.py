@@ -1,0 +1,329 @@
+"""The reflectance atlas: one self-contained HTML page with a card per model.
+
+Each card shows the model's formula, parameters and citation, a row of spheres across its
+example parameters under a directional light and under an environment map, a lobe plot, the
+directional albedo curves, and the physics checks (reciprocity, energy, isotropy, sampling) as
+pass/fail with their numbers, set against what the model claims. Images are embedded as base64
+PNG, so the page opens from disk with no server and no network.
+
+References
+----------
+.. [1] B. Burley et al., Disney BRDF Explorer, 2012.
+.. [2] W. Matusik et al., "A data-driven reflectance model", SIGGRAPH 2003 (sphere galleries).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import inspect
+import io
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from brdfkit.brdf.base import BRDF, MODELS, Scaled, Sum
+
+DEFAULT_MODELS = (
+    "lambertian",
+    "oren_nayar",
+    "phong",
+    "modified_phong",
+    "blinn_phong",
+    "lafortune",
+    "ward",
+    "torrance_sparrow",
+    "cook_torrance",
+    "ggx",
+    "beckmann",
+    "rough_dielectric",
+    "mirror",
+    "smooth_dielectric",
+)
+"""The models of the default atlas, in the order of the lectures (those registered are shown)."""
+
+
+@dataclass
+class Card:
+    """One model's section of the atlas."""
+
+    title: str
+    models: list[BRDF]
+    labels: list[str]
+    doc: str = ""
+    images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
+    checks: list[dict] = field(default_factory=list)
+    consistent: bool = True
+
+
+def _png(fig) -> str:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100)
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _image_png(image: np.ndarray) -> str:
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(image).save(buffer, format="PNG")
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _doc_of(model: BRDF) -> str:
+    target = model
+    while isinstance(target, Scaled):
+        target = target.inner
+    if isinstance(target, Sum):
+        return "\n\n".join(f"{type(lobe).__name__}: " + _doc_of(lobe) for lobe in target.lobes)
+    return inspect.cleandoc(type(target).__doc__ or "")
+
+
+def _section(doc: str, name: str) -> str:
+    match = re.search(rf"^{name}\n-+\n(.*?)(?:\n\n[A-Z][a-z ]+\n-+\n|\Z)", doc, re.S | re.M)
+    return match.group(1).strip() if match else ""
+
+
+def _summary(doc: str) -> str:
+    head = re.split(r"\n[A-Z][a-z ]+\n-+\n", doc)[0]
+    return head.strip()
+
+
+def _formula_png(doc: str) -> str | None:
+    """The first ``:math:`...``` of the docstring rendered by matplotlib's mathtext, if it can."""
+    match = re.search(r":math:`([^`]+)`", doc)
+    if not match:
+        return None
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 0.6))
+    fig.text(0.01, 0.5, f"${match.group(1)}$", fontsize=14, va="center")
+    try:
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=100, bbox_inches="tight", transparent=True)
+    except ValueError:  # mathtext does not know every LaTeX command: show the text instead
+        return None
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _sphere_row(models: Sequence[BRDF], lights, resolution: int, samples: int) -> np.ndarray:
+    from brdfkit.io import srgb_encode, tonemap
+    from brdfkit.render import render_sphere
+
+    tiles = []
+    for model in models:
+        image = render_sphere(model, lights, resolution=resolution, samples=samples)
+        if image.shape[-1] == 1:
+            image = np.repeat(image, 3, axis=-1)
+        encoded = np.asarray(srgb_encode(tonemap(image[..., :3], method="reinhard")))
+        tiles.append((np.clip(encoded, 0, 1) * 255 + 0.5).astype(np.uint8))
+        tiles.append(np.zeros((resolution, 4, 3), np.uint8))
+    return np.concatenate(tiles[:-1], axis=1)
+
+
+def build_card(
+    title: str,
+    models: Sequence[BRDF],
+    *,
+    envmap,
+    labels: Sequence[str] | None = None,
+    resolution: int = 96,
+    samples: int = 32,
+    run_checks: bool = True,
+) -> Card:
+    """Render and measure one model family (its example instances) into a :class:`Card`."""
+    from brdfkit.lights import DirectionalLight
+    from brdfkit.plot import albedo_plot, lobe_plot
+    from brdfkit.properties import check
+
+    models = list(models)
+    labels = list(labels) if labels is not None else [m.to_spec() for m in models]
+    card = Card(title, models, labels, doc=_doc_of(models[0]))
+    sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
+    card.images["spheres under a directional light"] = _image_png(
+        _sphere_row(models, sun, resolution, samples)
+    )
+    card.images["spheres under the environment map"] = _image_png(
+        _sphere_row(models, envmap, resolution, samples)
+    )
+    representative = models[len(models) // 2]
+    card.images["lobe (plane of incidence)"] = _png(
+        lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)])
+    )
+    card.images["directional albedo"] = _png(
+        albedo_plot(
+            models, labels=[f"#{i + 1}" for i in range(len(models))], samples=1024, angles=16
+        )
+    )
+    if run_checks:
+        report = check(representative)
+        card.checks = [r.to_dict() for r in report.results]
+        card.consistent = report.consistent
+    return card
+
+
+def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str, list[BRDF]]]:
+    """Titles and example instances: every registered default model, or the given specs/files."""
+    from brdfkit.brdf import parse
+
+    if not models:
+        return [(name, MODELS[name].examples()[:4]) for name in DEFAULT_MODELS if name in MODELS]
+    cards = []
+    for item in models:
+        if isinstance(item, BRDF):
+            cards.append((item.to_spec(), [item]))
+        elif Path(item).suffix.lower() in (".binary", ".bsdf", ".brdf") and Path(item).exists():
+            from brdfkit import measured
+
+            cards.append((Path(item).name, [measured.load(item)]))
+        else:
+            model = parse(item)
+            cards.append((item, [model]))
+    return cards
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2rem auto;max-width:1150px;
+color:#222;background:#fafafa}
+h1{margin-bottom:.2rem} .sub{color:#666;margin-top:0}
+.card{background:#fff;border:1px solid #ddd;border-radius:10px;padding:1rem 1.4rem;margin:1.4rem 0;
+box-shadow:0 1px 3px rgba(0,0,0,.06)}
+.card h2{margin:.2rem 0 .6rem;font-family:ui-monospace,monospace}
+.row{display:flex;flex-wrap:wrap;gap:1rem;align-items:flex-start}
+figure{margin:0} figcaption{font-size:.8rem;color:#666}
+pre{white-space:pre-wrap;font-size:.82rem;background:#f4f4f4;padding:.6rem;border-radius:6px}
+table{border-collapse:collapse;font-size:.85rem} td,th{border-bottom:1px solid #eee;padding:.25rem .6rem;
+text-align:left} .pass{color:#0a7a2f;font-weight:600} .fail{color:#b00020;font-weight:600}
+.claim{color:#555} code{font-size:.82rem}
+"""
+
+_SCRIPT = """
+window.addEventListener('load', function () {
+  var imgs = document.querySelectorAll('img'), ok = 0;
+  imgs.forEach(function (im) { if (im.complete && im.naturalWidth > 0) ok++; });
+  document.body.setAttribute('data-images', imgs.length);
+  document.body.setAttribute('data-images-ok', ok);
+  document.body.setAttribute('data-cards', document.querySelectorAll('.card').length);
+});
+"""
+
+
+def _img(data: str, caption: str) -> str:
+    return (
+        f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+        f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+    )
+
+
+def card_html(card: Card) -> str:
+    """The HTML of one card."""
+    parts = [
+        f'<section class="card" id="{html.escape(card.title)}"><h2>{html.escape(card.title)}</h2>'
+    ]
+    formula = _formula_png(card.doc)
+    if formula:
+        parts.append(f'<img class="formula" alt="formula" src="data:image/png;base64,{formula}">')
+    parts.append(f"<pre>{html.escape(_summary(card.doc))}</pre>")
+    refs = _section(card.doc, "References")
+    if refs:
+        parts.append(f"<p><b>References</b></p><pre>{html.escape(refs)}</pre>")
+    parts.append("<p><b>Examples</b> (left to right)</p><ol>")
+    parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
+    parts.append("</ol>")
+    parts.append('<div class="row">')
+    parts.extend(_img(data, caption) for caption, data in card.images.items())
+    parts.append("</div>")
+    if card.checks:
+        verdict = "consistent with its claims" if card.consistent else "CONTRADICTS a claim"
+        parts.append(
+            f"<p><b>Physics checks</b> on example #{len(card.models) // 2 + 1}: {verdict}</p>"
+        )
+        parts.append(
+            "<table><tr><th>check</th><th>result</th><th>value</th><th>tolerance</th>"
+            "<th>claimed</th><th>detail</th></tr>"
+        )
+        for c in card.checks:
+            css = "pass" if c["passed"] else "fail"
+            claimed = "—" if c.get("claimed") is None else ("yes" if c["claimed"] else "no")
+            value = "—" if c.get("value") is None else f"{c['value']:.3g}"
+            tol = "—" if c.get("tolerance") is None else f"{c['tolerance']:.3g}"
+            parts.append(
+                f'<tr><td>{html.escape(c["name"])}</td><td class="{css}">'
+                f"{'pass' if c['passed'] else 'fail'}</td><td>{value}</td><td>{tol}</td>"
+                f'<td class="claim">{claimed}</td><td>{html.escape(str(c.get("detail", "")))}</td></tr>'
+            )
+        parts.append("</table>")
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
+    """The whole page."""
+    import brdfkit
+
+    toc = " · ".join(f'<a href="#{html.escape(c.title)}">{html.escape(c.title)}</a>' for c in cards)
+    body = "\n".join(card_html(c) for c in cards)
+    return (
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+        f"<title>brdfkit atlas</title><style>{_CSS}</style><script>{_SCRIPT}</script></head><body>"
+        f"<h1>brdfkit reflectance atlas</h1><p class='sub'>brdfkit {brdfkit.__version__} · "
+        f"{len(cards)} models · spheres lit by a directional light and by {html.escape(envmap_name)}"
+        f"</p><p>{toc}</p>{body}</body></html>"
+    )
+
+
+def build_atlas(
+    output: Path,
+    models: Sequence[str | BRDF] | None = None,
+    envmap: str | Path | None = None,
+    *,
+    resolution: int = 96,
+    samples: int = 32,
+    run_checks: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> Path:
+    """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path."""
+    import os
+    import tempfile
+
+    from brdfkit.data import default_envmap_path
+    from brdfkit.lights import EnvironmentMap
+
+    envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
+    light = EnvironmentMap.from_file(envmap_path)
+    cards = []
+    for title, examples in default_cards(models):
+        if progress is not None:
+            progress(title)
+        cards.append(
+            build_card(
+                title,
+                examples,
+                envmap=light,
+                resolution=resolution,
+                samples=samples,
+                run_checks=run_checks,
+            )
+        )
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".html", dir=output.parent)
+    with os.fdopen(fd, "w", encoding="utf-8") as handle:
+        handle.write(atlas_html(cards, envmap_path.name))
+    os.replace(tmp, output)
+    return output
+
+
+__all__ = [
+    "DEFAULT_MODELS",
+    "Card",
+    "atlas_html",
+    "build_atlas",
+    "build_card",
+    "card_html",
+    "default_cards",
+]
