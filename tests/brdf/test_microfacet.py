@@ -72,6 +72,24 @@ def test_weak_white_furnace(dist, theta_o):
     assert _hemisphere_integral(integrand) == pytest.approx(wo[2], rel=1e-6)
 
 
+@pytest.mark.parametrize(
+    "dist",
+    [Beckmann(1.0), GGX(0.4), TorranceSparrowGaussian(0.8)],
+    ids=["Beckmann", "GGX", "Gaussian"],
+)
+def test_v_groove_passes_the_white_furnace(dist):
+    """The V-groove G1 = min(1, 2 cos θh cos θo / (ωo·h)) is Heitz's V-cavity: its weak
+    white-furnace integral is cos θo for any D."""
+    wo = _direction(1.25, 0.4)
+
+    def integrand(m):
+        wo_m = m @ wo
+        g1 = np.minimum(1.0, 2 * m[..., 2] * wo[2] / np.where(wo_m > 0, wo_m, 1.0))
+        return np.where(wo_m > 0, g1 * dist.D(m)[..., 0] * wo_m, 0.0)
+
+    assert _hemisphere_integral(integrand) == pytest.approx(wo[2], rel=1e-9)
+
+
 def test_gaussian_normalisation_against_scipy_quad():
     """c(m) from the built-in quadrature equals an independent adaptive quadrature."""
     for m in (0.02, 0.3, 1.0, 4.0):

@@ -213,16 +213,20 @@ class MicrofacetDistribution:
 
 
 def _mean_over_channels(value: Any) -> Any:
-    """A channel-valued parameter averaged over its last axis (kept as axis of length 1)."""
-    xp = namespace(value)
+    """A channel-valued parameter averaged over its last axis (kept as an axis of length 1).
+
+    Python sequences stay Python numbers (so that they take the dtype of the data they meet);
+    arrays keep their backend, dtype and autograd graph.
+    """
+    if isinstance(value, list | tuple):
+        return (
+            [float(np.mean(np.asarray(value, dtype=np.float64), axis=-1))]
+            if len(value) > 1
+            else value
+        )
     if not hasattr(value, "shape") or value.ndim == 0 or value.shape[-1] == 1:
         return value
-    return xp.mean(value, axis=-1, keepdims=True)
-
-
-def _as_param(value: Any) -> Any:
-    """Lists become NumPy arrays (so that channel means can be taken); arrays are kept as is."""
-    return np.asarray(value, dtype=np.float64) if isinstance(value, list | tuple) else value
+    return namespace(value).mean(value, axis=-1, keepdims=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,10 +245,8 @@ class _StretchedDistribution(MicrofacetDistribution):
     supports_visible_sampling = True
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "alpha_x", _as_param(self.alpha_x))
         if self.alpha_y is None:
             object.__setattr__(self, "alpha_y", self.alpha_x)
-        object.__setattr__(self, "alpha_y", _as_param(self.alpha_y))
         check_param("alpha_x", self.alpha_x, 0.0, lo_open=True, hint="roughness must be > 0")
         check_param("alpha_y", self.alpha_y, 0.0, lo_open=True, hint="roughness must be > 0")
         channel_count(self.alpha_x, self.alpha_y, names=("alpha_x", "alpha_y"))
@@ -541,7 +543,6 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     m: Any = 0.2
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "m", _as_param(self.m))
         check_param("m", self.m, 0.0, lo_open=True, hint="angular roughness in radians")
 
     def channel_mean(self) -> MicrofacetDistribution:
@@ -646,8 +647,10 @@ def masking_shadowing(
 
     - ``"v_groove"`` (Torrance & Sparrow 1967; Cook & Torrance 1982; the lectures):
       :math:`\min\left(1, \frac{2(n\cdot h)(n\cdot\omega_o)}{\omega_o\cdot h},
-      \frac{2(n\cdot h)(n\cdot\omega_i)}{\omega_o\cdot h}\right)` for reflection (h = ωm);
-      independent of D, so it does not satisfy the white-furnace identity.
+      \frac{2(n\cdot h)(n\cdot\omega_i)}{\omega_o\cdot h}\right)` for reflection (h = ωm).
+      It is the V-cavity microsurface of Heitz (2014 §5.3): its
+      :math:`G_1 = \min(1, 2\cos\theta_h\cos\theta_o/(\omega_o\cdot h))` satisfies the weak
+      white furnace for *any* D, and :math:`G_2 = \min(G_1(\omega_i), G_1(\omega_o))`.
     - ``"smith_separable"``: :math:`G_1(\omega_i,\omega_m)G_1(\omega_o,\omega_m)` (Walter et al.
       2007, Mitsuba 3).
     - ``"smith_correlated"``: height-correlated Smith (Heitz 2014 eq. 99),
@@ -742,16 +745,15 @@ class FresnelTerm:
                     "material names a conductor preset, so fresnel must be 'conductor'; "
                     f"got {kind!r}"
                 )
-            eta_m, k_m = conductor(material)
-            eta, k = np.asarray(eta_m), np.asarray(k_m)
+            eta, k = conductor(material)
         if kind in ("dielectric", "conductor"):
-            eta = 1.5 if eta is None else _as_param(eta)
+            eta = 1.5 if eta is None else eta
             check_param("eta", eta, 0.0, lo_open=True, hint="relative index of refraction")
         if kind == "conductor":
-            k = 0.0 if k is None else _as_param(k)
+            k = 0.0 if k is None else k
             check_param("k", k, 0.0, hint="extinction coefficient")
         if kind == "schlick":
-            f0 = 0.04 if f0 is None else _as_param(f0)
+            f0 = 0.04 if f0 is None else f0
             check_param("f0", f0, 0.0, 1.0, hint="reflectance at normal incidence")
         return cls(
             kind, 1.5 if eta is None else eta, 0.0 if k is None else k, 0.04 if f0 is None else f0
