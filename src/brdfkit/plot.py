@@ -197,27 +197,54 @@ def albedo_plot(
 
 
 # --------------------------------------------------------------------------- spheres
+def sphere_images(
+    brdfs: Sequence[BRDF],
+    lights: Light | Sequence[Light],
+    resolution: int = 128,
+    samples: int = 64,
+    exposure: float | None = None,
+) -> list[np.ndarray]:
+    """Render one sphere per model and encode them for display as 8-bit sRGB, ``(R, R, 3)``.
+
+    With ``exposure=None`` one exposure serves the whole row (so that spheres stay comparable):
+    the 99th percentile of luminance over all spheres maps to white; otherwise ``exposure`` is
+    in stops.
+    """
+    from brdfkit.io import luminance, srgb_encode, tonemap
+    from brdfkit.render import render_sphere
+
+    images = []
+    for model in brdfs:
+        image = render_sphere(model, lights, resolution=resolution, samples=samples)
+        images.append(np.repeat(image, 3, axis=-1) if image.shape[-1] == 1 else image[..., :3])
+    if exposure is None:
+        lum = np.concatenate([np.asarray(luminance(im)).ravel() for im in images])
+        lum = lum[lum > 0]
+        exposure = -math.log2(np.percentile(lum, 99)) if lum.size else 0.0
+    return [
+        (np.clip(np.asarray(srgb_encode(tonemap(im, exposure=exposure))), 0, 1) * 255 + 0.5).astype(
+            np.uint8
+        )
+        for im in images
+    ]
+
+
 def sphere_gallery(
     brdfs: Sequence[BRDF],
     lights: Light | Sequence[Light],
     labels: Sequence[str] | None = None,
     resolution: int = 128,
     samples: int = 64,
-    exposure: float = 0.0,
+    exposure: float | None = None,
 ) -> Figure:
     """A row of spheres, e.g. across one parameter (roughness, exponent, σ, η)."""
-    from brdfkit.io import srgb_encode, tonemap
-    from brdfkit.render import render_sphere
-
     models = list(brdfs)
     labels = list(labels) if labels is not None else [m.to_spec()[:30] for m in models]
     fig = _figure(figsize=(1.6 * len(models), 1.9), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(models)))
-    for ax, model, label in zip(axes, models, labels, strict=True):
-        image = render_sphere(model, lights, resolution=resolution, samples=samples)
-        if image.shape[-1] == 1:
-            image = np.repeat(image, 3, axis=-1)
-        ax.imshow(np.asarray(srgb_encode(tonemap(image, exposure=exposure))))
+    images = sphere_images(models, lights, resolution, samples, exposure)
+    for ax, image, label in zip(axes, images, labels, strict=True):
+        ax.imshow(image)
         ax.set_title(label, fontsize="x-small")
         ax.axis("off")
     return fig
@@ -251,4 +278,5 @@ __all__ = [
     "lobe_plot",
     "save",
     "sphere_gallery",
+    "sphere_images",
 ]

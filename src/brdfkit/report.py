@@ -93,35 +93,51 @@ def _summary(doc: str) -> str:
     return head.strip()
 
 
+def _formula(doc: str) -> str | None:
+    """The docstring's first formula: a ``.. math::`` block or else a ``:math:`` role."""
+    block = re.search(r"^\.\. math::\n\n((?:[ \t]+\S.*\n?)+)", doc, re.M)
+    if block:
+        return " ".join(line.strip() for line in block.group(1).splitlines())
+    role = re.search(r":math:`([^`]+)`", doc)
+    return role.group(1) if role else None
+
+
+_MATHTEXT = {
+    r"\qquad": r"\quad",
+    r"\lVert": r"\|",
+    r"\rVert": r"\|",
+    **{rf"\{size}{side}": "" for size in ("big", "Big", "bigg", "Bigg") for side in "lr"},
+}
+"""LaTeX that matplotlib's mathtext lacks, mapped to what it has (sizes of delimiters dropped)."""
+
+
 def _formula_png(doc: str) -> str | None:
-    """The first ``:math:`...``` of the docstring rendered by matplotlib's mathtext, if it can."""
-    match = re.search(r":math:`([^`]+)`", doc)
-    if not match:
+    """The formula rendered by matplotlib's mathtext, or None if mathtext cannot typeset it."""
+    formula = _formula(doc)
+    if not formula:
         return None
+    for latex, mathtext in _MATHTEXT.items():
+        formula = formula.replace(latex, mathtext)
+    formula = re.sub(r"\\mathbf\s+(\w)", r"\\mathbf{\1}", formula)
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6, 0.6))
-    fig.text(0.01, 0.5, f"${match.group(1)}$", fontsize=14, va="center")
+    fig.text(0.01, 0.5, f"${formula}$", fontsize=14, va="center")
     try:
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=100, bbox_inches="tight", transparent=True)
-    except ValueError:  # mathtext does not know every LaTeX command: show the text instead
+    except ValueError:  # mathtext does not know every LaTeX command: the text shows it instead
         return None
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
 def _sphere_row(models: Sequence[BRDF], lights, resolution: int, samples: int) -> np.ndarray:
-    from brdfkit.io import srgb_encode, tonemap
-    from brdfkit.render import render_sphere
+    from brdfkit.plot import sphere_images
 
+    gap = np.zeros((resolution, 4, 3), np.uint8)
     tiles = []
-    for model in models:
-        image = render_sphere(model, lights, resolution=resolution, samples=samples)
-        if image.shape[-1] == 1:
-            image = np.repeat(image, 3, axis=-1)
-        encoded = np.asarray(srgb_encode(tonemap(image[..., :3], method="reinhard")))
-        tiles.append((np.clip(encoded, 0, 1) * 255 + 0.5).astype(np.uint8))
-        tiles.append(np.zeros((resolution, 4, 3), np.uint8))
+    for image in sphere_images(models, lights, resolution, samples):
+        tiles += [image, gap]
     return np.concatenate(tiles[:-1], axis=1)
 
 
@@ -196,8 +212,9 @@ box-shadow:0 1px 3px rgba(0,0,0,.06)}
 .row{display:flex;flex-wrap:wrap;gap:1rem;align-items:flex-start}
 figure{margin:0} figcaption{font-size:.8rem;color:#666}
 pre{white-space:pre-wrap;font-size:.82rem;background:#f4f4f4;padding:.6rem;border-radius:6px}
-table{border-collapse:collapse;font-size:.85rem} td,th{border-bottom:1px solid #eee;padding:.25rem .6rem;
-text-align:left} .pass{color:#0a7a2f;font-weight:600} .fail{color:#b00020;font-weight:600}
+table{border-collapse:collapse;font-size:.85rem}
+td,th{border-bottom:1px solid #eee;padding:.25rem .6rem;text-align:left}
+.pass{color:#0a7a2f;font-weight:600} .fail{color:#b00020;font-weight:600}
 .claim{color:#555} code{font-size:.82rem}
 """
 
@@ -254,7 +271,8 @@ def card_html(card: Card) -> str:
             parts.append(
                 f'<tr><td>{html.escape(c["name"])}</td><td class="{css}">'
                 f"{'pass' if c['passed'] else 'fail'}</td><td>{value}</td><td>{tol}</td>"
-                f'<td class="claim">{claimed}</td><td>{html.escape(str(c.get("detail", "")))}</td></tr>'
+                f'<td class="claim">{claimed}</td>'
+                f"<td>{html.escape(str(c.get('detail', '')))}</td></tr>"
             )
         parts.append("</table>")
     parts.append("</section>")
@@ -271,7 +289,8 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
         f"<title>brdfkit atlas</title><style>{_CSS}</style><script>{_SCRIPT}</script></head><body>"
         f"<h1>brdfkit reflectance atlas</h1><p class='sub'>brdfkit {brdfkit.__version__} · "
-        f"{len(cards)} models · spheres lit by a directional light and by {html.escape(envmap_name)}"
+        f"{len(cards)} models · spheres lit by a directional light and by "
+        f"{html.escape(envmap_name)}"
         f"</p><p>{toc}</p>{body}</body></html>"
     )
 

@@ -1,0 +1,58 @@
+"""``brdfkit plot``: lobe, half/difference, albedo and sphere-gallery figures as PNG/SVG."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from brdfkit.cli._app import app, console, fail
+
+KINDS = ("lobe", "lobe3d", "half-diff", "albedo", "spheres")
+
+
+@app.command("plot")
+def plot_command(
+    kind: str = typer.Argument(..., help=f"One of: {', '.join(KINDS)}."),
+    models: list[str] = typer.Argument(
+        ..., help="Model specs or measured files (several for albedo/spheres)."
+    ),
+    output: Path = typer.Option(Path("plot.png"), "--output", "-o", help="Output .png/.svg/.pdf."),
+    theta_i: list[float] = typer.Option(
+        [0.0, 30.0, 60.0], "--theta-i", help="Incidence angles (degrees)."
+    ),
+    log: bool = typer.Option(False, "--log", help="Logarithmic lobe radius."),
+    light: str = typer.Option("envmap", "--light", "-l", help="Light spec for spheres."),
+    resolution: int = typer.Option(128, "--resolution", "-r", min=16),
+) -> None:
+    """Draw a BRDF the way people look at one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from brdfkit import plot
+    from brdfkit.lights import parse_light
+    from brdfkit.report import default_cards
+
+    if kind not in KINDS:
+        fail(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    if output.suffix.lower() not in (".png", ".svg", ".pdf"):
+        fail(f"output must end in .png, .svg or .pdf; got {output.name!r}")
+    try:
+        brdfs = [examples[0] for _, examples in default_cards(models)]
+        lights = parse_light(light) if kind == "spheres" else None
+    except (ValueError, FileNotFoundError) as error:
+        fail(str(error))
+    thetas = [math.radians(t) for t in theta_i]
+    if kind == "lobe":
+        fig = plot.lobe_plot(brdfs[0], thetas, log=log)
+    elif kind == "lobe3d":
+        fig = plot.lobe_3d(brdfs[0], thetas[-1])
+    elif kind == "half-diff":
+        fig = plot.half_diff_plot(brdfs[0])
+    elif kind == "albedo":
+        fig = plot.albedo_plot(brdfs, labels=models)
+    else:
+        fig = plot.sphere_gallery(brdfs, lights, labels=models, resolution=resolution)
+    plot.save(fig, output)
+    console.print(f"wrote {output}")

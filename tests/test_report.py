@@ -1,0 +1,96 @@
+"""The atlas: built by the README's first command, opened in a real (headless) browser."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+
+from typer.testing import CliRunner
+
+from brdfkit.brdf import MODELS
+from brdfkit.cli import app
+from brdfkit.report import DEFAULT_MODELS, atlas_html, build_card
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def _browser_dom(path) -> str:
+    """The DOM after the page's load event, as headless Chromium sees it."""
+    if CHROMIUM is None:
+        pytest.skip("headless Chromium is not installed (Debian package 'chromium')")
+    result = subprocess.run(
+        [
+            CHROMIUM,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--virtual-time-budget=10000",
+            f"--user-data-dir={path.parent / 'chromium'}",
+            "--dump-dom",
+            path.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        check=True,
+    )
+    return result.stdout
+
+
+def _body_counts(dom: str) -> dict[str, int]:
+    body = re.search(r"<body([^>]*)>", dom).group(1)
+    return {k: int(v) for k, v in re.findall(r'data-([a-z-]+)="(\d+)"', body)}
+
+
+@pytest.mark.slow
+def test_readme_atlas_command_renders_every_card_in_a_browser(tmp_path):
+    result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path / "atlas")])
+    assert result.exit_code == 0, result.output
+    page = tmp_path / "atlas" / "index.html"
+    assert not [p for p in (tmp_path / "atlas").iterdir() if p != page]  # no temporaries left
+    expected_cards = sum(name in MODELS for name in DEFAULT_MODELS)
+    counts = _body_counts(_browser_dom(page))
+    assert counts["cards"] == expected_cards
+    assert counts["images"] >= 4 * expected_cards
+    assert counts["images-ok"] == counts["images"], "some images failed to load"
+    html = page.read_text()
+    for name in DEFAULT_MODELS:
+        if name in MODELS:
+            assert f'id="{name}"' in html
+    assert "CONTRADICTS" not in html  # every model's checks agree with its claims
+
+
+def test_card_has_formula_checks_and_citations(tmp_path):
+    from brdfkit.brdf import Lambertian
+    from brdfkit.lights import DirectionalLight
+
+    card = build_card(
+        "lambertian",
+        [Lambertian(0.2), Lambertian(0.8)],
+        envmap=DirectionalLight((1, 0, 0)),
+        resolution=16,
+        samples=2,
+    )
+    assert {c["name"] for c in card.checks} >= {"reciprocity", "energy", "isotropy"}
+    assert card.consistent
+    page = atlas_html([card], "test")
+    assert "Lambert" in page and "Physics checks" in page and 'class="formula"' in page
+    (tmp_path / "a.html").write_text(page)
+    counts = _body_counts(_browser_dom(tmp_path / "a.html"))
+    assert counts["cards"] == 1 and counts["images-ok"] == counts["images"] >= 5
+
+
+def test_atlas_rejects_a_missing_envmap(tmp_path):
+    result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path), "--envmap", "nope.hdr"])
+    assert result.exit_code == 2 and "envmap must be an existing" in result.output
