@@ -759,6 +759,27 @@ class FresnelTerm:
             kind, 1.5 if eta is None else eta, 0.0 if k is None else k, 0.04 if f0 is None else f0
         )
 
+    @classmethod
+    def for_conductor(cls, material: str | None, eta: Any, k: Any) -> FresnelTerm:
+        """The Fresnel term of Mitsuba-style conductor options: a ``material`` preset, or the
+        complex index ``eta + i k``, or F = 1 for ``material="none"`` with no ``eta``.
+
+        Raises
+        ------
+        ValueError
+            When both a material and ``eta`` are given, ``k`` without ``eta``, or bad values.
+        """
+        named = material is not None and material.lower() != "none"
+        if eta is not None and named:
+            raise ValueError(f"material and eta are exclusive; got material={material!r} and eta")
+        if eta is not None:
+            return cls.from_options("conductor", eta=eta, k=k)
+        if named:
+            return cls.from_options("conductor", material=material)
+        if k is not None:
+            raise ValueError("k needs eta (the complex index is eta + i k); got k alone")
+        return cls.from_options("none")
+
     @property
     def channels(self) -> int:
         """The channel count of the Fresnel parameters in use."""

@@ -446,18 +446,7 @@ class RoughConductor(MicrofacetReflection):
                 f"{self.distribution!r} (use rough_conductor to choose)"
             )
         name = self.distribution
-        if self.eta is not None and self.material not in (None, "none"):
-            raise ValueError(
-                f"material and eta are exclusive; got material={self.material!r} and eta"
-            )
-        if self.eta is not None:
-            fresnel = FresnelTerm.from_options("conductor", eta=self.eta, k=self.k)
-        elif self.material in (None, "none"):
-            if self.k is not None:
-                raise ValueError("k needs eta (the complex index is eta + i k); got k alone")
-            fresnel = FresnelTerm.from_options("none")
-        else:
-            fresnel = FresnelTerm.from_options("conductor", material=self.material)
+        fresnel = FresnelTerm.for_conductor(self.material, self.eta, self.k)
         dist = stretched_distribution(
             name, self.alpha, self.alpha_u, self.alpha_v, self.approximate_g1
         )
