@@ -14,12 +14,17 @@ values :math:`f, \hat f` per sample and channel:
   more strongly still.
 
 **Free parameters** are the numeric parameters of each lobe that the spec string does not give
-explicitly (``"lambertian + ward(kd=0)"`` fixes Ward's diffuse term at 0) and that are not
-listed in ``fixed``. Their **bounds** are the models' own: each model validates its parameters
-with :func:`~brdfkit.brdf.base.check_param`, and the allowed interval is read from the message it
-raises for ±10³⁰ (open ends are moved inwards by 10⁻⁶). Models with an ``allow_unphysical``
-switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a box); the fitted model
-keeps it on only if its values need it.
+explicitly (``"lambertian + ggx(alpha=0.1)"`` fixes α) and that are not listed in ``fixed``;
+parameters that do not change the lobe's values (Cook–Torrance's ``f0`` under its default
+dielectric Fresnel term, tested on fixed direction pairs) are left alone, and so is a lobe's own
+diffuse term (``kd``, ``diffuse``), held at 0 when the model has a Lambertian lobe, which would
+make it redundant. A lobe with no colour parameter (GGX with F = 1, say) gets a free
+per-channel factor, fitted as ``[k_r, k_g, k_b] * ggx(...)``; a written factor
+(``0.5 * ggx``) stays fixed. The **bounds** are the models' own: each model validates its
+parameters with :func:`~brdfkit.brdf.base.check_param`, and the allowed interval is read from
+the message it raises for ±10³⁰ (open ends are moved inwards by 10⁻⁶). Models with an
+``allow_unphysical`` switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a
+box); the fitted model keeps it on only if its values need it.
 
 **Channels**: ``mode="shared"`` fits one lobe shape for all channels with per-channel colour
 parameters (those named in :data:`COLOUR_PARAMETERS`); ``mode="per_channel"`` fits every channel
@@ -61,7 +66,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import to_numpy
-from brdfkit.brdf.base import BRDF, Sum
+from brdfkit.brdf.base import BRDF, Scaled, Sum
 from brdfkit.measured.tabulated import MeasuredSamples, TabulatedBRDF
 
 OBJECTIVES = ("cosine", "log", "cube_root")
@@ -74,6 +79,10 @@ COLOUR_PARAMETERS = frozenset(
     {"albedo", "kd", "ks", "rho", "rho_d", "rho_s", "specular", "diffuse", "reflectance", "f0"}
 )
 """Parameter names that hold a colour (one value per channel in ``mode="shared"``)."""
+
+DIFFUSE_PARAMETERS = frozenset({"kd", "diffuse"})
+"""A lobe's own diffuse term: held at 0 when the model has a Lambertian lobe, which would make
+it redundant."""
 
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
@@ -235,14 +244,24 @@ def _field_names(cls: type[BRDF]) -> list[str]:
     return [f.name for f in dataclasses.fields(cls) if f.init]  # type: ignore[arg-type]
 
 
-def _lobes(model: BRDF) -> tuple[BRDF, ...]:
-    lobes = model.lobes if isinstance(model, Sum) else (model,)
-    for lobe in lobes:
-        if not lobe.spec_name or type(lobe) is not _registered(lobe):
+@dataclass(frozen=True, eq=False)
+class _Lobe:
+    """One term ``scale * inner`` of the model (``scale`` None: no factor)."""
+
+    inner: BRDF
+    scale: Any = None
+
+
+def _lobes(model: BRDF) -> list[_Lobe]:
+    lobes = []
+    for term in model.lobes if isinstance(model, Sum) else (model,):
+        lobe = _Lobe(term.inner, term.k) if isinstance(term, Scaled) else _Lobe(term)
+        if not lobe.inner.spec_name or type(lobe.inner) is not _registered(lobe.inner):
             raise ValueError(
-                f"model must be a registered model or a sum of them; got {lobe!r} "
-                f"({type(lobe).__name__})"
+                "model must be a sum of registered models, each optionally scaled (k * model); "
+                f"got {term!r} ({type(term).__name__})"
             )
+        lobes.append(lobe)
     return lobes
 
 
@@ -253,23 +272,28 @@ def _registered(lobe: BRDF) -> type | None:
 
 
 def _explicit_keywords(spec: str) -> list[set[str]]:
-    """The parameter names written in each lobe of ``spec``, lobes in order."""
+    """The parameter names written in each lobe of ``spec`` (``"scale"`` for a written
+    factor), lobes in order."""
     out: list[set[str]] = []
 
-    def visit(node: ast.expr) -> None:
-        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
-            visit(node.left)
-            visit(node.right)
+    def visit(node: ast.expr, written: set[str]) -> None:
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add) and not written:
+            visit(node.left, set())
+            visit(node.right, set())
+        elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
+            model_side = node.right if isinstance(node.right, ast.Call | ast.Name) else node.left
+            visit(model_side, written | {"scale"})
         elif isinstance(node, ast.Call):
-            out.append({k.arg for k in node.keywords if k.arg})
+            out.append(written | {k.arg for k in node.keywords if k.arg})
         elif isinstance(node, ast.Name):
-            out.append(set())
+            out.append(written)
         else:
             raise ValueError(
-                f"spec {spec!r}: fitting supports a sum of models, not {ast.dump(node)}"
+                f"spec {spec!r}: fitting supports a sum of (optionally scaled) models; "
+                f"got {ast.get_source_segment(spec.strip(), node)!r}"
             )
 
-    visit(ast.parse(spec.strip(), mode="eval").body)
+    visit(ast.parse(spec.strip(), mode="eval").body, set())
     return out
 
 
@@ -277,62 +301,125 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
 
 
+def _is_numeric(value: Any) -> bool:
+    if isinstance(value, list | tuple | np.ndarray):
+        return np.size(value) > 0 and all(_is_number(v) for v in np.ravel(value))
+    return _is_number(value)
+
+
+def _probe_directions() -> tuple[np.ndarray, np.ndarray]:
+    """Fixed direction pairs on which a parameter's effect is tested."""
+    from brdfkit.sampling import square_to_cosine_hemisphere
+
+    rng = np.random.default_rng(12345)
+    return square_to_cosine_hemisphere(rng.random((256, 2))), square_to_cosine_hemisphere(
+        rng.random((256, 2))
+    )
+
+
+def _inert(lobe: BRDF, name: str, value: np.ndarray, lower: float, upper: float) -> bool:
+    """Whether changing parameter ``name`` leaves ``lobe``'s values unchanged (e.g. Schlick's
+    f0 under a dielectric Fresnel term): such parameters are not fitted."""
+    wi, wo = _probe_directions()
+    reference = to_numpy(lobe.eval(wi, wo))
+    for moved in (value * 1.25 + 0.05, value * 0.8 - 0.05):
+        moved = np.clip(moved, lower, upper)
+        if np.array_equal(moved, value):
+            continue
+        change = (
+            float(moved[0])
+            if moved.size == 1 and np.ndim(getattr(lobe, name)) == 0
+            else (moved.tolist())
+        )
+        try:
+            other = dataclasses.replace(lobe, **{name: change})
+        except ValueError:
+            return False
+        return np.array_equal(to_numpy(other.eval(wi, wo)), reference)
+    return False
+
+
 def _free_parameters(
-    lobes: tuple[BRDF, ...], explicit: list[set[str]], fixed: Collection[str], channels: int
+    lobes: list[_Lobe], explicit: list[set[str]], fixed: Collection[str], channels: int
 ) -> list[_Free]:
+    has_lambertian = any(lobe.inner.spec_name == "lambertian" for lobe in lobes)
     free = []
     for k, lobe in enumerate(lobes):
-        for name in _field_names(type(lobe)):
-            value = getattr(lobe, name)
-            sequence = isinstance(value, list | tuple | np.ndarray)
-            numeric = _is_number(value) or (
-                sequence and np.size(value) > 0 and all(_is_number(v) for v in np.ravel(value))
-            )
-            if not numeric or name in explicit[k] or name in fixed or f"{k}.{name}" in fixed:
+        inner = lobe.inner
+        names = _field_names(type(inner))
+        for name in names:
+            value = getattr(inner, name)
+            held = name in explicit[k] or name in fixed or f"{k}.{name}" in fixed
+            redundant = has_lambertian and name in DIFFUSE_PARAMETERS
+            if held or redundant or not _is_numeric(value):
                 continue
-            lower, upper = _bounds(type(lobe), name)
-            colour = name in COLOUR_PARAMETERS
-            size = channels if colour else int(np.size(value))
+            lower, upper = _bounds(type(inner), name)
+            size = channels if name in COLOUR_PARAMETERS else int(np.size(value))
             flat = np.ravel(np.asarray(value, dtype=np.float64))
-            initial = flat if flat.size == size else np.full(size, flat.mean())
-            free.append(
-                _Free(k, name, size, lower, upper, np.clip(initial, lower, upper), sequence)
+            initial = np.clip(
+                flat if flat.size == size else np.full(size, flat.mean()), lower, upper
             )
+            if _inert(inner, name, np.ravel(np.asarray(value, dtype=np.float64)), lower, upper):
+                continue
+            sequence = isinstance(value, list | tuple | np.ndarray)
+            free.append(_Free(k, name, size, lower, upper, initial, sequence))
+        wants_scale = lobe.scale is not None or not COLOUR_PARAMETERS.intersection(names)
+        held = "scale" in explicit[k] or "scale" in fixed or f"{k}.scale" in fixed
+        if wants_scale and not held:
+            start = 1.0 if lobe.scale is None else np.ravel(to_numpy(lobe.scale)).astype(float)
+            initial = np.broadcast_to(start, (channels,)).copy()
+            free.append(_Free(k, "scale", channels, 0.0, math.inf, initial, True))
     if not free:
         raise ValueError("the model has no free parameter to fit (all are fixed or non-numeric)")
     return free
 
 
-def _assemble(lobes: tuple[BRDF, ...], free: list[_Free], x: np.ndarray, relax: bool) -> BRDF:
+def _without_redundant_diffuse(lobes: list[_Lobe], explicit: list[set[str]]) -> list[_Lobe]:
+    """Beside a Lambertian lobe, other lobes' own diffuse terms are set to 0 (unless written)."""
+    if not any(lobe.inner.spec_name == "lambertian" for lobe in lobes):
+        return lobes
+    out = []
+    for lobe, written in zip(lobes, explicit, strict=True):
+        names = set(_field_names(type(lobe.inner))) & DIFFUSE_PARAMETERS
+        zeros = {name: 0.0 for name in names - written if _is_numeric(getattr(lobe.inner, name))}
+        out.append(dataclasses.replace(lobe, inner=dataclasses.replace(lobe.inner, **zeros)))
+    return out
+
+
+def _assemble(lobes: list[_Lobe], free: list[_Free], x: np.ndarray, relax: bool) -> BRDF:
     """The model with the free parameters set from the vector ``x``."""
     changes: list[dict[str, Any]] = [{} for _ in lobes]
+    scales = [lobe.scale for lobe in lobes]
     i = 0
     for p in free:
         values = x[i : i + p.size]
         i += p.size
-        if p.size == 1 and not p.sequence:
-            changes[p.lobe][p.name] = float(values[0])
+        value = float(values[0]) if p.size == 1 and not p.sequence else [float(v) for v in values]
+        if p.name == "scale":
+            scales[p.lobe] = value
         else:
-            changes[p.lobe][p.name] = [float(v) for v in values]
+            changes[p.lobe][p.name] = value
     built = []
-    for lobe, change in zip(lobes, changes, strict=True):
-        if relax and "allow_unphysical" in _field_names(type(lobe)):
+    for lobe, change, scale in zip(lobes, changes, scales, strict=True):
+        if relax and "allow_unphysical" in _field_names(type(lobe.inner)):
             change["allow_unphysical"] = True
-        built.append(dataclasses.replace(lobe, **change))
+        inner = dataclasses.replace(lobe.inner, **change) if change else lobe.inner
+        built.append(inner if scale is None else Scaled(scale, inner))
     return built[0] if len(built) == 1 else Sum(tuple(built))
 
 
 def _physical(model: BRDF) -> BRDF:
     """``model`` with ``allow_unphysical`` switched back off in every lobe that allows it."""
-    lobes = []
+    terms = []
     for lobe in _lobes(model):
-        if "allow_unphysical" in _field_names(type(lobe)):
+        inner = lobe.inner
+        if "allow_unphysical" in _field_names(type(inner)):
             try:
-                lobe = dataclasses.replace(lobe, allow_unphysical=False)
+                inner = dataclasses.replace(inner, allow_unphysical=False)
             except ValueError:
                 pass
-        lobes.append(lobe)
-    return lobes[0] if len(lobes) == 1 else Sum(tuple(lobes))
+        terms.append(inner if lobe.scale is None else Scaled(lobe.scale, inner))
+    return terms[0] if len(terms) == 1 else Sum(tuple(terms))
 
 
 def _start(free: list[_Free], rng: np.random.Generator) -> np.ndarray:
@@ -493,7 +580,7 @@ def fit(
         explicit = [set() for _ in _lobes(model)]
     else:
         raise ValueError(f"model must be a spec string or a BRDF; got {type(model).__name__}")
-    lobes = _lobes(model)
+    lobes = _without_redundant_diffuse(_lobes(model), explicit)
     data = fit_data(measured, seed=seed)
     if data.wi.shape[0] < 10:
         raise ValueError(f"measured holds {data.wi.shape[0]} valid samples; at least 10 needed")
@@ -559,7 +646,7 @@ def fit(
     for p in free:
         values = x[i : i + p.size]
         i += p.size
-        key = f"{p.lobe}.{lobes[p.lobe].spec_name}.{p.name}"
+        key = f"{p.lobe}.{lobes[p.lobe].inner.spec_name}.{p.name}"
         params[key] = float(values[0]) if values.size == 1 else [float(v) for v in values]
     return FitResult(
         model=result_model,

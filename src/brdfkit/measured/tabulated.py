@@ -55,8 +55,10 @@ INTERPOLATIONS = ("bin", "nearest", "linear")
 the closest node, or multilinear interpolation between the nodes."""
 
 
-_NODE_TOLERANCE = 1e-9
-"""Continuous indices this close below a node count as the node ("bin" lookup)."""
+_NODE_TOLERANCE = 1e-6
+"""Continuous indices this close below a node count as the node ("bin" lookup): the angles of
+a node recomputed from its directions carry round-off (θh from an arccos near 1 loses ~1e-9 of
+a bin at the first nodes)."""
 
 
 # --------------------------------------------------------------------------- colour
@@ -175,12 +177,14 @@ class MeasuredSamples:
 class TabulatedBRDF(CosineSampled):
     r"""A BRDF tabulated on a regular half/difference grid (see the module docstring).
 
-    ``eval`` returns :math:`\max(v, 0)\cdot s` of the looked-up entry ``v`` with per-channel
-    scale ``s`` (MERL stores counts and scales them by 1/1500, 1.15/1500, 1.66/1500), zero below
-    the surface. Lookup (``interpolation``): ``"bin"`` — the first node of the cell holding the
-    point (floor of the continuous index; exactly MERL's ``BRDFRead.cpp``), ``"nearest"`` — the
-    closest node, ``"linear"`` — multilinear between the 2^D nodes around it (clamped at the θ
-    ends, wrapped on the periodic φ axes).
+    ``eval`` returns the looked-up entry ``v`` times a per-channel scale ``s`` (MERL stores
+    values scaled by 1500, 1500/1.15, 1500/1.66), zero below the surface. Unmeasured (negative)
+    nodes are left out: interpolation weights are renormalised over the measured nodes of the
+    cell, and a point whose nodes are all unmeasured evaluates to 0. Lookup
+    (``interpolation``): ``"bin"`` — the first node of the cell holding the point (floor of the
+    continuous index; exactly MERL's ``BRDFRead.cpp``), ``"nearest"`` — the closest node,
+    ``"linear"`` — multilinear between the 2^D nodes around it (clamped at the θ ends, wrapped
+    on the periodic φ axes).
 
     Reciprocal by construction (φd is folded by π); isotropic when 3-D. Sampled by the cosine
     hemisphere (:class:`CosineSampled`).
@@ -229,8 +233,11 @@ class TabulatedBRDF(CosineSampled):
             )
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "channels", channels)
-        table = np.maximum(np.nan_to_num(values, nan=-1.0), 0.0) * scale
-        object.__setattr__(self, "_table", table.reshape(-1, channels))
+        # One extra column flags measured nodes: lookup interpolates it with the values and
+        # divides, so unmeasured nodes drop out of the interpolation.
+        measured = np.all(np.nan_to_num(values, nan=-1.0) >= 0, axis=-1, keepdims=True)
+        table = np.concatenate([np.where(measured, values * scale, 0.0), measured], axis=-1)
+        object.__setattr__(self, "_table", table.reshape(-1, channels + 1))
 
     @property
     def isotropic(self) -> bool:  # type: ignore[override]
@@ -304,8 +311,12 @@ class TabulatedBRDF(CosineSampled):
         wi_b = xp.reshape(xp.broadcast_to(wi, (*batch, 3)), (-1, 3))
         wo_b = xp.reshape(xp.broadcast_to(wo, (*batch, 3)), (-1, 3))
         coords = self._continuous_index(*to_half_diff(wi_b, wo_b))
-        table = asarray(self._table, xp, like=wi)
-        value = lookup(table, coords, self._axes(), self.interpolation)
+        table = asarray(self._table, xp, like=wi, dtype=wi.dtype)
+        found = lookup(table, coords, self._axes(), self.interpolation)
+        weight = found[:, -1:]
+        covered = weight > 1e-12
+        value = found[:, :-1] / xp.where(covered, weight, xp.ones_like(weight))
+        value = xp.where(covered, value, xp.zeros_like(value))
         value = xp.reshape(value, (*batch, self.channels))
         return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
 
@@ -431,7 +442,7 @@ def lookup(
         flat = None
         for u, (size, periodic), stride in zip(coords, axes, strides, strict=True):
             # "bin": nodes themselves must land in their own cell despite round-off in the
-            # angles (θh = (i/N)² π/2 gives u = i(1 ± ε)), hence the 1e-9 nudge.
+            # angles (θh = (i/N)² π/2 gives u = i(1 ± ε)), hence the nudge.
             rounded = xp.floor(u + _NODE_TOLERANCE) if interpolation == "bin" else xp.round(u)
             index = wrap(xp.astype(rounded, xp.int64), size, periodic) * int(stride)
             flat = index if flat is None else flat + index

@@ -1,0 +1,124 @@
+"""Fitting analytic models to measured data: recovery of known models, MERL, Cornell."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brdfkit.brdf import parse
+from brdfkit.fit import fit, fit_data, fit_errors, residuals
+from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, read_merl, write_merl
+from brdfkit.sampling import square_to_uniform_hemisphere
+
+TRUE = "lambertian(rho=[0.3, 0.2, 0.1]) + ward(kd=0, ks=[0.05, 0.06, 0.08], alpha_x=0.15)"
+
+
+def _samples(spec: str, n: int = 3000, seed: int = 0) -> MeasuredSamples:
+    rng = np.random.default_rng(seed)
+    wi = square_to_uniform_hemisphere(rng.random((n, 2)))
+    wo = square_to_uniform_hemisphere(rng.random((n, 2)))
+    return MeasuredSamples(wi, wo, parse(spec).eval(wi, wo), name="synthetic")
+
+
+def test_recovers_a_known_model_from_samples():
+    result = fit(_samples(TRUE), "lambertian + ward", starts=2)
+    assert result.success
+    np.testing.assert_allclose(result.params["0.lambertian.rho"], [0.3, 0.2, 0.1], rtol=1e-5)
+    np.testing.assert_allclose(result.params["1.ward.ks"], [0.05, 0.06, 0.08], rtol=1e-5)
+    np.testing.assert_allclose(result.params["1.ward.alpha_x"], 0.15, rtol=1e-5)
+    assert result.errors["rmse"] < 1e-6
+    # the spec string is a model that every other part of brdfkit reads
+    data = _samples(TRUE, 100, seed=1)
+    again = parse(result.spec)
+    np.testing.assert_allclose(again.eval(data.wi, data.wo), result.model.eval(data.wi, data.wo))
+    assert "kd=0" in result.spec  # Ward's own diffuse term is redundant beside the Lambertian
+
+
+@pytest.mark.parametrize("objective", ["log", "cube_root"])
+def test_compressed_objectives_recover_the_model(objective):
+    result = fit(_samples(TRUE), "lambertian + ward", objective=objective, starts=1)
+    np.testing.assert_allclose(result.params["1.ward.alpha_x"], 0.15, rtol=1e-4)
+    assert result.objective == objective
+
+
+def test_per_channel_mode_fits_each_channel():
+    spec = "ward(kd=0, ks=[0.2, 0.1, 0.05], alpha_x=[0.1, 0.2, 0.3])"
+    result = fit(_samples(spec), "ward(kd=0)", mode="per_channel", starts=1)
+    np.testing.assert_allclose(result.params["0.ward.alpha_x"], [0.1, 0.2, 0.3], rtol=1e-4)
+    np.testing.assert_allclose(result.params["0.ward.ks"], [0.2, 0.1, 0.05], rtol=1e-4)
+
+
+def test_written_parameters_stay_fixed_and_fit_within_the_models_bounds():
+    result = fit(_samples(TRUE), "lambertian + ward(alpha_x=0.3)", starts=1)
+    assert "1.ward.alpha_x" not in result.params
+    assert result.model.lobes[1].alpha_x == 0.3
+    assert all(0 <= v <= 1 for v in np.ravel(result.params["0.lambertian.rho"]))
+
+
+def test_a_lobe_without_colour_gets_a_scale():
+    spec = "lambertian(rho=0.2) + [0.5, 0.4, 0.3] * ggx(alpha=0.2)"
+    result = fit(_samples(spec), "lambertian + ggx", starts=1)
+    np.testing.assert_allclose(result.params["1.ggx.alpha"], 0.2, rtol=1e-4)
+    np.testing.assert_allclose(result.params["1.ggx.scale"], [0.5, 0.4, 0.3], rtol=1e-4)
+
+
+def test_residuals_and_errors_closed_forms():
+    data = _samples("lambertian(rho=0.5)", 200)
+    model = parse("lambertian(rho=0.25)")
+    diff = (0.25 - 0.5) / np.pi
+    np.testing.assert_allclose(residuals(model, data), diff * data.wi[:, 2:3])
+    errors = fit_errors(model, data)
+    np.testing.assert_allclose(errors["rmse"], abs(diff))
+    np.testing.assert_allclose(errors["relative_l2"], 0.5)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [({"objective": "l1"}, "objective"), ({"mode": "both"}, "mode"), ({"starts": 0}, "starts")],
+)
+def test_bad_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        fit(_samples(TRUE, 50), "lambertian", **kwargs)
+
+
+def test_bad_models():
+    with pytest.raises(ValueError, match="unknown model"):
+        fit(_samples(TRUE, 50), "lambertan")
+    with pytest.raises(ValueError, match="no free parameter"):
+        fit(_samples(TRUE, 50), "lambertian(rho=0.5)")
+
+
+def test_fit_data_of_a_table_is_its_measured_nodes():
+    table = TabulatedBRDF.from_brdf(parse("lambertian(rho=0.5)"), (8, 8, 16))
+    data = fit_data(table)
+    assert data.values.shape[1] == 1
+    assert data.wi.shape[0] == np.count_nonzero(table.values[..., 0] >= 0)
+    np.testing.assert_allclose(data.values, 0.5 / np.pi)
+
+
+@pytest.mark.slow
+def test_merl_file_of_ggx_gives_back_alpha(tmp_path):
+    """A MERL file written from Lambertian + GGX: the fit recovers α to 2 % (and the rest)."""
+    truth = "lambertian(rho=[0.2, 0.3, 0.4]) + [0.6, 0.5, 0.4] * ggx(alpha=0.15)"
+    path = write_merl(tmp_path / "ggx.binary", parse(truth))
+    result = fit(read_merl(path), "lambertian + ggx", starts=2)
+    assert abs(result.params["1.ggx.alpha"] / 0.15 - 1) < 0.02
+    np.testing.assert_allclose(result.params["1.ggx.scale"], [0.6, 0.5, 0.4], rtol=0.02)
+    np.testing.assert_allclose(result.params["0.lambertian.rho"], [0.2, 0.3, 0.4], rtol=0.02)
+
+
+CORNELL = ["acryl_blue", "cayman", "garnet_red", "krylon_blue"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("material", CORNELL)
+def test_cornell_fits_converge(shared_data, material):
+    """Two-lobe fits converge and explain more than a Lambertian alone (by how much is a
+    property of the model: see the numbers in the README)."""
+    table = read_cornell(shared_data / "measured" / "cornell" / f"{material}.brdf")
+    lambertian = fit(table, "lambertian", starts=1)
+    for spec in ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward"):
+        result = fit(table, spec, starts=2)
+        assert result.success, (spec, result.message)
+        assert result.errors["cosine_rmse"] < lambertian.errors["cosine_rmse"], spec
+        assert result.errors["relative_l2"] < lambertian.errors["relative_l2"], spec
