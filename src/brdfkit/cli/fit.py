@@ -18,10 +18,10 @@ _LIGHT_DIRECTION = (-0.4, 0.5, 0.77)
 def fit_command(
     file: Path = typer.Argument(..., help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf."),
     model: str = typer.Option(
-        "lambertian + ward(kd=0)",
+        "lambertian + cook_torrance",
         "--model",
         "-m",
-        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ward(kd=0)'.",
+        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'.",
     ),
     objective: str = typer.Option(
         "cosine", "--objective", help="cosine (Ngan et al. 2005), log or cube_root."
