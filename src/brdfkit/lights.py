@@ -184,6 +184,14 @@ class PointLight(Light):
         return _zeros_pdf(wi)
 
 
+def _uniform_where(radiance: Any, hit: Array, points: Array, wi: Array) -> Array:
+    """The constant ``radiance`` where ``hit``, else 0, shaped ``batch + (C,)``."""
+    xp = namespace(points, wi)
+    value = param(radiance, wi)
+    shape = (*_batch(points, wi), value.shape[-1])
+    return xp.where(hit[..., None], xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype))
+
+
 # --------------------------------------------------------------------------- area lights
 def _check_radiance(obj: Any) -> None:
     check_param("radiance", obj.radiance, 0.0)
@@ -236,13 +244,7 @@ class SphereLight(Light):
         return dot(normalize(wi), axis) >= cos_alpha, cos_alpha, axis
 
     def incident_radiance(self, points: Array, wi: Array) -> Array:
-        xp = namespace(points, wi)
-        hit, _, _ = self._hits(points, wi)
-        value = param(self.radiance, wi)
-        shape = (*_batch(points, wi), value.shape[-1])
-        return xp.where(
-            hit[..., None], xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype)
-        )
+        return _uniform_where(self.radiance, self._hits(points, wi)[0], points, wi)
 
     def pdf(self, points: Array, wi: Array) -> Array:
         xp = namespace(points, wi)
@@ -296,13 +298,7 @@ class _PlanarLight(Light):
         return hit, t, safe
 
     def incident_radiance(self, points: Array, wi: Array) -> Array:
-        xp = namespace(points, wi)
-        hit, _, _ = self._intersect(points, wi)
-        value = param(self.radiance, wi)
-        shape = (*_batch(points, wi), value.shape[-1])
-        return xp.where(
-            hit[..., None], xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype)
-        )
+        return _uniform_where(self.radiance, self._intersect(points, wi)[0], points, wi)
 
     def pdf(self, points: Array, wi: Array) -> Array:
         xp = namespace(points, wi)
@@ -429,11 +425,7 @@ class UniformSky(Light):
         )
 
     def incident_radiance(self, points: Array, wi: Array) -> Array:
-        xp = namespace(points, wi)
-        value = param(self.radiance, wi)
-        shape = (*_batch(points, wi), value.shape[-1])
-        up = (wi[..., 2] > 0)[..., None]
-        return xp.where(up, xp.broadcast_to(value, shape), xp.zeros(shape, dtype=wi.dtype))
+        return _uniform_where(self.radiance, wi[..., 2] > 0, points, wi)
 
     def pdf(self, points: Array, wi: Array) -> Array:
         xp = namespace(points, wi)
