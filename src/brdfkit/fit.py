@@ -35,9 +35,10 @@ drawn at random inside the bounds (log-uniformly on positive ranges spanning mor
 50). Every start is optimised on a seeded random subset of ``coarse_samples`` measurements; the
 best is refined on ``max_samples`` of them, and the errors are reported on all. With finite
 differences one Jacobian costs (P + 1) evaluations of the model, so subsets keep a 1.5 M-sample
-MERL table to well under a minute; torch autograd was measured slower on the CPU (a forward and
-backward pass of a 3-lobe model on 1.46 M samples: 5.9 s, against 2.2 s for a NumPy forward
-pass), see ``benchmarks/bench_fit.py``.
+MERL table to well under a minute (33 s for Lambertian + 2 GGX lobes on 1.11 M measured nodes,
+two cores); torch autograd was measured slower on the CPU (a forward and backward pass of that
+model on all the nodes: 11.4 s, against 2.3 s for one NumPy evaluation); see
+``benchmarks/bench_fit.py``.
 
 References
 ----------

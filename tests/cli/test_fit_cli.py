@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from brdfkit.brdf import parse
@@ -14,6 +15,7 @@ from brdfkit.io import read_image
 runner = CliRunner()
 
 
+@pytest.mark.slow
 def test_fit_a_cornell_file_and_write_outputs(shared_data, tmp_path):
     path = shared_data / "measured" / "cornell" / "garnet_red.brdf"
     out = tmp_path / "garnet"
