@@ -382,6 +382,10 @@ _KERNELS: dict[str, Callable[..., None]] = {}
 _KERNELS_LOCK = threading.Lock()
 
 
+_BATCH_ONLY = (
+    "brdfkit.accel compiles functions that are elementwise over the batch, with parameters that "
+    "do not vary over it (a texture does): use brdfkit.accel.eval_chunked for those"
+)
 _MIN_PER_THREAD = 1 << 14  # below this many elements a thread costs more than it saves
 _POOL: ThreadPoolExecutor | None = None
 
@@ -440,8 +444,15 @@ class Kernel:
         self.outputs = outs
         self.compile_seconds = 0.0
 
-    def __call__(self, *arrays: Any) -> tuple[np.ndarray, ...]:
-        """Evaluate over the broadcast batch; returns one array per output."""
+    def __call__(
+        self, *arrays: Any, out: Sequence[np.ndarray] | None = None
+    ) -> tuple[np.ndarray, ...]:
+        """Evaluate over the broadcast batch; returns one array per output.
+
+        ``out`` (one C-contiguous array per output, of the result's shape and dtype) receives
+        the results instead of new arrays: reusing it saves the allocation and, for large
+        batches, the page faults of touching fresh memory.
+        """
         if len(arrays) != len(self.inputs):
             raise ValueError(f"arrays must be {len(self.inputs)} arrays; got {len(arrays)}")
         flat, batch = [], []
@@ -460,10 +471,17 @@ class Kernel:
             full = (*shape, port.width) if port.width else shape
             a = np.broadcast_to(a, full) if a.shape != full else a
             flat[k] = np.ascontiguousarray(a, dtype=port.dtype).reshape(-1)
-        outs = [
-            np.empty((*shape, port.width) if port.width else shape, dtype=port.dtype)
-            for port in self.outputs
-        ]
+        shapes = [(*shape, port.width) if port.width else shape for port in self.outputs]
+        if out is None:
+            outs = [np.empty(s, dtype=p.dtype) for s, p in zip(shapes, self.outputs, strict=True)]
+        else:
+            outs = list(out)
+            for k, (o, s, p) in enumerate(zip(outs, shapes, self.outputs, strict=True)):
+                if o.shape != s or o.dtype != p.dtype or not o.flags.c_contiguous:
+                    raise ValueError(
+                        f"out[{k}] must be a C-contiguous array of shape {s} and dtype "
+                        f"{p.dtype}; got shape {o.shape}, dtype {o.dtype}"
+                    )
         widths = [p.width for p in (*self.inputs, *self.outputs)]
         _run_parallel(self._function, [*flat, *(o.reshape(-1) for o in outs)], widths, n)
         return tuple(outs)
@@ -501,17 +519,20 @@ def compile_function(
         return [jax.ShapeDtypeStruct((batch, w) if w else (batch,), dtype) for w in widths]
 
     with jax.enable_x64(dtype == np.float64):
-        closed = jax.make_jaxpr(flat_fn)(*example(1))
-        wider = jax.eval_shape(flat_fn, *example(2))
+        try:
+            closed = jax.make_jaxpr(flat_fn)(*example(1))
+            wider = jax.eval_shape(flat_fn, *example(2))
+        except (ValueError, TypeError) as error:
+            raise ValueError(
+                f"the function could not be traced on a batch of one ({error}); {_BATCH_ONLY}"
+            ) from error
     outs_avals = closed.out_avals
     for k, (one, two) in enumerate(zip(outs_avals, wider, strict=True)):
         ok = len(one.shape) in (1, 2) and one.shape[0] == 1 and two.shape == (2, *one.shape[1:])
         if not ok:
             raise ValueError(
                 f"output {k} of the traced function has shape {one.shape} for a batch of one "
-                "and does not follow the batch (a parameter varying over the batch, such as a "
-                "texture?); brdfkit.accel compiles models with batch-independent parameters "
-                "only: use brdfkit.accel.eval_chunked"
+                f"and does not follow the batch; {_BATCH_ONLY}"
             )
     em = _Emitter()
     ins = [_Port(w, dtype) for w in widths]
@@ -680,9 +701,11 @@ class CompiledBRDF:
                 self._kernels[key] = compile_function(sample, (3, u_width), self.dtype)
         return self._kernels[key]
 
-    def eval(self, wi: Any, wo: Any) -> np.ndarray:
-        """f_r(wi, wo), ``(..., C)``, as the model's :meth:`~brdfkit.brdf.BRDF.eval`."""
-        return self._kernel("eval")(_vectors("wi", wi), _vectors("wo", wo))[0]
+    def eval(self, wi: Any, wo: Any, *, out: np.ndarray | None = None) -> np.ndarray:
+        """f_r(wi, wo), ``(..., C)``, as the model's :meth:`~brdfkit.brdf.BRDF.eval`;
+        ``out`` receives the result (see :meth:`Kernel.__call__`)."""
+        kernel = self._kernel("eval")
+        return kernel(_vectors("wi", wi), _vectors("wo", wo), out=None if out is None else [out])[0]
 
     def pdf(self, wi: Any, wo: Any) -> np.ndarray:
         """Solid-angle pdf, ``(...,)``, as the model's :meth:`~brdfkit.brdf.BRDF.pdf`."""

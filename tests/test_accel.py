@@ -1,0 +1,218 @@
+"""The compiled path (brdfkit.accel) reproduces the models' own NumPy values, and the chunked
+NumPy path is the model's eval with bounded memory. No timing here: see benchmarks/."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+pytest.importorskip("jax")
+pytest.importorskip("numba")
+
+import brdfkit.accel as accel
+from brdfkit.brdf import (
+    Lambertian,
+    OrenNayar,
+    RoughConductor,
+    Ward,
+)
+from brdfkit.fresnel import conductor, fresnel_conductor
+
+
+def directions(rng: np.random.Generator, n: int, dtype=np.float64) -> np.ndarray:
+    """Uniform directions on the whole sphere (so below-surface pairs are exercised too)."""
+    v = rng.normal(size=(n, 3))
+    return (v / np.linalg.norm(v, axis=-1, keepdims=True)).astype(dtype)
+
+
+def gold_ggx(dtype=np.float64, **options) -> RoughConductor:
+    eta, k = (np.asarray(v, dtype=dtype) for v in conductor("Au"))
+    return RoughConductor(alpha=0.2, eta=eta, k=k, **options)
+
+
+MODELS = [
+    pytest.param(lambda: gold_ggx(masking="smith_separable"), id="ggx-separable-Au"),
+    pytest.param(lambda: RoughConductor(alpha_u=0.1, alpha_v=0.4), id="ggx-anisotropic"),
+    pytest.param(
+        lambda: Lambertian([0.8, 0.5, 0.2]) + gold_ggx(),
+        id="lambertian+ggx",
+        marks=pytest.mark.slow,
+    ),
+    pytest.param(lambda: Ward(), id="ward"),
+    pytest.param(lambda: OrenNayar(), id="oren-nayar"),
+]
+
+
+def assert_close(actual: np.ndarray, expected: np.ndarray, rtol: float) -> None:
+    """Equal to ``rtol`` relative to each value, or to ``rtol`` times the largest magnitude."""
+    assert actual.shape == expected.shape
+    scale = rtol * max(float(np.max(np.abs(expected))), 1.0)
+    np.testing.assert_allclose(actual, expected, rtol=rtol, atol=scale)
+
+
+@pytest.mark.parametrize("make", MODELS)
+def test_eval_and_pdf_match_numpy_float64(make) -> None:
+    model = make()
+    rng = np.random.default_rng(0)
+    wi, wo = directions(rng, 4000), directions(rng, 4000)
+    compiled = accel.compile(model, dtype=np.float64)
+    # FMA contraction changes rounding at the 1e-16 level only.
+    assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
+    assert_close(compiled.pdf(wi, wo), model.pdf(wi, wo), 1e-12)
+
+
+@pytest.mark.parametrize("make", MODELS[:3])
+def test_sample_matches_numpy_float64(make) -> None:
+    model = make()
+    rng = np.random.default_rng(1)
+    wo = directions(rng, 4000)
+    u = rng.random((4000, 2))
+    ours = accel.compile(model, dtype=np.float64).sample(wo, u)
+    theirs = model.sample(wo, u)
+    assert_close(ours.wi, theirs.wi, 1e-12)
+    assert_close(ours.weight, theirs.weight, 1e-10)
+    assert_close(ours.pdf, theirs.pdf, 1e-10)
+    np.testing.assert_array_equal(ours.delta, theirs.delta)
+
+
+def test_float32_values_match_the_numpy_float32_path() -> None:
+    """End to end in float32 on both paths: equal to float32 precision."""
+    model = gold_ggx(np.float32, masking="smith_separable")
+    rng = np.random.default_rng(2)
+    wi, wo = directions(rng, 20000, np.float32), directions(rng, 20000, np.float32)
+    compiled = accel.compile(model)
+    ours = compiled.eval(wi, wo)
+    theirs = model.eval(wi, wo)
+    assert ours.dtype == theirs.dtype == np.float32
+    eps = float(np.finfo(np.float32).eps)
+    assert_close(ours, theirs, 64 * eps)
+    exact = model.eval(wi.astype(np.float64), wo.astype(np.float64))
+    # Both float32 paths carry the same rounding budget against the float64 truth.
+    budget = np.max(np.abs(theirs - exact)) + 64 * eps * np.max(np.abs(exact))
+    assert np.max(np.abs(ours - exact)) <= budget
+
+
+@pytest.mark.slow
+def test_albedo_matches_the_models_estimator() -> None:
+    model = gold_ggx()
+    wo = directions(np.random.default_rng(3), 5)
+    wo[:, 2] = np.abs(wo[:, 2])
+    ours = accel.compile(model, dtype=np.float64).albedo(wo, samples=1024, chunk=2000)
+    assert_close(ours, model.albedo(wo, samples=1024), 1e-10)
+
+
+def test_broadcasting_and_batch_shapes() -> None:
+    model = gold_ggx()
+    rng = np.random.default_rng(4)
+    wi = directions(rng, 60).reshape(3, 4, 5, 3)
+    wo = directions(rng, 1)[0]
+    ours = accel.compile(model, dtype=np.float64).eval(wi, wo)
+    assert ours.shape == (3, 4, 5, 3)
+    assert_close(ours, model.eval(wi, np.broadcast_to(wo, wi.shape)), 1e-12)
+
+
+def test_out_argument_receives_the_values() -> None:
+    model = gold_ggx()
+    rng = np.random.default_rng(5)
+    wi, wo = directions(rng, 100, np.float32), directions(rng, 100, np.float32)
+    compiled = accel.compile(model)
+    out = np.full((100, 3), np.nan, dtype=np.float32)
+    result = compiled.eval(wi, wo, out=out)
+    assert result is out
+    np.testing.assert_array_equal(out, compiled.eval(wi, wo))
+    with pytest.raises(ValueError, match=r"out\[0\] must be a C-contiguous array of shape"):
+        compiled.eval(wi, wo, out=np.empty((100, 3), dtype=np.float64))
+
+
+def test_compile_function_on_a_plain_array_api_function() -> None:
+    """Any elementwise array-API function compiles, e.g. the exact conductor Fresnel."""
+    eta, k = (np.asarray(v) for v in conductor("Cu"))
+
+    def fresnel(w):
+        return fresnel_conductor(w[..., 2:3], eta, k)
+
+    w = directions(np.random.default_rng(6), 500)
+    kernel = accel.compile_function(fresnel, (3,), np.float64)
+    (ours,) = kernel(w)
+    assert_close(ours, fresnel(w), 1e-12)
+    assert "def kernel" in kernel.source
+    assert kernel.compile_seconds > 0
+
+
+def test_spatially_varying_parameters_are_rejected() -> None:
+    texture = np.full((4, 5, 3), 0.5)
+    compiled = accel.compile(Lambertian(texture))
+    w = np.array([0.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="do not vary over it"):
+        compiled.eval(w, w)
+
+
+def test_unsupported_primitive_is_named() -> None:
+    import jax.numpy as jnp
+
+    with pytest.raises(ValueError, match="'cumsum' is not supported"):
+        accel.compile_function(lambda w: jnp.cumsum(w, axis=-1), (3,), np.float32)
+
+
+def test_bad_arguments() -> None:
+    with pytest.raises(ValueError, match="model must be a brdfkit BRDF"):
+        accel.compile(object())
+    with pytest.raises(ValueError, match="dtype must be float32 or float64"):
+        accel.compile(Lambertian(), dtype=np.int32)
+    compiled = accel.compile(Lambertian())
+    with pytest.raises(ValueError, match="wi must have a last axis of length 3"):
+        compiled.eval(np.zeros((4, 2)), np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="u must have a last axis of length 2 or 3"):
+        compiled.sample(np.zeros((4, 3)), np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="samples must be >= 1"):
+        compiled.albedo(np.zeros(3), samples=0)
+
+
+# --------------------------------------------------------------------------- chunked NumPy
+def test_eval_chunked_equals_eval_and_keeps_float32() -> None:
+    model = gold_ggx(np.float32)
+    rng = np.random.default_rng(7)
+    wi, wo = directions(rng, 10_001, np.float32), directions(rng, 10_001, np.float32)
+    expected = model.eval(wi, wo)
+    for workers in (1, 2):
+        got = accel.eval_chunked(model, wi, wo, chunk=1000, workers=workers)
+        assert got.dtype == np.float32
+        np.testing.assert_array_equal(got, expected)
+    wo_one = wo[0]
+    np.testing.assert_array_equal(
+        accel.eval_chunked(model, wi, wo_one, chunk=777), model.eval(wi, wo_one)
+    )
+
+
+def test_eval_chunked_memory_is_bounded_by_the_chunk() -> None:
+    """Extra memory stays at one chunk's temporaries, not the batch's (one direct call
+    allocates ~200 bytes per pair: 20 GB for 1e8 pairs)."""
+    model = gold_ggx(np.float32)
+    rng = np.random.default_rng(8)
+    chunk = 4096
+    peaks = []
+    for n in (250_000, 1_000_000):
+        wi, wo = directions(rng, n, np.float32), directions(rng, n, np.float32)
+        out = np.empty((n, 3), dtype=np.float32)
+        tracemalloc.start()
+        try:
+            accel.eval_chunked(model, wi, wo, chunk=chunk, out=out)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+    one_chunk_array = chunk * 3 * 8  # a float64 (chunk, 3) temporary, the widest there is
+    assert max(peaks) < 100 * one_chunk_array < out.nbytes
+    assert peaks[1] < 1.5 * peaks[0]  # four times the batch, not more memory
+
+
+def test_eval_chunked_bad_arguments() -> None:
+    model = Lambertian()
+    w = np.zeros((10, 3))
+    with pytest.raises(ValueError, match="chunk must be >= 1"):
+        accel.eval_chunked(model, w, w, chunk=0)
+    with pytest.raises(ValueError, match="workers must be >= 1"):
+        accel.eval_chunked(model, w, w, workers=0)
+    with pytest.raises(ValueError, match="out must be a C-contiguous array"):
+        accel.eval_chunked(model, w, w, out=np.empty((10, 2)))
