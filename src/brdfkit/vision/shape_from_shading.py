@@ -1,0 +1,262 @@
+r"""Shape from shading: depth and normals of a Lambertian surface from one image.
+
+The image of a Lambertian surface :math:`z(x, y)` of constant albedo under a distant light
+``l`` seen orthographically along −z is its reflectance map (Horn 1970, 1977)
+
+.. math:: I(x, y) = \rho\,\max\!\Big(0, \frac{-p\,l_x - q\,l_y + l_z}{\sqrt{1 + p^2 + q^2}}\Big),
+          \qquad p = z_x,\ q = z_y,\ n = \frac{(-p, -q, 1)}{\sqrt{1 + p^2 + q^2}},
+
+one equation for two unknown slopes per pixel. Horn's variational approach (Horn & Brooks
+1986; Horn 1989) makes it well posed by minimising the brightness error plus a smoothness
+term, and Horn (1989) couples the slopes to a depth map so that they are integrable. Here the
+unknown *is* the depth, so integrability holds by construction, and the energy
+
+.. math:: \mathcal E(z) = \sum_{\text{cells}} \big(R(p, q) - I\big)^2
+          + \lambda \sum_{\text{pixels}} (\Delta z)^2
+
+(p, q and I at the centre of every 2 × 2 block of pixels inside the mask; Δ the 5-point
+Laplacian, Horn's "departure from smoothness" of the slopes) is minimised as a sparse non-linear
+least-squares problem (trust-region Gauss–Newton with the exact Jacobian, ``scipy.optimize.
+least_squares``), which converges in tens of iterations where Horn's own relaxation needs
+thousands. The cost grows quickly with the pixel count: work on images of about 64–100 pixels
+across (downsample larger ones). Like every variational SfS method it needs a start on the right
+side of the convex/concave ambiguity: by default a tent ``z₀ ∝`` the distance to the mask's boundary
+(objects bulge towards the viewer inside their occluding contour, Ikeuchi & Horn 1981).
+
+Accuracy (48-pixel renders, λ = 1e-4; mean / median normal error, depth RMSE over its range):
+a sphere under a frontal light 0.65° / 0.22° / 0.09 %, under a light 17° off the view 3.8° /
+1.1° / 3.3 %; a vase frontal 2.2° / 0.7° / 1.6 %, oblique 9.6° / 5.7° / 9 % (its concave neck
+is on the wrong side of the convex start); the real psm gray sphere (light ≈ 6° off the view)
+7.2° / 6.0°. Larger λ flattens strongly curved parts; λ = 0 leaves the problem ill-posed.
+
+Frame (as :mod:`brdfkit.vision`): x right, y up, z towards the camera; pixel spacing is the
+unit of x, y *and* z, so a sphere of radius r pixels comes back r pixels deep. Rows go down.
+
+References
+----------
+.. [1] B. K. P. Horn, "Height and gradient from shading", IJCV 5(1), 1990, pp. 37–75 (MIT AI
+   Memo 1105, 1989).
+.. [2] B. K. P. Horn and M. J. Brooks, "The variational approach to shape from shading",
+   CVGIP 33(2), 1986, pp. 174–208.
+.. [3] K. Ikeuchi and B. K. P. Horn, "Numerical shape from shading and occluding boundaries",
+   Artificial Intelligence 17, 1981, pp. 141–184.
+.. [4] R. Zhang, P.-S. Tsai, J. E. Cryer and M. Shah, "Shape from shading: a survey", IEEE
+   TPAMI 21(8), 1999, pp. 690–706.
+.. [5] M. A. Branch, T. F. Coleman and Y. Li, "A subspace, interior, and conjugate gradient
+   method for large-scale bound-constrained minimization problems", SIAM J. Sci. Comput. 21(1),
+   1999 (the trust-region reflective solver).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["ShapeFromShading", "shape_from_shading"]
+
+
+@dataclass(frozen=True)
+class ShapeFromShading:
+    """Result of :func:`shape_from_shading`.
+
+    Attributes
+    ----------
+    depth : (H, W) height towards the camera in pixel units, 0 at the lowest mask pixel,
+        NaN outside the mask.
+    normals : (H, W, 3) unit normals from the depth (x right, y up, z towards the camera),
+        zero outside the mask.
+    albedo : the ρ used (given, or estimated as the brightest value).
+    iterations : evaluations of the residuals (Gauss–Newton steps tried).
+    rms : RMS brightness residual over the cells, relative to ρ.
+    """
+
+    depth: np.ndarray
+    normals: np.ndarray
+    albedo: float
+    iterations: int
+    rms: float
+
+
+def _operators(mask: np.ndarray):
+    """Sparse maps from the mask pixels' depths to cell slopes p, q, and the Laplacian."""
+    from scipy import sparse
+
+    index = -np.ones(mask.shape, dtype=np.int64)
+    index[mask] = np.arange(mask.sum())
+    # Cells: 2×2 blocks (i, j), (i, j+1), (i+1, j), (i+1, j+1) all inside the mask.
+    cell = mask[:-1, :-1] & mask[:-1, 1:] & mask[1:, :-1] & mask[1:, 1:]
+    ci, cj = np.nonzero(cell)
+    top_left, top_right = index[ci, cj], index[ci, cj + 1]
+    bottom_left, bottom_right = index[ci + 1, cj], index[ci + 1, cj + 1]
+    rows = np.repeat(np.arange(ci.size), 4)
+    n = int(mask.sum())
+    corners = np.stack([top_left, top_right, bottom_left, bottom_right], axis=1).ravel()
+    # p = ∂z/∂x (columns), q = ∂z/∂y with y up (rows go down), averaged over the two edges.
+    d_x = sparse.csr_matrix(
+        (np.tile([-0.5, 0.5, -0.5, 0.5], ci.size), (rows, corners)), shape=(ci.size, n)
+    )
+    d_y = sparse.csr_matrix(
+        (np.tile([0.5, 0.5, -0.5, -0.5], ci.size), (rows, corners)), shape=(ci.size, n)
+    )
+    average = sparse.csr_matrix((np.full(4 * ci.size, 0.25), (rows, corners)), shape=(ci.size, n))
+    # 5-point Laplacian at pixels whose 4 neighbours are all in the mask.
+    inner = mask.copy()
+    inner[0, :] = inner[-1, :] = inner[:, 0] = inner[:, -1] = False
+    inner &= np.roll(mask, 1, 0) & np.roll(mask, -1, 0) & np.roll(mask, 1, 1) & np.roll(mask, -1, 1)
+    li, lj = np.nonzero(inner)
+    neighbours = [index[li, lj], index[li - 1, lj], index[li + 1, lj], index[li, lj - 1]]
+    neighbours.append(index[li, lj + 1])
+    laplacian = sparse.csr_matrix(
+        (
+            np.tile([-4.0, 1.0, 1.0, 1.0, 1.0], li.size),
+            (np.repeat(np.arange(li.size), 5), np.stack(neighbours, axis=1).ravel()),
+        ),
+        shape=(li.size, n),
+    )
+    return d_x, d_y, average, laplacian
+
+
+def _normals_from_depth(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Unit normals ``(−z_x, −z_y, 1)/|…|`` by central differences (one-sided at the mask edge)."""
+    z = np.where(mask, depth, np.nan)
+
+    def slope(forward: np.ndarray, backward: np.ndarray) -> np.ndarray:
+        mean = np.where(
+            np.isnan(forward),
+            backward,
+            np.where(np.isnan(backward), forward, (forward + backward) / 2),
+        )
+        return np.nan_to_num(mean)
+
+    pad = np.pad(z, 1, constant_values=np.nan)
+    z_x = slope(pad[1:-1, 2:] - z, z - pad[1:-1, :-2])
+    z_y = slope(pad[:-2, 1:-1] - z, z - pad[2:, 1:-1])
+    normals = np.stack([-z_x, -z_y, np.ones_like(z_x)], axis=-1)
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    return np.where(mask[..., None], normals, 0.0)
+
+
+def shape_from_shading(
+    image: ArrayLike,
+    light: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    albedo: float | None = None,
+    smoothness: float = 1e-4,
+    initial_depth: ArrayLike | None = None,
+    max_iterations: int = 200,
+) -> ShapeFromShading:
+    r"""Depth and normals of a Lambertian surface under a known distant light (Horn's energy).
+
+    Minimises :math:`\sum_{\text{cells}} (R(p, q) - I)^2 + \lambda \sum (\Delta z)^2` over the
+    depth of the mask pixels by trust-region Gauss–Newton (``scipy.optimize.least_squares``)
+    with the exact sparse Jacobian (see the module docstring). ``R = ρ max(0, n·l)``.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, C) linear image; colour is averaged to grey.
+    light : (3,) direction towards the light (x right, y up, z towards the camera), l_z > 0.
+    mask : (H, W) bool, the object; all pixels by default.
+    albedo : ρ times the light's irradiance over π, i.e. the brightness of a pixel facing the
+        light; by default the 99.9th percentile of the image in the mask (assumes some pixel
+        faces the light, as most SfS methods do).
+    smoothness : λ; larger values give smoother but flatter shapes.
+    initial_depth : (H, W) start; by default the tent ``d / 2`` with ``d`` the Euclidean
+        distance to the nearest pixel outside the mask (convex, 26.6° slopes: a generic
+        "bulges towards the viewer" start, not the answer).
+    max_iterations : limit on residual evaluations.
+
+    Returns
+    -------
+    ShapeFromShading
+
+    References
+    ----------
+    .. [1] B. K. P. Horn, "Height and gradient from shading", IJCV 5(1), 1990.
+    .. [2] B. K. P. Horn and M. J. Brooks, CVGIP 33(2), 1986.
+    .. [3] R. Zhang et al., "Shape from shading: a survey", IEEE TPAMI 21(8), 1999.
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    image = np.asarray(image, dtype=np.float64)
+    if image.ndim == 3:
+        image = image.mean(axis=-1)
+    if image.ndim != 2:
+        raise ValueError(f"image must have shape (H, W) or (H, W, C); got shape {image.shape}")
+    if not np.all(np.isfinite(image)) or np.any(image < 0):
+        raise ValueError("image must hold finite, non-negative linear values")
+    light = np.asarray(light, dtype=np.float64)
+    if light.shape != (3,) or not np.linalg.norm(light) > 0 or not np.all(np.isfinite(light)):
+        raise ValueError(f"light must be a non-zero 3-vector; got {light!r}")
+    light = light / np.linalg.norm(light)
+    if light[2] <= 0:
+        raise ValueError(f"light must point towards the camera side (l_z > 0); got {light}")
+    mask = np.ones(image.shape, bool) if mask is None else np.asarray(mask, dtype=bool)
+    if mask.shape != image.shape:
+        raise ValueError(f"mask must have shape {image.shape}; got shape {mask.shape}")
+    if not smoothness >= 0:
+        raise ValueError(f"smoothness must be >= 0; got {smoothness!r}")
+    if _operators(mask)[0].shape[0] < 1:
+        raise ValueError("mask must contain at least one 2×2 block of pixels")
+    if albedo is None:
+        albedo = float(np.percentile(image[mask], 99.9))
+    if not albedo > 0:
+        raise ValueError(f"albedo must be positive (the image is black?); got {albedo!r}")
+    if initial_depth is None:
+        initial_depth = distance_transform_edt(mask) / 2
+    z0 = np.asarray(initial_depth, dtype=np.float64)
+    if z0.shape != image.shape:
+        raise ValueError(f"initial_depth must have shape {image.shape}; got shape {z0.shape}")
+    z, iterations, rms = _solve(image / albedo, mask, light, smoothness, z0, max_iterations)
+    depth = np.full(image.shape, np.nan)
+    depth[mask] = z - z.min()
+    return ShapeFromShading(depth, _normals_from_depth(depth, mask), albedo, iterations, rms)
+
+
+def _solve(
+    image: np.ndarray,
+    mask: np.ndarray,
+    light: np.ndarray,
+    smoothness: float,
+    initial_depth: np.ndarray,
+    max_iterations: int,
+) -> tuple[np.ndarray, int, float]:
+    """Minimise Horn's energy on one level: depths of the mask pixels, iterations, RMS."""
+    from scipy import sparse
+    from scipy.optimize import least_squares
+
+    d_x, d_y, average, laplacian = _operators(mask)
+    brightness = average @ image[mask]
+    weight = np.sqrt(smoothness)
+
+    def shading(z: np.ndarray) -> tuple[np.ndarray, ...]:
+        p, q = d_x @ z, d_y @ z
+        s = np.sqrt(1 + p * p + q * q)
+        u = -p * light[0] - q * light[1] + light[2]
+        return p, q, s, u
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        _, _, s, u = shading(z)
+        return np.concatenate([np.maximum(u, 0) / s - brightness, weight * (laplacian @ z)])
+
+    def jacobian(z: np.ndarray) -> sparse.csr_matrix:
+        p, q, s, u = shading(z)
+        lit = u > 0
+        r_p = np.where(lit, -light[0] / s - u * p / s**3, 0.0)
+        r_q = np.where(lit, -light[1] / s - u * q / s**3, 0.0)
+        brightness_rows = sparse.diags(r_p) @ d_x + sparse.diags(r_q) @ d_y
+        return sparse.vstack([brightness_rows, weight * laplacian]).tocsr()
+
+    result = least_squares(
+        residuals,
+        initial_depth[mask],
+        jac=jacobian,
+        method="trf",
+        tr_solver="lsmr",
+        x_scale="jac",
+        max_nfev=max_iterations,
+    )
+    rms = float(np.sqrt(np.mean(result.fun[: brightness.size] ** 2)))
+    return result.x, int(result.nfev), rms
