@@ -1,0 +1,120 @@
+"""Radiometric calibration: linear reading, Debevec–Malik response and HDR merge vs OpenCV."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brdfkit.io import read_image, srgb_encode, write_image
+from brdfkit.vision.calibration import (
+    hat_weights,
+    linearize,
+    merge_hdr,
+    read_linear_image,
+    recover_response,
+)
+
+TIMES = 2.0 ** np.arange(-6, 5, 2)
+CODES = np.arange(256)
+WELL_EXPOSED = (CODES >= 16) & (CODES <= 239)
+
+
+def _response(x):
+    """A camera-like non-linear response (gamma with a soft shoulder), f(1) = 1."""
+    x = np.clip(x, 0.0, 1.0)
+    return x**0.45 * 1.2 / (1 + 0.2 * x**0.45)
+
+
+def _true_log_inverse():
+    xs = np.linspace(0.0, 1.0, 400001)
+    return np.log(np.maximum(np.interp(CODES / 255, _response(xs), xs), 1e-12))
+
+
+@pytest.fixture(scope="module")
+def stack(shared_data):
+    """A synthetic exposure stack of a real HDR map (box-averaged to 128×256)."""
+    hdr = read_image(shared_data / "envmaps" / "polyhaven" / "spruit_sunrise_1k.hdr")
+    radiance = hdr.astype(np.float64).reshape(128, 4, 256, 4, 3).mean(axis=(1, 3))
+    radiance /= np.median(radiance)
+    images = np.stack([np.round(255 * _response(radiance * t)).astype(np.uint8) for t in TIMES])
+    return radiance, images
+
+
+def _curve_error(g):
+    """RMS of ln f⁻¹ over well-exposed codes after the best offset (the gauge), per channel."""
+    truth = _true_log_inverse()[WELL_EXPOSED]
+    errors = []
+    for channel in range(g.shape[1]):
+        estimate = g[WELL_EXPOSED, channel]
+        errors.append(np.sqrt(np.mean((estimate + np.mean(truth - estimate) - truth) ** 2)))
+    return max(errors)
+
+
+def _hdr_error(merged, radiance, where=None):
+    """Median relative error after the best global scale (over ``where``, default all)."""
+    if where is not None:
+        merged, radiance = merged[where], radiance[where]
+    scale = np.exp(np.median(np.log(radiance / merged)))
+    return float(np.median(np.abs(merged * scale - radiance) / radiance))
+
+
+def test_response_and_merge_against_opencv(stack):
+    cv2 = pytest.importorskip("cv2")
+    radiance, images = stack
+    g = recover_response(images, TIMES, smoothness=50.0, samples=200)
+    assert g[128].tolist() == pytest.approx([0, 0, 0], abs=1e-6)  # gsolve's gauge equation
+    merged = merge_hdr(images, TIMES, g)
+    bgr = [np.ascontiguousarray(image[..., ::-1]) for image in images]
+    calibrate = cv2.createCalibrateDebevec(samples=200, lambda_=50.0, random=False)
+    response_cv = calibrate.process(bgr, TIMES.astype(np.float32))
+    g_cv = np.log(np.maximum(response_cv[:, 0, ::-1].astype(np.float64), 1e-30))
+    merged_cv = cv2.createMergeDebevec().process(bgr, TIMES.astype(np.float32), response_cv)
+    ours, theirs = _curve_error(g), _curve_error(g_cv)
+    hdr_ours, hdr_theirs = _hdr_error(merged, radiance), _hdr_error(merged_cv[..., ::-1], radiance)
+    # Measured: curve RMS 0.088 (ours) vs 0.096 (OpenCV) in ln units; HDR 0.37 % vs 1.25 %.
+    assert ours < 0.1
+    assert ours <= 1.1 * theirs
+    assert hdr_ours < 0.01
+    assert hdr_ours <= hdr_theirs
+
+
+def test_merge_with_the_true_response_is_exact_up_to_quantisation(stack):
+    radiance, images = stack
+    merged = merge_hdr(images, TIMES, _true_log_inverse())
+    well = ((images > 16) & (images < 239)).any(axis=0)
+    assert well.mean() > 0.99
+    # 8-bit quantisation alone: measured 0.32 %.
+    assert _hdr_error(merged, radiance, well) < 0.005
+
+
+def test_hat_weights():
+    w = hat_weights(256)
+    assert w[0] == w[255] == 0
+    assert w[127] == w[128] == 127
+
+
+def test_linearize_and_read_linear(tmp_path):
+    values = np.linspace(0, 1, 12, dtype=np.float32).reshape(2, 2, 3)
+    np.testing.assert_allclose(linearize(srgb_encode(values), "srgb"), values, atol=1e-6)
+    write_image(tmp_path / "x.png", values, bit_depth=16)  # sRGB-encoded on disk
+    with pytest.raises(ValueError, match="non-linear"):
+        read_linear_image(tmp_path / "x.png")
+    np.testing.assert_allclose(read_linear_image(tmp_path / "x.png", "srgb"), values, atol=1e-4)
+    write_image(tmp_path / "x.exr", values)
+    np.testing.assert_allclose(read_linear_image(tmp_path / "x.exr"), values)
+    with pytest.raises(ValueError, match="linear"):
+        read_linear_image(tmp_path / "x.exr", "srgb")
+
+
+def test_bad_stacks_are_named():
+    images = np.zeros((3, 4, 4, 3), dtype=np.uint8)
+    with pytest.raises(ValueError, match="at least 2"):
+        recover_response(images[:1], [1.0])
+    with pytest.raises(ValueError, match="times"):
+        recover_response(images, [1.0, 2.0])
+    with pytest.raises(ValueError, match="8-bit"):
+        recover_response(images.astype(np.float32), [1.0, 2.0, 4.0])
+    with pytest.raises(ValueError, match="sample more"):
+        recover_response(images, [1.0, 2.0, 4.0], samples=16)
+    with pytest.raises(ValueError, match="response"):
+        merge_hdr(images, [1.0, 2.0, 4.0], np.zeros(255))
