@@ -156,6 +156,7 @@ def test_anisotropy_follows_the_tangent():
     assert off_x > 10 * off_y
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", EXAMPLES, ids=EXAMPLE_IDS)
 def test_sampler_chi2_and_weight(model):
     """χ² of sample() against pdf(); weight = f·cos/pdf; the pdf integrates to ≤ 1."""
@@ -181,6 +182,7 @@ def test_sampler_chi2_and_weight(model):
     assert not np.any(s.delta)
 
 
+@pytest.mark.slow
 def test_plain_sampling_option():
     """sample_visible=False samples D cos θh; the same BRDF, a different but exact pdf."""
     wo = _direction(1.0, 0.0)

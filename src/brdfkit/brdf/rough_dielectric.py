@@ -197,7 +197,7 @@ class RoughDielectric(BRDF):
         h = self.ndf.sample_visible(wo_up, u2) if self.sample_visible else self.ndf.sample(u2)
         wo_h = dot(wo, h, keepdims=True)
         f, cos_t, _, eta_ti = fresnel(wo_h, param(self.eta, wo))
-        reflect = u[..., 2:3] <= f
+        reflect = (u[..., 2:3] < f) | (f >= 1)  # total internal reflection whatever u
         reflected = 2 * wo_h * h - wo
         refracted = h * (wo_h * eta_ti + cos_t) - wo * eta_ti
         wi = xp.where(reflect, reflected, refracted)

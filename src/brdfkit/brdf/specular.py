@@ -303,7 +303,7 @@ class SmoothDielectric(BRDF):
         eta = param(self.eta, wo)
         cos_o = wo[..., 2:3]
         f, cos_t, _, eta_ti = fresnel(cos_o, eta)
-        reflect = u[..., 0:1] < f
+        reflect = (u[..., 0:1] < f) | (f >= 1)  # total internal reflection whatever u
         refracted = xp.concat([-eta_ti * wo[..., 0:1], -eta_ti * wo[..., 1:2], cos_t], axis=-1)
         wi = xp.where(reflect, _mirror(wo), refracted)
         scale = eta_ti * eta_ti if self.mode == "radiance" else xp.ones_like(eta_ti)
