@@ -1,0 +1,90 @@
+"""``brdfkit lighting``: SH lighting, a directional light, or a lat-long map from a mirror ball."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from brdfkit.cli._app import app, atomic_output, console, fail
+
+METHODS = ("sh", "directional", "mirror-ball")
+
+
+@app.command("lighting")
+def lighting_command(
+    image: Path = typer.Argument(..., help="Linear .hdr/.exr (or 8/16-bit with --encoding)."),
+    method: str = typer.Option("sh", "--method", "-m", help="sh, directional or mirror-ball."),
+    mask: Path | None = typer.Option(None, "--mask", help="Object mask image (white = object)."),
+    normals: Path | None = typer.Option(
+        None, "--normals", help="Normal map: .npy (H, W, 3) or an RGB image with n = 2v − 1."
+    ),
+    sphere: bool = typer.Option(
+        False, "--sphere", help="The object is a sphere: normals from the mask's fitted circle."
+    ),
+    albedo: float = typer.Option(1.0, "--albedo", help="Known albedo (1 if unknown: up to scale)."),
+    encoding: str | None = typer.Option(
+        None, "--encoding", help="How an 8/16-bit input is encoded: srgb or linear."
+    ),
+    output: Path = typer.Option(
+        Path("lighting.json"), "--output", "-o", help="JSON (sh, directional) or .exr/.hdr map."
+    ),
+    height: int = typer.Option(256, "--height", min=2, help="Lat-long map height (mirror-ball)."),
+) -> None:
+    """Estimate the illumination from an image of a known Lambertian object or a mirror ball."""
+    import json
+
+    import numpy as np
+
+    from brdfkit.io import read_image, write_image
+    from brdfkit.vision.calibration import read_linear_image
+    from brdfkit.vision.lighting import (
+        estimate_directional_light,
+        estimate_sh_lighting,
+        mirror_ball_to_latlong,
+    )
+    from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
+
+    if method not in METHODS:
+        fail(f"--method must be one of {', '.join(METHODS)}; got {method!r}")
+    try:
+        picture = read_linear_image(image, encoding)
+        m = None if mask is None else read_image(mask)[..., 0] > 0.5
+    except ValueError as error:
+        fail(str(error))
+    if m is not None and m.shape != picture.shape[:2]:
+        fail(f"--mask has shape {m.shape}, the image {picture.shape[:2]}: they must match")
+    if method == "mirror-ball":
+        if output.suffix.lower() not in (".exr", ".hdr"):
+            fail(f"--output must be .exr or .hdr for a lat-long map; got {output.name!r}")
+        latlong = mirror_ball_to_latlong(picture[..., :3], m, height=height, width=2 * height)
+        write_image(output, latlong)  # atomic
+        console.print(f"wrote {output} ({2 * height}×{height} lat-long map)")
+        return
+    if sphere:
+        if m is None:
+            fail("--sphere needs --mask (the sphere's silhouette)")
+        n, _ = sphere_normals(m.shape, fit_circle(m)[:2], fit_circle(m)[2])
+    elif normals is not None:
+        n = np.load(normals) if normals.suffix == ".npy" else read_image(normals)[..., :3] * 2 - 1
+    else:
+        fail(f"--method {method} needs the object's normals: give --normals or --sphere")
+    if n.shape != (*picture.shape[:2], 3):
+        fail(f"normals have shape {n.shape}; expected {(*picture.shape[:2], 3)} like the image")
+    try:
+        if method == "sh":
+            coeffs = estimate_sh_lighting(picture, n, m, albedo)
+            record = {"method": "sh", "order": 2, "coefficients": coeffs.tolist()}
+        else:
+            estimate = estimate_directional_light(picture, n, m, albedo)
+            record = {
+                "method": "directional",
+                "direction": estimate.direction.tolist(),
+                "irradiance": estimate.irradiance.tolist(),
+                "relative_rms": estimate.rms,
+            }
+    except ValueError as error:
+        fail(str(error))
+    with atomic_output(output) as tmp:
+        tmp.write_text(json.dumps(record, indent=2) + "\n")
+    console.print(f"wrote {output} ({method} lighting)")

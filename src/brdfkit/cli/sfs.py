@@ -1,0 +1,61 @@
+"""``brdfkit sfs``: shape from shading of a Lambertian object under a known distant light."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from brdfkit.cli._app import app, atomic_output, console, fail
+
+
+@app.command("sfs")
+def sfs_command(
+    image: Path = typer.Argument(..., help="Linear .hdr/.exr (or 8/16-bit with --encoding)."),
+    light: str = typer.Option(..., "--light", "-l", help="Direction towards the light: X,Y,Z."),
+    mask: Path | None = typer.Option(None, "--mask", help="Object mask image (white = object)."),
+    encoding: str | None = typer.Option(
+        None, "--encoding", help="How an 8/16-bit input is encoded: srgb or linear."
+    ),
+    step: int = typer.Option(1, "--step", min=1, help="Average step × step pixel blocks first."),
+    smoothness: float = typer.Option(1e-4, "--smoothness", min=0.0, help="Smoothness weight λ."),
+    output: Path = typer.Option(
+        Path("sfs"), "--output", "-o", help="Folder for depth.npy, normals.npy and normals.png."
+    ),
+) -> None:
+    """Recover depth and normals from one image (Horn's variational shape from shading)."""
+    import numpy as np
+
+    from brdfkit.io import read_image, write_image
+    from brdfkit.vision.calibration import read_linear_image
+    from brdfkit.vision.shape_from_shading import shape_from_shading
+
+    try:
+        direction = np.array([float(v) for v in light.split(",")])
+    except ValueError:
+        fail(f"--light must be three numbers X,Y,Z; got {light!r}")
+    try:
+        picture = read_linear_image(image, encoding).mean(axis=-1)
+        m = np.ones(picture.shape, bool) if mask is None else read_image(mask)[..., 0] > 0.5
+    except ValueError as error:
+        fail(str(error))
+    if m.shape != picture.shape:
+        fail(f"--mask has shape {m.shape}, the image {picture.shape}: they must match")
+    h, w = (picture.shape[0] // step) * step, (picture.shape[1] // step) * step
+    if h == 0 or w == 0:
+        fail(f"--step {step} is larger than the image ({picture.shape[1]}×{picture.shape[0]})")
+    picture = picture[:h, :w].reshape(h // step, step, w // step, step).mean(axis=(1, 3))
+    m = m[:h, :w].reshape(h // step, step, w // step, step).all(axis=(1, 3))
+    try:
+        result = shape_from_shading(picture, direction, m, smoothness=smoothness)
+    except ValueError as error:
+        fail(str(error))
+    with atomic_output(output) as folder:
+        folder.mkdir()
+        np.save(folder / "depth.npy", result.depth)
+        np.save(folder / "normals.npy", result.normals)
+        write_image(folder / "normals.png", (result.normals + 1) / 2 * m[..., None], srgb=False)
+    console.print(
+        f"wrote {output}/ (depth, normals; {result.iterations} iterations, "
+        f"relative brightness RMS {result.rms:.4f})"
+    )
