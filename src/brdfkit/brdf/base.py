@@ -390,7 +390,13 @@ class Sum(BRDF):
         mix_pdf = self.pdf(chosen_wi, wo)
         f = self.eval(chosen_wi, wo)
         cos_theta_i = xp.abs(chosen_wi[..., 2])
-        ok = (mix_pdf > 0) & ~chosen_delta
+        # A sample its own lobe rejected (pdf 0) stays failed, and so does one whose mixture
+        # density is denormal (a far tail: f·cos/pdf would overflow).
+        ok = (
+            (mix_pdf > xp.finfo(mix_pdf.dtype).smallest_normal)
+            & (chosen_pdf > 0)
+            & ~chosen_delta
+        )
         safe_pdf = xp.where(ok, mix_pdf, xp.ones_like(mix_pdf))
         smooth_w = xp.where(
             ok[..., None], f * (cos_theta_i / safe_pdf)[..., None], xp.zeros_like(f)
