@@ -72,13 +72,13 @@ def test_cosine_sampling_weight_and_albedo():
 
 def test_from_samples_reconstructs_a_smooth_brdf():
     model = parse("lambertian(rho=0.3) + ward(kd=0, ks=0.2, alpha_x=0.5)")
-    wi, wo = _directions(20000, 5), _directions(20000, 6)
+    wi, wo = _directions(4000, 5), _directions(4000, 6)
     samples = MeasuredSamples(wi, wo, model.eval(wi, wo), name="smooth")
-    table = TabulatedBRDF.from_samples(samples, (24, 24, 24))
+    table = TabulatedBRDF.from_samples(samples, (16, 16, 16))
     a, b = _directions(2000, 7), _directions(2000, 8)
     f = model.eval(a, b)
     rel = np.sqrt(np.mean((table.eval(a, b) - f) ** 2)) / np.sqrt(np.mean(f**2))
-    nearest = TabulatedBRDF.from_samples(samples, (24, 24, 24), method="nearest")
+    nearest = TabulatedBRDF.from_samples(samples, (16, 16, 16), method="nearest")
     rel_nearest = np.sqrt(np.mean((nearest.eval(a, b) - f) ** 2)) / np.sqrt(np.mean(f**2))
     assert rel < rel_nearest  # linear scattered interpolation beats nearest neighbours
     assert table.samples is samples
