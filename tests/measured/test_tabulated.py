@@ -70,6 +70,7 @@ def test_cosine_sampling_weight_and_albedo():
     np.testing.assert_allclose(table.albedo(wo[:1]), [[0.6]], rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_from_samples_reconstructs_a_smooth_brdf():
     model = parse("lambertian(rho=0.3) + ward(kd=0, ks=0.2, alpha_x=0.5)")
     wi, wo = _directions(4000, 5), _directions(4000, 6)
