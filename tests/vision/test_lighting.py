@@ -111,8 +111,9 @@ def test_directional_light_on_the_real_gray_sphere(shared_data):
     for image, light in zip(data.images, data.light_directions, strict=True):
         estimate = estimate_directional_light(image, data.normals, data.mask)
         angles.append(np.degrees(np.arccos(np.clip(estimate.direction @ light, -1, 1))))
-    # lights.txt is itself 1–9° off (a student's chrome-sphere calibration).
-    assert np.median(angles) < 10.0
+    # Measured 2.5° median, 6.9° max; lights.txt is itself 1–9° off (a student's calibration).
+    assert np.median(angles) < 4.0
+    assert np.max(angles) < 9.0
 
 
 def test_mirror_ball_round_trip(shared_data):

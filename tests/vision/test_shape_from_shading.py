@@ -52,8 +52,8 @@ def _render(normals, mask, light):
 CASES = [
     ("sphere", (0.0, 0.0, 1.0), 1.5, 0.5, 0.01),
     ("sphere", (0.3, 0.2, 1.0), 5.0, 1.5, 0.05),
-    ("vase", (0.0, 0.0, 1.0), 3.5, 1.5, 0.03),
-    ("vase", (-0.2, 0.3, 1.0), 12.0, 8.0, 0.12),
+    pytest.param("vase", (0.0, 0.0, 1.0), 3.5, 1.5, 0.03, marks=pytest.mark.slow),
+    pytest.param("vase", (-0.2, 0.3, 1.0), 12.0, 8.0, 0.12, marks=pytest.mark.slow),
 ]
 
 
