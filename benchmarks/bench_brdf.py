@@ -1,4 +1,4 @@
-"""BRDF throughput of brdfkit (NumPy, JAX, compiled) against Mitsuba 3 ``llvm_ad_rgb``, side by side.
+"""BRDF throughput of brdfkit (NumPy, JAX, compiled) and Mitsuba 3 ``llvm_ad_rgb``, side by side.
 
 Workloads (the same inputs for every implementation, generated once per size):
 
@@ -33,11 +33,11 @@ os.environ.setdefault(
 )
 os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-import brdfkit.accel as accel  # noqa: E402
-from brdfkit.brdf import Lambertian, RoughConductor  # noqa: E402
-from brdfkit.fresnel import conductor  # noqa: E402
+import brdfkit.accel as accel
+from brdfkit.brdf import Lambertian, RoughConductor
+from brdfkit.fresnel import conductor
 
 ALPHA = 0.2
 MATERIAL = "Au"
@@ -57,6 +57,23 @@ def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float]:
         fn()
         best = min(best, time.perf_counter() - start)
     return first, best
+
+
+def timed_interleaved(fns: list[Callable[[], Any]], repeats: int) -> list[tuple[float, float]]:
+    """:func:`timed` for several functions, alternating them in every repeat, so that a burst
+    of load from other processes on a busy machine hits all of them alike."""
+    first = []
+    for fn in fns:
+        start = time.perf_counter()
+        fn()
+        first.append(time.perf_counter() - start)
+    best = [float("inf")] * len(fns)
+    for _ in range(repeats):
+        for k, fn in enumerate(fns):
+            start = time.perf_counter()
+            fn()
+            best[k] = min(best[k], time.perf_counter() - start)
+    return list(zip(first, best, strict=True))
 
 
 def directions(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -118,7 +135,7 @@ class Mitsuba:
     def vectors(self, w: np.ndarray) -> Any:
         return self.mi.Vector3f(*(np.ascontiguousarray(w[:, j]) for j in range(3)))
 
-    def eval_fn(self, wi: np.ndarray, wo: np.ndarray) -> tuple[Callable[[], Any], Any]:
+    def eval_fn(self, wi: np.ndarray, wo: np.ndarray) -> Callable[[], Any]:
         dr = self.dr
         si, wi_m = self.interaction(wo), self.vectors(wi)
         dr.eval(si, wi_m)
@@ -130,7 +147,7 @@ class Mitsuba:
             dr.sync_thread()
             return value
 
-        return run, None
+        return run
 
     def sample_eval_fn(self, wo: np.ndarray, u: np.ndarray) -> Callable[[], Any]:
         dr, mi = self.dr, self.mi
@@ -162,7 +179,7 @@ class Mitsuba:
             _, weight = self.ggx.sample(self.ctx, si, s1, s2)
             dr.eval(weight)
             dr.sync_thread()
-            return np.asarray(weight).reshape(len(wo), n, 3).mean(axis=1)
+            return np.asarray(weight).T.reshape(len(wo), n, 3).mean(axis=1)
 
         return run
 
@@ -178,17 +195,31 @@ class Mitsuba:
 
 
 # --------------------------------------------------------------------------- runner
-def run(sizes: list[int], repeats: int, with_mitsuba: bool) -> dict[str, Any]:
-    rng = np.random.default_rng(1)
-    ggx32, mix32 = models(np.float32)
-    ggx64, _ = models(np.float64)
-    compiled = accel.compile(ggx32)
-    compiled_mix = accel.compile(mix32)
-    mitsuba = Mitsuba() if with_mitsuba else None
-    rows: list[dict[str, Any]] = []
+class Runner:
+    """Runs the workloads and collects one row per (workload, size, implementation)."""
 
-    def add(workload: str, n: int, impl: str, first: float, best: float, **extra: Any) -> None:
-        rows.append(
+    def __init__(self, repeats: int, with_mitsuba: bool) -> None:
+        self.repeats = repeats
+        self.rng = np.random.default_rng(1)
+        self.ggx32, self.mix32 = models(np.float32)
+        self.ggx64, _ = models(np.float64)
+        self.compiled = accel.compile(self.ggx32)
+        self.compiled_mix = accel.compile(self.mix32)
+        self.mitsuba = Mitsuba() if with_mitsuba else None
+        self.rows: list[dict[str, Any]] = []
+
+    def add(
+        self,
+        workload: str,
+        n: int,
+        impl: str,
+        fn: Callable[[], Any] | tuple[float, float],
+        repeats: int = 0,
+        **extra: Any,
+    ) -> None:
+        """Time ``fn`` (or take its ``(first, best)`` timing) and record a row."""
+        first, best = fn if isinstance(fn, tuple) else timed(fn, repeats)
+        self.rows.append(
             {
                 "workload": workload,
                 "n": n,
@@ -199,105 +230,137 @@ def run(sizes: list[int], repeats: int, with_mitsuba: bool) -> dict[str, Any]:
                 **extra,
             }
         )
-        print(f"{workload:12s} {n:>10d} {impl:28s} {n / best:12.3e}/s", flush=True)
+        print(f"{workload:12s} {n:>10d} {impl:34s} {n / best:12.3e}/s", flush=True)
 
-    for n in sizes:
-        wi, wo = directions(rng, n), directions(rng, n)
-        wi64, wo64 = wi.astype(np.float64), wo.astype(np.float64)
+    def eval(self, n: int) -> None:
+        wi, wo = directions(self.rng, n), directions(self.rng, n)
+        # Renormalised in float64: float32 unit vectors are off by ~1e-7, beyond the ±4 ulp
+        # slack the float64 Fresnel code allows for cosines.
+        wi64, wo64 = (
+            v / np.linalg.norm(v, axis=-1, keepdims=True)
+            for v in (wi.astype(np.float64), wo.astype(np.float64))
+        )
+        ggx32, ggx64, compiled = self.ggx32, self.ggx64, self.compiled
         reference = compiled.eval(wi, wo)  # the first call compiles
-        first, best = timed(lambda: compiled.eval(wi, wo), repeats)
-        add(
+        out = np.empty_like(reference)
+        r, slow = self.repeats, max(1, self.repeats // 2)
+        # The head-to-head: brdfkit accel and Mitsuba, interleaved.
+        fns = [lambda: compiled.eval(wi, wo), lambda: compiled.eval(wi, wo, out=out)]
+        check: dict[str, float] = {}
+        if self.mitsuba is not None:
+            mitsuba_fn = self.mitsuba.eval_fn(wi, wo)
+            jit_s = self.mitsuba.jit_seconds(mitsuba_fn)
+            fns.append(mitsuba_fn)
+            value = np.asarray(mitsuba_fn()).T  # Color3f converts as (3, n)
+            check["max_rel_diff_mitsuba_f_cos"] = _rel(reference * wi[:, 2:3], value)
+        timings = timed_interleaved(fns, r)
+        self.add(
+            "eval", n, "brdfkit accel f32", timings[0], compile_seconds=compiled.compile_seconds
+        )
+        self.add("eval", n, "brdfkit accel f32, out= reused", timings[1])
+        if self.mitsuba is not None:
+            self.add("eval", n, "Mitsuba 3 llvm_ad_rgb", timings[2], jit_seconds=jit_s)
+        if n <= 1_000_000:  # one call allocates ~200 bytes per pair: 2 GB at 1e7
+            self.add("eval", n, "brdfkit NumPy f32", lambda: ggx32.eval(wi, wo), slow)
+            self.add("eval", n, "brdfkit NumPy f64", lambda: ggx64.eval(wi64, wo64), slow)
+        workers = accel.threads()
+        self.add(
             "eval",
             n,
-            "brdfkit accel f32 (numba)",
-            first,
-            best,
-            compile_seconds=compiled.compile_seconds,
+            f"brdfkit NumPy f32 chunked ×{workers}",
+            lambda: accel.eval_chunked(ggx32, wi, wo, workers=workers),
+            slow,
         )
-        if n <= 1_000_000:
-            first, best = timed(lambda: ggx32.eval(wi, wo), max(1, repeats // 2))
-            add("eval", n, "brdfkit NumPy f32", first, best)
-            first, best = timed(lambda: ggx64.eval(wi64, wo64), max(1, repeats // 2))
-            add("eval", n, "brdfkit NumPy f64", first, best)
-        first, best = timed(
-            lambda: accel.eval_chunked(ggx32, wi, wo, workers=accel.threads()), max(1, repeats // 2)
-        )
-        add("eval", n, "brdfkit NumPy f32 chunked", first, best)
-        check = {
-            "max_rel_diff_numpy_f32": _rel(reference, accel.eval_chunked(ggx32, wi, wo)),
-            "max_rel_diff_numpy_f64": _rel(reference, accel.eval_chunked(ggx64, wi64, wo64)),
-        }
+        check["max_rel_diff_numpy_f32"] = _rel(reference, accel.eval_chunked(ggx32, wi, wo))
+        check["max_rel_diff_numpy_f64"] = _rel(reference, accel.eval_chunked(ggx64, wi64, wo64))
         if n <= 1_000_000:
             import jax
             import jax.numpy as jnp
 
             eval_jit = jax.jit(ggx32.eval)
             wi_j, wo_j = jnp.asarray(wi), jnp.asarray(wo)
-            first, best = timed(lambda: eval_jit(wi_j, wo_j).block_until_ready(), repeats)
-            add("eval", n, "brdfkit jax.jit f32", first, best)
-        if mitsuba is not None:
-            fn, _ = mitsuba.eval_fn(wi, wo)
-            jit_s = mitsuba.jit_seconds(fn)
-            first, best = timed(fn, repeats)
-            value = np.asarray(fn()).reshape(n, 3)
-            check["max_rel_diff_mitsuba"] = _rel(reference * wi[:, 2:3], value)
-            add("eval", n, "Mitsuba 3 llvm_ad_rgb", first, best, jit_seconds=jit_s)
-        rows[-1].update(check)
-        del wi64, wo64
+            self.add(
+                "eval",
+                n,
+                "brdfkit jax.jit f32",
+                lambda: eval_jit(wi_j, wo_j).block_until_ready(),
+                r,
+            )
+        self.rows[-1].update(check)
 
-    n = 1_000_000
-    wo = directions(rng, n)
-    u = rng.random((n, 3), dtype=np.float32)
+    def sample_eval(self, n: int) -> None:
+        wo = directions(self.rng, n)
+        u = self.rng.random((n, 3), dtype=np.float32)
+        compiled, mix32 = self.compiled_mix, self.mix32
 
-    def sample_eval() -> Any:
-        s = compiled_mix.sample(wo, u)
-        return compiled_mix.eval(s.wi, wo)
+        def ours() -> Any:
+            s = compiled.sample(wo, u)
+            return compiled.eval(s.wi, wo)
 
-    start = time.perf_counter()
-    compiled_mix.sample(wo[:1], u[:1])
-    compiled_mix.eval(wo[:1], wo[:1])
-    compile_s = time.perf_counter() - start
-    first, best = timed(sample_eval, repeats)
-    add("sample+eval", n, "brdfkit accel f32 (numba)", first, best, compile_seconds=compile_s)
+        def numpy_path() -> Any:
+            s = mix32.sample(wo, u)
+            return mix32.eval(s.wi, wo)
 
-    def sample_eval_numpy() -> Any:
-        s = mix32.sample(wo, u)
-        return mix32.eval(s.wi, wo)
+        ours()
+        self.add(
+            "sample+eval",
+            n,
+            "brdfkit accel f32",
+            ours,
+            self.repeats,
+            compile_seconds=compiled.compile_seconds,
+        )
+        self.add("sample+eval", n, "brdfkit NumPy f32", numpy_path, max(1, self.repeats // 2))
+        if self.mitsuba is not None:
+            fn = self.mitsuba.sample_eval_fn(wo, u)
+            jit_s = self.mitsuba.jit_seconds(fn)
+            self.add("sample+eval", n, "Mitsuba 3 llvm_ad_rgb", fn, self.repeats, jit_seconds=jit_s)
 
-    first, best = timed(sample_eval_numpy, max(1, repeats // 2))
-    add("sample+eval", n, "brdfkit NumPy f32", first, best)
-    if mitsuba is not None:
-        fn = mitsuba.sample_eval_fn(wo, u)
-        jit_s = mitsuba.jit_seconds(fn)
-        first, best = timed(fn, repeats)
-        add("sample+eval", n, "Mitsuba 3 llvm_ad_rgb", first, best, jit_seconds=jit_s)
-
-    wo_a = albedo_directions()
-    total = ALBEDO_ANGLES * ALBEDO_SAMPLES
-    start = time.perf_counter()
-    compiled.sample(wo_a[:1], u[:1])
-    compile_s = time.perf_counter() - start
-    first, best = timed(lambda: compiled.albedo(wo_a, samples=ALBEDO_SAMPLES), repeats)
-    ours = compiled.albedo(wo_a, samples=ALBEDO_SAMPLES)
-    add("albedo", total, "brdfkit accel f32 (numba)", first, best, compile_seconds=compile_s)
-    first, best = timed(lambda: [ggx32.albedo(w, samples=ALBEDO_SAMPLES) for w in wo_a], 0)
-    add("albedo", total, "brdfkit NumPy f32 (per angle)", first, best)
-    if mitsuba is not None:
-        u_a = rng.random((ALBEDO_SAMPLES, 3), dtype=np.float32)
-        fn = mitsuba.albedo_fn(wo_a, u_a)
-        jit_s = mitsuba.jit_seconds(fn)
-        first, best = timed(fn, repeats)
-        theirs = fn()
-        add(
+    def albedo(self) -> None:
+        wo = albedo_directions()
+        total = ALBEDO_ANGLES * ALBEDO_SAMPLES
+        compiled, ggx32 = self.compiled, self.ggx32
+        ours = compiled.albedo(wo, samples=ALBEDO_SAMPLES)
+        self.add(
             "albedo",
             total,
-            "Mitsuba 3 llvm_ad_rgb",
-            first,
-            best,
-            jit_seconds=jit_s,
-            max_abs_diff_albedo=float(np.max(np.abs(ours - theirs))),
+            "brdfkit accel f32",
+            lambda: compiled.albedo(wo, samples=ALBEDO_SAMPLES),
+            self.repeats,
         )
-    return {"machine": machine(), "mitsuba": mitsuba.version if mitsuba else None, "rows": rows}
+        self.add(
+            "albedo",
+            total,
+            "brdfkit NumPy f32 (per angle)",
+            lambda: [ggx32.albedo(w, samples=ALBEDO_SAMPLES) for w in wo],
+            0,
+        )
+        if self.mitsuba is not None:
+            u = self.rng.random((ALBEDO_SAMPLES, 3), dtype=np.float32)
+            fn = self.mitsuba.albedo_fn(wo, u)
+            jit_s = self.mitsuba.jit_seconds(fn)
+            self.add(
+                "albedo",
+                total,
+                "Mitsuba 3 llvm_ad_rgb",
+                fn,
+                self.repeats,
+                jit_seconds=jit_s,
+                max_abs_diff_albedo=float(np.max(np.abs(ours - fn()))),
+            )
+
+
+def run(sizes: list[int], repeats: int, with_mitsuba: bool) -> dict[str, Any]:
+    runner = Runner(repeats, with_mitsuba)
+    for n in sizes:
+        runner.eval(n)
+    runner.sample_eval(1_000_000)
+    runner.albedo()
+    return {
+        "machine": machine(),
+        "mitsuba": runner.mitsuba.version if runner.mitsuba else None,
+        "rows": runner.rows,
+    }
 
 
 def _rel(a: np.ndarray, b: np.ndarray) -> float:
@@ -337,7 +400,7 @@ def table(result: dict[str, Any]) -> str:
         (r["workload"], r["n"]): r["per_second"] for r in rows if r["impl"].startswith("Mitsuba")
     }
     lines = [
-        "| workload | n | implementation | evaluations/s | ratio to Mitsuba | first-call extra (s) |",
+        "| workload | n | implementation | evals/s | ratio to Mitsuba | first call extra (s) |",
         "|---|---:|---|---:|---:|---:|",
     ]
     for r in rows:
