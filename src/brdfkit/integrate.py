@@ -140,13 +140,13 @@ class _Uniforms:
     def __init__(self, rng: np.random.Generator, sequence: str) -> None:
         self.rng, self.sequence = rng, sequence
 
-    def draw(self, batch: tuple[int, ...], samples: int) -> np.ndarray:
+    def draw(self, batch: tuple[int, ...], samples: int, dim: int) -> np.ndarray:
         if self.sequence == "random":
-            return self.rng.random((*batch, samples, 2))
+            return self.rng.random((*batch, samples, dim))
         from scipy.stats import qmc
 
-        points = qmc.Sobol(d=2, scramble=True, seed=self.rng).random(samples)
-        shift = self.rng.random((*batch, 1, 2))
+        points = qmc.Sobol(d=dim, scramble=True, seed=self.rng).random(samples)
+        shift = self.rng.random((*batch, 1, dim))
         return np.remainder(points + shift, 1.0)
 
 
@@ -198,7 +198,8 @@ def _monte_carlo(brdf, light, point, frame, wo_local, samples, strategy, heurist
     zero = xp.zeros((*batch, samples), dtype=wo_local.dtype)
 
     if strategy in ("brdf", "mis"):
-        u = asarray(rng.draw(batch, samples), xp, like=wo_local)
+        # three uniforms: BSDFs choose reflection or refraction with the third
+        u = asarray(rng.draw(batch, samples, 3), xp, like=wo_local)
         s = brdf.sample(wo_n, u)
         wi_world = to_world(s.wi, frame_n)
         radiance = light.incident_radiance(point_n, wi_world)
@@ -212,7 +213,7 @@ def _monte_carlo(brdf, light, point, frame, wo_local, samples, strategy, heurist
         contributions = c
 
     if strategy in ("light", "mis"):
-        u = asarray(rng.draw(batch, samples), xp, like=wo_local)
+        u = asarray(rng.draw(batch, samples, 2), xp, like=wo_local)
         ls = light.sample(point_n, u)
         wi_local = to_local(ls.wi, frame_n)
         cos_theta_i = xp.maximum(wi_local[..., 2], zero)
