@@ -264,7 +264,7 @@ def test_planar_test_passes_and_fails():
 
 def test_bad_arguments_are_rejected():
     args = (square_to_uniform_sphere, square_to_uniform_sphere_pdf)
-    with pytest.raises(ValueError, match=r"significance must be in \(0, 1\); got 0"):
+    with pytest.raises(ValueError, match=r"significance must be in \(0\.0, 1\.0\); got 0"):
         chi2_test(*args, significance=0)
     with pytest.raises(ValueError, match=r"theta_bins must be a positive integer; got 0"):
         chi2_test(*args, theta_bins=0)

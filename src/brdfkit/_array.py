@@ -243,19 +243,72 @@ def check_vectors(name: str, v: Array, *, finite: bool = True) -> Array:
     return v
 
 
+def is_abstract(x: Any) -> bool:
+    """Whether ``x`` is an abstract JAX value (a tracer under ``jax.jit``) with no data to check."""
+    if not is_jax(namespace(x)):
+        return False
+    import jax
+
+    return isinstance(x, jax.core.Tracer)
+
+
 def check_finite(name: str, v: Array) -> Array:
     """Raise ``ValueError`` naming ``name`` if ``v`` holds NaN or infinity."""
+    if is_abstract(v):  # under jax.jit values are abstract: skip data-dependent checks there
+        return v
     xp = namespace(v)
-    if is_jax(xp):
-        # Under jax.jit values are abstract: skip data-dependent checks there.
-        import jax
-
-        if isinstance(v, jax.core.Tracer):
-            return v
     if not bool(xp.all(xp.isfinite(v))):
         bad = to_numpy(v)[~np.isfinite(to_numpy(v))].ravel()[0]
         raise ValueError(f"{name} must be finite; got a value of {bad}")
     return v
+
+
+def check_param(
+    name: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    hint: str = "",
+    slack: float = 0.0,
+) -> Any:
+    """Validate a parameter or argument: finite and inside ``[lo, hi]`` (either end optional).
+
+    ``lo_open``/``hi_open`` make the ends open; ``slack`` accepts values up to that far beyond
+    either end (rounding in computed cosines, say) while the message states the nominal range.
+    The value is returned unchanged (a torch tensor keeps its autograd graph). Comparisons run
+    in the value's own backend (no copy to the host unless there is an error to report), and are
+    skipped for abstract JAX values under ``jax.jit``.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument, the offending value and the allowed range, e.g.
+        ``"alpha must be in (0.0, inf]; got -1"`` (``"must be finite and in …"`` for NaN or
+        infinity). :mod:`brdfkit.fit` reads the model bounds back from this message for finite
+        probes, so its ``must be in <interval>`` form is a contract.
+    """
+    if is_abstract(value):
+        return value
+    xp = namespace(value)
+    values = value if hasattr(value, "dtype") else xp.asarray(value)
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    allowed = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+    low = -math.inf if lo is None else lo - slack
+    high = math.inf if hi is None else hi + slack
+    finite = xp.isfinite(values)
+    below = values <= low if lo_open else values < low
+    above = values >= high if hi_open else values > high
+    bad = ~finite | below | above
+    if bool(xp.any(bad)):
+        first = to_numpy(values)[to_numpy(bad)].ravel()[0]
+        expected = f"in {allowed}" if bool(xp.all(finite)) else f"finite and in {allowed}"
+        extra = f" ({hint})" if hint else ""
+        raise ValueError(f"{name} must be {expected}; got {first:g}{extra}")
+    return value
 
 
 def to_numpy(x: Any) -> np.ndarray:

@@ -21,7 +21,7 @@ diffuse term (``kd``, ``diffuse``), held at 0 when the model has a Lambertian lo
 make it redundant. A lobe with no colour parameter (GGX with F = 1, say) gets a free
 per-channel factor, fitted as ``[k_r, k_g, k_b] * ggx(...)``; a written factor
 (``0.5 * ggx``) stays fixed. The **bounds** are the models' own: each model validates its
-parameters with :func:`~brdfkit.brdf.base.check_param`, and the allowed interval is read from
+parameters with :func:`~brdfkit._array.check_param`, and the allowed interval is read from
 the message it raises for ±10³⁰ (open ends are moved inwards by 10⁻⁶). Models with an
 ``allow_unphysical`` switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a
 box); the fitted model keeps it on only if its values need it.

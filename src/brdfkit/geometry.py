@@ -19,7 +19,7 @@ import math
 from brdfkit._array import (
     Array,
     asarray,
-    check_finite,
+    check_param,
     check_vectors,
     clamp,
     constant,
@@ -125,9 +125,7 @@ def refract(w: Array, eta: Array | float, normal: Array | None = None) -> tuple[
     w = check_vectors("w", w)
     xp = namespace(w, eta)
     eta = asarray(eta, xp, like=w)
-    check_finite("eta", eta)
-    if not bool(xp.all(eta > 0)):
-        raise ValueError(f"eta must be > 0; got {float(xp.min(eta)):g}")
+    check_param("eta", eta, 0.0, lo_open=True)
     n = (
         xp.asarray([0.0, 0.0, 1.0], dtype=w.dtype)
         if normal is None
@@ -150,11 +148,7 @@ def critical_angle(eta: Array | float) -> Array:
     """Critical angle θ_c = arcsin(1/η) (radians) for light leaving a medium of relative index η."""
     xp = namespace(eta)
     eta = asarray(eta, xp)
-    check_finite("eta", eta)
-    if not bool(xp.all(eta >= 1)):
-        raise ValueError(
-            f"eta must be >= 1 for a critical angle to exist; got {float(xp.min(eta)):g}"
-        )
+    check_param("eta", eta, 1.0, hint="for a critical angle to exist")
     return xp.asin(1 / eta)
 
 

@@ -34,12 +34,13 @@ from brdfkit._array import (
     Array,
     asarray,
     check_finite,
+    check_param,
     check_vectors,
     clamp,
     cross,
     dot,
     float_dtype,
-    is_jax,
+    is_abstract,
     namespace,
     norm,
     normalize,
@@ -77,28 +78,13 @@ def _vectors(**named: Array) -> list[Array]:
 
 def _any(mask: Array) -> bool:
     """Whether any entry of ``mask`` is true (False for abstract JAX values under ``jit``)."""
-    xp = namespace(mask)
-    if is_jax(xp):
-        import jax
-
-        if isinstance(mask, jax.core.Tracer):
-            return False
-    return bool(xp.any(mask))
+    return not is_abstract(mask) and bool(namespace(mask).any(mask))
 
 
 def _first(values: Array, mask: Array) -> float:
     """The first entry of ``values`` where ``mask`` holds, as a float (for error messages)."""
     values, mask = np.broadcast_arrays(to_numpy(values), to_numpy(mask))
     return float(values[mask].ravel()[0])
-
-
-def _positive(name: str, value: Array) -> Array:
-    """Raise ``ValueError`` naming ``name`` unless ``value`` is finite and > 0 everywhere."""
-    check_finite(name, value)
-    bad = ~(value > 0)
-    if _any(bad):
-        raise ValueError(f"{name} must be positive; got {_first(value, bad):g}")
-    return value
 
 
 def _tolerance(like: Array) -> float:
@@ -170,7 +156,7 @@ def solid_angle_patch(center: Array, normal: Array, area: Array | float, point: 
     """
     center, normal, area, point = _common(center, normal, area, point)
     center, normal, point = _vectors(center=center, normal=normal, point=point)
-    _positive("area", area)
+    check_param("area", area, 0.0, lo_open=True)
     length = norm(normal)
     if _any(length == 0):
         raise ValueError("normal must be a non-zero vector; got (0, 0, 0)")
@@ -376,7 +362,7 @@ def solid_angle_disk(
     """
     center, normal, radius, point = _common(center, normal, radius, point)
     center, normal, point = _vectors(center=center, normal=normal, point=point)
-    _positive("radius", radius)
+    check_param("radius", radius, 0.0, lo_open=True)
     _check_order(order)
     xp = namespace(center, point)
     n = normalize(normal)
@@ -429,8 +415,8 @@ def solid_angle_disk_on_axis(radius: Array | float, distance: Array | float) -> 
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.2 (cone of directions).
     """
     radius, distance = _common(radius, distance)
-    _positive("radius", radius)
-    _positive("distance", distance)
+    check_param("radius", radius, 0.0, lo_open=True)
+    check_param("distance", distance, 0.0, lo_open=True)
     xp = namespace(radius, distance)
     q = xp.sqrt(distance * distance + radius * radius)
     return 2 * math.pi * radius * radius / (q * (q + distance))
@@ -451,10 +437,7 @@ def solid_angle_cap(half_angle: Array | float) -> Array:
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.2 (spherical cap).
     """
     (alpha,) = _common(half_angle)
-    check_finite("half_angle", alpha)
-    bad = (alpha < 0) | (alpha > math.pi)
-    if _any(bad):
-        raise ValueError(f"half_angle must be in [0, π] radians; got {_first(alpha, bad):g}")
+    check_param("half_angle", alpha, 0.0, math.pi, hint="radians")
     return 4 * math.pi * namespace(alpha).sin(alpha / 2) ** 2
 
 
@@ -474,7 +457,7 @@ def solid_angle_sphere(center: Array, radius: Array | float, point: Array) -> Ar
     """
     center, radius, point = _common(center, radius, point)
     center, point = _vectors(center=center, point=point)
-    _positive("radius", radius)
+    check_param("radius", radius, 0.0, lo_open=True)
     xp = namespace(center, point)
     distance = norm(point - center)
     on = xp.abs(distance - radius) <= _tolerance(distance) * radius
@@ -548,7 +531,7 @@ def disk_surface(center: Array, normal: Array, radius: float) -> Surface:
     """
     check_vectors("center", asarray(center))
     check_vectors("normal", asarray(normal))
-    _positive("radius", asarray(radius))
+    check_param("radius", radius, 0.0, lo_open=True)
 
     def evaluate(u: Array, v: Array) -> tuple[Array, Array]:
         xp = namespace(u)
@@ -615,9 +598,8 @@ def cap_surface(center: Array, axis: Array, radius: float, half_angle: float) ->
     """
     check_vectors("center", asarray(center))
     check_vectors("axis", asarray(axis))
-    _positive("radius", asarray(radius))
-    if not (0 < half_angle <= math.pi):
-        raise ValueError(f"half_angle must be in (0, π] radians; got {half_angle!r}")
+    check_param("radius", radius, 0.0, lo_open=True)
+    check_param("half_angle", half_angle, 0.0, math.pi, lo_open=True, hint="radians")
 
     def evaluate(u: Array, v: Array) -> tuple[Array, Array]:
         xp = namespace(u)
@@ -702,7 +684,7 @@ def irradiance_sphere_source(
     radiance, center, radius, point, normal = _common(radiance, center, radius, point, normal)
     center, point, normal = _vectors(center=center, point=point, normal=normal)
     check_finite("radiance", radiance)
-    _positive("radius", radius)
+    check_param("radius", radius, 0.0, lo_open=True)
     xp = namespace(center, point)
     to_center = center - point
     distance = norm(to_center)
@@ -772,11 +754,9 @@ def irradiance_disk_source(
     """
     radiance, radius, distance, offset = _common(radiance, radius, distance, offset)
     check_finite("radiance", radiance)
-    _positive("radius", radius)
-    _positive("distance", distance)
-    check_finite("offset", offset)
-    if _any(offset < 0):
-        raise ValueError(f"offset must be >= 0; got {_first(offset, offset < 0):g}")
+    check_param("radius", radius, 0.0, lo_open=True)
+    check_param("distance", distance, 0.0, lo_open=True)
+    check_param("offset", offset, 0.0)
     xp = namespace(radius, distance)
     h2, s2, r2 = distance * distance, offset * offset, radius * radius
     root = xp.sqrt((h2 + s2 + r2) ** 2 - 4 * r2 * s2)
@@ -822,8 +802,7 @@ def radiant_flux(
     .. [1] CMU 16-385 lecture 14, "Attractive properties of radiance".
     .. [2] R. Ramamoorthi, CSE 274 lecture 2: :math:`d\Phi = L\cos\theta\,d\omega\,dA`.
     """
-    if not (0 < half_angle <= math.pi / 2):
-        raise ValueError(f"half_angle must be in (0, π/2] radians; got {half_angle!r}")
+    check_param("half_angle", half_angle, 0.0, math.pi / 2, lo_open=True, hint="radians")
     like = asarray(0.0 if like is None else like)
     xp = namespace(like)
     u, v, weights = _grid(order, (0.0, 1.0), (0.0, 1.0), like)
@@ -879,11 +858,8 @@ def radiance_from_intensity(
     """
     intensity, area, cos_theta = _common(intensity, area, cos_theta)
     check_finite("intensity", intensity)
-    _positive("area", area)
-    check_finite("cos_theta", cos_theta)
-    bad = (cos_theta <= 0) | (cos_theta > 1)
-    if _any(bad):
-        raise ValueError(f"cos_theta must be in (0, 1]; got {_first(cos_theta, bad):g}")
+    check_param("area", area, 0.0, lo_open=True)
+    check_param("cos_theta", cos_theta, 0.0, 1.0, lo_open=True)
     return _channels(intensity, 1 / (area * cos_theta))
 
 
@@ -910,11 +886,8 @@ def intensity_lambertian(
     """
     radiance, area, cos_theta = _common(radiance, area, cos_theta)
     check_finite("radiance", radiance)
-    _positive("area", area)
-    check_finite("cos_theta", cos_theta)
-    bad = namespace(cos_theta).abs(cos_theta) > 1
-    if _any(bad):
-        raise ValueError(f"cos_theta must be in [-1, 1]; got {_first(cos_theta, bad):g}")
+    check_param("area", area, 0.0, lo_open=True)
+    check_param("cos_theta", cos_theta, -1.0, 1.0)
     return _channels(radiance, area * clamp(cos_theta, lo=0.0))
 
 
@@ -939,8 +912,8 @@ def radiance_across_interface(
     """
     radiance, eta_from, eta_to = _common(radiance, eta_from, eta_to)
     check_finite("radiance", radiance)
-    _positive("eta_from", eta_from)
-    _positive("eta_to", eta_to)
+    check_param("eta_from", eta_from, 0.0, lo_open=True)
+    check_param("eta_to", eta_to, 0.0, lo_open=True)
     return radiance * (eta_to / eta_from) ** 2
 
 
@@ -954,7 +927,7 @@ def basic_radiance(radiance: Array | float, eta: Array | float) -> Array:
     """
     radiance, eta = _common(radiance, eta)
     check_finite("radiance", radiance)
-    _positive("eta", eta)
+    check_param("eta", eta, 0.0, lo_open=True)
     return radiance / eta**2
 
 

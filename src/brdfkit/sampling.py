@@ -34,12 +34,12 @@ from brdfkit._array import (
     Array,
     asarray,
     check_finite,
+    check_param,
     check_vectors,
     clamp,
     constant,
     cross,
     dot,
-    is_jax,
     namespace,
     norm,
     normalize,
@@ -79,28 +79,19 @@ def _check_pairs(name: str, v: Array) -> Array:
 
 def _check_unit_square(name: str, u: Array) -> Array:
     """``u`` validated as points of the closed unit square, shape ``(..., 2)``."""
-    u = _check_pairs(name, u)
-    xp = namespace(u)
-    if is_jax(xp):
-        import jax
-
-        if isinstance(u, jax.core.Tracer):
-            return u
-    if not bool(xp.all((u >= 0) & (u <= 1))):
-        values = to_numpy(u)
-        bad = values[(values < 0) | (values > 1)].ravel()[0]
-        raise ValueError(f"{name} must lie in the unit square [0, 1]²; got a value of {bad:g}")
-    return u
+    return check_param(name, _check_pairs(name, u), 0.0, 1.0, hint="a point of the unit square")
 
 
 def _check_cos_cutoff(cos_cutoff: Array | float, like: Array) -> Array:
     """``cos_cutoff`` as an array like ``like``, each value in [-1, 1)."""
-    values = to_numpy(cos_cutoff).astype(np.float64, copy=False)
-    if not np.all(np.isfinite(values) & (values >= -1) & (values < 1)):
-        bad = values[~(np.isfinite(values) & (values >= -1) & (values < 1))].ravel()[0]
-        raise ValueError(
-            f"cos_cutoff must be in [-1, 1) (the cosine of the cone's half-angle); got {bad:g}"
-        )
+    check_param(
+        "cos_cutoff",
+        cos_cutoff,
+        -1.0,
+        1.0,
+        hi_open=True,
+        hint="the cosine of the cone's half-angle",
+    )
     return asarray(cos_cutoff, namespace(like, cos_cutoff), like=like)
 
 
@@ -576,10 +567,7 @@ class Distribution2D:
         f = to_numpy(image).astype(np.float64)
         if f.ndim != 2 or f.size == 0:
             raise ValueError(f"image must be a non-empty 2D array (H, W); got shape {f.shape}")
-        if not np.all(np.isfinite(f)):
-            raise ValueError(f"image must be finite; got a value of {f[~np.isfinite(f)][0]}")
-        if np.any(f < 0):
-            raise ValueError(f"image must be non-negative; got a value of {f[f < 0][0]:g}")
+        check_param("image", f, 0.0)
         if not np.any(f > 0):
             raise ValueError("image must have a positive value somewhere; got all zeros")
         height, width = f.shape

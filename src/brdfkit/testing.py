@@ -34,7 +34,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brdfkit._array import to_numpy
+from brdfkit._array import check_param, to_numpy
 from brdfkit.geometry import spherical_to_cartesian
 
 __all__ = ["Chi2Result", "assert_chi2", "assert_chi2_planar", "chi2_test", "chi2_test_planar"]
@@ -366,8 +366,7 @@ def _run(
 
     if n_samples < 1:
         raise ValueError(f"n_samples must be a positive integer; got {n_samples}")
-    if not 0 < significance < 1:
-        raise ValueError(f"significance must be in (0, 1); got {significance}")
+    check_param("significance", significance, 0.0, 1.0, lo_open=True, hi_open=True)
     if test_count < 1:
         raise ValueError(f"test_count must be a positive integer; got {test_count}")
     if sample_dim < 1:

@@ -81,7 +81,7 @@ def test_cap_hemisphere_and_sphere(degrees, expected):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (("disk", "--radius", "-1"), "radius must be positive"),
+        (("disk", "--radius", "-1"), "radius must be in (0.0, inf]; got -1"),
         (("disk", "--distance", "0"), "must not lie on the disk"),
         (("triangle", "--vertices", "0,0,0;1,0"), "--vertices"),
         (("triangle", "--distance", "0"), "must not lie on the triangle"),

@@ -1,4 +1,4 @@
-"""The BRDF protocol, parameter validation, the model registry, and composition (``+``, ``*``).
+"""The BRDF protocol, the model registry, and composition (``+``, ``*``).
 
 Conventions (DESIGN.md §1): arguments are *local* unit vectors of shape ``(..., 3)`` with z the
 normal; ``wi`` points towards the light, ``wo`` towards the viewer. ``eval`` returns f_r with no
@@ -23,7 +23,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, constant, namespace, to_numpy
+from brdfkit._array import Array, asarray, check_param, constant, namespace, to_numpy
 
 MODELS: dict[str, type[BRDF]] = {}
 """Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
@@ -40,51 +40,6 @@ def register(name: str) -> Callable[[type[BRDF]], type[BRDF]]:
         return cls
 
     return decorate
-
-
-# --------------------------------------------------------------------------- validation
-def check_param(
-    name: str,
-    value: Any,
-    lo: float | None = None,
-    hi: float | None = None,
-    *,
-    lo_open: bool = False,
-    hi_open: bool = False,
-    hint: str = "",
-) -> Any:
-    """Validate a model parameter at construction: finite and inside ``[lo, hi]``.
-
-    The value is returned unchanged (a torch tensor keeps its autograd graph); checks run on a
-    detached NumPy copy.
-
-    Raises
-    ------
-    ValueError
-        Naming the parameter, the offending value and the allowed range.
-    """
-    values = to_numpy(value).astype(np.float64, copy=False)
-    if not np.all(np.isfinite(values)):
-        raise ValueError(f"{name} must be finite; got {_show(value)}")
-    left = "(" if lo_open else "["
-    right = ")" if hi_open else "]"
-    allowed = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
-    low_bad = lo is not None and (np.any(values <= lo) if lo_open else np.any(values < lo))
-    high_bad = hi is not None and (np.any(values >= hi) if hi_open else np.any(values > hi))
-    if low_bad or high_bad:
-        bad = values[
-            (values <= lo if lo_open else values < lo)
-            if low_bad
-            else (values >= hi if hi_open else values > hi)
-        ].ravel()[0]
-        extra = f" ({hint})" if hint else ""
-        raise ValueError(f"{name} must be in {allowed}; got {bad:g}{extra}")
-    return value
-
-
-def _show(value: Any) -> str:
-    arr = to_numpy(value)
-    return f"{arr.item():g}" if arr.size == 1 else f"an array of shape {arr.shape}"
 
 
 def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
@@ -392,11 +347,7 @@ class Sum(BRDF):
         cos_theta_i = xp.abs(chosen_wi[..., 2])
         # A sample its own lobe rejected (pdf 0) stays failed, and so does one whose mixture
         # density is denormal (a far tail: f·cos/pdf would overflow).
-        ok = (
-            (mix_pdf > xp.finfo(mix_pdf.dtype).smallest_normal)
-            & (chosen_pdf > 0)
-            & ~chosen_delta
-        )
+        ok = (mix_pdf > xp.finfo(mix_pdf.dtype).smallest_normal) & (chosen_pdf > 0) & ~chosen_delta
         safe_pdf = xp.where(ok, mix_pdf, xp.ones_like(mix_pdf))
         smooth_w = xp.where(
             ok[..., None], f * (cos_theta_i / safe_pdf)[..., None], xp.zeros_like(f)
