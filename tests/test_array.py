@@ -1,4 +1,4 @@
-"""The backend helpers: namespaces, dtype preservation, safe operations, erf."""
+"""The backend helpers: namespaces, dtype preservation, safe operations, special functions."""
 
 from __future__ import annotations
 
@@ -27,6 +27,18 @@ def test_erf_dispatch_numpy_and_torch():
     assert isinstance(y, torch.Tensor)
     y.sum().backward()
     np.testing.assert_allclose(t.grad.numpy(), 2 / np.sqrt(np.pi) * np.exp(-x * x), rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("function", "reference", "shift"),
+    [(A.erfinv, special.erfinv, 0.0), (A.log_gamma, special.gammaln, 2.0)],
+)
+def test_erfinv_and_log_gamma_match_scipy_on_numpy_and_torch(function, reference, shift):
+    x = np.linspace(-0.999, 0.999, 11) + shift
+    np.testing.assert_allclose(function(x), reference(x), rtol=1e-15)
+    assert function(x.astype(np.float32)).dtype == np.float32
+    torch = pytest.importorskip("torch")
+    np.testing.assert_allclose(function(torch.tensor(x)).numpy(), reference(x), rtol=1e-12)
 
 
 def test_safe_sqrt_and_div_have_finite_gradients_at_zero():

@@ -14,6 +14,7 @@ References
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any
 
 import array_api_compat
@@ -173,26 +174,68 @@ def where(condition: Array, x: Array | float, y: Array | float) -> Array:
     return xp.where(condition, x, y)
 
 
+def _backend_special(x: Array, scipy_name: str, torch_name: str) -> Array | None:
+    """``x`` through the backend's own special function, or ``None`` if it has none.
+
+    NumPy uses ``scipy.special.<scipy_name>`` (dtype kept), PyTorch ``torch.<torch_name>``,
+    JAX ``jax.scipy.special.<scipy_name>``; all three differentiate through it where they can.
+    """
+    xp = namespace(x)
+    if is_numpy(xp):
+        from scipy import special
+
+        return xp.asarray(getattr(special, scipy_name)(x), dtype=x.dtype)
+    if is_torch(xp):
+        import torch
+
+        return operator.attrgetter(torch_name)(torch)(x)
+    if is_jax(xp):
+        import jax.scipy.special
+
+        return getattr(jax.scipy.special, scipy_name)(x)
+    return None
+
+
 def erf(x: Array) -> Array:
     """The error function, using the backend's own where it has one.
 
     NumPy uses :func:`scipy.special.erf`, PyTorch :func:`torch.special.erf`, JAX
     :func:`jax.scipy.special.erf`. Any other backend gets :func:`erf_basic`.
     """
-    xp = namespace(x)
-    if is_numpy(xp):
-        from scipy import special
+    value = _backend_special(x, "erf", "special.erf")
+    return erf_basic(x) if value is None else value
 
-        return xp.asarray(special.erf(x), dtype=x.dtype)
-    if is_torch(xp):
-        import torch
 
-        return torch.special.erf(x)
-    if is_jax(xp):
-        import jax.scipy.special
+def erfinv(x: Array) -> Array:
+    """The inverse error function erf⁻¹(x) for x in (−1, 1), the backend's own.
 
-        return jax.scipy.special.erf(x)
-    return erf_basic(x)
+    NumPy uses :func:`scipy.special.erfinv`, PyTorch :func:`torch.special.erfinv`, JAX
+    :func:`jax.scipy.special.erfinv`.
+
+    Raises
+    ------
+    ValueError
+        For a backend with no inverse error function.
+    """
+    value = _backend_special(x, "erfinv", "special.erfinv")
+    if value is None:
+        raise ValueError(f"x must be a NumPy, PyTorch or JAX array for erfinv; got {type(x)!r}")
+    return value
+
+
+def log_gamma(x: Array) -> Array:
+    """ln Γ(x) for x > 0, the backend's own (:func:`scipy.special.gammaln`,
+    :func:`torch.lgamma`, :func:`jax.scipy.special.gammaln`).
+
+    Raises
+    ------
+    ValueError
+        For a backend with no log-gamma function.
+    """
+    value = _backend_special(x, "gammaln", "lgamma")
+    if value is None:
+        raise ValueError(f"x must be a NumPy, PyTorch or JAX array for log_gamma; got {type(x)!r}")
+    return value
 
 
 _ERF_TERMS = 80

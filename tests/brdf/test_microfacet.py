@@ -13,8 +13,6 @@ from brdfkit.brdf.microfacet import (
     Beckmann,
     FresnelTerm,
     TorranceSparrowGaussian,
-    erfinv,
-    log_gamma,
     masking_shadowing,
 )
 from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
@@ -278,17 +276,6 @@ def test_bad_parameters_raise():
         masking_shadowing(
             GGX(0.1), _direction(0.1, 0), _direction(0.2, 1), _direction(0, 0), "smith"
         )
-
-
-def test_special_functions():
-    x = np.linspace(-0.999, 0.999, 11)
-    np.testing.assert_allclose(erfinv(x), special.erfinv(x), rtol=1e-15)
-    np.testing.assert_allclose(log_gamma(x + 2), special.gammaln(x + 2), rtol=1e-15)
-    torch = pytest.importorskip("torch")
-    np.testing.assert_allclose(erfinv(torch.tensor(x)).numpy(), special.erfinv(x), rtol=1e-12)
-    np.testing.assert_allclose(
-        log_gamma(torch.tensor(x + 2)).numpy(), special.gammaln(x + 2), rtol=1e-12
-    )
 
 
 @pytest.mark.parametrize("cls", [GGX, Beckmann, TorranceSparrowGaussian])

@@ -63,9 +63,8 @@ from brdfkit._array import (
     cross,
     dot,
     erf,
-    is_jax,
-    is_numpy,
-    is_torch,
+    erfinv,
+    log_gamma,
     namespace,
     normalize,
     safe_div,
@@ -85,52 +84,6 @@ _TINY = 1e-30  # guards divisions by squared cosines (representable in float32)
 _GAUSS_LEGENDRE_NODES = 64
 _GAUSSIAN_SUPPORT = 6.0  # exp(-(θ/m)²) < 3e-16 beyond θ = 6 m
 _GAUSSIAN_NEWTON_MAX_STEPS = 60  # bisection fallback: 60 halvings reach float64 resolution
-
-
-# --------------------------------------------------------------------------- special functions
-def erfinv(x: Array) -> Array:
-    """The inverse error function, using the backend's own implementation.
-
-    NumPy uses :func:`scipy.special.erfinv`, PyTorch :func:`torch.special.erfinv`, JAX
-    :func:`jax.scipy.special.erfinv`.
-
-    Raises
-    ------
-    ValueError
-        For a backend with no inverse error function.
-    """
-    xp = namespace(x)
-    if is_numpy(xp):
-        from scipy import special
-
-        return xp.asarray(special.erfinv(x), dtype=x.dtype)
-    if is_torch(xp):
-        import torch
-
-        return torch.special.erfinv(x)
-    if is_jax(xp):
-        import jax.scipy.special
-
-        return jax.scipy.special.erfinv(x)
-    raise ValueError(f"x must be a NumPy, PyTorch or JAX array for erfinv; got {type(x)!r}")
-
-
-def log_gamma(x: Array) -> Array:
-    """ln Γ(x) for x > 0, using the backend's own implementation (SciPy, PyTorch, JAX)."""
-    xp = namespace(x)
-    if is_numpy(xp):
-        from scipy import special
-
-        return xp.asarray(special.gammaln(x), dtype=x.dtype)
-    if is_torch(xp):
-        import torch
-
-        return torch.lgamma(x)
-    if is_jax(xp):
-        import jax.scipy.special
-
-        return jax.scipy.special.gammaln(x)
-    raise ValueError(f"x must be a NumPy, PyTorch or JAX array for log_gamma; got {type(x)!r}")
 
 
 @functools.lru_cache(maxsize=4)
@@ -813,7 +766,5 @@ __all__ = [
     "FresnelTerm",
     "MicrofacetDistribution",
     "TorranceSparrowGaussian",
-    "erfinv",
-    "log_gamma",
     "masking_shadowing",
 ]
