@@ -193,6 +193,28 @@ def test_failed_write_leaves_old_file_and_no_temporary(tmp_path, monkeypatch):
     assert sorted(os.listdir(tmp_path)) == ["out.png"]
 
 
+def test_atomic_write_keeps_the_suffix_and_replaces_only_on_success(tmp_path):
+    path = tmp_path / "sub" / "table.binary"
+    seen = []
+
+    def write(tmp):
+        seen.append(tmp)
+        tmp.write_bytes(b"new")
+
+    assert io.atomic_write(str(path), write) == path
+    assert path.read_bytes() == b"new"
+    assert seen[0].parent == path.parent and seen[0].suffix == ".binary" and seen[0] != path
+
+    def broken(tmp):
+        tmp.write_bytes(b"half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        io.atomic_write(path, broken)
+    assert path.read_bytes() == b"new"
+    assert sorted(os.listdir(path.parent)) == ["table.binary"]
+
+
 def test_write_creates_folders_and_overwrites(tmp_path):
     path = tmp_path / "a" / "b" / "c.exr"
     io.write_image(path, np.zeros((2, 2, 3)))

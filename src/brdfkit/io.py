@@ -48,6 +48,7 @@ __all__ = [
     "WRITE_EXTENSIONS",
     "ImageNotFoundError",
     "ImageReadError",
+    "atomic_write",
     "data_path",
     "luminance",
     "read_image",
@@ -371,21 +372,30 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
 # Writing
 
 
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it over ``path``.
+def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
+    """Write a file atomically: call ``write_fn(tmp)`` on a temporary file beside ``path``, then
+    rename it over ``path`` (:func:`os.replace`, atomic on POSIX and Windows).
 
     The temporary keeps ``path``'s extension (encoders choose the format from it) and is
-    removed if ``write`` fails, so ``path`` is either the old file or the complete new one.
+    removed if ``write_fn`` fails, so ``path`` is either the old file or the complete new one;
+    missing parent folders are created. Returns ``path``.
+
+    References
+    ----------
+    .. [1] Python documentation, :func:`os.replace` ("if successful, the renaming will be an
+       atomic operation (this is a POSIX requirement)").
     """
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     handle, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
     os.close(handle)
     tmp = Path(name)
     try:
-        write(tmp)
+        write_fn(tmp)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+    return path
 
 
 def _write_exr(path: Path, image: np.ndarray, half: bool) -> None:
@@ -483,7 +493,7 @@ def write_image(
     pixels = pixels.astype(np.float64) * 2.0**exposure
 
     if suffix == ".exr":
-        _atomic_write(path, lambda tmp: _write_exr(tmp, pixels, half))
+        atomic_write(path, lambda tmp: _write_exr(tmp, pixels, half))
         return path
 
     check_finite("image", pixels)
@@ -493,7 +503,7 @@ def write_image(
                 f"image must be non-negative for .hdr (RGBE); got a minimum of {pixels.min():.6g}"
             )
         rgb = np.repeat(pixels, 3, axis=-1) if pixels.shape[-1] == 1 else pixels
-        _atomic_write(path, lambda tmp: _write_opencv(tmp, rgb.astype(np.float32)))
+        atomic_write(path, lambda tmp: _write_opencv(tmp, rgb.astype(np.float32)))
         return path
 
     colour = min(pixels.shape[-1], 3)
@@ -502,7 +512,7 @@ def write_image(
         encoded[..., :colour] = srgb_encode(encoded[..., :colour])
     dtype = np.uint8 if bit_depth == 8 else np.uint16
     codes = np.rint(encoded * np.iinfo(dtype).max).astype(dtype)
-    _atomic_write(path, lambda tmp: _write_opencv(tmp, codes))
+    atomic_write(path, lambda tmp: _write_opencv(tmp, codes))
     return path
 
 

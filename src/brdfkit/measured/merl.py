@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.brdf.base import BRDF
-from brdfkit.io import _atomic_write
+from brdfkit.io import atomic_write
 from brdfkit.measured.tabulated import TabulatedBRDF
 
 MERL_SHAPE = (90, 90, 180)
@@ -121,7 +121,7 @@ def write_merl(path: str | os.PathLike, brdf: BRDF) -> Path:
     values = merl_values(brdf)
     header = np.asarray(MERL_SHAPE, dtype=_HEADER).tobytes()
     body = np.ascontiguousarray(np.moveaxis(values, -1, 0), dtype=_VALUE).tobytes()
-    _atomic_write(path, lambda tmp: tmp.write_bytes(header + body))
+    atomic_write(path, lambda tmp: tmp.write_bytes(header + body))
     return path
 
 
