@@ -102,6 +102,31 @@ def test_spherical_round_trip(theta, phi):
         assert abs(math.remainder(float(p2) - phi, 2 * math.pi)) < 1e-6
 
 
+@pytest.mark.parametrize("theta", [1e-12, 1e-9, 1e-5, math.pi - 1e-9])
+def test_spherical_theta_is_exact_near_the_poles(theta):
+    # acos(cos θ) cannot resolve θ below ~1e-8 (cos θ rounds to 1); atan2(sin θ, cos θ) can.
+    v = np.array(
+        [math.sin(theta) * math.cos(0.3), math.sin(theta) * math.sin(0.3), math.cos(theta)]
+    )
+    t, p = cartesian_to_spherical(v)
+    assert float(t) == pytest.approx(theta, rel=1e-14)
+    assert float(p) == pytest.approx(0.3, rel=1e-14)
+    t2, _ = cartesian_to_spherical(3.0 * v)  # scale-invariant: no normalisation needed
+    assert float(t2) == pytest.approx(theta, rel=1e-14)
+
+
+def test_spherical_theta_gradient_is_finite_at_the_pole():
+    torch = pytest.importorskip("torch")
+    v = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64, requires_grad=True)
+    theta, _ = cartesian_to_spherical(v)
+    theta.backward()
+    assert torch.isfinite(v.grad).all()
+    w = torch.tensor([0.6, 0.0, 0.8], dtype=torch.float64, requires_grad=True)
+    theta, _ = cartesian_to_spherical(w)
+    theta.backward()  # dθ/dv = (cos θ cos φ, cos θ sin φ, −sin θ) for a unit v
+    np.testing.assert_allclose(w.grad.numpy(), [0.8, 0.0, -0.6], rtol=1e-14)
+
+
 def test_reflect_about_normal_and_default():
     w = upper_directions(100)
     np.testing.assert_allclose(reflect(w), reflect(w, np.array([0.0, 0.0, 1.0])), atol=1e-15)

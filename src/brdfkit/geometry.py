@@ -21,7 +21,6 @@ from brdfkit._array import (
     asarray,
     check_param,
     check_vectors,
-    clamp,
     constant,
     cross,
     dot,
@@ -85,11 +84,23 @@ def spherical_to_cartesian(theta: Array, phi: Array) -> Array:
 
 
 def cartesian_to_spherical(v: Array) -> tuple[Array, Array]:
-    """``(theta, phi)`` of direction(s) ``v``: θ ∈ [0, π] from +z, φ ∈ (−π, π] from +x."""
-    v = normalize(check_vectors("v", v))
+    r"""``(theta, phi)`` of direction(s) ``v``: θ ∈ [0, π] from +z, φ ∈ (−π, π] from +x.
+
+    :math:`\theta = \operatorname{atan2}(\sqrt{x^2 + y^2}, z)`, :math:`\phi =
+    \operatorname{atan2}(y, x)`; ``v`` need not be normalised. Unlike :math:`\arccos z`, whose
+    slope is infinite at the poles (a rounding error δ in z gives θ ≈ √(2δ)), the two-argument
+    form is accurate to a few ulps everywhere, and its gradient stays finite at the poles.
+
+    References
+    ----------
+    .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §3.8.3 (spherical polar
+       coordinates).
+    """
+    v = check_vectors("v", v)
     xp = namespace(v)
-    theta = xp.acos(clamp(v[..., 2], -1.0, 1.0))
-    phi = xp.atan2(v[..., 1], v[..., 0])
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    theta = xp.atan2(safe_sqrt(x * x + y * y), z)
+    phi = xp.atan2(y, x)
     return theta, phi
 
 

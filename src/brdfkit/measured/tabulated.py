@@ -57,8 +57,8 @@ the closest node, or multilinear interpolation between the nodes."""
 
 _NODE_TOLERANCE = 1e-6
 """Continuous indices this close below a node count as the node ("bin" lookup): the angles of
-a node recomputed from its directions carry round-off (θh from an arccos near 1 loses ~1e-9 of
-a bin at the first nodes)."""
+a node recomputed from its directions carry round-off (up to ~1e-11 of a bin in θh, and a φd a
+rounding below 0 folds to the end of the previous period)."""
 
 
 # --------------------------------------------------------------------------- colour
