@@ -80,7 +80,13 @@ def _doc_of(model: BRDF) -> str:
         target = target.inner
     if isinstance(target, Sum):
         return "\n\n".join(f"{type(lobe).__name__}: " + _doc_of(lobe) for lobe in target.lobes)
-    return inspect.cleandoc(type(target).__doc__ or "")
+    # A convenience subclass (``ggx`` of ``RoughConductor``) adds its parent's formula and
+    # references to its own short docstring.
+    docs = [inspect.cleandoc(cls.__doc__ or "") for cls in type(target).__mro__[:2]]
+    own = docs[0]
+    if "References" not in own and len(docs) > 1 and "References" in docs[1]:
+        return own + "\n\n" + docs[1]
+    return own
 
 
 def _section(doc: str, name: str) -> str:
@@ -95,7 +101,7 @@ def _summary(doc: str) -> str:
 
 def _formula(doc: str) -> str | None:
     """The docstring's first formula: a ``.. math::`` block or else a ``:math:`` role."""
-    block = re.search(r"^\.\. math::\n\n((?:[ \t]+\S.*\n?)+)", doc, re.M)
+    block = re.search(r"^\.\. math::[ \t]*\n(?:[ \t]*\n)?((?:[ \t]+\S.*\n?)+)", doc, re.M)
     if block:
         return " ".join(line.strip() for line in block.group(1).splitlines())
     role = re.search(r":math:`([^`]+)`", doc)
