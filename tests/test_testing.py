@@ -22,6 +22,7 @@ from brdfkit.testing import (
     Chi2Result,
     assert_chi2,
     assert_chi2_planar,
+    brdf_sampler,
     chi2_test,
     chi2_test_planar,
 )
@@ -278,3 +279,18 @@ def test_bad_arguments_are_rejected():
         chi2_test(lambda u: u, square_to_uniform_sphere_pdf, n_samples=100)
     with pytest.raises(ValueError, match=r"bounds must be"):
         chi2_test_planar(lambda u: u, lambda p: p[:, 0], bounds=((1, 0), (0, 1)))
+
+
+def test_brdf_sampler_adapts_a_brdf_to_chi2_and_records_samples():
+    from brdfkit.brdf import Lambertian, SmoothDielectric
+
+    wo = np.array([0.6, 0.0, 0.8])
+    drawn = []
+    sample_fn, pdf_fn = brdf_sampler(Lambertian(0.5), wo, record=drawn)
+    assert_chi2(sample_fn, pdf_fn, n_samples=50_000)
+    assert len(drawn) == 1 and drawn[0].wi.shape == (50_000, 3)
+    wi = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    np.testing.assert_allclose(pdf_fn(wi), [1 / np.pi, 0.0])
+    # Delta-lobe samples are not valid for the histogram, whatever their pdf field says.
+    _, valid = brdf_sampler(SmoothDielectric(1.5), wo)[0](np.full((4, 3), 0.3))
+    assert not np.any(valid)

@@ -369,20 +369,13 @@ def check_sampling(
     .. [1] E. Veach, PhD thesis, Stanford, 1997, ch. 9.
     .. [2] W. Jakob et al., Mitsuba 3, ``mitsuba/python/chi2.py`` (``ChiSquareTest``), 2022.
     """
-    from brdfkit.testing import chi2_test
+    from brdfkit.testing import brdf_sampler, chi2_test
 
     worst, problems, p_values = 0.0, [], []
     for k, theta in enumerate(theta_o):
         wo = spherical_to_cartesian(np.array(theta), np.array(0.7))
         drawn: list[Sample] = []
-
-        def sample_fn(u: np.ndarray, wo: np.ndarray = wo, drawn: list = drawn) -> tuple:
-            s = brdf.sample(np.broadcast_to(wo, u.shape), u)
-            drawn.append(s)
-            return s.wi, (s.pdf > 0) & ~s.delta
-
-        def pdf_fn(wi: np.ndarray, wo: np.ndarray = wo) -> Array:
-            return brdf.pdf(wi, np.broadcast_to(wo, wi.shape))
+        sample_fn, pdf_fn = brdf_sampler(brdf, wo, record=drawn)
 
         where = f"θo = {math.degrees(theta):.0f}°"
         if brdf.has_delta:

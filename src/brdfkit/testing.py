@@ -37,7 +37,14 @@ import numpy as np
 from brdfkit._array import check_param, to_numpy
 from brdfkit.geometry import spherical_to_cartesian
 
-__all__ = ["Chi2Result", "assert_chi2", "assert_chi2_planar", "chi2_test", "chi2_test_planar"]
+__all__ = [
+    "Chi2Result",
+    "assert_chi2",
+    "assert_chi2_planar",
+    "brdf_sampler",
+    "chi2_test",
+    "chi2_test_planar",
+]
 
 _CHUNK = 1 << 20
 """Largest number of points handed to ``pdf_fn`` in one call."""
@@ -617,6 +624,34 @@ def chi2_test_planar(
 def _check_bins(name: str, value: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
         raise ValueError(f"{name} must be a positive integer; got {value!r}")
+
+
+def brdf_sampler(
+    brdf: Any, wo: Any, record: list | None = None
+) -> tuple[Callable[[Any], tuple[Any, Any]], Callable[[Any], Any]]:
+    """The ``(sample_fn, pdf_fn)`` pair that :func:`chi2_test` takes for a BRDF's sampler at one
+    view direction ``wo`` (shape ``(3,)``).
+
+    ``sample_fn(u)`` draws ``brdf.sample(wo, u)`` for uniforms ``u`` of shape ``(n, d)`` and
+    returns ``(wi, valid)``, valid where the sample has pdf > 0 and is not from a delta lobe;
+    each :class:`~brdfkit.brdf.base.Sample` is appended to ``record`` when one is given.
+    ``pdf_fn(wi)`` is ``brdf.pdf(wi, wo)``.
+
+    References
+    ----------
+    .. [1] W. Jakob et al., Mitsuba 3, ``mitsuba/python/chi2.py`` (``BSDFAdapter``), 2022.
+    """
+
+    def sample_fn(u: Any) -> tuple[Any, Any]:
+        s = brdf.sample(np.broadcast_to(wo, (*u.shape[:-1], 3)), u)
+        if record is not None:
+            record.append(s)
+        return s.wi, (s.pdf > 0) & ~s.delta
+
+    def pdf_fn(wi: Any) -> Any:
+        return brdf.pdf(wi, np.broadcast_to(wo, wi.shape))
+
+    return sample_fn, pdf_fn
 
 
 def assert_chi2(

@@ -10,7 +10,7 @@ import pytest
 
 from brdfkit.brdf import Lafortune, ModifiedPhong
 from brdfkit.sampling import square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2
+from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -95,15 +95,8 @@ def test_energy_is_not_conserved_in_general():
     ],
 )
 def test_sampler_chi2(model, wo):
-    wo = np.asarray(wo)
-
-    def sample_fn(u):
-        s = model.sample(np.broadcast_to(wo, (len(u), 3)), u)
-        return s.wi, s.pdf > 0
-
     assert_chi2(
-        sample_fn,
-        lambda w: model.pdf(w, np.broadcast_to(wo, w.shape)),
+        *brdf_sampler(model, np.asarray(wo)),
         n_samples=200_000,
         binning="theta",
         theta_bins=20,

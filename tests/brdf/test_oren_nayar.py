@@ -10,7 +10,7 @@ import pytest
 
 from brdfkit.brdf import Lambertian, OrenNayar
 from brdfkit.sampling import square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2
+from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -132,13 +132,8 @@ def test_sampler_chi2_and_weights():
     brdf = OrenNayar([0.9, 0.6, 0.3], 0.8, "full")
     wo = np.array([0.6, 0.0, 0.8])
 
-    def sample_fn(u):
-        s = brdf.sample(np.broadcast_to(wo, (len(u), 3)), u)
-        return s.wi, s.pdf > 0
-
     assert_chi2(
-        sample_fn,
-        lambda w: brdf.pdf(w, np.broadcast_to(wo, w.shape)),
+        *brdf_sampler(brdf, wo),
         n_samples=200_000,
         binning="cos",
         theta_bins=10,

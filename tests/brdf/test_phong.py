@@ -12,7 +12,7 @@ from scipy import integrate
 from brdfkit.brdf import BlinnPhong, ModifiedPhong, Phong
 from brdfkit.brdf.phong import blinn_phong_normalization
 from brdfkit.sampling import square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2
+from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -30,13 +30,8 @@ def _view(theta: float, phi: float = 0.3) -> np.ndarray:
 
 
 def _chi2(model, wo: np.ndarray) -> None:
-    def sample_fn(u):
-        s = model.sample(np.broadcast_to(wo, (len(u), 3)), u)
-        return s.wi, s.pdf > 0
-
     assert_chi2(
-        sample_fn,
-        lambda w: model.pdf(w, np.broadcast_to(wo, w.shape)),
+        *brdf_sampler(model, wo),
         n_samples=200_000,
         binning="theta",
         theta_bins=20,

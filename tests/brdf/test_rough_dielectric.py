@@ -9,7 +9,7 @@ import pytest
 
 from brdfkit.brdf import RoughDielectric
 from brdfkit.fresnel import fresnel_dielectric
-from brdfkit.testing import chi2_test
+from brdfkit.testing import brdf_sampler, chi2_test
 
 EXAMPLES = RoughDielectric.examples()
 IDS = [m.to_spec()[:70] for m in EXAMPLES]
@@ -33,16 +33,8 @@ def test_sampler_chi2_and_weight(model, side):
     """χ² over the whole sphere (both lobes) and weight = f·|cos θi|/pdf, from either side."""
     wo = _direction(0.8, 0.4) * np.array([1.0, 1.0, side])
 
-    def sample_fn(u):
-        s = model.sample(np.broadcast_to(wo, (len(u), 3)), u)
-        return s.wi, s.pdf > 0
-
-    def pdf_fn(w):
-        return model.pdf(w, np.broadcast_to(wo, w.shape))
-
     result = chi2_test(
-        sample_fn,
-        pdf_fn,
+        *brdf_sampler(model, wo),
         sample_dim=3,
         n_samples=60_000,
         theta_bins=20,

@@ -18,7 +18,7 @@ from brdfkit.brdf import (
 from brdfkit.brdf._spec import parse
 from brdfkit.brdf.microfacet import Beckmann, TorranceSparrowGaussian
 from brdfkit.fresnel import conductor, f0_from_ior, fresnel_conductor, fresnel_dielectric
-from brdfkit.testing import chi2_test
+from brdfkit.testing import brdf_sampler, chi2_test
 
 CLASSES = [TorranceSparrow, CookTorrance, RoughConductor, GGXConductor, BeckmannConductor]
 EXAMPLES = [model for cls in CLASSES for model in cls.examples()]
@@ -163,14 +163,9 @@ def test_sampler_chi2_and_weight(model):
     wo = _direction(0.9, 0.3)
     n = 60_000
 
-    def sample_fn(u):
-        s = model.sample(np.broadcast_to(wo, (len(u), 3)), u)
-        return s.wi, s.pdf > 0
-
-    def pdf_fn(w):
-        return model.pdf(w, np.broadcast_to(wo, w.shape))
-
-    result = chi2_test(sample_fn, pdf_fn, sample_dim=3, n_samples=n, test_count=len(EXAMPLES))
+    result = chi2_test(
+        *brdf_sampler(model, wo), sample_dim=3, n_samples=n, test_count=len(EXAMPLES)
+    )
     result.assert_passed()
     u = np.random.default_rng(5).random((2000, 3))
     s = model.sample(np.broadcast_to(wo, (2000, 3)), u)
@@ -191,10 +186,7 @@ def test_plain_sampling_option():
         CookTorrance(m=0.3, sample_visible=False),
     ):
         result = chi2_test(
-            lambda u, m=model: (lambda s: (s.wi, s.pdf > 0))(
-                m.sample(np.broadcast_to(wo, (len(u), 3)), u)
-            ),
-            lambda w, m=model: m.pdf(w, np.broadcast_to(wo, w.shape)),
+            *brdf_sampler(model, wo),
             n_samples=60_000,
             test_count=2,
         )
