@@ -42,6 +42,18 @@ def register(name: str) -> Callable[[type[BRDF]], type[BRDF]]:
     return decorate
 
 
+HEMISPHERES = ("upper", "both")
+"""What :meth:`BRDF.albedo_estimate` integrates over: reflection only, or reflection and
+transmission."""
+
+
+def check_hemisphere(hemisphere: str) -> str:
+    """Raise ``ValueError`` unless ``hemisphere`` is one of :data:`HEMISPHERES`."""
+    if hemisphere not in HEMISPHERES:
+        raise ValueError(f"hemisphere must be one of {HEMISPHERES}; got {hemisphere!r}")
+    return hemisphere
+
+
 def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
     """The channel count C implied by channel-valued parameters (their trailing axis).
 
@@ -67,10 +79,13 @@ def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
 def param(value: Any, like: Array) -> Array:
     """A parameter as an array in the namespace, dtype and device of ``like``, at least 1-d.
 
-    Parameters broadcast against ``batch + (C,)``: a scalar becomes shape ``(1,)``.
+    Parameters broadcast against ``batch + (C,)``: a scalar becomes shape ``(1,)``. They take
+    the directions' floating dtype, so float32 inputs compute in float32 end to end (a float64
+    parameter is rounded; a torch parameter keeps its autograd graph through the cast).
     """
     xp = namespace(like, value)
-    arr = asarray(value, xp, like=like)
+    floating = hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating")
+    arr = asarray(value, xp, like=like, dtype=like.dtype if floating else None)
     return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
 
 
@@ -142,10 +157,25 @@ class BRDF:
         """
         return self.albedo_estimate(wo, samples=samples, seed=seed)[0]
 
-    def albedo_estimate(self, wo: Array, samples: int = 4096, seed: int = 0) -> tuple[Array, Array]:
-        """Monte Carlo albedo ``(mean, standard_error)``, both ``(..., C)``."""
+    def albedo_estimate(
+        self, wo: Array, samples: int = 4096, seed: int = 0, hemisphere: str = "upper"
+    ) -> tuple[Array, Array]:
+        r"""Monte Carlo albedo ``(mean, standard_error)``, both ``(..., C)``.
+
+        The mean of the sample weights :math:`f|\cos\theta_i|/p` over ``samples``
+        scrambled-Sobol points per direction. ``hemisphere="upper"`` counts the reflected
+        samples only (``wi.z > 0``): :math:`\int_{H^2_+} f\cos\theta_i\,d\omega_i`;
+        ``"both"`` counts every sample, adding a BSDF's transmittance:
+        :math:`\int_{S^2} f|\cos\theta_i|\,d\omega_i`.
+
+        References
+        ----------
+        .. [1] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §4.3
+           (hemispherical-directional reflectance) and §2.1.3 (Monte Carlo estimator).
+        """
         from scipy.stats import qmc
 
+        check_hemisphere(hemisphere)
         xp = namespace(wo)
         wo = asarray(wo, xp)
         u_np = qmc.Sobol(d=3, scramble=True, seed=seed).random(samples)
@@ -154,8 +184,9 @@ class BRDF:
         wo_b = xp.broadcast_to(wo[..., None, :], (*batch, samples, 3))
         u_b = xp.broadcast_to(u, (*batch, samples, 3))
         s = self.sample(wo_b, u_b)
-        upper = (s.wi[..., 2] > 0)[..., None]
-        w = xp.where(upper, s.weight, xp.zeros_like(s.weight))
+        w = s.weight
+        if hemisphere == "upper":
+            w = xp.where((s.wi[..., 2] > 0)[..., None], w, xp.zeros_like(w))
         mean = xp.mean(w, axis=-2)
         var = xp.mean(w * w, axis=-2) - mean * mean
         stderr = xp.sqrt(xp.maximum(var, xp.zeros_like(var)) / samples)
@@ -442,12 +473,14 @@ class Scaled(BRDF):
 
 __all__ = [
     "BRDF",
+    "HEMISPHERES",
     "MODELS",
     "Sample",
     "Scaled",
     "Sum",
     "broadcast_channels",
     "channel_count",
+    "check_hemisphere",
     "check_param",
     "param",
     "register",
