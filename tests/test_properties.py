@@ -231,3 +231,38 @@ def test_original_phong_is_reported_not_reciprocal_as_it_claims():
     report = check(MODELS["phong"](n=20))
     assert report["reciprocity"].verdict == "not reciprocal (as it claims)"
     assert report.consistent
+
+
+# --------------------------------------------------------------------------- transmission
+def test_albedo_estimate_both_hemispheres_adds_the_transmittance():
+    from brdfkit.brdf import RoughDielectric, SmoothDielectric
+    from brdfkit.fresnel import fresnel_dielectric
+
+    wo = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8]])
+    f = fresnel_dielectric(wo[:, 2], 1.5)[:, None]
+    for mode, scale in (("radiance", 1 / 1.5**2), ("importance", 1.0)):
+        upper, _ = SmoothDielectric(1.5, mode=mode).albedo_estimate(wo)
+        both, _ = SmoothDielectric(1.5, mode=mode).albedo_estimate(wo, hemisphere="both")
+        np.testing.assert_allclose(upper, f, rtol=1e-14)
+        np.testing.assert_allclose(both, f + (1 - f) * scale, rtol=1e-14)
+    # A nearly smooth rough dielectric in importance mode transmits almost all of 1 − F.
+    rough = RoughDielectric(alpha=0.01, mode="importance")
+    upper, _ = rough.albedo_estimate(wo, samples=1 << 14)
+    both, stderr = rough.albedo_estimate(wo, samples=1 << 14, hemisphere="both")
+    np.testing.assert_allclose(upper, f, rtol=2e-2)
+    assert np.all(np.abs(both - 1) < 3e-3 + 4 * stderr)
+    with pytest.raises(ValueError, match="hemisphere must be one of"):
+        rough.albedo_estimate(wo, hemisphere="lower")
+
+
+def test_energy_of_a_bsdf_is_checked_on_reflectance_plus_transmittance():
+    from brdfkit.brdf import RoughDielectric
+
+    glass = RoughDielectric(alpha=0.3)  # radiance mode: checked in importance (flux) mode
+    result = check_energy(glass, n_wo=4, samples=4096)
+    assert result.passed and 0.9 < result.value <= 1.0 + 1e-3
+    assert "transmittance" in result.detail
+    # 1.2 × glass reflects only ~6 %, but its total is ~1.2: the check must see that.
+    brighter = 1.2 * glass
+    assert float(np.max(brighter.albedo(np.array([[0.0, 0.0, 1.0]])))) < 0.1
+    assert not check_energy(brighter, n_wo=4, samples=4096).passed

@@ -37,6 +37,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -45,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import Array, to_numpy
-from brdfkit.brdf.base import BRDF, Sample
+from brdfkit.brdf.base import BRDF, Sample, Scaled, Sum
 from brdfkit.brdf.microfacet import MicrofacetDistribution
 from brdfkit.geometry import cartesian_to_spherical, spherical_to_cartesian
 from brdfkit.sampling import square_to_uniform_hemisphere, square_to_uniform_sphere
@@ -316,7 +317,11 @@ def check_energy(
 
     ρ(ωo) is estimated by :meth:`BRDF.albedo_estimate` (exact where a model knows its closed
     form) at ``n_wo`` view directions with θo evenly spread over [0°, 89°] and azimuths on a
-    golden-angle spiral (so anisotropic models are probed too). The check fails only on a
+    golden-angle spiral (so anisotropic models are probed too). For a BSDF that transmits
+    (``brdf.transmits``) ρ is the total, reflectance plus transmittance
+    (``hemisphere="both"``), measured in importance (flux) mode: in radiance mode a refracted
+    sample carries the factor η², a change of solid angle, not of energy (Veach 1997 §5.2),
+    so lobes with a ``mode`` parameter are switched to ``"importance"``. The check fails only on a
     significant violation: it passes iff
     :math:`\max_{\theta_o, c} (\hat\rho - z\,\hat\sigma) \le 1 + \text{tolerance}`,
     with :math:`\hat\sigma` the Monte Carlo standard error. The reported value is the largest
@@ -326,11 +331,19 @@ def check_energy(
     ----------
     .. [1] F. E. Nicodemus et al., NBS Monograph 160, 1977.
     .. [2] R. R. Lewis, "Making shaders more physically plausible", CGF 13(2), 1994.
+    .. [3] E. Veach, PhD thesis, Stanford, 1997, §5.2 (non-symmetric scattering at refraction).
     """
     theta_o = np.linspace(0.0, math.radians(89.0), n_wo)
     phi_o = np.arange(n_wo) * math.pi * (3.0 - math.sqrt(5.0))
     wo = spherical_to_cartesian(theta_o, phi_o)
-    mean, stderr = brdf.albedo_estimate(wo, samples=samples, seed=seed)
+    if brdf.transmits:
+        measured = "reflectance + transmittance (importance mode)"
+        mean, stderr = _importance_mode(brdf).albedo_estimate(
+            wo, samples=samples, seed=seed, hemisphere="both"
+        )
+    else:
+        measured = "albedo"
+        mean, stderr = brdf.albedo_estimate(wo, samples=samples, seed=seed)
     mean = to_numpy(mean).astype(np.float64)
     stderr = to_numpy(stderr).astype(np.float64)
     lower = mean - z * stderr
@@ -338,11 +351,28 @@ def check_energy(
     value = float(mean[k, c])
     passed = bool(np.all(np.isfinite(mean))) and float(np.max(lower)) <= 1.0 + tolerance
     detail = (
-        f"max albedo {value:.4f} ± {stderr[k, c]:.1e} (1σ) at θo = {math.degrees(theta_o[k]):.1f}°"
+        f"max {measured} {value:.4f} ± {stderr[k, c]:.1e} (1σ) at θo = "
+        f"{math.degrees(theta_o[k]):.1f}°"
         f" over {n_wo} directions × {samples} samples; fails only above 1 + tolerance by > "
         f"{z:g}σ"
     )
     return CheckResult("energy", passed, value, tolerance, detail, bool(brdf.energy_conserving))
+
+
+def _importance_mode(brdf: BRDF) -> BRDF:
+    """``brdf`` with every lobe that has a transport ``mode`` parameter in ``"importance"`` mode.
+
+    References
+    ----------
+    .. [1] E. Veach, PhD thesis, Stanford, 1997, §5.2.
+    """
+    if isinstance(brdf, Sum):
+        return Sum(tuple(_importance_mode(lobe) for lobe in brdf.lobes))
+    if isinstance(brdf, Scaled):
+        return Scaled(brdf.k, _importance_mode(brdf.inner))
+    if getattr(brdf, "mode", None) == "radiance" and "mode" in brdf.params():
+        return dataclasses.replace(brdf, mode="importance")
+    return brdf
 
 
 def check_sampling(

@@ -11,6 +11,7 @@ from brdfkit.brdf.base import (
     BRDF,
     Sample,
     channel_count,
+    check_hemisphere,
     check_param,
     param,
     register,
@@ -81,8 +82,12 @@ class Lambertian(BRDF):
         pdf = xp.where(ok[..., 0], pdf, xp.zeros_like(pdf))
         return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
 
-    def albedo_estimate(self, wo: Array, samples: int = 0, seed: int = 0) -> tuple[Array, Array]:
-        """Exact: ρ(wo) = ρ for wo above the surface, with zero error."""
+    def albedo_estimate(
+        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
+    ) -> tuple[Array, Array]:
+        """Exact: ρ(wo) = ρ for wo above the surface, with zero error (nothing is transmitted,
+        so either ``hemisphere`` gives the same)."""
+        check_hemisphere(hemisphere)
         xp = namespace(wo)
         rho = param(self.rho, wo)
         value = xp.broadcast_to(rho, (*wo.shape[:-1], rho.shape[-1]))

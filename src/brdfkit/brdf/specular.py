@@ -38,6 +38,7 @@ from brdfkit.brdf.base import (
     BRDF,
     Sample,
     channel_count,
+    check_hemisphere,
     check_param,
     param,
     register,
@@ -132,8 +133,12 @@ class _DeltaReflection(BRDF):
         pdf = xp.zeros(batch, dtype=wi.dtype)
         return Sample(wi, weight, pdf, xp.ones(batch, dtype=xp.bool))
 
-    def albedo_estimate(self, wo: Array, samples: int = 0, seed: int = 0) -> tuple[Array, Array]:
-        """Exact: ρ(ωo) = R·F(cos θo) above the surface, with zero error."""
+    def albedo_estimate(
+        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
+    ) -> tuple[Array, Array]:
+        """Exact: ρ(ωo) = R·F(cos θo) above the surface, with zero error (nothing is
+        transmitted, so either ``hemisphere`` gives the same)."""
+        check_hemisphere(hemisphere)
         xp = namespace(wo)
         value = self._reflectance(wo)
         return value, xp.zeros_like(value)
@@ -306,15 +311,29 @@ class SmoothDielectric(BRDF):
         reflect = (u[..., 0:1] < f) | (f >= 1)  # total internal reflection whatever u
         refracted = xp.concat([-eta_ti * wo[..., 0:1], -eta_ti * wo[..., 1:2], cos_t], axis=-1)
         wi = xp.where(reflect, _mirror(wo), refracted)
-        scale = eta_ti * eta_ti if self.mode == "radiance" else xp.ones_like(eta_ti)
+        scale = self._transmission_scale(eta_ti)
         weight = xp.where(reflect, xp.ones_like(scale), scale)
         weight = xp.where(cos_o != 0, weight, xp.zeros_like(weight))
         return Sample(wi, weight, xp.zeros(batch, dtype=wi.dtype), xp.ones(batch, dtype=xp.bool))
 
-    def albedo_estimate(self, wo: Array, samples: int = 0, seed: int = 0) -> tuple[Array, Array]:
-        """Exact: the reflectance back into ωo's hemisphere, F(|cos θo|; η) (1 under TIR)."""
+    def _transmission_scale(self, eta_ti: Array) -> Array:
+        """Weight of a refracted sample: η_ti² in radiance mode (solid angle compressed), or 1."""
+        return eta_ti * eta_ti if self.mode == "radiance" else namespace(eta_ti).ones_like(eta_ti)
+
+    def albedo_estimate(
+        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
+    ) -> tuple[Array, Array]:
+        r"""Exact, with zero error: the reflectance back into ωo's hemisphere, F(|cos θo|; η)
+        (1 under TIR); with ``hemisphere="both"`` plus the transmitted part,
+        :math:`F + (1 - F)\,s` with :math:`s = \eta_{ti}^2` in radiance mode, 1 in importance
+        mode (the sample weights).
+        """
+        check_hemisphere(hemisphere)
         xp = namespace(wo)
-        value = fresnel(wo[..., 2:3], param(self.eta, wo))[0]
+        f, _, _, eta_ti = fresnel(wo[..., 2:3], param(self.eta, wo))
+        value = f
+        if hemisphere == "both":
+            value = f + (1 - f) * self._transmission_scale(eta_ti)
         value = xp.where(wo[..., 2:3] != 0, value, xp.zeros_like(value))
         return value, xp.zeros_like(value)
 
