@@ -252,20 +252,9 @@ def sphere_gallery(
 
 def save(fig: Figure, path, dpi: int = 110) -> None:
     """Save ``fig`` to ``path`` (PNG/SVG/PDF by extension), atomically."""
-    import os
-    import tempfile
-    from pathlib import Path
+    from brdfkit.io import atomic_write
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
 
 
 __all__ = [

@@ -312,10 +312,8 @@ def build_atlas(
     progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path."""
-    import os
-    import tempfile
-
     from brdfkit.data import default_envmap_path
+    from brdfkit.io import atomic_write
     from brdfkit.lights import EnvironmentMap
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
@@ -334,13 +332,8 @@ def build_atlas(
                 run_checks=run_checks,
             )
         )
-    output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".html", dir=output.parent)
-    with os.fdopen(fd, "w", encoding="utf-8") as handle:
-        handle.write(atlas_html(cards, envmap_path.name))
-    os.replace(tmp, output)
-    return output
+    page = atlas_html(cards, envmap_path.name)
+    return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
 
 
 __all__ = [
