@@ -1,0 +1,122 @@
+"""Error measures for estimated normals and depths.
+
+The angular error is computed as the DiLiGenT benchmark does it: for unit normals ``n`` and
+``n_gt``, ``angle = degrees(arccos(clip(n . n_gt, -1, 1)))`` at every mask pixel, summarised by
+its mean and median over the mask.
+
+References
+----------
+.. [1] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
+   for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:
+    """A boolean mask of ``shape`` with at least one pixel (all pixels when ``None``)."""
+    if mask is None:
+        return np.ones(shape, dtype=bool)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != shape:
+        raise ValueError(f"mask must have shape {shape}, got shape {mask.shape}")
+    if not mask.any():
+        raise ValueError("mask has no pixels set: the error is undefined")
+    return mask
+
+
+def angular_error_map(
+    normals: ArrayLike, normals_gt: ArrayLike, mask: ArrayLike | None = None
+) -> np.ndarray:
+    """Per-pixel angle between two normal maps, in degrees; NaN outside ``mask``.
+
+    ``angle = degrees(arccos(clip(n . n_gt, -1, 1)))``; both maps are normalised to unit length
+    first (a no-op for unit normals), a zero normal counting as 90° off.
+
+    Parameters
+    ----------
+    normals, normals_gt : (H, W, 3) normal maps in the same frame.
+    mask : (H, W) bool; all pixels when omitted.
+
+    References
+    ----------
+    B. Shi et al., IEEE TPAMI 41(2), 2019 (the DiLiGenT evaluation code).
+    """
+    normals = np.asarray(normals, dtype=np.float64)
+    normals_gt = np.asarray(normals_gt, dtype=np.float64)
+    if normals.shape != normals_gt.shape or normals.ndim != 3 or normals.shape[2] != 3:
+        raise ValueError(
+            f"normals and normals_gt must both have shape (H, W, 3), got {normals.shape} and "
+            f"{normals_gt.shape}"
+        )
+    mask = _check_mask(mask, normals.shape[:2])
+
+    def unit(n: np.ndarray) -> np.ndarray:
+        length = np.linalg.norm(n, axis=-1, keepdims=True)
+        return n / np.where(length > 0, length, 1.0)
+
+    cosine = np.clip(np.sum(unit(normals) * unit(normals_gt), axis=-1), -1.0, 1.0)
+    return np.where(mask, np.degrees(np.arccos(cosine)), np.nan)
+
+
+def angular_error(
+    normals: ArrayLike, normals_gt: ArrayLike, mask: ArrayLike | None = None
+) -> dict[str, float]:
+    """Mean and median angular error in degrees over ``mask`` (the DiLiGenT numbers).
+
+    Returns
+    -------
+    ``{"mean": ..., "median": ...}`` of :func:`angular_error_map` over the mask.
+
+    References
+    ----------
+    B. Shi et al., IEEE TPAMI 41(2), 2019.
+    """
+    normals = np.asarray(normals)
+    mask = _check_mask(mask, normals.shape[:2])
+    values = angular_error_map(normals, normals_gt, mask)[mask]
+    return {"mean": float(values.mean()), "median": float(np.median(values))}
+
+
+def depth_error(
+    depth: ArrayLike, depth_gt: ArrayLike, mask: ArrayLike | None = None
+) -> dict[str, float]:
+    """Depth error after the best scale and offset: ``min_{a, c} ||a z + c - z_gt||`` on the mask.
+
+    Normal integration recovers depth up to an offset (orthographic) or a scale (perspective),
+    so both are fitted by linear least squares over the mask before comparing.
+
+    Returns
+    -------
+    ``{"rmse": ..., "relative_rmse": ..., "scale": a, "offset": c}`` with ``relative_rmse`` the
+    RMSE divided by the range ``max - min`` of ``depth_gt`` over the mask.
+
+    References
+    ----------
+    Y. Quéau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", J. Math. Imaging Vis. 60,
+    576-593, 2018 (evaluation up to the integration constant).
+    """
+    depth = np.asarray(depth, dtype=np.float64)
+    depth_gt = np.asarray(depth_gt, dtype=np.float64)
+    if depth.shape != depth_gt.shape or depth.ndim != 2:
+        raise ValueError(
+            f"depth and depth_gt must both have shape (H, W), got {depth.shape} and "
+            f"{depth_gt.shape}"
+        )
+    mask = _check_mask(mask, depth.shape)
+    z, z_gt = depth[mask], depth_gt[mask]
+    if not (np.all(np.isfinite(z)) and np.all(np.isfinite(z_gt))):
+        raise ValueError("depth and depth_gt must be finite inside the mask")
+    design = np.stack([z, np.ones_like(z)], axis=1)
+    (scale, offset), *_ = np.linalg.lstsq(design, z_gt, rcond=None)
+    rmse = float(np.sqrt(np.mean((scale * z + offset - z_gt) ** 2)))
+    span = float(z_gt.max() - z_gt.min())
+    return {
+        "rmse": rmse,
+        "relative_rmse": rmse / span if span > 0 else float("nan"),
+        "scale": float(scale),
+        "offset": float(offset),
+    }

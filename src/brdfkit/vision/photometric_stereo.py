@@ -1,0 +1,450 @@
+"""Photometric stereo: surface normals and albedo from images under known (or unknown) lights.
+
+Image formation (Lambertian, distant light ``l_k``, unit normal ``n``, albedo ``rho``)::
+
+    I_k = rho * max(0, l_k . n) = l_k . b,   b = rho * n        (where lit)
+
+Stacking ``N >= 3`` lights gives, for every pixel, the linear system ``I = L b`` with
+``L`` the ``(N, 3)`` matrix of light directions. Every method here works on all the pixels of the
+mask at once: the images become an ``(N, P)`` matrix and the per-pixel solves are batched matrix
+products, never Python loops over pixels.
+
+Frame: x right, y up, z towards the camera (see :mod:`brdfkit.vision`). Colour images are
+reduced to their channel mean to estimate the normals; the albedo keeps one value per channel.
+
+References
+----------
+.. [1] R. J. Woodham, "Photometric method for determining surface orientation from multiple
+   images", Optical Engineering 19(1), 139-144, 1980.
+.. [2] S. Ikehata, D. Wipf, Y. Matsushita, K. Aizawa, "Robust photometric stereo using sparse
+   regression", CVPR 2012.
+.. [3] L. Wu, A. Ganesh, B. Shi, Y. Matsushita, Y. Wang, Y. Ma, "Robust photometric stereo via
+   low-rank matrix completion and recovery", ACCV 2010.
+.. [4] H. Hayakawa, "Photometric stereo under a light source with arbitrary motion", JOSA A
+   11(11), 3079-3089, 1994.
+.. [5] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
+   for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+Callback = Callable[[int, int], None]
+"""Progress callback ``callback(iteration, max_iterations)`` of the iterative solvers."""
+
+
+@dataclass(frozen=True)
+class PhotometricStereoResult:
+    """Output of a photometric-stereo method.
+
+    Attributes
+    ----------
+    normals : (H, W, 3) unit normals in the camera frame (x right, y up, z towards the camera);
+        zero outside ``mask``.
+    albedo : (H, W, C) albedo per channel (``|b|`` times the pixel's chromaticity); zero outside.
+    mask : (H, W) bool, the pixels that were solved.
+    """
+
+    normals: np.ndarray
+    albedo: np.ndarray
+    mask: np.ndarray
+
+
+def _prepare(
+    images: ArrayLike, light_directions: ArrayLike, mask: ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate inputs; return observations ``(N, P, C)``, unit lights ``(N, 3)`` and the mask."""
+    images = np.asarray(images)
+    if images.ndim not in (3, 4):
+        raise ValueError(
+            f"images must have shape (N, H, W) or (N, H, W, C), got shape {images.shape}"
+        )
+    if images.ndim == 3:
+        images = images[..., None]
+    n_lights, height, width = images.shape[:3]
+    if n_lights < 3:
+        raise ValueError(f"photometric stereo needs at least 3 lights, got {n_lights} images")
+    lights = np.asarray(light_directions, dtype=np.float64)
+    if lights.shape != (n_lights, 3):
+        raise ValueError(
+            f"light_directions must have shape ({n_lights}, 3) to match {n_lights} images, "
+            f"got shape {lights.shape}"
+        )
+    length = np.linalg.norm(lights, axis=1)
+    if not np.all(np.isfinite(length)) or np.any(length == 0):
+        raise ValueError("light_directions must be finite and non-zero, got " + repr(lights))
+    if mask is None:
+        mask = np.ones((height, width), dtype=bool)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (height, width):
+        raise ValueError(f"mask must have shape {(height, width)}, got shape {mask.shape}")
+    if not mask.any():
+        raise ValueError("mask has no pixels set: nothing to solve")
+    observations = images[:, mask, :].astype(np.float64)
+    if not np.all(np.isfinite(observations)):
+        raise ValueError("images contain non-finite values inside the mask")
+    return observations, lights / length[:, None], mask
+
+
+def _trim_weights(gray: np.ndarray, dark_fraction: float, bright_fraction: float) -> np.ndarray:
+    """Per-pixel 0/1 weights dropping the darkest and brightest observations, ``(N, P)``."""
+    for name, value in (("dark_fraction", dark_fraction), ("bright_fraction", bright_fraction)):
+        if not 0 <= value < 1:
+            raise ValueError(f"{name} must be in [0, 1), got {value}")
+    n_lights = gray.shape[0]
+    n_dark = int(np.floor(dark_fraction * n_lights))
+    n_bright = int(np.floor(bright_fraction * n_lights))
+    if n_lights - n_dark - n_bright < 3:
+        raise ValueError(
+            f"dark_fraction={dark_fraction} and bright_fraction={bright_fraction} leave "
+            f"{n_lights - n_dark - n_bright} of {n_lights} observations; at least 3 are needed"
+        )
+    rank = np.argsort(np.argsort(gray, axis=0, kind="stable"), axis=0, kind="stable")
+    return ((rank >= n_dark) & (rank < n_lights - n_bright)).astype(np.float64)
+
+
+def _weighted_least_squares(
+    gray: np.ndarray, lights: np.ndarray, weights: np.ndarray
+) -> np.ndarray:
+    """Per-pixel weighted least squares ``b_p = (L^T W_p L)^{-1} L^T W_p I_p``, ``(3, P)``."""
+    outer = (lights[:, :, None] * lights[:, None, :]).reshape(len(lights), 9)
+    normal_matrix = (weights.T @ outer).reshape(-1, 3, 3)
+    normal_matrix += 1e-12 * np.eye(3)
+    rhs = (weights * gray).T @ lights
+    return np.linalg.solve(normal_matrix, rhs[..., None])[..., 0].T
+
+
+def _result(
+    b: np.ndarray, observations: np.ndarray, mask: np.ndarray, chroma_weights: np.ndarray
+) -> PhotometricStereoResult:
+    """Assemble maps from ``b = rho n`` (3, P); per-channel albedo = ``|b|`` times chromaticity.
+
+    The chromaticity of a pixel is ``sum_k w_k I_kc / sum_k w_k I_k`` with ``I_k`` the channel
+    mean and ``w`` the trimmed weights (shadows and highlights excluded).
+    """
+    height, width = mask.shape
+    channels = observations.shape[2]
+    rho = np.linalg.norm(b, axis=0)
+    normals = np.zeros((height, width, 3))
+    normals[mask] = (b / np.where(rho > 0, rho, 1.0)).T
+    gray_sum = np.einsum("np,np->p", chroma_weights, observations.mean(axis=2))
+    channel_sum = np.einsum("np,npc->pc", chroma_weights, observations)
+    chroma = channel_sum / np.where(gray_sum > 0, gray_sum, 1.0)[:, None]
+    albedo = np.zeros((height, width, channels))
+    albedo[mask] = rho[:, None] * chroma
+    return PhotometricStereoResult(normals=normals, albedo=albedo, mask=mask)
+
+
+def least_squares(
+    images: ArrayLike, light_directions: ArrayLike, mask: ArrayLike | None = None
+) -> PhotometricStereoResult:
+    """Calibrated Lambertian photometric stereo by least squares (Woodham 1980).
+
+    ``b = L^+ I`` for every pixel at once (``L^+`` the pseudo-inverse of the ``(N, 3)`` light
+    matrix), ``n = b / |b|``, ``rho = |b|``. Shadows and highlights bias it: see
+    :func:`trimmed_least_squares`, :func:`sparse_regression` and :func:`robust_pca`.
+
+    Parameters
+    ----------
+    images : (N, H, W) or (N, H, W, C) linear images divided by the light intensities.
+    light_directions : (N, 3) directions towards the lights (normalised here).
+    mask : (H, W) bool, pixels to solve; all pixels when omitted.
+
+    References
+    ----------
+    R. J. Woodham, Optical Engineering 19(1), 139-144, 1980.
+    """
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    gray = observations.mean(axis=2)
+    b = np.linalg.pinv(lights) @ gray
+    return _result(b, observations, mask, _trim_weights(gray, 0.25, 0.1))
+
+
+def trimmed_least_squares(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    dark_fraction: float = 0.25,
+    bright_fraction: float = 0.1,
+) -> PhotometricStereoResult:
+    """Least squares after per-pixel rejection of the darkest and brightest observations.
+
+    At each pixel the ``floor(dark_fraction N)`` darkest observations (likely shadowed) and the
+    ``floor(bright_fraction N)`` brightest (likely specular) are dropped and ``b`` solves the
+    weighted normal equations ``(L^T W L) b = L^T W I`` with ``W`` the 0/1 selection.
+
+    References
+    ----------
+    R. J. Woodham 1980 (the model); the order-statistics rejection of shadows and highlights is
+    the baseline used e.g. by S. Ikehata et al., CVPR 2012, and B. Shi et al., TPAMI 2019.
+    """
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    gray = observations.mean(axis=2)
+    weights = _trim_weights(gray, dark_fraction, bright_fraction)
+    return _result(_weighted_least_squares(gray, lights, weights), observations, mask, weights)
+
+
+def _soft_threshold(x: np.ndarray, tau: float) -> np.ndarray:
+    """Shrinkage ``sign(x) max(|x| - tau, 0)``, the proximal operator of ``tau ||.||_1``."""
+    return np.sign(x) * np.maximum(np.abs(x) - tau, 0.0)
+
+
+def sparse_regression(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    max_iterations: int = 500,
+    tol: float = 1e-6,
+    callback: Callback | None = None,
+) -> PhotometricStereoResult:
+    """Robust photometric stereo by sparse regression, ℓ1 variant (Ikehata et al. 2012).
+
+    Shadows and specularities are a sparse error ``e`` on the Lambertian model::
+
+        min_{b, e} ||e||_1   subject to   I = L b + e,
+
+    solved for all pixels together by the augmented Lagrangian method (ADMM) with increasing
+    penalty ``beta``: ``b = L^+ (I - e + y / beta)``, ``e = shrink(I - L b + y / beta, 1 / beta)``,
+    ``y += beta (I - L b - e)``. Every step is a matrix product shared by all pixels.
+
+    Parameters
+    ----------
+    max_iterations, tol : stop when ``||I - L b - e||_F <= tol ||I||_F`` or after the count.
+    callback : called as ``callback(iteration, max_iterations)`` after each iteration.
+
+    References
+    ----------
+    S. Ikehata, D. Wipf, Y. Matsushita, K. Aizawa, "Robust photometric stereo using sparse
+    regression", CVPR 2012 (the ℓ1 relaxation; their SBL variant is not implemented).
+    """
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    gray = observations.mean(axis=2)
+    pseudo_inverse = np.linalg.pinv(lights)
+    scale = np.linalg.norm(gray)
+    beta = gray.size / (4.0 * np.abs(gray).sum()) if scale > 0 else 1.0
+    error = np.zeros_like(gray)
+    dual = np.zeros_like(gray)
+    b = pseudo_inverse @ gray
+    for iteration in range(max_iterations):
+        b = pseudo_inverse @ (gray - error + dual / beta)
+        residual = gray - lights @ b
+        error = _soft_threshold(residual + dual / beta, 1.0 / beta)
+        gap = residual - error
+        dual += beta * gap
+        beta = min(beta * 1.05, 1e8)
+        if callback is not None:
+            callback(iteration + 1, max_iterations)
+        if np.linalg.norm(gap) <= tol * scale:
+            break
+    weights = _trim_weights(gray, 0.25, 0.1)
+    return _result(b, observations, mask, weights)
+
+
+def _singular_value_threshold(matrix: np.ndarray, tau: float) -> np.ndarray:
+    """``U max(S - tau, 0) V^T`` for a short-and-wide ``(N, P)`` matrix, via its ``N x N`` Gram.
+
+    With ``M M^T = U S^2 U^T`` the shrunk matrix is ``U diag(max(s - tau, 0) / s) U^T M``, which
+    costs two ``N^2 P`` products and one ``N x N`` eigendecomposition instead of a full SVD.
+    """
+    eigenvalues, u = np.linalg.eigh(matrix @ matrix.T)
+    s = np.sqrt(np.maximum(eigenvalues, 0.0))
+    factor = np.where(s > tau, (s - tau) / np.where(s > 0, s, 1.0), 0.0)
+    return (u * factor) @ (u.T @ matrix)
+
+
+def robust_pca(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    lam: float | None = None,
+    shadow_threshold: float = 0.0,
+    max_iterations: int = 200,
+    tol: float = 1e-7,
+    callback: Callback | None = None,
+) -> PhotometricStereoResult:
+    """Robust photometric stereo by low-rank matrix recovery (Wu et al. 2010).
+
+    The ``(N, P)`` observation matrix is split as ``D = A + E``, ``A`` low rank (rank 3 for a
+    Lambertian scene) and ``E`` sparse (highlights, shadows), by the convex program::
+
+        min ||A||_* + lam ||P_Omega(E)||_1   subject to   D = A + E,
+
+    solved with the inexact augmented Lagrange multiplier method of Lin, Chen & Ma; entries
+    outside ``Omega`` (observations below ``shadow_threshold`` times the pixel's brightest, taken
+    as shadows) are free, i.e. completed. The normals are then ``b = L^+ A``.
+
+    Parameters
+    ----------
+    lam : weight of the sparse term; ``1 / sqrt(max(N, P))`` (Candès et al. 2011) by default.
+    shadow_threshold : fraction of a pixel's maximum below which an observation is missing.
+    max_iterations, tol : stop when ``||D - A - E||_F <= tol ||D||_F`` or after the count.
+    callback : called as ``callback(iteration, max_iterations)`` after each iteration.
+
+    References
+    ----------
+    L. Wu, A. Ganesh, B. Shi, Y. Matsushita, Y. Wang, Y. Ma, "Robust photometric stereo via
+    low-rank matrix completion and recovery", ACCV 2010.
+    Z. Lin, M. Chen, Y. Ma, "The augmented Lagrange multiplier method for exact recovery of
+    corrupted low-rank matrices", arXiv:1009.5055, 2010.
+    E. J. Candès, X. Li, Y. Ma, J. Wright, "Robust principal component analysis?", J. ACM 58(3),
+    2011.
+    """
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    if not 0 <= shadow_threshold < 1:
+        raise ValueError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
+    data = observations.mean(axis=2)
+    if lam is None:
+        lam = 1.0 / np.sqrt(max(data.shape))
+    if lam <= 0:
+        raise ValueError(f"lam must be positive, got {lam}")
+    observed = data > shadow_threshold * data.max(axis=0, keepdims=True)
+    data_norm = np.linalg.norm(data)
+    norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
+    if norm_two == 0:
+        raise ValueError("images are all zero inside the mask")
+    dual = data / max(norm_two, np.abs(data).max() / lam)
+    mu = 1.25 / norm_two
+    mu_max = mu * 1e7
+    sparse = np.zeros_like(data)
+    low_rank = data
+    for iteration in range(max_iterations):
+        low_rank = _singular_value_threshold(data - sparse + dual / mu, 1.0 / mu)
+        target = data - low_rank + dual / mu
+        sparse = np.where(observed, _soft_threshold(target, lam / mu), target)
+        gap = data - low_rank - sparse
+        dual += mu * gap
+        mu = min(mu * 1.5, mu_max)
+        if callback is not None:
+            callback(iteration + 1, max_iterations)
+        if np.linalg.norm(gap) <= tol * data_norm:
+            break
+    b = np.linalg.pinv(lights) @ low_rank
+    return _result(b, observations, mask, _trim_weights(data, 0.25, 0.1))
+
+
+METHODS: dict[str, Callable[..., PhotometricStereoResult]] = {
+    "least_squares": least_squares,
+    "trimmed": trimmed_least_squares,
+    "sparse_regression": sparse_regression,
+    "robust_pca": robust_pca,
+}
+"""The calibrated methods by name (the ``--method`` choices of ``brdfkit ps``)."""
+
+
+# ----------------------------------------------------------------------------------------------
+# Light calibration from a mirror sphere
+
+
+def fit_circle(mask: ArrayLike) -> tuple[float, float, float]:
+    """Centre and radius of the disc a sphere's mask covers (orthographic view).
+
+    ``(c_x, c_y) = mean`` of the mask's pixel centres (column, row) and ``r = sqrt(A / pi)`` with
+    ``A`` the mask's area in pixels: moment estimates that use every pixel, not just the
+    boundary, so a ragged hand-drawn edge averages out.
+
+    Returns
+    -------
+    (c_x, c_y, r) : centre column, centre row and radius, in pixels.
+
+    References
+    ----------
+    R. Szeliski, *Computer Vision: Algorithms and Applications*, 2nd ed., 2022, §13.1 (chrome
+    sphere calibration of photometric stereo).
+    """
+    mask = np.asarray(mask, dtype=bool)
+    if mask.ndim != 2:
+        raise ValueError(f"mask must be a 2-D array, got shape {mask.shape}")
+    rows, columns = np.nonzero(mask)
+    if rows.size == 0:
+        raise ValueError("mask has no pixels set: cannot fit a circle")
+    return float(columns.mean()), float(rows.mean()), float(np.sqrt(rows.size / np.pi))
+
+
+def sphere_normals(
+    shape: tuple[int, int], centre: tuple[float, float], radius: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Normals of a sphere seen orthographically, and the disc it covers.
+
+    ``x = (u - c_x) / r``, ``y = -(v - c_y) / r`` (rows go down, y goes up),
+    ``n = (x, y, sqrt(1 - x^2 - y^2))`` inside the disc ``x^2 + y^2 < 1``.
+
+    Returns
+    -------
+    normals : (H, W, 3), zero outside the disc.
+    inside : (H, W) bool.
+
+    References
+    ----------
+    B. K. P. Horn, *Robot Vision*, MIT Press 1986, ch. 10 (the Gaussian sphere).
+    """
+    if not radius > 0:
+        raise ValueError(f"radius must be positive, got {radius}")
+    rows, columns = np.indices(shape, dtype=np.float64)
+    x = (columns - centre[0]) / radius
+    y = -(rows - centre[1]) / radius
+    rho2 = x**2 + y**2
+    inside = rho2 < 1
+    z = np.sqrt(np.clip(1 - rho2, 0, None))
+    normals = np.where(inside[..., None], np.stack([x, y, z], axis=-1), 0.0)
+    return normals, inside
+
+
+def calibrate_lights_chrome_sphere(
+    images: ArrayLike, mask: ArrayLike, *, threshold: float = 0.9
+) -> np.ndarray:
+    """Light directions from the highlights on a mirror (chrome) sphere.
+
+    The sphere's centre and radius come from ``mask`` (:func:`fit_circle`). In each image the
+    highlight is the set of mask pixels at least ``threshold`` times the image's brightest; its
+    intensity-weighted centroid gives the normal ``n`` there (:func:`sphere_normals`), and the
+    light is the mirror reflection of the view direction ``v = (0, 0, 1)`` (orthographic
+    camera) about it: ``l = 2 (n . v) n - v``.
+
+    Parameters
+    ----------
+    images : (N, H, W) or (N, H, W, C) images of the sphere.
+    mask : (H, W) bool, the sphere.
+    threshold : relative brightness that selects the highlight, in (0, 1].
+
+    Returns
+    -------
+    (N, 3) unit light directions (x right, y up, z towards the camera).
+
+    References
+    ----------
+    R. Szeliski, *Computer Vision: Algorithms and Applications*, 2nd ed., 2022, §13.1;
+    W. Zhou, C. Kambhamettu, "Estimation of illuminant direction and intensity of multiple light
+    sources", ECCV 2002.
+    """
+    if not 0 < threshold <= 1:
+        raise ValueError(f"threshold must be in (0, 1], got {threshold}")
+    images = np.asarray(images, dtype=np.float64)
+    if images.ndim == 4:
+        images = images.mean(axis=3)
+    if images.ndim != 3:
+        raise ValueError(f"images must have shape (N, H, W) or (N, H, W, C), got {images.shape}")
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != images.shape[1:]:
+        raise ValueError(f"mask must have shape {images.shape[1:]}, got shape {mask.shape}")
+    c_x, c_y, radius = fit_circle(mask)
+    gray = np.where(mask, images, 0.0)
+    peak = gray.reshape(len(gray), -1).max(axis=1)
+    if np.any(peak <= 0):
+        raise ValueError(f"no highlight on the sphere in image(s) {np.flatnonzero(peak <= 0)}")
+    weight = np.where(gray >= threshold * peak[:, None, None], gray, 0.0)
+    rows, columns = np.indices(mask.shape, dtype=np.float64)
+    total = weight.sum(axis=(1, 2))
+    x = (np.einsum("nhw,hw->n", weight, columns) / total - c_x) / radius
+    y = -(np.einsum("nhw,hw->n", weight, rows) / total - c_y) / radius
+    z = np.sqrt(np.clip(1 - x**2 - y**2, 0, None))
+    normal = np.stack([x, y, z], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return 2 * normal[:, 2:3] * normal - np.array([0.0, 0.0, 1.0])
