@@ -94,3 +94,18 @@ def test_card_has_formula_checks_and_citations(tmp_path):
 def test_atlas_rejects_a_missing_envmap(tmp_path):
     result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path), "--envmap", "nope.hdr"])
     assert result.exit_code == 2 and "envmap must be an existing" in result.output
+
+
+def test_atlas_and_plots_take_measured_files(shared_data, tmp_path):
+    from brdfkit.report import default_cards
+
+    rgl = shared_data / "measured" / "rgl" / "acrylic_felt_green_rgb.bsdf"
+    cornell = shared_data / "measured" / "cornell" / "garnet_red.brdf"
+    cards = default_cards([str(rgl), str(cornell)])
+    assert [title for title, _ in cards] == [rgl.name, cornell.name]
+    out = tmp_path / "lobe.png"
+    result = CliRunner().invoke(app, ["plot", "lobe", str(rgl), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_size > 1000
+    result = CliRunner().invoke(app, ["plot", "lobe", str(tmp_path / "none.bsdf"), "-o", str(out)])
+    assert result.exit_code == 2 and "not found" in result.output

@@ -198,10 +198,12 @@ def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str,
     for item in models:
         if isinstance(item, BRDF):
             cards.append((item.to_spec(), [item]))
-        elif Path(item).suffix.lower() in (".binary", ".bsdf", ".brdf") and Path(item).exists():
+        elif Path(item).suffix.lower() in (".binary", ".bsdf", ".brdf"):
             from brdfkit import measured
 
-            cards.append((Path(item).name, [measured.load(item)]))
+            if not Path(item).is_file():
+                raise FileNotFoundError(f"measured BRDF file not found: {item}")
+            cards.append((Path(item).name, [measured.read(item)]))
         else:
             model = parse(item)
             cards.append((item, [model]))

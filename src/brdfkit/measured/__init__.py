@@ -9,9 +9,13 @@ parser. They sample the cosine-weighted hemisphere (no analytic sampler exists f
 - :func:`read_rgl` — RGL ``.bsdf`` tensor files (Dupuy & Jakob 2018), evaluated as Mitsuba 3's
   ``measured`` plugin does.
 - :func:`read_cornell` — Cornell ``.brdf`` spectral samples, converted to linear sRGB.
+- :func:`read` — any of the three, chosen by the file's extension.
 - :class:`TabulatedBRDF` — a regular half/difference grid (isotropic 3-D or anisotropic 4-D),
   from any BRDF or from scattered samples (:class:`MeasuredSamples`).
 """
+
+import os
+from pathlib import Path
 
 from brdfkit.measured.cornell import read_cornell, read_cornell_samples
 from brdfkit.measured.merl import MERL_SCALE, MERL_SHAPE, merl_values, read_merl, write_merl
@@ -25,16 +29,38 @@ from brdfkit.measured.tabulated import (
     spectrum_to_rgb_matrix,
 )
 
+READERS = {".binary": read_merl, ".bsdf": read_rgl, ".brdf": read_cornell}
+"""The reader of each measured-BRDF file extension."""
+
+
+def read(path: str | os.PathLike) -> TabulatedBRDF | RGLBRDF:
+    """Read a MERL ``.binary``, RGL ``.bsdf`` or Cornell ``.brdf`` file by its extension.
+
+    Raises
+    ------
+    ValueError
+        For another extension, listing the known ones.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in READERS:
+        raise ValueError(
+            f"path must end in one of {', '.join(READERS)} (a measured BRDF); got {str(path)!r}"
+        )
+    return READERS[suffix](path)
+
+
 __all__ = [
     "INTERPOLATIONS",
     "MERL_SCALE",
     "MERL_SHAPE",
+    "READERS",
     "RGLBRDF",
     "CosineSampled",
     "MeasuredSamples",
     "TabulatedBRDF",
     "lookup",
     "merl_values",
+    "read",
     "read_cornell",
     "read_cornell_samples",
     "read_merl",
