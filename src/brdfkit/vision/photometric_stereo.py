@@ -265,7 +265,7 @@ def robust_pca(
     mask: ArrayLike | None = None,
     *,
     lam: float | None = None,
-    shadow_threshold: float = 0.0,
+    shadow_threshold: float = 0.02,
     max_iterations: int = 200,
     tol: float = 1e-7,
     callback: Callback | None = None,
@@ -284,7 +284,8 @@ def robust_pca(
     Parameters
     ----------
     lam : weight of the sparse term; ``1 / sqrt(max(N, P))`` (Candès et al. 2011) by default.
-    shadow_threshold : fraction of a pixel's maximum below which an observation is missing.
+    shadow_threshold : fraction of a pixel's maximum below which an observation is missing
+        (a shadow, completed rather than fitted, as Wu et al. do); 0 keeps every observation.
     max_iterations, tol : stop when ``||D - A - E||_F <= tol ||D||_F`` or after the count.
     callback : called as ``callback(iteration, max_iterations)`` after each iteration.
 
@@ -403,8 +404,10 @@ def calibrate_lights_chrome_sphere(
     """Light directions from the highlights on a mirror (chrome) sphere.
 
     The sphere's centre and radius come from ``mask`` (:func:`fit_circle`). In each image the
-    highlight is the set of mask pixels at least ``threshold`` times the image's brightest; its
-    intensity-weighted centroid gives the normal ``n`` there (:func:`sphere_normals`), and the
+    highlight is the set of mask pixels at least ``threshold`` times the image's brightest; the
+    intensity-weighted mean of their sphere normals (:func:`sphere_normals`), normalised, is the
+    normal ``n`` at the highlight (averaging normals rather than image positions avoids the
+    bias of the foreshortened rim), and the
     light is the mirror reflection of the view direction ``v = (0, 0, 1)`` (orthographic
     camera) about it: ``l = 2 (n . v) n - v``.
 
@@ -440,11 +443,7 @@ def calibrate_lights_chrome_sphere(
     if np.any(peak <= 0):
         raise ValueError(f"no highlight on the sphere in image(s) {np.flatnonzero(peak <= 0)}")
     weight = np.where(gray >= threshold * peak[:, None, None], gray, 0.0)
-    rows, columns = np.indices(mask.shape, dtype=np.float64)
-    total = weight.sum(axis=(1, 2))
-    x = (np.einsum("nhw,hw->n", weight, columns) / total - c_x) / radius
-    y = -(np.einsum("nhw,hw->n", weight, rows) / total - c_y) / radius
-    z = np.sqrt(np.clip(1 - x**2 - y**2, 0, None))
-    normal = np.stack([x, y, z], axis=1)
+    normals, _ = sphere_normals(mask.shape, (c_x, c_y), radius)
+    normal = np.einsum("nhw,hwj->nj", weight, normals)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     return 2 * normal[:, 2:3] * normal - np.array([0.0, 0.0, 1.0])
