@@ -292,7 +292,8 @@ def load_psm(
         return direct if direct.exists() else folder.parent.joinpath(*Path(entry).parts[1:])
 
     images = _stack([resolve(entry) for entry in lines[1:-1]], step, callback)
-    mask = read_mask(resolve(lines[-1]))[::step, ::step]
+    full_mask = read_mask(resolve(lines[-1]))
+    mask = full_mask[::step, ::step]
     if light_directions is None:
         lights = _read_rows(folder.parent / "lights.txt", 3, skip=1)
         source = str(folder.parent / "lights.txt")
@@ -302,9 +303,9 @@ def load_psm(
     if lights.shape != (count, 3):
         raise ValueError(f"{source} must have shape ({count}, 3), got {lights.shape}")
     normals = None
-    if folder.name in PSM_SPHERES:
-        c_x, c_y, radius = fit_circle(mask)
-        normals, _ = sphere_normals(mask.shape, (c_x, c_y), radius)
+    if folder.name in PSM_SPHERES:  # fitted at full resolution, then subsampled like the mask
+        c_x, c_y, radius = fit_circle(full_mask)
+        normals = sphere_normals(full_mask.shape, (c_x, c_y), radius)[0][::step, ::step]
     return PhotometricStereoData(
         images=images,
         light_directions=_unit_rows(lights, source),
