@@ -1,0 +1,156 @@
+"""``brdfkit ps``: photometric stereo on a DiLiGenT or psm folder, then normal integration."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import typer
+
+from brdfkit.cli._app import app, atomic_output, console, fail
+
+if TYPE_CHECKING:
+    import numpy as np
+    import trimesh
+
+_METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
+_INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
+
+
+def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
+    """``value`` when it is one of ``choices``; otherwise exit naming ``option``."""
+    if value not in choices:
+        fail(f"{option} must be one of {', '.join(choices)}; got {value!r}")
+    return value
+
+
+@app.command("ps")
+def ps_command(
+    dataset: Path = typer.Argument(
+        ..., help="A DiLiGenT object folder (filenames.txt, ...) or a psm object folder."
+    ),
+    method: str = typer.Option(
+        "sparse_regression", "--method", "-m", help=f"One of: {', '.join(_METHODS)}."
+    ),
+    chrome: Path | None = typer.Option(
+        None, "--chrome", help="psm chrome-sphere folder: calibrate the lights from it."
+    ),
+    integration: str = typer.Option(
+        "least_squares", "--integration", help=f"One of: {', '.join(_INTEGRATORS)}."
+    ),
+    camera: Path | None = typer.Option(
+        None, "--camera", help="K.txt (3x3 intrinsics): perspective integration (least_squares)."
+    ),
+    step: int = typer.Option(1, "--step", min=1, help="Keep every step-th row and column."),
+    output: Path = typer.Option(Path("ps"), "--output", "-o", help="Output folder."),
+) -> None:
+    """Normals, albedo and depth from images under known lights; errors when ground truth exists.
+
+    Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
+    depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);
+    lights.txt holds the light directions used. Frame: x right, y up, z towards the camera.
+    """
+    import numpy as np
+    from rich.progress import Progress
+    from rich.table import Table
+
+    from brdfkit.io import write_image
+    from brdfkit.vision import datasets, photometric_stereo
+    from brdfkit.vision import integration as integrate
+    from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
+
+    _choice(method, _METHODS, "--method")
+    _choice(integration, _INTEGRATORS, "--integration")
+    if camera is not None and integration != "least_squares":
+        fail(f"--camera needs --integration least_squares, got {integration!r}")
+    try:
+        with Progress(console=console, transient=True) as bar:
+            task = bar.add_task("reading images", total=None)
+
+            def advance(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            lights = None
+            if chrome is not None:
+                sphere = datasets.load_psm(chrome, step=step, callback=advance)
+                lights = photometric_stereo.calibrate_lights_chrome_sphere(
+                    sphere.images, sphere.mask
+                )
+            data = datasets.load_dataset(dataset, step=step, callback=advance)
+            if lights is not None:
+                if lights.shape != data.light_directions.shape:
+                    fail(f"--chrome gave {len(lights)} lights, {dataset} has {len(data.images)}")
+                data = datasets.PhotometricStereoData(
+                    data.images, lights, data.mask, data.normals, data.light_intensities, data.name
+                )
+            bar.update(task, description=f"{method}", completed=0, total=None)
+            solver = photometric_stereo.METHODS[method]
+            extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
+            result = solver(data.images, data.light_directions, data.mask, **extra)
+            bar.update(task, description=f"integrating ({integration})", total=None)
+            intrinsics = None
+            if camera is not None:
+                intrinsics = np.loadtxt(camera, ndmin=2) * np.array([[1 / step], [1 / step], [1]])
+            integrator = integrate.METHODS[integration]
+            perspective = () if intrinsics is None else (intrinsics,)
+            depth = integrator(result.normals, data.mask, *perspective)
+    except (ValueError, OSError) as error:
+        fail(str(error))
+    mesh = _mesh(depth, data.mask, intrinsics)
+    table = Table(title=f"{data.name}: {method}, {len(data.images)} lights")
+    table.add_column("measure")
+    table.add_column("value", justify="right")
+    table.add_row("pixels", f"{int(data.mask.sum())}")
+    errors = None
+    if data.normals is not None:
+        errors = angular_error(result.normals, data.normals, data.mask)
+        table.add_row("mean angular error (°)", f"{errors['mean']:.2f}")
+        table.add_row("median angular error (°)", f"{errors['median']:.2f}")
+        error_map = angular_error_map(result.normals, data.normals, data.mask)
+        truth_depth = integrator(data.normals, data.mask, *perspective)
+        relative = depth_error(depth, truth_depth, data.mask)["relative_rmse"]
+        table.add_row("depth RMSE vs GT-normal depth", f"{100 * relative:.2f} % of range")
+    with atomic_output(output) as folder:
+        folder.mkdir()
+        datasets.write_normal_map(folder / "normals.png", result.normals)
+        np.save(folder / "normals.npy", result.normals)
+        np.save(folder / "albedo.npy", result.albedo)
+        scale = np.percentile(result.albedo[data.mask], 99) or 1.0
+        write_image(folder / "albedo.png", (result.albedo / scale).clip(0, 1).astype(np.float32))
+        np.save(folder / "depth.npy", depth)
+        np.savetxt(folder / "lights.txt", data.light_directions, fmt="%.8f")
+        mesh.export(folder / "mesh.ply")
+        if errors is not None:
+            np.save(folder / "angular_error.npy", error_map)
+            shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
+            write_image(folder / "angular_error.png", shown, srgb=False)
+    console.print(table)
+    console.print(f"wrote {output}/")
+
+
+def _mesh(depth: np.ndarray, mask: np.ndarray, camera: np.ndarray | None) -> trimesh.Trimesh:
+    """A triangle mesh of the depth map: one vertex per mask pixel, two triangles per 2x2 block.
+
+    Vertices in the camera frame (x right, y up, z towards the camera): orthographic
+    ``(u, -v, -depth)`` in pixel units; perspective ``depth K^-1 (u, v, 1)`` with y and z
+    flipped from OpenCV's frame. Triangles wind counter-clockwise seen from the camera.
+    """
+    import numpy as np
+    import trimesh
+
+    rows, columns = np.nonzero(mask)
+    z = depth[mask]
+    if camera is None:
+        vertices = np.stack([columns, -rows, -z], axis=1).astype(np.float64)
+    else:
+        rays = np.stack([columns, rows, np.ones_like(columns)], axis=1) @ np.linalg.inv(camera).T
+        vertices = rays * z[:, None] * np.array([1.0, -1.0, -1.0])
+    index = np.full(mask.shape, -1)
+    index[mask] = np.arange(len(z))
+    a, b = index[:-1, :-1], index[:-1, 1:]  # top left, top right
+    c, d = index[1:, :-1], index[1:, 1:]  # bottom left, bottom right
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    faces = np.concatenate(
+        [np.stack([a[full], c[full], b[full]], 1), np.stack([b[full], c[full], d[full]], 1)]
+    )
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
