@@ -85,8 +85,12 @@ def _prepare(
         raise ValueError(f"mask must have shape {(height, width)}, got shape {mask.shape}")
     if not mask.any():
         raise ValueError("mask has no pixels set: nothing to solve")
-    observations = images[:, mask, :].astype(np.float64)
-    if not np.all(np.isfinite(observations)):
+    flat = images.reshape(n_lights, height * width, images.shape[3])
+    # take() keeps the (N, P, C) memory order that boolean indexing on axis 1 would transpose.
+    observations = (flat if mask.all() else np.take(flat, np.flatnonzero(mask), axis=1)).astype(
+        np.float64
+    )
+    if not np.isfinite(observations.sum()):  # a NaN or infinity anywhere makes the sum one
         raise ValueError("images contain non-finite values inside the mask")
     return observations, lights / length[:, None], mask
 
@@ -104,8 +108,16 @@ def _trim_weights(gray: np.ndarray, dark_fraction: float, bright_fraction: float
             f"dark_fraction={dark_fraction} and bright_fraction={bright_fraction} leave "
             f"{n_lights - n_dark - n_bright} of {n_lights} observations; at least 3 are needed"
         )
-    rank = np.argsort(np.argsort(gray, axis=0, kind="stable"), axis=0, kind="stable")
-    return ((rank >= n_dark) & (rank < n_lights - n_bright)).astype(np.float64)
+    order = np.argsort(gray.T, axis=1)  # (P, N): sorting along contiguous rows is fast
+    weights = np.zeros(order.shape)
+    np.put_along_axis(weights, order[:, n_dark : n_lights - n_bright], 1.0, axis=1)
+    return weights.T
+
+
+def _gray(observations: np.ndarray) -> np.ndarray:
+    """Channel mean ``(N, P)`` of ``(N, P, C)`` observations (a matrix-vector product)."""
+    channels = observations.shape[2]
+    return observations @ np.full(channels, 1.0 / channels)
 
 
 def _weighted_least_squares(
@@ -120,20 +132,28 @@ def _weighted_least_squares(
 
 
 def _result(
-    b: np.ndarray, observations: np.ndarray, mask: np.ndarray, chroma_weights: np.ndarray
+    b: np.ndarray,
+    observations: np.ndarray,
+    mask: np.ndarray,
+    chroma_weights: np.ndarray | None,
 ) -> PhotometricStereoResult:
     """Assemble maps from ``b = rho n`` (3, P); per-channel albedo = ``|b|`` times chromaticity.
 
     The chromaticity of a pixel is ``sum_k w_k I_kc / sum_k w_k I_k`` with ``I_k`` the channel
-    mean and ``w`` the trimmed weights (shadows and highlights excluded).
+    mean and ``w`` the trimmed weights (shadows and highlights excluded), or all ones when
+    ``chroma_weights`` is ``None``.
     """
     height, width = mask.shape
     channels = observations.shape[2]
     rho = np.linalg.norm(b, axis=0)
     normals = np.zeros((height, width, 3))
     normals[mask] = (b / np.where(rho > 0, rho, 1.0)).T
-    gray_sum = np.einsum("np,np->p", chroma_weights, observations.mean(axis=2))
-    channel_sum = np.einsum("np,npc->pc", chroma_weights, observations)
+    if chroma_weights is None:
+        n_lights = len(observations)  # a (N,) x (N, P C) product: BLAS, no copy
+        channel_sum = (np.ones(n_lights) @ observations.reshape(n_lights, -1)).reshape(-1, channels)
+    else:
+        channel_sum = np.einsum("np,npc->pc", chroma_weights, observations)
+    gray_sum = channel_sum.mean(axis=1)
     chroma = channel_sum / np.where(gray_sum > 0, gray_sum, 1.0)[:, None]
     albedo = np.zeros((height, width, channels))
     albedo[mask] = rho[:, None] * chroma
@@ -160,9 +180,8 @@ def least_squares(
     R. J. Woodham, Optical Engineering 19(1), 139-144, 1980.
     """
     observations, lights, mask = _prepare(images, light_directions, mask)
-    gray = observations.mean(axis=2)
-    b = np.linalg.pinv(lights) @ gray
-    return _result(b, observations, mask, _trim_weights(gray, 0.25, 0.1))
+    b = np.linalg.pinv(lights) @ _gray(observations)
+    return _result(b, observations, mask, None)
 
 
 def trimmed_least_squares(
@@ -185,7 +204,7 @@ def trimmed_least_squares(
     the baseline used e.g. by S. Ikehata et al., CVPR 2012, and B. Shi et al., TPAMI 2019.
     """
     observations, lights, mask = _prepare(images, light_directions, mask)
-    gray = observations.mean(axis=2)
+    gray = _gray(observations)
     weights = _trim_weights(gray, dark_fraction, bright_fraction)
     return _result(_weighted_least_squares(gray, lights, weights), observations, mask, weights)
 
@@ -225,7 +244,7 @@ def sparse_regression(
     regression", CVPR 2012 (the ℓ1 relaxation; their SBL variant is not implemented).
     """
     observations, lights, mask = _prepare(images, light_directions, mask)
-    gray = observations.mean(axis=2)
+    gray = _gray(observations)
     pseudo_inverse = np.linalg.pinv(lights)
     scale = np.linalg.norm(gray)
     beta = gray.size / (4.0 * np.abs(gray).sum()) if scale > 0 else 1.0
@@ -301,7 +320,7 @@ def robust_pca(
     observations, lights, mask = _prepare(images, light_directions, mask)
     if not 0 <= shadow_threshold < 1:
         raise ValueError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
-    data = observations.mean(axis=2)
+    data = _gray(observations)
     if lam is None:
         lam = 1.0 / np.sqrt(max(data.shape))
     if lam <= 0:
