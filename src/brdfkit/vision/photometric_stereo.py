@@ -20,9 +20,7 @@ References
    regression", CVPR 2012.
 .. [3] L. Wu, A. Ganesh, B. Shi, Y. Matsushita, Y. Wang, Y. Ma, "Robust photometric stereo via
    low-rank matrix completion and recovery", ACCV 2010.
-.. [4] H. Hayakawa, "Photometric stereo under a light source with arbitrary motion", JOSA A
-   11(11), 3079-3089, 1994.
-.. [5] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
+.. [4] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
    for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019.
 """
 
