@@ -90,8 +90,8 @@ def test_lambertian_diligent_layout_is_exact_for_least_squares(bear):
     lit = data.mask & np.all(data.normals @ data.light_directions.T > 0, axis=-1)
     result = least_squares(data.images, data.light_directions, lit)
     errors = angular_error(result.normals, data.normals, lit)
-    # Exact up to the 16-bit quantisation of the PNGs (measured 0.003°).
-    assert errors["mean"] < 0.02
+    # Exact up to the 16-bit quantisation of the PNGs (measured 1e-4°).
+    assert errors["mean"] < 2e-3
     np.testing.assert_allclose(
         result.albedo[lit], np.broadcast_to([0.7, 0.5, 0.4], (lit.sum(), 3)), rtol=1e-3
     )
