@@ -281,3 +281,15 @@ def test_torch_gradients_flow():
     s = RoughConductor(alpha=alpha).sample(wo[:1].expand(64, 3), u)
     s.weight.sum().backward()
     assert alpha.grad is not None and torch.isfinite(alpha.grad) and alpha.grad != 0
+
+
+def test_slightly_non_unit_directions_do_not_break_the_fresnel_term():
+    """wi·h can exceed 1 for directions unit only to a few 1e-3 (typed-in vectors): F clamps."""
+    from brdfkit.brdf import RoughConductor
+
+    gold = RoughConductor(alpha=0.2, material="Au")
+    wi, wo = np.array([0.3, 0.0, 0.95]), np.array([-0.3, 0.1, 0.95])  # |wo| = 1.00125
+    value = gold.eval(wi, wo)
+    unit = gold.eval(wi / np.linalg.norm(wi), wo / np.linalg.norm(wo))
+    assert np.all(np.isfinite(value)) and np.allclose(value, unit, rtol=0.02)
+    assert np.all(np.isfinite(gold.albedo(wo, samples=256)))

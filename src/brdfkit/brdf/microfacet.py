@@ -745,8 +745,13 @@ class FresnelTerm:
         return channel_count(*used, names=("eta", "k", "f0")[: len(used)])
 
     def __call__(self, cos_theta: Array) -> Array:
-        """F at the cosine(s) ``cos_theta`` of shape ``(..., 1)``; ``(..., C)``."""
+        """F at the cosine(s) ``cos_theta`` of shape ``(..., 1)``; ``(..., C)``.
+
+        The cosine is clamped to [−1, 1] first: ``wi·h`` of directions that are unit only to
+        rounding (or a little off, as user input often is) may exceed 1.
+        """
         xp = namespace(cos_theta)
+        cos_theta = clamp(cos_theta, -1.0, 1.0)
         if self.kind == "none":
             return xp.ones_like(cos_theta)
         if self.kind == "dielectric":
