@@ -140,7 +140,7 @@ def test_environment_map_errors():
 
 
 def test_mirror_ball_round_trip_recovers_the_map():
-    """Render a mirror ball in a known map, convert the photo back, compare away from the blind spot."""
+    """Render a mirror ball in a known map, convert the photo back; compare off the blind spot."""
     from brdfkit.sh import latlong_directions
 
     h, w = 32, 64

@@ -240,7 +240,9 @@ def directional_albedo(brdf: BRDF, wo: Array, **kwargs) -> Estimate:
 
 
 def hemispherical_reflectance(brdf: BRDF, theta_steps: int = 32, **kwargs) -> Array:
-    r"""Bihemispherical reflectance :math:`\rho_{hh} = \frac1\pi\int\rho(\omega_o)\cos\theta_o d\omega_o`.
+    r"""Bihemispherical reflectance, the cosine-weighted mean of the directional albedo.
+
+    :math:`\rho_{hh} = \frac1\pi\int\rho(\omega_o)\cos\theta_o\,d\omega_o`.
 
     For an isotropic BRDF ρ depends on θo only: Gauss–Legendre over θo of
     2 ρ(θo) cos θo sin θo. Keyword arguments go to :func:`directional_albedo`.
