@@ -2,27 +2,22 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-
-
-def data_root() -> Path:
-    """``$BRDFKIT_DATA`` or ``../shared/data`` beside the repository."""
-    return Path(os.environ.get("BRDFKIT_DATA", REPO.parent / "shared" / "data"))
+from brdfkit.io import data_path
 
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
-    """The shared real-data folder; tests that need it skip with the reason when it is absent."""
-    root = data_root()
-    if not root.is_dir():
-        pytest.skip(f"real data not found at {root} (set BRDFKIT_DATA to the shared/data folder)")
-    return root
+    """The shared real-data folder (:func:`brdfkit.io.data_path`: ``$BRDFKIT_DATA`` or
+    ``../shared/data``); tests that need it skip with the reason when it is absent."""
+    try:
+        return data_path()
+    except FileNotFoundError as error:
+        pytest.skip(str(error))
 
 
 def _numpy64(x):
