@@ -24,10 +24,10 @@ from typing import Literal
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, check_vectors, namespace, normalize
+from brdfkit._array import Array, asarray, check_vectors, namespace, normalize, safe_div
 from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
-from brdfkit.lights import Light, UniformSky
+from brdfkit.lights import Light, LightSample, UniformSky
 
 Method = Literal["auto", "quadrature", "brdf", "light", "mis"]
 METHODS = ("auto", "quadrature", "brdf", "light", "mis")
@@ -150,20 +150,28 @@ class _Uniforms:
         return np.remainder(points + shift, 1.0)
 
 
-def _delta(brdf: BRDF, light: Light, point: Array, frame, wo_local: Array) -> Array:
+def _light_term(brdf: BRDF, ls: LightSample, frame, wo_local: Array) -> tuple[Array, Array]:
+    """f(wi, wo)·value·max(cos θi, 0) of a light sample, and wi in the local frame."""
     xp = namespace(wo_local)
-    ls = light.sample(point, None)
     wi_local = to_local(ls.wi, frame)
     cos_theta_i = xp.maximum(wi_local[..., 2], xp.zeros_like(wi_local[..., 2]))
-    return brdf.eval(wi_local, wo_local) * ls.value * cos_theta_i[..., None]
+    return brdf.eval(wi_local, wo_local) * ls.value * cos_theta_i[..., None], wi_local
+
+
+def _delta(brdf: BRDF, light: Light, point: Array, frame, wo_local: Array) -> Array:
+    return _light_term(brdf, light.sample(point, None), frame, wo_local)[0]
+
+
+def _polar_nodes(steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes θ and weights on [0, π/2]."""
+    nodes, weights = np.polynomial.legendre.leggauss(steps)
+    return (nodes + 1) * (math.pi / 4), weights * (math.pi / 4)
 
 
 def _quadrature(brdf, light, point, frame, wo_local, theta_steps: int, phi_steps: int) -> Array:
     """Σ L_i f cosθ sinθ Δθ Δφ over a Gauss–Legendre (θ) × midpoint (φ) grid."""
     xp = namespace(wo_local)
-    nodes, weights = np.polynomial.legendre.leggauss(theta_steps)
-    theta = (nodes + 1) * (math.pi / 4)
-    w_theta = weights * (math.pi / 4)
+    theta, w_theta = _polar_nodes(theta_steps)
     phi = (np.arange(phi_steps) + 0.5) * (2 * math.pi / phi_steps)
     theta_g, phi_g = np.meshgrid(theta, phi, indexing="ij")
     jacobian = (
@@ -177,13 +185,6 @@ def _quadrature(brdf, light, point, frame, wo_local, theta_steps: int, phi_steps
     return xp.sum(f * radiance * jac[:, None], axis=-2)
 
 
-def _ratio(a: Array, b: Array) -> Array:
-    """a / b where b > 0, else 0 (an MIS weight)."""
-    xp = namespace(a, b)
-    ok = b > 0
-    return xp.where(ok, a / xp.where(ok, b, xp.ones_like(b)), xp.zeros_like(a))
-
-
 def _power(p: Array, heuristic: str) -> Array:
     return p * p if heuristic == "power" else p
 
@@ -195,7 +196,6 @@ def _monte_carlo(brdf, light, point, frame, wo_local, samples, strategy, heurist
     point_n = xp.broadcast_to(point[..., None, :], (*batch, samples, 3))
     frame_n = _expand(frame)
     contributions = None
-    zero = xp.zeros((*batch, samples), dtype=wo_local.dtype)
 
     if strategy in ("brdf", "mis"):
         # three uniforms: BSDFs choose reflection or refraction with the third
@@ -208,20 +208,18 @@ def _monte_carlo(brdf, light, point, frame, wo_local, samples, strategy, heurist
         if strategy == "mis":
             p_b = _power(s.pdf, heuristic)
             p_l = _power(light.pdf(point_n, wi_world), heuristic)
-            w = xp.where(s.delta, xp.ones_like(p_b), _ratio(p_b, p_b + p_l))
+            w = xp.where(s.delta, xp.ones_like(p_b), safe_div(p_b, p_b + p_l))
             c = c * w[..., None]
         contributions = c
 
     if strategy in ("light", "mis"):
         u = asarray(rng.draw(batch, samples, 2), xp, like=wo_local)
         ls = light.sample(point_n, u)
-        wi_local = to_local(ls.wi, frame_n)
-        cos_theta_i = xp.maximum(wi_local[..., 2], zero)
-        c = brdf.eval(wi_local, wo_n) * ls.value * cos_theta_i[..., None]
+        c, wi_local = _light_term(brdf, ls, frame_n, wo_n)
         if strategy == "mis":
             p_l = _power(ls.pdf, heuristic)
             p_b = _power(brdf.pdf(wi_local, wo_n), heuristic)
-            c = c * _ratio(p_l, p_b + p_l)[..., None]
+            c = c * safe_div(p_l, p_b + p_l)[..., None]
         # With MIS, the two strategies' per-sample contributions add into one estimator.
         contributions = c if contributions is None else contributions + c
 
@@ -247,12 +245,11 @@ def hemispherical_reflectance(brdf: BRDF, theta_steps: int = 32, **kwargs) -> Ar
     For an isotropic BRDF ρ depends on θo only: Gauss–Legendre over θo of
     2 ρ(θo) cos θo sin θo. Keyword arguments go to :func:`directional_albedo`.
     """
-    nodes, weights = np.polynomial.legendre.leggauss(theta_steps)
-    theta = (nodes + 1) * (math.pi / 4)
+    theta, w_theta = _polar_nodes(theta_steps)
     wo = spherical_to_cartesian(theta, np.zeros_like(theta))
     rho = directional_albedo(brdf, wo, **kwargs).value
     xp = namespace(rho)
-    w = asarray(2 * weights * (math.pi / 4) * np.cos(theta) * np.sin(theta), xp, like=rho)
+    w = asarray(2 * w_theta * np.cos(theta) * np.sin(theta), xp, like=rho)
     return xp.sum(rho * w[:, None], axis=0)
 
 
