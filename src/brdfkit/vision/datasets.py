@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit import io
 from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
 
 PSM_SPHERES = ("chrome", "gray")
@@ -107,38 +108,13 @@ class PhotometricStereoData:
 
 
 def read_image(path: str | Path) -> np.ndarray:
-    """Read an image as linear float32 ``(H, W, C)`` in [0, 1] (integer data / its type's max).
+    """Read an image as float32 ``(H, W, C)`` in [0, 1] without its alpha channel.
 
-    PNG goes through OpenCV, which keeps 16-bit RGB (Pillow, behind imageio, reduces it to 8
-    bits); other formats (TGA, ...) through ``imageio.v3``.
+    :func:`brdfkit.io.read_image` (16-bit PNGs kept at 16 bits, integer codes divided by their
+    type's maximum), then any alpha channel dropped.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"image file {str(path)!r} does not exist")
-    if path.suffix.lower() == ".png":
-        import cv2
-
-        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        if image is None:
-            raise ValueError(f"cannot read image {str(path)!r} (not a valid PNG)")
-        if image.ndim == 3 and image.shape[2] >= 3:  # OpenCV orders colours BGR(A)
-            image = image[..., [2, 1, 0, *range(3, image.shape[2])]]
-    else:
-        import imageio.v3 as iio
-
-        try:
-            image = iio.imread(path)
-        except Exception as error:  # imageio raises many types for unreadable files
-            raise ValueError(f"cannot read image {str(path)!r}: {error}") from error
-    if image.ndim == 2:
-        image = image[..., None]
-    if image.ndim != 3:
-        raise ValueError(f"image {str(path)!r} has unsupported shape {image.shape}")
-    if image.shape[2] in (2, 4):  # drop alpha
-        image = image[..., :-1]
-    if np.issubdtype(image.dtype, np.integer):
-        return (image / np.iinfo(image.dtype).max).astype(np.float32)
-    return image.astype(np.float32)
+    image = io.read_image(path)
+    return image[..., :-1] if image.shape[2] in (2, 4) else image
 
 
 def read_mask(path: str | Path) -> np.ndarray:
