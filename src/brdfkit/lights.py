@@ -106,6 +106,19 @@ def _vector(name: str, value: Any, like: Array) -> Array:
     return asarray(check_vectors(name, asarray(value)), like=like)
 
 
+def _point(name: str, value: Any) -> np.ndarray:
+    """A validated float64 3-vector parameter."""
+    return np.asarray(check_vectors(name, np.asarray(value, dtype=float)))
+
+
+def _unit(name: str, value: Any) -> np.ndarray:
+    """A validated non-zero 3-vector parameter, normalised."""
+    v = _point(name, value)
+    if np.linalg.norm(v) == 0:
+        raise ValueError(f"{name} must be a non-zero vector; got (0, 0, 0)")
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
 # --------------------------------------------------------------------------- delta lights
 @dataclass(frozen=True, eq=False)
 class DirectionalLight(Light):
@@ -122,10 +135,7 @@ class DirectionalLight(Light):
     delta: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        d = np.asarray(check_vectors("direction", np.asarray(self.direction, dtype=float)))
-        if np.linalg.norm(d) == 0:
-            raise ValueError("direction must be a non-zero vector; got (0, 0, 0)")
-        object.__setattr__(self, "direction", d / np.linalg.norm(d, axis=-1, keepdims=True))
+        object.__setattr__(self, "direction", _unit("direction", self.direction))
         check_param("irradiance", self.irradiance, 0.0)
         object.__setattr__(self, "channels", channel_count(self.irradiance, names=("irradiance",)))
 
@@ -158,11 +168,7 @@ class PointLight(Light):
     delta: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self,
-            "position",
-            np.asarray(check_vectors("position", np.asarray(self.position, dtype=float))),
-        )
+        object.__setattr__(self, "position", _point("position", self.position))
         check_param("intensity", self.intensity, 0.0)
         object.__setattr__(self, "channels", channel_count(self.intensity, names=("intensity",)))
 
@@ -211,11 +217,7 @@ class SphereLight(Light):
     radiance: Any = 1.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self,
-            "center",
-            np.asarray(check_vectors("center", np.asarray(self.center, dtype=float))),
-        )
+        object.__setattr__(self, "center", _point("center", self.center))
         check_param("radius", self.radius, 0.0, lo_open=True)
         _check_radiance(self)
 
@@ -319,15 +321,8 @@ class DiskLight(_PlanarLight):
     radiance: Any = 1.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self,
-            "center",
-            np.asarray(check_vectors("center", np.asarray(self.center, dtype=float))),
-        )
-        n = np.asarray(check_vectors("normal", np.asarray(self.normal, dtype=float)))
-        if np.linalg.norm(n) == 0:
-            raise ValueError("normal must be a non-zero vector; got (0, 0, 0)")
-        object.__setattr__(self, "normal", n / np.linalg.norm(n))
+        object.__setattr__(self, "center", _point("center", self.center))
+        object.__setattr__(self, "normal", _unit("normal", self.normal))
         check_param("radius", self.radius, 0.0, lo_open=True)
         _check_radiance(self)
 
@@ -361,11 +356,7 @@ class RectangleLight(_PlanarLight):
 
     def __post_init__(self) -> None:
         for name in ("corner", "edge_u", "edge_v"):
-            object.__setattr__(
-                self,
-                name,
-                np.asarray(check_vectors(name, np.asarray(getattr(self, name), dtype=float))),
-            )
+            object.__setattr__(self, name, _point(name, getattr(self, name)))
         if np.linalg.norm(np.cross(self.edge_u, self.edge_v)) == 0:
             raise ValueError("edge_u and edge_v must span a parallelogram; got parallel edges")
         _check_radiance(self)
