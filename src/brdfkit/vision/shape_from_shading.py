@@ -198,7 +198,8 @@ def shape_from_shading(
         raise ValueError(f"mask must have shape {image.shape}; got shape {mask.shape}")
     if not smoothness >= 0:
         raise ValueError(f"smoothness must be >= 0; got {smoothness!r}")
-    if _operators(mask)[0].shape[0] < 1:
+    operators = _operators(mask)
+    if operators[0].shape[0] < 1:
         raise ValueError("mask must contain at least one 2×2 block of pixels")
     if albedo is None:
         albedo = float(np.percentile(image[mask], 99.9))
@@ -209,7 +210,9 @@ def shape_from_shading(
     z0 = np.asarray(initial_depth, dtype=np.float64)
     if z0.shape != image.shape:
         raise ValueError(f"initial_depth must have shape {image.shape}; got shape {z0.shape}")
-    z, iterations, rms = _solve(image / albedo, mask, light, smoothness, z0, max_iterations)
+    z, iterations, rms = _solve(
+        image / albedo, mask, operators, light, smoothness, z0, max_iterations
+    )
     depth = np.full(image.shape, np.nan)
     depth[mask] = z - z.min()
     return ShapeFromShading(depth, _normals_from_depth(depth, mask), albedo, iterations, rms)
@@ -218,16 +221,18 @@ def shape_from_shading(
 def _solve(
     image: np.ndarray,
     mask: np.ndarray,
+    operators: tuple,
     light: np.ndarray,
     smoothness: float,
     initial_depth: np.ndarray,
     max_iterations: int,
 ) -> tuple[np.ndarray, int, float]:
-    """Minimise Horn's energy on one level: depths of the mask pixels, iterations, RMS."""
+    """Minimise Horn's energy with the :func:`_operators` of ``mask``: depths of the mask pixels,
+    iterations, RMS."""
     from scipy import sparse
     from scipy.optimize import least_squares
 
-    d_x, d_y, average, laplacian = _operators(mask)
+    d_x, d_y, average, laplacian = operators
     brightness = average @ image[mask]
     weight = np.sqrt(smoothness)
 
