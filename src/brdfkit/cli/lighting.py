@@ -64,7 +64,8 @@ def lighting_command(
     if sphere:
         if m is None:
             fail("--sphere needs --mask (the sphere's silhouette)")
-        n, _ = sphere_normals(m.shape, fit_circle(m)[:2], fit_circle(m)[2])
+        c_x, c_y, radius = fit_circle(m)
+        n, _ = sphere_normals(m.shape, (c_x, c_y), radius)
     elif normals is not None:
         n = np.load(normals) if normals.suffix == ".npy" else read_image(normals)[..., :3] * 2 - 1
     else:
