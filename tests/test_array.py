@@ -86,3 +86,15 @@ def test_check_vectors_messages():
         A.check_vectors("wi", np.zeros((4, 2)))
     with pytest.raises(ValueError, match="wo must be finite; got a value of nan"):
         A.check_vectors("wo", np.array([0, np.nan, 1.0]))
+
+
+def test_asarrays_share_the_widest_float_dtype_and_backend():
+    x32 = np.ones(2, dtype=np.float32)
+    a, b = A.asarrays(x32, 0.5)
+    assert a is x32 and b.dtype == np.float32 and float(b) == 0.5
+    assert [v.dtype for v in A.asarrays(x32, np.zeros(2))] == [np.float64, np.float64]
+    assert A.asarrays(1, [2, 3])[1].dtype == np.float64
+    torch = pytest.importorskip("torch")
+    t = torch.ones(2, dtype=torch.float32)
+    c, d = A.asarrays(0.25, t)
+    assert isinstance(c, torch.Tensor) and c.dtype == torch.float32 and d is t

@@ -105,6 +105,18 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
     return xp.asarray(x, dtype=dtype, device=device)
 
 
+def asarrays(*values: Any) -> list[Array]:
+    """``values`` as floating arrays of one namespace, dtype (the widest float input) and device.
+
+    Python scalars and lists take the dtype and device of the array inputs; with none, NumPy's
+    float64.
+    """
+    xp = namespace(*values)
+    dtype = float_dtype(xp, *values)
+    like = next((v for v in values if hasattr(v, "dtype") and namespace(v) is xp), None)
+    return [asarray(v, xp, like=like, dtype=dtype) for v in values]
+
+
 def constant(value: float, like: Array) -> Array:
     """A 0-d array holding ``value`` with the dtype and device of ``like``."""
     xp = namespace(like)

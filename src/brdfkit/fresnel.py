@@ -34,11 +34,10 @@ import numpy as np
 
 from brdfkit._array import (
     Array,
-    asarray,
+    asarrays,
     check_finite,
     check_param,
     clamp,
-    float_dtype,
     namespace,
     safe_div,
     safe_sqrt,
@@ -183,15 +182,6 @@ def rgb_from_spectrum(wavelengths: Any, values: Any) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- validation
-def _inputs(**named: Any) -> list[Array]:
-    """The named arguments as arrays of one namespace, dtype (widest float input) and device."""
-    values = list(named.values())
-    xp = namespace(*values)
-    dtype = float_dtype(xp, *values)
-    like = next((v for v in values if hasattr(v, "dtype") and namespace(v) is xp), None)
-    return [asarray(v, xp, like=like, dtype=dtype) for v in values]
-
-
 def _cosine(cos_theta_i: Array) -> Array:
     """Validate a cosine (a few ulps of slack beyond ±1) and clamp it into [-1, 1]."""
     slack = 4 * float(namespace(cos_theta_i).finfo(cos_theta_i.dtype).eps)
@@ -202,7 +192,7 @@ def _cosine(cos_theta_i: Array) -> Array:
 # --------------------------------------------------------------------------- dielectrics
 def _dielectric(cos_theta_i: Any, eta: Any) -> tuple[Array, Array, Array, Array, Array]:
     """``(Rs, Rp, cos_theta_t, eta_it, eta_ti)`` of a dielectric interface (see :func:`fresnel`)."""
-    cos_theta_i, eta = _inputs(cos_theta_i=cos_theta_i, eta=eta)
+    cos_theta_i, eta = asarrays(cos_theta_i, eta)
     check_param("eta", eta, 0.0, lo_open=True, hint="relative index n_in/n_out")
     cos_theta_i = _cosine(cos_theta_i)
     xp = namespace(cos_theta_i, eta)
@@ -315,7 +305,7 @@ def fresnel_conductor(
     .. [2] K. D. Moeller, *Optics*, University Science Books, 1988.
     .. [3] Mitsuba 3, ``fresnel_conductor`` in ``include/mitsuba/render/fresnel.h``.
     """
-    cos_theta_i, eta, k = _inputs(cos_theta_i=cos_theta_i, eta=eta, k=k)
+    cos_theta_i, eta, k = asarrays(cos_theta_i, eta, k)
     check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
     check_param("k", k, 0.0, hint="extinction coefficient")
     xp = namespace(cos_theta_i, eta, k)
@@ -345,7 +335,7 @@ def f0_from_ior(eta: Any) -> Array:
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., eq. 1.5(24), 1999.
     """
-    (eta,) = _inputs(eta=eta)
+    (eta,) = asarrays(eta)
     check_param("eta", eta, 0.0, lo_open=True, hint="relative index")
     r = (eta - 1) / (eta + 1)
     return r * r
@@ -358,7 +348,7 @@ def f0_from_conductor(eta: Any, k: Any) -> Array:
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., eq. 14.2(26), 1999.
     """
-    eta, k = _inputs(eta=eta, k=k)
+    eta, k = asarrays(eta, k)
     check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
     check_param("k", k, 0.0, hint="extinction coefficient")
     k2 = k * k
@@ -380,7 +370,7 @@ def schlick(cos_theta_i: Any, f0: Any) -> Array:
     .. [2] N. Chapman, "Better approximations to the Fresnel reflectance", 2023,
            https://www.forwardscattering.org/post/65
     """
-    cos_theta_i, f0 = _inputs(cos_theta_i=cos_theta_i, f0=f0)
+    cos_theta_i, f0 = asarrays(cos_theta_i, f0)
     check_param("f0", f0, 0.0, 1.0, hint="reflectance at normal incidence")
     xp = namespace(cos_theta_i, f0)
     m = 1 - xp.abs(_cosine(cos_theta_i))

@@ -26,20 +26,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from brdfkit._array import (
     Array,
     asarray,
+    asarrays,
     check_finite,
     check_param,
     check_vectors,
     clamp,
     cross,
     dot,
-    float_dtype,
     is_abstract,
     namespace,
     norm,
@@ -62,15 +61,6 @@ normal ``dS = ∂x/∂u × ∂x/∂v`` (= n̂·|∂u×∂v|) ``(..., 3)``, for p
 
 
 # --------------------------------------------------------------------------- helpers
-def _common(*values: Any) -> list[Array]:
-    """``values`` as floating arrays of one namespace, dtype and device."""
-    xp = namespace(*values)
-    dtype = float_dtype(xp, *values)
-    first = next((v for v in values if hasattr(v, "shape") and namespace(v) is xp), 0.0)
-    like = asarray(first, xp, dtype=dtype)
-    return [asarray(v, xp, like=like, dtype=dtype) for v in values]
-
-
 def _vectors(**named: Array) -> list[Array]:
     """Each keyword's array checked by :func:`check_vectors` (last axis 3, finite)."""
     return [check_vectors(name, v) for name, v in named.items()]
@@ -154,7 +144,7 @@ def solid_angle_patch(center: Array, normal: Array, area: Array | float, point: 
     .. [1] CMU 16-385 lecture 14, "Solid angle": :math:`d\omega = dA\cos\theta/r^2`.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.2.3.
     """
-    center, normal, area, point = _common(center, normal, area, point)
+    center, normal, area, point = asarrays(center, normal, area, point)
     center, normal, point = _vectors(center=center, normal=normal, point=point)
     check_param("area", area, 0.0, lo_open=True)
     length = norm(normal)
@@ -236,7 +226,7 @@ def solid_angle_triangle(
     .. [1] A. van Oosterom and J. Strackee, IEEE Trans. Biomed. Eng. 30(2):125–126, 1983.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §6.5.4.
     """
-    a, b, c, point = _common(a, b, c, point)
+    a, b, c, point = asarrays(a, b, c, point)
     a, b, c, point = _vectors(a=a, b=b, c=c, point=point)
     xp = namespace(a, point)
     _check_off_polygon("triangle", xp.stack(xp.broadcast_arrays(a, b, c), axis=-2), point)
@@ -266,7 +256,7 @@ def solid_angle_polygon(vertices: Array, point: Array, *, signed: bool = False) 
     ----------
     .. [1] A. van Oosterom and J. Strackee, IEEE Trans. Biomed. Eng. 30(2):125–126, 1983.
     """
-    vertices, point = _common(vertices, point)
+    vertices, point = asarrays(vertices, point)
     point = check_vectors("point", point)
     vertices = check_vectors("vertices", vertices)
     if vertices.ndim < 2 or vertices.shape[-2] < 3:
@@ -304,7 +294,7 @@ def solid_angle_rectangle(corner: Array, edge_u: Array, edge_v: Array, point: Ar
     ----------
     .. [1] A. van Oosterom and J. Strackee, IEEE Trans. Biomed. Eng. 30(2):125–126, 1983.
     """
-    corner, edge_u, edge_v, point = _common(corner, edge_u, edge_v, point)
+    corner, edge_u, edge_v, point = asarrays(corner, edge_u, edge_v, point)
     corner, edge_u, edge_v, point = _vectors(
         corner=corner, edge_u=edge_u, edge_v=edge_v, point=point
     )
@@ -360,7 +350,7 @@ def solid_angle_disk(
            rule", SIAM Review 56(3):385–458, 2014.
     .. [3] CMU 16-385 lecture 14 (solid angle as a surface integral).
     """
-    center, normal, radius, point = _common(center, normal, radius, point)
+    center, normal, radius, point = asarrays(center, normal, radius, point)
     center, normal, point = _vectors(center=center, normal=normal, point=point)
     check_param("radius", radius, 0.0, lo_open=True)
     _check_order(order)
@@ -414,7 +404,7 @@ def solid_angle_disk_on_axis(radius: Array | float, distance: Array | float) -> 
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.2 (cone of directions).
     """
-    radius, distance = _common(radius, distance)
+    radius, distance = asarrays(radius, distance)
     check_param("radius", radius, 0.0, lo_open=True)
     check_param("distance", distance, 0.0, lo_open=True)
     xp = namespace(radius, distance)
@@ -436,7 +426,7 @@ def solid_angle_cap(half_angle: Array | float) -> Array:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.2 (spherical cap).
     """
-    (alpha,) = _common(half_angle)
+    (alpha,) = asarrays(half_angle)
     check_param("half_angle", alpha, 0.0, math.pi, hint="radians")
     return 4 * math.pi * namespace(alpha).sin(alpha / 2) ** 2
 
@@ -455,7 +445,7 @@ def solid_angle_sphere(center: Array, radius: Array | float, point: Array) -> Ar
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §6.2.4 (sampling a sphere).
     """
-    center, radius, point = _common(center, radius, point)
+    center, radius, point = asarrays(center, radius, point)
     center, point = _vectors(center=center, point=point)
     check_param("radius", radius, 0.0, lo_open=True)
     xp = namespace(center, point)
@@ -508,7 +498,7 @@ def solid_angle_surface(
     .. [1] CMU 16-385 lecture 14, "Solid angle" (the surface integral).
     .. [2] R. Ramamoorthi, CSE 274 lecture 2, "Angles and solid angles".
     """
-    (point,) = _common(point)
+    (point,) = asarrays(point)
     point = check_vectors("point", point)
     xp = namespace(point)
     u, v, weights = _grid(order, u_range, v_range, point)
@@ -636,7 +626,7 @@ def irradiance_point_source(
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.1.3 (point light).
     .. [2] CMU 16-385 lecture 14 (point lights).
     """
-    intensity, source, point, normal = _common(intensity, source, point, normal)
+    intensity, source, point, normal = asarrays(intensity, source, point, normal)
     source, point, normal = _vectors(source=source, point=point, normal=normal)
     check_finite("intensity", intensity)
     r = source - point
@@ -681,7 +671,7 @@ def irradiance_sphere_source(
     .. [2] R. Ramamoorthi, CSE 274 lecture 2, "Uniform area source": E = L·Ω̃.
     .. [3] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.1.
     """
-    radiance, center, radius, point, normal = _common(radiance, center, radius, point, normal)
+    radiance, center, radius, point, normal = asarrays(radiance, center, radius, point, normal)
     center, point, normal = _vectors(center=center, point=point, normal=normal)
     check_finite("radiance", radiance)
     check_param("radius", radius, 0.0, lo_open=True)
@@ -752,7 +742,7 @@ def irradiance_disk_source(
            planar element to parallel disk".
     .. [2] R. Ramamoorthi, CSE 274 lecture 2, "Uniform area source".
     """
-    radiance, radius, distance, offset = _common(radiance, radius, distance, offset)
+    radiance, radius, distance, offset = asarrays(radiance, radius, distance, offset)
     check_finite("radiance", radiance)
     check_param("radius", radius, 0.0, lo_open=True)
     check_param("distance", distance, 0.0, lo_open=True)
@@ -828,7 +818,7 @@ def radiance_from_exitance(exitance: Array | float) -> Array:
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.1 (diffuse emission).
     .. [2] R. Ramamoorthi, CSE 274 lecture 2, "Irradiance, radiosity".
     """
-    (exitance,) = _common(exitance)
+    (exitance,) = asarrays(exitance)
     check_finite("exitance", exitance)
     return exitance / math.pi
 
@@ -856,7 +846,7 @@ def radiance_from_intensity(
     ----------
     .. [1] CMU 16-385 lecture 14, "Lambertian area source": :math:`L(\hat\omega, x) = J_o/|X|`.
     """
-    intensity, area, cos_theta = _common(intensity, area, cos_theta)
+    intensity, area, cos_theta = asarrays(intensity, area, cos_theta)
     check_finite("intensity", intensity)
     check_param("area", area, 0.0, lo_open=True)
     check_param("cos_theta", cos_theta, 0.0, 1.0, lo_open=True)
@@ -884,7 +874,7 @@ def intensity_lambertian(
     .. [1] CMU 16-385 lecture 14, "Lambert's law".
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §4.1.
     """
-    radiance, area, cos_theta = _common(radiance, area, cos_theta)
+    radiance, area, cos_theta = asarrays(radiance, area, cos_theta)
     check_finite("radiance", radiance)
     check_param("area", area, 0.0, lo_open=True)
     check_param("cos_theta", cos_theta, -1.0, 1.0)
@@ -910,7 +900,7 @@ def radiance_across_interface(
            :math:`L_o = L_i\,\eta_o^2/\eta_i^2`.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §9.5.2.
     """
-    radiance, eta_from, eta_to = _common(radiance, eta_from, eta_to)
+    radiance, eta_from, eta_to = asarrays(radiance, eta_from, eta_to)
     check_finite("radiance", radiance)
     check_param("eta_from", eta_from, 0.0, lo_open=True)
     check_param("eta_to", eta_to, 0.0, lo_open=True)
@@ -925,7 +915,7 @@ def basic_radiance(radiance: Array | float, eta: Array | float) -> Array:
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §9.5.2.
     .. [2] J. Křivánek, Computer Graphics III (η² radiance change).
     """
-    radiance, eta = _common(radiance, eta)
+    radiance, eta = asarrays(radiance, eta)
     check_finite("radiance", radiance)
     check_param("eta", eta, 0.0, lo_open=True)
     return radiance / eta**2
