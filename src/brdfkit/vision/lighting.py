@@ -205,7 +205,6 @@ def estimate_directional_light(
     image, normals, mask = (
         to_numpy(a) for a in _check_image_normals(np.asarray(image, float), normals, mask)
     )
-    normals = np.asarray(normals, dtype=np.float64)
     albedo_np = np.broadcast_to(np.asarray(albedo, dtype=np.float64), image.shape[-1:])
     if np.any(albedo_np <= 0):
         raise ValueError(f"albedo must be positive; got {albedo!r}")
