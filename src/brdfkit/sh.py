@@ -63,6 +63,7 @@ from brdfkit._array import (
     normalize,
     to_numpy,
 )
+from brdfkit.geometry import spherical_to_cartesian
 
 __all__ = [
     "irradiance_map",
@@ -240,13 +241,7 @@ def latlong_directions(height: int, width: int, *, like: Array | None = None) ->
     .. [1] M. Pharr, W. Jakob and G. Humphreys, *Physically Based Rendering*, 3rd ed., §14.2.4.
     """
     theta, phi, _ = _latlong_angles(height, width)
-    sin_theta = np.sin(theta)[:, None]
-    directions = np.stack(
-        np.broadcast_arrays(
-            sin_theta * np.cos(phi), sin_theta * np.sin(phi), np.cos(theta)[:, None]
-        ),
-        axis=-1,
-    )
+    directions = spherical_to_cartesian(theta[:, None], phi[None, :])
     return directions if like is None else asarray(directions, like=like, dtype=like.dtype)
 
 
@@ -515,8 +510,9 @@ def _check_rotation(rotation: Array) -> Array:
     if tuple(rotation.shape) != (3, 3):
         raise ValueError(f"rotation must be a 3×3 matrix; got shape {tuple(rotation.shape)}")
     check_finite("rotation", rotation)
-    matrix = to_numpy(rotation).astype(np.float64)
-    tolerance = math.sqrt(np.finfo(to_numpy(rotation).dtype).eps)
+    values = to_numpy(rotation)
+    matrix = values.astype(np.float64)
+    tolerance = math.sqrt(np.finfo(values.dtype).eps)
     error = np.abs(matrix.T @ matrix - np.eye(3)).max()
     if error > tolerance or np.linalg.det(matrix) < 0:
         raise ValueError(
