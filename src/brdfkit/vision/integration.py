@@ -153,8 +153,8 @@ def frankot_chellappa(normals: ArrayLike, mask: ArrayLike | None = None) -> np.n
     ----------
     R. T. Frankot, R. Chellappa, IEEE TPAMI 10(4), 1988.
     """
+    normals, mask = _check(normals, mask)
     d_u, d_v = orthographic_gradients(normals, mask)
-    mask = np.ones(d_u.shape, bool) if mask is None else np.asarray(mask, dtype=bool)
     height, width = d_u.shape
     omega_u = 2 * np.pi * np.fft.fftfreq(width)[None, :]
     omega_v = 2 * np.pi * np.fft.fftfreq(height)[:, None]
@@ -184,8 +184,8 @@ def poisson_dct(normals: ArrayLike, mask: ArrayLike | None = None) -> np.ndarray
     """
     import scipy.fft
 
+    normals, mask = _check(normals, mask)
     d_u, d_v = orthographic_gradients(normals, mask)
-    mask = np.ones(d_u.shape, bool) if mask is None else np.asarray(mask, dtype=bool)
     height, width = d_u.shape
     # Gradients at the half-pixel edges (mean of the two pixels), zero across the border.
     edge_u = np.zeros((height, width + 1))
