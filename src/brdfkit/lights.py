@@ -33,17 +33,24 @@ from brdfkit._array import (
     Array,
     asarray,
     check_vectors,
+    clamp,
     constant,
     cross,
     dot,
     namespace,
     norm,
     normalize,
+    safe_div,
     safe_sqrt,
     to_numpy,
 )
 from brdfkit.brdf.base import channel_count, check_param, param
-from brdfkit.geometry import frame_from_normal, to_world
+from brdfkit.geometry import (
+    cartesian_to_spherical,
+    frame_from_normal,
+    spherical_to_cartesian,
+    to_world,
+)
 from brdfkit.sampling import (
     square_to_uniform_cone,
     square_to_uniform_cone_pdf,
@@ -525,16 +532,18 @@ class EnvironmentMap(Light):
         image = _bilinear_np(photo, row, col)
         return cls(image, scale=scale)
 
-    def _lookup(self, wi: Array) -> Array:
-        from brdfkit.geometry import cartesian_to_spherical
-
+    def _map_coordinates(self, wi: Array) -> tuple[Array, Array, Array]:
+        """Unit world ``wi`` as map coordinates: x = φ/2π ∈ [0, 1), y = θ/π, and θ."""
         xp = namespace(wi)
-        rot_t = asarray(self.rotation.T, xp, like=wi)
-        wi_map = xp.matmul(wi, xp.permute_dims(rot_t, (1, 0)))
+        wi_map = xp.matmul(wi, asarray(self.rotation, xp, like=wi))
         theta, phi = cartesian_to_spherical(wi_map)
-        height, width = self.image.shape[:2]
         x = xp.remainder(phi, constant(2 * math.pi, phi)) / (2 * math.pi)
-        y = theta / math.pi
+        return x, theta / math.pi, theta
+
+    def _lookup(self, wi: Array) -> Array:
+        xp = namespace(wi)
+        x, y, _ = self._map_coordinates(wi)
+        height, width = self.image.shape[:2]
         image = asarray(self.image, xp, like=wi)
         value = _bilinear(image, y * height - 0.5, x * width - 0.5)
         return value * self.scale
@@ -545,26 +554,13 @@ class EnvironmentMap(Light):
         return xp.broadcast_to(value, (*_batch(points, wi), value.shape[-1]))
 
     def sample(self, points: Array, u: Array) -> LightSample:
-        from brdfkit.geometry import spherical_to_cartesian
-
         xp = namespace(points, u)
         uv, pdf_uv = self._distribution.sample(asarray(u[..., :2], xp, like=points))
         theta, phi = uv[..., 1] * math.pi, uv[..., 0] * (2 * math.pi)
         wi_map = spherical_to_cartesian(theta, phi)
         wi = xp.matmul(wi_map, xp.permute_dims(asarray(self.rotation, xp, like=points), (1, 0)))
-        sin_theta = xp.sin(theta)
-        ok = (sin_theta > 0) & (pdf_uv > 0)
-        pdf = xp.where(
-            ok,
-            pdf_uv / (2 * math.pi**2 * xp.where(ok, sin_theta, xp.ones_like(sin_theta))),
-            xp.zeros_like(pdf_uv),
-        )
-        radiance = self._lookup(wi)
-        value = xp.where(
-            ok[..., None],
-            radiance / xp.where(ok, pdf, xp.ones_like(pdf))[..., None],
-            xp.zeros_like(radiance),
-        )
+        pdf = _solid_angle_pdf(pdf_uv, theta)
+        value = safe_div(self._lookup(wi), pdf[..., None])
         batch = _batch(points, wi)
         inf = xp.full(batch, math.inf, dtype=points.dtype)
         return LightSample(
@@ -576,22 +572,16 @@ class EnvironmentMap(Light):
         )
 
     def pdf(self, points: Array, wi: Array) -> Array:
-        from brdfkit.geometry import cartesian_to_spherical
-
         xp = namespace(points, wi)
-        wi_map = xp.matmul(normalize(wi), asarray(self.rotation, xp, like=wi))
-        theta, phi = cartesian_to_spherical(wi_map)
-        x = xp.remainder(phi, constant(2 * math.pi, phi)) / (2 * math.pi)
-        uv = xp.stack([x, theta / math.pi], axis=-1)
-        pdf_uv = self._distribution.pdf(uv)
-        sin_theta = xp.sin(theta)
-        ok = sin_theta > 0
-        pdf = xp.where(
-            ok,
-            pdf_uv / (2 * math.pi**2 * xp.where(ok, sin_theta, xp.ones_like(sin_theta))),
-            xp.zeros_like(pdf_uv),
-        )
+        x, y, theta = self._map_coordinates(normalize(wi))
+        pdf_uv = self._distribution.pdf(xp.stack([x, y], axis=-1))
+        pdf = _solid_angle_pdf(pdf_uv, theta)
         return xp.broadcast_to(pdf, _batch(points, wi))
+
+
+def _solid_angle_pdf(pdf_uv: Array, theta: Array) -> Array:
+    """p_ω = p_uv / (2π² sin θ) of a lat-long map; 0 at the poles (sin θ ≤ 0 after rounding)."""
+    return safe_div(pdf_uv, 2 * math.pi**2 * clamp(namespace(theta).sin(theta), 0.0))
 
 
 def _bilinear(image: Array, row: Array, col: Array) -> Array:
