@@ -11,6 +11,7 @@ from brdfkit.io import read_image
 from brdfkit.lights import DirectionalLight, EnvironmentMap
 from brdfkit.render import Sphere, gbuffer, shade
 from brdfkit.sh import irradiance_sh, latlong_directions, latlong_solid_angles, project_latlong
+from brdfkit.vision import datasets
 from brdfkit.vision.lighting import (
     estimate_directional_light,
     estimate_sh_lighting,
@@ -105,7 +106,6 @@ def test_directional_light_from_a_render_with_attached_shadow():
 
 
 def test_directional_light_on_the_real_gray_sphere(shared_data):
-    datasets = pytest.importorskip("brdfkit.vision.datasets")
     data = datasets.load_psm(shared_data / "photometric_stereo" / "psm" / "gray", step=4)
     angles = []
     for image, light in zip(data.images, data.light_directions, strict=True):

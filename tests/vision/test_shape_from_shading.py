@@ -8,6 +8,7 @@ import pytest
 from brdfkit.brdf import Lambertian
 from brdfkit.lights import DirectionalLight
 from brdfkit.render import normal_map_gbuffer, shade
+from brdfkit.vision import datasets
 from brdfkit.vision.metrics import angular_error, depth_error
 from brdfkit.vision.shape_from_shading import shape_from_shading
 
@@ -72,7 +73,6 @@ def test_rendered_shapes(shape, light, max_mean, max_median, max_depth):
 
 
 def test_real_gray_sphere(shared_data):
-    datasets = pytest.importorskip("brdfkit.vision.datasets")
     data = datasets.load_psm(shared_data / "photometric_stereo" / "psm" / "gray")
     k = int(np.argmax(data.light_directions[:, 2]))  # the light nearest the view direction
     step = 6
