@@ -95,10 +95,12 @@ def _check_cos_cutoff(cos_cutoff: Array | float, like: Array) -> Array:
     return asarray(cos_cutoff, namespace(like, cos_cutoff), like=like)
 
 
-def _uniform_density(value: float, mask: Array, like: Array) -> Array:
-    """``value`` where ``mask`` holds, else 0, with the dtype and device of ``like``."""
-    xp = namespace(like)
-    density = xp.full(mask.shape, value, dtype=like.dtype, device=array_api_compat.device(like))
+def _uniform_density(value: Array | float, mask: Array, like: Array) -> Array:
+    """``value`` where ``mask`` holds, else 0, broadcast together, a Python scalar taking the
+    dtype and device of ``like``."""
+    density = value if hasattr(value, "dtype") else constant(value, like)
+    xp = namespace(density, mask)
+    density = xp.broadcast_to(density, xp.broadcast_shapes(density.shape, mask.shape))
     return xp.where(mask, density, xp.zeros_like(density))
 
 
@@ -346,11 +348,8 @@ def square_to_uniform_cone_pdf(v: Array, cos_cutoff: Array | float) -> Array:
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
     """
     v = check_vectors("v", v)
-    xp = namespace(v, cos_cutoff)
     cos_cutoff = _check_cos_cutoff(cos_cutoff, v)
-    density = 1 / (2 * math.pi * (1 - cos_cutoff))
-    density = xp.broadcast_to(density, xp.broadcast_shapes(density.shape, v.shape[:-1]))
-    return xp.where(v[..., 2] >= cos_cutoff, density, xp.zeros_like(density))
+    return _uniform_density(1 / (2 * math.pi * (1 - cos_cutoff)), v[..., 2] >= cos_cutoff, v)
 
 
 # --------------------------------------------------------------------------- triangles
@@ -509,9 +508,7 @@ def square_to_spherical_triangle_pdf(v: Array, a: Array, b: Array, c: Array) -> 
     xp = namespace(v, a, b, c)
     _, _, _, normals, _, solid_angle = _spherical_triangle(a, b, c, v)
     inside = xp.all(xp.sum(v[..., None, :] * normals, axis=-1) >= 0, axis=-1)
-    density = 1 / solid_angle
-    density = xp.broadcast_to(density, xp.broadcast_shapes(density.shape, inside.shape))
-    return xp.where(inside, density, xp.zeros_like(density))
+    return _uniform_density(1 / solid_angle, inside, v)
 
 
 # --------------------------------------------------------------------------- 2D distributions
