@@ -104,11 +104,6 @@ def _batch(*arrays: Array) -> tuple[int, ...]:
     return tuple(np.broadcast_shapes(*(tuple(a.shape[:-1]) for a in arrays)))
 
 
-def _zeros_pdf(like: Array) -> Array:
-    xp = namespace(like)
-    return xp.zeros(like.shape[:-1], dtype=like.dtype)
-
-
 def _vector(name: str, value: Any, like: Array) -> Array:
     return asarray(check_vectors(name, asarray(value)), like=like)
 
@@ -127,8 +122,22 @@ def _unit(name: str, value: Any) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- delta lights
+class _DeltaLight(Light):
+    """A light reached from one direction only: no radiance or density in any given ``wi``."""
+
+    delta: ClassVar[bool] = True
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        return xp.zeros((*_batch(points, wi), self.channels), dtype=wi.dtype)
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        xp = namespace(wi)
+        return xp.zeros(wi.shape[:-1], dtype=wi.dtype)
+
+
 @dataclass(frozen=True, eq=False)
-class DirectionalLight(Light):
+class DirectionalLight(_DeltaLight):
     """A distant light from ``direction`` delivering irradiance ``irradiance`` (W·m⁻²) on a
     surface facing it: E(n) = E·max(0, n·l).
 
@@ -139,7 +148,6 @@ class DirectionalLight(Light):
 
     direction: Any = (0.0, 0.0, 1.0)
     irradiance: Any = 1.0
-    delta: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", _unit("direction", self.direction))
@@ -155,16 +163,9 @@ class DirectionalLight(Light):
         ones = xp.ones(batch, dtype=points.dtype)
         return LightSample(wi, value, ones, ones * math.inf, True)
 
-    def incident_radiance(self, points: Array, wi: Array) -> Array:
-        xp = namespace(points, wi)
-        return xp.zeros((*_batch(points, wi), self.channels), dtype=wi.dtype)
-
-    def pdf(self, points: Array, wi: Array) -> Array:
-        return _zeros_pdf(wi)
-
 
 @dataclass(frozen=True, eq=False)
-class PointLight(Light):
+class PointLight(_DeltaLight):
     """An isotropic point light of intensity ``intensity`` (W·sr⁻¹) at ``position``.
 
     The irradiance at distance r on a surface facing it is E⊥ = I/r² (inverse-square law).
@@ -172,7 +173,6 @@ class PointLight(Light):
 
     position: Any = (0.0, 0.0, 1.0)
     intensity: Any = 1.0
-    delta: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _point("position", self.position))
@@ -188,13 +188,6 @@ class PointLight(Light):
         value = param(self.intensity, points) / r2[..., None]
         ones = xp.ones(r2.shape, dtype=points.dtype)
         return LightSample(normalize(to_light), value, ones, xp.sqrt(r2), True)
-
-    def incident_radiance(self, points: Array, wi: Array) -> Array:
-        xp = namespace(points, wi)
-        return xp.zeros((*_batch(points, wi), self.channels), dtype=wi.dtype)
-
-    def pdf(self, points: Array, wi: Array) -> Array:
-        return _zeros_pdf(wi)
 
 
 def _uniform_where(radiance: Any, hit: Array, points: Array, wi: Array) -> Array:
@@ -286,13 +279,9 @@ class _PlanarLight(Light):
         dist2 = dot(to_light, to_light)
         dist = xp.sqrt(dist2)
         wi = to_light / dist[..., None]
-        cos_light = -dot(wi, n)  # emits towards +normal
-        ok = cos_light > 0
-        safe_cos = xp.where(ok, cos_light, xp.ones_like(cos_light))
-        pdf = xp.where(ok, dist2 / (safe_cos * self._area()), xp.zeros_like(dist2))
-        safe_pdf = xp.where(ok, pdf, xp.ones_like(pdf))
-        value = param(self.radiance, points) / safe_pdf[..., None]
-        value = xp.where(ok[..., None], value, xp.zeros_like(value))
+        cos_light = clamp(-dot(wi, n), 0.0)  # emits towards +normal
+        pdf = safe_div(dist2, cos_light * self._area())
+        value = safe_div(param(self.radiance, points), pdf[..., None])
         return LightSample(wi, value, pdf, dist, False)
 
     def _intersect(self, points: Array, wi: Array) -> tuple[Array, Array, Array]:
