@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit import io
+from brdfkit._array import normalize
 from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
 
 PSM_SPHERES = ("chrome", "gray")
@@ -379,8 +380,7 @@ def load_normal_integration(folder: str | Path) -> NormalIntegrationData:
             f"inconsistent shapes in {str(folder)!r}: normals {normals.shape}, mask "
             f"{mask.shape}, depth {depth.shape}, K {camera.shape}"
         )
-    length = np.linalg.norm(normals, axis=2, keepdims=True)
-    normals = np.where(mask[..., None], normals / np.where(length > 0, length, 1), 0.0)
+    normals = np.where(mask[..., None], normalize(normals), 0.0)
     return NormalIntegrationData(normals, mask, depth, camera, folder.name)
 
 

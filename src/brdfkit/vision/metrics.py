@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit._array import dot, normalize
+
 
 def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:
     """A boolean mask of ``shape`` with at least one pixel (all pixels when ``None``)."""
@@ -53,12 +55,7 @@ def angular_error_map(
             f"{normals_gt.shape}"
         )
     mask = _check_mask(mask, normals.shape[:2])
-
-    def unit(n: np.ndarray) -> np.ndarray:
-        length = np.linalg.norm(n, axis=-1, keepdims=True)
-        return n / np.where(length > 0, length, 1.0)
-
-    cosine = np.clip(np.sum(unit(normals) * unit(normals_gt), axis=-1), -1.0, 1.0)
+    cosine = np.clip(dot(normalize(normals), normalize(normals_gt)), -1.0, 1.0)
     return np.where(mask, np.degrees(np.arccos(cosine)), np.nan)
 
 
