@@ -289,11 +289,9 @@ def shade(
     height, width = g.shape
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
     rows_per_tile = max(1, max_evaluations // (per_pixel * width))
-    image = np.full((height, width, brdf.channels), background, dtype=np.float64)
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
-    if channels != brdf.channels:
-        image = np.full((height, width, channels), background, dtype=np.float64)
+    image = np.full((height, width, channels), background, dtype=np.float64)
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
