@@ -87,6 +87,7 @@ def fresnel_command(
     from rich.table import Table
 
     from brdfkit.fresnel import fresnel_conductor, fresnel_dielectric
+    from brdfkit.geometry import critical_angle
 
     theta_deg = _parse_angles(angles)
     spec = _interface(material, ior, k)
@@ -117,7 +118,7 @@ def fresnel_command(
     if spec["kind"] == "conductor":
         title += f"\nη = {_cell(eta)}   κ = {_cell(spec['k'])}"
     elif inside and eta[0] > 1:
-        title += f"\ncritical angle {math.degrees(math.asin(1 / eta[0])):.2f}°"
+        title += f"\ncritical angle {math.degrees(float(critical_angle(eta[0]))):.2f}°"
     table = Table(title=title, title_justify="left")
     table.add_column("θi (°)", justify="right", no_wrap=True)
     for name in ("Rs", "Rp", "R"):
