@@ -25,6 +25,7 @@ from brdfkit._array import (
     cross,
     dot,
     namespace,
+    norm,
     normalize,
     safe_sqrt,
 )
@@ -52,7 +53,7 @@ def frame_from_normal(normal: Array, tangent: Array | None = None) -> tuple[Arra
         return s, t, n
     tangent = check_vectors("tangent", asarray(tangent, xp, like=n))
     s = tangent - dot(tangent, n, keepdims=True) * n
-    length = xp.sqrt(dot(s, s))
+    length = norm(s)
     if not bool(xp.all(length > 1e-6)):
         raise ValueError("tangent must not be parallel to normal; got a parallel pair")
     s = s / length[..., None]
@@ -194,7 +195,7 @@ def to_half_diff(wi: Array, wo: Array) -> tuple[Array, Array, Array, Array]:
     """
     wi = normalize(check_vectors("wi", wi))
     wo = normalize(asarray(check_vectors("wo", wo), like=wi))
-    h = normalize(wi + wo)
+    h = half_vector(wi, wo)
     theta_h, phi_h = cartesian_to_spherical(h)
     d = _rotate_y(_rotate_z(wi, -phi_h), -theta_h)
     theta_d, phi_d = cartesian_to_spherical(d)
