@@ -89,6 +89,23 @@ def param(value: Any, like: Array) -> Array:
     return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
 
 
+def normalized_weights(weights: list[Array]) -> list[Array]:
+    """Weights ≥ 0 scaled to sum to 1 (equal probabilities where all are 0).
+
+    The lobe-choice probabilities of a one-sample mixture (:class:`Sum`, and the models that
+    sample a mixture of lobes).
+    """
+    xp = namespace(*weights)
+    weights = [xp.maximum(w, xp.zeros_like(w)) for w in weights]
+    total = weights[0]
+    for w in weights[1:]:
+        total = total + w
+    positive = total > 0
+    safe_total = xp.where(positive, total, xp.ones_like(total))
+    uniform = constant(1.0 / len(weights), total)
+    return [xp.where(positive, w / safe_total, uniform) for w in weights]
+
+
 # --------------------------------------------------------------------------- samples
 @dataclass(frozen=True, eq=False)
 class Sample:
@@ -323,16 +340,10 @@ class Sum(BRDF):
 
     def _probabilities(self, wo: Array) -> list[Array]:
         xp = namespace(wo)
-        weights = [
-            xp.maximum(lobe.sampling_weight(wo), xp.zeros_like(wo[..., 0])) for lobe in self.lobes
-        ]
-        total = weights[0]
-        for w in weights[1:]:
-            total = total + w
-        uniform = constant(1.0 / len(self.lobes), total)
-        positive = total > 0
-        safe_total = xp.where(positive, total, xp.ones_like(total))
-        return [xp.where(positive, w / safe_total, uniform) for w in weights]
+        zero = xp.zeros_like(wo[..., 0])  # broadcasts every weight to wo's batch
+        return normalized_weights(
+            [xp.maximum(lobe.sampling_weight(wo), zero) for lobe in self.lobes]
+        )
 
     def pdf(self, wi: Array, wo: Array) -> Array:
         probs = self._probabilities(wo)
@@ -482,6 +493,7 @@ __all__ = [
     "channel_count",
     "check_hemisphere",
     "check_param",
+    "normalized_weights",
     "param",
     "register",
     "result_shape",

@@ -9,7 +9,15 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, to_numpy
-from brdfkit.brdf.base import BRDF, channel_count, check_param, param, register, upper_hemisphere
+from brdfkit.brdf.base import (
+    BRDF,
+    channel_count,
+    check_param,
+    normalized_weights,
+    param,
+    register,
+    upper_hemisphere,
+)
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
@@ -17,7 +25,6 @@ from brdfkit.brdf.phong import (
     cosine_component,
     cosine_lobe_pdf,
     cosine_power,
-    normalized_weights,
     sample_cosine_lobe,
 )
 

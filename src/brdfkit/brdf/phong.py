@@ -32,7 +32,6 @@ import numpy as np
 from brdfkit._array import (
     Array,
     asarray,
-    constant,
     dot,
     namespace,
     normalize,
@@ -44,6 +43,7 @@ from brdfkit.brdf.base import (
     Sample,
     channel_count,
     check_param,
+    normalized_weights,
     param,
     register,
     upper_hemisphere,
@@ -111,19 +111,6 @@ def channel_mean(value: Array) -> Array:
 
 
 # --------------------------------------------------------------------------- mixtures
-def normalized_weights(weights: list[Array]) -> list[Array]:
-    """Weights ≥ 0 scaled to sum to 1 (equal probabilities where all are 0)."""
-    xp = namespace(*weights)
-    weights = [xp.maximum(w, xp.zeros_like(w)) for w in weights]
-    total = weights[0]
-    for w in weights[1:]:
-        total = total + w
-    positive = total > 0
-    safe_total = xp.where(positive, total, xp.ones_like(total))
-    uniform = constant(1.0 / len(weights), total)
-    return [xp.where(positive, w / safe_total, uniform) for w in weights]
-
-
 def cosine_component(probability: Array) -> Component:
     """The cosine-weighted hemisphere as a mixture component."""
     return probability, square_to_cosine_hemisphere_pdf, square_to_cosine_hemisphere

@@ -10,14 +10,21 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, safe_sqrt, to_numpy
-from brdfkit.brdf.base import BRDF, channel_count, check_param, param, register, upper_hemisphere
+from brdfkit.brdf.base import (
+    BRDF,
+    channel_count,
+    check_param,
+    normalized_weights,
+    param,
+    register,
+    upper_hemisphere,
+)
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
     channel_mean,
     check_albedos,
     cosine_component,
-    normalized_weights,
     reflect_about,
     reflected_pdf,
 )
