@@ -272,6 +272,13 @@ def _read_exr(path: Path) -> np.ndarray:
     return np.stack([channels[name] for name in order], axis=-1).astype(np.float32)
 
 
+def _swap_red_blue(image: np.ndarray) -> np.ndarray:
+    """RGB(A) ⇄ BGR(A), OpenCV's channel order, for 3 or 4 channels (others unchanged)."""
+    if image.shape[-1] in (3, 4):
+        return image[..., [2, 1, 0, 3][: image.shape[-1]]]
+    return image
+
+
 def _read_opencv(path: Path) -> np.ndarray:
     cv2 = _cv2()
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
@@ -280,9 +287,7 @@ def _read_opencv(path: Path) -> np.ndarray:
             f"cannot read image {path}: OpenCV could not decode it (truncated, corrupt or "
             f"not a {path.suffix.lower()} file)"
         )
-    if image.ndim == 3 and image.shape[-1] in (3, 4):  # OpenCV stores BGR(A)
-        image = image[..., [2, 1, 0, 3][: image.shape[-1]]]
-    return image
+    return _swap_red_blue(image) if image.ndim == 3 else image
 
 
 def _read_imageio(path: Path) -> np.ndarray:
@@ -411,9 +416,7 @@ def _write_exr(path: Path, image: np.ndarray, half: bool) -> None:
 
 def _write_opencv(path: Path, image: np.ndarray) -> None:
     cv2 = _cv2()
-    if image.shape[-1] in (3, 4):
-        image = image[..., [2, 1, 0, 3][: image.shape[-1]]]
-    if not cv2.imwrite(str(path), np.ascontiguousarray(image)):
+    if not cv2.imwrite(str(path), np.ascontiguousarray(_swap_red_blue(image))):
         raise OSError(f"OpenCV could not write {path}")
 
 
