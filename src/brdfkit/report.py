@@ -60,9 +60,9 @@ class Card:
     consistent: bool = True
 
 
-def _png(fig) -> str:
+def _png(fig, **savefig_kwargs) -> str:
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100)
+    fig.savefig(buffer, format="png", dpi=100, **savefig_kwargs)
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
@@ -130,11 +130,9 @@ def _formula_png(doc: str) -> str | None:
     fig = Figure(figsize=(6, 0.6))
     fig.text(0.01, 0.5, f"${formula}$", fontsize=14, va="center")
     try:
-        buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", dpi=100, bbox_inches="tight", transparent=True)
+        return _png(fig, bbox_inches="tight", transparent=True)
     except ValueError:  # mathtext does not know every LaTeX command: the text shows it instead
         return None
-    return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
 def _sphere_row(models: Sequence[BRDF], lights, resolution: int, samples: int) -> np.ndarray:
