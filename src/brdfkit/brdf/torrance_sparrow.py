@@ -43,7 +43,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div, to_numpy
-from brdfkit.brdf.base import BRDF, Sample, channel_count, check_param, register, result_shape
+from brdfkit.brdf.base import (
+    BRDF,
+    Sample,
+    channel_count,
+    check_param,
+    register,
+    result_shape,
+    upper_hemisphere,
+)
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.microfacet import (
     GGX,
@@ -54,6 +62,7 @@ from brdfkit.brdf.microfacet import (
     TorranceSparrowGaussian,
     masking_shadowing,
 )
+from brdfkit.brdf.phong import reflect_about
 
 DISTRIBUTIONS = ("ggx", "beckmann")
 """Distributions of :class:`RoughConductor` (and :class:`~brdfkit.brdf.RoughDielectric`)."""
@@ -171,14 +180,13 @@ class MicrofacetReflection(BRDF):
         value = safe_div(d * g * f, 4 * cos_i * cos_o)
         shape = np.broadcast_shapes(value.shape, (*result_shape(wi, wo), self.channels))
         value = xp.broadcast_to(value, shape)
-        upper = (cos_i > 0) & (cos_o > 0)
-        return xp.where(upper, value, xp.zeros_like(value))
+        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
 
     def _specular_pdf(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         h = normalize(wi + wo)
         if self.visible:
-            wo_up = xp.where((wo[..., 2:3] > 0), wo, -wo)
+            wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
             p_h = self.ndf.pdf_visible(wo_up, h)
         else:
             p_h = self.ndf.pdf(h)
@@ -191,8 +199,8 @@ class MicrofacetReflection(BRDF):
         xp = namespace(wo, u)
         wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
         u2 = u[..., :2]
-        h = self.ndf.sample_visible(wo_up, u2) if self.visible else (self.ndf.sample(u2))
-        wi = 2 * dot(wo, h, keepdims=True) * h - wo
+        h = self.ndf.sample_visible(wo_up, u2) if self.visible else self.ndf.sample(u2)
+        wi = reflect_about(wo, h)
         wi, wo_b = xp.broadcast_arrays(wi, wo)
         pdf = self._specular_pdf(wi, wo_b)
         f = self._specular_eval(wi, wo_b)
@@ -234,7 +242,7 @@ class _WithDiffuse(MicrofacetReflection):
         )
         mixture = (
             Lambertian(self.diffuse) + dataclasses.replace(self, diffuse=0.0)
-            if (has_diffuse)
+            if has_diffuse
             else None
         )
         object.__setattr__(self, "mixture", mixture)
@@ -445,10 +453,9 @@ class RoughConductor(MicrofacetReflection):
                 f"distribution must be {fixed!r} for the {type(self).spec_name!r} model; got "
                 f"{self.distribution!r} (use rough_conductor to choose)"
             )
-        name = self.distribution
         fresnel = FresnelTerm.for_conductor(self.material, self.eta, self.k)
         dist = stretched_distribution(
-            name, self.alpha, self.alpha_u, self.alpha_v, self.approximate_g1
+            self.distribution, self.alpha, self.alpha_u, self.alpha_v, self.approximate_g1
         )
         self._setup(dist, fresnel, self.sample_visible)
 
