@@ -208,6 +208,14 @@ def _eval(brdf: BRDF, wi: Array, wo: Array) -> np.ndarray:
     return to_numpy(brdf.eval(wi, wo)).astype(np.float64)
 
 
+def _worst_difference(f: np.ndarray, g: np.ndarray) -> tuple[float, int]:
+    """``(max |f − g| / max(|f|, |g|), pair index)`` over ``(n, C)`` values (unscaled if all 0)."""
+    scale = max(np.max(np.abs(f)), np.max(np.abs(g)))
+    error = np.max(np.abs(f - g), axis=-1)
+    k = int(np.argmax(error))
+    return (float(error[k] / scale) if scale > 0 else float(error[k])), k
+
+
 # --------------------------------------------------------------------------- BRDF checks
 def check_reciprocity(
     brdf: BRDF, n: int = 4096, seed: int = 0, tolerance: float = 1e-6
@@ -223,11 +231,7 @@ def check_reciprocity(
     .. [2] F. E. Nicodemus et al., NBS Monograph 160, 1977.
     """
     wi, wo = _hemisphere_pairs(n, seed)
-    f_io, f_oi = _eval(brdf, wi, wo), _eval(brdf, wo, wi)
-    scale = max(np.max(np.abs(f_io)), np.max(np.abs(f_oi)))
-    error = np.max(np.abs(f_io - f_oi), axis=-1)
-    k = int(np.argmax(error))
-    value = float(error[k] / scale) if scale > 0 else float(error[k])
+    value, k = _worst_difference(_eval(brdf, wi, wo), _eval(brdf, wo, wi))
     detail = (
         f"max |f(wi,wo) − f(wo,wi)| / max f over {n} pairs, worst at θi = "
         f"{_degrees(wi[k]):.1f}°, θo = {_degrees(wo[k]):.1f}°"
@@ -255,11 +259,7 @@ def check_isotropy(
     theta_o, phi_o = cartesian_to_spherical(wo)
     wi_r = spherical_to_cartesian(theta_i, phi_i + psi)
     wo_r = spherical_to_cartesian(theta_o, phi_o + psi)
-    f, f_r = _eval(brdf, wi, wo), _eval(brdf, wi_r, wo_r)
-    scale = max(np.max(np.abs(f)), np.max(np.abs(f_r)))
-    error = np.max(np.abs(f - f_r), axis=-1)
-    k = int(np.argmax(error))
-    value = float(error[k] / scale) if scale > 0 else float(error[k])
+    value, k = _worst_difference(_eval(brdf, wi, wo), _eval(brdf, wi_r, wo_r))
     detail = (
         f"max |f(Rwi,Rwo) − f(wi,wo)| / max f over {n} rotated pairs, worst at ψ = "
         f"{math.degrees(psi[k]):.1f}°"
