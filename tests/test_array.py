@@ -98,3 +98,10 @@ def test_asarrays_share_the_widest_float_dtype_and_backend():
     t = torch.ones(2, dtype=torch.float32)
     c, d = A.asarrays(0.25, t)
     assert isinstance(c, torch.Tensor) and c.dtype == torch.float32 and d is t
+
+
+def test_numpy_like_for_torch_data_gives_its_dtype_in_torch():
+    torch = pytest.importorskip("torch")
+    torch_xp = A.namespace(torch.ones(1))
+    t = A.asarray([0.5, 0.25], torch_xp, like=np.ones(3, dtype=np.float32))
+    assert isinstance(t, torch.Tensor) and t.dtype == torch.float32

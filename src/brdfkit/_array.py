@@ -88,16 +88,22 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
     if xp is None:
         xp = namespace(x, like)
     native = hasattr(x, "dtype") and namespace(x) is xp
+    like_dtype = device = None
+    if like is not None and hasattr(like, "dtype"):
+        if namespace(like) is xp:
+            like_dtype, device = like.dtype, array_api_compat.device(like)
+        elif isinstance(like, np.ndarray | np.generic):
+            # A NumPy ``like`` for data of another backend: its dtype, by name, in that backend.
+            like_dtype = getattr(xp, np.dtype(like.dtype).name, None)
     if dtype is None:
-        if like is not None and hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating"):
-            dtype = like.dtype
+        if like_dtype is not None and xp.isdtype(like_dtype, "real floating"):
+            dtype = like_dtype
             if native and xp.isdtype(x.dtype, "real floating"):
-                dtype = xp.result_type(x.dtype, like.dtype)
+                dtype = xp.result_type(x.dtype, like_dtype)
         elif hasattr(x, "dtype") and not native and np.issubdtype(np.dtype(x.dtype), np.floating):
             dtype = None  # a foreign float array (NumPy into torch): conversion keeps its width
         else:
             dtype = float_dtype(xp, x)
-    device = array_api_compat.device(like) if like is not None and hasattr(like, "shape") else None
     if native and x.dtype == dtype and (device is None or array_api_compat.device(x) == device):
         return x  # already right: no copy, autograd graph kept
     if device is None and native:
