@@ -109,3 +109,24 @@ def test_atlas_and_plots_take_measured_files(shared_data, tmp_path):
     assert out.stat().st_size > 1000
     result = CliRunner().invoke(app, ["plot", "lobe", str(tmp_path / "none.bsdf"), "-o", str(out)])
     assert result.exit_code == 2 and "not found" in result.output
+    args = [
+        "atlas",
+        "-o",
+        str(tmp_path / "a"),
+        "-m",
+        str(cornell),
+        "--no-checks",
+        "-r",
+        "16",
+        "-s",
+        "2",
+    ]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert f'id="{cornell.name}"' in (tmp_path / "a" / "index.html").read_text()
+
+
+def test_atlas_command_reports_a_bad_spec_without_writing(tmp_path):
+    result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path / "out"), "-m", "nope(x=1)"])
+    assert result.exit_code == 2 and "unknown model 'nope'" in result.output
+    assert not (tmp_path / "out" / "index.html").exists()

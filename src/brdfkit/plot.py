@@ -35,6 +35,15 @@ def _figure(**kwargs) -> Figure:
     return Figure(**kwargs)
 
 
+def model_label(brdf: BRDF, width: int | None = None) -> str:
+    """A short label: the model's spec string, or the name of measured data (which has none)."""
+    try:
+        text = brdf.to_spec()
+    except ValueError:  # tabulated or measured data
+        text = getattr(brdf, "name", "") or type(brdf).__name__
+    return text if width is None else text[:width]
+
+
 def _grey(values: np.ndarray) -> np.ndarray:
     """Channel mean of a ``(..., C)`` array (what single-curve plots show)."""
     return np.asarray(to_numpy(values), dtype=float).mean(axis=-1)
@@ -181,7 +190,7 @@ def albedo_plot(
 ) -> Figure:
     """ρ(θo) curves with the energy-conservation line at 1 (shaded ± 3 standard errors)."""
     models = [brdfs] if isinstance(brdfs, BRDF) else list(brdfs)
-    labels = list(labels) if labels is not None else [m.to_spec()[:40] for m in models]
+    labels = list(labels) if labels is not None else [model_label(m, 40) for m in models]
     fig = _figure(figsize=(4.2, 3), layout="constrained")
     ax = fig.add_subplot()
     for model, label in zip(models, labels, strict=True):
@@ -239,7 +248,7 @@ def sphere_gallery(
 ) -> Figure:
     """A row of spheres, e.g. across one parameter (roughness, exponent, σ, η)."""
     models = list(brdfs)
-    labels = list(labels) if labels is not None else [m.to_spec()[:30] for m in models]
+    labels = list(labels) if labels is not None else [model_label(m, 30) for m in models]
     fig = _figure(figsize=(1.6 * len(models), 1.9), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(models)))
     images = sphere_images(models, lights, resolution, samples, exposure)
@@ -265,6 +274,7 @@ __all__ = [
     "lobe_3d",
     "lobe_data",
     "lobe_plot",
+    "model_label",
     "save",
     "sphere_gallery",
     "sphere_images",

@@ -157,11 +157,11 @@ def build_card(
 ) -> Card:
     """Render and measure one model family (its example instances) into a :class:`Card`."""
     from brdfkit.lights import DirectionalLight
-    from brdfkit.plot import albedo_plot, lobe_plot
+    from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
 
     models = list(models)
-    labels = list(labels) if labels is not None else [m.to_spec() for m in models]
+    labels = list(labels) if labels is not None else [model_label(m) for m in models]
     card = Card(title, models, labels, doc=_doc_of(models[0]))
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
     card.images["spheres under a directional light"] = _image_png(
@@ -309,7 +309,7 @@ def build_atlas(
     resolution: int = 96,
     samples: int = 32,
     run_checks: bool = True,
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> Path:
     """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path."""
     from brdfkit.data import default_envmap_path
@@ -319,9 +319,10 @@ def build_atlas(
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
     cards = []
-    for title, examples in default_cards(models):
+    entries = default_cards(models)
+    for done, (title, examples) in enumerate(entries):
         if progress is not None:
-            progress(title)
+            progress(title, done, len(entries))
         cards.append(
             build_card(
                 title,

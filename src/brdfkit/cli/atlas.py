@@ -31,14 +31,10 @@ def atlas_command(
     matplotlib.use("Agg")
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from brdfkit.report import build_atlas, default_cards
+    from brdfkit.report import build_atlas
 
     if envmap is not None and not envmap.is_file():
         fail(f"envmap must be an existing .hdr/.exr file; got {str(envmap)!r}")
-    try:
-        total = len(default_cards(models))
-    except (ValueError, FileNotFoundError) as error:
-        fail(str(error))
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -47,20 +43,21 @@ def atlas_command(
         console=console,
         transient=True,
     ) as progress:
-        task = progress.add_task("atlas", total=total)
+        task = progress.add_task("atlas", total=None)
 
-        def step(title: str) -> None:
-            progress.update(task, description=f"atlas: {title}", advance=0 if step.first else 1)
-            step.first = False
+        def step(title: str, done: int, total: int) -> None:
+            progress.update(task, description=f"atlas: {title}", completed=done, total=total)
 
-        step.first = True
-        path = build_atlas(
-            output / "index.html",
-            models or None,
-            envmap,
-            resolution=resolution,
-            samples=samples,
-            run_checks=checks,
-            progress=step,
-        )
-    console.print(f"wrote {path} ({total} models)")
+        try:
+            path = build_atlas(
+                output / "index.html",
+                models or None,
+                envmap,
+                resolution=resolution,
+                samples=samples,
+                run_checks=checks,
+                progress=step,
+            )
+        except (ValueError, FileNotFoundError) as error:
+            fail(str(error))
+    console.print(f"wrote {path}")
