@@ -238,7 +238,6 @@ CASES: dict[str, tuple] = {
         ),
         (*TRIANGLE, POINTS),
     ),
-    # public (documented, no underscore) though missing from radiometry.__all__
     "radiometry.solid_angle_triangle": (
         radiometry.solid_angle_triangle,
         (*TRIANGLE, POINTS),

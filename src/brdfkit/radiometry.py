@@ -945,5 +945,6 @@ __all__ = [
     "solid_angle_rectangle",
     "solid_angle_sphere",
     "solid_angle_surface",
+    "solid_angle_triangle",
     "triangle_surface",
 ]
