@@ -106,6 +106,35 @@ def normalized_weights(weights: list[Array]) -> list[Array]:
     return [xp.where(positive, w / safe_total, uniform) for w in weights]
 
 
+def mixture_choices(probabilities: list[Array], u: Array) -> list[tuple[Array, Array]]:
+    """The one-sample choice of a mixture component by the first uniform.
+
+    Component k takes ``u[..., 0]`` in ``[P_k, P_k + p_k)`` (the last one up to 1), with
+    ``P_k`` the sum of the probabilities before it. Returns, per component, ``(pick, u_k)``:
+    whether it was chosen, ``(...,)``, and ``u`` with ``u[..., 0]`` re-stretched to [0, 1)
+    inside that interval, so that one set of uniforms serves both the choice and the component.
+
+    References
+    ----------
+    .. [1] E. Veach, *Robust Monte Carlo methods for light transport simulation*, PhD thesis,
+           Stanford, 1997, §9.2.4.
+    """
+    xp = namespace(u, *probabilities)
+    u0 = u[..., 0]
+    rest = [u[..., j] for j in range(1, u.shape[-1])]
+    lo = xp.zeros_like(u0)
+    choices = []
+    for k, p in enumerate(probabilities):
+        last = k == len(probabilities) - 1
+        hi = xp.ones_like(lo) if last else lo + p
+        pick = u0 >= lo if last else (u0 >= lo) & (u0 < hi)
+        span = xp.where(p > 0, p, xp.ones_like(p))
+        stretched = xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7)
+        choices.append((pick, xp.stack([stretched, *rest], axis=-1)))
+        lo = hi
+    return choices
+
+
 # --------------------------------------------------------------------------- samples
 @dataclass(frozen=True, eq=False)
 class Sample:
@@ -356,21 +385,10 @@ class Sum(BRDF):
     def sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         probs = self._probabilities(wo)
-        u0 = u[..., 0]
-        lo = xp.zeros_like(u0)
         chosen_wi = chosen_w = chosen_delta = None
         chosen_pdf = None
-        for k, (p, lobe) in enumerate(zip(probs, self.lobes, strict=True)):
-            hi = lo + p if k < len(self.lobes) - 1 else xp.ones_like(lo)
-            pick = (u0 >= lo) & (u0 < hi) if k < len(self.lobes) - 1 else (u0 >= lo)
-            span = xp.where(p > 0, p, xp.ones_like(p))
-            u_k = xp.stack(
-                [
-                    xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7),
-                    *[u[..., j] for j in range(1, u.shape[-1])],
-                ],
-                axis=-1,
-            )
+        choices = mixture_choices(probs, u)
+        for p, lobe, (pick, u_k) in zip(probs, self.lobes, choices, strict=True):
             s = lobe.sample(wo, u_k)
             p_safe = xp.where(p > 0, p, xp.ones_like(p))
             delta_w = s.weight / p_safe[..., None]
@@ -382,7 +400,6 @@ class Sum(BRDF):
                 chosen_w = xp.where(pick[..., None], delta_w, chosen_w)
                 chosen_delta = xp.where(pick, s.delta, chosen_delta)
                 chosen_pdf = xp.where(pick, s.pdf * p, chosen_pdf)
-            lo = hi
         # Non-delta picks: the mixture density and the full f give the MIS-balanced weight.
         mix_pdf = self.pdf(chosen_wi, wo)
         f = self.eval(chosen_wi, wo)
@@ -493,6 +510,7 @@ __all__ = [
     "channel_count",
     "check_hemisphere",
     "check_param",
+    "mixture_choices",
     "normalized_weights",
     "param",
     "register",

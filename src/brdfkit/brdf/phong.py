@@ -43,6 +43,7 @@ from brdfkit.brdf.base import (
     Sample,
     channel_count,
     check_param,
+    mixture_choices,
     normalized_weights,
     param,
     register,
@@ -147,18 +148,11 @@ class MixtureSampled(BRDF):
         xp = namespace(wo, u)
         u = asarray(u, xp, dtype=wo.dtype)
         components = self.components(wo)
-        u0 = u[..., 0]
-        lo = xp.zeros_like(u0)
+        choices = mixture_choices([probability for probability, _, _ in components], u[..., :2])
         wi = None
-        for k, (probability, _, sampler) in enumerate(components):
-            last = k == len(components) - 1
-            hi = xp.ones_like(lo) if last else lo + probability
-            span = xp.where(probability > 0, probability, xp.ones_like(probability))
-            stretched = xp.clip((u0 - lo) / span, 0.0, 1.0 - 1e-7)
-            w_k = sampler(xp.stack([stretched, u[..., 1]], axis=-1))
-            pick = u0 >= lo if last else (u0 >= lo) & (u0 < hi)
+        for (_, _, sampler), (pick, u_k) in zip(components, choices, strict=True):
+            w_k = sampler(u_k)
             wi = w_k if wi is None else xp.where(pick[..., None], w_k, wi)
-            lo = hi
         pdf = self.pdf(wi, wo)
         f = self.eval(wi, wo)
         ok = pdf > 0
