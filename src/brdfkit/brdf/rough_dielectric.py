@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div
+from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
 from brdfkit.brdf.base import BRDF, Sample, channel_count, param, register, result_shape
 from brdfkit.brdf.microfacet import masking_shadowing
 from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
@@ -172,11 +173,7 @@ class RoughDielectric(BRDF):
         xp = namespace(wi, wo)
         h, reflect, eta_rel, valid = self._geometry(wi, wo)
         wo_h, wi_h = dot(wo, h, keepdims=True), dot(wi, h, keepdims=True)
-        if self.sample_visible:
-            wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
-            p_h = self.ndf.pdf_visible(wo_up, h)[..., None]
-        else:
-            p_h = self.ndf.pdf(h)[..., None]
+        p_h = normal_pdf(self.ndf, self.sample_visible, wo, h)[..., None]
         f = fresnel(wo_h, param(self.eta, wi))[0]
         jacobian_r = safe_div(f, 4 * xp.abs(wi_h))
         jacobian_t = safe_div((1 - f) * eta_rel**2 * xp.abs(wi_h), (wo_h + eta_rel * wi_h) ** 2)
@@ -192,9 +189,7 @@ class RoughDielectric(BRDF):
         xp = namespace(wo, u)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo = xp.broadcast_to(wo, (*batch, 3))
-        wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
-        u2 = u[..., :2]
-        h = self.ndf.sample_visible(wo_up, u2) if self.sample_visible else self.ndf.sample(u2)
+        h = sample_normal(self.ndf, self.sample_visible, wo, u)
         wo_h = dot(wo, h, keepdims=True)
         f, cos_t, _, eta_ti = fresnel(wo_h, param(self.eta, wo))
         reflect = (u[..., 2:3] < f) | (f >= 1)  # total internal reflection whatever u

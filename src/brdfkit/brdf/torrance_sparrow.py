@@ -43,6 +43,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div, to_numpy
+from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
 from brdfkit.brdf.base import (
     BRDF,
     Sample,
@@ -185,11 +186,7 @@ class MicrofacetReflection(BRDF):
     def _specular_pdf(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         h = normalize(wi + wo)
-        if self.visible:
-            wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
-            p_h = self.ndf.pdf_visible(wo_up, h)
-        else:
-            p_h = self.ndf.pdf(h)
+        p_h = normal_pdf(self.ndf, self.visible, wo, h)
         wo_h = dot(wo, h)
         value = safe_div(p_h, 4 * wo_h)
         ok = (wi[..., 2] > 0) & (wo[..., 2] > 0) & (wo_h > 0)
@@ -197,9 +194,7 @@ class MicrofacetReflection(BRDF):
 
     def _specular_sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
-        wo_up = xp.where(wo[..., 2:3] > 0, wo, -wo)
-        u2 = u[..., :2]
-        h = self.ndf.sample_visible(wo_up, u2) if self.visible else self.ndf.sample(u2)
+        h = sample_normal(self.ndf, self.visible, wo, u)
         wi = reflect_about(wo, h)
         wi, wo_b = xp.broadcast_arrays(wi, wo)
         pdf = self._specular_pdf(wi, wo_b)
