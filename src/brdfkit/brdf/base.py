@@ -47,11 +47,16 @@ HEMISPHERES = ("upper", "both")
 transmission."""
 
 
+def check_choice(name: str, value: str, choices: tuple[str, ...]) -> str:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is one of ``choices``."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}; got {value!r}")
+    return value
+
+
 def check_hemisphere(hemisphere: str) -> str:
     """Raise ``ValueError`` unless ``hemisphere`` is one of :data:`HEMISPHERES`."""
-    if hemisphere not in HEMISPHERES:
-        raise ValueError(f"hemisphere must be one of {HEMISPHERES}; got {hemisphere!r}")
-    return hemisphere
+    return check_choice("hemisphere", hemisphere, HEMISPHERES)
 
 
 def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
@@ -508,6 +513,7 @@ __all__ = [
     "Sum",
     "broadcast_channels",
     "channel_count",
+    "check_choice",
     "check_hemisphere",
     "check_param",
     "mixture_choices",

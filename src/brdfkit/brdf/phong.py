@@ -42,6 +42,7 @@ from brdfkit.brdf.base import (
     BRDF,
     Sample,
     channel_count,
+    check_choice,
     check_param,
     mixture_choices,
     normalized_weights,
@@ -266,7 +267,8 @@ class Phong(MixtureSampled):
 
     def components(self, wo: Array) -> list[Component]:
         diffuse = channel_mean(math.pi * param(self.kd, wo))
-        return _diffuse_and_lobe(wo, diffuse, self._specular_weight(wo), self.n, *_mirror_lobe(wo))
+        specular = self._specular_weight(wo)
+        return diffuse_and_lobe(wo, diffuse, specular, (self.n,), *_mirror_lobe(wo))
 
     def sampling_weight(self, wo: Array) -> Array:
         xp = namespace(wo)
@@ -344,10 +346,10 @@ class ModifiedPhong(MixtureSampled):
 
     def components(self, wo: Array) -> list[Component]:
         kd, ks = channel_mean(param(self.kd, wo)), channel_mean(param(self.ks, wo))
-        return _diffuse_and_lobe(wo, kd, ks, self.n, *_mirror_lobe(wo))
+        return diffuse_and_lobe(wo, kd, ks, (self.n,), *_mirror_lobe(wo))
 
     def sampling_weight(self, wo: Array) -> Array:
-        return _albedo_bound(self, wo)
+        return albedo_bound(self.kd, self.ks, wo)
 
 
 def _mirror_lobe(wo: Array) -> tuple[Callable[..., Array], Callable[..., Array]]:
@@ -359,31 +361,35 @@ def _mirror_lobe(wo: Array) -> tuple[Callable[..., Array], Callable[..., Array]]
     )
 
 
-def _diffuse_and_lobe(
+def diffuse_and_lobe(
     wo: Array,
     diffuse_weight: Array,
     lobe_weight: Array,
-    n: Any,
-    lobe_pdf: Callable[[Array, Array], Array],
-    lobe_sample: Callable[[Array, Array], Array],
+    lobe_params: tuple[Any, ...],
+    lobe_pdf: Callable[..., Array],
+    lobe_sample: Callable[..., Array],
 ) -> list[Component]:
-    """Cosine hemisphere and one lobe, chosen ∝ their weights; the lobe uses n's channel mean."""
+    """Cosine hemisphere and one lobe, chosen ∝ their weights.
+
+    The lobe is ``lobe_pdf(wi, *means)`` and ``lobe_sample(u, *means)`` with ``means`` the
+    channel means of ``lobe_params`` (its exponent or roughness), broadcast to ``wo``'s batch.
+    """
     xp = namespace(wo)
     batch = wo.shape[:-1]
     p_d, p_s = normalized_weights(
         [xp.broadcast_to(diffuse_weight, batch), xp.broadcast_to(lobe_weight, batch)]
     )
-    n_bar = xp.broadcast_to(channel_mean(param(n, wo)), batch)
+    means = [xp.broadcast_to(channel_mean(param(value, wo)), batch) for value in lobe_params]
     return [
         cosine_component(p_d),
-        (p_s, lambda wi: lobe_pdf(wi, n_bar), lambda u: lobe_sample(u, n_bar)),
+        (p_s, lambda wi: lobe_pdf(wi, *means), lambda u: lobe_sample(u, *means)),
     ]
 
 
-def _albedo_bound(model: ModifiedPhong | BlinnPhong, wo: Array) -> Array:
+def albedo_bound(kd: Any, ks: Any, wo: Array) -> Array:
     """ρd + ρs (channel mean) above the surface: the albedo at normal incidence, ``(...,)``."""
     xp = namespace(wo)
-    value = channel_mean(param(model.kd, wo) + param(model.ks, wo))
+    value = channel_mean(param(kd, wo) + param(ks, wo))
     value = xp.broadcast_to(value, wo.shape[:-1])
     return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
 
@@ -406,11 +412,9 @@ def blinn_phong_normalization(n: Array, normalization: str = "exact") -> Array:
     .. [1] F. Giesen, "Derivation of Phong and Blinn-Phong BRDF normalization factors", 2009.
     .. [2] T. Akenine-Möller, E. Haines, N. Hoffman, *Real-Time Rendering*, 3rd ed., 2008.
     """
-    if normalization == "exact":
+    if check_choice("normalization", normalization, _BLINN_NORMALIZATIONS) == "exact":
         return (n + 2) * (n + 4) / (8 * math.pi * (2 ** (-n / 2) + n))
-    if normalization == "rtr":
-        return (n + 8) / (8 * math.pi)
-    raise ValueError(f"normalization must be one of {_BLINN_NORMALIZATIONS}; got {normalization!r}")
+    return (n + 8) / (8 * math.pi)
 
 
 def _half_cosine(wi: Array, wo: Array) -> Array:
@@ -481,10 +485,7 @@ class BlinnPhong(MixtureSampled):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        if self.normalization not in _BLINN_NORMALIZATIONS:
-            raise ValueError(
-                f"normalization must be one of {_BLINN_NORMALIZATIONS}; got {self.normalization!r}"
-            )
+        check_choice("normalization", self.normalization, _BLINN_NORMALIZATIONS)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
@@ -517,17 +518,17 @@ class BlinnPhong(MixtureSampled):
         xp = namespace(wo)
         normal = xp.broadcast_to(asarray([0.0, 0.0, 1.0], xp, like=wo), wo.shape)
         kd, ks = channel_mean(param(self.kd, wo)), channel_mean(param(self.ks, wo))
-        return _diffuse_and_lobe(
+        return diffuse_and_lobe(
             wo,
             kd,
             ks,
-            self.n,
+            (self.n,),
             lambda wi, n: reflected_pdf(wi, wo, lambda h: cosine_lobe_pdf(h[..., 2], n)),
             lambda u, n: reflect_about(wo, sample_cosine_lobe(normal, n, u)),
         )
 
     def sampling_weight(self, wo: Array) -> Array:
-        return _albedo_bound(self, wo)
+        return albedo_bound(self.kd, self.ks, wo)
 
 
 __all__ = ["BlinnPhong", "ModifiedPhong", "Phong"]

@@ -13,8 +13,8 @@ from brdfkit._array import Array, dot, namespace, safe_sqrt, to_numpy
 from brdfkit.brdf.base import (
     BRDF,
     channel_count,
+    check_choice,
     check_param,
-    normalized_weights,
     param,
     register,
     upper_hemisphere,
@@ -22,9 +22,10 @@ from brdfkit.brdf.base import (
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
+    albedo_bound,
     channel_mean,
     check_albedos,
-    cosine_component,
+    diffuse_and_lobe,
     reflect_about,
     reflected_pdf,
 )
@@ -149,10 +150,7 @@ class Ward(MixtureSampled):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        if self.normalization not in _NORMALIZATIONS:
-            raise ValueError(
-                f"normalization must be one of {_NORMALIZATIONS}; got {self.normalization!r}"
-            )
+        check_choice("normalization", self.normalization, _NORMALIZATIONS)
         values = (self.kd, self.ks, self.alpha_x, self._alpha_y)
         object.__setattr__(
             self,
@@ -216,30 +214,18 @@ class Ward(MixtureSampled):
         return xp.where(upper, value, xp.zeros_like(value))
 
     def components(self, wo: Array) -> list[Component]:
-        xp = namespace(wo)
-        batch = wo.shape[:-1]
-        p_d, p_s = normalized_weights(
-            [
-                xp.broadcast_to(channel_mean(param(self.kd, wo)), batch),
-                xp.broadcast_to(channel_mean(param(self.ks, wo)), batch),
-            ]
-        )
-        alpha_x = xp.broadcast_to(channel_mean(param(self.alpha_x, wo)), batch)
-        alpha_y = xp.broadcast_to(channel_mean(param(self._alpha_y, wo)), batch)
-
-        def lobe_pdf(wi: Array) -> Array:
+        def lobe_pdf(wi: Array, alpha_x: Array, alpha_y: Array) -> Array:
             return reflected_pdf(wi, wo, lambda h: ward_half_vector_pdf(h, alpha_x, alpha_y))
 
-        def lobe_sample(u: Array) -> Array:
+        def lobe_sample(u: Array, alpha_x: Array, alpha_y: Array) -> Array:
             return reflect_about(wo, sample_ward_half_vector(alpha_x, alpha_y, u))
 
-        return [cosine_component(p_d), (p_s, lobe_pdf, lobe_sample)]
+        kd, ks = channel_mean(param(self.kd, wo)), channel_mean(param(self.ks, wo))
+        alphas = (self.alpha_x, self._alpha_y)
+        return diffuse_and_lobe(wo, kd, ks, alphas, lobe_pdf, lobe_sample)
 
     def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        value = channel_mean(param(self.kd, wo) + param(self.ks, wo))
-        value = xp.broadcast_to(value, wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return albedo_bound(self.kd, self.ks, wo)
 
 
 __all__ = ["Ward"]
