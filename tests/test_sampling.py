@@ -286,6 +286,28 @@ def test_torch_float32_and_gradients():
     assert float(grad) == pytest.approx(r2.sum(), rel=1e-12)
 
 
+def test_numpy_variates_follow_the_backend_of_the_other_arguments():
+    # A NumPy u (or v) given with torch vertices or cutoff computes as if it had been made in
+    # torch with their dtype, and the gradient reaches them.
+    torch = pytest.importorskip("torch")
+    v = square_to_uniform_hemisphere(U)
+    for dtype in (torch.float32, torch.float64):
+        tri = [torch.tensor(x, dtype=dtype, requires_grad=True) for x in (TRI_A, TRI_B, TRI_C)]
+        cos_cutoff = torch.tensor(0.25, dtype=dtype, requires_grad=True)
+        u_t, v_t = torch.tensor(U, dtype=dtype), torch.tensor(v, dtype=dtype)
+        for name, f, x, x_t, args in (
+            ("cone", square_to_uniform_cone, U, u_t, [cos_cutoff]),
+            ("cone_pdf", square_to_uniform_cone_pdf, v, v_t, [cos_cutoff]),
+            ("triangle", square_to_spherical_triangle, U, u_t, tri),
+            ("triangle_pdf", square_to_spherical_triangle_pdf, v, v_t, tri),
+        ):
+            mixed = f(x, *args)
+            assert isinstance(mixed, torch.Tensor) and mixed.dtype == dtype, name
+            assert torch.equal(mixed, f(x_t, *args)), name
+            grads = torch.autograd.grad(mixed.sum(), args, allow_unused=True)
+            assert any(g is not None and torch.any(g != 0) for g in grads), name
+
+
 # --------------------------------------------------------------------------- bad input
 def test_bad_input_is_rejected():
     with pytest.raises(ValueError, match=r"u must have a last axis of length 2"):

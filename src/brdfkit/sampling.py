@@ -9,6 +9,8 @@ component conventions follow Mitsuba 3's ``warp`` module (``u[..., 0]`` drives t
 
 Directions are in the local frame of DESIGN.md (z the normal); all functions run on any array
 backend through :mod:`brdfkit._array`, keep the input dtype and let gradients flow from ``u``.
+A NumPy ``u`` or ``v`` passed with arrays of another backend (torch vertices, say) computes in
+theirs, with their dtype and device.
 
 References
 ----------
@@ -80,6 +82,16 @@ def _check_pairs(name: str, v: Array) -> Array:
 def _check_unit_square(name: str, u: Array) -> Array:
     """``u`` validated as points of the closed unit square, shape ``(..., 2)``."""
     return check_param(name, _check_pairs(name, u), 0.0, 1.0, hint="a point of the unit square")
+
+
+def _in_namespace_of(x: Array, *others: Array | float) -> Array:
+    """``x`` converted to the backend of ``others`` (their dtype and device) where they are of
+    another one, as a NumPy ``u`` given with torch vertices; otherwise ``x`` unchanged."""
+    xp = namespace(x, *others)
+    if namespace(x) is xp:
+        return x
+    like = next(a for a in others if hasattr(a, "dtype") and namespace(a) is xp)
+    return asarray(x, xp, like=like)
 
 
 def _check_cos_cutoff(cos_cutoff: Array | float, like: Array) -> Array:
@@ -321,7 +333,7 @@ def square_to_uniform_cone(u: Array, cos_cutoff: Array | float) -> Array:
     .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_cone``, 2022.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
     """
-    p = square_to_uniform_disk_concentric(u)
+    p = square_to_uniform_disk_concentric(_in_namespace_of(u, cos_cutoff))
     xp = namespace(p, cos_cutoff)
     one_minus_cos = 1 - _check_cos_cutoff(cos_cutoff, p)
     r2 = dot(p, p)
@@ -347,7 +359,7 @@ def square_to_uniform_cone_pdf(v: Array, cos_cutoff: Array | float) -> Array:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
     """
-    v = check_vectors("v", v)
+    v = check_vectors("v", _in_namespace_of(v, cos_cutoff))
     cos_cutoff = _check_cos_cutoff(cos_cutoff, v)
     return _uniform_density(1 / (2 * math.pi * (1 - cos_cutoff)), v[..., 2] >= cos_cutoff, v)
 
@@ -466,7 +478,7 @@ def square_to_spherical_triangle(u: Array, a: Array, b: Array, c: Array) -> Arra
     .. [1] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §6.5.4 (the robust form used).
     """
-    u = _check_unit_square("u", u)
+    u = _check_unit_square("u", _in_namespace_of(u, a, b, c))
     a, b, c, _, alpha, solid_angle = _spherical_triangle(a, b, c, u)
     xp = namespace(u, a)
     area_pi = u[..., 0] * solid_angle + math.pi  # A' + π, so that φ = A' − α = (A' + π) − α − π
@@ -504,7 +516,7 @@ def square_to_spherical_triangle_pdf(v: Array, a: Array, b: Array, c: Array) -> 
     ----------
     .. [1] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
     """
-    v = check_vectors("v", v)
+    v = check_vectors("v", _in_namespace_of(v, a, b, c))
     xp = namespace(v, a, b, c)
     _, _, _, normals, _, solid_angle = _spherical_triangle(a, b, c, v)
     inside = xp.all(xp.sum(v[..., None, :] * normals, axis=-1) >= 0, axis=-1)
