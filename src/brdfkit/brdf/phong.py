@@ -412,7 +412,8 @@ def blinn_phong_normalization(n: Array, normalization: str = "exact") -> Array:
     .. [1] F. Giesen, "Derivation of Phong and Blinn-Phong BRDF normalization factors", 2009.
     .. [2] T. Akenine-Möller, E. Haines, N. Hoffman, *Real-Time Rendering*, 3rd ed., 2008.
     """
-    if check_choice("normalization", normalization, _BLINN_NORMALIZATIONS) == "exact":
+    check_choice("normalization", normalization, _BLINN_NORMALIZATIONS)
+    if normalization == "exact":
         return (n + 2) * (n + 4) / (8 * math.pi * (2 ** (-n / 2) + n))
     return (n + 8) / (8 * math.pi)
 
