@@ -62,6 +62,22 @@ def test_a_lobe_without_colour_gets_a_scale():
     np.testing.assert_allclose(result.params["1.ggx.scale"], [0.5, 0.4, 0.3], rtol=1e-4)
 
 
+def test_the_roughness_sweep_finds_a_highlight_much_sharper_than_the_start():
+    """ggx starts at alpha = 0.1; a lobe at 0.004 lies in another basin of the objective."""
+    spec = "lambertian(rho=0.2) + 0.03 * ggx(alpha=0.004)"
+    data = _samples(spec, 4000)
+    near = square_to_uniform_hemisphere(np.random.default_rng(3).random((2000, 2)))
+    mirror = near * np.array([-1.0, -1.0, 1.0])  # mirror pairs sample the highlight itself
+    data = MeasuredSamples(
+        np.concatenate([data.wi, near]),
+        np.concatenate([data.wo, mirror]),
+        np.concatenate([data.values, parse(spec).eval(near, mirror)]),
+    )
+    result = fit(data, "lambertian + ggx", starts=4)
+    assert result.params["1.ggx.alpha"] == pytest.approx(0.004, rel=1e-3)
+    assert result.params["1.ggx.scale"] == pytest.approx(0.03, rel=1e-3)
+
+
 def test_residuals_and_errors_closed_forms():
     data = _samples("lambertian(rho=0.5)", 200)
     model = parse("lambertian(rho=0.25)")
@@ -108,17 +124,33 @@ def test_merl_file_of_ggx_gives_back_alpha(tmp_path):
 
 
 CORNELL = ["acryl_blue", "cayman", "garnet_red", "krylon_blue"]
+TWO_LOBES = ["lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward"]
+FALLS_SHORT = {("acryl_blue", "lambertian + cook_torrance"), ("garnet_red", "lambertian + ward")}
+"""Fits whose spheres do not yet look like the measured ones (see the README)."""
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("material", CORNELL)
-def test_cornell_fits_converge(shared_data, material):
+def test_cornell_fits_converge_and_look_like_the_measurement(shared_data, material):
     """Two-lobe fits converge and explain more than a Lambertian alone (by how much is a
-    property of the model: see the numbers in the README)."""
-    table = read_cornell(shared_data / "measured" / "cornell" / f"{material}.brdf")
+    property of the model: see the README); their spheres look like the measured one: closer
+    to it than the Lambertian fit's (CIEDE2000 over the sphere, brdfkit.appearance), and less
+    than half as far, and under ΔE 20, as they are from another Cornell material."""
+    from brdfkit.appearance import sphere_difference
+
+    folder = shared_data / "measured" / "cornell"
+    table = read_cornell(folder / f"{material}.brdf")
+    other = read_cornell(folder / f"{CORNELL[(CORNELL.index(material) + 1) % 4]}.brdf")
     lambertian = fit(table, "lambertian", starts=1)
-    for spec in ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward"):
-        result = fit(table, spec, starts=2)
+    lambertian_look = sphere_difference(table, lambertian.model, resolution=48).mean
+    for spec in TWO_LOBES:
+        result = fit(table, spec)
         assert result.success, (spec, result.message)
-        assert result.errors["cosine_rmse"] < lambertian.errors["cosine_rmse"], spec
-        assert result.errors["relative_l2"] < lambertian.errors["relative_l2"], spec
+        for error in ("log_rmse", "cosine_rmse", "relative_l2"):
+            assert result.errors[error] < lambertian.errors[error], (spec, error)
+        look = sphere_difference(table, result.model, resolution=48).mean
+        wrong = sphere_difference(other, result.model, resolution=48).mean
+        looks_alike = look < lambertian_look and look < min(wrong / 2, 20)
+        # a listed shortfall that is fixed fails too: then take it off the list
+        listed = (material, spec) in FALLS_SHORT
+        assert looks_alike != listed, (spec, look, lambertian_look, wrong)

@@ -10,8 +10,6 @@ import typer
 from brdfkit.cli._app import app, atomic_output, console, fail
 
 _READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
-_LIGHT_DIRECTION = (-0.4, 0.5, 0.77)
-"""The directional light of the comparison spheres: from the upper left, in front."""
 
 
 @app.command("fit")
@@ -24,7 +22,7 @@ def fit_command(
         help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'.",
     ),
     objective: str = typer.Option(
-        "cosine", "--objective", help="cosine (Ngan et al. 2005), log or cube_root."
+        "log", "--objective", help="log (Löw et al. 2012), cosine (Ngan et al. 2005) or cube_root."
     ),
     mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
     starts: int = typer.Option(4, "--starts", min=1, help="Restarts (the first is the spec)."),
@@ -89,23 +87,28 @@ def fit_command(
 
 
 def _write_outputs(output: Path, measured, result, resolution: int, envmap: bool) -> None:
-    """``fit.json`` and ``spheres.png`` (measured | fitted; a second row under the envmap)."""
+    """``fit.json`` and ``spheres.png`` (measured | fitted, exposed alike; a second row under the
+    environment map), with the spheres' CIEDE2000 difference printed and in the JSON."""
     import numpy as np
 
+    from brdfkit.appearance import sphere_difference
     from brdfkit.data import default_envmap_path
     from brdfkit.io import write_image
-    from brdfkit.lights import DirectionalLight, EnvironmentMap
-    from brdfkit.render import render_sphere
+    from brdfkit.lights import EnvironmentMap
 
-    lights = [[DirectionalLight(direction=_LIGHT_DIRECTION, irradiance=np.pi)]]
+    lights = {"directional": None}
     if envmap:
-        lights.append([EnvironmentMap.from_file(default_envmap_path())])
-    rows = []
-    for light in lights:
-        pair = [render_sphere(brdf, light, resolution) for brdf in (measured, result.model)]
-        rows.append(np.concatenate(pair, axis=1))
-    image = np.concatenate(rows, axis=0)
+        lights["envmap"] = [EnvironmentMap.from_file(default_envmap_path())]
+    rows, summary = [], result.to_dict()
+    for name, light in lights.items():
+        difference = sphere_difference(measured, result.model, light, resolution)
+        rows.append(np.concatenate([difference.reference, difference.other], axis=1))
+        summary[f"delta_e_{name}"] = difference.to_dict()
+        console.print(
+            f"spheres under the {name} light: CIEDE2000 mean {difference.mean:.1f}, "
+            f"median {difference.median:.1f}, 95th percentile {difference.p95:.1f}"
+        )
     with atomic_output(output) as folder:
         folder.mkdir()
-        (folder / "fit.json").write_text(json.dumps(result.to_dict(), indent=2))
-        write_image(folder / "spheres.png", image)
+        (folder / "fit.json").write_text(json.dumps(summary, indent=2))
+        write_image(folder / "spheres.png", np.concatenate(rows, axis=0))
