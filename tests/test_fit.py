@@ -124,8 +124,16 @@ def test_merl_file_of_ggx_gives_back_alpha(tmp_path):
 
 
 CORNELL = ["acryl_blue", "cayman", "garnet_red", "krylon_blue"]
+ALIKE = 12.0
+"""Mean CIEDE2000 over the sphere below which two spheres look alike at a glance."""
 TWO_LOBES = ["lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward"]
-FALLS_SHORT = {("acryl_blue", "lambertian + cook_torrance"), ("garnet_red", "lambertian + ward")}
+FALLS_SHORT = {
+    ("acryl_blue", "lambertian + cook_torrance"),  # washed out: lavender for deep blue
+    ("cayman", "lambertian + cook_torrance"),  # cayman: the measured body darkens towards
+    ("cayman", "lambertian + ggx"),  # grazing light far more than a Lambertian lobe
+    ("cayman", "lambertian + ward"),
+    ("garnet_red", "lambertian + ward"),  # pure red: Ward's short tails leave no sheen
+}
 """Fits whose spheres do not yet look like the measured ones (see the README)."""
 
 
@@ -134,8 +142,8 @@ FALLS_SHORT = {("acryl_blue", "lambertian + cook_torrance"), ("garnet_red", "lam
 def test_cornell_fits_converge_and_look_like_the_measurement(shared_data, material):
     """Two-lobe fits converge and explain more than a Lambertian alone (by how much is a
     property of the model: see the README); their spheres look like the measured one: closer
-    to it than the Lambertian fit's (CIEDE2000 over the sphere, brdfkit.appearance), and less
-    than half as far, and under ΔE 20, as they are from another Cornell material."""
+    to it than the Lambertian fit's, alike at a glance (mean CIEDE2000 over the sphere below 12,
+    brdfkit.appearance) and less than half as far as from another Cornell material."""
     from brdfkit.appearance import sphere_difference
 
     folder = shared_data / "measured" / "cornell"
@@ -150,7 +158,7 @@ def test_cornell_fits_converge_and_look_like_the_measurement(shared_data, materi
             assert result.errors[error] < lambertian.errors[error], (spec, error)
         look = sphere_difference(table, result.model, resolution=48).mean
         wrong = sphere_difference(other, result.model, resolution=48).mean
-        looks_alike = look < lambertian_look and look < min(wrong / 2, 20)
+        looks_alike = look < lambertian_look and look < min(wrong / 2, ALIKE)
         # a listed shortfall that is fixed fails too: then take it off the list
         listed = (material, spec) in FALLS_SHORT
         assert looks_alike != listed, (spec, look, lambertian_look, wrong)

@@ -2,11 +2,12 @@ r"""How alike two BRDFs look: CIEDE2000 colour differences between rendered sphe
 
 A fit can lower a numerical error and still look wrong (a lost highlight, a washed-out colour);
 what a user judges is the picture. :func:`sphere_difference` renders both BRDFs on the same
-sphere under the same light, exposes both alike — the reference sphere's median luminance to
-photographic mid-grey :data:`MID_GREY`, then clipped to the display's [0, 1] as a screen would
-show it — and measures per pixel the CIEDE2000 difference :math:`\Delta E_{00}` of their CIELAB
-colours (linear sRGB → XYZ → L*a*b*, D65 white). About 1 is the threshold of a visible
-difference, 2–10 reads as "alike at a glance", beyond ~20 as "another material".
+sphere under the same light, exposes both alike — the brightest channel of the reference
+sphere's median pixel to :data:`BODY_LEVEL`, so that body colours stay unclipped while
+highlights clip to the display's [0, 1] as a screen would show them — and measures per pixel
+the CIEDE2000 difference :math:`\Delta E_{00}` of their CIELAB colours (linear sRGB → XYZ →
+L*a*b*, D65 white). About 1 is the threshold of a visible difference; a mean over the sphere below
+~12 reads as "alike at a glance", beyond ~20 as "another material".
 
 References
 ----------
@@ -26,8 +27,9 @@ import numpy as np
 from brdfkit.brdf.base import BRDF
 from brdfkit.lights import DirectionalLight, Light
 
-MID_GREY = 0.18
-"""Linear luminance that the reference sphere's median pixel is exposed to."""
+BODY_LEVEL = 0.5
+"""Linear value that the brightest channel of the reference sphere's median pixel is exposed to
+(a luminance-based exposure would clip a saturated blue body colour and wash it out)."""
 
 DEFAULT_LIGHT_DIRECTION = (-0.4, 0.5, 0.77)
 """The default directional light: from the upper left, in front of the default camera."""
@@ -90,7 +92,6 @@ def sphere_difference(
         If the reference sphere renders black (nothing to expose by), or the BRDFs do not give
         three colour channels.
     """
-    from brdfkit.io import luminance
     from brdfkit.render import render_sphere
 
     if lights is None:
@@ -102,10 +103,12 @@ def sphere_difference(
             f"reference and other must give RGB (3 channels); got {a.shape[-1]} and {b.shape[-1]}"
         )
     mask = np.any(a > 0, axis=-1) | np.any(b > 0, axis=-1)
-    median = float(np.median(luminance(a[mask]))) if mask.any() else 0.0
+    median = float(np.median(np.max(a[mask], axis=-1))) if mask.any() else 0.0
     if not median > 0:
-        raise ValueError(f"reference renders black (median luminance {median}); cannot expose it")
-    exposure = MID_GREY / median
+        raise ValueError(
+            f"reference renders black (median brightest channel {median}); cannot expose it"
+        )
+    exposure = BODY_LEVEL / median
     a, b = np.clip(a * exposure, 0, 1), np.clip(b * exposure, 0, 1)
     delta_e = np.zeros(mask.shape)
     delta_e[mask] = delta_e_2000(a[mask], b[mask])
@@ -121,8 +124,8 @@ def sphere_difference(
 
 
 __all__ = [
+    "BODY_LEVEL",
     "DEFAULT_LIGHT_DIRECTION",
-    "MID_GREY",
     "SphereDifference",
     "delta_e_2000",
     "sphere_difference",
