@@ -55,6 +55,19 @@ def test_written_parameters_stay_fixed_and_fit_within_the_models_bounds():
     assert all(0 <= v <= 1 for v in np.ravel(result.params["0.lambertian.rho"]))
 
 
+def test_bounds_follow_the_lobes_own_settings():
+    """Cook–Torrance checks f0 only under Schlick's Fresnel: its bounds come from that lobe."""
+    truth = "lambertian(rho=0.2) + cook_torrance(fresnel='schlick', f0=0.05, m=0.2)"
+    result = fit(_samples(truth), "lambertian + cook_torrance(fresnel='schlick')", starts=2)
+    np.testing.assert_allclose(result.params["1.cook_torrance.f0"], 0.05, rtol=1e-4)
+    np.testing.assert_allclose(result.params["1.cook_torrance.m"], 0.2, rtol=1e-4)
+    # a highlight brighter than f0 = 1 allows: f0 stops at its bound (it used to step past it
+    # and raise)
+    bright = _samples("lambertian(rho=0.2) + 3 * cook_torrance(fresnel='schlick', f0=0.5, m=0.2)")
+    result = fit(bright, "lambertian + cook_torrance(fresnel='schlick')", starts=2)
+    assert result.params["1.cook_torrance.f0"] == pytest.approx(1.0)
+
+
 def test_a_lobe_without_colour_gets_a_scale():
     spec = "lambertian(rho=0.2) + [0.5, 0.4, 0.3] * ggx(alpha=0.2)"
     result = fit(_samples(spec), "lambertian + ggx", starts=1)

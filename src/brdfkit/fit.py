@@ -67,7 +67,6 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import functools
 import math
 import re
 import time
@@ -234,14 +233,15 @@ class _Free:
     sequence: bool
 
 
-@functools.cache
-def _bounds(cls: type[BRDF], name: str) -> tuple[float, float]:
-    """The interval the model ``cls`` allows for parameter ``name``, read from its validation."""
+def _bounds(lobe: BRDF, name: str) -> tuple[float, float]:
+    """The interval ``lobe``'s model allows for parameter ``name`` given its other settings
+    (Cook–Torrance checks ``f0`` only under Schlick's Fresnel), read from its validation."""
+    cls = type(lobe)
     extra = {"allow_unphysical": True} if "allow_unphysical" in _field_names(cls) else {}
     ends = []
     for probe in (-_BIG, _BIG):
         try:
-            cls(**extra, **{name: probe})
+            dataclasses.replace(lobe, **extra, **{name: probe})
         except (ValueError, TypeError) as error:
             match = _INTERVAL.search(str(error))
             if not match or not str(error).startswith(name):
@@ -374,7 +374,7 @@ def _free_parameters(
             redundant = has_lambertian and name in DIFFUSE_PARAMETERS
             if held or redundant or not _is_numeric(value):
                 continue
-            lower, upper = _bounds(type(inner), name)
+            lower, upper = _bounds(inner, name)
             size = channels if name in COLOUR_PARAMETERS else int(np.size(value))
             flat = np.ravel(np.asarray(value, dtype=np.float64))
             initial = np.clip(
