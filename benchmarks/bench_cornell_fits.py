@@ -1,4 +1,4 @@
-"""Fits of Lambertian (+ Cook–Torrance, + GGX, + Ward) to the four Cornell paints, judged by eye.
+"""Lambertian (+ Cook–Torrance, + GGX, + Ward, + two GGX) fitted to the Cornell paints, by eye.
 
 For every material and model, with the ``log`` and the ``cosine`` objective: the fitting errors
 and the CIEDE2000 difference between the measured and the fitted sphere
@@ -24,7 +24,8 @@ from brdfkit.io import data_path, write_image
 from brdfkit.measured import read_cornell
 
 MATERIALS = ("acryl_blue", "cayman", "garnet_red", "krylon_blue")
-MODELS = ("lambertian", "lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward")
+PICTURED = ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward")
+MODELS = ("lambertian", *PICTURED, "lambertian + ggx + ggx")
 OBJECTIVES = ("log", "cosine")
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,7 +58,7 @@ def main() -> None:
                 )
                 if objective == "log":
                     row = row or [look.reference]
-                    if model != "lambertian":
+                    if model in PICTURED:
                         row.append(look.other)
         rows.append(np.concatenate(row, axis=1))
     write_image(ROOT / "docs" / "images" / "cornell_fits.png", np.concatenate(rows, axis=0))
