@@ -308,8 +308,20 @@ def fresnel_conductor(
     cos_theta_i, eta, k = asarrays(cos_theta_i, eta, k)
     check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
     check_param("k", k, 0.0, hint="extinction coefficient")
+    return _conductor(_cosine(cos_theta_i), eta, k, polarized=polarized)
+
+
+def _conductor(
+    cos_theta_i: Array, eta: Array, k: Array, *, polarized: bool = False
+) -> Array | tuple[Array, Array]:
+    """:func:`fresnel_conductor` of arrays already checked: ``cos_theta_i`` in [-1, 1], ``eta``
+    > 0 and ``k`` ≥ 0, all of one namespace and dtype.
+
+    For callers that validated once what they evaluate many times (a model's parameters at
+    construction); the checks cost a dozen passes over the cosines.
+    """
     xp = namespace(cos_theta_i, eta, k)
-    cos_i = xp.abs(_cosine(cos_theta_i))
+    cos_i = xp.abs(cos_theta_i)
     cos2 = cos_i * cos_i
     sin2 = 1 - cos2
     sin4 = sin2 * sin2

@@ -58,6 +58,8 @@ import numpy as np
 from brdfkit._array import (
     Array,
     asarray,
+    channels_first,
+    channels_last,
     clamp,
     constant,
     cross,
@@ -72,7 +74,7 @@ from brdfkit._array import (
     to_numpy,
 )
 from brdfkit.brdf.base import channel_count, check_param, param
-from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
+from brdfkit.fresnel import _conductor, conductor, fresnel_dielectric, schlick
 
 MASKINGS = ("v_groove", "smith_separable", "smith_correlated")
 """The masking–shadowing functions :func:`masking_shadowing` knows."""
@@ -749,18 +751,25 @@ class FresnelTerm:
 
         The cosine is clamped to [−1, 1] first: ``wi·h`` of directions that are unit only to
         rounding (or a little off, as user input often is) may exceed 1.
+
+        The Fresnel function runs with the channel axis moved first (``(C, ...)``) and the
+        result is moved back, a view with the channels as the slowest axis: NumPy broadcasts a
+        ``(..., 1)`` cosine against ``(C,)`` parameters one short channel row at a time
+        (measured ~10× slower per element than a whole-batch loop), and ufuncs keep the
+        channel-major layout in what is computed from the result.
         """
         xp = namespace(cos_theta)
         cos_theta = clamp(cos_theta, -1.0, 1.0)
         if self.kind == "none":
             return xp.ones_like(cos_theta)
-        if self.kind == "dielectric":
-            return fresnel_dielectric(cos_theta, param(self.eta, cos_theta))
-        if self.kind == "conductor":
-            return fresnel_conductor(
-                cos_theta, param(self.eta, cos_theta), param(self.k, cos_theta)
-            )
-        return schlick(cos_theta, param(self.f0, cos_theta))
+        function, names = {
+            "dielectric": (fresnel_dielectric, ("eta",)),
+            "conductor": (_conductor, ("eta", "k")),  # checked in from_options
+            "schlick": (schlick, ("f0",)),
+        }[self.kind]
+        args = [cos_theta, *(param(getattr(self, name), cos_theta) for name in names)]
+        ndim = max(a.ndim for a in args)
+        return channels_last(function(*(channels_first(a, ndim) for a in args)))
 
 
 __all__ = [

@@ -178,10 +178,13 @@ class MicrofacetReflection(BRDF):
         d = self.ndf.D(h)
         g = masking_shadowing(self.ndf, wi, wo, h, self.masking)
         f = self.fresnel_term(dot(wi, h, keepdims=True))
-        value = safe_div(d * g * f, 4 * cos_i * cos_o)
+        # D G / (4 cos θi cos θo) and the hemisphere test first: per pair, unless the
+        # roughness is per channel; F (finite, in [0, 1]) multiplies once at the end.
+        dg = safe_div(d * g, 4 * cos_i * cos_o)
+        dg = xp.where(upper_hemisphere(wi, wo), dg, xp.zeros_like(dg))
+        value = dg * f
         shape = np.broadcast_shapes(value.shape, (*result_shape(wi, wo), self.channels))
-        value = xp.broadcast_to(value, shape)
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return value if value.shape == shape else xp.broadcast_to(value, shape)
 
     def _specular_pdf(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
