@@ -235,16 +235,12 @@ def safe_div(a: Array, b: Array) -> Array:
     """
     xp = namespace(a, b)
     if is_numpy(xp):
-        dtype = np.result_type(a, b)
-        if not np.issubdtype(dtype, np.inexact):  # true division of integers: float64
-            dtype = np.dtype(np.float64)
-        out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b)), dtype)
         if np.all(b):  # no zero divisor (one pass, no temporary): the plain quotient
-            return np.divide(a, b, out=out)
+            return np.divide(a, b)
         with np.errstate(divide="ignore", invalid="ignore"):
-            np.divide(a, b, out=out)
-        np.copyto(out, 0, where=b == 0)
-        return out
+            quotient = np.asarray(np.divide(a, b))
+        np.copyto(quotient, 0, where=b == 0)
+        return quotient
     nonzero = b != 0
     quotient = a / xp.where(nonzero, b, constant(1, b))
     return xp.where(nonzero, quotient, constant(0, quotient))

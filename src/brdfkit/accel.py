@@ -816,7 +816,8 @@ def eval_chunked(
 
     def run(start: int) -> None:
         stop = start + chunk
-        _store(flat[start:stop], np.asarray(model.eval(wi[start:stop], wo[start:stop])))
+        a, b = _components_first(wi[start:stop]), _components_first(wo[start:stop])
+        _store(flat[start:stop], np.asarray(model.eval(a, b)))
 
     starts = range(0, flat.shape[0], chunk)
     if workers == 1:
@@ -826,6 +827,17 @@ def eval_chunked(
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(run, starts))
     return out
+
+
+def _components_first(v: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` directions with the same values laid out component by component (a view of
+    a ``(3, n)`` array), so that every ``w[..., k]`` a model reads is contiguous: NumPy reads
+    a component strided through ``(x, y, z)`` rows several times slower (measured: eval
+    1.15–1.4× faster overall). The layout carries through the model's arithmetic."""
+    soa = np.empty((v.shape[1], v.shape[0]), v.dtype)
+    for k in range(v.shape[1]):
+        soa[k] = v[:, k]
+    return soa.T
 
 
 def _store(target: np.ndarray, value: np.ndarray) -> None:

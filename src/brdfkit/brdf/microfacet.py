@@ -143,7 +143,7 @@ class MicrofacetDistribution:
         xp = namespace(w, wm)
         visible = (dot(w, wm, keepdims=True) * w[..., 2:3]) > 0
         g1 = 1 / (1 + self.smith_lambda(w))
-        return xp.where(visible, g1, xp.zeros_like(g1))
+        return xp.where(visible, g1, constant(0, g1))
 
     def pdf_visible(self, w: Array, wm: Array) -> Array:
         r"""Density of the normals visible from ``w`` (upper hemisphere), ``(...,)``:
@@ -242,7 +242,7 @@ class _StretchedDistribution(MicrofacetDistribution):
         cos2 = xp.maximum(mz * mz, constant(_TINY, mz))
         r2 = ((mx / alpha_x) ** 2 + (my / alpha_y) ** 2) / cos2
         value = self._standard_slope_density(r2) / (alpha_x * alpha_y * cos2 * cos2)
-        return xp.where(mz > 0, value, xp.zeros_like(value))
+        return xp.where(mz > 0, value, constant(0, value))
 
     def _standard_radius2(self, u: Array) -> Array:
         """Squared standard slope radius tan²θ for α = 1, by inverting its radial CDF at ``u``."""
@@ -635,7 +635,11 @@ def masking_shadowing(
         value = xp.minimum(xp.minimum(masking, shadowing), xp.ones_like(masking))
         return xp.where(ok, value, xp.zeros_like(value))
     if kind == "smith_separable":
-        return distribution.G1(wi, wm) * distribution.G1(wo, wm)
+        if wi.shape != wo.shape:
+            return distribution.G1(wi, wm) * distribution.G1(wo, wm)
+        # Both in one call, stacked on a new leading axis: half the array operations.
+        g1 = distribution.G1(xp.stack([wi, wo]), wm)
+        return g1[0, ...] * g1[1, ...]
     if kind == "smith_correlated":
         visible = ((dot(wi, wm, keepdims=True) * wi[..., 2:3]) > 0) & (
             (dot(wo, wm, keepdims=True) * wo[..., 2:3]) > 0

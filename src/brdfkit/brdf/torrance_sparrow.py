@@ -42,7 +42,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, dot, namespace, normalize, safe_div, to_numpy
+from brdfkit._array import Array, constant, dot, namespace, normalize, safe_div, to_numpy
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
 from brdfkit.brdf.base import (
     BRDF,
@@ -181,7 +181,7 @@ class MicrofacetReflection(BRDF):
         # D G / (4 cos θi cos θo) and the hemisphere test first: per pair, unless the
         # roughness is per channel; F (finite, in [0, 1]) multiplies once at the end.
         dg = safe_div(d * g, 4 * cos_i * cos_o)
-        dg = xp.where(upper_hemisphere(wi, wo), dg, xp.zeros_like(dg))
+        dg = xp.where(upper_hemisphere(wi, wo), dg, constant(0, dg))
         value = dg * f
         shape = np.broadcast_shapes(value.shape, (*result_shape(wi, wo), self.channels))
         return value if value.shape == shape else xp.broadcast_to(value, shape)
