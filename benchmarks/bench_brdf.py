@@ -244,33 +244,40 @@ class Runner:
         reference = compiled.eval(wi, wo)  # the first call compiles
         out = np.empty_like(reference)
         r, slow = self.repeats, max(1, self.repeats // 2)
-        # The head-to-head: brdfkit accel and Mitsuba, interleaved.
-        fns = [lambda: compiled.eval(wi, wo), lambda: compiled.eval(wi, wo, out=out)]
+        workers = accel.threads()
+        # The head-to-head: brdfkit accel, brdfkit's chunked NumPy path and Mitsuba, interleaved.
+        fns: dict[str, tuple[Callable[[], Any], dict[str, Any]]] = {
+            "brdfkit accel f32": (
+                lambda: compiled.eval(wi, wo),
+                {"compile_seconds": compiled.compile_seconds},
+            ),
+            "brdfkit accel f32, out= reused": (lambda: compiled.eval(wi, wo, out=out), {}),
+            f"brdfkit NumPy f32 chunked ×{workers}": (
+                lambda: accel.eval_chunked(ggx32, wi, wo, workers=workers),
+                {"chunk": accel.DEFAULT_CHUNK},
+            ),
+        }
         check: dict[str, float] = {}
         if self.mitsuba is not None:
             mitsuba_fn = self.mitsuba.eval_fn(wi, wo)
             jit_s = self.mitsuba.jit_seconds(mitsuba_fn)
-            fns.append(mitsuba_fn)
+            fns["Mitsuba 3 llvm_ad_rgb"] = (mitsuba_fn, {"jit_seconds": jit_s})
             value = np.asarray(mitsuba_fn()).T  # Color3f converts as (3, n)
             check["max_rel_diff_mitsuba_f_cos"] = _rel(reference * wi[:, 2:3], value)
-        timings = timed_interleaved(fns, r)
-        self.add(
-            "eval", n, "brdfkit accel f32", timings[0], compile_seconds=compiled.compile_seconds
-        )
-        self.add("eval", n, "brdfkit accel f32, out= reused", timings[1])
-        if self.mitsuba is not None:
-            self.add("eval", n, "Mitsuba 3 llvm_ad_rgb", timings[2], jit_seconds=jit_s)
+        timings = timed_interleaved([fn for fn, _ in fns.values()], r)
+        for (impl, (_, extra)), timing in zip(fns.items(), timings, strict=True):
+            self.add("eval", n, impl, timing, **extra)
         if n <= 1_000_000:  # one call allocates ~200 bytes per pair: 2 GB at 1e7
             self.add("eval", n, "brdfkit NumPy f32", lambda: ggx32.eval(wi, wo), slow)
             self.add("eval", n, "brdfkit NumPy f64", lambda: ggx64.eval(wi64, wo64), slow)
-        workers = accel.threads()
-        self.add(
-            "eval",
-            n,
-            f"brdfkit NumPy f32 chunked ×{workers}",
-            lambda: accel.eval_chunked(ggx32, wi, wo, workers=workers),
-            slow,
-        )
+        if workers > 1:  # what the threads add (NumPy holds the GIL between its loops)
+            self.add(
+                "eval",
+                n,
+                "brdfkit NumPy f32 chunked ×1",
+                lambda: accel.eval_chunked(ggx32, wi, wo),
+                slow,
+            )
         check["max_rel_diff_numpy_f32"] = _rel(reference, accel.eval_chunked(ggx32, wi, wo))
         check["max_rel_diff_numpy_f64"] = _rel(reference, accel.eval_chunked(ggx64, wi64, wo64))
         if n <= 1_000_000:
@@ -407,7 +414,7 @@ def table(result: dict[str, Any]) -> str:
         ratio = r["per_second"] / peer[(r["workload"], r["n"])] if peer else float("nan")
         lines.append(
             f"| {r['workload']} | {r['n']:.0e} | {r['impl']} | {r['per_second']:.3g} | "
-            f"{ratio:.2f} | {r['first_call_extra_seconds']:.3f} |"
+            f"{ratio:.3g} | {r['first_call_extra_seconds']:.3f} |"
         )
     return "\n".join(lines)
 
