@@ -358,13 +358,14 @@ class Runner:
 
 
 def run(sizes: list[int], repeats: int, with_mitsuba: bool) -> dict[str, Any]:
+    about = machine()  # before the run: its load average is the other processes'
     runner = Runner(repeats, with_mitsuba)
     for n in sizes:
         runner.eval(n)
     runner.sample_eval(1_000_000)
     runner.albedo()
     return {
-        "machine": machine(),
+        "machine": {**about, "load_average_at_end": os.getloadavg()},
         "mitsuba": runner.mitsuba.version if runner.mitsuba else None,
         "rows": runner.rows,
     }
