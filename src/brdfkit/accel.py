@@ -792,7 +792,7 @@ def eval_chunked(
     dozen arrays of ``chunk × C`` values) stay in cache and bound the extra memory, whatever
     the batch size; ``out`` (shape ``batch + (C,)``) avoids even the output allocation.
     ``workers > 1`` evaluates chunks on that many threads (NumPy releases the GIL in its
-    loops, not between them: two threads gain 1.3–1.6×, measured; see :data:`DEFAULT_CHUNK`).
+    loops, not between them: two threads gain 1.2–1.6×, measured; see :data:`DEFAULT_CHUNK`).
     Each chunk's directions are handed to the model as a copy laid out component by
     component: the same values, in the layout NumPy reads fastest.
 
