@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import special
@@ -105,3 +107,14 @@ def test_numpy_like_for_torch_data_gives_its_dtype_in_torch():
     torch_xp = A.namespace(torch.ones(1))
     t = A.asarray([0.5, 0.25], torch_xp, like=np.ones(3, dtype=np.float32))
     assert isinstance(t, torch.Tensor) and t.dtype == torch.float32
+
+
+def test_a_read_only_numpy_array_converts_to_torch_without_warning():
+    torch = pytest.importorskip("torch")
+    read_only = np.broadcast_to(np.arange(3.0), (2, 3))
+    like = torch.zeros(1, dtype=torch.float64)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        value = A.asarray(read_only, like=like)
+    assert isinstance(value, torch.Tensor)
+    np.testing.assert_array_equal(value.numpy(), read_only)

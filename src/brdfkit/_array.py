@@ -122,6 +122,8 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
         return x  # already right: no copy, autograd graph kept
     if device is None and native:
         device = _device(x)
+    if isinstance(x, np.ndarray) and not native and not x.flags.writeable:
+        x = x.copy()  # a read-only view (a broadcast, a cached table): torch wants its own
     return xp.asarray(x, dtype=dtype, device=device)
 
 
