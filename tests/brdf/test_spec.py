@@ -150,3 +150,14 @@ def test_anything_outside_the_grammar_is_rejected_without_running(spec, match):
 def test_a_spec_must_be_a_string():
     with pytest.raises(ValueError, match="spec must be a string; got Lambertian"):
         parse(Lambertian())
+
+
+def test_a_sum_samples_torch_directions_with_numpy_uniforms():
+    torch = pytest.importorskip("torch")
+    model = parse("lambertian(rho=0.3) + ggx(alpha=0.2)")
+    wo = torch.tensor([[0.3, 0.1, 0.9], [0.0, 0.6, 0.8]], dtype=torch.float64)
+    wo = wo / torch.linalg.vector_norm(wo, dim=-1, keepdim=True)
+    u = np.random.default_rng(0).random((2, 3))
+    mixed, same = model.sample(wo, u), model.sample(wo, torch.from_numpy(u))
+    assert isinstance(mixed.wi, torch.Tensor)
+    assert torch.equal(mixed.wi, same.wi) and torch.equal(mixed.weight, same.weight)

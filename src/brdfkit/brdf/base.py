@@ -389,6 +389,7 @@ class Sum(BRDF):
 
     def sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
+        u = asarray(u, xp, like=wo)  # NumPy uniforms with torch directions compute in torch
         probs = self._probabilities(wo)
         chosen_wi = chosen_w = chosen_delta = None
         chosen_pdf = None
