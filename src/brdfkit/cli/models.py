@@ -15,6 +15,16 @@ _CLAIMS = ("reciprocal", "energy_conserving", "isotropic", "has_delta", "transmi
 _ROLE = re.compile(r":\w+:`([^`]*)`")
 """A reStructuredText role such as :math:`x` (shown as its content)."""
 _MARKS = {True: "[green]yes[/]", False: "[dim]no[/]", None: "?"}
+_HEADERS = {
+    "reciprocal": "recip-\nrocal",
+    "energy_conserving": "energy\nconserv.",
+    "isotropic": "iso-\ntropic",
+    "has_delta": "has\ndelta",
+    "transmits": "trans-\nmits",
+}
+"""Two-line claim headers, so that the yes/no columns stay narrow."""
+_WIDE = 140
+"""Terminal width from which the models' one-line summaries are shown too."""
 
 
 def model_table() -> list[dict[str, Any]]:
@@ -78,10 +88,14 @@ def models_command(
     table.add_column("model", style="bold", no_wrap=True)
     table.add_column("parameters (defaults)", overflow="fold")
     for claim in _CLAIMS:
-        table.add_column(claim.replace("_", " "), justify="center")
-    table.add_column("summary", overflow="fold")
+        table.add_column(_HEADERS[claim], justify="center", no_wrap=True)
+    wide = console.width >= _WIDE
+    if wide:
+        table.add_column("summary", overflow="fold")
     for record in records:
         params = ", ".join(f"{k}={v}" for k, v in record["parameters"].items())
         marks = [_MARKS[record["claims"][c]] for c in _CLAIMS]
-        table.add_row(record["name"], params, *marks, record["summary"])
+        table.add_row(record["name"], params, *marks, *([record["summary"]] if wide else []))
     console.print(table)
+    if not wide:
+        console.print(f"[dim](a terminal {_WIDE} columns wide shows each model's summary too)[/]")
