@@ -277,7 +277,7 @@ def fresnel_dielectric(
 
 # --------------------------------------------------------------------------- conductors
 def fresnel_conductor(
-    cos_theta_i: Any, eta: Any, k: Any, *, polarized: bool = False
+    cos_theta_i: Any, eta: Any, k: Any, *, polarized: bool = False, validate: bool = True
 ) -> Array | tuple[Array, Array]:
     """Exact Fresnel reflectance of a conductor with complex relative index ``η + iκ``.
 
@@ -298,6 +298,9 @@ def fresnel_conductor(
     eta : real part of the relative index (> 0).
     k : extinction coefficient, the imaginary part (≥ 0).
     polarized : if True return ``(Rs, Rp)`` instead of ``R``.
+    validate : check the arguments (the default). ``False`` is for callers that checked once
+        what they evaluate many times (a model's parameters at construction, cosines clamped
+        to [-1, 1]): the checks cost a dozen passes over the cosines.
 
     References
     ----------
@@ -306,20 +309,10 @@ def fresnel_conductor(
     .. [3] Mitsuba 3, ``fresnel_conductor`` in ``include/mitsuba/render/fresnel.h``.
     """
     cos_theta_i, eta, k = asarrays(cos_theta_i, eta, k)
-    check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
-    check_param("k", k, 0.0, hint="extinction coefficient")
-    return _conductor(_cosine(cos_theta_i), eta, k, polarized=polarized)
-
-
-def _conductor(
-    cos_theta_i: Array, eta: Array, k: Array, *, polarized: bool = False
-) -> Array | tuple[Array, Array]:
-    """:func:`fresnel_conductor` of arrays already checked: ``cos_theta_i`` in [-1, 1], ``eta``
-    > 0 and ``k`` ≥ 0, all of one namespace and dtype.
-
-    For callers that validated once what they evaluate many times (a model's parameters at
-    construction); the checks cost a dozen passes over the cosines.
-    """
+    if validate:
+        check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
+        check_param("k", k, 0.0, hint="extinction coefficient")
+        cos_theta_i = _cosine(cos_theta_i)
     xp = namespace(cos_theta_i, eta, k)
     cos_i = xp.abs(cos_theta_i)
     cos2 = cos_i * cos_i

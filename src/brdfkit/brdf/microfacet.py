@@ -74,7 +74,7 @@ from brdfkit._array import (
     to_numpy,
 )
 from brdfkit.brdf.base import channel_count, check_param, param
-from brdfkit.fresnel import _conductor, conductor, fresnel_dielectric, schlick
+from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
 
 MASKINGS = ("v_groove", "smith_separable", "smith_correlated")
 """The masking–shadowing functions :func:`masking_shadowing` knows."""
@@ -768,7 +768,8 @@ class FresnelTerm:
             return xp.ones_like(cos_theta)
         function, names = {
             "dielectric": (fresnel_dielectric, ("eta",)),
-            "conductor": (_conductor, ("eta", "k")),  # checked in from_options
+            # eta, k checked in from_options, the cosine clamped above
+            "conductor": (functools.partial(fresnel_conductor, validate=False), ("eta", "k")),
             "schlick": (schlick, ("f0",)),
         }[self.kind]
         args = [cos_theta, *(param(getattr(self, name), cos_theta) for name in names)]
