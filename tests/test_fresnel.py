@@ -404,3 +404,12 @@ def test_conductor_reflectance_grows_towards_grazing_from_its_f0_side(cos, eta, 
     """Rs is monotonic in θ (it never dips below its normal-incidence value)."""
     r_s, _ = fresnel_conductor(np.array(cos), eta, k, polarized=True)
     assert float(r_s) >= float(f0_from_conductor(np.array(eta), k)) - 1e-12
+
+
+def test_conductor_without_validation_gives_the_same_values():
+    cos = np.linspace(-1, 1, 41)
+    eta, k = np.array([0.2, 0.4, 1.4]), np.array([3.6, 2.4, 1.8])
+    checked = fresnel_conductor(cos[:, None], eta, k)
+    np.testing.assert_array_equal(fresnel_conductor(cos[:, None], eta, k, validate=False), checked)
+    with pytest.raises(ValueError, match="eta"):
+        fresnel_conductor(cos, -1.0, 0.0)
