@@ -288,7 +288,8 @@ def fresnel_conductor(
     ``Rs = (a² + b² + cos²θ − 2a cos θ) / (a² + b² + cos²θ + 2a cos θ)``,
     ``Rp = Rs · ((a² + b²) cos²θ + s⁴ − 2a cos θ s²) / ((a² + b²) cos²θ + s⁴ + 2a cos θ s²)``,
 
-    ``R = (Rs + Rp)/2``. At normal incidence ``R = ((η−1)² + κ²)/((η+1)² + κ²)``; at grazing
+    ``R = (Rs + Rp)/2``, computed as ``Rs · t₃/(t₃ + t₄)`` with ``t₃ ± t₄`` Rp's numerator and
+    denominator (one division). At normal incidence ``R = ((η−1)² + κ²)/((η+1)² + κ²)``; at grazing
     incidence ``R = 1``; with ``κ = 0`` it equals :func:`fresnel_dielectric` for light from
     outside. The metal is opaque, so the sign of ``cos_theta_i`` is ignored.
 
@@ -323,11 +324,13 @@ def fresnel_conductor(
     a = safe_sqrt(0.5 * (a2_plus_b2 + temp))
     term_1 = a2_plus_b2 + cos2
     term_2 = 2 * cos_i * a
-    r_s = safe_div(term_1 - term_2, term_1 + term_2)
     term_3 = a2_plus_b2 * cos2 + sin4
     term_4 = term_2 * sin2
-    r_p = r_s * safe_div(term_3 - term_4, term_3 + term_4)
-    return (r_s, r_p) if polarized else 0.5 * (r_s + r_p)
+    if polarized:
+        r_s = safe_div(term_1 - term_2, term_1 + term_2)
+        return r_s, r_s * safe_div(term_3 - term_4, term_3 + term_4)
+    # (Rs + Rp)/2 = Rs·term_3/(term_3 + term_4): one division where the two ratios take two.
+    return safe_div((term_1 - term_2) * term_3, (term_1 + term_2) * (term_3 + term_4))
 
 
 # --------------------------------------------------------------------------- normal incidence

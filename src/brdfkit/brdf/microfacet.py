@@ -142,8 +142,13 @@ class MicrofacetDistribution:
         """
         xp = namespace(w, wm)
         visible = (dot(w, wm, keepdims=True) * w[..., 2:3]) > 0
-        g1 = 1 / (1 + self.smith_lambda(w))
+        g1 = self.smith_G1(w)
         return xp.where(visible, g1, constant(0, g1))
+
+    def smith_G1(self, w: Array) -> Array:
+        r"""Smith's :math:`1/(1 + \Lambda(\omega))` without the facet test of :meth:`G1`,
+        ``(..., C)``."""
+        return 1 / (1 + self.smith_lambda(w))
 
     def pdf_visible(self, w: Array, wm: Array) -> Array:
         r"""Density of the normals visible from ``w`` (upper hemisphere), ``(...,)``:
@@ -223,13 +228,16 @@ class _StretchedDistribution(MicrofacetDistribution):
     def _alphas(self, like: Array) -> tuple[Array, Array]:
         return param(self.alpha_x, like), param(self.alpha_y, like)
 
+    def _alpha2_sin2(self, w: Array) -> Array:
+        r""":math:`\alpha(\phi)^2\sin^2\theta` of ``w`` (times :math:`|w|^2`), ``(..., C)``."""
+        alpha_x, alpha_y = self._alphas(w)
+        return (alpha_x * w[..., 0:1]) ** 2 + (alpha_y * w[..., 1:2]) ** 2
+
     def _slope_tan2(self, w: Array) -> Array:
         r""":math:`\alpha(\phi)^2\tan^2\theta` of ``w``, ``(..., C)``."""
         xp = namespace(w)
-        alpha_x, alpha_y = self._alphas(w)
-        wx, wy, wz = w[..., 0:1], w[..., 1:2], w[..., 2:3]
-        num = (alpha_x * wx) ** 2 + (alpha_y * wy) ** 2
-        return num / xp.maximum(wz * wz, constant(_TINY, wz))
+        wz = w[..., 2:3]
+        return self._alpha2_sin2(w) / xp.maximum(wz * wz, constant(_TINY, wz))
 
     def _standard_slope_density(self, r2: Array) -> Array:
         """Isotropic standard slope density :math:`P^{22}_1` at squared slope ``r2``."""
@@ -300,8 +308,16 @@ class GGX(_StretchedDistribution):
     .. [4] E. Heitz, "Sampling the GGX distribution of visible normals", JCGT 7(4), 2018.
     """
 
-    def _standard_slope_density(self, r2: Array) -> Array:
-        return 1 / (math.pi * (1 + r2) ** 2)
+    def D(self, wm: Array) -> Array:
+        r"""The formula above with :math:`\cos^4\theta_m(1 + \tan^2\theta_m(\ldots))^2 =
+        (\cos^2\theta_m + \sin^2\theta_m(\ldots))^2` for unit ``wm``: one division, and no
+        :math:`\tan` to guard at grazing normals."""
+        xp = namespace(wm)
+        alpha_x, alpha_y = self._alphas(wm)
+        mx, my, mz = wm[..., 0:1], wm[..., 1:2], wm[..., 2:3]
+        denominator = mz * mz + (mx / alpha_x) ** 2 + (my / alpha_y) ** 2
+        value = 1 / (math.pi * alpha_x * alpha_y * denominator * denominator)
+        return xp.where(mz > 0, value, constant(0, value))
 
     def _standard_radius2(self, u: Array) -> Array:
         xp = namespace(u)
@@ -311,6 +327,15 @@ class GGX(_StretchedDistribution):
     def smith_lambda(self, w: Array) -> Array:
         s2 = self._slope_tan2(w)
         return 0.5 * (safe_sqrt(1 + s2) - 1)
+
+    def smith_G1(self, w: Array) -> Array:
+        r""":math:`1/(1+\Lambda) = 2/(1 + \sqrt{1 + \alpha^2\tan^2\theta}) =
+        2|\cos\theta| / (|\cos\theta| + \sqrt{\cos^2\theta + \alpha^2\sin^2\theta})`: one
+        division instead of two (the form of Mitsuba 3's ``smith_g1``), exact at grazing."""
+        xp = namespace(w)
+        cos_theta = xp.abs(w[..., 2:3])
+        root = safe_sqrt(cos_theta * cos_theta + self._alpha2_sin2(w))
+        return safe_div(2 * cos_theta, cos_theta + root)
 
     def sample_visible(self, w: Array, u: Array) -> Array:
         xp = namespace(w, u)
