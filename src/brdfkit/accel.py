@@ -393,8 +393,12 @@ _BATCH_ONLY = (
     "do not vary over it (a texture does): use brdfkit.accel.eval_chunked for those"
 )
 _BLOCK = 1 << 15
-"""Elements per block of work handed to a thread (a few hundred µs of work: the hand-off costs
-a few µs)."""
+"""Fewest elements per block of work handed to a thread (~200 µs of GGX work)."""
+_BLOCKS_PER_THREAD = 8
+"""Blocks per worker thread of a large batch: enough that a core slowed by other work takes
+fewer of them, few enough that the per-block hand-off (a pool round trip and a numba dispatch
+that both need the GIL, tens of µs) stays small. Measured on the GGX kernel, 10⁷ pairs, 2
+threads: fixed blocks of 32k elements ran at 2.6×10⁸/s, 128k at 2.9×10⁸, 512k at 3.2×10⁸."""
 _POOL: ThreadPoolExecutor | None = None
 
 
@@ -410,12 +414,13 @@ def _run_parallel(
     """Run ``function(*arrays, n)`` over ``n`` elements in blocks, on a pool of threads.
 
     ``arrays`` are flat, holding ``max(width, 1)`` values per element. The kernels release the
-    GIL (``nogil``), so blocks run truly in parallel; blocks of :data:`_BLOCK` elements are
-    handed out dynamically, so a core slowed by other work takes fewer of them (a static
-    split into one half per core was measured ~30 % slower on a busy machine). Two measured
-    choices: numba's own ``prange``, and a loop over ``range(start, stop)``, both defeat LLVM's
-    loop vectoriser on these kernels (it cannot prove the indices non-negative), so each block
-    gets views of its slice and a loop over ``range(n)``.
+    GIL (``nogil``), so blocks run truly in parallel; :data:`_BLOCKS_PER_THREAD` blocks per
+    thread (at least :data:`_BLOCK` elements each) are handed out dynamically, so a core
+    slowed by other work takes fewer of them (a static split into one half per core was
+    measured ~30 % slower on a busy machine). Two measured choices: numba's own ``prange``,
+    and a loop over ``range(start, stop)``, both defeat LLVM's loop vectoriser on these
+    kernels (it cannot prove the indices non-negative), so each block gets views of its slice
+    and a loop over ``range(n)``.
     """
     global _POOL
     workers = threads()
@@ -427,13 +432,14 @@ def _run_parallel(
         if _POOL is None or _POOL._max_workers != workers:
             _POOL = ThreadPoolExecutor(workers, thread_name_prefix="brdfkit-accel")
         pool = _POOL
+    size = max(_BLOCK, -(-n // (workers * _BLOCKS_PER_THREAD)))
 
     def block(lo: int) -> None:
-        hi = min(lo + _BLOCK, n)
+        hi = min(lo + size, n)
         views = [a[lo * max(w, 1) : hi * max(w, 1)] for a, w in zip(arrays, widths, strict=True)]
         function(*views, hi - lo)
 
-    for future in [pool.submit(block, lo) for lo in range(0, n, _BLOCK)]:
+    for future in [pool.submit(block, lo) for lo in range(0, n, size)]:
         future.result()
 
 
@@ -593,7 +599,11 @@ def _source(
             live.update(uses)
     body.reverse()
     params = [f"in{j}" for j in range(n_inputs)] + [f"out{j}" for j in range(len(outs))]
-    lines = [f"def kernel({', '.join(params)}, n):", "    for i in range(n):"]
+    lines = [
+        f"def kernel({', '.join(params)}, n):",
+        "    _prefer_vector_width()",
+        "    for i in range(n):",
+    ]
     lines += [f"        {name} = {code}" for name, code in loads if name in live]
     lines += [f"        {target} = {code}" for target, code in body]
     lines += [f"        {target} = {ref}" for target, ref in stores]
@@ -648,15 +658,62 @@ def _intrinsics() -> dict[str, Any]:
     }
 
 
+def vector_bits() -> int:
+    """The SIMD width the kernels ask LLVM's vectoriser for, in bits (``BRDFKIT_VECTOR_BITS``
+    overrides; default 512).
+
+    LLVM tunes recent Intel CPUs to prefer 256-bit vectors even where AVX-512 is there (the
+    512-bit units once lowered the clock of a whole core). The kernels are throughput-bound on
+    division and square roots, which 512-bit vectors do at more lanes per cycle: measured on
+    an Intel Xeon (Emerald Rapids) GGX conductor kernel, one thread, 1.5–1.6×10⁸ → 1.7–1.8×10⁸
+    pairs/s. Where AVX-512 is absent the hint has no effect (the widest legal vectors are
+    used), so 512 is safe everywhere; set 256 on a CPU whose clock drops under AVX-512.
+    """
+    bits = os.environ.get("BRDFKIT_VECTOR_BITS", "512")
+    if bits not in ("128", "256", "512"):
+        raise ValueError(f"BRDFKIT_VECTOR_BITS must be 128, 256 or 512; got {bits!r}")
+    return int(bits)
+
+
+@functools.cache
+def _vector_width_hint(bits: int) -> Any:
+    """A numba intrinsic that marks the function calling it ``"prefer-vector-width"="bits"``
+    (what clang's ``-mprefer-vector-width`` does): the width for that kernel alone, not for
+    every numba function of the process as ``NUMBA_CPU_FEATURES`` would."""
+    from numba.core import types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def prefer_vector_width(typingctx: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            # llvmlite accepts only a fixed list of attribute names, without LLVM's string
+            # attributes; the set underneath renders any attribute it holds.
+            set.add(builder.function.attributes, f'"prefer-vector-width"="{bits}"')
+            return context.get_dummy_value()
+
+        return types.none(), codegen
+
+    return prefer_vector_width
+
+
 def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[..., None]:
     """Compile (or fetch from the cache) the generated kernel source."""
     import numba
 
-    key = source + repr(sorted((k, v.dtype.str, v.tobytes()) for k, v in constants.items()))
+    bits = vector_bits()
+    key = f"{bits}|{source}" + repr(
+        sorted((k, v.dtype.str, v.tobytes()) for k, v in constants.items())
+    )
     with _KERNELS_LOCK:
         if key in _KERNELS:
             return _KERNELS[key]
-        namespace: dict[str, Any] = {"np": np, "math": math, **_intrinsics(), **constants}
+        namespace: dict[str, Any] = {
+            "np": np,
+            "math": math,
+            **_intrinsics(),
+            "_prefer_vector_width": _vector_width_hint(bits),
+            **constants,
+        }
         exec(builtins.compile(source, "<brdfkit.accel kernel>", "exec"), namespace)
         function = numba.njit(fastmath=set(_FASTMATH), error_model="numpy", nogil=True)(
             namespace["kernel"]
