@@ -4,6 +4,7 @@ NumPy path is the model's eval with bounded memory. No timing here: see benchmar
 from __future__ import annotations
 
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -92,6 +93,30 @@ def test_float32_values_match_the_numpy_float32_path() -> None:
     # Both float32 paths carry the same rounding budget against the float64 truth.
     budget = np.max(np.abs(theirs - exact)) + 64 * eps * np.max(np.abs(exact))
     assert np.max(np.abs(ours - exact)) <= budget
+
+
+@pytest.mark.parametrize("bits", ["256", "512"])
+def test_vector_width_changes_the_code_not_the_values(bits, monkeypatch) -> None:
+    """``BRDFKIT_VECTOR_BITS`` picks the SIMD width of newly built kernels; values stay."""
+    monkeypatch.setenv("BRDFKIT_VECTOR_BITS", bits)
+    model = gold_ggx(np.float32, masking="smith_separable")
+    rng = np.random.default_rng(4)
+    wi, wo = directions(rng, 3000, np.float32), directions(rng, 3000, np.float32)
+    compiled = accel.compile(model)
+    assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 64 * float(np.finfo(np.float32).eps))
+    kernel = compiled._kernel("eval")._function
+    assembly = kernel.inspect_asm(kernel.signatures[0])
+    if "avx512f" in Path("/proc/cpuinfo").read_text():  # mostly 512-bit (zmm) or 256-bit (ymm)
+        wide = assembly.count("zmm") > assembly.count("ymm")
+        assert wide == (bits == "512")
+
+
+def test_vector_width_setting_is_checked(monkeypatch) -> None:
+    monkeypatch.setenv("BRDFKIT_VECTOR_BITS", "1024")
+    with pytest.raises(
+        ValueError, match=r"BRDFKIT_VECTOR_BITS must be 128, 256 or 512; got '1024'"
+    ):
+        accel.compile(gold_ggx(np.float32)).eval(np.array([0.0, 0.0, 1.0]), np.array([0, 0, 1.0]))
 
 
 @pytest.mark.slow

@@ -66,6 +66,14 @@ def test_s_and_p_agree_at_normal_incidence(cos):
     np.testing.assert_allclose(r_s, r_p, rtol=1e-12)
 
 
+def test_conductor_reflectance_is_the_mean_of_s_and_p():
+    """The unpolarised conductor reflectance (one ratio) is (Rs + Rp)/2 of the two ratios."""
+    cos = np.linspace(-1.0, 1.0, 101)
+    for eta, k in [(0.2, 3.6), (1.5, 0.0), (2.9, 3.1), (0.05, 0.3)]:
+        r_s, r_p = fresnel_conductor(cos, eta, k, polarized=True)
+        np.testing.assert_allclose(fresnel_conductor(cos, eta, k), (r_s + r_p) / 2, rtol=1e-14)
+
+
 def test_conductor_normal_incidence_closed_form():
     rng = np.random.default_rng(1)
     presets = np.array(list(CONDUCTORS.values()))  # (metal, eta/k, rgb)

@@ -125,6 +125,28 @@ def test_closed_forms_of_lambda():
     assert np.max(np.abs(g_rational / g_exact - 1)) > 1e-4  # it is an approximation
 
 
+def test_ggx_one_division_forms_equal_the_textbook_ones():
+    """GGX's D and G1 are computed in forms with fewer divisions; they equal the formulas as
+    written (Walter et al. 2007 eqs. 33-34) to rounding, anisotropic and near grazing."""
+    rng = np.random.default_rng(7)
+    theta = np.concatenate([rng.uniform(0, 1.5, 200), [1e-6, 1.5707]])
+    phi = rng.uniform(0, 2 * math.pi, theta.size)
+    w = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
+    ax, ay = 0.15, 0.6
+    dist = GGX(ax, ay)
+    tan2 = np.tan(theta) ** 2
+    slope = np.cos(phi) ** 2 / ax**2 + np.sin(phi) ** 2 / ay**2
+    d = 1 / (math.pi * ax * ay * np.cos(theta) ** 4 * (1 + tan2 * slope) ** 2)
+    np.testing.assert_allclose(dist.D(w)[..., 0], d, rtol=1e-12)
+    alpha2 = ax**2 * np.cos(phi) ** 2 + ay**2 * np.sin(phi) ** 2
+    g1 = 1 / (1 + (-1 + np.sqrt(1 + alpha2 * tan2)) / 2)
+    np.testing.assert_allclose(dist.smith_G1(w)[..., 0], g1, rtol=1e-12)
+    below = w * np.array([1.0, 1.0, -1.0])  # G1 is even in cos θ
+    np.testing.assert_allclose(dist.smith_G1(below)[..., 0], g1, rtol=1e-12)
+    horizon = np.array([[1.0, 0.0, 0.0]])
+    assert dist.smith_G1(horizon)[0, 0] == 0.0 and dist.D(horizon)[0, 0] == 0.0
+
+
 def test_anisotropic_lambda_uses_projected_roughness():
     """Λ of (αx, αy) along azimuth φ equals the isotropic Λ with α(φ)² = αx²cos²φ + αy²sin²φ."""
     ax, ay, theta, phi = 0.2, 0.7, 1.1, 0.9
