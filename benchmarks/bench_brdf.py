@@ -46,6 +46,12 @@ ALBEDO_SAMPLES = 100_000
 DIFFUSE = 0.3
 
 
+PAUSE = 0.03
+"""Seconds of rest before every timed call. Dr.Jit's worker threads spin after each kernel
+(measured: 22 ms of CPU in the 50 ms after a Mitsuba call, 0.1 ms after brdfkit's), which on
+a 2-core machine slows whatever runs next; the rest gives every call idle cores to start on."""
+
+
 def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float]:
     """``(first-call seconds, min over repeats of warm seconds)``."""
     start = time.perf_counter()
@@ -53,6 +59,7 @@ def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float]:
     first = time.perf_counter() - start
     best = first if repeats == 0 else float("inf")
     for _ in range(repeats):
+        time.sleep(PAUSE)
         start = time.perf_counter()
         fn()
         best = min(best, time.perf_counter() - start)
@@ -70,6 +77,7 @@ def timed_interleaved(fns: list[Callable[[], Any]], repeats: int) -> list[tuple[
     best = [float("inf")] * len(fns)
     for _ in range(repeats):
         for k, fn in enumerate(fns):
+            time.sleep(PAUSE)
             start = time.perf_counter()
             fn()
             best[k] = min(best[k], time.perf_counter() - start)

@@ -128,6 +128,36 @@ def test_albedo_matches_the_models_estimator() -> None:
     assert_close(ours, model.albedo(wo, samples=1024), 1e-10)
 
 
+def test_results_reuse_memory_only_once_nothing_refers_to_it() -> None:
+    """Kernels hand out pooled output memory again only when no array, view or buffer export
+    of an earlier result is alive: a result never changes under its holder."""
+    model = gold_ggx(np.float32)
+    compiled = accel.compile(model)
+    rng = np.random.default_rng(9)
+    wi, wo = directions(rng, 5000, np.float32), directions(rng, 5000, np.float32)
+    wi2 = directions(rng, 5000, np.float32)
+
+    def address(a: np.ndarray) -> int:
+        return a.__array_interface__["data"][0]
+
+    first = compiled.eval(wi, wo)
+    kept = first.copy()
+    second = compiled.eval(wi2, wo)
+    assert not np.shares_memory(first, second)
+    np.testing.assert_array_equal(first, kept)
+    held_elsewhere = [first[:, 1], memoryview(second)]
+    where = address(first), address(second)
+    del first, second
+    for _ in range(3):  # views and exports keep both buffers from being reused
+        third = compiled.eval(wi, wo)
+        assert address(third) not in where
+        np.testing.assert_array_equal(held_elsewhere[0], kept[:, 1])
+    held_elsewhere.clear()
+    recycled = address(third)
+    del third
+    assert address(compiled.eval(wi, wo)) in (*where, recycled)  # now it is reused
+
+
 def test_broadcasting_and_batch_shapes() -> None:
     model = gold_ggx()
     rng = np.random.default_rng(4)
