@@ -16,8 +16,10 @@ formula:
    small trailing axes resolve at compile time, constants fold, and common subexpressions are
    shared. What remains is straight-line, branch-free scalar code (``where`` becomes a select).
 3. **Compile.** That code is the body of a ``numba.njit(nogil=True)`` loop over a range of
-   the batch; LLVM vectorises it across lanes (AVX2: 8 float32 lanes), and one range per core
-   runs on a thread pool. Kernels are cached per model structure, parameter values and dtype.
+   the batch; LLVM vectorises it across lanes (AVX2: 8 float32 lanes; AVX-512: 16, asked for
+   per kernel, see :func:`vector_bits`), and blocks of the batch run on a thread pool. Kernels
+   are cached per model structure, parameter values and dtype; their outputs come from a
+   pool that reuses memory no array refers to any more (fresh pages cost their zeroing).
 
 A model's method qualifies when it is elementwise over the batch (every protocol method is:
 parameters broadcast against ``batch + (C,)``) and its parameters do not vary over the batch;
