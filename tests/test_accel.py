@@ -158,6 +158,24 @@ def test_results_reuse_memory_only_once_nothing_refers_to_it() -> None:
     assert address(compiled.eval(wi, wo)) in (*where, recycled)  # now it is reused
 
 
+def test_concurrent_calls_from_several_threads_give_each_its_own_values() -> None:
+    """Calls from several threads share the worker pool (and the output pool) safely."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    compiled = accel.compile(gold_ggx(np.float32))
+    rng = np.random.default_rng(11)
+    pairs = [
+        (directions(rng, 100_000, np.float32), directions(rng, 100_000, np.float32))
+        for _ in range(4)
+    ]
+    serial = [compiled.eval(wi, wo) for wi, wo in pairs]
+    with ThreadPoolExecutor(4) as callers:
+        for _ in range(3):
+            concurrent = list(callers.map(lambda p: compiled.eval(*p), pairs))
+            for ours, expected in zip(concurrent, serial, strict=True):
+                np.testing.assert_array_equal(ours, expected)
+
+
 def test_broadcasting_and_batch_shapes() -> None:
     model = gold_ggx()
     rng = np.random.default_rng(4)
