@@ -893,7 +893,9 @@ def compile(model: BRDF, dtype: Any = np.float32) -> CompiledBRDF:
 
     ``brdfkit.accel.compile(GGX(...)).eval(wi, wo)`` equals ``GGX(...).eval(wi, wo)`` to
     ``dtype`` rounding, at compiled speed on all cores. Nothing of the model is rewritten: its
-    own array-API methods are traced and compiled (module docstring).
+    own array-API methods are traced and compiled (module docstring). Results are ordinary
+    arrays; their memory returns to a pool of at most 512 MiB when nothing refers to them any
+    more, and is handed out again (``out=`` still skips even that).
 
     Raises
     ------
