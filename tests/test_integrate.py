@@ -120,23 +120,24 @@ def _glossy_queries(n=32):
     return np.where((np.sum(wo * normals, -1) > 0.1)[:, None], wo, normals), normals
 
 
-def _strategy_variances(env, brdf, samples=2048, heuristic="power"):
+def _estimate(env, brdf, method, samples, heuristic="power", seed=0):
+    """One estimate of each of the 32 glossy queries."""
     wo, normals = _glossy_queries()
+    return reflected_radiance(
+        brdf,
+        env,
+        wo,
+        normal=normals,
+        method=method,
+        samples=samples,
+        heuristic=heuristic,
+        seed=seed,
+    )
+
+
+def _strategy_variances(env, brdf, samples=2048, heuristic="power"):
     return {
-        method: float(
-            np.mean(
-                reflected_radiance(
-                    brdf,
-                    env,
-                    wo,
-                    normal=normals,
-                    method=method,
-                    samples=samples,
-                    heuristic=heuristic,
-                ).stderr
-                ** 2
-            )
-        )
+        method: float(np.mean(_estimate(env, brdf, method, samples, heuristic).stderr ** 2))
         for method in ("brdf", "light", "mis")
     }
 
@@ -164,8 +165,7 @@ def test_mis_stays_within_veachs_bound_where_brdf_sampling_is_nearly_ideal(share
     glossy = parse("ggx(alpha=0.1)")
     n = 2048
     variance = _strategy_variances(env, glossy, n, heuristic="balance")
-    wo, normals = _glossy_queries()
-    mu = reflected_radiance(glossy, env, wo, normal=normals, method="brdf", samples=16384).value
+    mu = _estimate(env, glossy, "brdf", 16384).value
     bound = variance["brdf"] / 2 + float(np.mean(mu**2)) / (2 * n)
     assert variance["mis"] <= bound, (variance, bound)
     assert variance["mis"] < variance["light"] / 10, variance
@@ -229,36 +229,21 @@ def test_optimal_mis_runs_on_torch():
 def _actual_errors(env, brdf, samples=256, seeds=8):
     """Mean squared error over 32 glossy queries and ``seeds`` runs of each estimator, against
     a 65,536-sample MIS reference."""
-    wo, normals = _glossy_queries()
-    reference = reflected_radiance(
-        brdf, env, wo, normal=normals, method="mis", samples=65536, seed=999
-    ).value
-    errors = {}
-    for method, heuristic in (("brdf", "power"), ("light", "power"), ("mis", "optimal")):
-        errors[method] = float(
+    reference = _estimate(env, brdf, "mis", 65536, seed=999).value
+    return {
+        method: float(
             np.mean(
                 [
                     np.mean(
-                        (
-                            reflected_radiance(
-                                brdf,
-                                env,
-                                wo,
-                                normal=normals,
-                                method=method,
-                                heuristic=heuristic,
-                                samples=samples,
-                                seed=seed,
-                            ).value
-                            - reference
-                        )
+                        (_estimate(env, brdf, method, samples, heuristic, seed).value - reference)
                         ** 2
                     )
                     for seed in range(seeds)
                 ]
             )
         )
-    return errors
+        for method, heuristic in (("brdf", "power"), ("light", "power"), ("mis", "optimal"))
+    }
 
 
 @pytest.mark.slow
