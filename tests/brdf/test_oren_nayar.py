@@ -10,15 +10,7 @@ import pytest
 
 from brdfkit.brdf import Lambertian, OrenNayar
 from brdfkit.sampling import square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2, brdf_sampler
-
-
-def _pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    return (
-        square_to_uniform_hemisphere(rng.random((count, 2))),
-        square_to_uniform_hemisphere(rng.random((count, 2))),
-    )
+from brdfkit.testing import assert_chi2, brdf_sampler, hemisphere_pairs
 
 
 def _angles(wi: np.ndarray, wo: np.ndarray):
@@ -29,7 +21,7 @@ def _angles(wi: np.ndarray, wo: np.ndarray):
 
 @pytest.mark.parametrize("model", ["qualitative", "full"])
 def test_sigma_zero_is_lambertian(model):
-    wi, wo = _pairs(1000)
+    wi, wo = hemisphere_pairs(1000)
     rho = [0.9, 0.5, 0.1]
     np.testing.assert_allclose(
         OrenNayar(rho, 0.0, model).eval(wi, wo), Lambertian(rho).eval(wi, wo), rtol=1e-12, atol=0
@@ -37,7 +29,7 @@ def test_sigma_zero_is_lambertian(model):
 
 
 def test_qualitative_is_the_lecture_formula():
-    wi, wo = _pairs(1000, seed=1)
+    wi, wo = hemisphere_pairs(1000, seed=1)
     rho, sigma = 0.7, 0.4
     alpha, beta, cos_dphi = _angles(wi, wo)
     a = 1 - 0.5 * sigma**2 / (sigma**2 + 0.33)
@@ -47,7 +39,7 @@ def test_qualitative_is_the_lecture_formula():
 
 
 def test_full_is_the_papers_formula():
-    wi, wo = _pairs(1000, seed=2)
+    wi, wo = hemisphere_pairs(1000, seed=2)
     rho, sigma = 0.8, 0.5
     s2 = sigma**2
     alpha, beta, cos_dphi = _angles(wi, wo)
@@ -93,7 +85,7 @@ def test_full_model_is_clamped_where_the_published_fit_is_negative():
 
 @pytest.mark.parametrize("model", ["qualitative", "full"])
 def test_reciprocal(model):
-    wi, wo = _pairs(2000, seed=3)
+    wi, wo = hemisphere_pairs(2000, seed=3)
     brdf = OrenNayar([0.9, 0.4], [0.2, 1.1], model)
     np.testing.assert_allclose(brdf.eval(wi, wo), brdf.eval(wo, wi), rtol=1e-6, atol=0)
     assert brdf.reciprocal
@@ -159,7 +151,7 @@ def test_texture_parameters_broadcast():
 
 @pytest.mark.parametrize("model", ["qualitative", "full"])
 def test_float32_is_kept(model):
-    wi, wo = (a.astype(np.float32) for a in _pairs(50, seed=6))
+    wi, wo = (a.astype(np.float32) for a in hemisphere_pairs(50, seed=6))
     brdf = OrenNayar(0.5, 0.4, model)
     assert brdf.eval(wi, wo).dtype == np.float32
     s = brdf.sample(wo, np.random.default_rng(7).random((50, 2)).astype(np.float32))
@@ -169,7 +161,7 @@ def test_float32_is_kept(model):
 @pytest.mark.parametrize("model", ["qualitative", "full"])
 def test_torch_gradients_flow_to_parameters(model):
     torch = pytest.importorskip("torch")
-    wi, wo = (torch.tensor(a) for a in _pairs(64, seed=8))
+    wi, wo = (torch.tensor(a) for a in hemisphere_pairs(64, seed=8))
     sigma = torch.tensor(0.5, dtype=torch.float64, requires_grad=True)
     rho = torch.tensor([0.7, 0.3], dtype=torch.float64, requires_grad=True)
     OrenNayar(rho, sigma, model).eval(wi, wo).sum().backward()
