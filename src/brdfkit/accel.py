@@ -44,6 +44,7 @@ References
 from __future__ import annotations
 
 import builtins
+import contextlib
 import functools
 import math
 import os
@@ -759,8 +760,10 @@ def _vector_width_hint(bits: int) -> Any:
     def prefer_vector_width(typingctx: Any) -> Any:
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
             # llvmlite accepts only a fixed list of attribute names, without LLVM's string
-            # attributes; the set underneath renders any attribute it holds.
-            set.add(builder.function.attributes, f'"prefer-vector-width"="{bits}"')
+            # attributes; the set underneath renders any attribute it holds. Should a later
+            # llvmlite store them otherwise, the kernel keeps LLVM's default width.
+            with contextlib.suppress(TypeError, AttributeError):
+                set.add(builder.function.attributes, f'"prefer-vector-width"="{bits}"')
             return context.get_dummy_value()
 
         return types.none(), codegen
