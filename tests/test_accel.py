@@ -12,9 +12,13 @@ import pytest
 pytest.importorskip("jax")
 pytest.importorskip("numba")
 
+from scipy import special
+
 import brdfkit.accel as accel
-from brdfkit._array import namespace
+from brdfkit._array import erfinv, namespace
 from brdfkit.brdf import (
+    BeckmannConductor,
+    CookTorrance,
     Lambertian,
     OrenNayar,
     RoughConductor,
@@ -65,7 +69,15 @@ def test_eval_and_pdf_match_numpy_float64(make) -> None:
     assert_close(compiled.pdf(wi, wo), model.pdf(wi, wo), 1e-12)
 
 
-@pytest.mark.parametrize("make", MODELS[:3])
+SAMPLED = [
+    *MODELS[:3],
+    pytest.param(lambda: BeckmannConductor(alpha=0.2, material="Ag"), id="beckmann-Ag"),
+    pytest.param(lambda: CookTorrance(), id="cook-torrance"),
+]
+"""Models whose sampling compiles; Beckmann's visible normals need the inverse error function."""
+
+
+@pytest.mark.parametrize("make", SAMPLED)
 def test_sample_matches_numpy_float64(make) -> None:
     model = make()
     rng = np.random.default_rng(1)
@@ -148,6 +160,25 @@ def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
     assert "_sin32(" in kernel.source and "_cos32(" in kernel.source
     assembly = kernel._function.inspect_asm(kernel._function.signatures[0])
     assert "sinf" not in assembly and "cosf" not in assembly  # no scalar libm calls
+
+
+@pytest.mark.parametrize("dtype, ulps", [(np.float32, 4), (np.float64, 3)])
+def test_inverse_error_function_is_within_a_few_ulp(dtype, ulps) -> None:
+    """erfinv, which numba lacks, against scipy: into both tails, and its edges."""
+    x = np.concatenate(
+        [
+            np.linspace(-1.0, 1.0, 100_001)[1:-1],
+            1 - np.logspace(-16 if dtype == np.float64 else -7, -1, 1000),
+            -1 + np.logspace(-16 if dtype == np.float64 else -7, -1, 1000),
+        ]
+    ).astype(dtype)
+    kernel = accel.compile_function(lambda v: (erfinv(v),), (0,), dtype)
+    (ours,) = kernel(x)
+    exact = special.erfinv(x.astype(np.float64))
+    scale = np.maximum(np.abs(exact), np.finfo(dtype).tiny).astype(dtype)
+    assert np.max(np.abs(ours - exact) / np.spacing(scale)) <= ulps
+    (edges,) = kernel(np.array([1.0, -1.0, 0.0, 1.5, np.nan], dtype=dtype))
+    np.testing.assert_array_equal(edges, [np.inf, -np.inf, 0.0, np.nan, np.nan])
 
 
 def test_float32_sampling_has_the_numpy_float32_error_budget() -> None:
