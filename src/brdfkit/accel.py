@@ -27,7 +27,7 @@ a spatially varying parameter (a texture) is rejected with a ``ValueError`` — 
 :func:`eval_chunked` there. ``sqrt``, division, ``min``/``max`` and selects vectorise; so do
 ``sin`` and ``cos`` in float32 kernels, which compile to Cephes' polynomials (see
 :func:`_trig32`); other transcendentals (``exp``, ``acos``, float64 ``sin``) are scalar libm
-calls.
+calls. ``erfinv``, which numba lacks, is written for the kernels (:func:`_erfinv`).
 
 :func:`eval_chunked` is the NumPy path for huge batches: the model's own ``eval`` over
 fixed-size chunks (optionally on threads: NumPy releases the GIL inside its loops), so that
