@@ -60,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit._array import Array, to_numpy
+from brdfkit._array import Array, namespace, to_numpy
 from brdfkit.brdf.base import BRDF, Sample
 
 DEFAULT_CHUNK = 1 << 16
@@ -1007,13 +1007,21 @@ class CompiledBRDF:
                 self._kernels[key] = compile_function(model.eval, (3, 3), self.dtype)
             elif method == "pdf":
                 self._kernels[key] = compile_function(model.pdf, (3, 3), self.dtype)
-            else:
+            elif method == "sample":
 
                 def sample(wo: Array, u: Array) -> tuple[Array, Array, Array, Array]:
                     s = model.sample(wo, u)
                     return s.wi, s.weight, s.pdf, s.delta
 
                 self._kernels[key] = compile_function(sample, (3, u_width), self.dtype)
+            else:  # the albedo's terms: only the weights of samples above the surface
+
+                def albedo_term(wo: Array, u: Array) -> tuple[Array]:
+                    xp = namespace(wo, u)
+                    s = model.sample(wo, u)
+                    return (xp.where(s.wi[..., 2:3] > 0, s.weight, xp.zeros_like(s.weight)),)
+
+                self._kernels[key] = compile_function(albedo_term, (3, u_width), self.dtype)
         return self._kernels[key]
 
     def eval(self, wi: Any, wo: Any, *, out: np.ndarray | None = None) -> np.ndarray:
@@ -1050,11 +1058,10 @@ class CompiledBRDF:
         flat_wo = wo.reshape(-1, 3)
         total = np.zeros((flat_wo.shape[0], self.channels), dtype=np.float64)
         step = max(1, chunk // max(flat_wo.shape[0], 1))
+        kernel = self._kernel("albedo", 3)
         for start in range(0, samples, step):
-            u_c = u[start : start + step]
-            s = self.sample(flat_wo[:, None, :], u_c[None, :, :])
-            upper = (s.wi[..., 2] > 0)[..., None]
-            total += np.where(upper, s.weight, 0).sum(axis=1, dtype=np.float64)
+            (terms,) = kernel(flat_wo[:, None, :], u[None, start : start + step, :])
+            total += terms.sum(axis=1, dtype=np.float64)
         return (total / samples).astype(self.dtype).reshape(*batch, self.channels)
 
 
