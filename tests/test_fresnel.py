@@ -74,6 +74,16 @@ def test_conductor_reflectance_is_the_mean_of_s_and_p():
         np.testing.assert_allclose(fresnel_conductor(cos, eta, k), (r_s + r_p) / 2, rtol=1e-14)
 
 
+def test_conductor_reflectance_stays_in_zero_one_where_terms_cancel():
+    """Found by hypothesis: η = 1, κ = 0 (no interface) cancels the numerators to −6e-17."""
+    cos = np.array([0.46233092197667547, 0.0, 1.0])
+    for eta, k in [(1.0, 0.0), (3.0, 0.0), (1.0, 1e-9)]:
+        values = [fresnel_conductor(cos, eta, k), *fresnel_conductor(cos, eta, k, polarized=True)]
+        for value in values:
+            assert np.all((value >= 0) & (value <= 1)), (eta, k, value)
+    np.testing.assert_array_equal(fresnel_conductor(cos[:1], 1.0, 0.0), [0.0])
+
+
 def test_conductor_normal_incidence_closed_form():
     rng = np.random.default_rng(1)
     presets = np.array(list(CONDUCTORS.values()))  # (metal, eta/k, rgb)

@@ -289,7 +289,8 @@ def fresnel_conductor(
     ``Rp = Rs · ((a² + b²) cos²θ + s⁴ − 2a cos θ s²) / ((a² + b²) cos²θ + s⁴ + 2a cos θ s²)``,
 
     ``R = (Rs + Rp)/2``, computed as ``Rs · t₃/(t₃ + t₄)`` with ``t₃ ± t₄`` Rp's numerator and
-    denominator (one division). At normal incidence ``R = ((η−1)² + κ²)/((η+1)² + κ²)``; at grazing
+    denominator (one division); the numerators, sums of squares, are kept ≥ 0 against
+    cancellation. At normal incidence ``R = ((η−1)² + κ²)/((η+1)² + κ²)``; at grazing
     incidence ``R = 1``; with ``κ = 0`` it equals :func:`fresnel_dielectric` for light from
     outside. The metal is opaque, so the sign of ``cos_theta_i`` is ignored.
 
@@ -326,11 +327,15 @@ def fresnel_conductor(
     term_2 = 2 * cos_i * a
     term_3 = a2_plus_b2 * cos2 + sin4
     term_4 = term_2 * sin2
+    # term_1 − term_2 = (a − cos θ)² + b² ≥ 0, which cancellation can take below 0 (η = 1,
+    # κ = 0: −6e-17); the same for term_3 − term_4 = (a cos θ − s²)² + b² cos²θ.
+    zero = xp.zeros_like(term_1)
+    rs_numerator = xp.maximum(term_1 - term_2, zero)
     if polarized:
-        r_s = safe_div(term_1 - term_2, term_1 + term_2)
-        return r_s, r_s * safe_div(term_3 - term_4, term_3 + term_4)
+        r_s = safe_div(rs_numerator, term_1 + term_2)
+        return r_s, r_s * safe_div(xp.maximum(term_3 - term_4, zero), term_3 + term_4)
     # (Rs + Rp)/2 = Rs·term_3/(term_3 + term_4): one division where the two ratios take two.
-    return safe_div((term_1 - term_2) * term_3, (term_1 + term_2) * (term_3 + term_4))
+    return safe_div(rs_numerator * term_3, (term_1 + term_2) * (term_3 + term_4))
 
 
 # --------------------------------------------------------------------------- normal incidence
