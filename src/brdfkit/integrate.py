@@ -26,7 +26,7 @@ from typing import Literal
 import numpy as np
 
 from brdfkit._array import Array, asarray, check_vectors, namespace, normalize, safe_div
-from brdfkit.brdf.base import BRDF
+from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
 from brdfkit.lights import Light, LightSample, UniformSky
 
@@ -114,14 +114,12 @@ def reflected_radiance(
     -------
     Estimate with ``value`` and ``stderr`` of shape ``(..., C)``.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}; got {method!r}")
+    check_choice("method", method, METHODS)
     if samples < 1:
         raise ValueError(f"samples must be >= 1; got {samples}")
     if sequence not in ("random", "sobol"):
         raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
-    if heuristic not in HEURISTICS:
-        raise ValueError(f"heuristic must be one of {HEURISTICS}; got {heuristic!r}")
+    check_choice("heuristic", heuristic, HEURISTICS)
     if heuristic == "optimal" and brdf.has_delta:
         raise ValueError(
             "heuristic='optimal' needs a BRDF without delta lobes (their pdf is not a density); "
