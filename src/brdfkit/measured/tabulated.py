@@ -146,6 +146,12 @@ least 10 %, which bounds the weight of any direction the θh marginal misjudges 
 that moves with θd, a diffuse floor) by 10 × π f."""
 
 
+def _theta_h_edges(count: int) -> np.ndarray:
+    r"""The θh of a table's ``count`` θh nodes and the end of their axis, ``(count + 1,)``: node
+    i at :math:`(i/N)^2\,\pi/2` (MERL's square-root warp, dense near the highlight), then π/2."""
+    return (np.arange(count + 1) / count) ** 2 * (math.pi / 2)
+
+
 def white_sky_weights(table: TabulatedBRDF) -> np.ndarray:
     r"""Per node, the weight :math:`w` of its cell in the white-sky albedo
     :math:`\rho_{hh} = \frac1\pi\iint f\cos\theta_i\cos\theta_o\,d\omega_i\,d\omega_o
@@ -169,7 +175,7 @@ def white_sky_weights(table: TabulatedBRDF) -> np.ndarray:
     .. [1] S. Rusinkiewicz, EGWR 1998 (the Jacobian of the half/difference change of variables).
     """
     n = table.shape
-    theta_h = (np.arange(n[0] + 1) / n[0]) ** 2 * (math.pi / 2)
+    theta_h = _theta_h_edges(n[0])
     theta_d = np.arange(n[-2] + 1) / n[-2] * (math.pi / 2)
     phi_d = (np.arange(n[-1]) + 0.5) / n[-1] * math.pi
     n_phi_h = 1 if table.isotropic else n[1]
@@ -244,7 +250,7 @@ class HalfVectorSampling:
             cells = (node_values + np.concatenate([node_values[1:], node_values[-1:]])) / 2
             if n_phi > 1:
                 cells = (cells + np.roll(cells, -1, axis=1)) / 2
-        theta = (np.arange(n_theta + 1) / n_theta) ** 2 * (math.pi / 2)
+        theta = _theta_h_edges(n_theta)
         # 1 − cos θ = 2 sin²(θ/2) keeps the narrow cells near θh = 0 resolved.
         self._one_minus_cos = 2 * np.sin(theta / 2) ** 2
         solid_angle = (2 * math.pi / n_phi) * np.diff(self._one_minus_cos)[:, None]
@@ -467,7 +473,7 @@ class TabulatedBRDF(MixtureSampled):
         For an isotropic table φh = 0.
         """
         n = self.shape
-        theta_h = (np.arange(n[0]) / n[0]) ** 2 * (math.pi / 2)
+        theta_h = _theta_h_edges(n[0])[:-1]
         theta_d = np.arange(n[-2]) / n[-2] * (math.pi / 2)
         phi_d = np.arange(n[-1]) / n[-1] * math.pi
         if self.isotropic:
