@@ -21,21 +21,6 @@ import numpy as np
 from brdfkit import io, sh
 
 NORMALS = (32, 64)
-CHUNK = 16384
-"""Pixels per block of the brute-force sum (a 2048 × 16384 float64 cosine block: 268 MB)."""
-
-
-def brute_force_irradiance(image: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """E(n) = Σ_pixels L max(n·ω, 0) ΔΩ, ``(len(normals), C)``."""
-    directions = sh.latlong_directions(*image.shape[:2]).reshape(-1, 3)
-    weighted = (image * sh.latlong_solid_angles(*image.shape[:2])[..., None]).reshape(
-        -1, image.shape[-1]
-    )
-    total = np.zeros((len(normals), image.shape[-1]))
-    for start in range(0, len(directions), CHUNK):
-        cosine = np.maximum(normals @ directions[start : start + CHUNK].T, 0.0)
-        total += cosine @ weighted[start : start + CHUNK]
-    return total
 
 
 def main() -> None:
@@ -51,7 +36,7 @@ def main() -> None:
     print("|---|---:|---:|---:|---:|---:|")
     for path in paths:
         image = io.read_image(path).astype(np.float64)[..., :3]
-        brute = brute_force_irradiance(image, normals)
+        brute = sh.irradiance_brute_force(image, normals)
         approx = sh.irradiance_sh(sh.project_latlong(image, 2), normals)
         error = np.abs(approx - brute)
         by_max = error / brute.max(axis=0)

@@ -232,7 +232,7 @@ def test_irradiance_of_band_limited_map_matches_brute_force():
     coeffs[0] = 10.0
     image = sh.reconstruct(coeffs, sh.latlong_directions(128, 256))
     normals = sh.latlong_directions(8, 16).reshape(-1, 3)
-    brute = _brute_force_irradiance(image, normals)
+    brute = sh.irradiance_brute_force(image, normals)
     np.testing.assert_allclose(sh.irradiance_sh(coeffs, normals), brute, rtol=1e-4)
 
 
@@ -243,14 +243,6 @@ def test_irradiance_map_is_rh_irradiance_at_pixel_directions():
     assert result.shape == (8, 16, 3)
     np.testing.assert_allclose(result, expected, rtol=1e-14)
     assert sh.irradiance_map(image).shape == image.shape
-
-
-def _brute_force_irradiance(image: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """E(n) = Σ_pixels L max(n·ω, 0) ΔΩ."""
-    height, width, channels = image.shape
-    directions = sh.latlong_directions(height, width).reshape(-1, 3)
-    weighted = image.reshape(-1, channels) * sh.latlong_solid_angles(height, width).reshape(-1, 1)
-    return np.maximum(normals @ directions.T, 0.0) @ weighted
 
 
 def _box_downsample(image: np.ndarray, height: int) -> np.ndarray:
@@ -299,7 +291,7 @@ def test_real_environment_maps_irradiance_accuracy(shared_data, capsys):
     lines = []
     for path in paths:
         image = _box_downsample(io.read_image(path).astype(np.float64), 128)
-        brute = _brute_force_irradiance(image, normals)
+        brute = sh.irradiance_brute_force(image, normals)
         approx = sh.irradiance_sh(sh.project_latlong(image, 2), normals)
         error = np.abs(approx - brute)
         relative = error / brute
@@ -315,6 +307,38 @@ def test_real_environment_maps_irradiance_accuracy(shared_data, capsys):
         assert np.sum(error / total * normal_weights, 0).max() <= mean_bound
     with capsys.disabled():
         print("\n" + "\n".join(lines))
+
+
+@pytest.mark.data
+@pytest.mark.slow
+def test_nine_term_irradiance_is_within_about_one_percent_on_average_over_the_real_maps(
+    shared_data,
+):
+    """Issue 4's criterion at full resolution: the 9-term irradiance's mean error relative to
+    the map's largest irradiance, averaged over all maps, is ~1 % (measured 1.13 %; per map
+    0.24–2.25 %, the 9-term truncation itself; ``benchmarks/bench_sh.py`` prints the table)."""
+    folder = shared_data / "envmaps"
+    paths = sorted(folder.glob("*/*.hdr")) + sorted(folder.glob("*/*.exr"))
+    normals = sh.latlong_directions(16, 32).reshape(-1, 3)
+    normal_weights = sh.latlong_solid_angles(16, 32).reshape(-1, 1) / (4 * np.pi)
+    means = {}
+    for path in paths:
+        image = io.read_image(path).astype(np.float64)[..., :3]
+        brute = sh.irradiance_brute_force(image, normals)
+        error = np.abs(sh.irradiance_sh(sh.project_latlong(image, 2), normals) - brute)
+        means[path.name] = float(np.sum(error / brute.max(axis=0) * normal_weights, 0).mean())
+    assert len(means) == 13
+    assert np.mean(list(means.values())) < 0.0125, means
+
+
+def test_brute_force_irradiance_does_not_depend_on_its_chunk():
+    image = np.random.default_rng(3).gamma(0.5, 2.0, size=(16, 32, 3))
+    normals = _random_directions(40)
+    np.testing.assert_allclose(
+        sh.irradiance_brute_force(image, normals, chunk=7),
+        sh.irradiance_brute_force(image, normals),
+        rtol=1e-12,
+    )
 
 
 def test_rotation_rotates_the_function():

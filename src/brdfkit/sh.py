@@ -66,6 +66,7 @@ from brdfkit._array import (
 from brdfkit.geometry import spherical_to_cartesian
 
 __all__ = [
+    "irradiance_brute_force",
     "irradiance_map",
     "irradiance_sh",
     "lambertian_convolve",
@@ -469,6 +470,37 @@ def irradiance_sh(coeffs9: Array, normals: Array) -> Array:
         + 2.0 * RH_C1 * (L2m2 * x * y + L21 * x * z + L2m1 * y * z)
         + 2.0 * RH_C2 * (L11 * x + L1m1 * y + L10 * z)
     )
+
+
+def irradiance_brute_force(
+    latlong_image: np.ndarray, normals: np.ndarray, chunk: int = 16384
+) -> np.ndarray:
+    r"""Irradiance by summing the map's pixels, the reference that :func:`irradiance_sh`
+    approximates: :math:`E(n) = \sum_{pixels} L\,\max(n\cdot\omega, 0)\,\Delta\Omega`.
+
+    Parameters
+    ----------
+    latlong_image : array (H, W, C)
+        Radiance on the lat-long grid of :func:`latlong_directions`.
+    normals : array (N, 3)
+        Unit normals.
+    chunk : int
+        Pixels per block of the sum (an N × ``chunk`` block of cosines at a time, so a
+        full-resolution map needs no N × H·W matrix).
+
+    Returns
+    -------
+    array (N, C)
+    """
+    height, width, channels = latlong_image.shape
+    directions = latlong_directions(height, width).reshape(-1, 3)
+    solid_angles = latlong_solid_angles(height, width).reshape(-1, 1)
+    weighted = np.asarray(latlong_image).reshape(-1, channels) * solid_angles
+    total = np.zeros((len(normals), channels))
+    for start in range(0, len(directions), chunk):
+        cosine = np.maximum(normals @ directions[start : start + chunk].T, 0.0)
+        total += cosine @ weighted[start : start + chunk]
+    return total
 
 
 def irradiance_map(
