@@ -18,9 +18,10 @@ explicitly (``"lambertian + ggx(alpha=0.1)"`` fixes α) and that are not listed 
 parameters that do not change the lobe's values (Cook–Torrance's ``f0`` under its default
 dielectric Fresnel term, tested on fixed direction pairs) are left alone, and so is a lobe's own
 diffuse term (``kd``, ``diffuse``), held at 0 when the model has a Lambertian lobe, which would
-make it redundant. A lobe with no colour parameter (GGX with F = 1, say) gets a free
-per-channel factor, fitted as ``[k_r, k_g, k_b] * ggx(...)``; a written factor
-(``0.5 * ggx``) stays fixed. The **bounds** are the models' own: each model validates its
+make it redundant. A lobe left without a free colour parameter (GGX with F = 1; Cook–Torrance,
+whose ``f0`` is inert under its dielectric Fresnel term) gets a free per-channel factor, fitted
+as ``[k_r, k_g, k_b] * ggx(...)`` — for Cook–Torrance the paper's specular weight s; a written
+factor (``0.5 * ggx``) stays fixed. The **bounds** are the models' own: each model validates its
 parameters with :func:`~brdfkit._array.check_param`, and the allowed interval is read from
 the message it raises for ±10³⁰ (open ends are moved inwards by 10⁻⁶). Models with an
 ``allow_unphysical`` switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a
@@ -95,6 +96,10 @@ COLOUR_PARAMETERS = frozenset(
 DIFFUSE_PARAMETERS = frozenset({"kd", "diffuse"})
 """A lobe's own diffuse term: held at 0 when the model has a Lambertian lobe, which would make
 it redundant."""
+
+LOBE_COLOURS = COLOUR_PARAMETERS - DIFFUSE_PARAMETERS
+"""Colour parameters of a lobe itself (not of a diffuse term added to it): a lobe without one
+that acts gets a free per-channel factor."""
 
 ROUGHNESS_PARAMETERS = frozenset({"alpha", "alpha_u", "alpha_v", "alpha_x", "alpha_y", "m"})
 """Parameter names that hold a microfacet roughness (swept by the starts of :func:`fit`)."""
@@ -368,12 +373,15 @@ def _free_parameters(
     free = []
     for k, lobe in enumerate(lobes):
         inner = lobe.inner
-        names = _field_names(type(inner))
-        for name in names:
+        coloured = False  # whether a colour parameter of its own lobe acts (held or free)
+        for name in _field_names(type(inner)):
             value = getattr(inner, name)
             held = name in explicit[k] or name in fixed or f"{k}.{name}" in fixed
             redundant = has_lambertian and name in DIFFUSE_PARAMETERS
-            if held or redundant or not _is_numeric(value):
+            if redundant or not _is_numeric(value):
+                continue
+            if held:
+                coloured |= name in LOBE_COLOURS
                 continue
             lower, upper = _bounds(inner, name)
             size = channels if name in COLOUR_PARAMETERS else int(np.size(value))
@@ -383,9 +391,10 @@ def _free_parameters(
             )
             if _inert(inner, name, np.ravel(np.asarray(value, dtype=np.float64)), lower, upper):
                 continue
+            coloured |= name in LOBE_COLOURS
             sequence = isinstance(value, list | tuple | np.ndarray)
             free.append(_Free(k, name, size, lower, upper, initial, sequence))
-        wants_scale = lobe.scale is not None or not COLOUR_PARAMETERS.intersection(names)
+        wants_scale = lobe.scale is not None or not coloured
         held = "scale" in explicit[k] or "scale" in fixed or f"{k}.scale" in fixed
         if wants_scale and not held:
             start = 1.0 if lobe.scale is None else np.ravel(to_numpy(lobe.scale)).astype(float)
