@@ -1,11 +1,12 @@
 """Lambertian (+ Cook–Torrance, + GGX, + Ward, + two GGX) fitted to the Cornell paints, by eye.
 
-For every material and model, with the ``log`` and the ``cosine`` objective: the fitting errors
-and the CIEDE2000 difference between the measured and the fitted sphere
-(:func:`brdfkit.appearance.sphere_difference`, directional light). Writes a Markdown table on
-stdout, every number to ``benchmarks/results/cornell_fits.json`` and the picture
-``docs/images/cornell_fits.png`` (rows: materials; columns: measured, then each fit, ``log``
-objective, exposed alike).
+For every material and model, with each objective: the fitting errors and the CIEDE2000
+difference between the measured and the fitted sphere
+(:func:`brdfkit.appearance.sphere_difference`) under the default directional light, and its mean
+over :data:`LIGHTS` (four directions: head-on, the default, from the side, grazing). Writes two
+Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and the
+picture ``docs/images/cornell_fits.png`` (rows: materials; columns: measured, then each fit,
+default objective, exposed alike).
 
     python benchmarks/bench_cornell_fits.py [--data ../shared/data] [--resolution 96]
 """
@@ -18,15 +19,17 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.appearance import sphere_difference
+from brdfkit.appearance import DEFAULT_LIGHT_DIRECTION, sphere_difference
 from brdfkit.fit import fit
 from brdfkit.io import data_path, write_image
+from brdfkit.lights import DirectionalLight
 from brdfkit.measured import read_cornell
 
 MATERIALS = ("acryl_blue", "cayman", "garnet_red", "krylon_blue")
 PICTURED = ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward")
 MODELS = ("lambertian", *PICTURED, "lambertian + ggx + ggx")
-OBJECTIVES = ("log", "cosine")
+OBJECTIVES = ("cube_root", "log", "cosine")
+LIGHTS = ((0.0, 0.0, 1.0), DEFAULT_LIGHT_DIRECTION, (0.8, 0.2, 0.56), (0.9, 0.1, 0.2))
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -43,20 +46,32 @@ def main() -> None:
         for model in MODELS:
             for objective in OBJECTIVES:
                 result = fit(table, model, objective=objective)
-                look = sphere_difference(table, result.model, resolution=args.resolution)
+                lit = [
+                    sphere_difference(
+                        table,
+                        result.model,
+                        [DirectionalLight(direction=direction, irradiance=np.pi)],
+                        resolution=args.resolution,
+                    )
+                    for direction in LIGHTS
+                ]
+                look = lit[LIGHTS.index(DEFAULT_LIGHT_DIRECTION)]
                 records.append(
                     {
                         "material": material,
                         "model": model,
                         "objective": objective,
                         "delta_e": look.to_dict(),
+                        "delta_e_per_light": {
+                            str(d): x.mean for d, x in zip(LIGHTS, lit, strict=True)
+                        },
                         "errors": result.errors,
                         "params": result.params,
                         "seconds": round(result.seconds, 2),
                         "success": result.success,
                     }
                 )
-                if objective == "log":
+                if objective == OBJECTIVES[0]:
                     row = row or [look.reference]
                     if model in PICTURED:
                         row.append(look.other)
@@ -64,19 +79,40 @@ def main() -> None:
     write_image(ROOT / "docs" / "images" / "cornell_fits.png", np.concatenate(rows, axis=0))
     results = ROOT / "benchmarks" / "results" / "cornell_fits.json"
     results.write_text(json.dumps(records, indent=1))
-    print("mean CIEDE2000 between measured and fitted spheres (log objective; cosine in brackets)")
-    print("| material | " + " | ".join(MODELS) + " |")
-    print("|---" * (len(MODELS) + 1) + "|")
-    for material in MATERIALS:
-        cells = []
-        for model in MODELS:
-            de = {
-                r["objective"]: r["delta_e"]["mean"]
-                for r in records
-                if r["material"] == material and r["model"] == model
-            }
-            cells.append(f"{de['log']:.1f} ({de['cosine']:.1f})")
-        print(f"| {material} | " + " | ".join(cells) + " |")
+
+    def cell(material: str, model: str, objective: str, averaged: bool) -> float:
+        (record,) = (
+            r
+            for r in records
+            if (r["material"], r["model"], r["objective"]) == (material, model, objective)
+        )
+        if averaged:
+            return float(np.mean(list(record["delta_e_per_light"].values())))
+        return record["delta_e"]["mean"]
+
+    for title, averaged in (
+        ("under the default light", False),
+        (f"averaged over {len(LIGHTS)} light directions", True),
+    ):
+        others = ", ".join(OBJECTIVES[1:])
+        print(f"\nmean CIEDE2000, measured vs fitted sphere, {title}")
+        print(f"({OBJECTIVES[0]} objective; {others} in brackets)\n")
+        print("| material | " + " | ".join(MODELS) + " |")
+        print("|---" * (len(MODELS) + 1) + "|")
+        for material in MATERIALS:
+            cells = []
+            for model in MODELS:
+                first, *rest = (cell(material, model, o, averaged) for o in OBJECTIVES)
+                cells.append(f"{first:.1f} (" + ", ".join(f"{v:.1f}" for v in rest) + ")")
+            print(f"| {material} | " + " | ".join(cells) + " |")
+        totals = {
+            o: np.mean([cell(m, d, o, averaged) for m in MATERIALS for d in MODELS[1:]])
+            for o in OBJECTIVES
+        }
+        print(
+            "\nmean over the fits with a specular lobe: "
+            + ", ".join(f"{o} {v:.1f}" for o, v in totals.items())
+        )
 
 
 if __name__ == "__main__":

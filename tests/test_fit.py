@@ -155,7 +155,6 @@ FALLS_SHORT = {
     ("cayman", "lambertian + cook_torrance"),  # cayman: the measured body darkens towards
     ("cayman", "lambertian + ggx"),  # grazing light far more than a Lambertian lobe
     ("cayman", "lambertian + ward"),
-    ("garnet_red", "lambertian + ward"),  # pure red: Ward's short tails leave no sheen
 }
 """Fits whose spheres do not yet look like the measured ones (see the README)."""
 

@@ -10,8 +10,9 @@ values :math:`f, \hat f` per sample and channel:
   cosine-weighted L2 error :math:`E = \sqrt{\tfrac1N\sum (\hat f c_i - f c_i)^2}`;
 - ``"log"`` — a compressed relative error (Löw et al. 2012):
   :math:`r = \ln(1 + \hat f c_i) - \ln(1 + f c_i)`;
-- ``"cube_root"`` — :math:`r = (\hat f c_i)^{1/3} - (f c_i)^{1/3}`, which tames the highlight
-  more strongly still.
+- ``"cube_root"`` (default) — Forés, Ferwerda & Gu (2012):
+  :math:`r = (\hat f c_i)^{1/3} - (f c_i)^{1/3}`, which tames the highlight more strongly still;
+  in their psychophysical study it gave the fits closest to the measurement by eye.
 
 **Free parameters** are the numeric parameters of each lobe that the spec string does not give
 explicitly (``"lambertian + ggx(alpha=0.1)"`` fixes α) and that are not listed in ``fixed``;
@@ -31,12 +32,14 @@ box); the fitted model keeps it on only if its values need it.
 parameters (those named in :data:`COLOUR_PARAMETERS`); ``mode="per_channel"`` fits every channel
 independently (every parameter becomes per channel).
 
-**Which objective.** Fitted to the four Cornell paints, the ``log`` objective gives spheres
-that look like the measured ones far more often than ``cosine`` (CIEDE2000 between rendered
-spheres, :mod:`brdfkit.appearance`: e.g. acryl_blue with Lambertian + GGX, mean ΔE 5.7 against
-14.4; ``benchmarks/bench_cornell_fits.py``): the cosine-weighted error is ruled by a few
-grazing or near-mirror samples hundreds of times larger than the rest and trades the body
-colour for them. ``log`` is the default.
+**Which objective.** Fitted to the four Cornell paints with five models, the compressed
+objectives give spheres that look like the measured ones far more often than ``cosine``
+(CIEDE2000 between rendered spheres, :mod:`brdfkit.appearance`;
+``benchmarks/bench_cornell_fits.py``): the cosine-weighted error is ruled by a few grazing or
+near-mirror samples hundreds of times larger than the rest and trades the body colour for
+them. Of the two, ``cube_root`` is the closer by eye — mean ΔE over four light directions
+8.5 against 10.5 for the 16 fits with a specular lobe (9.1 against 9.8 under the default light
+alone) — as Forés et al. found with observers; it is the default.
 
 **Starts and samples**: the first start is the model's own parameter values; the others sweep
 the lobes' roughness (``alpha``, ``m``, exponents ``n``) log-uniformly over
@@ -46,10 +49,12 @@ at random inside the bounds (log-uniformly on positive ranges spanning more than
 Every start is optimised on a seeded random subset of ``coarse_samples`` measurements; the best
 is refined on ``max_samples`` of them, and the errors are reported on all. With finite
 differences one Jacobian costs (P + 1) evaluations of the model, so subsets keep a 1.5 M-sample
-MERL table to well under a minute (22 s for Lambertian + 2 GGX lobes on 1.11 M measured nodes,
-two cores); torch autograd was measured slower on the CPU (a forward and backward pass of that
-model on all the nodes: 11.4 s, against 2.3 s for one NumPy evaluation); see
-``benchmarks/bench_fit.py``.
+MERL table to well under a minute (4.4–4.8 s for Lambertian + 2 GGX lobes on 1.11 M measured
+nodes, two cores, Intel Xeon). Torch autograd would not make it cheaper: a forward and backward
+pass of that model on all the nodes takes about as long as one NumPy evaluation (0.60–0.67 s
+against 0.50–0.93 s), and it gives a gradient, whereas the trust-region least squares needs the
+whole Jacobian (one backward pass per residual, or one forward-mode pass per parameter, as the
+finite differences take); see ``benchmarks/bench_fit.py``.
 
 References
 ----------
@@ -63,6 +68,8 @@ References
        SIGGRAPH 2003.
 .. [5] B. Walter, S. R. Marschner, H. Li, K. E. Torrance, "Microfacet models for refraction
        through rough surfaces", EGSR 2007 (α ↔ Phong exponent, n = 2/α² − 2).
+.. [6] A. Forés, J. A. Ferwerda, J. Gu, "Toward a perceptually based metric for BRDF
+       modeling", Proc. IS&T Color and Imaging Conference 20, 142–148, 2012.
 """
 
 from __future__ import annotations
@@ -580,7 +587,7 @@ def fit(
     measured: BRDF | MeasuredSamples,
     model: str | BRDF,
     *,
-    objective: str = "log",
+    objective: str = "cube_root",
     mode: str = "shared",
     starts: int = 4,
     fixed: Collection[str] = (),
@@ -597,8 +604,8 @@ def fit(
     measured : a measured BRDF, any BRDF, or :class:`MeasuredSamples` (see :func:`fit_data`).
     model : a spec string (``"lambertian + cook_torrance"``; parameters written in it stay
         fixed) or a BRDF (a registered model or a sum of them; its values are the first start).
-    objective : ``"log"`` (default: the fits look most like the data, see the module
-        docstring), ``"cosine"`` (Ngan et al. 2005) or ``"cube_root"``.
+    objective : ``"cube_root"`` (default: the fits look most like the data, see the module
+        docstring), ``"log"`` or ``"cosine"`` (Ngan et al. 2005).
     mode : ``"shared"`` or ``"per_channel"``.
     starts : number of starts (≥ 1): the model's values, then a roughness sweep (random
         points in the bounds for a model without roughness).

@@ -22,7 +22,9 @@ def fit_command(
         help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'.",
     ),
     objective: str = typer.Option(
-        "log", "--objective", help="log (Löw et al. 2012), cosine (Ngan et al. 2005) or cube_root."
+        "cube_root",
+        "--objective",
+        help="cube_root (Forés et al. 2012), log (Löw et al. 2012) or cosine (Ngan et al. 2005).",
     ),
     mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
     starts: int = typer.Option(4, "--starts", min=1, help="Restarts (the first is the spec)."),
