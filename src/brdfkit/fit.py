@@ -19,12 +19,13 @@ explicitly (``"lambertian + ggx(alpha=0.1)"`` fixes α) and that are not listed 
 parameters that do not change the lobe's values (Cook–Torrance's ``f0`` under its default
 dielectric Fresnel term, tested on fixed direction pairs) are left alone, and so is a lobe's own
 diffuse term (``kd``, ``diffuse``), held at 0 when the model has a Lambertian lobe, which would
-make it redundant. A lobe left without a free colour parameter (GGX with F = 1; Cook–Torrance,
-whose ``f0`` is inert under its dielectric Fresnel term) gets a free per-channel factor, fitted
-as ``[k_r, k_g, k_b] * ggx(...)`` — for Cook–Torrance the paper's specular weight s; a written
-factor (``0.5 * ggx``) stays fixed. The **bounds** are the models' own: each model validates its
-parameters with :func:`~brdfkit._array.check_param`, and the allowed interval is read from
-the message it raises for ±10³⁰ (open ends are moved inwards by 10⁻⁶). Models with an
+make it redundant. A lobe with no colour parameter of its own that acts, free or written (GGX
+with F = 1 has none; Cook–Torrance's ``f0`` is inert under its dielectric Fresnel term), gets a
+free per-channel factor, fitted as ``[k_r, k_g, k_b] * ggx(...)`` — for Cook–Torrance the
+paper's specular weight s; a written factor (``0.5 * ggx``) stays fixed. The **bounds** are the
+models' own: each model validates its parameters with :func:`~brdfkit._array.check_param`,
+and the allowed interval is read from the message it raises for ±10³⁰ (open ends are moved
+inwards by 10⁻⁶). Models with an
 ``allow_unphysical`` switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a
 box); the fitted model keeps it on only if its values need it.
 
