@@ -8,15 +8,13 @@ import pytest
 from brdfkit.brdf import parse
 from brdfkit.fit import fit, fit_data, fit_errors, residuals
 from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, read_merl, write_merl
-from brdfkit.sampling import square_to_uniform_hemisphere
+from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
 
 TRUE = "lambertian(rho=[0.3, 0.2, 0.1]) + ward(kd=0, ks=[0.05, 0.06, 0.08], alpha_x=0.15)"
 
 
 def _samples(spec: str, n: int = 3000, seed: int = 0) -> MeasuredSamples:
-    rng = np.random.default_rng(seed)
-    wi = square_to_uniform_hemisphere(rng.random((n, 2)))
-    wo = square_to_uniform_hemisphere(rng.random((n, 2)))
+    wi, wo = hemisphere_pairs(n, seed)
     return MeasuredSamples(wi, wo, parse(spec).eval(wi, wo), name="synthetic")
 
 

@@ -12,6 +12,7 @@ from scipy.stats import binomtest
 from brdfkit import sampling
 from brdfkit.sampling import (
     Distribution2D,
+    hemisphere_pairs,
     sobol,
     square_to_cosine_hemisphere,
     square_to_cosine_hemisphere_pdf,
@@ -428,3 +429,17 @@ def test_sobol_rejects_bad_arguments():
         sobol(0, 2)
     with pytest.raises(ValueError, match=r"dim must be an integer in \[1, 21201\]; got 0"):
         sobol(4, 0)
+
+
+def test_hemisphere_pairs_are_reproducible_unit_upper_directions():
+    wi, wo = hemisphere_pairs(1000, seed=4)
+    assert wi.shape == wo.shape == (1000, 3)
+    for v in (wi, wo):
+        np.testing.assert_allclose(np.linalg.norm(v, axis=-1), 1.0, atol=1e-12)
+        assert np.all(v[:, 2] >= 0)
+    assert not np.allclose(wi, wo)
+    again = hemisphere_pairs(1000, seed=4)
+    np.testing.assert_array_equal(again[0], wi)
+    np.testing.assert_array_equal(again[1], wo)
+    # Uniform in solid angle: the mean of cos θ over the hemisphere is 1/2.
+    assert abs(float(np.mean(hemisphere_pairs(100_000)[0][:, 2])) - 0.5) < 0.005

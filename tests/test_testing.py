@@ -25,7 +25,6 @@ from brdfkit.testing import (
     brdf_sampler,
     chi2_test,
     chi2_test_planar,
-    hemisphere_pairs,
 )
 
 
@@ -295,17 +294,3 @@ def test_brdf_sampler_adapts_a_brdf_to_chi2_and_records_samples():
     # Delta-lobe samples are not valid for the histogram, whatever their pdf field says.
     _, valid = brdf_sampler(SmoothDielectric(1.5), wo)[0](np.full((4, 3), 0.3))
     assert not np.any(valid)
-
-
-def test_hemisphere_pairs_are_reproducible_unit_upper_directions():
-    wi, wo = hemisphere_pairs(1000, seed=4)
-    assert wi.shape == wo.shape == (1000, 3)
-    for v in (wi, wo):
-        np.testing.assert_allclose(np.linalg.norm(v, axis=-1), 1.0, atol=1e-12)
-        assert np.all(v[:, 2] >= 0)
-    assert not np.allclose(wi, wo)
-    again = hemisphere_pairs(1000, seed=4)
-    np.testing.assert_array_equal(again[0], wi)
-    np.testing.assert_array_equal(again[1], wo)
-    # Uniform in solid angle: the mean of cos θ over the hemisphere is 1/2.
-    assert abs(float(np.mean(hemisphere_pairs(100_000)[0][:, 2])) - 0.5) < 0.005

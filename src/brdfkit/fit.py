@@ -151,11 +151,9 @@ def fit_data(
             name=measured.name,
         )
     elif isinstance(measured, BRDF):
-        from brdfkit.sampling import square_to_uniform_hemisphere
+        from brdfkit.sampling import hemisphere_pairs
 
-        rng = np.random.default_rng(seed)
-        wi = square_to_uniform_hemisphere(rng.random((samples, 2)))
-        wo = square_to_uniform_hemisphere(rng.random((samples, 2)))
+        wi, wo = hemisphere_pairs(samples, seed)
         values = to_numpy(measured.eval(wi, wo))
         data = MeasuredSamples(wi, wo, values, name=getattr(measured, "name", repr(measured)))
     else:

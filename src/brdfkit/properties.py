@@ -49,7 +49,7 @@ from brdfkit._array import Array, to_numpy
 from brdfkit.brdf.base import BRDF, Sample, Scaled, Sum
 from brdfkit.brdf.microfacet import MicrofacetDistribution
 from brdfkit.geometry import cartesian_to_spherical, spherical_to_cartesian
-from brdfkit.sampling import square_to_uniform_hemisphere, square_to_uniform_sphere
+from brdfkit.sampling import hemisphere_pairs, square_to_uniform_sphere
 
 _ADJECTIVE = {
     "non-negativity": "non-negative",
@@ -197,13 +197,6 @@ def _degrees(w: np.ndarray) -> float:
     return math.degrees(math.acos(float(np.clip(w[2], -1.0, 1.0))))
 
 
-def _hemisphere_pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` pairs of independent uniformly distributed upper-hemisphere directions."""
-    rng = np.random.default_rng(seed)
-    u = rng.random((2, n, 2))
-    return square_to_uniform_hemisphere(u[0]), square_to_uniform_hemisphere(u[1])
-
-
 def _eval(brdf: BRDF, wi: Array, wo: Array) -> np.ndarray:
     return to_numpy(brdf.eval(wi, wo)).astype(np.float64)
 
@@ -230,7 +223,7 @@ def check_reciprocity(
     .. [1] E. Veach, PhD thesis, Stanford, 1997, §6.2.
     .. [2] F. E. Nicodemus et al., NBS Monograph 160, 1977.
     """
-    wi, wo = _hemisphere_pairs(n, seed)
+    wi, wo = hemisphere_pairs(n, seed)
     value, k = _worst_difference(_eval(brdf, wi, wo), _eval(brdf, wo, wi))
     detail = (
         f"max |f(wi,wo) − f(wo,wi)| / max f over {n} pairs, worst at θi = "
@@ -253,7 +246,7 @@ def check_isotropy(
     ----------
     .. [1] F. E. Nicodemus et al., NBS Monograph 160, 1977.
     """
-    wi, wo = _hemisphere_pairs(n, seed)
+    wi, wo = hemisphere_pairs(n, seed)
     psi = np.random.default_rng(seed + 1).uniform(0.0, 2 * math.pi, n)
     theta_i, phi_i = cartesian_to_spherical(wi)
     theta_o, phi_o = cartesian_to_spherical(wo)

@@ -52,6 +52,7 @@ from brdfkit._array import (
 
 __all__ = [
     "Distribution2D",
+    "hemisphere_pairs",
     "sobol",
     "square_to_cosine_hemisphere",
     "square_to_cosine_hemisphere_pdf",
@@ -264,6 +265,17 @@ def square_to_uniform_hemisphere_pdf(v: Array) -> Array:
     """
     v = check_vectors("v", v)
     return _uniform_density(1 / (2 * math.pi), v[..., 2] >= 0, v)
+
+
+def hemisphere_pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` independent random direction pairs ``(wi, wo)``, each ``(count, 3)``, uniform
+    on the upper hemisphere (:func:`square_to_uniform_hemisphere`; ``wi`` drawn first, from one
+    NumPy generator seeded with ``seed``): the usual arguments of a check or a fit of a BRDF."""
+    rng = np.random.default_rng(seed)
+    return (
+        square_to_uniform_hemisphere(rng.random((count, 2))),
+        square_to_uniform_hemisphere(rng.random((count, 2))),
+    )
 
 
 def square_to_cosine_hemisphere(u: Array) -> Array:

@@ -36,7 +36,6 @@ import numpy as np
 
 from brdfkit._array import check_param, to_numpy
 from brdfkit.geometry import spherical_to_cartesian
-from brdfkit.sampling import square_to_uniform_hemisphere
 
 __all__ = [
     "Chi2Result",
@@ -45,7 +44,6 @@ __all__ = [
     "brdf_sampler",
     "chi2_test",
     "chi2_test_planar",
-    "hemisphere_pairs",
 ]
 
 _CHUNK = 1 << 20
@@ -626,17 +624,6 @@ def chi2_test_planar(
 def _check_bins(name: str, value: int) -> None:
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
         raise ValueError(f"{name} must be a positive integer; got {value!r}")
-
-
-def hemisphere_pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` random direction pairs ``(wi, wo)``, each ``(count, 3)``, uniform on the upper
-    hemisphere: the usual arguments of a BRDF check (``wi`` drawn first, from one generator
-    seeded with ``seed``)."""
-    rng = np.random.default_rng(seed)
-    return (
-        square_to_uniform_hemisphere(rng.random((count, 2))),
-        square_to_uniform_hemisphere(rng.random((count, 2))),
-    )
 
 
 def brdf_sampler(
