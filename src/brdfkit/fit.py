@@ -183,8 +183,17 @@ def residuals(model: BRDF, data: MeasuredSamples, objective: str = "cosine") -> 
     """
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}; got {objective!r}")
+    return _residuals(_predicted(model, data), data, objective)
+
+
+def _predicted(model: BRDF, data: MeasuredSamples) -> np.ndarray:
+    """``model``'s values at the measurements' direction pairs, shaped like ``data.values``."""
+    return np.broadcast_to(to_numpy(model.eval(data.wi, data.wo)), data.values.shape)
+
+
+def _residuals(predicted: np.ndarray, data: MeasuredSamples, objective: str) -> np.ndarray:
+    """The residuals of :func:`residuals`, from the model's values."""
     cos_theta_i = data.wi[:, 2:3]
-    predicted = np.broadcast_to(to_numpy(model.eval(data.wi, data.wo)), data.values.shape)
     if objective == "cosine":
         return (predicted - data.values) * cos_theta_i
     if objective == "log":
@@ -206,28 +215,18 @@ def fit_errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005.
     """
-    predicted = np.broadcast_to(to_numpy(model.eval(data.wi, data.wo)), data.values.shape)
+    predicted = _predicted(model, data)
     diff = predicted - data.values
-    cos_theta_i = data.wi[:, 2:3]
-    compressed = {
-        name: float(np.sqrt(np.mean(r**2)))
-        for name, r in (
-            (
-                "log_rmse",
-                np.log1p(np.maximum(predicted, 0) * cos_theta_i)
-                - np.log1p(data.values * cos_theta_i),
-            ),
-            (
-                "cube_root_rmse",
-                np.cbrt(predicted * cos_theta_i) - np.cbrt(data.values * cos_theta_i),
-            ),
-        )
-    }
+
+    def rms(r: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(r**2)))
+
     return {
-        "rmse": float(np.sqrt(np.mean(diff**2))),
-        "cosine_rmse": float(np.sqrt(np.mean((diff * cos_theta_i) ** 2))),
+        "rmse": rms(diff),
+        "cosine_rmse": rms(_residuals(predicted, data, "cosine")),
         "relative_l2": float(np.linalg.norm(diff) / max(np.linalg.norm(data.values), 1e-300)),
-        **compressed,
+        "log_rmse": rms(_residuals(predicted, data, "log")),
+        "cube_root_rmse": rms(_residuals(predicted, data, "cube_root")),
     }
 
 
