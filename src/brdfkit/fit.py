@@ -25,9 +25,9 @@ free per-channel factor, fitted as ``[k_r, k_g, k_b] * ggx(...)`` — for Cook�
 paper's specular weight s; a written factor (``0.5 * ggx``) stays fixed. The **bounds** are the
 models' own: each model validates its parameters with :func:`~brdfkit._array.check_param`,
 and the allowed interval is read from the message it raises for ±10³⁰ (open ends are moved
-inwards by 10⁻⁶). Models with an
-``allow_unphysical`` switch are fitted with it on (a joint limit such as kd + ks ≤ 1 is not a
-box); the fitted model keeps it on only if its values need it.
+inwards by 10⁻⁶). Models with an ``allow_unphysical`` switch are fitted with it on (a joint
+limit such as kd + ks ≤ 1 is not a box); the fitted model keeps it on only if its values need
+it.
 
 **Channels**: ``mode="shared"`` fits one lobe shape for all channels with per-channel colour
 parameters (those named in :data:`COLOUR_PARAMETERS`); ``mode="per_channel"`` fits every channel
