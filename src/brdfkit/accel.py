@@ -740,6 +740,14 @@ def _intrinsics() -> dict[str, Any]:
     }
 
 
+def _exact_jit() -> Callable[[Any], Any]:
+    """numba's decorator for the kernels' helper functions: no fast-math flags (reassociation
+    would undo their argument reductions and Newton steps), NumPy's error model, no GIL."""
+    import numba
+
+    return numba.njit(fastmath=False, error_model="numpy", nogil=True)
+
+
 @functools.cache
 def _trig32() -> dict[str, Any]:
     """Branch-free float32 ``sin`` and ``cos`` that LLVM vectorises (libm's are scalar calls).
@@ -758,7 +766,6 @@ def _trig32() -> dict[str, Any]:
     .. [1] S. L. Moshier, Cephes Math Library, ``sinf.c`` (single precision), 1989.
     .. [2] W. J. Cody, W. Waite, *Software Manual for the Elementary Functions*, 1980.
     """
-    import numba
 
     select = _intrinsics()["_select"]
     f32 = np.float32
@@ -766,7 +773,7 @@ def _trig32() -> dict[str, Any]:
     dp1, dp2, dp3 = f32(0.78515625), f32(2.4187564849853515625e-4), f32(3.77489497744594108e-8)
     s0, s1, s2 = f32(-1.9515295891e-4), f32(8.3321608736e-3), f32(-1.6666654611e-1)
     c0, c1, c2 = f32(2.443315711809948e-5), f32(-1.388731625493765e-3), f32(4.166664568298827e-2)
-    jit = numba.njit(fastmath=False, error_model="numpy", nogil=True)
+    jit = _exact_jit()
 
     @jit
     def reduce(x: Any) -> Any:
@@ -817,7 +824,7 @@ def _erfinv() -> dict[str, Any]:
     ----------
     .. [1] M. Giles, "Approximating the erfinv function", GPU Computing Gems Jade, 2011.
     """
-    import numba
+    jit = _exact_jit()
 
     select = _intrinsics()["_select"]
     two_over_sqrt_pi = 2 / math.sqrt(math.pi)
@@ -835,7 +842,7 @@ def _erfinv() -> dict[str, Any]:
         t = tuple(dtype(v) for v in tail)
         one, half_five, three = dtype(1), dtype(2.5), dtype(3)
 
-        @numba.njit(fastmath=False, error_model="numpy", nogil=True)
+        @jit
         def approximate(x: Any) -> Any:
             w = -np.log((one - x) * (one + x))
             v = w - half_five
@@ -853,7 +860,7 @@ def _erfinv() -> dict[str, Any]:
     def edges(dtype: Any) -> Any:
         one, inf, nan = dtype(1), dtype(np.inf), dtype(np.nan)
 
-        @numba.njit(fastmath=False, error_model="numpy", nogil=True)
+        @jit
         def at_edges(x: Any, value: Any) -> Any:
             a = np.abs(x)
             return select(a < one, value, select(a == one, np.copysign(inf, x), nan))
@@ -864,11 +871,11 @@ def _erfinv() -> dict[str, Any]:
         giles(np.float32), edges(np.float32), giles(np.float64), edges(np.float64),
     )  # fmt: skip
 
-    @numba.njit(fastmath=False, error_model="numpy", nogil=True)
+    @jit
     def erfinv32(x: Any) -> Any:
         return edges32(x, giles32(x))
 
-    @numba.njit(fastmath=False, error_model="numpy", nogil=True)
+    @jit
     def erfinv64(x: Any) -> Any:
         a = abs(x)
         # Giles' fit covers float32's range (1 − a ≳ 1e-7); beyond, erfc(t) ≈ exp(−t²)/(t√π)
