@@ -37,8 +37,9 @@ EXCLUDED = {
     "fresnel.dielectric",
     # documented to reduce spectral tables to a float64 NumPy (3,) array (via colour-science)
     "fresnel.rgb_from_spectrum",
-    # documented to return a float64 NumPy array (a SciPy wrapper)
+    # documented to return float64 NumPy arrays (a SciPy wrapper; a seeded NumPy generator)
     "sampling.sobol",
+    "sampling.hemisphere_pairs",
 }
 
 
