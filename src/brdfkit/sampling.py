@@ -268,9 +268,10 @@ def square_to_uniform_hemisphere_pdf(v: Array) -> Array:
 
 
 def hemisphere_pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` independent random direction pairs ``(wi, wo)``, each ``(count, 3)``, uniform
-    on the upper hemisphere (:func:`square_to_uniform_hemisphere`; ``wi`` drawn first, from one
-    NumPy generator seeded with ``seed``): the usual arguments of a check or a fit of a BRDF."""
+    """``count`` independent random direction pairs ``(wi, wo)``, NumPy float64 ``(count, 3)``
+    each, uniform on the upper hemisphere (:func:`square_to_uniform_hemisphere`; ``wi`` drawn
+    first, from one NumPy generator seeded with ``seed``): the usual arguments of a check or a
+    fit of a BRDF."""
     rng = np.random.default_rng(seed)
     return (
         square_to_uniform_hemisphere(rng.random((count, 2))),
