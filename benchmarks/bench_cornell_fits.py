@@ -1,14 +1,15 @@
 """Lambertian (+ Cook–Torrance, + GGX, + Ward, + two GGX) fitted to the Cornell paints, by eye.
 
-For every material and model, with each objective: the fitting errors and the CIEDE2000
+For every material and model, with each objective and loss: the fitting errors and the CIEDE2000
 difference between the measured and the fitted sphere
 (:func:`brdfkit.appearance.sphere_difference`) under the default directional light, and its mean
 over :data:`LIGHTS` (four directions: head-on, the default, from the side, grazing). Writes two
 Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and the
 picture ``docs/images/cornell_fits.png`` (rows: materials; columns: measured, then each fit,
-default objective, exposed alike).
+default objective and loss, exposed alike).
 
     python benchmarks/bench_cornell_fits.py [--data ../shared/data] [--resolution 96]
+        [--loss-scale 0.5]
 """
 
 from __future__ import annotations
@@ -28,7 +29,12 @@ from brdfkit.measured import read_cornell
 MATERIALS = ("acryl_blue", "cayman", "garnet_red", "krylon_blue")
 PICTURED = ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward")
 MODELS = ("lambertian", *PICTURED, "lambertian + ggx + ggx")
-OBJECTIVES = ("cube_root", "log", "cosine")
+FITTINGS = tuple(
+    (objective, loss)
+    for objective in ("cube_root", "log", "cosine")
+    for loss in ("soft_l1", "linear")
+)
+"""(objective, loss) pairs; the first is :func:`brdfkit.fit.fit`'s default."""
 LIGHTS = ((0.0, 0.0, 1.0), DEFAULT_LIGHT_DIRECTION, (0.8, 0.2, 0.56), (0.9, 0.1, 0.2))
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,6 +43,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=None, help="shared data folder")
     parser.add_argument("--resolution", type=int, default=96)
+    parser.add_argument("--loss-scale", type=float, default=0.5, help="fit's loss_scale")
     args = parser.parse_args()
     folder = (args.data or data_path()) / "measured" / "cornell"
     records, rows = [], []
@@ -44,8 +51,10 @@ def main() -> None:
         table = read_cornell(folder / f"{material}.brdf")
         row = []
         for model in MODELS:
-            for objective in OBJECTIVES:
-                result = fit(table, model, objective=objective)
+            for objective, loss in FITTINGS:
+                result = fit(
+                    table, model, objective=objective, loss=loss, loss_scale=args.loss_scale
+                )
                 lit = [
                     sphere_difference(
                         table,
@@ -61,6 +70,8 @@ def main() -> None:
                         "material": material,
                         "model": model,
                         "objective": objective,
+                        "loss": loss,
+                        "loss_scale": result.loss_scale,
                         "delta_e": look.to_dict(),
                         "delta_e_per_light": {
                             str(d): x.mean for d, x in zip(LIGHTS, lit, strict=True)
@@ -71,7 +82,7 @@ def main() -> None:
                         "success": result.success,
                     }
                 )
-                if objective == OBJECTIVES[0]:
+                if (objective, loss) == FITTINGS[0]:
                     row = row or [look.reference]
                     if model in PICTURED:
                         row.append(look.other)
@@ -80,38 +91,39 @@ def main() -> None:
     results = ROOT / "benchmarks" / "results" / "cornell_fits.json"
     results.write_text(json.dumps(records, indent=1))
 
-    def cell(material: str, model: str, objective: str, averaged: bool) -> float:
+    def cell(material: str, model: str, fitting: tuple[str, str], averaged: bool) -> float:
         (record,) = (
             r
             for r in records
-            if (r["material"], r["model"], r["objective"]) == (material, model, objective)
+            if (r["material"], r["model"]) == (material, model)
+            and (r["objective"], r["loss"]) == fitting
         )
         if averaged:
             return float(np.mean(list(record["delta_e_per_light"].values())))
         return record["delta_e"]["mean"]
 
+    names = ["/".join(f) for f in FITTINGS]
     for title, averaged in (
         ("under the default light", False),
         (f"averaged over {len(LIGHTS)} light directions", True),
     ):
-        others = ", ".join(OBJECTIVES[1:])
         print(f"\nmean CIEDE2000, measured vs fitted sphere, {title}")
-        print(f"({OBJECTIVES[0]} objective; {others} in brackets)\n")
+        print(f"({names[0]}; {', '.join(names[1:])} in brackets)\n")
         print("| material | " + " | ".join(MODELS) + " |")
         print("|---" * (len(MODELS) + 1) + "|")
         for material in MATERIALS:
             cells = []
             for model in MODELS:
-                first, *rest = (cell(material, model, o, averaged) for o in OBJECTIVES)
+                first, *rest = (cell(material, model, f, averaged) for f in FITTINGS)
                 cells.append(f"{first:.1f} (" + ", ".join(f"{v:.1f}" for v in rest) + ")")
             print(f"| {material} | " + " | ".join(cells) + " |")
         totals = {
-            o: np.mean([cell(m, d, o, averaged) for m in MATERIALS for d in MODELS[1:]])
-            for o in OBJECTIVES
+            name: np.mean([cell(m, d, f, averaged) for m in MATERIALS for d in MODELS[1:]])
+            for name, f in zip(names, FITTINGS, strict=True)
         }
         print(
             "\nmean over the fits with a specular lobe: "
-            + ", ".join(f"{o} {v:.1f}" for o, v in totals.items())
+            + ", ".join(f"{name} {v:.1f}" for name, v in totals.items())
         )
 
 

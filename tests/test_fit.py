@@ -100,6 +100,45 @@ def test_the_roughness_sweep_finds_a_highlight_much_sharper_than_the_start():
     assert result.params["1.ggx.scale"] == pytest.approx(0.03, rel=1e-3)
 
 
+BODY_AND_PEAK = "lambertian(rho=0.02) + 0.1 * ggx(alpha=0.3) + 0.3 * ggx(alpha=0.01)"
+"""A broad coloured body lobe under a sharp clear-coat peak (as in a metallic paint): one
+specular lobe cannot be both."""
+
+
+def test_the_robust_loss_fits_the_body_rather_than_a_few_peak_samples():
+    """Of 2000 uniform pairs a handful fall on the peak. Plain least squares spends the one
+    lobe on them; soft-L1 counts their large residuals linearly and fits the body."""
+    data = _samples(BODY_AND_PEAK, 2000, seed=1)
+    linear = fit(data, "lambertian + ggx", loss="linear")
+    robust = fit(data, "lambertian + ggx")
+    assert robust.loss == "soft_l1" and linear.loss == "linear"
+    assert linear.params["1.ggx.alpha"] < 0.05
+    assert 0.15 < robust.params["1.ggx.alpha"] < 0.45
+    np.testing.assert_allclose(robust.params["1.ggx.scale"], 0.1, rtol=0.1)
+
+
+def test_each_start_levels_its_colours_before_its_shape_moves():
+    """Started at m = 0.4 with every colour at 1 (ten times too bright), Cook–Torrance used to
+    shrink m to 0.02 and tune η to dim itself; with the colours fitted first it keeps the body's
+    broad lobe."""
+    data = _samples(BODY_AND_PEAK, 2000, seed=1)
+    result = fit(data, parse("lambertian + cook_torrance(m=0.4)"), starts=1)
+    assert 0.15 < result.params["1.cook_torrance.m"] < 0.45
+
+
+def test_the_loss_scale_follows_the_data():
+    """The scale is relative to the measured values' median size, so scaling the data by k
+    scales the (cube-root) residuals and the loss's scale alike, and the fit is the same."""
+    data = _samples(BODY_AND_PEAK, 2000, seed=1)
+    brighter = MeasuredSamples(data.wi, data.wo, 8 * data.values)
+    one, other = fit(data, "lambertian + ggx"), fit(brighter, "lambertian + ggx")
+    assert other.loss_scale == pytest.approx(2 * one.loss_scale)
+    assert other.params["1.ggx.alpha"] == pytest.approx(one.params["1.ggx.alpha"], rel=1e-3)
+    np.testing.assert_allclose(
+        other.params["1.ggx.scale"], 8 * np.array(one.params["1.ggx.scale"]), rtol=1e-3
+    )
+
+
 def test_residuals_and_errors_closed_forms():
     data = _samples("lambertian(rho=0.5)", 200)
     model = parse("lambertian(rho=0.25)")
@@ -112,7 +151,14 @@ def test_residuals_and_errors_closed_forms():
 
 @pytest.mark.parametrize(
     ("kwargs", "message"),
-    [({"objective": "l1"}, "objective"), ({"mode": "both"}, "mode"), ({"starts": 0}, "starts")],
+    [
+        ({"objective": "l1"}, "objective"),
+        ({"loss": "l1"}, "loss must be one of"),
+        ({"loss_scale": 0}, "loss_scale must be a positive number; got 0"),
+        ({"loss_scale": float("nan")}, "loss_scale"),
+        ({"mode": "both"}, "mode"),
+        ({"starts": 0}, "starts"),
+    ],
 )
 def test_bad_arguments(kwargs, message):
     with pytest.raises(ValueError, match=message):
@@ -149,12 +195,6 @@ CORNELL = ["acryl_blue", "cayman", "garnet_red", "krylon_blue"]
 ALIKE = 12.0
 """Mean CIEDE2000 over the sphere below which two spheres look alike at a glance."""
 TWO_LOBES = ["lambertian + cook_torrance", "lambertian + ggx", "lambertian + ward"]
-FALLS_SHORT = {
-    ("cayman", "lambertian + cook_torrance"),  # cayman: the measured body darkens towards
-    ("cayman", "lambertian + ggx"),  # grazing light far more than a Lambertian lobe
-    ("cayman", "lambertian + ward"),
-}
-"""Fits whose spheres do not yet look like the measured ones (see the README)."""
 
 
 @pytest.mark.slow
@@ -178,7 +218,5 @@ def test_cornell_fits_converge_and_look_like_the_measurement(shared_data, materi
             assert result.errors[error] < lambertian.errors[error], (spec, error)
         look = sphere_difference(table, result.model, resolution=48).mean
         wrong = sphere_difference(other, result.model, resolution=48).mean
-        looks_alike = look < lambertian_look and look < min(wrong / 2, ALIKE)
-        # a listed shortfall that is fixed fails too: then take it off the list
-        listed = (material, spec) in FALLS_SHORT
-        assert looks_alike != listed, (spec, look, lambertian_look, wrong)
+        assert look < lambertian_look, (spec, look, lambertian_look)
+        assert look < min(wrong / 2, ALIKE), (spec, look, wrong)

@@ -93,6 +93,10 @@ from brdfkit.measured.tabulated import MeasuredSamples, TabulatedBRDF
 OBJECTIVES = ("cosine", "log", "cube_root")
 """The fitting objectives (see the module docstring)."""
 
+LOSSES = ("soft_l1", "linear", "huber", "cauchy", "arctan")
+"""How residuals count (:func:`scipy.optimize.least_squares`'s ``loss``; see the module
+docstring)."""
+
 MODES = ("shared", "per_channel")
 """How channels are fitted: one lobe shape with per-channel colours, or each channel alone."""
 
@@ -194,13 +198,21 @@ def _predicted(model: BRDF, data: MeasuredSamples) -> np.ndarray:
 def _residuals(predicted: np.ndarray, data: MeasuredSamples, objective: str) -> np.ndarray:
     """The residuals of :func:`residuals`, from the model's values."""
     cos_theta_i = data.wi[:, 2:3]
+    if objective == "log":  # the model may undershoot to negative values; its log must exist
+        predicted = np.maximum(predicted, 0)
+    return _compressed(predicted, cos_theta_i, objective) - _compressed(
+        data.values, cos_theta_i, objective
+    )
+
+
+def _compressed(f: np.ndarray, cos_theta_i: np.ndarray, objective: str) -> np.ndarray:
+    r"""BRDF values ``f`` on the scale of ``objective``'s residuals: :math:`f\cos\theta_i`,
+    :math:`\ln(1 + f\cos\theta_i)` or :math:`(f\cos\theta_i)^{1/3}`."""
     if objective == "cosine":
-        return (predicted - data.values) * cos_theta_i
+        return f * cos_theta_i
     if objective == "log":
-        return np.log1p(np.maximum(predicted, 0) * cos_theta_i) - np.log1p(
-            data.values * cos_theta_i
-        )
-    return np.cbrt(predicted * cos_theta_i) - np.cbrt(data.values * cos_theta_i)
+        return np.log1p(f * cos_theta_i)
+    return np.cbrt(f * cos_theta_i)
 
 
 def fit_errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
@@ -502,6 +514,18 @@ def _swept(p: _Free, alpha: float) -> np.ndarray:
     return np.clip(np.full(p.size, value), p.lower, p.upper)
 
 
+def _is_colour(p: _Free) -> bool:
+    """Whether ``p`` sets a lobe's colour or strength (levelled first from every start)."""
+    return p.name in COLOUR_PARAMETERS or p.name == "scale"
+
+
+def _typical_size(data: MeasuredSamples, objective: str) -> float:
+    """The median over the measurements of their mean channel on ``objective``'s scale."""
+    compressed = _compressed(data.values, data.wi[:, 2:3], objective)
+    size = float(np.median(np.abs(compressed).mean(axis=1)))
+    return size if size > 0 else 1.0
+
+
 def _subset(data: MeasuredSamples, count: int, rng: np.random.Generator) -> MeasuredSamples:
     if data.wi.shape[0] <= count:
         return data
@@ -519,7 +543,8 @@ class FitResult:
     model : the fitted BRDF. spec : it as a spec string (:func:`brdfkit.brdf.parse` reads it).
     params : fitted free parameters by ``"<lobe index>.<model>.<name>"``.
     errors : :func:`fit_errors` on all valid measurements.
-    objective, mode : as requested. cost : final ½Σr² of the objective on the refinement set.
+    objective, loss, mode : as requested. loss_scale : the residual scale the loss used
+    (absolute). cost : the final loss on the refinement set (½Σr² for ``"linear"``).
     starts : restarts tried. nfev : model evaluations in all. samples : measurements in the
     errors. fit_samples : measurements in the refinement. success, message : from scipy.
     seconds : wall time.
@@ -530,6 +555,8 @@ class FitResult:
     params: dict[str, Any]
     errors: dict[str, float]
     objective: str
+    loss: str
+    loss_scale: float
     mode: str
     cost: float
     starts: int
@@ -547,37 +574,56 @@ class FitResult:
         }
 
 
+@dataclass(frozen=True)
+class _Robust:
+    """What a least-squares run minimises: ``objective``'s residuals under scipy's ``loss``,
+    which counts residuals beyond ``f_scale`` less than quadratically."""
+
+    objective: str
+    loss: str
+    f_scale: float
+
+
 def _least_squares(
     lobes: tuple[BRDF, ...],
     free: list[_Free],
     data: MeasuredSamples,
     x0: np.ndarray,
-    objective: str,
+    active: np.ndarray,
+    robust: _Robust,
     channels: slice,
     max_nfev: int,
     report: Callable[[int], None],
 ) -> Any:
+    """Least squares over the entries of ``x0`` where ``active`` holds (the rest stay put)."""
     from scipy.optimize import least_squares
 
     lower = np.concatenate([np.full(p.size, p.lower) for p in free])
     upper = np.concatenate([np.full(p.size, p.upper) for p in free])
+    x0 = np.clip(x0, lower, upper)
     calls = [0]
 
-    def fun(x: np.ndarray) -> np.ndarray:
+    def fun(x_active: np.ndarray) -> np.ndarray:
         calls[0] += 1
         report(calls[0])
+        x = x0.copy()
+        x[active] = x_active
         model = _assemble(lobes, free, x, relax=True)
-        return residuals(model, data, objective)[:, channels].ravel()
+        return residuals(model, data, robust.objective)[:, channels].ravel()
 
     result = least_squares(
         fun,
-        np.clip(x0, lower, upper),
-        bounds=(lower, upper),
+        x0[active],
+        bounds=(lower[active], upper[active]),
         method="trf",
         x_scale="jac",
+        loss=robust.loss,
+        f_scale=robust.f_scale,
         max_nfev=max_nfev,
     )
-    result.calls = calls[0]
+    x = x0.copy()
+    x[active] = result.x
+    result.x, result.calls = x, calls[0]
     return result
 
 
@@ -586,6 +632,8 @@ def fit(
     model: str | BRDF,
     *,
     objective: str = "cube_root",
+    loss: str = "soft_l1",
+    loss_scale: float = 0.5,
     mode: str = "shared",
     starts: int = 4,
     fixed: Collection[str] = (),
@@ -604,6 +652,11 @@ def fit(
         fixed) or a BRDF (a registered model or a sum of them; its values are the first start).
     objective : ``"cube_root"`` (default: the fits look most like the data, see the module
         docstring), ``"log"`` or ``"cosine"`` (Ngan et al. 2005).
+    loss : how residuals count (:data:`LOSSES`, scipy's names): ``"soft_l1"`` (default; a
+        residual far beyond the scale counts linearly, not quadratically) or ``"linear"``
+        (plain least squares), ``"huber"``, ``"cauchy"``, ``"arctan"``.
+    loss_scale : the residual at which a robust loss departs from least squares, relative to
+        the median size of the measured values on the objective's scale (default ½).
     mode : ``"shared"`` or ``"per_channel"``.
     starts : number of starts (≥ 1): the model's values, then a roughness sweep (random
         points in the bounds for a model without roughness).
@@ -627,6 +680,10 @@ def fit(
     began = time.perf_counter()
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}; got {objective!r}")
+    if loss not in LOSSES:
+        raise ValueError(f"loss must be one of {LOSSES}; got {loss!r}")
+    if not (isinstance(loss_scale, int | float) and loss_scale > 0 and math.isfinite(loss_scale)):
+        raise ValueError(f"loss_scale must be a positive number; got {loss_scale!r}")
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}; got {mode!r}")
     for name, value, least in (
@@ -653,7 +710,8 @@ def fit(
     coarse = _subset(data, coarse_samples, rng)
     fine = _subset(data, max_samples, rng)
     groups = [slice(None)] if mode == "shared" else [slice(c, c + 1) for c in range(channels)]
-    stages = len(groups) * (starts + 1)
+    robust = _Robust(objective, loss, loss_scale * _typical_size(data, objective))
+    stages = len(groups) * (2 * starts + 1)
     done = [0]
 
     def reporter(description: str) -> Callable[[int], None]:
@@ -672,14 +730,32 @@ def fit(
                 f"{[p.name for p in free if p.size != 1]} hold several (fix them or use 'shared')"
             )
         label = "" if mode == "shared" else f" channel {g}"
+        everything = np.ones(sum(p.size for p in free), dtype=bool)
+        colours = np.concatenate([np.full(p.size, _is_colour(p)) for p in free])
         best = None
         for s, x0 in enumerate(_starts(free, starts, rng)):
+            if colours.any() and not colours.all():  # level the start's colours first
+                run = _least_squares(
+                    lobes,
+                    free,
+                    coarse,
+                    x0,
+                    colours,
+                    robust,
+                    group,
+                    max_nfev,
+                    reporter(f"start {s + 1}{label}: colours"),
+                )
+                nfev += run.calls
+                x0 = run.x
+            done[0] += 1
             run = _least_squares(
                 lobes,
                 free,
                 coarse,
                 x0,
-                objective,
+                everything,
+                robust,
                 group,
                 max_nfev,
                 reporter(f"start {s + 1}{label}"),
@@ -689,7 +765,15 @@ def fit(
             if best is None or run.cost < best.cost:
                 best = run
         run = _least_squares(
-            lobes, free, fine, best.x, objective, group, max_nfev, reporter(f"refine{label}")
+            lobes,
+            free,
+            fine,
+            best.x,
+            everything,
+            robust,
+            group,
+            max_nfev,
+            reporter(f"refine{label}"),
         )
         nfev += run.calls
         done[0] += 1
@@ -717,6 +801,8 @@ def fit(
         params=params,
         errors=fit_errors(result_model, data),
         objective=objective,
+        loss=loss,
+        loss_scale=robust.f_scale,
         mode=mode,
         cost=cost,
         starts=starts,
@@ -731,6 +817,7 @@ def fit(
 
 __all__ = [
     "COLOUR_PARAMETERS",
+    "LOSSES",
     "MODES",
     "OBJECTIVES",
     "FitResult",

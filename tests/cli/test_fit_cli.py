@@ -40,6 +40,7 @@ def test_fit_a_cornell_file_and_write_outputs(shared_data, tmp_path):
     model = parse(record["spec"])  # the spec is usable everywhere else
     assert model.lobes[1].alpha_x == record["params"]["1.ward.alpha_x"]
     assert record["errors"]["cosine_rmse"] > 0 and record["samples"] > 1000
+    assert record["loss"] == "soft_l1" and record["loss_scale"] > 0
     image = read_image(out / "spheres.png")
     assert image.shape[:2] == (32, 64)  # measured | fitted
     left, right = image[:, :32, :3], image[:, 32:, :3]

@@ -26,6 +26,15 @@ def fit_command(
         "--objective",
         help="cube_root (Forés et al. 2012), log (Löw et al. 2012) or cosine (Ngan et al. 2005).",
     ),
+    loss: str = typer.Option(
+        "soft_l1",
+        "--loss",
+        help="soft_l1 (a few samples the model cannot follow do not decide the fit) or linear "
+        "(plain least squares); also huber, cauchy, arctan.",
+    ),
+    loss_scale: float = typer.Option(
+        0.5, "--loss-scale", help="Where the robust loss departs from least squares (relative)."
+    ),
     mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
     starts: int = typer.Option(4, "--starts", min=1, help="Restarts (the first is the spec)."),
     fix: list[str] = typer.Option([], "--fix", help="Parameter to hold fixed (repeatable)."),
@@ -59,6 +68,8 @@ def fit_command(
                 measured,
                 model,
                 objective=objective,
+                loss=loss,
+                loss_scale=loss_scale,
                 mode=mode,
                 starts=starts,
                 fixed=fix,
@@ -69,7 +80,7 @@ def fit_command(
             )
     except ValueError as error:
         fail(str(error))
-    table = Table(title=f"{file.name}: {model} ({objective}, {mode})")
+    table = Table(title=f"{file.name}: {model} ({objective}, {loss}, {mode})")
     table.add_column("parameter")
     table.add_column("value", justify="right")
     for name, value in result.params.items():
