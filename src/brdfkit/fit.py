@@ -14,6 +14,19 @@ values :math:`f, \hat f` per sample and channel:
   :math:`r = (\hat f c_i)^{1/3} - (f c_i)^{1/3}`, which tames the highlight more strongly still;
   in their psychophysical study it gave the fits closest to the measurement by eye.
 
+**Loss.** The residuals count through scipy's robust ``loss`` [7], by default ``"soft_l1"``,
+:math:`\rho(r) = 2s^2(\sqrt{1 + (r/s)^2} - 1)`: quadratic below the scale :math:`s`, linear
+beyond it. A few samples that the model cannot follow then do not decide the fit. Cayman, a
+metallic paint, has a sharp clear-coat peak (6 of its 1439 samples, about a hundred times the
+brightest body value) over a broad coloured lobe that covers most of the sphere. Under plain
+least squares (``loss="linear"``), Lambertian + one lobe spends the lobe on those 6 samples
+and loses the body. The scale is relative: :math:`s` is ``loss_scale`` (½) times the median,
+over the measurements, of their mean channel on the objective's scale. Scaling the data by
+:math:`k` therefore scales the cube-root residuals and :math:`s` alike (both by
+:math:`k^{1/3}`), and the fit is the same. Where the model can fit every sample (a table
+written from that model) the residuals go to 0 and the loss changes nothing. A peak strong
+enough still wins: the loss tips the balance, it does not remove the peak.
+
 **Free parameters** are the numeric parameters of each lobe that the spec string does not give
 explicitly (``"lambertian + ggx(alpha=0.1)"`` fixes α) and that are not listed in ``fixed``;
 parameters that do not change the lobe's values (Cook–Torrance's ``f0`` under its default
@@ -33,27 +46,30 @@ it.
 parameters (those named in :data:`COLOUR_PARAMETERS`); ``mode="per_channel"`` fits every channel
 independently (every parameter becomes per channel).
 
-**Which objective.** Fitted to the four Cornell paints with five models, the compressed
-objectives give spheres that look like the measured ones far more often than ``cosine``
-(CIEDE2000 between rendered spheres, :mod:`brdfkit.appearance`;
-``benchmarks/bench_cornell_fits.py``): the cosine-weighted error is ruled by a few grazing or
-near-mirror samples hundreds of times larger than the rest and trades the body colour for
-them. Of the two, ``cube_root`` is the closer by eye — mean ΔE over four light directions
-8.5 against 10.5 for the 16 fits with a specular lobe (9.1 against 9.8 under the default light
-alone) — as Forés et al. found with observers; it is the default.
+**Which objective and loss.** Fitted to the four Cornell paints with five models, the spheres
+look most like the measured ones (CIEDE2000 between rendered spheres, :mod:`brdfkit.appearance`;
+``benchmarks/bench_cornell_fits.py``) with ``cube_root`` under ``soft_l1``: mean ΔE 7.3 over the
+16 fits with a specular lobe, against 9.0 for ``cube_root`` under plain least squares, 9.3 and
+10.0 for ``log``, 9.4 and 17.5 for ``cosine`` (averaged over four light directions: 5.8 against
+8.5, 8.6, 11.3, 8.7, 16.5). The cosine-weighted error is ruled by a few grazing or near-mirror
+samples hundreds of times larger than the rest and trades the body colour for them. Forés et
+al. found with observers too that the cube root fits closest by eye.
 
 **Starts and samples**: the first start is the model's own parameter values; the others sweep
 the lobes' roughness (``alpha``, ``m``, exponents ``n``) log-uniformly over
 :data:`ROUGHNESS_SWEEP` with the other parameters at the model's values — a highlight much
 sharper than the start is otherwise never found — or, for models without roughness, are drawn
 at random inside the bounds (log-uniformly on positive ranges spanning more than a factor 50).
-Every start is optimised on a seeded random subset of ``coarse_samples`` measurements; the best
-is refined on ``max_samples`` of them, and the errors are reported on all. With finite
+Each start first fits its colours alone (the :data:`COLOUR_PARAMETERS` and the lobes' factors),
+its shape held, and only then everything. A start far too bright otherwise escapes through its
+shape: Cook–Torrance started at m = 0.4 shrank m to 0.02 and tuned η to dim itself. Every
+start is optimised on a seeded random subset of ``coarse_samples`` measurements; the best is
+refined on ``max_samples`` of them, and the errors are reported on all. With finite
 differences one Jacobian costs (P + 1) evaluations of the model, so subsets keep a 1.5 M-sample
-MERL table to well under a minute (4.4–4.8 s for Lambertian + 2 GGX lobes on 1.11 M measured
+MERL table to well under a minute (6.8–7.9 s for Lambertian + 2 GGX lobes on 1.11 M measured
 nodes, two cores, Intel Xeon). Torch autograd would not make it cheaper: a forward and backward
-pass of that model on all the nodes takes about as long as one NumPy evaluation (0.60–0.67 s
-against 0.50–0.93 s), and it gives a gradient, whereas the trust-region least squares needs the
+pass of that model on all the nodes takes about as long as one NumPy evaluation (0.57–0.71 s
+against 0.51–0.54 s), and it gives a gradient, whereas the trust-region least squares needs the
 whole Jacobian (one backward pass per residual, or one forward-mode pass per parameter, as the
 finite differences take); see ``benchmarks/bench_fit.py``.
 
@@ -71,6 +87,9 @@ References
        through rough surfaces", EGSR 2007 (α ↔ Phong exponent, n = 2/α² − 2).
 .. [6] A. Forés, J. A. Ferwerda, J. Gu, "Toward a perceptually based metric for BRDF
        modeling", Proc. IS&T Color and Imaging Conference 20, 142–148, 2012.
+.. [7] B. Triggs, P. F. McLauchlan, R. I. Hartley, A. W. Fitzgibbon, "Bundle adjustment — a
+       modern synthesis", Vision Algorithms: Theory and Practice, LNCS 1883, 2000 (robust
+       losses in least squares).
 """
 
 from __future__ import annotations
