@@ -55,23 +55,22 @@ look most like the measured ones (CIEDE2000 between rendered spheres, :mod:`brdf
 samples hundreds of times larger than the rest and trades the body colour for them. Forés et
 al. found with observers too that the cube root fits closest by eye.
 
-**Starts and samples**: the first start is the model's own parameter values; the others sweep
-the lobes' roughness (``alpha``, ``m``, exponents ``n``) log-uniformly over
-:data:`ROUGHNESS_SWEEP` with the other parameters at the model's values — a highlight much
-sharper than the start is otherwise never found — or, for models without roughness, are drawn
-at random inside the bounds (log-uniformly on positive ranges spanning more than a factor 50).
-Each start first fits its colours alone (the :data:`COLOUR_PARAMETERS` and the lobes' factors),
-its shape held, and only then everything. A start far too bright otherwise escapes through its
-shape: Cook–Torrance started at m = 0.4 shrank m to 0.02 and tuned η to dim itself. Every
-start is optimised on a seeded random subset of ``coarse_samples`` measurements; the best is
-refined on ``max_samples`` of them, and the errors are reported on all. With finite
-differences one Jacobian costs (P + 1) evaluations of the model, so subsets keep a 1.5 M-sample
-MERL table to well under a minute (6.8–7.9 s for Lambertian + 2 GGX lobes on 1.11 M measured
-nodes, two cores, Intel Xeon). Torch autograd would not make it cheaper: a forward and backward
-pass of that model on all the nodes takes about as long as one NumPy evaluation (0.57–0.71 s
-against 0.51–0.54 s), and it gives a gradient, whereas the trust-region least squares needs the
-whole Jacobian (one backward pass per residual, or one forward-mode pass per parameter, as the
-finite differences take); see ``benchmarks/bench_fit.py``.
+**Starts and samples**: the first start is the model's own parameter values; the others sweep the
+lobes' roughness (``alpha``, ``m``, exponents ``n``) log-uniformly over :data:`ROUGHNESS_SWEEP`
+with the other parameters at the model's values — a highlight much sharper than the start is
+otherwise never found — or, for models without roughness, are drawn at random inside the bounds
+(log-uniformly on positive ranges spanning more than a factor 50). Each start first fits its
+colours alone (the :data:`COLOUR_PARAMETERS` and the lobes' factors), its shape held, and only then
+everything. A start far too bright otherwise escapes through its shape: Cook–Torrance started at
+m = 0.4 shrank m to 0.02 and tuned η to dim itself. Every start is optimised on a seeded random
+subset of ``coarse_samples`` measurements; the best is refined on ``max_samples`` of them, and the
+errors are reported on all. With finite differences one Jacobian costs (P + 1) evaluations of the
+model, so subsets keep a 1.5 M-sample MERL table to well under a minute (6.8–7.9 s for Lambertian +
+2 GGX lobes on 1.11 M measured nodes, two cores, Intel Xeon, six runs). Torch autograd would not
+make it cheaper: a forward and backward pass of that model on all the nodes takes about as long as
+one NumPy evaluation (0.56–0.74 s against 0.46–0.56 s), and it gives a gradient, whereas the
+trust-region least squares needs the whole Jacobian (one backward pass per residual, or one
+forward-mode pass per parameter, as the finite differences take); see ``benchmarks/bench_fit.py``.
 
 References
 ----------
@@ -96,6 +95,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import functools
 import math
 import re
 import time
@@ -606,12 +606,12 @@ class _Robust:
 def _least_squares(
     lobes: tuple[BRDF, ...],
     free: list[_Free],
-    data: MeasuredSamples,
-    x0: np.ndarray,
-    active: np.ndarray,
     robust: _Robust,
     channels: slice,
     max_nfev: int,
+    data: MeasuredSamples,
+    x0: np.ndarray,
+    active: np.ndarray,
     report: Callable[[int], None],
 ) -> Any:
     """Least squares over the entries of ``x0`` where ``active`` holds (the rest stay put)."""
@@ -740,7 +740,7 @@ def fit(
 
         return report
 
-    fitted, nfev, cost, success, messages = [], 0, 0.0, True, []
+    fitted, evaluations, cost, success, messages = [], 0, 0.0, True, []
     for g, group in enumerate(groups):
         free = _free_parameters(lobes, explicit, fixed, channels if mode == "shared" else 1)
         if mode == "per_channel" and any(p.size != 1 for p in free):
@@ -751,50 +751,21 @@ def fit(
         label = "" if mode == "shared" else f" channel {g}"
         everything = np.ones(sum(p.size for p in free), dtype=bool)
         colours = np.concatenate([np.full(p.size, _is_colour(p)) for p in free])
+        solve = functools.partial(_least_squares, lobes, free, robust, group, max_nfev)
         best = None
         for s, x0 in enumerate(_starts(free, starts, rng)):
             if colours.any() and not colours.all():  # level the start's colours first
-                run = _least_squares(
-                    lobes,
-                    free,
-                    coarse,
-                    x0,
-                    colours,
-                    robust,
-                    group,
-                    max_nfev,
-                    reporter(f"start {s + 1}{label}: colours"),
-                )
-                nfev += run.calls
+                run = solve(coarse, x0, colours, reporter(f"start {s + 1}{label}: colours"))
+                evaluations += run.calls
                 x0 = run.x
             done[0] += 1
-            run = _least_squares(
-                lobes,
-                free,
-                coarse,
-                x0,
-                everything,
-                robust,
-                group,
-                max_nfev,
-                reporter(f"start {s + 1}{label}"),
-            )
-            nfev += run.calls
+            run = solve(coarse, x0, everything, reporter(f"start {s + 1}{label}"))
+            evaluations += run.calls
             done[0] += 1
             if best is None or run.cost < best.cost:
                 best = run
-        run = _least_squares(
-            lobes,
-            free,
-            fine,
-            best.x,
-            everything,
-            robust,
-            group,
-            max_nfev,
-            reporter(f"refine{label}"),
-        )
-        nfev += run.calls
+        run = solve(fine, best.x, everything, reporter(f"refine{label}"))
+        evaluations += run.calls
         done[0] += 1
         fitted.append((free, run.x))
         cost += float(run.cost)
@@ -825,7 +796,7 @@ def fit(
         mode=mode,
         cost=cost,
         starts=starts,
-        nfev=nfev,
+        nfev=evaluations,
         samples=int(data.wi.shape[0]),
         fit_samples=int(fine.wi.shape[0]),
         success=success,
