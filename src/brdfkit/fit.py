@@ -106,7 +106,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import to_numpy
-from brdfkit.brdf.base import BRDF, Scaled, Sum
+from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
 from brdfkit.measured.tabulated import MeasuredSamples, TabulatedBRDF
 
 OBJECTIVES = ("cosine", "log", "cube_root")
@@ -204,8 +204,7 @@ def residuals(model: BRDF, data: MeasuredSamples, objective: str = "cosine") -> 
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005. .. [2] J. Löw et al., ACM TOG 2012.
     """
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective must be one of {OBJECTIVES}; got {objective!r}")
+    check_choice("objective", objective, OBJECTIVES)
     return _residuals(_predicted(model, data), data, objective)
 
 
@@ -539,7 +538,8 @@ def _is_colour(p: _Free) -> bool:
 
 
 def _typical_size(data: MeasuredSamples, objective: str) -> float:
-    """The median over the measurements of their mean channel on ``objective``'s scale."""
+    """The median over the measurements of their mean channel on ``objective``'s scale (1 if
+    that is 0: most measurements black)."""
     compressed = _compressed(data.values, data.wi[:, 2:3], objective)
     size = float(np.median(np.abs(compressed).mean(axis=1)))
     return size if size > 0 else 1.0
@@ -697,14 +697,11 @@ def fit(
     from brdfkit.brdf import parse
 
     began = time.perf_counter()
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective must be one of {OBJECTIVES}; got {objective!r}")
-    if loss not in LOSSES:
-        raise ValueError(f"loss must be one of {LOSSES}; got {loss!r}")
+    check_choice("objective", objective, OBJECTIVES)
+    check_choice("loss", loss, LOSSES)
     if not (isinstance(loss_scale, int | float) and loss_scale > 0 and math.isfinite(loss_scale)):
         raise ValueError(f"loss_scale must be a positive number; got {loss_scale!r}")
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}; got {mode!r}")
+    check_choice("mode", mode, MODES)
     for name, value, least in (
         ("starts", starts, 1),
         ("coarse_samples", coarse_samples, 10),
