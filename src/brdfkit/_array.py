@@ -21,6 +21,8 @@ import array_api_compat
 import array_api_compat.numpy
 import numpy as np
 
+from brdfkit.errors import ParameterError
+
 Array = Any
 """Any array of a supported backend (``numpy.ndarray``, ``torch.Tensor``, ``jax.Array``)."""
 
@@ -387,7 +389,7 @@ def check_finite(name: str, v: Array) -> Array:
     xp = namespace(v)
     if not bool(xp.all(xp.isfinite(v))):
         bad = to_numpy(v)[~np.isfinite(to_numpy(v))].ravel()[0]
-        raise ValueError(f"{name} must be finite; got a value of {bad}")
+        raise ParameterError(f"{name} must be finite; got a value of {bad}")
     return v
 
 
@@ -412,8 +414,8 @@ def check_param(
 
     Raises
     ------
-    ValueError
-        Naming the argument, the offending value and the allowed range, e.g.
+    brdfkit.errors.ParameterError
+        A ``ValueError`` naming the argument, the offending value and the allowed range, e.g.
         ``"alpha must be in (0.0, inf]; got -1"`` (``"must be finite and in …"`` for NaN or
         infinity). :mod:`brdfkit.fit` reads the model bounds back from this message for finite
         probes, so its ``must be in <interval>`` form is a contract.
@@ -435,7 +437,7 @@ def check_param(
         first = to_numpy(values)[to_numpy(bad)].ravel()[0]
         expected = f"in {allowed}" if bool(xp.all(finite)) else f"finite and in {allowed}"
         extra = f" ({hint})" if hint else ""
-        raise ValueError(f"{name} must be {expected}; got {first:g}{extra}")
+        raise ParameterError(f"{name} must be {expected}; got {first:g}{extra}")
     return value
 
 
