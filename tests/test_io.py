@@ -182,11 +182,13 @@ def test_failed_write_leaves_old_file_and_no_temporary(tmp_path, monkeypatch):
     io.write_image(path, np.zeros((2, 2, 3)))
     before = path.read_bytes()
 
-    def broken(tmp, image):
-        tmp.write_bytes(b"half")
+    write_bytes = Path.write_bytes
+
+    def broken(self, data):
+        write_bytes(self, data[: len(data) // 2])
         raise OSError("disk full")
 
-    monkeypatch.setattr(io, "_write_opencv", broken)
+    monkeypatch.setattr(Path, "write_bytes", broken)
     with pytest.raises(OSError, match="disk full"):
         io.write_image(path, np.ones((2, 2, 3)))
     assert path.read_bytes() == before
@@ -378,3 +380,75 @@ def test_copy_of_real_file_reads(tmp_path, shared_data):
     copy = tmp_path / "PISA.HDR"  # extensions are case-insensitive
     shutil.copy(source, copy)
     np.testing.assert_array_equal(io.read_image(copy), io.read_image(source))
+
+
+# -------------------------------------------------------------------------------- hostile paths
+
+
+@pytest.mark.parametrize("suffix", [".png", ".hdr", ".exr"])
+def test_non_utf8_paths_round_trip(tmp_path, suffix):
+    """A name that is not valid UTF-8 never reaches a native library (it crashed OpenCV)."""
+    folder = tmp_path / os.fsdecode(b"\xff\xfe-folder")
+    path = folder / os.fsdecode(b"image-\xff" + suffix.encode())
+    image = np.full((3, 4, 3), 0.25, np.float32)
+    io.write_image(path, image, srgb=False)
+    np.testing.assert_allclose(io.read_image(path), image, rtol=0.02, atol=2 / 255)
+    assert os.listdir(os.fsencode(folder)) == [os.fsencode(path.name)]
+
+
+def test_written_files_follow_the_umask(tmp_path):
+    """Not mkstemp's 0600: the atlas's page and every output can be served and shared."""
+    previous = os.umask(0o022)
+    try:
+        io.write_image(tmp_path / "a.png", np.zeros((2, 2, 3)))
+        io.atomic_write(tmp_path / "b.txt", lambda tmp: tmp.write_text("x"))
+    finally:
+        os.umask(previous)
+    for name in ("a.png", "b.txt"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o644
+
+
+def _png_header(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        crc = zlib.crc32(kind + data) & 0xFFFFFFFF
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"\0" * 16))
+        + chunk(b"IEND", b"")
+    )
+
+
+def test_header_beyond_the_pixel_limit_is_an_image_read_error(tmp_path):
+    path = tmp_path / "huge.png"
+    path.write_bytes(_png_header(100_000, 100_000))
+    with pytest.raises(io.ImageReadError, match=r"huge\.png"):
+        io.read_image(path)
+
+
+@pytest.mark.data
+def test_truncated_exr_prints_nothing(shared_data, tmp_path, capfd):
+    """OpenEXR's own diagnostics (30+ lines) are captured; the error says it in one line."""
+    data = (shared_data / "envmaps" / "pbrt" / "grace_latlong.exr").read_bytes()
+    path = tmp_path / "cut.exr"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(io.ImageReadError) as info:
+        io.read_image(path)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+    assert "\n" not in str(info.value) and "cut.exr" in str(info.value)
+
+
+def test_reader_errors_are_format_errors(tmp_path):
+    from brdfkit.errors import FormatError
+
+    path = tmp_path / "x.png"
+    path.write_bytes(b"\x89PNG garbage")
+    with pytest.raises(FormatError):
+        io.read_image(path)

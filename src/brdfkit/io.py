@@ -12,8 +12,10 @@ Reading
   stored* — sRGB-encoded for ordinary photographs. Pass ``srgb_to_linear=True`` to decode them
   to linear values. Alpha, when present, is returned as the last channel and never decoded.
 
-A missing, truncated or corrupt file raises :class:`ImageReadError` (a ``ValueError``) naming
-the file and the reason.
+A missing, truncated or corrupt file raises :class:`ImageReadError` (a
+:class:`~brdfkit.errors.FormatError`, hence a ``ValueError``) naming the file and the reason.
+Files are read into memory in Python and decoded from there (and encoded to memory and written
+from Python), so no path ever reaches a native decoder.
 
 Writing
 -------
@@ -33,15 +35,19 @@ References
 
 from __future__ import annotations
 
+import contextlib
+import io as _io
 import os
+import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+from brdfkit.errors import FormatError
 
 __all__ = [
     "READ_EXTENSIONS",
@@ -49,6 +55,7 @@ __all__ = [
     "ImageNotFoundError",
     "ImageReadError",
     "atomic_write",
+    "atomic_write_bytes",
     "data_path",
     "luminance",
     "read_image",
@@ -75,12 +82,12 @@ _SRGB_LINEAR_BREAK = 0.0031308
 _SRGB_ENCODED_BREAK = 0.04045
 
 
-class ImageReadError(ValueError):
+class ImageReadError(FormatError):
     """An image file could not be read: the message names the file and the reason."""
 
 
 class ImageNotFoundError(ImageReadError, FileNotFoundError):
-    """The image file does not exist (both a ``ValueError`` and a ``FileNotFoundError``)."""
+    """The image file does not exist (both a ``FormatError`` and a ``FileNotFoundError``)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -246,17 +253,60 @@ def _cv2() -> Any:
             "reading and writing .hdr, .png and .tif files needs OpenCV: "
             "pip install opencv-python-headless"
         ) from error
+    # Silent: a decoding failure reaches the user as one ImageReadError, not [ERROR] lines.
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     return cv2
 
 
-def _read_exr(path: Path) -> np.ndarray:
+@contextlib.contextmanager
+def _native_output_captured() -> Iterator[list[str]]:
+    """Collect what native code writes to file descriptors 1 and 2 into a list of lines.
+
+    Native decoders (OpenEXR, OpenCV) print their own diagnostics and warnings; brdfkit reports
+    a failure as one :class:`ImageReadError` instead, with the first captured line as its reason.
+    """
+    lines: list[str] = []
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    python_streams = _io.StringIO()  # pybind11's py::print writes to sys.stdout, not to fd 1
+    with (
+        tempfile.TemporaryFile() as capture,
+        contextlib.redirect_stdout(python_streams),
+        contextlib.redirect_stderr(python_streams),
+    ):
+        for fd in saved:
+            os.dup2(capture.fileno(), fd)
+        try:
+            yield lines
+        finally:
+            for fd, copy in saved.items():
+                os.dup2(copy, fd)
+                os.close(copy)
+            capture.seek(0)
+            text = capture.read().decode("utf-8", "replace") + python_streams.getvalue()
+            lines.extend(line.strip() for line in text.splitlines() if line.strip())
+
+
+def _first_reason(error: BaseException, captured: list[str]) -> str:
+    """A one-line reason: the error's first line, else what the native library printed."""
+    text = str(error).strip() or (captured[0] if captured else "")
+    return text.splitlines()[0].replace("<python_buffer>: ", "") if text else type(error).__name__
+
+
+def _read_exr(path: Path, data: bytes) -> np.ndarray:
     import OpenEXR
 
+    captured: list[str] = []
     try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
+        with (
+            _native_output_captured() as captured,
+            OpenEXR.File(_io.BytesIO(data), separate_channels=True) as exr,
+        ):
             channels = {name: channel.pixels for name, channel in exr.channels().items()}
-    except Exception as error:  # the bindings raise RuntimeError, ValueError, OSError
-        raise ImageReadError(f"cannot read OpenEXR image {path}: {error}") from error
+    except Exception as error:  # the bindings raise RuntimeError, ValueError, OSError, ...
+        reason = _first_reason(error, captured)
+        raise ImageReadError(path, f"not a readable OpenEXR image ({reason})") from error
     names = set(channels)
     if {"R", "G", "B"} <= names:
         order = ["R", "G", "B"] + (["A"] if "A" in names else [])
@@ -265,10 +315,10 @@ def _read_exr(path: Path) -> np.ndarray:
     elif len(names) == 1:
         order = list(names)
     else:
-        raise ImageReadError(
-            f"cannot read OpenEXR image {path}: expected R, G, B (and A) or Y channels; "
-            f"found {sorted(names)}"
-        )
+        raise ImageReadError(path, f"expected R, G, B (and A) or Y channels; found {sorted(names)}")
+    shapes = {channels[name].shape for name in order}
+    if len(shapes) != 1 or len(next(iter(shapes))) != 2:
+        raise ImageReadError(path, f"channels have different sizes {sorted(shapes)}")
     return np.stack([channels[name] for name in order], axis=-1).astype(np.float32)
 
 
@@ -279,27 +329,35 @@ def _swap_red_blue(image: np.ndarray) -> np.ndarray:
     return image
 
 
-def _read_opencv(path: Path) -> np.ndarray:
+def _read_opencv(path: Path, data: bytes) -> np.ndarray:
     cv2 = _cv2()
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    captured: list[str] = []
+    try:
+        with _native_output_captured() as captured:
+            image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error as error:  # e.g. a header beyond OpenCV's pixel limit
+        reason = str(error).strip().splitlines()[-1]
+        raise ImageReadError(path, f"OpenCV refused it ({reason})") from error
     if image is None:
+        reason = f": {captured[0]}" if captured else ""
         raise ImageReadError(
-            f"cannot read image {path}: OpenCV could not decode it (truncated, corrupt or "
-            f"not a {path.suffix.lower()} file)"
+            path,
+            f"OpenCV could not decode it (truncated, corrupt or not a {path.suffix.lower()} "
+            f"file){reason}",
         )
     return _swap_red_blue(image) if image.ndim == 3 else image
 
 
-def _read_imageio(path: Path) -> np.ndarray:
+def _read_imageio(path: Path, data: bytes) -> np.ndarray:
     import imageio.v3 as iio
 
     try:
-        return iio.imread(path, plugin="pillow")
+        return iio.imread(data, plugin="pillow", extension=path.suffix.lower())
     except Exception as error:  # Pillow raises OSError, SyntaxError, ValueError, ...
-        raise ImageReadError(f"cannot read image {path}: {error}") from error
+        raise ImageReadError(path, f"not a readable image ({error})") from error
 
 
-_READERS: dict[str, Callable[[Path], np.ndarray]] = {
+_READERS: dict[str, Callable[[Path, bytes], np.ndarray]] = {
     ".hdr": _read_opencv,
     ".exr": _read_exr,
     ".png": _read_opencv,
@@ -318,8 +376,12 @@ def _as_float_image(image: np.ndarray, path: Path) -> np.ndarray:
     elif image.dtype.kind == "f":
         image = image.astype(np.float32)
     else:
-        raise ImageReadError(f"cannot read image {path}: unsupported sample type {image.dtype}")
-    return image[..., None] if image.ndim == 2 else image
+        raise ImageReadError(path, f"unsupported sample type {image.dtype}")
+    if image.ndim == 2:
+        image = image[..., None]
+    if image.ndim != 3 or 0 in image.shape:
+        raise ImageReadError(path, f"not an image of shape (H, W, C); got {image.shape}")
+    return image
 
 
 def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.ndarray:
@@ -330,6 +392,10 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
     their maximum, in [0, 1], still sRGB-encoded for ordinary images; with
     ``srgb_to_linear=True`` the colour channels (not alpha) are decoded with
     :func:`srgb_decode`. Greyscale images have ``C = 1``.
+
+    The file is read into memory in Python and decoded from there, so any path that the file
+    system accepts (including names that are not valid UTF-8) works, and nothing the native
+    decoders print reaches the terminal.
 
     Parameters
     ----------
@@ -346,9 +412,10 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
     Raises
     ------
     ImageNotFoundError
-        The file does not exist (a ``ValueError`` and a ``FileNotFoundError``).
+        The file does not exist (a ``FormatError`` and a ``FileNotFoundError``).
     ImageReadError
-        The file is truncated or corrupt, or its contents are not of the expected format.
+        The file cannot be read, is truncated or corrupt, or its contents are not of the
+        expected format (a :class:`~brdfkit.errors.FormatError`, hence a ``ValueError``).
     ValueError
         The extension is not supported.
 
@@ -360,13 +427,17 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _READERS:
-        raise ValueError(
-            f"path {str(path)!r} has an unsupported extension {suffix!r}; "
-            f"expected one of {', '.join(READ_EXTENSIONS)}"
+        raise FormatError(
+            path,
+            f"unsupported image extension {suffix!r}; expected one of {', '.join(READ_EXTENSIONS)}",
         )
     if not path.is_file():
-        raise ImageNotFoundError(f"cannot read image {path}: no such file")
-    image = _as_float_image(_READERS[suffix](path), path)
+        raise ImageNotFoundError(path, "no such file")
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise ImageReadError(path, f"cannot be read ({error.strerror or error})") from error
+    image = _as_float_image(_READERS[suffix](path, data), path)
     if srgb_to_linear and suffix not in (".hdr", ".exr"):
         colour = 3 if image.shape[-1] >= 3 else 1
         image[..., :colour] = srgb_decode(image[..., :colour])
@@ -377,13 +448,21 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
 # Writing
 
 
+def _file_mode() -> int:
+    """The mode a new file gets under the process's umask (what ``open(path, "w")`` gives)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     """Write a file atomically: call ``write_fn(tmp)`` on a temporary file beside ``path``, then
     rename it over ``path`` (:func:`os.replace`, atomic on POSIX and Windows).
 
-    The temporary keeps ``path``'s extension (encoders choose the format from it) and is
-    removed if ``write_fn`` fails, so ``path`` is either the old file or the complete new one;
-    missing parent folders are created. Returns ``path``.
+    The temporary has a plain ASCII name that keeps ``path``'s extension (encoders choose the
+    format from it), is removed on every way out if ``write_fn`` fails, and gets the mode the
+    umask gives a new file (not ``mkstemp``'s 0600); so ``path`` is either the old file or the
+    complete new one. Missing parent folders are created. Returns ``path``.
 
     References
     ----------
@@ -392,32 +471,43 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    suffix = path.suffix if path.suffix.isascii() and path.suffix.isprintable() else ""
+    handle, name = tempfile.mkstemp(prefix=".brdfkit-", suffix=suffix, dir=path.parent)
     os.close(handle)
     tmp = Path(name)
     try:
         write_fn(tmp)
+        os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
     return path
 
 
-def _write_exr(path: Path, image: np.ndarray, half: bool) -> None:
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (:func:`atomic_write`); returns ``path``."""
+    return atomic_write(path, lambda tmp: tmp.write_bytes(data))
+
+
+def _encode_exr(image: np.ndarray, half: bool) -> bytes:
     import OpenEXR
 
     names = {1: ["Y"], 3: ["R", "G", "B"], 4: ["R", "G", "B", "A"]}[image.shape[-1]]
     pixels = image.astype(np.float16 if half else np.float32)
     channels = {name: np.ascontiguousarray(pixels[..., i]) for i, name in enumerate(names)}
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    stream = _io.BytesIO()
     with OpenEXR.File(header, channels) as exr:
-        exr.write(str(path))
+        exr.write(stream)
+    return stream.getvalue()
 
 
-def _write_opencv(path: Path, image: np.ndarray) -> None:
+def _encode_opencv(suffix: str, image: np.ndarray) -> bytes:
     cv2 = _cv2()
-    if not cv2.imwrite(str(path), np.ascontiguousarray(_swap_red_blue(image))):
-        raise OSError(f"OpenCV could not write {path}")
+    ok, encoded = cv2.imencode(suffix, np.ascontiguousarray(_swap_red_blue(image)))
+    if not ok:
+        raise OSError(f"OpenCV could not encode a {suffix} image of shape {image.shape}")
+    return encoded.tobytes()
 
 
 def write_image(
@@ -442,8 +532,9 @@ def write_image(
       maps, masks or data already encoded). Alpha (C = 4) is clipped, never encoded.
       Quantised to ``bit_depth`` 8 or 16 bits by rounding.
 
-    Nothing is ever half-written: the data goes to a temporary file in the same folder which
-    is renamed to ``path`` only once complete.
+    The image is encoded in memory and written from Python (so any file-system path works), to
+    a temporary file in the same folder that is renamed to ``path`` only once complete: nothing
+    is ever half-written, and the file gets the mode the umask gives.
 
     Parameters
     ----------
@@ -496,7 +587,7 @@ def write_image(
     pixels = pixels.astype(np.float64) * 2.0**exposure
 
     if suffix == ".exr":
-        atomic_write(path, lambda tmp: _write_exr(tmp, pixels, half))
+        atomic_write_bytes(path, _encode_exr(pixels, half))
         return path
 
     check_finite("image", pixels)
@@ -506,7 +597,7 @@ def write_image(
                 f"image must be non-negative for .hdr (RGBE); got a minimum of {pixels.min():.6g}"
             )
         rgb = np.repeat(pixels, 3, axis=-1) if pixels.shape[-1] == 1 else pixels
-        atomic_write(path, lambda tmp: _write_opencv(tmp, rgb.astype(np.float32)))
+        atomic_write_bytes(path, _encode_opencv(suffix, rgb.astype(np.float32)))
         return path
 
     colour = min(pixels.shape[-1], 3)
@@ -515,7 +606,7 @@ def write_image(
         encoded[..., :colour] = srgb_encode(encoded[..., :colour])
     dtype = np.uint8 if bit_depth == 8 else np.uint16
     codes = np.rint(encoded * np.iinfo(dtype).max).astype(dtype)
-    atomic_write(path, lambda tmp: _write_opencv(tmp, codes))
+    atomic_write_bytes(path, _encode_opencv(suffix, codes))
     return path
 
 
