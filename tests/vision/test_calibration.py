@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.io import read_image, srgb_encode, write_image
 from brdfkit.vision.calibration import (
     hat_weights,
@@ -118,3 +119,71 @@ def test_bad_stacks_are_named():
         recover_response(images, [1.0, 2.0, 4.0], samples=16)
     with pytest.raises(ValueError, match="response"):
         merge_hdr(images, [1.0, 2.0, 4.0], np.zeros(255))
+
+
+def _stack_with_unexposable_pixels(rng):
+    """An exposure stack where ~1 % of pixels are saturated in every image and a corner is
+    black in every image; returns (images, times, saturated, black)."""
+    times = 2.0 ** np.arange(-4, 3)
+    radiance = rng.uniform(0.05, 2.0, (40, 50, 3))
+    images = np.stack([np.round(255 * _response(radiance * t)).astype(np.uint8) for t in times])
+    saturated = rng.random((40, 50)) < 0.01
+    black = np.zeros((40, 50), bool)
+    black[:2, :3] = True
+    images[:, saturated] = 255
+    images[:, black] = 0
+    return images, times, saturated, black
+
+
+def test_pixels_never_well_exposed_fall_back_and_are_reported():
+    # Regression: one such pixel among the samples made the response system singular, and the
+    # response and the whole radiance map came out NaN.
+    images, times, saturated, black = _stack_with_unexposable_pixels(np.random.default_rng(0))
+    g = recover_response(images, times)
+    assert np.all(np.isfinite(g))
+    radiance, fallback = merge_hdr(images, times, g, return_mask=True)
+    assert radiance.dtype == np.float32 and np.all(np.isfinite(radiance))
+    np.testing.assert_array_equal(fallback, saturated | black)
+    np.testing.assert_array_equal(merge_hdr(images, times, g), radiance)  # the old call
+    # Always saturated: the shortest exposure; always black: the longest.
+    np.testing.assert_allclose(radiance[saturated], np.exp(g[255] - np.log(times.min())) + 0 *
+                               radiance[saturated], rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(radiance[black], np.broadcast_to(
+        np.exp(g[0] - np.log(times.max())), radiance[black].shape), rtol=1e-6)  # fmt: skip
+    # The order of the exposures does not matter.
+    shuffled = np.array([3, 0, 6, 2, 5, 1, 4])
+    again, mask = merge_hdr(images[shuffled], times[shuffled], g, return_mask=True)
+    np.testing.assert_allclose(again, radiance, rtol=1e-6)
+    np.testing.assert_array_equal(mask, fallback)
+
+
+def test_a_stack_that_cannot_determine_the_response_is_an_error():
+    # Every pixel is well exposed in one image only: the slope of g is free.
+    images = np.zeros((2, 30, 30), np.uint8)
+    images[0] = np.arange(900).reshape(30, 30) % 254 + 1
+    images[1] = 255
+    with pytest.raises(ParameterError, match="do not determine"):
+        recover_response(images, [1.0, 1000.0], samples=400)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "match"),
+    [
+        (lambda i, t: recover_response(i, [1.0, np.nan, 4.0]), ParameterError, "times"),
+        (lambda i, t: recover_response(i, [1.0, -2.0, 4.0]), ParameterError, "times"),
+        (lambda i, t: recover_response(i, ["a", "b", "c"]), ParameterError, "times"),
+        (lambda i, t: recover_response([*i[:2], i[2, :3]], t), ParameterError, "shape"),
+        (lambda i, t: recover_response(i[:, :0], t), ParameterError, "stack"),
+        (lambda i, t: recover_response(i, t, smoothness=0.0), ParameterError, "smoothness"),
+        (lambda i, t: recover_response(i, t, smoothness=np.inf), ParameterError, "smoothness"),
+        (lambda i, t: recover_response(i, t, samples=10**9), ResourceError, "samples"),
+        (lambda i, t: recover_response(i, t, samples=2.5), ParameterError, "samples"),
+        (lambda i, t: merge_hdr(i, t, np.full(256, np.nan)), ParameterError, "response"),
+        (lambda i, t: merge_hdr(i, t, np.full(256, 1e3)), ParameterError, "overflows"),
+        (lambda i, t: hat_weights(10**9), ResourceError, "levels"),
+    ],
+)
+def test_bad_arguments_raise_documented_errors(call, error, match):
+    images = np.random.default_rng(1).integers(0, 256, (3, 8, 8, 3)).astype(np.uint8)
+    with pytest.raises(error, match=match):
+        call(images, [1.0, 2.0, 4.0])

@@ -27,16 +27,22 @@ References
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit._array import check_param
+from brdfkit.errors import ParameterError
 from brdfkit.io import read_image, srgb_decode
+from brdfkit.vision._checks import as_float_array, check_count, check_memory
 
 __all__ = [
+    "LEVELS",
     "LINEAR_SUFFIXES",
+    "MAX_SAMPLES",
     "hat_weights",
     "linearize",
     "merge_hdr",
@@ -66,7 +72,7 @@ def linearize(image: ArrayLike, encoding: Encoding) -> np.ndarray:
         return image
     if encoding == "srgb":
         return srgb_decode(image)
-    raise ValueError(f"encoding must be 'linear' or 'srgb'; got {encoding!r}")
+    raise ParameterError(f"encoding must be 'linear' or 'srgb'; got {encoding!r}")
 
 
 def read_linear_image(path: str | os.PathLike, encoding: Encoding | None = None) -> np.ndarray:
@@ -79,9 +85,11 @@ def read_linear_image(path: str | os.PathLike, encoding: Encoding | None = None)
 
     Raises
     ------
-    ValueError
+    brdfkit.errors.ParameterError
         An 8/16-bit image without ``encoding`` (a non-linear image where a linear one is
         required), or ``"srgb"`` for an HDR file.
+    brdfkit.io.ImageReadError
+        The file is missing or cannot be decoded (a :class:`~brdfkit.errors.FormatError`).
 
     References
     ----------
@@ -93,13 +101,13 @@ def read_linear_image(path: str | os.PathLike, encoding: Encoding | None = None)
         image = image[..., :-1]
     if f".{suffix}" in LINEAR_SUFFIXES:
         if encoding == "srgb":
-            raise ValueError(
+            raise ParameterError(
                 f"encoding must be 'linear' (or omitted) for {path}: .{suffix} stores linear "
                 "radiance; got 'srgb'"
             )
         return image
     if encoding is None:
-        raise ValueError(
+        raise ParameterError(
             f"{path} is an 8/16-bit .{suffix} image, whose values are usually sRGB-encoded "
             "(non-linear); this needs linear radiance: say encoding='srgb' to decode it, "
             "encoding='linear' if it holds linear values, or give an .hdr/.exr file"
@@ -111,34 +119,65 @@ def hat_weights(levels: int = 256) -> np.ndarray:
     r"""Debevec & Malik's hat weighting :math:`w(z) = z - z_{\min}` for
     :math:`z \le \tfrac12(z_{\min} + z_{\max})`, :math:`z_{\max} - z` above.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``levels`` is not an integer >= 3.
+    brdfkit.errors.ResourceError
+        ``levels`` exceeds 65536 (16-bit codes).
+
     References
     ----------
     .. [1] P. E. Debevec and J. Malik, SIGGRAPH 1997, eq. 4.
     """
-    if isinstance(levels, bool) or not isinstance(levels, int) or levels < 3:
-        raise ValueError(f"levels must be an integer >= 3; got {levels!r}")
+    levels = check_count("levels", levels, 2**16, minimum=3)
     z = np.arange(levels, dtype=np.float64)
     return np.minimum(z, levels - 1 - z)
 
 
-def _check_stack(images: Sequence[ArrayLike] | np.ndarray, times: ArrayLike) -> tuple:
+MAX_SAMPLES = 100_000
+"""Most pixels :func:`recover_response` may sample (its system has ``256 + samples`` unknowns)."""
+
+LEVELS = 256
+"""Codes of an 8-bit image."""
+
+
+def _check_stack(
+    images: Sequence[ArrayLike] | np.ndarray, times: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """The stack as (P, H, W, C) uint8 and the times as (P,) float64, validated.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Images of different shapes, not 8-bit, fewer than 2 or empty; times not one finite,
+        positive number per image.
+    """
+    if not isinstance(images, np.ndarray):
+        shapes = [np.shape(image) for image in images]
+        for k, shape in enumerate(shapes):
+            if shape != shapes[0]:
+                raise ParameterError(
+                    f"images must all have the same shape; image {k} is {shape}, image 0 is "
+                    f"{shapes[0]}"
+                )
     stack = np.asarray(images)
-    times = np.asarray(times, dtype=np.float64)
     if stack.ndim == 3:
         stack = stack[..., None]
-    if stack.ndim != 4:
-        raise ValueError(
+    if stack.ndim != 4 or 0 in stack.shape:
+        raise ParameterError(
             f"images must be a stack of shape (P, H, W) or (P, H, W, C); got {stack.shape}"
         )
     if stack.shape[0] < 2:
-        raise ValueError(f"an exposure stack needs at least 2 images; got {stack.shape[0]}")
-    if times.shape != (stack.shape[0],) or np.any(times <= 0) or not np.all(np.isfinite(times)):
-        raise ValueError(
-            f"times must be {stack.shape[0]} positive exposure times (one per image); "
+        raise ParameterError(f"an exposure stack needs at least 2 images; got {stack.shape[0]}")
+    times = as_float_array("times", times, finite=False)
+    if times.shape != (stack.shape[0],) or not np.all(np.isfinite(times) & (times > 0)):
+        raise ParameterError(
+            f"times must be {stack.shape[0]} finite, positive exposure times (one per image); "
             f"got {times.tolist()}"
         )
     if stack.dtype != np.uint8:
-        raise ValueError(
+        raise ParameterError(
             f"images must be 8-bit codes (uint8, as a camera writes them); got dtype "
             f"{stack.dtype}: linear or HDR images need no response recovery"
         )
@@ -154,25 +193,91 @@ def sample_pixels(
     some image; here the flat pixel indices are drawn stratified by the mean code of the middle
     exposure (equal counts per code quantile), which covers dark and bright pixels alike.
 
+    Parameters
+    ----------
+    images : (P, H, W) or (P, H, W, C) exposure stack.
+    samples : number of pixels, 2 … :data:`MAX_SAMPLES` (fewer when the image has fewer).
+    seed : of the draw within each stratum.
+
     Returns
     -------
     numpy.ndarray (samples,) of flat indices into an (H, W) image.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``samples`` is not an integer >= 2, or the stack is not (P, H, W[, C]).
+    brdfkit.errors.ResourceError
+        ``samples`` exceeds :data:`MAX_SAMPLES`.
 
     References
     ----------
     .. [1] P. E. Debevec and J. Malik, SIGGRAPH 1997, §2.1 (choosing the sample pixels).
     """
+    samples = check_count("samples", samples, MAX_SAMPLES, minimum=2)
     stack = np.asarray(images)
     if stack.ndim == 3:
         stack = stack[..., None]
+    if stack.ndim != 4 or 0 in stack.shape:
+        raise ParameterError(
+            f"images must be a stack of shape (P, H, W) or (P, H, W, C); got {stack.shape}"
+        )
     middle = stack[len(stack) // 2].astype(np.float64).mean(axis=-1).ravel()
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
-        raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
     samples = min(samples, middle.size)
     order = np.argsort(middle, kind="stable")
     rng = np.random.default_rng(seed)
     strata = np.array_split(order, samples)
     return np.array([rng.choice(stratum) for stratum in strata])
+
+
+def _solve_channel(
+    codes: np.ndarray, log_times: np.ndarray, smoothness: float, channel: int
+) -> np.ndarray:
+    """gsolve for one channel: ``g`` (256,) from the (count, P) codes of well-exposed pixels.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        The system is singular: the exposures do not determine the response.
+    """
+    from scipy import sparse
+    from scipy.sparse.linalg import MatrixRankWarning, spsolve
+
+    weights = hat_weights(LEVELS)
+    count, n_images = codes.shape
+    n_equations = count * n_images
+    z = np.arange(1, LEVELS - 1)
+    w = weights[codes].ravel()
+    data_rows = np.arange(n_equations)
+    smooth_rows = n_equations + 1 + np.arange(LEVELS - 2)
+    rows = np.concatenate([data_rows, data_rows, [n_equations], np.tile(smooth_rows, 3)])
+    columns = np.concatenate(
+        [
+            codes.ravel(),
+            LEVELS + np.repeat(np.arange(count), n_images),
+            [LEVELS // 2],  # the gauge g(128) = 0
+            z - 1,
+            z,
+            z + 1,
+        ]
+    )
+    smooth = smoothness * weights[z]
+    values = np.concatenate([w, -w, [1.0], smooth, -2 * smooth, smooth])
+    a = sparse.csr_matrix(
+        (values, (rows, columns)), shape=(n_equations + LEVELS - 1, LEVELS + count)
+    )
+    b = np.zeros(a.shape[0])
+    b[:n_equations] = (weights[codes] * log_times).ravel()
+    # The normal equations of this small, well-posed system (sparse and exact).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MatrixRankWarning)  # reported below as an error
+        solution = spsolve((a.T @ a).tocsc(), a.T @ b)
+    if not np.all(np.isfinite(solution)):
+        raise ParameterError(
+            f"the camera response of channel {channel} is numerically undetermined by these "
+            "exposures (use closer exposure times or sample more pixels)"
+        )
+    return solution[:LEVELS]
 
 
 def recover_response(
@@ -189,113 +294,148 @@ def recover_response(
     gsolve: for sampled pixels ``i`` and images ``j``,
     :math:`w(Z_{ij})\,[g(Z_{ij}) - \ln E_i] = w(Z_{ij}) \ln\Delta t_j`; the gauge
     :math:`g(128) = 0`; and :math:`\lambda\,w(z)\,[g(z-1) - 2g(z) + g(z+1)] = 0` for
-    ``z = 1 … 254``.
+    ``z = 1 … 254``. The system is regular when some sampled pixel is well exposed at two
+    different codes (which fixes the slope that the smoothness term leaves free). A sampled
+    pixel that is never well exposed (codes 0 or 255 in every image:
+    zero weight everywhere) says nothing about ``g`` and would leave its :math:`\ln E_i`
+    undetermined, so it is left out of that channel's system.
 
     Parameters
     ----------
     images : (P, H, W) or (P, H, W, C) uint8 exposure stack of a static scene.
-    times : (P,) exposure times in seconds.
-    smoothness : λ.
-    samples : number of pixels sampled (:func:`sample_pixels`); Debevec & Malik need
-        ``samples·(P − 1) > 256``.
+    times : (P,) exposure times in seconds, finite and positive.
+    smoothness : λ > 0 (the codes 0 and 255 have zero weight and are fixed by it alone).
+    samples : number of pixels sampled (:func:`sample_pixels`), at most :data:`MAX_SAMPLES`;
+        Debevec & Malik need ``samples·(P − 1) > 256``.
     seed : of the pixel sampling.
 
     Returns
     -------
     numpy.ndarray (256, C)
-        ``g`` per code and channel, with ``g(128) = 0``.
+        ``g`` per code and channel, with ``g(128) = 0``; always finite.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        A bad stack or times (:func:`merge_hdr`), ``smoothness`` not finite and positive, too
+        few well-exposed samples, or exposures that do not determine the response.
+    brdfkit.errors.ResourceError
+        ``samples`` exceeds :data:`MAX_SAMPLES`.
 
     References
     ----------
     .. [1] P. E. Debevec and J. Malik, SIGGRAPH 1997, §2.1 and the appendix (gsolve.m).
     """
     stack, times = _check_stack(images, times)
-    if not smoothness >= 0:
-        raise ValueError(f"smoothness must be >= 0; got {smoothness!r}")
-    levels = 256
-    weights = hat_weights(levels)
+    check_param("smoothness", smoothness, 0.0, lo_open=True)
     pixels = sample_pixels(stack, samples, seed)
-    count, n_images = pixels.size, stack.shape[0]
-    if count * (n_images - 1) < levels:
-        raise ValueError(
-            f"samples·(images − 1) must exceed 256 for the response to be determined; got "
-            f"{count}·{n_images - 1}: sample more pixels"
-        )
-    from scipy import sparse
-    from scipy.sparse.linalg import spsolve
-
+    n_images = stack.shape[0]
+    weights = hat_weights(LEVELS)
     log_times = np.log(times)
-    n_equations = count * n_images
-    z = np.arange(1, levels - 1)
     responses = []
     for channel in range(stack.shape[-1]):
         codes = stack[..., channel].reshape(n_images, -1)[:, pixels].T  # (count, P)
-        w = weights[codes].ravel()
-        data_rows = np.arange(n_equations)
-        smooth_rows = n_equations + 1 + np.arange(levels - 2)
-        rows = np.concatenate([data_rows, data_rows, [n_equations], np.tile(smooth_rows, 3)])
-        columns = np.concatenate(
-            [
-                codes.ravel(),
-                levels + np.repeat(np.arange(count), n_images),
-                [levels // 2],  # the gauge g(128) = 0
-                z - 1,
-                z,
-                z + 1,
-            ]
-        )
-        smooth = smoothness * weights[z]
-        values = np.concatenate([w, -w, [1.0], smooth, -2 * smooth, smooth])
-        a = sparse.csr_matrix(
-            (values, (rows, columns)), shape=(n_equations + levels - 1, levels + count)
-        )
-        b = np.zeros(a.shape[0])
-        b[:n_equations] = (weights[codes] * log_times).ravel()
-        # The normal equations of this small, well-posed system (sparse and exact).
-        solution = spsolve((a.T @ a).tocsc(), a.T @ b)
-        responses.append(solution[:levels])
+        codes = codes[weights[codes].sum(axis=1) > 0]  # drop never well-exposed pixels
+        if len(codes) * (n_images - 1) < LEVELS:
+            raise ParameterError(
+                f"samples·(images − 1) must exceed 256 for the response to be determined; got "
+                f"{len(codes)}·{n_images - 1} ({pixels.size - len(codes)} of the {pixels.size} "
+                f"sampled pixels are never well exposed in channel {channel}): sample more pixels"
+            )
+        well, wide = weights[codes] > 0, codes.astype(np.int16)
+        spread = np.where(well, wide, LEVELS).min(axis=1) < np.where(well, wide, -1).max(axis=1)
+        if not spread.any():  # else g + b·z (any slope b) fits as well: a singular system
+            raise ParameterError(
+                f"the exposures do not determine the camera response of channel {channel}: no "
+                "sampled pixel is well exposed at two different codes (use closer exposure "
+                "times or sample more pixels)"
+            )
+        responses.append(_solve_channel(codes, log_times, smoothness, channel))
     return np.stack(responses, axis=-1)
 
 
+def _check_response(response: ArrayLike, channels: int) -> np.ndarray:
+    """``response`` as a finite (256, channels) array."""
+    response = as_float_array("response", response)
+    if response.ndim == 1:
+        response = response[:, None]
+    if response.ndim != 2 or response.shape[0] != LEVELS or response.shape[1] not in (1, channels):
+        raise ParameterError(
+            f"response must have shape (256,) or (256, {channels}); got {response.shape}"
+        )
+    return np.broadcast_to(response, (LEVELS, channels))
+
+
+def _fallback_exposure(stack: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Per pixel and channel, the exposure a pixel with no well-exposed code is read from.
+
+    The shortest exposure in which it is saturated (code 255: the tightest lower bound on its
+    radiance), or, never saturated, the longest (it is 0 in all: the tightest upper bound).
+    """
+    order = np.argsort(times, kind="stable")
+    saturated = stack[order] == LEVELS - 1
+    return np.where(saturated.any(axis=0), order[saturated.argmax(axis=0)], order[-1])
+
+
 def merge_hdr(
-    images: Sequence[ArrayLike] | np.ndarray, times: ArrayLike, response: ArrayLike
-) -> np.ndarray:
+    images: Sequence[ArrayLike] | np.ndarray,
+    times: ArrayLike,
+    response: ArrayLike,
+    *,
+    return_mask: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     r"""Radiance map from an exposure stack and a log inverse response ``g`` (Debevec–Malik).
 
     .. math:: \ln E_i = \frac{\sum_j w(Z_{ij})\,(g(Z_{ij}) - \ln\Delta t_j)}{\sum_j w(Z_{ij})}
 
-    with the hat weights of :func:`hat_weights`. A pixel saturated (or black) in every image
-    has no weight; it takes the value of the exposure whose code is nearest mid-range.
+    with the hat weights of :func:`hat_weights`. A pixel with no well-exposed code (0 or 255 in
+    every image of a channel) has no weight; it falls back to a single exposure: the shortest
+    one in which it is saturated (always-saturated pixels: the shortest exposure, whose
+    :math:`g(255) - \ln\Delta t` is the tightest lower bound on the radiance), or, if it is
+    never saturated, the longest exposure (always-black pixels: the tightest upper bound).
+    ``return_mask=True`` also returns which pixels fell back.
 
     Parameters
     ----------
     images : (P, H, W) or (P, H, W, C) uint8 stack.
-    times : (P,) exposure times in seconds.
-    response : (256, C) or (256,) log inverse response (:func:`recover_response`).
+    times : (P,) exposure times in seconds, finite and positive.
+    response : (256, C) or (256,) finite log inverse response (:func:`recover_response`).
+    return_mask : also return the fallback mask.
 
     Returns
     -------
-    numpy.ndarray (H, W, C) float32
-        Linear radiance, in the units fixed by the response's gauge.
+    radiance : numpy.ndarray (H, W, C) float32
+        Linear radiance, in the units fixed by the response's gauge; finite.
+    fallback_mask : numpy.ndarray (H, W) bool
+        Only with ``return_mask``: pixels with no well-exposed code in at least one channel.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Images of different shapes, not uint8 or fewer than 2; times not one finite, positive
+        number per image; a response of the wrong shape, not finite, or so large that the
+        radiance overflows float32.
+    brdfkit.errors.ResourceError
+        The merge would not fit in the memory available.
 
     References
     ----------
     .. [1] P. E. Debevec and J. Malik, SIGGRAPH 1997, eq. 6.
     """
     stack, times = _check_stack(images, times)
-    response = np.asarray(response, dtype=np.float64)
-    if response.ndim == 1:
-        response = response[:, None]
-    if response.shape[0] != 256 or response.shape[1] not in (1, stack.shape[-1]):
-        raise ValueError(
-            f"response must have shape (256,) or (256, {stack.shape[-1]}); got {response.shape}"
-        )
-    response = np.broadcast_to(response, (256, stack.shape[-1]))
-    weights = hat_weights(256)[stack]
+    response = _check_response(response, stack.shape[-1])
+    # Peak: the float64 weights, log radiances and their product, one value per code.
+    check_memory(f"merging a {stack.shape} exposure stack", 3 * 8 * stack.size)
+    weights = hat_weights(LEVELS)[stack]
     channel = np.arange(stack.shape[-1])
     log_radiance = response[stack, channel] - np.log(times)[:, None, None, None]
     total = weights.sum(axis=0)
     merged = (weights * log_radiance).sum(axis=0) / np.where(total > 0, total, 1.0)
-    best = np.abs(stack.astype(np.int16) - 127).argmin(axis=0)
-    fallback = np.take_along_axis(log_radiance, best[None], axis=0)[0]
-    return np.exp(np.where(total > 0, merged, fallback)).astype(np.float32)
+    fallback = np.take_along_axis(log_radiance, _fallback_exposure(stack, times)[None], 0)[0]
+    log_merged = np.where(total > 0, merged, fallback)
+    if log_merged.max() >= np.log(np.finfo(np.float32).max):
+        raise ParameterError(
+            f"response is too large: the radiance exp({log_merged.max():.4g}) overflows float32"
+        )
+    radiance = np.exp(log_merged).astype(np.float32)
+    return (radiance, ~np.all(total > 0, axis=-1)) if return_mask else radiance
