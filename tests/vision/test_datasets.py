@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from brdfkit.errors import FormatError, ParameterError, ResourceError
 from brdfkit.vision import datasets
 from brdfkit.vision.photometric_stereo import sphere_normals
 
@@ -86,3 +89,125 @@ def test_bad_files_are_named(tmp_path):
         datasets.load_diligent(folder)
     with pytest.raises(ValueError, match="mask"):
         datasets.PhotometricStereoData(data.images, data.light_directions, ~np.ones((20, 24), bool))
+
+
+def _saved(tmp_path) -> Path:
+    folder = tmp_path / "ballPNG"
+    datasets.save_diligent(_small(), folder)
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "match"),
+    [
+        ("light_directions.txt", b"1 0 1\n0 1 1\nnan 0 1\n1 1 1\n0 0 1\n1 0 2\n", "line 3"),
+        ("light_directions.txt", b"1 0 1\n0 1 1\n0 x 1\n1 1 1\n0 0 1\n1 0 2\n", "line 3"),
+        ("light_directions.txt", b"1 0 1\n0 1\n0 0 1\n1 1 1\n0 0 1\n1 0 2\n", "line 2"),
+        ("light_directions.txt", b"0 0 0\n0 1 1\n0 0 1\n1 1 1\n0 0 1\n1 0 2\n", "is zero"),
+        ("light_directions.txt", b"\xff\xfe1 0 1\n", "not UTF-8"),
+        ("light_intensities.txt", b"1 1 1\n" * 5, "has 5 rows"),
+        ("light_intensities.txt", b"1 1 1\n" * 5 + b"1 inf 1\n", "line 6"),
+        ("light_intensities.txt", b"1 1 1\n" * 5 + b"1 0 1\n", "positive"),
+        ("filenames.txt", b"001.png\n002.png\n003.png\n004.png\n005.png\n\x80.png\n", "UTF-8"),
+        ("filenames.txt", b"001.png\n002.png\n003.png\n004.png\n005.png\nnone.png\n", "none"),
+        ("Normal_gt.mat", b"MATLAB 5.0 MAT-file, truncated", "Normal_gt.mat"),
+    ],
+)
+def test_bad_diligent_files_raise_format_errors_naming_them(tmp_path, name, content, match):
+    folder = _saved(tmp_path)
+    (folder / name).write_bytes(content)
+    with pytest.raises(FormatError, match=match) as caught:
+        datasets.load_diligent(folder)
+    assert name in str(caught.value) or "none.png" in str(caught.value)
+
+
+def test_normal_gt_without_its_key_and_mismatched_files(tmp_path):
+    import scipy.io
+
+    # Regression: a Normal_gt.mat without the variable raised a bare KeyError.
+    folder = _saved(tmp_path)
+    scipy.io.savemat(folder / "Normal_gt.mat", {"normals": np.zeros((20, 24, 3))})
+    with pytest.raises(FormatError, match=r"Normal_gt\.mat \(field 'Normal_gt'\)"):
+        datasets.load_diligent(folder)
+    scipy.io.savemat(folder / "Normal_gt.mat", {"Normal_gt": np.zeros((20, 23, 3))})
+    with pytest.raises(FormatError, match="Normal_gt"):
+        datasets.load_diligent(folder)
+    nan_inside = np.zeros((20, 24, 3))
+    nan_inside[10, 12] = np.nan
+    scipy.io.savemat(folder / "Normal_gt.mat", {"Normal_gt": nan_inside})
+    with pytest.raises(FormatError, match="NaN"):
+        datasets.load_diligent(folder)
+    (folder / "Normal_gt.mat").unlink()
+    cv2 = pytest.importorskip("cv2")
+    cv2.imwrite(str(folder / "mask.png"), np.full((10, 24), 255, np.uint8))
+    with pytest.raises(FormatError, match=r"mask\.png"):
+        datasets.load_diligent(folder)
+    cv2.imwrite(str(folder / "004.png"), np.zeros((20, 25, 3), np.uint16))
+    with pytest.raises(FormatError, match=r"004\.png.*shape"):
+        datasets.load_diligent(folder)
+    (folder / "mask.png").unlink()
+    with pytest.raises(ParameterError, match="step"):
+        datasets.load_diligent(folder, step=0)
+    with pytest.raises(ResourceError, match="step"):
+        datasets.load_diligent(folder, step=10**6)
+
+
+def _psm(tmp_path, lights=b"3\n0 0 1\n0.1 0 1\n0 0.1 1\n", listing=None):
+    """A tiny psm layout: three 8 × 6 TGA images and a mask."""
+    from PIL import Image
+
+    root = tmp_path / "psm"
+    (root / "obj").mkdir(parents=True)
+    rng = np.random.default_rng(0)
+    for k in range(3):
+        pixels = rng.integers(0, 256, (6, 8, 3), dtype=np.uint8)
+        Image.fromarray(pixels).save(root / "obj" / f"obj.{k}.tga")
+    Image.fromarray(np.full((6, 8, 3), 255, np.uint8)).save(root / "obj" / "obj.mask.tga")
+    entries = [f"psmImages/obj/obj.{k}.tga" for k in range(3)] + ["psmImages/obj/obj.mask.tga"]
+    (root / "obj.txt").write_bytes(listing or ("3\n" + "\n".join(entries) + "\n").encode())
+    (root / "lights.txt").write_bytes(lights)
+    return root / "obj"
+
+
+def test_psm_loader_reads_a_small_layout_and_names_bad_files(tmp_path):
+    data = datasets.load_psm(_psm(tmp_path / "good"))
+    assert data.images.shape == (3, 6, 8, 3)
+    with pytest.raises(FormatError, match=r"lights\.txt.*line 1"):
+        datasets.load_psm(_psm(tmp_path / "a", lights=b"three\n0 0 1\n0.1 0 1\n0 0.1 1\n"))
+    with pytest.raises(FormatError, match=r"lights\.txt.*says 4 rows"):
+        datasets.load_psm(_psm(tmp_path / "b", lights=b"4\n0 0 1\n0.1 0 1\n0 0.1 1\n"))
+    with pytest.raises(FormatError, match=r"lights\.txt.*line 3"):
+        datasets.load_psm(_psm(tmp_path / "c", lights=b"3\n0 0 1\n0.1 nan 1\n0 0.1 1\n"))
+    with pytest.raises(FormatError, match=r"obj\.txt.*line 1"):
+        datasets.load_psm(_psm(tmp_path / "d", listing=b"x\na b c d\n"))
+    with pytest.raises(FormatError, match=r"obj\.txt.*count"):
+        datasets.load_psm(_psm(tmp_path / "e", listing=b"7\na b c d\n"))
+    folder = _psm(tmp_path / "f")
+    (folder / "obj.mask.tga").write_bytes(b"TGA?")
+    with pytest.raises(FormatError, match=r"obj\.mask\.tga"):
+        datasets.load_psm(folder)
+    with pytest.raises(ParameterError, match="light_directions"):
+        datasets.load_psm(_psm(tmp_path / "g"), light_directions=np.full((3, 3), np.nan))
+
+
+def test_read_normal_map_npy_and_png(tmp_path):
+    normals, _ = sphere_normals((6, 7), (3.0, 2.5), 3.0)
+    np.save(tmp_path / "n.npy", normals.astype(np.float32))
+    loaded = datasets.read_normal_map(tmp_path / "n.npy")
+    assert loaded.dtype == np.float64
+    np.testing.assert_allclose(loaded, normals, atol=1e-7)
+    datasets.write_normal_map(tmp_path / "n.png", normals)
+    np.testing.assert_allclose(datasets.read_normal_map(tmp_path / "n.png"), normals, atol=2e-5)
+    # Regression: a pickled or truncated .npy gave an UnpicklingError / ValueError traceback.
+    np.save(tmp_path / "pickled.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    (tmp_path / "cut.npy").write_bytes((tmp_path / "n.npy").read_bytes()[:-20])
+    (tmp_path / "empty.npy").write_bytes(b"")
+    np.save(tmp_path / "flat.npy", np.zeros((6, 7)))
+    bad = normals.copy()
+    bad[1, 1, 0] = np.inf
+    np.save(tmp_path / "inf.npy", bad)
+    for name in ("pickled", "cut", "empty", "flat", "inf", "missing"):
+        with pytest.raises(FormatError, match=f"{name}.npy"):
+            datasets.read_normal_map(tmp_path / f"{name}.npy")
+    with pytest.raises(ParameterError, match="normals"):
+        datasets.write_normal_map(tmp_path / "x.png", bad)

@@ -40,6 +40,10 @@ References
 
 from __future__ import annotations
 
+import os
+import struct
+import zipfile
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,8 +52,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit import io
-from brdfkit._array import normalize
+from brdfkit._array import check_param, normalize
+from brdfkit.errors import FormatError, OutputError, ParameterError
+from brdfkit.vision._checks import as_float_array, check_count, check_memory
+from brdfkit.vision.calibration import LINEAR_SUFFIXES
 from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
+
+MAX_STEP = 4096
+"""Largest ``step`` (subsampling) the loaders accept."""
+
+MAX_GRID = 1000
+"""Most lights per row or column of :func:`diligent_like_lights`."""
 
 PSM_SPHERES = ("chrome", "gray")
 """psm objects that are spheres: their ground-truth normals follow from the mask's circle."""
@@ -80,108 +93,335 @@ class PhotometricStereoData:
     name: str = ""
 
     def __post_init__(self) -> None:
+        """Check the shapes agree.
+
+        Raises
+        ------
+        brdfkit.errors.ParameterError
+            Naming the array whose shape disagrees, or an empty mask.
+        """
         if self.images.ndim != 4:
-            raise ValueError(f"images must have shape (N, H, W, C), got {self.images.shape}")
+            raise ParameterError(f"images must have shape (N, H, W, C), got {self.images.shape}")
         n_lights, height, width, channels = self.images.shape
         if n_lights < 3:
-            raise ValueError(f"photometric stereo needs at least 3 images, got {n_lights}")
+            raise ParameterError(f"photometric stereo needs at least 3 images, got {n_lights}")
         if self.light_directions.shape != (n_lights, 3):
-            raise ValueError(
+            raise ParameterError(
                 f"light_directions must have shape ({n_lights}, 3) to match the images, got "
                 f"{self.light_directions.shape}"
             )
         if self.mask.shape != (height, width):
-            raise ValueError(f"mask must have shape {(height, width)}, got {self.mask.shape}")
+            raise ParameterError(f"mask must have shape {(height, width)}, got {self.mask.shape}")
         if not self.mask.any():
-            raise ValueError(f"mask of {self.name!r} has no pixels set")
+            raise ParameterError(f"mask of {self.name!r} has no pixels set")
         if self.normals is not None and self.normals.shape != (height, width, 3):
-            raise ValueError(
+            raise ParameterError(
                 f"normals must have shape {(height, width, 3)}, got {self.normals.shape}"
             )
         if self.light_intensities is not None and self.light_intensities.shape != (
             n_lights,
             channels,
         ):
-            raise ValueError(
+            raise ParameterError(
                 f"light_intensities must have shape {(n_lights, channels)}, got "
                 f"{self.light_intensities.shape}"
             )
 
 
 def read_image(path: str | Path) -> np.ndarray:
-    """Read an image as float32 ``(H, W, C)`` in [0, 1] without its alpha channel.
+    """Read an image as float32 ``(H, W, C)`` without its alpha channel.
 
     :func:`brdfkit.io.read_image` (16-bit PNGs kept at 16 bits, integer codes divided by their
-    type's maximum), then any alpha channel dropped.
+    type's maximum, so in [0, 1]), then any alpha channel dropped.
+
+    Raises
+    ------
+    brdfkit.io.ImageReadError
+        The file is missing or cannot be decoded.
+    brdfkit.errors.FormatError
+        It holds NaN or infinity (a float format).
     """
     image = io.read_image(path)
+    if not np.all(np.isfinite(image)):
+        raise FormatError(path, "the image holds NaN or infinity")
     return image[..., :-1] if image.shape[2] in (2, 4) else image
 
 
 def read_mask(path: str | Path) -> np.ndarray:
-    """Read a mask image as bool ``(H, W)``: pixels whose brightest channel exceeds one half."""
+    """Read a mask image as bool ``(H, W)``: pixels whose brightest channel exceeds one half.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        As :func:`read_image`.
+    """
     return read_image(path).max(axis=2) > 0.5
 
 
-def read_normal_map(path: str | Path) -> np.ndarray:
-    """Decode a 16-bit (or 8-bit) RGB normal-map PNG: ``n = 2 v / v_max - 1``, ``(H, W, 3)``."""
-    image = read_image(path)
-    if image.shape[2] != 3:
-        raise ValueError(f"normal map {str(path)!r} must have 3 channels, got {image.shape[2]}")
-    return 2.0 * image.astype(np.float64) - 1.0
+def read_normal_map(path: str | os.PathLike) -> np.ndarray:
+    """Read a normal map: a ``.npy`` array or an image, as float64 ``(H, W, 3)``.
+
+    ``.npy`` files hold the normals themselves (any real dtype; read without unpickling). Images
+    are read with :func:`brdfkit.io.read_image`: integer formats (PNG, TGA, TIFF, …, 8 or 16
+    bits) encode ``n = 2 v / v_max - 1`` per channel (as :func:`write_normal_map` writes them),
+    the float formats of :data:`brdfkit.vision.calibration.LINEAR_SUFFIXES` (``.exr``) hold the
+    normals as they are. The normals are returned as stored, not renormalised.
+
+    Parameters
+    ----------
+    path : the ``.npy`` or image file.
+
+    Returns
+    -------
+    numpy.ndarray (H, W, 3) float64, finite.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The file is missing, truncated, pickled, not numeric, not of shape (H, W, 3) or holds
+        NaN or infinity (:class:`brdfkit.io.ImageReadError` for an image that cannot be decoded).
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".npy":
+        normals = _read_npy(path)
+    else:
+        image = read_image(path)
+        encoded = path.suffix.lower() not in LINEAR_SUFFIXES
+        normals = 2.0 * image.astype(np.float64) - 1.0 if encoded else image.astype(np.float64)
+    if normals.ndim != 3 or normals.shape[2] != 3 or 0 in normals.shape:
+        raise FormatError(path, f"a normal map must have shape (H, W, 3); got {normals.shape}")
+    if not np.all(np.isfinite(normals)):
+        raise FormatError(path, "the normal map holds NaN or infinity")
+    return normals
+
+
+def _read_npy(path: Path) -> np.ndarray:
+    """A real-valued ``.npy`` array as float64, read memory-mapped (a header claiming more
+    than the file holds is refused before anything is allocated) and never unpickled."""
+    if not path.is_file():
+        raise FormatError(path, "no such file")
+    try:
+        array = np.load(path, mmap_mode="r", allow_pickle=False)
+    except (ValueError, OSError, EOFError) as error:  # bad magic, header, size or pickles
+        raise FormatError(path, f"not a readable .npy array ({error})") from error
+    if not isinstance(array, np.ndarray):
+        raise FormatError(path, "not a .npy array (an .npz archive?)")
+    if array.dtype.kind not in "biuf":
+        raise FormatError(path, f"must hold real numbers; got dtype {array.dtype}")
+    check_memory(f"reading {path}", 8 * array.size)
+    return np.array(array, dtype=np.float64)
 
 
 def write_normal_map(path: str | Path, normals: ArrayLike) -> None:
-    """Encode unit normals ``(H, W, 3)`` as a 16-bit RGB PNG, ``v = round(65535 (n + 1) / 2)``."""
+    """Encode unit normals ``(H, W, 3)`` as a 16-bit RGB PNG, ``v = round(65535 (n + 1) / 2)``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``normals`` is not a finite (H, W, 3) array.
+    brdfkit.errors.OutputError
+        OpenCV cannot write ``path``.
+    """
     import cv2
 
-    normals = np.asarray(normals, dtype=np.float64)
+    normals = as_float_array("normals", normals)
     if normals.ndim != 3 or normals.shape[2] != 3:
-        raise ValueError(f"normals must have shape (H, W, 3), got {normals.shape}")
+        raise ParameterError(f"normals must have shape (H, W, 3), got {normals.shape}")
     encoded = np.round(np.clip((normals + 1) / 2, 0, 1) * 65535).astype(np.uint16)
     if not cv2.imwrite(str(path), encoded[..., ::-1]):
-        raise ValueError(f"cannot write normal map {str(path)!r}")
+        raise OutputError(f"cannot write normal map {str(path)!r}")
 
 
-def _read_rows(path: Path, columns: int, skip: int = 0) -> np.ndarray:
-    """A text table of ``columns`` floats per row (``skip`` header lines)."""
+def _read_text(path: Path) -> str:
+    """The UTF-8 text of ``path``.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The file is missing, unreadable or not UTF-8.
+    """
     if not path.is_file():
-        raise ValueError(f"file {str(path)!r} does not exist")
+        raise FormatError(path, "no such file")
     try:
-        table = np.loadtxt(path, ndmin=2, skiprows=skip)
-    except ValueError as error:
-        raise ValueError(f"cannot parse {str(path)!r}: {error}") from error
-    if table.shape[1] != columns:
-        raise ValueError(f"{str(path)!r} must have {columns} columns, got {table.shape[1]}")
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise FormatError(path, "not UTF-8 text", offset=error.start) from error
+    except OSError as error:
+        raise FormatError(path, f"cannot be read ({error.strerror})") from error
+
+
+def _lines(path: Path) -> list[tuple[int, list[str]]]:
+    """``(line number, tokens)`` of the non-blank lines of a text file, ``#`` comments cut."""
+    rows = []
+    for number, line in enumerate(_read_text(path).splitlines(), start=1):
+        tokens = line.split("#", 1)[0].split()
+        if tokens:
+            rows.append((number, tokens))
+    return rows
+
+
+def _parse_int(path: Path, token: str, number: int) -> int:
+    """An integer token of a text file (``number`` its line)."""
+    try:
+        return int(token)
+    except ValueError:
+        raise FormatError(path, f"expected an integer count; got {token!r}", offset=number,
+                          line=True) from None  # fmt: skip
+
+
+def _read_rows(path: Path, columns: int, *, counted: bool = False) -> np.ndarray:
+    """A text table of ``columns`` finite floats per line; ``counted``: after a first line
+    holding the number of rows.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file and the line: missing, not UTF-8, a non-number, NaN or infinity, a
+        wrong number of columns, no rows, or rows that disagree with the count.
+    """
+    lines = _lines(path)
+    if counted:
+        if not lines or len(lines[0][1]) != 1:
+            raise FormatError(path, "the first line must hold the number of rows", offset=1,
+                              line=True)  # fmt: skip
+        expected = _parse_int(path, lines[0][1][0], lines[0][0])
+        lines = lines[1:]
+        if expected != len(lines):
+            raise FormatError(path, f"the first line says {expected} rows; {len(lines)} follow")
+    if not lines:
+        raise FormatError(path, "no rows")
+    table = np.empty((len(lines), columns))
+    for k, (number, tokens) in enumerate(lines):
+        if len(tokens) != columns:
+            raise FormatError(path, f"expected {columns} numbers; got {len(tokens)}",
+                              offset=number, line=True)  # fmt: skip
+        try:
+            table[k] = [float(token) for token in tokens]
+        except ValueError:
+            raise FormatError(path, f"not a number in {' '.join(tokens)!r:.80}", offset=number,
+                              line=True) from None  # fmt: skip
+        if not np.all(np.isfinite(table[k])):
+            raise FormatError(path, "NaN or infinity", offset=number, line=True)
     return table
 
 
-def _stack(paths: list[Path], step: int, callback: Callback | None) -> np.ndarray:
-    """Read images into one ``(N, H, W, C)`` float32 array, every ``step``-th pixel."""
-    if step < 1:
-        raise ValueError(f"step must be a positive integer, got {step}")
-    first = read_image(paths[0])[::step, ::step]
-    stack = np.empty((len(paths), *first.shape), dtype=np.float32)
-    stack[0] = first
-    for k, path in enumerate(paths[1:], start=1):
-        image = read_image(path)[::step, ::step]
-        if image.shape != first.shape:
-            raise ValueError(
-                f"image {str(path)!r} has shape {image.shape}, expected {first.shape} like "
-                f"{str(paths[0])!r}"
-            )
-        stack[k] = image
-        if callback is not None:
-            callback(k + 1, len(paths))
-    return stack
+def _read_lights(path: Path, listing: Path, count: int, *, counted: bool = False) -> np.ndarray:
+    """``count`` unit light directions (normalised here) from a text file of ``x y z`` rows,
+    for the ``count`` images of ``listing``.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        As :func:`_read_rows`, a row count other than ``count``, or a zero row.
+    """
+    lights = _read_rows(path, 3, counted=counted)
+    if len(lights) != count:
+        raise FormatError(
+            path, f"{path.name} has {len(lights)} rows but {listing.name} lists {count} images"
+        )
+    length = np.linalg.norm(lights, axis=1, keepdims=True)
+    if np.any(length == 0):
+        row = int(np.flatnonzero(length[:, 0] == 0)[0])
+        raise FormatError(path, f"light direction {row + 1} is zero")
+    return lights / length
 
 
 def _unit_rows(lights: np.ndarray, source: str) -> np.ndarray:
-    """Rows normalised to unit length; zero or non-finite rows are an error."""
-    length = np.linalg.norm(lights, axis=1, keepdims=True)
-    if not np.all(np.isfinite(length)) or np.any(length == 0):
-        raise ValueError(f"light directions from {source} must be finite and non-zero")
+    """Rows normalised to unit length; zero or non-finite rows are a ParameterError."""
+    length = np.linalg.norm(lights, axis=-1, keepdims=True)
+    if lights.ndim != 2 or not np.all(np.isfinite(length)) or np.any(length == 0):
+        raise ParameterError(f"light directions from {source} must be (N, 3), finite and non-zero")
     return lights / length
+
+
+def _stack(
+    paths: list[Path], step: int, callback: Callback | None
+) -> tuple[np.ndarray, tuple[int, int]]:
+    """Images as one ``(N, H, W, C)`` float32 array, every ``step``-th pixel, and the full
+    ``(H, W)`` of the files.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        An image that cannot be read or whose size or channels differ from the first.
+    brdfkit.errors.ResourceError
+        The stack would not fit in memory.
+    """
+    full = read_image(paths[0])
+    first = full[::step, ::step]
+    check_memory(f"reading {len(paths)} images of {full.shape}", len(paths) * 4 * first.size)
+    stack = np.empty((len(paths), *first.shape), dtype=np.float32)
+    stack[0] = first
+    for k, path in enumerate(paths[1:], start=1):
+        image = read_image(path)
+        if image.shape != full.shape:
+            raise FormatError(
+                path, f"has shape {image.shape}, expected {full.shape} like {str(paths[0])!r}"
+            )
+        stack[k] = image[::step, ::step]
+        if callback is not None:
+            callback(k + 1, len(paths))
+    return stack, full.shape[:2]
+
+
+def _read_mask_of(path: Path, shape: tuple[int, int]) -> np.ndarray:
+    """The mask of images of ``shape`` (full resolution), with at least one pixel set."""
+    mask = read_mask(path)
+    if mask.shape != shape:
+        raise FormatError(path, f"the mask is {mask.shape}, the images are {shape}")
+    if not mask.any():
+        raise FormatError(path, "the mask has no pixels set")
+    return mask
+
+
+_MAT_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError, TypeError, OSError, EOFError, IndexError, KeyError, AttributeError,
+    NotImplementedError, OverflowError, MemoryError, UnicodeDecodeError, struct.error,
+    zlib.error,
+)  # fmt: skip
+"""What ``scipy.io.loadmat`` raises on a truncated or corrupt file (its ``MatReadError`` is a
+``ValueError`` subclass in recent SciPy; the rest come from its parsers)."""
+
+
+def _read_normal_gt(path: Path, mask: np.ndarray) -> np.ndarray:
+    """``Normal_gt`` of a DiLiGenT ``.mat`` file, ``(H, W, 3)`` like ``mask``; finite inside the
+    mask (NaN or infinity outside it, which no method reads, become 0)."""
+    import scipy.io
+
+    try:
+        contents = scipy.io.loadmat(path, variable_names=["Normal_gt"])
+    except _MAT_ERRORS as error:
+        raise FormatError(path, f"not a readable MATLAB file ({error})") from error
+    if "Normal_gt" not in contents:
+        raise FormatError(path, "has no variable 'Normal_gt'", field="Normal_gt")
+    normals = np.asarray(contents["Normal_gt"])
+    if normals.dtype.kind not in "biuf" or normals.shape != (*mask.shape, 3):
+        raise FormatError(
+            path,
+            f"must be real (H, W, 3) = {(*mask.shape, 3)} normals; got {normals.dtype} "
+            f"{normals.shape}",
+            field="Normal_gt",
+        )
+    normals = normals.astype(np.float64)
+    finite = np.isfinite(normals)
+    if not np.all(finite[mask]):
+        raise FormatError(path, "normals inside the mask hold NaN or infinity", field="Normal_gt")
+    return np.where(finite, normals, 0.0)
+
+
+def _read_intensities(path: Path, count: int) -> np.ndarray:
+    """``(count, 3)`` positive light intensities from ``r g b`` rows."""
+    intensities = _read_rows(path, 3)
+    if len(intensities) != count:
+        raise FormatError(path, f"has {len(intensities)} rows; {count} images are listed")
+    if np.any(intensities <= 0):
+        row = int(np.flatnonzero(np.any(intensities <= 0, axis=1))[0])
+        raise FormatError(path, "intensities must be positive", offset=row + 1, line=True)
+    return intensities
+
+
+def _check_step(step: int) -> int:
+    return check_count("step", step, MAX_STEP)
 
 
 def load_diligent(
@@ -192,51 +432,75 @@ def load_diligent(
     Images are divided by ``light_intensities.txt`` per light and channel; ``Normal_gt.mat`` is
     read with ``scipy.io.loadmat`` when present. ``step`` keeps every ``step``-th row and column.
 
+    Parameters
+    ----------
+    folder : the object's folder.
+    step : subsampling, 1 … :data:`MAX_STEP`.
+    callback : progress, ``callback(done, total)`` after each image.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file (and line): a missing or unreadable file, counts that disagree, NaN,
+        infinity or non-numbers in the text files, images of different sizes, a mask of the
+        wrong size or empty, a ``Normal_gt.mat`` without ``Normal_gt`` or of the wrong shape.
+    brdfkit.errors.ParameterError, brdfkit.errors.ResourceError
+        A bad ``step``; images that would not fit in memory.
+
     References
     ----------
     B. Shi et al., IEEE TPAMI 41(2), 2019.
     """
-    import scipy.io
-
+    step = _check_step(step)
     folder = Path(folder)
     listing = folder / "filenames.txt"
     if not listing.is_file():
-        raise ValueError(f"{str(folder)!r} is not a DiLiGenT folder: no filenames.txt")
-    names = listing.read_text().split()
+        raise FormatError(folder, "not a DiLiGenT folder: no filenames.txt")
+    names = [token for _, tokens in _lines(listing) for token in tokens]
     if len(names) < 3:
-        raise ValueError(f"photometric stereo needs at least 3 images, {listing} lists {names}")
-    lights = _read_rows(folder / "light_directions.txt", 3)
-    if len(lights) != len(names):
-        raise ValueError(
-            f"light_directions.txt has {len(lights)} rows but filenames.txt lists {len(names)}"
-        )
-    images = _stack([folder / name for name in names], step, callback)
-    intensities = None
+        raise FormatError(listing, f"photometric stereo needs at least 3 images; {names} listed")
+    lights = _read_lights(folder / "light_directions.txt", listing, len(names))
     intensity_file = folder / "light_intensities.txt"
+    intensities = None
     if intensity_file.is_file():
-        intensities = _read_rows(intensity_file, images.shape[3] if images.shape[3] > 1 else 3)
-        if len(intensities) != len(names):
-            raise ValueError(
-                f"light_intensities.txt has {len(intensities)} rows, expected {len(names)}"
-            )
+        intensities = _read_intensities(intensity_file, len(names))
+    images, shape = _stack([folder / name for name in names], step, callback)
+    if intensities is not None:
         if images.shape[3] == 1:
             intensities = intensities.mean(axis=1, keepdims=True)
-        if np.any(intensities <= 0):
-            raise ValueError("light_intensities.txt must hold positive intensities")
         images /= intensities[:, None, None, :].astype(np.float32)
-    mask = read_mask(folder / "mask.png")[::step, ::step]
+    full_mask = _read_mask_of(folder / "mask.png", shape)
+    mask = full_mask[::step, ::step]
+    if not mask.any():
+        raise FormatError(folder / "mask.png", f"no mask pixel is left at step {step}")
     normals = None
     if (folder / "Normal_gt.mat").is_file():
-        normals = np.asarray(scipy.io.loadmat(folder / "Normal_gt.mat")["Normal_gt"], float)
-        normals = normals[::step, ::step]
+        normals = _read_normal_gt(folder / "Normal_gt.mat", full_mask)[::step, ::step]
     return PhotometricStereoData(
         images=images,
-        light_directions=_unit_rows(lights, str(folder / "light_directions.txt")),
+        light_directions=lights,
         mask=mask,
         normals=normals,
         light_intensities=intensities,
         name=folder.name.removesuffix("PNG"),
     )
+
+
+def _read_psm_listing(listing: Path) -> tuple[list[str], str]:
+    """The image entries and the mask entry of a psm ``<obj>.txt`` listing."""
+    lines = _lines(listing)
+    if not lines:
+        raise FormatError(listing, "empty: expected a count, the images and the mask")
+    number, tokens = lines[0]
+    count = _parse_int(listing, tokens[0], number)
+    entries = [token for _, tokens in lines for token in tokens][1:]
+    if count < 3 or len(entries) != count + 1:
+        raise FormatError(
+            listing,
+            f"must list a count >= 3, that many images and the mask; got the count {count} and "
+            f"{len(entries)} entries",
+        )
+    return entries[:-1], entries[-1]
 
 
 def load_psm(
@@ -253,42 +517,49 @@ def load_psm(
     :func:`~brdfkit.vision.photometric_stereo.calibrate_lights_chrome_sphere`), otherwise
     ``<folder>/../lights.txt``. The spheres in :data:`PSM_SPHERES` get ground-truth normals from
     the circle fitted to their mask (:func:`~brdfkit.vision.photometric_stereo.fit_circle`).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file (and line): the listing, ``lights.txt``, an image or the mask missing,
+        unreadable or inconsistent (counts, sizes, NaN, non-numbers, a zero direction).
+    brdfkit.errors.ParameterError
+        ``light_directions`` not a finite, non-zero (N, 3) array; a bad ``step``.
+    brdfkit.errors.ResourceError
+        ``step`` above :data:`MAX_STEP`, or images that would not fit in memory.
     """
+    step = _check_step(step)
     folder = Path(folder)
     listing = folder.parent / f"{folder.name}.txt"
     if not listing.is_file():
-        raise ValueError(f"{str(folder)!r} is not a psm object folder: no {listing.name} beside it")
-    lines = listing.read_text().split()
-    count = int(lines[0])
-    if count < 3 or len(lines) != count + 2:
-        raise ValueError(f"{str(listing)!r} must list a count >= 3, the images and the mask")
+        raise FormatError(folder, f"not a psm object folder: no {listing.name} beside it")
+    image_entries, mask_entry = _read_psm_listing(listing)
+    count = len(image_entries)
+    if light_directions is None:
+        lights = _read_lights(folder.parent / "lights.txt", listing, count, counted=True)
+    else:
+        lights = _unit_rows(as_float_array("light_directions", light_directions),
+                            "light_directions")  # fmt: skip
+        if lights.shape != (count, 3):
+            raise ParameterError(f"light_directions must have shape ({count}, 3), got "
+                                 f"{lights.shape}")  # fmt: skip
 
     def resolve(entry: str) -> Path:
         # Listed paths start with a "psmImages/" folder that this copy of the set does not have.
         direct = folder.parent / entry
         return direct if direct.exists() else folder.parent.joinpath(*Path(entry).parts[1:])
 
-    images = _stack([resolve(entry) for entry in lines[1:-1]], step, callback)
-    full_mask = read_mask(resolve(lines[-1]))
+    images, shape = _stack([resolve(entry) for entry in image_entries], step, callback)
+    full_mask = _read_mask_of(resolve(mask_entry), shape)
     mask = full_mask[::step, ::step]
-    if light_directions is None:
-        lights = _read_rows(folder.parent / "lights.txt", 3, skip=1)
-        source = str(folder.parent / "lights.txt")
-    else:
-        lights = np.asarray(light_directions, dtype=np.float64)
-        source = "light_directions"
-    if lights.shape != (count, 3):
-        raise ValueError(f"{source} must have shape ({count}, 3), got {lights.shape}")
+    if not mask.any():
+        raise FormatError(resolve(mask_entry), f"no mask pixel is left at step {step}")
     normals = None
     if folder.name in PSM_SPHERES:  # fitted at full resolution, then subsampled like the mask
         c_x, c_y, radius = fit_circle(full_mask)
         normals = sphere_normals(full_mask.shape, (c_x, c_y), radius)[0][::step, ::step]
     return PhotometricStereoData(
-        images=images,
-        light_directions=_unit_rows(lights, source),
-        mask=mask,
-        normals=normals,
-        name=folder.name,
+        images=images, light_directions=lights, mask=mask, normals=normals, name=folder.name
     )
 
 
@@ -296,17 +567,25 @@ def load_dataset(
     path: str | Path, *, step: int = 1, callback: Callback | None = None
 ) -> PhotometricStereoData:
     """Load a DiLiGenT folder (has ``filenames.txt``) or a psm object folder (``<obj>.txt``
-    beside it), whichever ``path`` is."""
+    beside it), whichever ``path`` is.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        ``path`` does not exist or is neither layout, or as :func:`load_diligent` and
+        :func:`load_psm`.
+    """
     path = Path(path)
     if not path.is_dir():
-        raise ValueError(f"data set folder {str(path)!r} does not exist")
+        raise FormatError(path, "data set folder does not exist")
     if (path / "filenames.txt").is_file():
         return load_diligent(path, step=step, callback=callback)
     if (path.parent / f"{path.name}.txt").is_file():
         return load_psm(path, step=step, callback=callback)
-    raise ValueError(
-        f"{str(path)!r} is neither a DiLiGenT folder (filenames.txt) nor a psm object folder "
-        f"({path.name}.txt beside it)"
+    raise FormatError(
+        path,
+        f"neither a DiLiGenT folder (filenames.txt) nor a psm object folder ({path.name}.txt "
+        "beside it)",
     )
 
 
@@ -315,6 +594,11 @@ def save_diligent(data: PhotometricStereoData, folder: str | Path) -> None:
 
     Images are multiplied back by ``data.light_intensities`` (when set) and quantised to 16 bits,
     values above 1 clipping; the mask is 8-bit, the normals go to ``Normal_gt.mat``.
+
+    Raises
+    ------
+    brdfkit.errors.OutputError
+        An image cannot be written.
     """
     import cv2
     import scipy.io
@@ -329,7 +613,7 @@ def save_diligent(data: PhotometricStereoData, folder: str | Path) -> None:
     for name, image in zip(names, raw, strict=True):
         pixels = image[..., ::-1] if image.shape[2] == 3 else image
         if not cv2.imwrite(str(folder / name), pixels):
-            raise ValueError(f"cannot write {str(folder / name)!r}")
+            raise OutputError(f"cannot write {str(folder / name)!r}")
     (folder / "filenames.txt").write_text("\n".join(names) + "\n")
     np.savetxt(folder / "light_directions.txt", data.light_directions, fmt="%.8f")
     if data.light_intensities is not None:
@@ -359,8 +643,32 @@ class NormalIntegrationData:
     name: str
 
 
+def _read_npz_array(path: Path, key: str) -> np.ndarray:
+    """Array ``key`` of an ``.npz`` archive (never unpickled), as float64."""
+    if not path.is_file():
+        raise FormatError(path, "no such file")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if key not in archive.files:
+                raise FormatError(path, f"has no array {key!r}", field=key)
+            array = archive[key]
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as error:
+        raise FormatError(path, f"not a readable .npz archive ({error})") from error
+    except AttributeError as error:  # np.load returned an ndarray: an .npy, not an archive
+        raise FormatError(path, "not an .npz archive") from error
+    if array.dtype.kind not in "biuf":
+        raise FormatError(path, f"must hold real numbers; got dtype {array.dtype}", field=key)
+    return array.astype(np.float64)
+
+
 def load_normal_integration(folder: str | Path) -> NormalIntegrationData:
     """Load ``normal_map.png``, ``mask.png``, ``depth_gt.npz`` and ``K.txt`` from ``folder``.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file: missing or unreadable, shapes that disagree, depth not finite inside
+        the mask, or ``K.txt`` not a finite 3 × 3 matrix.
 
     References
     ----------
@@ -368,18 +676,18 @@ def load_normal_integration(folder: str | Path) -> NormalIntegrationData:
     """
     folder = Path(folder)
     normals = read_normal_map(folder / "normal_map.png")
-    mask = read_mask(folder / "mask.png")
+    mask = _read_mask_of(folder / "mask.png", normals.shape[:2])
     depth_file = folder / "depth_gt.npz"
-    if not depth_file.is_file():
-        raise ValueError(f"file {str(depth_file)!r} does not exist")
-    with np.load(depth_file) as archive:
-        depth = np.asarray(archive["depth_gt"], dtype=np.float64)
+    depth = _read_npz_array(depth_file, "depth_gt")
+    if depth.shape != mask.shape:
+        raise FormatError(depth_file, f"depth is {depth.shape}, the normal map {mask.shape}",
+                          field="depth_gt")  # fmt: skip
+    if not np.all(np.isfinite(depth[mask])):
+        raise FormatError(depth_file, "depth inside the mask holds NaN or infinity",
+                          field="depth_gt")  # fmt: skip
     camera = _read_rows(folder / "K.txt", 3)
-    if depth.shape != mask.shape or normals.shape[:2] != mask.shape or camera.shape != (3, 3):
-        raise ValueError(
-            f"inconsistent shapes in {str(folder)!r}: normals {normals.shape}, mask "
-            f"{mask.shape}, depth {depth.shape}, K {camera.shape}"
-        )
+    if camera.shape != (3, 3):
+        raise FormatError(folder / "K.txt", f"K must be 3 × 3; got {camera.shape}")
     normals = np.where(mask[..., None], normalize(normals), 0.0)
     return NormalIntegrationData(normals, mask, depth, camera, folder.name)
 
@@ -399,11 +707,20 @@ def diligent_like_lights(
     Returns
     -------
     (n_rows * n_columns, 3) unit directions, row by row from the top left.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 3 lights, or ``max_polar_angle`` outside (0, π/2).
+    brdfkit.errors.ResourceError
+        ``n_columns`` or ``n_rows`` above :data:`MAX_GRID`.
     """
-    if n_columns < 1 or n_rows < 1 or n_columns * n_rows < 3:
-        raise ValueError(f"need at least 3 lights, got a {n_rows} x {n_columns} grid")
+    check_count("n_columns", n_columns, MAX_GRID)
+    check_count("n_rows", n_rows, MAX_GRID)
+    if n_columns * n_rows < 3:
+        raise ParameterError(f"need at least 3 lights, got a {n_rows} x {n_columns} grid")
     if not 0 < max_polar_angle < np.pi / 2:
-        raise ValueError(f"max_polar_angle must be in (0, pi/2), got {max_polar_angle}")
+        raise ParameterError(f"max_polar_angle must be in (0, pi/2), got {max_polar_angle}")
     x = np.arange(n_columns) - (n_columns - 1) / 2
     y = (n_rows - 1) / 2 - np.arange(n_rows)
     spacing = np.tan(max_polar_angle) / max(np.hypot(x[0], y[0]), 1e-12)
@@ -433,23 +750,29 @@ def cast_shadows(
     -------
     (N, H, W) bool, True where the light is not blocked.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Wrong shapes, non-finite light directions, a ``pixel_size`` that is not positive, or
+        no finite height.
+
     References
     ----------
     N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer 4(2),
     1988.
     """
-    height = np.asarray(height, dtype=np.float64)
-    lights = np.asarray(light_directions, dtype=np.float64)
+    height = as_float_array("height", height, finite=False)
+    lights = as_float_array("light_directions", light_directions)
     if height.ndim != 2 or lights.ndim != 2 or lights.shape[1] != 3:
-        raise ValueError(
+        raise ParameterError(
             f"height must be (H, W) and light_directions (N, 3), got "
             f"{height.shape} and {lights.shape}"
         )
     if not pixel_size > 0:
-        raise ValueError(f"pixel_size must be positive, got {pixel_size}")
+        raise ParameterError(f"pixel_size must be positive, got {pixel_size}")
     surface = np.isfinite(height)
     if not surface.any():
-        raise ValueError("height has no finite value")
+        raise ParameterError("height has no finite value")
     h = np.where(surface, height, -np.inf)
     span = height[surface].max() - height[surface].min()
     rows, columns = np.indices(height.shape)
@@ -460,7 +783,8 @@ def cast_shadows(
             continue
         rise = pixel_size * l_z / planar
         d_col, d_row = l_x / planar, -l_y / planar
-        for t in range(1, int(span / rise) + 2):
+        # No occluder lies beyond the image: its extent bounds the march as well.
+        for t in range(1, int(min(span / rise, sum(height.shape))) + 2):
             r = np.rint(rows + t * d_row).astype(int)
             c = np.rint(columns + t * d_col).astype(int)
             inside = (r >= 0) & (r < height.shape[0]) & (c >= 0) & (c < height.shape[1])
@@ -504,19 +828,26 @@ def render_synthetic(
     lit : (N, H, W) bool cast-shadow visibility; everything lit when omitted.
     light_intensities : (N, C) per-light intensities to record; ones when omitted.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, or NaN, infinity or negative values in the arguments.
+
     References
     ----------
     J. F. Blinn, "Models of light reflection for computer synthesized pictures", SIGGRAPH 1977;
     R. J. Woodham, Optical Engineering 19(1), 1980.
     """
-    normals = np.asarray(normals, dtype=np.float64)
+    normals = as_float_array("normals", normals)
     mask = np.asarray(mask, dtype=bool)
-    lights = _unit_rows(np.asarray(light_directions, dtype=np.float64), "light_directions")
+    lights = _unit_rows(as_float_array("light_directions", light_directions), "light_directions")
+    for name, value in (("specular", specular), ("shininess", shininess), ("noise", noise)):
+        check_param(name, value, 0.0)
     if normals.ndim != 3 or normals.shape[2] != 3 or mask.shape != normals.shape[:2]:
-        raise ValueError(
+        raise ParameterError(
             f"normals must be (H, W, 3) and mask (H, W), got {normals.shape} and {mask.shape}"
         )
-    albedo = np.atleast_1d(np.asarray(albedo, dtype=np.float64))
+    albedo = np.atleast_1d(as_float_array("albedo", albedo))
     albedo = np.broadcast_to(albedo, (*mask.shape, albedo.shape[-1]))
     half = lights + np.array([0.0, 0.0, 1.0])
     half /= np.linalg.norm(half, axis=1, keepdims=True)
