@@ -59,6 +59,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
+from brdfkit.errors import ParameterError
 from brdfkit.geometry import from_half_diff, to_half_diff
 from brdfkit.sampling import (
     Distribution2D,
@@ -88,6 +89,47 @@ def _spectrum_to_rgb(wavelengths: tuple[float, ...]) -> np.ndarray:
     return (xyz / 100.0) @ colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB.T
 
 
+OBSERVER_RANGE = (360.0, 830.0)
+"""The wavelengths (nm) the CIE 1931 2° observer tabulates."""
+
+MIN_OBSERVED_WAVELENGTHS = 6
+"""Fewest wavelengths a spectrum needs inside :data:`OBSERVER_RANGE`: colour-science
+interpolates evenly spaced spectra by Sprague (1880), which needs six samples."""
+
+
+def wavelengths_problem(wavelengths: Any) -> str:
+    """Why ``wavelengths`` (nm) cannot be converted to sRGB, or ``""`` when they can.
+
+    They must be finite whole nanometres, strictly increasing, within [300, 900], with at least
+    :data:`MIN_OBSERVED_WAVELENGTHS` inside :data:`OBSERVER_RANGE`: colour-science aligns a
+    spectrum to the observer's 1 nm grid, which fails for fractional nanometres and for too few
+    samples on it. Readers use this to raise their own error naming the file.
+
+    Parameters
+    ----------
+    wavelengths : array_like
+        The wavelengths in nm (flattened).
+
+    Returns
+    -------
+    str
+        The reason, in words, or ``""``.
+    """
+    wl = np.asarray(wavelengths, dtype=np.float64).ravel()
+    if not np.all(np.isfinite(wl)) or np.any(wl != np.round(wl)):
+        return f"wavelengths must be finite whole nanometres; got {wl}"
+    if wl.size == 0 or not np.all(np.diff(wl) > 0) or wl[0] < 300 or wl[-1] > 900:
+        return f"wavelengths must be increasing values in nm within [300, 900]; got {wl}"
+    lo, hi = OBSERVER_RANGE
+    observed = np.count_nonzero((wl >= lo) & (wl <= hi))
+    if observed < MIN_OBSERVED_WAVELENGTHS:
+        return (
+            f"wavelengths must include at least {MIN_OBSERVED_WAVELENGTHS} within the CIE "
+            f"observer's [{lo:g}, {hi:g}] nm; got {observed} of {wl}"
+        )
+    return ""
+
+
 def spectrum_to_rgb_matrix(wavelengths: Any) -> np.ndarray:
     r"""The ``(n, 3)`` matrix M taking spectral reflectances at ``wavelengths`` (nm) to linear sRGB.
 
@@ -95,7 +137,13 @@ def spectrum_to_rgb_matrix(wavelengths: Any) -> np.ndarray:
     :math:`XYZ = \sum_\lambda S(\lambda)\,E(\lambda)\,\bar{\mathbf x}(\lambda)\,\Delta\lambda
     \,/\sum_\lambda E(\lambda)\,\bar y(\lambda)\,\Delta\lambda` under illuminant D65 (the sRGB
     white) with the CIE 1931 2° observer, then the sRGB XYZ→RGB matrix; a constant spectrum 1
-    maps to RGB ≈ (1, 1, 1). The integration is colour-science's (piecewise-linear spectra).
+    maps to RGB ≈ (1, 1, 1). The integration is colour-science's (the spectra interpolated onto
+    the observer's 1 nm grid: Sprague for even spacing, else a cubic spline).
+
+    Raises
+    ------
+    ParameterError
+        When the wavelengths are unusable (:func:`wavelengths_problem` says why).
 
     References
     ----------
@@ -103,10 +151,9 @@ def spectrum_to_rgb_matrix(wavelengths: Any) -> np.ndarray:
     .. [2] colour-science, ``colour.msds_to_XYZ``.
     """
     wl = np.asarray(wavelengths, dtype=np.float64).ravel()
-    if wl.size < 2 or not np.all(np.diff(wl) > 0) or wl[0] < 300 or wl[-1] > 900:
-        raise ValueError(
-            f"wavelengths must be at least two increasing values in nm within [300, 900]; got {wl}"
-        )
+    problem = wavelengths_problem(wl)
+    if problem:
+        raise ParameterError(problem)
     return _spectrum_to_rgb(tuple(float(x) for x in wl))
 
 
@@ -355,6 +402,10 @@ class MeasuredSamples:
 
 
 # --------------------------------------------------------------------------- the table
+MIN_SAMPLES = 4
+"""Fewest valid measurements :meth:`TabulatedBRDF.from_samples` resamples (a tetrahedron)."""
+
+
 @dataclass(frozen=True, eq=False)
 class TabulatedBRDF(MixtureSampled):
     r"""A BRDF tabulated on a regular half/difference grid (see the module docstring).
@@ -381,6 +432,13 @@ class TabulatedBRDF(MixtureSampled):
     samples : the scattered measurements the table was built from, if any (fits use them).
     name : a label.
 
+    Attributes
+    ----------
+    clamped : int
+        How many stored values are negative ("not measured": MERL's −1 marker, or a node below
+        the horizon), and so never reach ``eval`` as a value (a point whose nodes are all
+        unmeasured evaluates to 0); 0 when none. ``values`` keeps them as stored.
+
     References
     ----------
     .. [1] S. Rusinkiewicz, EGWR 1998. .. [2] W. Matusik et al., SIGGRAPH 2003.
@@ -391,6 +449,7 @@ class TabulatedBRDF(MixtureSampled):
     interpolation: str = "linear"
     samples: MeasuredSamples | None = None
     name: str = ""
+    clamped: int = field(init=False, default=0)
     _table: np.ndarray = field(init=False, repr=False)
     _half_vector: HalfVectorSampling | None = field(init=False, repr=False, default=None)
 
@@ -418,6 +477,7 @@ class TabulatedBRDF(MixtureSampled):
             )
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "clamped", int(np.count_nonzero(values < 0)))
         # One extra column flags measured nodes: lookup interpolates it with the values and
         # divides, so unmeasured nodes drop out of the interpolation.
         measured = np.all(np.nan_to_num(values, nan=-1.0) >= 0, axis=-1, keepdims=True)
@@ -575,7 +635,13 @@ class TabulatedBRDF(MixtureSampled):
         make the interpolant wrap. ``method="linear"`` is scipy's Delaunay-based
         ``LinearNDInterpolator`` with nodes outside the samples' convex hull filled from the
         nearest sample (``NearestNDInterpolator``); ``method="nearest"`` uses the nearest sample
-        everywhere. Nodes below the horizon are −1 ("not measured").
+        everywhere (also under ``"linear"`` when the samples span no volume, as when they all lie
+        in one plane of the grid). Nodes below the horizon are −1 ("not measured").
+
+        Raises
+        ------
+        ValueError
+            For a bad ``shape`` or ``method``, or fewer than :data:`MIN_SAMPLES` valid samples.
 
         References
         ----------
@@ -583,6 +649,7 @@ class TabulatedBRDF(MixtureSampled):
                hulls", ACM TOMS 22(4), 1996 (scipy.spatial.Delaunay).
         """
         from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
+        from scipy.spatial import QhullError
 
         shape = tuple(int(s) for s in shape)
         if len(shape) != 3 or min(shape) < 2:
@@ -592,10 +659,10 @@ class TabulatedBRDF(MixtureSampled):
         if method not in ("linear", "nearest"):
             raise ValueError(f"method must be 'linear' or 'nearest'; got {method!r}")
         valid = samples.valid
-        if np.count_nonzero(valid) < 4:
+        if np.count_nonzero(valid) < MIN_SAMPLES:
             raise ValueError(
                 f"samples {samples.name!r} hold {np.count_nonzero(valid)} valid measurements; "
-                "at least 4 are needed"
+                f"at least {MIN_SAMPLES} are needed"
             )
         grid = cls(np.zeros((*shape, 1)))
         sizes = np.asarray(shape, dtype=np.float64)
@@ -611,11 +678,13 @@ class TabulatedBRDF(MixtureSampled):
         th, _, td, pd = grid.node_angles()
         nodes = np.stack(grid._continuous_index(th, th * 0, td, pd), axis=-1) / sizes
         nearest = NearestNDInterpolator(points, values)(nodes)
+        table = nearest
         if method == "linear":
-            table = LinearNDInterpolator(points, values)(nodes)
-            table = np.where(np.isnan(table), nearest, table)
-        else:
-            table = nearest
+            try:
+                linear = LinearNDInterpolator(points, values)(nodes)
+            except QhullError:  # the samples span no volume: no node lies inside their hull
+                linear = nearest
+            table = np.where(np.isnan(linear), nearest, linear)
         wi, wo = grid.node_directions()
         above = (wi[..., 2] > 0) & (wo[..., 2] > 0)
         table = np.where(above[..., None], np.maximum(table, 0.0), -1.0)
@@ -678,11 +747,15 @@ def lookup(
 __all__ = [
     "INTERPOLATIONS",
     "MAX_HALF_VECTOR_PROBABILITY",
+    "MIN_OBSERVED_WAVELENGTHS",
+    "MIN_SAMPLES",
+    "OBSERVER_RANGE",
     "CosineSampled",
     "HalfVectorSampling",
     "MeasuredSamples",
     "TabulatedBRDF",
     "lookup",
     "spectrum_to_rgb_matrix",
+    "wavelengths_problem",
     "white_sky_weights",
 ]
