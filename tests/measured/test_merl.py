@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import parse
+from brdfkit.errors import FormatError
 from brdfkit.measured import MERL_SCALE, MERL_SHAPE, TabulatedBRDF, read_merl, write_merl
 
 MODEL = "lambertian(rho=[0.2, 0.3, 0.4]) + ward(kd=0, ks=[0.05, 0.06, 0.07], alpha_x=0.12)"
@@ -123,3 +124,45 @@ def test_unmeasured_entries(tmp_path):
 def test_write_rejects_non_brdf(tmp_path):
     with pytest.raises(ValueError, match="brdf must be a BRDF"):
         write_merl(tmp_path / "x.binary", np.zeros(3))
+
+
+@pytest.mark.parametrize("bad_value", [np.nan, np.inf, -np.inf])
+def test_non_finite_values_raise_with_their_offset(merl_file, tmp_path, bad_value):
+    data = bytearray(merl_file.read_bytes())
+    index = 3 * 90 * 180 + 7  # a red value
+    data[12 + 8 * index : 12 + 8 * index + 8] = np.float64(bad_value).tobytes()
+    bad = tmp_path / "bad.binary"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(FormatError, match="not finite") as info:
+        read_merl(bad)
+    assert info.value.offset == 12 + 8 * index and info.value.field == "values"
+    assert "bad.binary" in str(info.value) and f"byte {12 + 8 * index}" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "dims", [(2**31 - 1, 2**31 - 1, 2**31 - 1), (-90, 90, 180), (90, 180, 90), (0, 0, 0)]
+)
+def test_wrong_or_huge_dimensions_raise_format_error(merl_file, tmp_path, dims):
+    bad = tmp_path / "bad.binary"
+    bad.write_bytes(np.array(dims, "<i4").tobytes() + merl_file.read_bytes()[12:100])
+    with pytest.raises(FormatError, match="header dimensions") as info:
+        read_merl(bad)
+    assert info.value.field == "dimensions" and "bad.binary" in str(info.value)
+
+
+def test_negative_values_read_as_zero_and_are_counted(tmp_path):
+    values = np.full((*MERL_SHAPE, 3), 1500.0)
+    values[0, :, :, 1] = -1.0  # MERL's "not measured" marker
+    values[5, 5, 5, 2] = -0.25
+    path = write_merl(tmp_path / "holes.binary", TabulatedBRDF(values, MERL_SCALE))
+    table = read_merl(path)
+    assert table.clamped == 90 * 180 + 1
+    z = np.array([0.0, 0.0, 1.0])
+    assert np.all(table.eval(z, z) == 0)  # θh bin 0
+    assert write_merl(tmp_path / "again.binary", table).read_bytes() == path.read_bytes()
+
+
+def test_clamped_is_zero_without_negative_values(tmp_path):
+    values = np.full((*MERL_SHAPE, 3), 1500.0)
+    path = write_merl(tmp_path / "full.binary", TabulatedBRDF(values, MERL_SCALE))
+    assert read_merl(path).clamped == 0

@@ -7,7 +7,8 @@ values, channel-major (all red, then all green, then all blue), each channel a C
 \rfloor`; θd linearly, :math:`j = \lfloor\theta_d/(\pi/2)\cdot 90\rfloor`; φd folded into
 :math:`[0, \pi)` by adding π when negative (reciprocity), :math:`k = \lfloor\varphi_d/\pi\cdot
 180\rfloor`. Stored values are scaled by 1/1500, 1.15/1500 and 1.66/1500 for R, G, B. Negative
-values mean "not measured".
+values mean "not measured" (below the horizon); they read as 0 and :func:`read_merl` counts
+them (``clamped``).
 
 A MERL file is a :class:`~brdfkit.measured.tabulated.TabulatedBRDF` of shape
 ``(90, 90, 180, 3)`` with those scales; the raw doubles are kept, so :func:`write_merl` of a
@@ -23,12 +24,14 @@ References
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
 import numpy as np
 
 from brdfkit.brdf.base import BRDF
+from brdfkit.errors import FormatError
 from brdfkit.io import atomic_write
 from brdfkit.measured.tabulated import TabulatedBRDF
 
@@ -40,10 +43,16 @@ MERL_SCALE = (1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0)
 
 _HEADER = np.dtype("<i4")
 _VALUE = np.dtype("<f8")
+_HEADER_BYTES = 3 * _HEADER.itemsize
+_FILE_BYTES = _HEADER_BYTES + 3 * math.prod(MERL_SHAPE) * _VALUE.itemsize
 
 
 def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedBRDF:
     """Read a MERL ``.binary`` file as a :class:`TabulatedBRDF` of shape ``(90, 90, 180, 3)``.
+
+    Negative values are MERL's "not measured" marker (−1): they are kept as stored (so
+    :func:`write_merl` reproduces the file) and evaluate as 0; the result's ``clamped`` says how
+    many there are (0 when none), for a caller to report.
 
     Parameters
     ----------
@@ -51,11 +60,16 @@ def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedB
     interpolation : lookup mode, ``"bin"`` (default: exactly ``BRDFRead.cpp``), ``"nearest"``
         or ``"linear"``.
 
+    Returns
+    -------
+    TabulatedBRDF
+        The table, with ``clamped`` the number of negative values in the file.
+
     Raises
     ------
-    ValueError
-        Naming the file, when the header is not ``(90, 90, 180)``, or the file is truncated or
-        longer than the header says.
+    FormatError
+        Naming the file, when the header is not ``(90, 90, 180)``, the file is truncated or
+        longer than the header says, or a value is NaN or infinite (with its byte offset).
 
     References
     ----------
@@ -63,28 +77,46 @@ def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedB
     """
     path = Path(path)
     raw = path.read_bytes()
-    if len(raw) < 3 * _HEADER.itemsize:
-        raise ValueError(
-            f"MERL file {str(path)!r} is truncated: {len(raw)} bytes, shorter than its 12-byte "
-            "header"
+    _check_layout(path, raw)
+    data = np.frombuffer(raw, _VALUE, offset=_HEADER_BYTES)
+    bad = np.flatnonzero(~np.isfinite(data))
+    if bad.size:
+        raise FormatError(
+            path,
+            f"value {data[bad[0]]} is not finite ({bad.size} such values in the file)",
+            field="values",
+            offset=_HEADER_BYTES + int(bad[0]) * _VALUE.itemsize,
+        )
+    values = np.moveaxis(data.reshape(3, *MERL_SHAPE), 0, -1).astype(np.float64)
+    return TabulatedBRDF(values, scale=MERL_SCALE, interpolation=interpolation, name=path.name)
+
+
+def _check_layout(path: Path, raw: bytes) -> None:
+    """Raise :class:`FormatError` unless ``raw`` is a MERL header ``(90, 90, 180)`` followed by
+    exactly that many float64 values per channel."""
+    if len(raw) < _HEADER_BYTES:
+        raise FormatError(
+            path,
+            f"truncated: {len(raw)} bytes, shorter than its {_HEADER_BYTES}-byte header",
+            field="dimensions",
+            offset=0,
         )
     dims = tuple(int(d) for d in np.frombuffer(raw, _HEADER, count=3))
     if dims != MERL_SHAPE:
-        raise ValueError(
-            f"MERL file {str(path)!r} has header dimensions {dims}; expected {MERL_SHAPE} "
-            "(theta_h, theta_d, phi_d)"
+        raise FormatError(
+            path,
+            f"header dimensions {dims}; expected {MERL_SHAPE} (theta_h, theta_d, phi_d)",
+            field="dimensions",
+            offset=0,
         )
-    count = 3 * int(np.prod(MERL_SHAPE))
-    expected = 3 * _HEADER.itemsize + count * _VALUE.itemsize
-    if len(raw) != expected:
-        state = "truncated" if len(raw) < expected else "longer than its header says"
-        raise ValueError(
-            f"MERL file {str(path)!r} is {state}: {len(raw)} bytes; expected {expected} "
-            f"(12-byte header + 3 x {int(np.prod(MERL_SHAPE))} float64 values)"
+    if len(raw) != _FILE_BYTES:
+        state = "truncated" if len(raw) < _FILE_BYTES else "longer than its header says"
+        raise FormatError(
+            path,
+            f"{state}: {len(raw)} bytes; expected {_FILE_BYTES} ({_HEADER_BYTES}-byte header + "
+            f"3 x {math.prod(MERL_SHAPE)} float64 values)",
+            offset=min(len(raw), _FILE_BYTES),
         )
-    data = np.frombuffer(raw, _VALUE, count=count, offset=3 * _HEADER.itemsize)
-    values = np.moveaxis(data.reshape(3, *MERL_SHAPE), 0, -1).astype(np.float64)
-    return TabulatedBRDF(values, scale=MERL_SCALE, interpolation=interpolation, name=path.name)
 
 
 def merl_values(brdf: BRDF) -> np.ndarray:
