@@ -59,6 +59,7 @@ __all__ = [
     "data_path",
     "luminance",
     "read_image",
+    "read_image_codes",
     "srgb_decode",
     "srgb_encode",
     "tonemap",
@@ -384,6 +385,37 @@ def _as_float_image(image: np.ndarray, path: Path) -> np.ndarray:
     return image
 
 
+def _decode(path: Path) -> np.ndarray:
+    """The pixel array a file holds, as its decoder returns it (read into memory first)."""
+    suffix = path.suffix.lower()
+    if suffix not in _READERS:
+        raise FormatError(
+            path,
+            f"unsupported image extension {suffix!r}; expected one of {', '.join(READ_EXTENSIONS)}",
+        )
+    if not path.is_file():
+        raise ImageNotFoundError(path, "no such file")
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise ImageReadError(path, f"cannot be read ({error.strerror or error})") from error
+    return _READERS[suffix](path, data)
+
+
+def read_image_codes(path: str | os.PathLike) -> np.ndarray:
+    """The integer codes an 8- or 16-bit image file stores, shape (H, W, C), RGB(A) order.
+
+    For what needs the codes themselves, such as camera-response recovery from an exposure
+    stack. Raises :class:`ImageReadError` (as :func:`read_image` does), also for a file that
+    holds floating-point values (``.hdr``, ``.exr``).
+    """
+    path = Path(path)
+    codes = _decode(path)
+    if codes.dtype not in (np.uint8, np.uint16):
+        raise ImageReadError(path, f"holds {codes.dtype} values, not 8- or 16-bit codes")
+    return codes[..., None] if codes.ndim == 2 else codes
+
+
 def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.ndarray:
     """Read an image file as a float32 array of shape (H, W, C).
 
@@ -426,18 +458,7 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix not in _READERS:
-        raise FormatError(
-            path,
-            f"unsupported image extension {suffix!r}; expected one of {', '.join(READ_EXTENSIONS)}",
-        )
-    if not path.is_file():
-        raise ImageNotFoundError(path, "no such file")
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise ImageReadError(path, f"cannot be read ({error.strerror or error})") from error
-    image = _as_float_image(_READERS[suffix](path, data), path)
+    image = _as_float_image(_decode(path), path)
     if srgb_to_linear and suffix not in (".hdr", ".exr"):
         colour = 3 if image.shape[-1] >= 3 else 1
         image[..., :colour] = srgb_decode(image[..., :colour])

@@ -161,6 +161,7 @@ class PhysicsReport:
     def to_table(self) -> Any:
         """A :class:`rich.table.Table` of the checks (green: as claimed, red: contradiction)."""
         from rich.table import Table
+        from rich.text import Text
 
         table = Table(title=f"physics of {self.model}", title_justify="left")
         table.add_column("check")
@@ -176,7 +177,7 @@ class PhysicsReport:
             else:
                 style = "yellow"
             table.add_row(
-                r.name, f"[{style}]{r.verdict}[/]", f"{r.value:.3g}", f"{r.tolerance:.3g}", r.detail
+                r.name, Text(r.verdict, style), f"{r.value:.3g}", f"{r.tolerance:.3g}", r.detail
             )
         return table
 

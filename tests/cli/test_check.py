@@ -105,4 +105,5 @@ def test_a_contradicted_claim_exits_with_1(monkeypatch, wide_console):
 def test_bad_specs_exit_with_2_and_say_why(spec, message, wide_console):
     result = runner.invoke(app, ["check", spec])
     assert result.exit_code == 2
-    assert "error:" in result.stdout and message in result.stdout
+    assert "error:" in result.stderr and message in result.stderr
+    assert "error" not in result.stdout

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-from brdfkit.cli._app import app
+from brdfkit.cli._app import app, unwind_on_termination
 
 for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if not _module.name.startswith("_"):
@@ -19,6 +19,7 @@ for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
 
 def main() -> None:
     """Entry point of the ``brdfkit`` console script."""
+    unwind_on_termination()
     app()
 
 

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail
+from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._output import OutputFolder
 
 
 @app.command("atlas")
@@ -22,7 +23,7 @@ def atlas_command(
         None, "--envmap", help="Lat-long .hdr/.exr map; default: the bundled Poly Haven map."
     ),
     resolution: int = typer.Option(96, "--resolution", "-r", min=16, max=1024),
-    samples: int = typer.Option(32, "--samples", "-s", min=1),
+    samples: int = typer.Option(32, "--samples", "-s", min=1, max=4096),
     checks: bool = typer.Option(True, "--checks/--no-checks", help="Run the physics checks."),
 ) -> None:
     """Write an HTML atlas: every model's formula, spheres, lobes, albedo and physics checks."""
@@ -34,13 +35,14 @@ def atlas_command(
     from brdfkit.report import build_atlas
 
     if envmap is not None and not envmap.is_file():
-        fail(f"envmap must be an existing .hdr/.exr file; got {str(envmap)!r}")
+        fail(f"envmap must be an existing .hdr/.exr file; got {shown(envmap)!r}")
+    folder = OutputFolder(output, ("index.html",), inputs=(envmap, *map(Path, models)))
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         TextColumn("{task.completed}/{task.total}"),
         TimeElapsedColumn(),
-        console=console,
+        console=status,
         transient=True,
     ) as progress:
         task = progress.add_task("atlas", total=None)
@@ -48,16 +50,16 @@ def atlas_command(
         def step(title: str, done: int, total: int) -> None:
             progress.update(task, description=f"atlas: {title}", completed=done, total=total)
 
-        try:
-            path = build_atlas(
-                output / "index.html",
+        path = folder.write(
+            "index.html",
+            lambda page: build_atlas(
+                page,
                 models or None,
                 envmap,
                 resolution=resolution,
                 samples=samples,
                 run_checks=checks,
                 progress=step,
-            )
-        except (ValueError, FileNotFoundError) as error:
-            fail(str(error))
-    console.print(f"wrote {path}")
+            ),
+        )
+    console.print(f"wrote {shown(path)}")

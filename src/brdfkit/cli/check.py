@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 
 import typer
+from rich.text import Text
 
-from brdfkit.cli._app import app, console, fail
+from brdfkit.cli._app import CHECK_FAILED, app, console, status
 
 
 @app.command("check")
@@ -21,25 +22,22 @@ def check_command(
 
     Exits with 0 when every measurement agrees with what the model claims (a model may claim
     not to be reciprocal, as the original Phong model does), 1 when a check contradicts a
-    claim, and 2 on a bad spec.
+    claim, 2 on a bad spec and 3 on an internal error.
     """
     from brdfkit.brdf._spec import parse
     from brdfkit.properties import check
 
-    try:
-        brdf = parse(spec)
-    except ValueError as error:
-        fail(str(error))
-    with console.status("checking…") as status:
-        report = check(brdf, seed=seed, progress=lambda name: status.update(f"checking {name}…"))
+    brdf = parse(spec)
+    with status.status("checking…") as spinner:
+        report = check(brdf, seed=seed, progress=lambda name: spinner.update(f"checking {name}…"))
     if as_json:
         typer.echo(json.dumps(report.to_dict(), indent=2, ensure_ascii=False))
     else:
         console.print(report.to_table())
         if report.consistent:
-            console.print("[green]every measurement agrees with the model's claims[/]")
+            console.print(Text("every measurement agrees with the model's claims", "green"))
         else:
             names = ", ".join(r.name for r in report.contradictions)
-            console.print(f"[bold red]measurements contradict the model's claims:[/] {names}")
+            console.print(Text("measurements contradict the model's claims: ", "bold red") + names)
     if not report.consistent:
-        raise typer.Exit(1)
+        raise typer.Exit(CHECK_FAILED)

@@ -6,10 +6,13 @@ import json
 from pathlib import Path
 
 import typer
+from rich.text import Text
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._output import OutputFolder
 
 _READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
+_OUTPUTS = ("fit.json", "spheres.png")
 
 
 @app.command("fit")
@@ -36,7 +39,9 @@ def fit_command(
         0.5, "--loss-scale", help="Where the robust loss departs from least squares (relative)."
     ),
     mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
-    starts: int = typer.Option(4, "--starts", min=1, help="Restarts (the first is the spec)."),
+    starts: int = typer.Option(
+        4, "--starts", min=1, max=64, help="Restarts, at most 64 (the first is the spec)."
+    ),
     fix: list[str] = typer.Option([], "--fix", help="Parameter to hold fixed (repeatable)."),
     output: Path | None = typer.Option(
         None, "--output", "-o", help="Folder for fit.json and a measured-vs-fitted sphere image."
@@ -56,50 +61,52 @@ def fit_command(
     from brdfkit.fit import fit
 
     if not file.is_file():
-        fail(f"file {str(file)!r} does not exist")
+        fail(f"file {shown(file)!r} does not exist")
     reader = _READERS.get(file.suffix.lower())
     if reader is None:
-        fail(f"file must end in {', '.join(_READERS)}; got {file.name!r}")
-    try:
-        measured = getattr(measured_io, reader)(file)
-        with Progress(console=console, transient=True) as bar:
-            task = bar.add_task("fitting", total=1)
-            result = fit(
-                measured,
-                model,
-                objective=objective,
-                loss=loss,
-                loss_scale=loss_scale,
-                mode=mode,
-                starts=starts,
-                fixed=fix,
-                seed=seed,
-                progress=lambda done, total, text: bar.update(
-                    task, completed=done, total=total, description=f"fitting: {text}"
-                ),
-            )
-    except ValueError as error:
-        fail(str(error))
-    table = Table(title=f"{file.name}: {model} ({objective}, {loss}, {mode})")
+        fail(f"file must end in {', '.join(_READERS)}; got {shown(file.name)!r}")
+    folder = None
+    if output is not None:
+        folder = OutputFolder(output, _OUTPUTS, inputs=(file,))
+    measured = getattr(measured_io, reader)(file)
+    clamped = getattr(measured, "clamped", 0)
+    if clamped:
+        status.print(f"note: {clamped} negative 'no data' entries of {shown(file.name)} read as 0")
+    with Progress(console=status, transient=True) as bar:
+        task = bar.add_task("fitting", total=1)
+        result = fit(
+            measured,
+            model,
+            objective=objective,
+            loss=loss,
+            loss_scale=loss_scale,
+            mode=mode,
+            starts=starts,
+            fixed=fix,
+            seed=seed,
+            progress=lambda done, total, text: bar.update(
+                task, completed=done, total=total, description=f"fitting: {text}"
+            ),
+        )
+    table = Table(title=f"{shown(file.name)}: {model} ({objective}, {loss}, {mode})")
     table.add_column("parameter")
     table.add_column("value", justify="right")
     for name, value in result.params.items():
-        shown = ", ".join(f"{v:.4g}" for v in np.atleast_1d(value))
-        table.add_row(name, shown)
+        table.add_row(name, ", ".join(f"{v:.4g}" for v in np.atleast_1d(value)))
     for name, value in result.errors.items():
-        table.add_row(f"[dim]error[/] {name}", f"{value:.4g}")
+        table.add_row(Text("error ", style="dim") + Text(name), f"{value:.4g}")
     console.print(table)
     console.print(f"spec: {result.spec}")
     console.print(
         f"{result.samples} samples, {result.nfev} evaluations, {result.seconds:.1f} s, "
         f"{'converged' if result.success else 'not converged'}"
     )
-    if output is not None:
-        _write_outputs(output, measured, result, resolution, envmap)
-        console.print(f"wrote {output}")
+    if folder is not None:
+        _write_outputs(folder, measured, result, resolution, envmap)
+        console.print(f"wrote {shown(output)}/")
 
 
-def _write_outputs(output: Path, measured, result, resolution: int, envmap: bool) -> None:
+def _write_outputs(folder: OutputFolder, measured, result, resolution: int, envmap: bool) -> None:
     """``fit.json`` and ``spheres.png`` (measured | fitted, exposed alike; a second row under the
     environment map), with the spheres' CIEDE2000 difference printed and in the JSON."""
     import numpy as np
@@ -121,7 +128,6 @@ def _write_outputs(output: Path, measured, result, resolution: int, envmap: bool
             f"spheres under the {name} light: CIEDE2000 mean {difference.mean:.1f}, "
             f"median {difference.median:.1f}, 95th percentile {difference.p95:.1f}"
         )
-    with atomic_output(output) as folder:
-        folder.mkdir()
-        (folder / "fit.json").write_text(json.dumps(summary, indent=2))
-        write_image(folder / "spheres.png", np.concatenate(rows, axis=0))
+    text = json.dumps(summary, indent=2, allow_nan=False) + "\n"
+    folder.write("fit.json", lambda path: path.write_text(text, encoding="utf-8"))
+    folder.write("spheres.png", lambda path: write_image(path, np.concatenate(rows, axis=0)))

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._output import output_file
 
 
 @app.command("hdr")
@@ -18,17 +19,31 @@ def hdr_command(
         None, "--response", help="Also write the recovered ln f⁻¹ per code (CSV, 256 rows)."
     ),
     smoothness: float = typer.Option(50.0, "--smoothness", min=0.0, help="Smoothness λ."),
-    samples: int = typer.Option(200, "--samples", min=2, help="Pixels sampled for the fit."),
+    samples: int = typer.Option(
+        200, "--samples", min=2, max=100_000, help="Pixels sampled for the fit (at most 100000)."
+    ),
+    fallback_mask: Path | None = typer.Option(
+        None,
+        "--fallback-mask",
+        help="Also write a PNG mask of the pixels no exposure showed well (white), whose "
+        "radiance comes from the nearest exposure (a bound, not a measurement).",
+    ),
 ) -> None:
     """Recover the camera response (Debevec & Malik 1997) and merge the stack to radiance."""
-    import cv2
     import numpy as np
 
-    from brdfkit.io import write_image
+    from brdfkit._array import check_param
+    from brdfkit.io import atomic_write, read_image_codes, write_image
     from brdfkit.vision.calibration import merge_hdr, recover_response
 
-    if output.suffix.lower() not in (".exr", ".hdr"):
-        fail(f"--output must be .exr or .hdr (linear radiance); got {output.name!r}")
+    output = output_file(output, inputs=images, suffixes=(".exr", ".hdr"))
+    if response is not None:
+        response = output_file(response, inputs=images, option="--response", suffixes=(".csv",))
+    if fallback_mask is not None:
+        fallback_mask = output_file(
+            fallback_mask, inputs=images, option="--fallback-mask", suffixes=(".png",)
+        )
+    check_param("--smoothness", smoothness, 0.0)
     try:
         exposure_times = [float(v) for v in times.split(",")]
     except ValueError:
@@ -38,23 +53,30 @@ def hdr_command(
     stack = []
     for path in images:
         if path.suffix.lower() in (".hdr", ".exr"):
-            fail(f"{path} is already linear radiance: an exposure stack is 8-bit photos")
-        codes = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-        if codes is None:
-            fail(f"cannot read image {path}")
+            fail(f"{shown(path)} is already linear radiance: an exposure stack is 8-bit photos")
+        codes = read_image_codes(path)
         if codes.dtype != np.uint8:
-            fail(f"{path} has {codes.dtype} samples; the stack must be 8-bit images")
-        codes = codes[..., None] if codes.ndim == 2 else codes[..., 2::-1]
+            fail(f"{shown(path)} has {codes.dtype} samples; the stack must be 8-bit images")
+        codes = codes[..., :3] if codes.shape[-1] >= 3 else codes[..., :1]
         if stack and codes.shape != stack[0].shape:
-            fail(f"{path} is {codes.shape}, {images[0]} is {stack[0].shape}: sizes must match")
+            fail(
+                f"{shown(path)} is {codes.shape}, {shown(images[0])} is {stack[0].shape}: "
+                "sizes must match"
+            )
         stack.append(codes)
-    try:
-        g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
-        radiance = merge_hdr(stack, exposure_times, g)
-    except ValueError as error:
-        fail(str(error))
+    g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
+    radiance, fell_back = merge_hdr(stack, exposure_times, g, return_mask=True)
     write_image(output, radiance)  # atomic
     if response is not None:
-        with atomic_output(response) as tmp:
-            np.savetxt(tmp, g, delimiter=",", header="ln f^-1 per code (rows 0..255), per channel")
-    console.print(f"wrote {output} ({radiance.shape[1]}×{radiance.shape[0]})")
+        header = "ln f^-1 per code (rows 0..255), per channel"
+        atomic_write(response, lambda tmp: np.savetxt(tmp, g, delimiter=",", header=header))
+    if fallback_mask is not None:
+        write_image(fallback_mask, fell_back.astype(np.float32), srgb=False)
+    count = int(fell_back.sum())
+    note = ""
+    if count:
+        note = (
+            f"; {count} pixel(s) ({100 * count / fell_back.size:.2g} %) had no well-exposed "
+            "sample and took the nearest exposure"
+        )
+    console.print(f"wrote {shown(output)} ({radiance.shape[1]}×{radiance.shape[0]}){note}")

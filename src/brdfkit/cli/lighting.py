@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._output import output_file
 
 METHODS = ("sh", "directional", "mirror-ball")
 
@@ -29,15 +30,17 @@ def lighting_command(
     output: Path = typer.Option(
         Path("lighting.json"), "--output", "-o", help="JSON (sh, directional) or .exr/.hdr map."
     ),
-    height: int = typer.Option(256, "--height", min=2, help="Lat-long map height (mirror-ball)."),
+    height: int = typer.Option(
+        256, "--height", min=2, max=4096, help="Lat-long map height (mirror-ball; at most 4096)."
+    ),
 ) -> None:
     """Estimate the illumination from an image of a known Lambertian object or a mirror ball."""
     import json
 
-    import numpy as np
-
-    from brdfkit.io import read_image, write_image
+    from brdfkit._array import check_param
+    from brdfkit.io import atomic_write, read_image, write_image
     from brdfkit.vision.calibration import read_linear_image
+    from brdfkit.vision.datasets import read_normal_map
     from brdfkit.vision.lighting import (
         estimate_directional_light,
         estimate_sh_lighting,
@@ -47,19 +50,17 @@ def lighting_command(
 
     if method not in METHODS:
         fail(f"--method must be one of {', '.join(METHODS)}; got {method!r}")
-    try:
-        picture = read_linear_image(image, encoding)
-        m = None if mask is None else read_image(mask)[..., 0] > 0.5
-    except ValueError as error:
-        fail(str(error))
+    suffixes = (".exr", ".hdr") if method == "mirror-ball" else (".json",)
+    output = output_file(output, inputs=(image, mask, normals), suffixes=suffixes)
+    check_param("--albedo", albedo, 0.0, lo_open=True)
+    picture = read_linear_image(image, encoding)
+    m = None if mask is None else read_image(mask)[..., 0] > 0.5
     if m is not None and m.shape != picture.shape[:2]:
         fail(f"--mask has shape {m.shape}, the image {picture.shape[:2]}: they must match")
     if method == "mirror-ball":
-        if output.suffix.lower() not in (".exr", ".hdr"):
-            fail(f"--output must be .exr or .hdr for a lat-long map; got {output.name!r}")
         latlong = mirror_ball_to_latlong(picture[..., :3], m, height=height, width=2 * height)
         write_image(output, latlong)  # atomic
-        console.print(f"wrote {output} ({2 * height}×{height} lat-long map)")
+        console.print(f"wrote {shown(output)} ({2 * height}×{height} lat-long map)")
         return
     if sphere:
         if m is None:
@@ -67,25 +68,22 @@ def lighting_command(
         c_x, c_y, radius = fit_circle(m)
         n, _ = sphere_normals(m.shape, (c_x, c_y), radius)
     elif normals is not None:
-        n = np.load(normals) if normals.suffix == ".npy" else read_image(normals)[..., :3] * 2 - 1
+        n = read_normal_map(normals)
     else:
         fail(f"--method {method} needs the object's normals: give --normals or --sphere")
     if n.shape != (*picture.shape[:2], 3):
         fail(f"normals have shape {n.shape}; expected {(*picture.shape[:2], 3)} like the image")
-    try:
-        if method == "sh":
-            coeffs = estimate_sh_lighting(picture, n, m, albedo)
-            record = {"method": "sh", "order": 2, "coefficients": coeffs.tolist()}
-        else:
-            estimate = estimate_directional_light(picture, n, m, albedo)
-            record = {
-                "method": "directional",
-                "direction": estimate.direction.tolist(),
-                "irradiance": estimate.irradiance.tolist(),
-                "relative_rms": estimate.rms,
-            }
-    except ValueError as error:
-        fail(str(error))
-    with atomic_output(output) as tmp:
-        tmp.write_text(json.dumps(record, indent=2) + "\n")
-    console.print(f"wrote {output} ({method} lighting)")
+    if method == "sh":
+        coeffs = estimate_sh_lighting(picture, n, m, albedo)
+        record = {"method": "sh", "order": 2, "coefficients": coeffs.tolist()}
+    else:
+        estimate = estimate_directional_light(picture, n, m, albedo)
+        record = {
+            "method": "directional",
+            "direction": estimate.direction.tolist(),
+            "irradiance": estimate.irradiance.tolist(),
+            "relative_rms": estimate.rms,
+        }
+    text = json.dumps(record, indent=2, allow_nan=False) + "\n"
+    atomic_write(output, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    console.print(f"wrote {shown(output)} ({method} lighting)")

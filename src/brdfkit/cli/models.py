@@ -8,13 +8,14 @@ import re
 from typing import Any
 
 import typer
+from rich.text import Text
 
 from brdfkit.cli._app import app, console
 
 _CLAIMS = ("reciprocal", "energy_conserving", "isotropic", "has_delta", "transmits")
 _ROLE = re.compile(r":\w+:`([^`]*)`")
 """A reStructuredText role such as :math:`x` (shown as its content)."""
-_MARKS = {True: "[green]yes[/]", False: "[dim]no[/]", None: "?"}
+_MARKS = {True: Text("yes", "green"), False: Text("no", "dim"), None: Text("?")}
 _HEADERS = {
     "reciprocal": "recip-\nrocal",
     "energy_conserving": "energy\nconserv.",
@@ -98,4 +99,6 @@ def models_command(
         table.add_row(record["name"], params, *marks, *([record["summary"]] if wide else []))
     console.print(table)
     if not wide:
-        console.print(f"[dim](a terminal {_WIDE} columns wide shows each model's summary too)[/]")
+        console.print(
+            Text(f"(a terminal {_WIDE} columns wide shows each model's summary too)", "dim")
+        )

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail
+from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._output import light_files, output_file
 
 KINDS = ("lobe", "lobe3d", "half-diff", "albedo", "spheres")
 
@@ -24,7 +25,7 @@ def plot_command(
     ),
     log: bool = typer.Option(False, "--log", help="Logarithmic lobe radius."),
     light: str = typer.Option("envmap", "--light", "-l", help="Light spec for spheres."),
-    resolution: int = typer.Option(128, "--resolution", "-r", min=16),
+    resolution: int = typer.Option(128, "--resolution", "-r", min=16, max=1024),
 ) -> None:
     """Draw a BRDF the way people look at one."""
     import matplotlib
@@ -36,13 +37,13 @@ def plot_command(
 
     if kind not in KINDS:
         fail(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
-    if output.suffix.lower() not in (".png", ".svg", ".pdf"):
-        fail(f"output must end in .png, .svg or .pdf; got {output.name!r}")
-    try:
-        brdfs = [examples[0] for _, examples in default_cards(models)]
-        lights = parse_light(light) if kind == "spheres" else None
-    except (ValueError, FileNotFoundError) as error:
-        fail(str(error))
+    output = output_file(
+        output,
+        inputs=(*map(Path, models), *light_files([light])),
+        suffixes=(".png", ".svg", ".pdf"),
+    )
+    brdfs = [examples[0] for _, examples in default_cards(models)]
+    lights = parse_light(light) if kind == "spheres" else None
     thetas = [math.radians(t) for t in theta_i]
     if kind == "lobe":
         fig = plot.lobe_plot(brdfs[0], thetas, log=log)
@@ -55,4 +56,4 @@ def plot_command(
     else:
         fig = plot.sphere_gallery(brdfs, lights, labels=models, resolution=resolution)
     plot.save(fig, output)
-    console.print(f"wrote {output}")
+    console.print(f"wrote {shown(output)}")

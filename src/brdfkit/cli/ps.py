@@ -7,7 +7,8 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._output import OutputFolder
 
 if TYPE_CHECKING:
     import numpy as np
@@ -15,6 +16,10 @@ if TYPE_CHECKING:
 
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
+_OUTPUTS = (
+    "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
+    "mesh.ply", "angular_error.npy", "angular_error.png",
+)  # fmt: skip
 
 
 def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
@@ -41,7 +46,9 @@ def ps_command(
     camera: Path | None = typer.Option(
         None, "--camera", help="K.txt (3x3 intrinsics): perspective integration (least_squares)."
     ),
-    step: int = typer.Option(1, "--step", min=1, help="Keep every step-th row and column."),
+    step: int = typer.Option(
+        1, "--step", min=1, max=64, help="Keep every step-th row and column (at most 64)."
+    ),
     output: Path = typer.Option(Path("ps"), "--output", "-o", help="Output folder."),
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
@@ -63,39 +70,33 @@ def ps_command(
     _choice(integration, _INTEGRATORS, "--integration")
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
-    try:
-        with Progress(console=console, transient=True) as bar:
-            task = bar.add_task("reading images", total=None)
+    folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
+    with Progress(console=status, transient=True) as bar:
+        task = bar.add_task("reading images", total=None)
 
-            def advance(done: int, total: int) -> None:
-                bar.update(task, completed=done, total=total)
+        def advance(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
 
-            lights = None
-            if chrome is not None:
-                sphere = datasets.load_psm(chrome, step=step, callback=advance)
-                lights = photometric_stereo.calibrate_lights_chrome_sphere(
-                    sphere.images, sphere.mask
-                )
-            data = datasets.load_dataset(dataset, step=step, callback=advance)
-            if lights is not None:
-                if lights.shape != data.light_directions.shape:
-                    fail(f"--chrome gave {len(lights)} lights, {dataset} has {len(data.images)}")
-                data = datasets.PhotometricStereoData(
-                    data.images, lights, data.mask, data.normals, data.light_intensities, data.name
-                )
-            bar.update(task, description=f"{method}", completed=0, total=None)
-            solver = photometric_stereo.METHODS[method]
-            extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
-            result = solver(data.images, data.light_directions, data.mask, **extra)
-            bar.update(task, description=f"integrating ({integration})", total=None)
-            intrinsics = None
-            if camera is not None:
-                intrinsics = np.loadtxt(camera, ndmin=2) * np.array([[1 / step], [1 / step], [1]])
-            integrator = integrate.METHODS[integration]
-            perspective = () if intrinsics is None else (intrinsics,)
-            depth = integrator(result.normals, data.mask, *perspective)
-    except (ValueError, OSError) as error:
-        fail(str(error))
+        lights = None
+        if chrome is not None:
+            sphere = datasets.load_psm(chrome, step=step, callback=advance)
+            lights = photometric_stereo.calibrate_lights_chrome_sphere(sphere.images, sphere.mask)
+        data = datasets.load_dataset(dataset, step=step, callback=advance)
+        if lights is not None:
+            if lights.shape != data.light_directions.shape:
+                fail(f"--chrome gave {len(lights)} lights, {dataset} has {len(data.images)}")
+            data = datasets.PhotometricStereoData(
+                data.images, lights, data.mask, data.normals, data.light_intensities, data.name
+            )
+        bar.update(task, description=f"{method}", completed=0, total=None)
+        solver = photometric_stereo.METHODS[method]
+        extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
+        result = solver(data.images, data.light_directions, data.mask, **extra)
+        bar.update(task, description=f"integrating ({integration})", total=None)
+        intrinsics = None if camera is None else _intrinsics(camera, step)
+        integrator = integrate.METHODS[integration]
+        perspective = () if intrinsics is None else (intrinsics,)
+        depth = integrator(result.normals, data.mask, *perspective)
     mesh = _mesh(depth, data.mask, intrinsics)
     table = Table(title=f"{data.name}: {method}, {len(data.images)} lights")
     table.add_column("measure")
@@ -110,22 +111,36 @@ def ps_command(
         truth_depth = integrator(data.normals, data.mask, *perspective)
         relative = depth_error(depth, truth_depth, data.mask)["relative_rmse"]
         table.add_row("depth RMSE vs GT-normal depth", f"{100 * relative:.2f} % of range")
-    with atomic_output(output) as folder:
-        folder.mkdir()
-        datasets.write_normal_map(folder / "normals.png", result.normals)
-        np.save(folder / "normals.npy", result.normals)
-        np.save(folder / "albedo.npy", result.albedo)
-        scale = np.percentile(result.albedo[data.mask], 99) or 1.0
-        write_image(folder / "albedo.png", (result.albedo / scale).clip(0, 1).astype(np.float32))
-        np.save(folder / "depth.npy", depth)
-        np.savetxt(folder / "lights.txt", data.light_directions, fmt="%.8f")
-        mesh.export(folder / "mesh.ply")
-        if errors is not None:
-            np.save(folder / "angular_error.npy", error_map)
-            shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
-            write_image(folder / "angular_error.png", shown, srgb=False)
+    scale = np.percentile(result.albedo[data.mask], 99) or 1.0
+    albedo_shown = (result.albedo / scale).clip(0, 1).astype(np.float32)
+    folder.write("normals.png", lambda path: datasets.write_normal_map(path, result.normals))
+    folder.write("normals.npy", lambda path: np.save(path, result.normals))
+    folder.write("albedo.npy", lambda path: np.save(path, result.albedo))
+    folder.write("albedo.png", lambda path: write_image(path, albedo_shown))
+    folder.write("depth.npy", lambda path: np.save(path, depth))
+    folder.write("lights.txt", lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"))
+    folder.write("mesh.ply", lambda path: mesh.export(path, file_type="ply"))
+    if errors is not None:
+        error_shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
+        folder.write("angular_error.npy", lambda path: np.save(path, error_map))
+        folder.write("angular_error.png", lambda path: write_image(path, error_shown, srgb=False))
     console.print(table)
-    console.print(f"wrote {output}/")
+    console.print(f"wrote {shown(output)}/")
+
+
+def _intrinsics(path: Path, step: int) -> np.ndarray:
+    """The 3×3 camera matrix in ``path`` (K.txt), scaled to every ``step``-th pixel."""
+    import numpy as np
+
+    from brdfkit.errors import FormatError
+
+    try:
+        matrix = np.loadtxt(path, ndmin=2, encoding="utf-8")
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise FormatError(path, f"not a 3×3 matrix of numbers ({error})") from None
+    if matrix.shape != (3, 3) or not np.isfinite(matrix).all() or matrix[2, 2] == 0:
+        raise FormatError(path, f"expected a finite 3×3 camera matrix; got shape {matrix.shape}")
+    return matrix * np.array([[1 / step], [1 / step], [1]])
 
 
 def _mesh(depth: np.ndarray, mask: np.ndarray, camera: np.ndarray | None) -> trimesh.Trimesh:

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail
+from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._output import light_files, output_file
 
 
 @app.command("render")
@@ -34,7 +35,12 @@ def render_command(
         256, "--resolution", "-r", min=8, max=8192, help="Image size in pixels."
     ),
     samples: int = typer.Option(
-        64, "--samples", "-s", min=1, help="Monte Carlo samples per pixel and strategy."
+        64,
+        "--samples",
+        "-s",
+        min=1,
+        max=65536,
+        help="Monte Carlo samples per pixel and strategy (at most 65536).",
     ),
     exposure: float = typer.Option(0.0, "--exposure", help="Exposure in stops for PNG output."),
     mask: Path | None = typer.Option(None, "--mask", help="Mask image for a normal-map input."),
@@ -43,33 +49,35 @@ def render_command(
     import numpy as np
     from rich.progress import Progress
 
+    from brdfkit._array import check_param
     from brdfkit.brdf import parse
     from brdfkit.io import read_image, write_image
     from brdfkit.lights import parse_light
     from brdfkit.render import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer, shade
+    from brdfkit.vision.datasets import read_normal_map
 
-    try:
-        model = parse(brdf)
-        lights = [parse_light(spec) for spec in light]
-    except ValueError as error:
-        fail(str(error))
+    output = output_file(
+        output,
+        inputs=(_shape_file(shape), mask, *light_files(light)),
+        suffixes=(".png", ".hdr", ".exr"),
+    )
+    check_param("--exposure", exposure, -64.0, 64.0)
+    model = parse(brdf)
+    lights = [parse_light(spec) for spec in light]
     shapes = {"sphere": Sphere(), "plane": Plane(), "cylinder": Cylinder()}
     if shape in shapes:
         g = gbuffer(shapes[shape], None, resolution)
     else:
-        path = Path(shape)
-        if not path.is_file():
-            fail(f"shape must be one of {sorted(shapes)} or a normal-map file; got {shape!r}")
-        try:
-            normals = np.load(path) if path.suffix == ".npy" else read_image(path)[..., :3] * 2 - 1
-            m = None if mask is None else read_image(mask)[..., 0] > 0.5
-            g = normal_map_gbuffer(normals, m)
-        except ValueError as error:
-            fail(str(error))
-    if output.suffix.lower() not in (".png", ".hdr", ".exr"):
-        fail(f"output must end in .png, .hdr or .exr; got {output.name!r}")
+        path = _shape_file(shape)
+        if path is None:
+            fail(
+                f"shape must be one of {sorted(shapes)} or a normal-map file; got {shown(shape)!r}"
+            )
+        normals = read_normal_map(path)
+        m = None if mask is None else read_image(mask)[..., 0] > 0.5
+        g = normal_map_gbuffer(normals, m)
     height = g.shape[0]
-    with Progress(console=console, transient=True) as progress:
+    with Progress(console=status, transient=True) as progress:
         task = progress.add_task(f"rendering {g.shape[1]}×{height}", total=height)
         image = shade(
             g,
@@ -84,4 +92,10 @@ def render_command(
     write_image(
         output, image.astype(np.float32), exposure=exposure if output.suffix == ".png" else 0.0
     )
-    console.print(f"wrote {output} ({g.shape[1]}×{height}, {model.to_spec()})")
+    console.print(f"wrote {shown(output)} ({g.shape[1]}×{height}, {model.to_spec()})")
+
+
+def _shape_file(shape: str) -> Path | None:
+    """The normal-map file that ``shape`` names, or ``None`` for a built-in shape."""
+    path = Path(shape)
+    return path if path.is_file() else None

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._output import OutputFolder
 
 
 @app.command("separate")
@@ -36,19 +37,26 @@ def separate_command(
     from brdfkit.vision.calibration import read_linear_image
     from brdfkit.vision.separation import separate_dichromatic, separate_polarization
 
+    folder = OutputFolder(output, ("diffuse.exr", "specular.exr"), inputs=(image, crossed))
+    picture = read_linear_image(image, encoding)
+    if crossed is not None:
+        result = separate_polarization(picture, read_linear_image(crossed, encoding))
+        method = "polarisation"
+    else:
+        gamma = None if illuminant is None else _colour(illuminant)
+        result = separate_dichromatic(picture, gamma)
+        method = "dichromatic"
+    folder.write("diffuse.exr", lambda path: write_image(path, result.diffuse.astype(np.float32)))
+    folder.write("specular.exr", lambda path: write_image(path, result.specular.astype(np.float32)))
+    console.print(f"wrote {shown(output)}/ (diffuse.exr, specular.exr; {method})")
+
+
+def _colour(text: str) -> list[float]:
+    """The light colour R,G,B of ``--illuminant``."""
     try:
-        picture = read_linear_image(image, encoding)
-        if crossed is not None:
-            result = separate_polarization(picture, read_linear_image(crossed, encoding))
-            method = "polarisation"
-        else:
-            gamma = None if illuminant is None else [float(v) for v in illuminant.split(",")]
-            result = separate_dichromatic(picture, gamma)
-            method = "dichromatic"
-    except ValueError as error:
-        fail(str(error))
-    with atomic_output(output) as folder:
-        folder.mkdir()
-        write_image(folder / "diffuse.exr", result.diffuse.astype(np.float32))
-        write_image(folder / "specular.exr", result.specular.astype(np.float32))
-    console.print(f"wrote {output}/ (diffuse.exr, specular.exr; {method})")
+        colour = [float(v) for v in text.split(",")]
+    except ValueError:
+        colour = []
+    if len(colour) != 3:
+        fail(f"--illuminant must be three numbers R,G,B; got {text!r}")
+    return colour

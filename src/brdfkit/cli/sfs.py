@@ -6,7 +6,10 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, atomic_output, console, fail
+from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._output import OutputFolder
+
+_OUTPUTS = ("depth.npy", "normals.npy", "normals.png")
 
 
 @app.command("sfs")
@@ -17,7 +20,9 @@ def sfs_command(
     encoding: str | None = typer.Option(
         None, "--encoding", help="How an 8/16-bit input is encoded: srgb or linear."
     ),
-    step: int = typer.Option(1, "--step", min=1, help="Average step × step pixel blocks first."),
+    step: int = typer.Option(
+        1, "--step", min=1, max=64, help="Average step × step pixel blocks first (at most 64)."
+    ),
     smoothness: float = typer.Option(1e-4, "--smoothness", min=0.0, help="Smoothness weight λ."),
     output: Path = typer.Option(
         Path("sfs"), "--output", "-o", help="Folder for depth.npy, normals.npy and normals.png."
@@ -34,11 +39,9 @@ def sfs_command(
         direction = np.array([float(v) for v in light.split(",")])
     except ValueError:
         fail(f"--light must be three numbers X,Y,Z; got {light!r}")
-    try:
-        picture = read_linear_image(image, encoding).mean(axis=-1)
-        m = np.ones(picture.shape, bool) if mask is None else read_image(mask)[..., 0] > 0.5
-    except ValueError as error:
-        fail(str(error))
+    folder = OutputFolder(output, _OUTPUTS, inputs=(image, mask))
+    picture = read_linear_image(image, encoding).mean(axis=-1)
+    m = np.ones(picture.shape, bool) if mask is None else read_image(mask)[..., 0] > 0.5
     if m.shape != picture.shape:
         fail(f"--mask has shape {m.shape}, the image {picture.shape}: they must match")
     h, w = (picture.shape[0] // step) * step, (picture.shape[1] // step) * step
@@ -46,16 +49,12 @@ def sfs_command(
         fail(f"--step {step} is larger than the image ({picture.shape[1]}×{picture.shape[0]})")
     picture = picture[:h, :w].reshape(h // step, step, w // step, step).mean(axis=(1, 3))
     m = m[:h, :w].reshape(h // step, step, w // step, step).all(axis=(1, 3))
-    try:
-        result = shape_from_shading(picture, direction, m, smoothness=smoothness)
-    except ValueError as error:
-        fail(str(error))
-    with atomic_output(output) as folder:
-        folder.mkdir()
-        np.save(folder / "depth.npy", result.depth)
-        np.save(folder / "normals.npy", result.normals)
-        write_image(folder / "normals.png", (result.normals + 1) / 2 * m[..., None], srgb=False)
+    result = shape_from_shading(picture, direction, m, smoothness=smoothness)
+    shown_normals = (result.normals + 1) / 2 * m[..., None]
+    folder.write("depth.npy", lambda path: np.save(path, result.depth))
+    folder.write("normals.npy", lambda path: np.save(path, result.normals))
+    folder.write("normals.png", lambda path: write_image(path, shown_normals, srgb=False))
     console.print(
-        f"wrote {output}/ (depth, normals; {result.iterations} iterations, "
+        f"wrote {shown(output)}/ (depth, normals; {result.iterations} iterations, "
         f"relative brightness RMS {result.rms:.4f})"
     )
