@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from brdfkit.errors import FormatError
 from brdfkit.measured import read_cornell, read_cornell_samples, spectrum_to_rgb_matrix
 
 
@@ -70,3 +71,69 @@ def test_bad_files(tmp_path, text, message):
     with pytest.raises(ValueError, match=message) as info:
         read_cornell_samples(path)
     assert "bad.brdf" in str(info.value)
+
+
+WAVELENGTHS = " ".join(str(w) for w in range(400, 701, 10))
+
+
+def _cornell(rows: list[str], count: str = "31", wavelengths: str = WAVELENGTHS) -> str:
+    return f"# num wls\n{count}\n# wls\n{wavelengths}\n# rows\n" + "".join(r + "\n" for r in rows)
+
+
+def _row(theta_i: float, phi_i: float, theta_s: float, phi_s: float, value: str = "0.1") -> str:
+    return f"{theta_i} {phi_i} {theta_s} {phi_s} " + " ".join([value] * 31)
+
+
+ROWS = [_row(0.1 * k, 0.3 * k, 0.5 - 0.05 * k, -0.2 * k) for k in range(8)]
+
+
+@pytest.mark.parametrize(
+    ("text", "message", "line"),
+    [
+        (_cornell(ROWS, "inf"), "'inf' is not a finite number", 2),
+        (_cornell(ROWS, "3", "500 600 700"), "at least 6 within", 4),
+        (_cornell(ROWS, "31", WAVELENGTHS.replace("450", "450.5")), "whole nanometres", 4),
+        (_cornell(ROWS, "31", WAVELENGTHS.replace("450", "nan")), "'nan' is not a finite", 4),
+        (_cornell([*ROWS[:3], ROWS[3].replace("0.1", "nan", 1)]), "not a finite number", 9),
+        (_cornell([*ROWS[:2], ROWS[2] + " 1e999"]), "'1e999' is not a finite number", 8),
+        (_cornell([*ROWS[:4], _row(0.1, 0, 0.2, 0, "-0.5")]), "negative", 10),
+        (_cornell([*ROWS[:4], _row(0.1, 0, 0.2, 0, "1.797e308")]), "too large", 10),
+        (_cornell(ROWS)[:-40], "rows of 4 angles", 13),
+        (_cornell([*ROWS[:2], ROWS[2].rsplit(" ", 1)[0], *ROWS[3:]]), "rows of 4 angles", 8),
+    ],
+)
+def test_bad_values_raise_naming_file_and_line(tmp_path, text, message, line):
+    path = tmp_path / "bad.brdf"
+    path.write_text(text)
+    with pytest.raises(FormatError, match=message) as info:
+        read_cornell_samples(path)
+    assert info.value.offset == line and f"line {line})" in str(info.value)
+    assert str(info.value).startswith(str(path))
+
+
+def test_non_utf8_raises_naming_the_line(tmp_path):
+    path = tmp_path / "bad.brdf"
+    path.write_bytes(_cornell(ROWS).encode().replace(b"0.3", b"0\xff3", 1))
+    with pytest.raises(FormatError, match="not UTF-8") as info:
+        read_cornell_samples(path)
+    assert "bad.brdf (line 7)" in str(info.value)
+
+
+def test_too_few_rows_above_the_surface(tmp_path):
+    path = tmp_path / "below.brdf"
+    path.write_text(_cornell([_row(2.0, 0, 0.2, 0)] * 5 + ROWS[:3]))
+    with pytest.raises(FormatError, match="3 rows have both directions above"):
+        read_cornell(path)
+
+
+def test_samples_spanning_no_volume_resample_by_nearest(tmp_path):
+    path = tmp_path / "flat.brdf"  # θi = θs, φi = φs: every sample has θd = 0
+    path.write_text(_cornell([_row(0.1 * k, 0, 0.1 * k, 0, str(0.1 * k)) for k in range(1, 9)]))
+    table = read_cornell(path, (8, 8, 8))
+    f = table.eval(_directions(200, 1), _directions(200, 2))
+    assert np.all(np.isfinite(f)) and np.all(f >= 0)
+
+
+def _directions(n: int, seed: int) -> np.ndarray:
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
