@@ -211,3 +211,14 @@ def test_read_normal_map_npy_and_png(tmp_path):
             datasets.read_normal_map(tmp_path / f"{name}.npy")
     with pytest.raises(ParameterError, match="normals"):
         datasets.write_normal_map(tmp_path / "x.png", bad)
+
+
+def test_light_directions_with_extreme_components_are_normalised(tmp_path):
+    # Found by fuzzing: a component of 1e308 overflowed the length, giving a zero direction.
+    folder = _saved(tmp_path)
+    rows = datasets.diligent_like_lights(3, 2, np.radians(30))
+    rows[0] *= 1e308 / np.abs(rows[0]).max()
+    rows[1] *= 1e-320 / np.abs(rows[1]).max()
+    np.savetxt(folder / "light_directions.txt", rows)
+    lights = datasets.load_diligent(folder).light_directions
+    np.testing.assert_allclose(np.linalg.norm(lights, axis=1), 1.0)

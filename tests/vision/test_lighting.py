@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lambertian
+from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.geometry import reflect
 from brdfkit.io import read_image
 from brdfkit.lights import DirectionalLight, EnvironmentMap
@@ -145,3 +146,44 @@ def test_bad_input_is_named():
         estimate_directional_light(np.ones((8, 8, 3)), g.normals, few)
     with pytest.raises(ValueError, match="mask"):
         mirror_ball_to_latlong(np.ones((8, 8, 3)), np.ones((4, 4), dtype=bool))
+
+
+@pytest.mark.parametrize("albedo", [np.nan, np.inf, 0.0, [0.5, np.nan, 0.5], "x"])
+def test_albedo_must_be_finite_and_positive(albedo):
+    # Regression: albedo=nan was accepted and the coefficients came out NaN.
+    g = gbuffer(Sphere(), None, 8)
+    image = np.ones((8, 8, 3))
+    with pytest.raises(ParameterError, match="albedo"):
+        estimate_sh_lighting(image, g.normals, g.mask, albedo=albedo)
+    with pytest.raises(ParameterError, match="albedo"):
+        estimate_directional_light(image, g.normals, g.mask, albedo=albedo)
+
+
+def test_non_finite_images_and_normals_and_sizes_are_named():
+    g = gbuffer(Sphere(), None, 8)
+    normals = np.array(g.normals, dtype=np.float64)
+    normals[0, 0, 0] = np.nan
+    image = np.ones((8, 8, 3))
+    for function in (estimate_sh_lighting, estimate_directional_light):
+        with pytest.raises(ParameterError, match="normals"):
+            function(image, normals)
+        with pytest.raises(ParameterError, match="image"):
+            function(np.full((8, 8, 3), np.inf), g.normals)
+    with pytest.raises(ResourceError, match="iterations"):
+        estimate_directional_light(image, g.normals, iterations=10**9)
+    with pytest.raises(ParameterError, match="photo"):
+        mirror_ball_to_latlong(np.full((8, 8, 3), np.nan))
+    with pytest.raises(ResourceError, match="height"):
+        mirror_ball_to_latlong(image, height=10**6)
+    with pytest.raises(ResourceError, match="width"):
+        mirror_ball_to_latlong(image, width=10**6)
+    with pytest.raises(ParameterError, match="height"):
+        mirror_ball_to_latlong(image, height=0)
+
+
+def test_a_lat_long_map_that_would_not_fit_in_memory_is_refused(monkeypatch):
+    from brdfkit.vision import _checks
+
+    monkeypatch.setattr(_checks, "available_memory", lambda: 2**20)
+    with pytest.raises(ResourceError, match="GiB"):
+        mirror_ball_to_latlong(np.ones((8, 8, 3)), height=256, width=512)

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import os
 import struct
+import tokenize
 import zipfile
 import zlib
 from collections.abc import Callable
@@ -200,9 +201,13 @@ def _read_npy(path: Path) -> np.ndarray:
     than the file holds is refused before anything is allocated) and never unpickled."""
     if not path.is_file():
         raise FormatError(path, "no such file")
+    # numpy's header parser (ast and tokenize) raises SyntaxError and TokenError on a garbled
+    # header; ValueError on bad magic, pickles or a size beyond the file; OverflowError on a
+    # shape whose byte count overflows.
+    errors = (ValueError, OSError, EOFError, SyntaxError, tokenize.TokenError, OverflowError)
     try:
         array = np.load(path, mmap_mode="r", allow_pickle=False)
-    except (ValueError, OSError, EOFError) as error:  # bad magic, header, size or pickles
+    except errors as error:
         raise FormatError(path, f"not a readable .npy array ({error})") from error
     if not isinstance(array, np.ndarray):
         raise FormatError(path, "not a .npy array (an .npz archive?)")
@@ -319,17 +324,32 @@ def _read_lights(path: Path, listing: Path, count: int, *, counted: bool = False
         raise FormatError(
             path, f"{path.name} has {len(lights)} rows but {listing.name} lists {count} images"
         )
-    length = np.linalg.norm(lights, axis=1, keepdims=True)
+    lights, length = _row_lengths(lights)
     if np.any(length == 0):
         row = int(np.flatnonzero(length[:, 0] == 0)[0])
         raise FormatError(path, f"light direction {row + 1} is zero")
     return lights / length
 
 
+def _row_lengths(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Finite ``rows`` (N, 3) and their lengths (N, 1); a row whose squared length over- or
+    underflows (components near 1e±154 and beyond) is first divided by its largest component,
+    so that only a zero row has length 0."""
+    length = np.linalg.norm(rows, axis=1, keepdims=True)
+    largest = np.abs(rows).max(axis=1, keepdims=True)
+    extreme = np.isinf(length) | ((length == 0) & (largest > 0))
+    if np.any(extreme):
+        rows = np.where(extreme, rows / np.where(largest > 0, largest, 1.0), rows)
+        length = np.linalg.norm(rows, axis=1, keepdims=True)
+    return rows, length
+
+
 def _unit_rows(lights: np.ndarray, source: str) -> np.ndarray:
-    """Rows normalised to unit length; zero or non-finite rows are a ParameterError."""
-    length = np.linalg.norm(lights, axis=-1, keepdims=True)
-    if lights.ndim != 2 or not np.all(np.isfinite(length)) or np.any(length == 0):
+    """Finite rows normalised to unit length; zero rows or another shape are a ParameterError."""
+    if lights.ndim != 2 or lights.shape[1] != 3:
+        raise ParameterError(f"light directions from {source} must be (N, 3); got {lights.shape}")
+    lights, length = _row_lengths(lights)
+    if not np.all(np.isfinite(length)) or np.any(length == 0):
         raise ParameterError(f"light directions from {source} must be (N, 3), finite and non-zero")
     return lights / length
 
@@ -374,23 +394,21 @@ def _read_mask_of(path: Path, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
-_MAT_ERRORS: tuple[type[BaseException], ...] = (
-    ValueError, TypeError, OSError, EOFError, IndexError, KeyError, AttributeError,
-    NotImplementedError, OverflowError, MemoryError, UnicodeDecodeError, struct.error,
-    zlib.error,
-)  # fmt: skip
-"""What ``scipy.io.loadmat`` raises on a truncated or corrupt file (its ``MatReadError`` is a
-``ValueError`` subclass in recent SciPy; the rest come from its parsers)."""
-
-
 def _read_normal_gt(path: Path, mask: np.ndarray) -> np.ndarray:
     """``Normal_gt`` of a DiLiGenT ``.mat`` file, ``(H, W, 3)`` like ``mask``; finite inside the
     mask (NaN or infinity outside it, which no method reads, become 0)."""
     import scipy.io
 
+    # What loadmat raises on a truncated or corrupt file: its own MatReadError, and whatever
+    # its header, zlib and struct parsers raise (a header may also claim a huge array).
+    errors = (
+        scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, EOFError, IndexError,
+        KeyError, AttributeError, NotImplementedError, OverflowError, MemoryError,
+        UnicodeDecodeError, struct.error, zlib.error,
+    )  # fmt: skip
     try:
         contents = scipy.io.loadmat(path, variable_names=["Normal_gt"])
-    except _MAT_ERRORS as error:
+    except errors as error:
         raise FormatError(path, f"not a readable MATLAB file ({error})") from error
     if "Normal_gt" not in contents:
         raise FormatError(path, "has no variable 'Normal_gt'", field="Normal_gt")
@@ -418,6 +436,18 @@ def _read_intensities(path: Path, count: int) -> np.ndarray:
         row = int(np.flatnonzero(np.any(intensities <= 0, axis=1))[0])
         raise FormatError(path, "intensities must be positive", offset=row + 1, line=True)
     return intensities
+
+
+def _divide(images: np.ndarray, intensities: np.ndarray, path: Path) -> None:
+    """Divide each float32 image by its light's intensities, in place (in float64, one image at
+    a time); intensities so small that an image leaves the float32 range are an error."""
+    limit = np.finfo(np.float32).max
+    for k, (image, intensity) in enumerate(zip(images, intensities, strict=True)):
+        scaled = image / intensity
+        if not np.all(np.abs(scaled) <= limit):
+            raise FormatError(path, "intensity too small: the image overflows float32",
+                              offset=k + 1, line=True)  # fmt: skip
+        images[k] = scaled
 
 
 def _check_step(step: int) -> int:
@@ -468,7 +498,7 @@ def load_diligent(
     if intensities is not None:
         if images.shape[3] == 1:
             intensities = intensities.mean(axis=1, keepdims=True)
-        images /= intensities[:, None, None, :].astype(np.float32)
+        _divide(images, intensities, intensity_file)
     full_mask = _read_mask_of(folder / "mask.png", shape)
     mask = full_mask[::step, ::step]
     if not mask.any():

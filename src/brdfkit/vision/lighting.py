@@ -41,31 +41,52 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+from brdfkit.errors import ParameterError
 from brdfkit.sh import lambertian_kernel, sh_basis
+from brdfkit.vision._checks import as_float_array, check_count, check_memory
 
 __all__ = [
+    "MAX_ITERATIONS",
+    "MAX_LATLONG_HEIGHT",
     "DirectionalLightEstimate",
     "estimate_directional_light",
     "estimate_sh_lighting",
     "mirror_ball_to_latlong",
 ]
 
+MAX_LATLONG_HEIGHT = 8192
+"""Largest lat-long ``height`` of :func:`mirror_ball_to_latlong` (``width`` at most twice it)."""
+
+MAX_ITERATIONS = 10_000
+"""Largest ``iterations`` of :func:`estimate_directional_light`."""
+
+_LATLONG_BYTES_PER_PIXEL = 160
+"""Peak bytes per lat-long pixel of :meth:`~brdfkit.lights.EnvironmentMap.from_mirror_ball`
+(directions, normals and sampling tables), plus 8 per channel: ``tracemalloc`` measured 125 for
+a 512 × 1024 map of 1 or 3 channels."""
+
 
 def _check_image_normals(
     image: Array, normals: Array, mask: Array | None
 ) -> tuple[Array, Array, Array]:
-    """``image`` as (H, W, C), ``normals`` (H, W, 3) and the bool mask (H, W), validated."""
+    """``image`` as (H, W, C), ``normals`` (H, W, 3) and the bool mask (H, W), validated.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, or NaN or infinity in ``image`` or ``normals``.
+    """
     xp = namespace(image, normals)
     image = asarray(image, xp)
     if image.ndim == 2:
         image = image[..., None]
     if image.ndim != 3:
-        raise ValueError(
+        raise ParameterError(
             f"image must have shape (H, W) or (H, W, C); got shape {tuple(image.shape)}"
         )
     normals = asarray(normals, xp, like=image)
     if tuple(normals.shape) != (*image.shape[:2], 3):
-        raise ValueError(
+        raise ParameterError(
             f"normals must have shape {(*image.shape[:2], 3)} to match the image; "
             f"got shape {tuple(normals.shape)}"
         )
@@ -75,11 +96,22 @@ def _check_image_normals(
     else:
         mask = asarray(mask, xp)
         if tuple(mask.shape) != tuple(image.shape[:2]):
-            raise ValueError(
+            raise ParameterError(
                 f"mask must have shape {tuple(image.shape[:2])}; got shape {tuple(mask.shape)}"
             )
         mask = xp.astype(mask, xp.bool) & (length > 0)
-    return check_finite("image", image), normals, mask
+    return check_finite("image", image), check_finite("normals", normals), mask
+
+
+def _check_albedo(albedo: float | ArrayLike, channels: int) -> np.ndarray:
+    """``albedo`` as (channels,) float64: finite, positive, a scalar or one per channel."""
+    albedo_np = as_float_array("albedo", to_numpy(albedo))
+    if albedo_np.ndim > 1 or albedo_np.size not in (1, channels) or not np.all(albedo_np > 0):
+        raise ParameterError(
+            f"albedo must be a finite, positive number or one per channel ({channels}); "
+            f"got {albedo!r}"
+        )
+    return np.broadcast_to(albedo_np, (channels,))
 
 
 def estimate_sh_lighting(
@@ -114,6 +146,12 @@ def estimate_sh_lighting(
         Radiance coefficients ``L_lm`` in :mod:`brdfkit.sh`'s convention, same backend and
         dtype as ``image``; ``brdfkit.sh.irradiance_sh(L, n) * ρ / π`` re-renders the image.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, NaN or infinity in ``image`` or ``normals``, an ``albedo`` that
+        is not finite and positive, or fewer than 9 pixels.
+
     References
     ----------
     .. [1] R. Ramamoorthi and P. Hanrahan, "On the relationship between radiance and
@@ -123,22 +161,16 @@ def estimate_sh_lighting(
     """
     image, normals, mask = _check_image_normals(image, normals, mask)
     xp = namespace(image)
-    albedo_np = np.asarray(to_numpy(albedo), dtype=np.float64)
-    if albedo_np.ndim > 1 or albedo_np.size not in (1, image.shape[-1]) or np.any(albedo_np <= 0):
-        raise ValueError(
-            f"albedo must be a positive number or one per channel ({image.shape[-1]}); "
-            f"got {albedo!r}"
-        )
+    albedo_c = _check_albedo(albedo, image.shape[-1])
     pixels = image[mask]
     if pixels.shape[0] < 9:
-        raise ValueError(
+        raise ParameterError(
             f"mask must select at least 9 pixels to fit 9 SH coefficients; got {pixels.shape[0]}"
         )
     kernel = np.repeat(lambertian_kernel(2), [1, 3, 5]) / math.pi
     design = sh_basis(normals[mask], 2) * asarray(kernel, like=image, dtype=image.dtype)
     q, r = xp.linalg.qr(design)
     coeffs = xp.linalg.solve(r, xp.matmul(xp.permute_dims(q, (1, 0)), pixels))
-    albedo_c = np.broadcast_to(albedo_np, image.shape[-1:])
     return coeffs / asarray(albedo_c, like=coeffs, dtype=coeffs.dtype)
 
 
@@ -186,11 +218,20 @@ def estimate_directional_light(
     mask : (H, W) bool, optional; by default the pixels whose normal has length > 0.5.
     albedo : known albedo ρ (scalar or per channel); 1 when unknown (``irradiance`` is then ρE).
     shadow_threshold : brightness, relative to the maximum, below which a pixel starts as shadow.
-    iterations : maximum number of re-decisions of the lit set.
+    iterations : maximum number of re-decisions of the lit set, at most
+        :data:`MAX_ITERATIONS`.
 
     Returns
     -------
     DirectionalLightEstimate
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, NaN or infinity in ``image`` or ``normals``, an ``albedo`` that
+        is not finite and positive, an empty mask, or an image too dark to fit.
+    brdfkit.errors.ResourceError
+        ``iterations`` above :data:`MAX_ITERATIONS`.
 
     References
     ----------
@@ -199,26 +240,25 @@ def estimate_directional_light(
        to image synthesis", IEEE TPAMI 23(8), 2001 (lit-pixel least squares on a sphere).
     """
     if not 0 <= shadow_threshold < 1:
-        raise ValueError(f"shadow_threshold must be in [0, 1); got {shadow_threshold!r}")
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise ValueError(f"iterations must be a positive integer; got {iterations!r}")
+        raise ParameterError(f"shadow_threshold must be in [0, 1); got {shadow_threshold!r}")
+    iterations = check_count("iterations", iterations, MAX_ITERATIONS)
     image, normals, mask = (
-        to_numpy(a) for a in _check_image_normals(np.asarray(image, float), normals, mask)
+        to_numpy(a) for a in _check_image_normals(as_float_array("image", image), normals, mask)
     )
-    albedo_np = np.broadcast_to(np.asarray(albedo, dtype=np.float64), image.shape[-1:])
-    if np.any(albedo_np <= 0):
-        raise ValueError(f"albedo must be positive; got {albedo!r}")
+    albedo_np = _check_albedo(albedo, image.shape[-1])
+    if not mask.any():
+        raise ParameterError("mask selects no pixel with a normal")
     gray = image.mean(axis=-1)
     lit = mask & (gray > shadow_threshold * gray[mask].max())
     for _ in range(iterations):
         if lit.sum() < 3:
-            raise ValueError(
+            raise ParameterError(
                 "fewer than 3 lit pixels: the image is dark or shadow_threshold too high "
                 f"(shadow_threshold={shadow_threshold})"
             )
         s, *_ = np.linalg.lstsq(normals[lit], gray[lit], rcond=None)
         if not np.linalg.norm(s) > 0:
-            raise ValueError("the image is black on every lit pixel: no light to estimate")
+            raise ParameterError("the image is black on every lit pixel: no light to estimate")
         direction = s / np.linalg.norm(s)
         new_lit = lit & (normals @ direction > 0)
         if np.array_equal(new_lit, lit):
@@ -249,12 +289,21 @@ def mirror_ball_to_latlong(
     ----------
     photo : (H, W, C) linear image of the ball.
     mask : (H, W) bool, optional: the ball's pixels.
-    height, width : size of the lat-long map.
+    height, width : size of the lat-long map; ``height`` at most :data:`MAX_LATLONG_HEIGHT`,
+        ``width`` at most twice that.
 
     Returns
     -------
     numpy.ndarray (height, width, C)
         Radiance in :mod:`brdfkit.sh`'s lat-long convention.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``photo`` not a finite, non-negative (H, W[, C]) image, a ``mask`` of another shape or
+        empty, or a size below 1 (2 for the height).
+    brdfkit.errors.ResourceError
+        A size above its maximum, or a map that would not fit in the memory available.
 
     References
     ----------
@@ -267,15 +316,23 @@ def mirror_ball_to_latlong(
     from brdfkit.lights import EnvironmentMap
     from brdfkit.vision.photometric_stereo import fit_circle
 
-    photo = np.asarray(to_numpy(photo), dtype=np.float64)
+    height = check_count("height", height, MAX_LATLONG_HEIGHT, minimum=2)
+    width = check_count("width", width, 2 * MAX_LATLONG_HEIGHT)
+    photo = as_float_array("photo", to_numpy(photo))
     if photo.ndim == 2:
         photo = photo[..., None]
     if photo.ndim != 3:
-        raise ValueError(f"photo must have shape (H, W) or (H, W, C); got shape {photo.shape}")
+        raise ParameterError(f"photo must have shape (H, W) or (H, W, C); got shape {photo.shape}")
+    if min(photo.shape) < 1 or min(photo.shape[:2]) < 2:
+        raise ParameterError(f"photo must be at least 2 × 2 pixels; got shape {photo.shape}")
+    check_memory(
+        f"a {height} × {width} lat-long map",
+        height * width * (_LATLONG_BYTES_PER_PIXEL + 8 * photo.shape[2]),
+    )
     if mask is not None:
         mask = np.asarray(mask, dtype=bool)
         if mask.shape != photo.shape[:2]:
-            raise ValueError(f"mask must have shape {photo.shape[:2]}; got shape {mask.shape}")
+            raise ParameterError(f"mask must have shape {photo.shape[:2]}; got shape {mask.shape}")
         c_x, c_y, radius = fit_circle(mask)
         size = max(2, round(2 * radius))
         # Pixel centres of a size × size square spanning [c - r, c + r] in the photo.
@@ -289,5 +346,5 @@ def mirror_ball_to_latlong(
             axis=-1,
         )
     if np.any(photo < 0) or not np.all(np.isfinite(photo)):
-        raise ValueError("photo must hold finite, non-negative linear radiance")
+        raise ParameterError("photo must hold finite, non-negative linear radiance")
     return EnvironmentMap.from_mirror_ball(photo, height=height, width=width).image
