@@ -17,6 +17,7 @@ parser. They sample the cosine-weighted hemisphere (no analytic sampler exists f
 import os
 from pathlib import Path
 
+from brdfkit.errors import FormatError
 from brdfkit.measured.cornell import read_cornell, read_cornell_samples
 from brdfkit.measured.merl import MERL_SCALE, MERL_SHAPE, merl_values, read_merl, write_merl
 from brdfkit.measured.rgl import RGLBRDF, read_rgl, read_tensor_file
@@ -38,13 +39,13 @@ def read(path: str | os.PathLike) -> TabulatedBRDF | RGLBRDF:
 
     Raises
     ------
-    ValueError
-        For another extension, listing the known ones.
+    FormatError
+        For another extension (listing the known ones), or as the reader raises.
     """
     suffix = Path(path).suffix.lower()
     if suffix not in READERS:
-        raise ValueError(
-            f"path must end in one of {', '.join(READERS)} (a measured BRDF); got {str(path)!r}"
+        raise FormatError(
+            path, f"must end in one of {', '.join(READERS)} to be read as a measured BRDF"
         )
     return READERS[suffix](path)
 

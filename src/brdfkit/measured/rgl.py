@@ -51,7 +51,12 @@ import numpy as np
 
 from brdfkit._array import Array, asarray, namespace
 from brdfkit.brdf.base import result_shape
-from brdfkit.measured.tabulated import CosineSampled, spectrum_to_rgb_matrix
+from brdfkit.errors import FormatError
+from brdfkit.measured.tabulated import (
+    CosineSampled,
+    spectrum_to_rgb_matrix,
+    wavelengths_problem,
+)
 
 _MAGIC = b"tensor_file\x00"
 _DTYPES = {
@@ -72,11 +77,15 @@ _DTYPES = {
 def read_tensor_file(path: str | os.PathLike) -> dict[str, np.ndarray]:
     """The named arrays of a Mitsuba tensor file (format in the module docstring).
 
+    The arrays are read-only views of the file's bytes: a header can only declare arrays that
+    the file holds, so nothing is allocated beyond the file itself.
+
     Raises
     ------
-    ValueError
-        Naming the file, for a wrong magic string or version, an unknown type code, or a
-        truncated file.
+    FormatError
+        Naming the file (and the field and byte offset), for a wrong magic string or version,
+        a field name that is not UTF-8, an unknown type code, a shape larger than the file, or
+        a truncated file.
 
     References
     ----------
@@ -84,36 +93,64 @@ def read_tensor_file(path: str | os.PathLike) -> dict[str, np.ndarray]:
     """
     path = Path(path)
     raw = path.read_bytes()
-    where = f"tensor file {str(path)!r}"
     if raw[:12] != _MAGIC:
-        raise ValueError(f"{where} does not start with 'tensor_file\\0'; got {raw[:12]!r}")
+        raise FormatError(path, f"does not start with 'tensor_file\\0'; got {raw[:12]!r}", offset=0)
     try:
         version = struct.unpack_from("<BB", raw, 12)
         if version != (1, 0):
-            raise ValueError(f"{where} has version {version}; expected (1, 0)")
+            raise FormatError(path, f"version {version}; expected (1, 0)", offset=12)
         (count,) = struct.unpack_from("<I", raw, 14)
         pos, fields = 18, {}
         for _ in range(count):
-            (length,) = struct.unpack_from("<H", raw, pos)
-            name = raw[pos + 2 : pos + 2 + length].decode("utf8")
-            pos += 2 + length
-            rank, code, offset = struct.unpack_from("<HBQ", raw, pos)
-            pos += 11
-            shape = struct.unpack_from(f"<{rank}Q", raw, pos)
-            pos += 8 * rank
-            if code not in _DTYPES:
-                raise ValueError(f"{where}: field {name!r} has unknown type code {code}")
-            dtype = np.dtype(_DTYPES[code]).newbyteorder("<")
-            size = int(np.prod(shape, dtype=np.int64))
-            if offset + size * dtype.itemsize > len(raw):
-                raise ValueError(
-                    f"{where} is truncated: field {name!r} needs bytes up to "
-                    f"{offset + size * dtype.itemsize}, the file has {len(raw)}"
-                )
-            fields[name] = np.frombuffer(raw, dtype, size, offset).reshape(shape)
+            pos = _field(path, raw, pos, fields)
     except struct.error as error:
-        raise ValueError(f"{where} is truncated in its header: {error}") from None
+        raise FormatError(path, f"truncated in its header: {error}", offset=pos) from None
     return fields
+
+
+def _field(path: Path, raw: bytes, pos: int, fields: dict[str, np.ndarray]) -> int:
+    """Read the field whose header starts at byte ``pos`` into ``fields``; the next position.
+
+    Raises
+    ------
+    struct.error
+        When the header runs past the end of the file.
+    FormatError
+        For a name that is not UTF-8, an unknown type code, or data past the end of the file.
+    """
+    (length,) = struct.unpack_from("<H", raw, pos)
+    encoded = raw[pos + 2 : pos + 2 + length]
+    try:
+        name = encoded.decode("utf8")
+    except UnicodeDecodeError as error:
+        reason = f"field name {encoded!r} is not UTF-8: {error.reason}"
+        raise FormatError(path, reason, offset=pos) from None
+    start = pos
+    pos += 2 + length
+    rank, code, offset = struct.unpack_from("<HBQ", raw, pos)
+    pos += 11
+    shape = struct.unpack_from(f"<{rank}Q", raw, pos)
+    pos += 8 * rank
+    if code not in _DTYPES:
+        raise FormatError(path, f"unknown type code {code}", field=name, offset=start)
+    if any(size > len(raw) for size in shape):
+        raise FormatError(
+            path,
+            f"shape {shape} is larger than the file ({len(raw)} bytes)",
+            field=name,
+            offset=start,
+        )
+    dtype = np.dtype(_DTYPES[code]).newbyteorder("<")
+    end = offset + math.prod(shape) * dtype.itemsize
+    if end > len(raw):
+        raise FormatError(
+            path,
+            f"truncated: the data of shape {shape} need bytes up to {end}, the file has {len(raw)}",
+            field=name,
+            offset=start,
+        )
+    fields[name] = np.frombuffer(raw, dtype, math.prod(shape), offset).reshape(shape)
+    return pos
 
 
 # --------------------------------------------------------------------------- Marginal2D
@@ -204,7 +241,11 @@ class _Marginal2D:
         return (v00 + (v10 - v00) * x) * (1 - y) + (v01 + (v11 - v01) * x) * y
 
     def invert(self, sample: Array, params: list[Array]) -> Array:
-        """The unit-square point that the warp maps to ``sample`` (``invert_continuous``)."""
+        """The unit-square point that the warp maps to ``sample`` (``invert_continuous``).
+
+        Where the density is zero along the sample's whole row (Mitsuba divides 0 by 0 there)
+        the row is inverted as the identity, so the result is always a point of the square.
+        """
         xp = namespace(sample)
         corners = self._corners(params, sample[..., 0])
         ix, iy, x, y = self._cell(sample)
@@ -225,10 +266,105 @@ class _Marginal2D:
         sx = sx + left0 + (left1 - left0) * y
         r0 = self._lookup(self.cond, corners, base + (w - 2))
         r1 = self._lookup(self.cond, corners, base + 2 * (w - 1) - 1)
-        sx = sx / (r0 + (r1 - r0) * y)
+        row = r0 + (r1 - r0) * y
+        has_mass = row > 0  # a row without mass (zero density along it) inverts to identity
+        sx = xp.where(
+            has_mass, sx / xp.where(has_mass, row, 1.0), xp.clip(sample[..., 0], 0.0, 1.0)
+        )
         sy = y * (r0 + (r1 - r0) * (0.5 * y)) / (h - 1)
         sy = sy + self._lookup(self.marg, corners, iy - 1, iy > 0)
         return xp.stack([sx, sy], axis=-1)
+
+
+# --------------------------------------------------------------------------- checks
+_DENSITIES = ("ndf", "sigma", "vndf", "luminance")
+"""The 2-D tables (last two axes) that Mitsuba warps or interpolates, besides the colour."""
+
+
+def _float_fields(colour: str) -> tuple[str, ...]:
+    """The float32 fields an RGL file with ``colour`` (``"rgb"`` or ``"spectra"``) needs."""
+    spectral = ("wavelengths",) if colour == "spectra" else ()
+    return ("theta_i", "phi_i", *_DENSITIES, colour, *spectral)
+
+
+def _check_fields(f: dict[str, np.ndarray], where: str) -> str:
+    """Check the arrays of an RGL file as Mitsuba's ``measured`` plugin does, and their values
+    (finite; densities and colours non-negative; angles increasing; ``sigma`` positive where
+    the Jacobian divides by it; every ``vndf`` slice non-zero). Returns the colour field,
+    ``"rgb"`` or ``"spectra"``.
+
+    Raises
+    ------
+    FormatError
+        Naming ``where`` and the field.
+    """
+    colour = "rgb" if "rgb" in f else "spectra"
+    missing = [k for k in (*_float_fields(colour), "jacobian") if k not in f]
+    if missing:
+        raise FormatError(where, f"lacks the fields {missing}; it has {sorted(f)}")
+    _check_structure(f, where, colour)
+    for key in _float_fields(colour):
+        _check_values(f[key], where, key, non_negative=key in (*_DENSITIES, colour))
+    for key in ("theta_i", "phi_i"):
+        if np.any(np.diff(f[key]) <= 0):
+            raise FormatError(where, f"must increase strictly; got {f[key]}", field=key)
+    if f["jacobian"].ravel()[0] and np.any(f["sigma"] <= 0):
+        raise FormatError(where, "the projected area must be positive", field="sigma")
+    vndf = f["vndf"]
+    if np.any(np.all(vndf.reshape(*vndf.shape[:2], -1) == 0, axis=-1)):
+        raise FormatError(
+            where, "a slice is zero everywhere: it cannot be normalised", field="vndf"
+        )
+    if colour == "spectra":
+        problem = wavelengths_problem(f["wavelengths"])
+        if problem:
+            raise FormatError(where, problem, field="wavelengths")
+    return colour
+
+
+def _check_structure(f: dict[str, np.ndarray], where: str, colour: str) -> None:
+    """Dtypes and shapes: float32 arrays, a uint8 ``jacobian`` of one entry, ``theta_i`` and
+    ``phi_i`` 1-D and non-empty, tables at least 2 × 2, ``vndf``, ``luminance`` and the colour
+    on the ``(phi_i, theta_i)`` grid, 3 RGB channels or one per wavelength."""
+    for key in _float_fields(colour):
+        if f[key].dtype != np.float32:
+            raise FormatError(where, f"must be float32; got {f[key].dtype}", field=key)
+    jacobian = f["jacobian"]
+    if jacobian.dtype != np.uint8 or jacobian.shape != (1,):
+        raise FormatError(
+            where, f"must be one uint8; got {jacobian.dtype} of shape {jacobian.shape}",
+            field="jacobian",
+        )  # fmt: skip
+    if "description" in f and (f["description"].dtype != np.uint8 or f["description"].ndim != 1):
+        raise FormatError(where, "must be a 1-D uint8 array (UTF-8 text)", field="description")
+    theta_i, phi_i, data = f["theta_i"], f["phi_i"], f[colour]
+    grid = (phi_i.size, theta_i.size)
+    channels = 3 if colour == "rgb" else f["wavelengths"].size
+    ok = (
+        theta_i.ndim == phi_i.ndim == 1
+        and theta_i.size >= 1
+        and phi_i.size >= 1
+        and f["ndf"].ndim == f["sigma"].ndim == 2
+        and f["vndf"].ndim == f["luminance"].ndim == 4
+        and f["vndf"].shape[:2] == f["luminance"].shape[:2] == grid
+        and data.ndim == 5
+        and data.shape[:3] == (*grid, channels)
+        and f["luminance"].shape[2:] == data.shape[3:]
+        and (colour == "rgb" or f["wavelengths"].ndim == 1)
+        and min(min(f[k].shape[-2:]) for k in (*_DENSITIES, colour)) >= 2
+    )
+    if not ok:
+        shapes = {k: f[k].shape for k in ("theta_i", "phi_i", *_DENSITIES, colour)}
+        raise FormatError(where, f"has an invalid structure: {shapes}")
+
+
+def _check_values(array: np.ndarray, where: str, key: str, non_negative: bool) -> None:
+    """Every entry finite (and ``>= 0`` when ``non_negative``)."""
+    bad = ~np.isfinite(array) | ((array < 0) if non_negative else False)
+    if np.any(bad):
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        kind = "finite and non-negative" if non_negative else "finite"
+        raise FormatError(where, f"must be {kind}; entry {index} is {array[index]}", field=key)
 
 
 # --------------------------------------------------------------------------- the BRDF
@@ -260,7 +396,14 @@ class RGLBRDF(CosineSampled):
     ----------
     fields : the arrays of the tensor file (:func:`read_tensor_file`).
     spectral : keep spectral channels instead of converting them to sRGB.
-    name : a label (the file name).
+    name : a label (the file name), which errors name.
+
+    Raises
+    ------
+    FormatError
+        Naming ``name`` and the field, for missing fields, dtypes or shapes other than
+        Mitsuba's, NaN, infinite or negative values, angles that do not increase, a zero
+        projected area or ``vndf`` slice, or unusable wavelengths.
 
     References
     ----------
@@ -277,26 +420,9 @@ class RGLBRDF(CosineSampled):
 
     def __post_init__(self) -> None:
         f = self.fields
-        where = f"RGL file {self.name!r}"
-        colour = "rgb" if "rgb" in f else "spectra"
-        needed = ("theta_i", "phi_i", "ndf", "sigma", "vndf", "luminance", colour, "jacobian")
-        missing = [k for k in needed if k not in f]
-        if missing:
-            raise ValueError(f"{where} lacks the fields {missing}; it has {sorted(f)}")
+        where = self.name or "RGL fields"
+        colour = _check_fields(f, where)
         theta_i, phi_i, data = f["theta_i"], f["phi_i"], f[colour]
-        ok = (
-            theta_i.ndim == phi_i.ndim == 1
-            and f["ndf"].ndim == f["sigma"].ndim == 2
-            and f["vndf"].shape[:2] == (phi_i.size, theta_i.size)
-            and f["vndf"].ndim == 4
-            and data.ndim == 5
-            and data.shape[:2] == (phi_i.size, theta_i.size)
-            and data.shape[3] >= 2
-            and data.shape[4] >= 2
-        )
-        if not ok:
-            shapes = {k: f[k].shape for k in needed}
-            raise ValueError(f"{where} has an invalid structure: {shapes}")
         if colour == "spectra":
             wavelengths = np.asarray(f["wavelengths"], dtype=np.float64)
             if not self.spectral:
@@ -319,10 +445,15 @@ class RGLBRDF(CosineSampled):
                 for c in range(data.shape[2])
             ],
         }
+        vndf = state["vndf"]
+        if not all(np.all(np.isfinite(t)) for t in (vndf.data, vndf.cond, vndf.marg)):
+            raise FormatError(where, "cannot be normalised in float32 (too small)", field="vndf")
+        if not all(np.all(np.isfinite(ch.data)) for ch in state["channels"]):
+            raise FormatError(where, "too large to convert to sRGB in float32", field=colour)
         object.__setattr__(self, "_state", state)
         object.__setattr__(self, "channels", data.shape[2])
         if "description" in f:
-            text = bytes(np.asarray(f["description"], dtype=np.uint8)).decode("utf8", "replace")
+            text = bytes(f["description"]).decode("utf8", "replace")
             object.__setattr__(self, "description", text)
 
     @property
@@ -378,6 +509,12 @@ def read_rgl(path: str | os.PathLike, *, spectral: bool = False) -> RGLBRDF:
     ----------
     path : the file.
     spectral : for spectral files, keep one channel per wavelength instead of linear sRGB.
+
+    Raises
+    ------
+    FormatError
+        Naming the file, for a corrupt tensor file (:func:`read_tensor_file`) or fields that are
+        not an RGL BRDF (:class:`RGLBRDF`).
 
     References
     ----------
