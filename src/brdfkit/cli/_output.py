@@ -93,12 +93,12 @@ def output_file(
     from brdfkit.errors import ParameterError
 
     path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{option} {shown(path)} is an existing folder; expected a file name")
     if suffixes and path.suffix.lower() not in suffixes:
         raise ParameterError(
             f"{option} must end in {', '.join(suffixes)}; got {shown(path.name)!r}"
         )
-    if path.is_dir():
-        raise OutputError(f"{option} {shown(path)} is an existing folder; expected a file name")
     _check_not_input(path, inputs, option)
     _check_writable(path, option)
     return path
