@@ -222,3 +222,25 @@ def test_light_directions_with_extreme_components_are_normalised(tmp_path):
     np.savetxt(folder / "light_directions.txt", rows)
     lights = datasets.load_diligent(folder).light_directions
     np.testing.assert_allclose(np.linalg.norm(lights, axis=1), 1.0)
+
+
+def test_normal_gt_mat_reader_matches_scipy_and_refuses_corrupt_files(tmp_path):
+    import scipy.io
+
+    normals = np.random.default_rng(0).normal(size=(5, 7, 3))
+    path = tmp_path / "Normal_gt.mat"
+    for compressed in (False, True):
+        variables = {"note": "text", "Normal_gt": normals.astype(np.float32), "n": 3}
+        scipy.io.savemat(path, variables, do_compression=compressed)
+        expected = scipy.io.loadmat(path)["Normal_gt"].astype(np.float64)
+        np.testing.assert_array_equal(datasets._read_mat_array(path, "Normal_gt"), expected)
+    # Found by fuzzing: scipy.io.loadmat crashed the interpreter on such files.
+    scipy.io.savemat(path, {"Normal_gt": normals})
+    data = bytearray(path.read_bytes())
+    data[204:208] = (10**6).to_bytes(4, "little")  # the size of the array's data
+    path.write_bytes(bytes(data))
+    with pytest.raises(FormatError, match=r"Normal_gt\.mat"):
+        datasets._read_mat_array(path, "Normal_gt")
+    path.write_bytes(bytes(data[:300]))
+    with pytest.raises(FormatError, match="runs past the end"):
+        datasets._read_mat_array(path, "Normal_gt")

@@ -41,7 +41,6 @@ References
 from __future__ import annotations
 
 import os
-import struct
 import tokenize
 import zipfile
 import zlib
@@ -394,33 +393,106 @@ def _read_mask_of(path: Path, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
+_MAT_TYPES = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 9: "f8", 12: "i8",
+              13: "u8"}  # fmt: skip
+"""MAT-file level 5 data types of numeric data (miINT8 … miUINT64) as NumPy type codes."""
+
+_MAT_NUMERIC_CLASSES = range(6, 16)
+"""mxDOUBLE_CLASS … mxUINT64_CLASS."""
+
+MAX_MAT_BYTES = 2**31
+"""Largest decompressed variable :func:`load_diligent` reads from a ``.mat`` file."""
+
+
+def _mat_elements(path: Path, data: bytes, order: str, base: int | None = None):
+    """``(type, payload)`` of the consecutive level-5 data elements in ``data``, which starts
+    at byte ``base`` of the file (``None``: inside a compressed element, offsets unknown)."""
+    position = 0
+    while position < len(data):
+        where = None if base is None else base + position
+        if len(data) - position < 8:
+            raise FormatError(path, "truncated data element tag", offset=where)
+        kind, size = (int(v) for v in np.frombuffer(data, f"{order}u4", 2, position))
+        if kind >> 16:  # small data element: size in the upper half, data in the tag
+            kind, size, start, end = kind & 0xFFFF, kind >> 16, position + 4, position + 8
+            if size > 4:
+                raise FormatError(path, "small data element longer than 4 bytes", offset=where)
+        else:
+            start = position + 8
+            end = start + (size if kind == 15 else -(-size // 8) * 8)
+        if start + size > len(data):
+            raise FormatError(path, "data element runs past the end", offset=where)
+        yield kind, data[start : start + size]
+        position = end
+
+
+def _mat_matrix(path: Path, payload: bytes, order: str) -> tuple[str, np.ndarray | None]:
+    """The name and, for a real numeric class, the array of a miMATRIX element."""
+    parts = list(_mat_elements(path, payload, order))
+    if len(parts) < 3 or parts[0][0] != 6 or len(parts[0][1]) != 8 or parts[1][0] != 5:
+        raise FormatError(path, "malformed miMATRIX element (flags, dimensions)")
+    flags = int(np.frombuffer(parts[0][1], f"{order}u4", 1)[0])
+    name = parts[2][1].decode("latin-1")
+    if flags & 0xFF not in _MAT_NUMERIC_CLASSES:
+        return name, None
+    shape = tuple(int(n) for n in np.frombuffer(parts[1][1], f"{order}i4"))
+    if len(parts) < 4 or len(shape) < 2 or min(shape) < 0 or parts[3][0] not in _MAT_TYPES:
+        raise FormatError(path, "malformed numeric array", field=name)
+    if flags & 0x800:
+        raise FormatError(path, "complex arrays are not supported", field=name)
+    dtype = np.dtype(f"{order}{_MAT_TYPES[parts[3][0]]}")
+    if len(parts[3][1]) != dtype.itemsize * int(np.prod(shape, dtype=object)):
+        raise FormatError(path, f"data size does not match the dimensions {shape}", field=name)
+    values = np.frombuffer(parts[3][1], dtype)
+    return name, values.reshape(shape, order="F").astype(np.float64)
+
+
+def _read_mat_array(path: Path, key: str) -> np.ndarray:
+    """The real numeric variable ``key`` of a MATLAB level-5 ``.mat`` file, as float64.
+
+    Read here rather than with ``scipy.io.loadmat``: SciPy's compiled reader crashes the
+    interpreter (a segmentation fault) on some corrupt files, which no ``except`` can turn
+    into an error. Level 5 (MATLAB 5 to 7.2, the format of ``scipy.io.savemat`` and of
+    DiLiGenT) with compressed or plain elements in either byte order; v4 and v7.3 (HDF5) files
+    are refused.
+    """
+    data = path.read_bytes()
+    if len(data) < 128 or data[126:128] not in (b"IM", b"MI"):
+        raise FormatError(path, "not a MATLAB level-5 .mat file (no header)")
+    order = "<" if data[126:128] == b"IM" else ">"
+    for kind, payload in _mat_elements(path, data[128:], order, base=128):
+        if kind == 15:
+            inflater = zlib.decompressobj()
+            try:
+                payload = inflater.decompress(payload, MAX_MAT_BYTES)
+            except zlib.error as error:
+                raise FormatError(path, f"corrupt compressed element ({error})") from error
+            if inflater.unconsumed_tail:
+                raise FormatError(path, f"a variable exceeds MAX_MAT_BYTES = {MAX_MAT_BYTES}")
+            elements = list(_mat_elements(path, payload, order))
+            if len(elements) != 1:
+                raise FormatError(path, "a compressed element must hold one variable")
+            kind, payload = elements[0]
+        if kind != 14:
+            continue
+        name, array = _mat_matrix(path, payload, order)
+        if name == key:
+            if array is None:
+                raise FormatError(path, "must be a real numeric array", field=key)
+            return array
+    raise FormatError(path, f"has no variable {key!r}", field=key)
+
+
 def _read_normal_gt(path: Path, mask: np.ndarray) -> np.ndarray:
     """``Normal_gt`` of a DiLiGenT ``.mat`` file, ``(H, W, 3)`` like ``mask``; finite inside the
     mask (NaN or infinity outside it, which no method reads, become 0)."""
-    import scipy.io
-
-    # What loadmat raises on a truncated or corrupt file: its own MatReadError, and whatever
-    # its header, zlib and struct parsers raise (a header may also claim a huge array).
-    errors = (
-        scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, EOFError, IndexError,
-        KeyError, AttributeError, NotImplementedError, OverflowError, MemoryError,
-        UnicodeDecodeError, struct.error, zlib.error,
-    )  # fmt: skip
-    try:
-        contents = scipy.io.loadmat(path, variable_names=["Normal_gt"])
-    except errors as error:
-        raise FormatError(path, f"not a readable MATLAB file ({error})") from error
-    if "Normal_gt" not in contents:
-        raise FormatError(path, "has no variable 'Normal_gt'", field="Normal_gt")
-    normals = np.asarray(contents["Normal_gt"])
-    if normals.dtype.kind not in "biuf" or normals.shape != (*mask.shape, 3):
+    normals = _read_mat_array(path, "Normal_gt")
+    if normals.shape != (*mask.shape, 3):
         raise FormatError(
             path,
-            f"must be real (H, W, 3) = {(*mask.shape, 3)} normals; got {normals.dtype} "
-            f"{normals.shape}",
+            f"must be (H, W, 3) = {(*mask.shape, 3)} normals; got {normals.shape}",
             field="Normal_gt",
         )
-    normals = normals.astype(np.float64)
     finite = np.isfinite(normals)
     if not np.all(finite[mask]):
         raise FormatError(path, "normals inside the mask hold NaN or infinity", field="Normal_gt")
@@ -460,7 +532,8 @@ def load_diligent(
     """Load one object in the DiLiGenT layout (see the module docstring).
 
     Images are divided by ``light_intensities.txt`` per light and channel; ``Normal_gt.mat`` is
-    read with ``scipy.io.loadmat`` when present. ``step`` keeps every ``step``-th row and column.
+    read when present (MATLAB level 5, see :func:`_read_mat_array`). ``step`` keeps every
+    ``step``-th row and column.
 
     Parameters
     ----------

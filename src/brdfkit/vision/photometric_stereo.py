@@ -32,6 +32,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit._array import check_param
+from brdfkit.errors import ParameterError, ResourceError
+from brdfkit.vision._checks import as_float_array, check_count, check_memory
+
+MAX_ITERATIONS = 100_000
+"""Largest ``max_iterations`` of the iterative solvers."""
+
+MAX_PIXELS = 2**28
+"""Most pixels :func:`sphere_normals` makes (a 16384 × 16384 image)."""
+
 Callback = Callable[[int, int], None]
 """Progress callback ``callback(iteration, max_iterations)`` of the iterative solvers."""
 
@@ -56,40 +66,55 @@ class PhotometricStereoResult:
 def _prepare(
     images: ArrayLike, light_directions: ArrayLike, mask: ArrayLike | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Validate inputs; return observations ``(N, P, C)``, unit lights ``(N, 3)`` and the mask."""
+    """Validate inputs; return observations ``(N, P, C)``, unit lights ``(N, 3)`` and the mask.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, fewer than 3 lights, non-numeric images, NaN or infinity in the
+        lights or in the images inside the mask, or an empty mask.
+    brdfkit.errors.ResourceError
+        The float64 observations would not fit in memory.
+    """
     images = np.asarray(images)
+    if images.dtype.kind not in "biuf":
+        raise ParameterError(f"images must hold real numbers; got dtype {images.dtype}")
     if images.ndim not in (3, 4):
-        raise ValueError(
+        raise ParameterError(
             f"images must have shape (N, H, W) or (N, H, W, C), got shape {images.shape}"
         )
     if images.ndim == 3:
         images = images[..., None]
     n_lights, height, width = images.shape[:3]
     if n_lights < 3:
-        raise ValueError(f"photometric stereo needs at least 3 lights, got {n_lights} images")
-    lights = np.asarray(light_directions, dtype=np.float64)
+        raise ParameterError(f"photometric stereo needs at least 3 lights, got {n_lights} images")
+    lights = as_float_array("light_directions", light_directions)
     if lights.shape != (n_lights, 3):
-        raise ValueError(
+        raise ParameterError(
             f"light_directions must have shape ({n_lights}, 3) to match {n_lights} images, "
             f"got shape {lights.shape}"
         )
     length = np.linalg.norm(lights, axis=1)
     if not np.all(np.isfinite(length)) or np.any(length == 0):
-        raise ValueError("light_directions must be finite and non-zero, got " + repr(lights))
+        raise ParameterError("light_directions must be finite and non-zero, got " + repr(lights))
     if mask is None:
         mask = np.ones((height, width), dtype=bool)
     mask = np.asarray(mask, dtype=bool)
     if mask.shape != (height, width):
-        raise ValueError(f"mask must have shape {(height, width)}, got shape {mask.shape}")
+        raise ParameterError(f"mask must have shape {(height, width)}, got shape {mask.shape}")
     if not mask.any():
-        raise ValueError("mask has no pixels set: nothing to solve")
+        raise ParameterError("mask has no pixels set: nothing to solve")
+    check_memory(
+        f"photometric stereo on {images.shape} images",
+        8 * n_lights * int(mask.sum()) * images.shape[3],
+    )
     flat = images.reshape(n_lights, height * width, images.shape[3])
     # take() keeps the (N, P, C) memory order that boolean indexing on axis 1 would transpose.
     observations = (flat if mask.all() else np.take(flat, np.flatnonzero(mask), axis=1)).astype(
         np.float64
     )
     if not np.isfinite(observations.sum()):  # a NaN or infinity anywhere makes the sum one
-        raise ValueError("images contain non-finite values inside the mask")
+        raise ParameterError("images contain non-finite values inside the mask")
     return observations, lights / length[:, None], mask
 
 
@@ -97,12 +122,12 @@ def _trim_weights(gray: np.ndarray, dark_fraction: float, bright_fraction: float
     """Per-pixel 0/1 weights dropping the darkest and brightest observations, ``(N, P)``."""
     for name, value in (("dark_fraction", dark_fraction), ("bright_fraction", bright_fraction)):
         if not 0 <= value < 1:
-            raise ValueError(f"{name} must be in [0, 1), got {value}")
+            raise ParameterError(f"{name} must be in [0, 1), got {value}")
     n_lights = gray.shape[0]
     n_dark = int(np.floor(dark_fraction * n_lights))
     n_bright = int(np.floor(bright_fraction * n_lights))
     if n_lights - n_dark - n_bright < 3:
-        raise ValueError(
+        raise ParameterError(
             f"dark_fraction={dark_fraction} and bright_fraction={bright_fraction} leave "
             f"{n_lights - n_dark - n_bright} of {n_lights} observations; at least 3 are needed"
         )
@@ -173,6 +198,14 @@ def least_squares(
     light_directions : (N, 3) directions towards the lights (normalised here).
     mask : (H, W) bool, pixels to solve; all pixels when omitted.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, fewer than 3 lights, NaN or infinity in the lights or in the
+        images inside the mask, or an empty mask.
+    brdfkit.errors.ResourceError
+        The data would not fit in memory.
+
     References
     ----------
     R. J. Woodham, Optical Engineering 19(1), 139-144, 1980.
@@ -233,14 +266,24 @@ def sparse_regression(
 
     Parameters
     ----------
-    max_iterations, tol : stop when ``||I - L b - e||_F <= tol ||I||_F`` or after the count.
+    max_iterations, tol : stop when ``||I - L b - e||_F <= tol ||I||_F`` or after the count
+        (at most :data:`MAX_ITERATIONS`).
     callback : called as ``callback(iteration, max_iterations)`` after each iteration.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images, lights or mask (see :func:`least_squares`), or ``tol`` not finite and >= 0.
+    brdfkit.errors.ResourceError
+        ``max_iterations`` above :data:`MAX_ITERATIONS`, or data that would not fit in memory.
 
     References
     ----------
     S. Ikehata, D. Wipf, Y. Matsushita, K. Aizawa, "Robust photometric stereo using sparse
     regression", CVPR 2012 (the ℓ1 relaxation; their SBL variant is not implemented).
     """
+    max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
+    check_param("tol", tol, 0.0)
     observations, lights, mask = _prepare(images, light_directions, mask)
     gray = _gray(observations)
     pseudo_inverse = np.linalg.pinv(lights)
@@ -303,8 +346,18 @@ def robust_pca(
     lam : weight of the sparse term; ``1 / sqrt(max(N, P))`` (Candès et al. 2011) by default.
     shadow_threshold : fraction of a pixel's maximum below which an observation is missing
         (a shadow, completed rather than fitted, as Wu et al. do); 0 keeps every observation.
-    max_iterations, tol : stop when ``||D - A - E||_F <= tol ||D||_F`` or after the count.
+    max_iterations, tol : stop when ``||D - A - E||_F <= tol ||D||_F`` or after the count
+        (at most :data:`MAX_ITERATIONS`).
     callback : called as ``callback(iteration, max_iterations)`` after each iteration.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images, lights or mask (see :func:`least_squares`), ``lam`` not finite and
+        positive, ``tol`` not finite and >= 0, ``shadow_threshold`` outside [0, 1), or images
+        that are zero inside the mask.
+    brdfkit.errors.ResourceError
+        ``max_iterations`` above :data:`MAX_ITERATIONS`, or data that would not fit in memory.
 
     References
     ----------
@@ -315,19 +368,20 @@ def robust_pca(
     E. J. Candès, X. Li, Y. Ma, J. Wright, "Robust principal component analysis?", J. ACM 58(3),
     2011.
     """
+    max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
+    check_param("tol", tol, 0.0)
     observations, lights, mask = _prepare(images, light_directions, mask)
     if not 0 <= shadow_threshold < 1:
-        raise ValueError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
+        raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
     data = _gray(observations)
     if lam is None:
         lam = 1.0 / np.sqrt(max(data.shape))
-    if lam <= 0:
-        raise ValueError(f"lam must be positive, got {lam}")
+    check_param("lam", lam, 0.0, lo_open=True)
     observed = data > shadow_threshold * data.max(axis=0, keepdims=True)
     data_norm = np.linalg.norm(data)
     norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
     if norm_two == 0:
-        raise ValueError("images are all zero inside the mask")
+        raise ParameterError("images are all zero inside the mask")
     dual = data / max(norm_two, np.abs(data).max() / lam)
     mu = 1.25 / norm_two
     mu_max = mu * 1e7
@@ -379,10 +433,10 @@ def fit_circle(mask: ArrayLike) -> tuple[float, float, float]:
     """
     mask = np.asarray(mask, dtype=bool)
     if mask.ndim != 2:
-        raise ValueError(f"mask must be a 2-D array, got shape {mask.shape}")
+        raise ParameterError(f"mask must be a 2-D array, got shape {mask.shape}")
     rows, columns = np.nonzero(mask)
     if rows.size == 0:
-        raise ValueError("mask has no pixels set: cannot fit a circle")
+        raise ParameterError("mask has no pixels set: cannot fit a circle")
     return float(columns.mean()), float(rows.mean()), float(np.sqrt(rows.size / np.pi))
 
 
@@ -399,13 +453,25 @@ def sphere_normals(
     normals : (H, W, 3), zero outside the disc.
     inside : (H, W) bool.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``radius`` not finite and positive, a non-finite ``centre``, or a bad ``shape``.
+    brdfkit.errors.ResourceError
+        More than :data:`MAX_PIXELS` pixels, or more than the memory available.
+
     References
     ----------
     B. K. P. Horn, *Robot Vision*, MIT Press 1986, ch. 10 (the Gaussian sphere).
     """
-    if not radius > 0:
-        raise ValueError(f"radius must be positive, got {radius}")
-    rows, columns = np.indices(shape, dtype=np.float64)
+    check_param("radius", radius, 0.0, lo_open=True)
+    if as_float_array("centre", centre).shape != (2,) or len(shape) != 2:
+        raise ParameterError(f"centre must be (c_x, c_y) and shape (H, W); got {centre}, {shape}")
+    height, width = (check_count(f"shape[{k}]", n, MAX_PIXELS) for k, n in enumerate(shape))
+    if height * width > MAX_PIXELS:
+        raise ResourceError(f"shape {shape} has more than MAX_PIXELS = {MAX_PIXELS} pixels")
+    check_memory(f"sphere normals of shape {shape}", 6 * 8 * 3 * height * width)
+    rows, columns = np.indices((height, width), dtype=np.float64)
     x = (columns - centre[0]) / radius
     y = -(rows - centre[1]) / radius
     rho2 = x**2 + y**2
@@ -438,6 +504,12 @@ def calibrate_lights_chrome_sphere(
     -------
     (N, 3) unit light directions (x right, y up, z towards the camera).
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree, NaN or infinity in ``images``, a ``threshold`` outside (0, 1],
+        an empty mask, or an image with no highlight on the sphere.
+
     References
     ----------
     R. Szeliski, *Computer Vision: Algorithms and Applications*, 2nd ed., 2022, §13.1;
@@ -445,20 +517,22 @@ def calibrate_lights_chrome_sphere(
     sources", ECCV 2002.
     """
     if not 0 < threshold <= 1:
-        raise ValueError(f"threshold must be in (0, 1], got {threshold}")
-    images = np.asarray(images, dtype=np.float64)
+        raise ParameterError(f"threshold must be in (0, 1], got {threshold}")
+    images = as_float_array("images", images)
     if images.ndim == 4:
         images = images.mean(axis=3)
     if images.ndim != 3:
-        raise ValueError(f"images must have shape (N, H, W) or (N, H, W, C), got {images.shape}")
+        raise ParameterError(
+            f"images must have shape (N, H, W) or (N, H, W, C), got {images.shape}"
+        )
     mask = np.asarray(mask, dtype=bool)
     if mask.shape != images.shape[1:]:
-        raise ValueError(f"mask must have shape {images.shape[1:]}, got shape {mask.shape}")
+        raise ParameterError(f"mask must have shape {images.shape[1:]}, got shape {mask.shape}")
     c_x, c_y, radius = fit_circle(mask)
     gray = np.where(mask, images, 0.0)
     peak = gray.reshape(len(gray), -1).max(axis=1)
     if np.any(peak <= 0):
-        raise ValueError(f"no highlight on the sphere in image(s) {np.flatnonzero(peak <= 0)}")
+        raise ParameterError(f"no highlight on the sphere in image(s) {np.flatnonzero(peak <= 0)}")
     weight = np.where(gray >= threshold * peak[:, None, None], gray, 0.0)
     normals, _ = sphere_normals(mask.shape, (c_x, c_y), radius)
     normal = np.einsum("nhw,hwj->nj", weight, normals)
