@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import warnings
 from typing import Any, NoReturn
 
 import typer
@@ -55,7 +56,12 @@ class _Group(TyperGroup):
     """The ``brdfkit`` group: turns every failure into one line on stderr and an exit status."""
 
     def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
-        code = _run(lambda: super(_Group, self).main(*args, standalone_mode=False, **kwargs))
+        with warnings.catch_warnings():
+            if not sys.warnoptions:  # python -W … still shows what it asks for
+                # Library warnings (NumPy's RuntimeWarnings, colour-science's notes) are noise
+                # here: results are checked for NaN and errors are reported as such.
+                warnings.simplefilter("ignore")
+            code = _run(lambda: super(_Group, self).main(*args, standalone_mode=False, **kwargs))
         if standalone_mode:
             sys.exit(code)
         return code
