@@ -246,3 +246,24 @@ def test_the_real_entry_point_with_a_non_utf8_name(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert os.listdir(os.fsencode(tmp_path)) == [name]
+
+
+def test_lighting_never_overwrites_its_input_image(inputs):
+    case = inputs["lighting"]
+    sphere = case.inputs[0]
+    before = _tree(sphere)
+    result = runner.invoke(app, ["lighting", str(sphere), "-m", "mirror-ball", "-o", str(sphere)])
+    assert result.exit_code == 2 and "is an input" in result.stderr
+    assert _tree(sphere) == before
+
+
+def test_hdr_response_never_replaces_a_folder(inputs, tmp_path):
+    case = inputs["hdr"]
+    folder = tmp_path / "curves"
+    folder.mkdir()
+    (folder / "keep.txt").write_text("mine")
+    result = runner.invoke(
+        app, [*case.args, "-o", str(tmp_path / "m.exr"), "--response", str(folder)]
+    )
+    assert result.exit_code == 2 and "existing folder" in result.stderr
+    assert (folder / "keep.txt").read_text() == "mine" and not (tmp_path / "m.exr").exists()
