@@ -334,7 +334,8 @@ def _row_lengths(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Finite ``rows`` (N, 3) and their lengths (N, 1); a row whose squared length over- or
     underflows (components near 1e±154 and beyond) is first divided by its largest component,
     so that only a zero row has length 0."""
-    length = np.linalg.norm(rows, axis=1, keepdims=True)
+    with np.errstate(over="ignore", under="ignore"):  # detected and handled below
+        length = np.linalg.norm(rows, axis=1, keepdims=True)
     largest = np.abs(rows).max(axis=1, keepdims=True)
     extreme = np.isinf(length) | ((length == 0) & (largest > 0))
     if np.any(extreme):

@@ -50,26 +50,36 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit.errors import ParameterError
+from brdfkit.vision._checks import as_float_array
+
 MIN_NZ = 1e-2
 """Smallest ``|n_z|`` used in orthographic slopes ``-n_x / n_z``: caps a slope at 100 (89.4°)."""
 
 
 def _check(normals: ArrayLike, mask: ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
-    """Validate ``(H, W, 3)`` normals and an ``(H, W)`` mask with pixels; zero normals outside."""
-    normals = np.asarray(normals, dtype=np.float64)
+    """Validate ``(H, W, 3)`` normals and an ``(H, W)`` mask with pixels; zero normals outside.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Normals not numeric or not (H, W, 3) with H, W >= 2, a mask of another shape or empty,
+        or NaN or infinity in the normals inside the mask.
+    """
+    normals = as_float_array("normals", normals, finite=False)
     if normals.ndim != 3 or normals.shape[2] != 3:
-        raise ValueError(f"normals must have shape (H, W, 3), got shape {normals.shape}")
+        raise ParameterError(f"normals must have shape (H, W, 3), got shape {normals.shape}")
     if min(normals.shape[:2]) < 2:
-        raise ValueError(f"normals must be at least 2 x 2 pixels, got shape {normals.shape}")
+        raise ParameterError(f"normals must be at least 2 x 2 pixels, got shape {normals.shape}")
     if mask is None:
         mask = np.ones(normals.shape[:2], dtype=bool)
     mask = np.asarray(mask, dtype=bool)
     if mask.shape != normals.shape[:2]:
-        raise ValueError(f"mask must have shape {normals.shape[:2]}, got shape {mask.shape}")
+        raise ParameterError(f"mask must have shape {normals.shape[:2]}, got shape {mask.shape}")
     if not mask.any():
-        raise ValueError("mask has no pixels set: nothing to integrate")
+        raise ParameterError("mask has no pixels set: nothing to integrate")
     if not np.all(np.isfinite(normals[mask])):
-        raise ValueError("normals must be finite inside the mask")
+        raise ParameterError("normals must be finite inside the mask")
     return np.where(mask[..., None], normals, 0.0), mask
 
 
@@ -107,12 +117,14 @@ def perspective_gradients(
     J.-D. Durou, J.-F. Aujol, F. Courteille, EMMCVPR 2009; Y. Quéau et al., JMIV 60, 2018, §2.2.
     """
     normals, mask = _check(normals, mask)
-    camera = np.asarray(camera, dtype=np.float64)
+    camera = as_float_array("camera", camera, finite=False)
     if camera.shape != (3, 3) or not np.all(np.isfinite(camera)):
-        raise ValueError(f"camera must be a finite (3, 3) intrinsics matrix K, got {camera!r}")
+        raise ParameterError(f"camera must be a finite (3, 3) intrinsics matrix K, got {camera!r}")
     f_x, f_y, c_x, c_y = camera[0, 0], camera[1, 1], camera[0, 2], camera[1, 2]
     if not (f_x > 0 and f_y > 0):
-        raise ValueError(f"camera focal lengths K[0,0], K[1,1] must be positive, got {f_x}, {f_y}")
+        raise ParameterError(
+            f"camera focal lengths K[0,0], K[1,1] must be positive, got {f_x}, {f_y}"
+        )
     rows, columns = np.indices(mask.shape, dtype=np.float64)
     r_x, r_y = (columns - c_x) / f_x, (rows - c_y) / f_y
     m_x, m_y, m_z = normals[..., 0], -normals[..., 1], -normals[..., 2]

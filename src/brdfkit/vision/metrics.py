@@ -16,6 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import dot, normalize
+from brdfkit.errors import ParameterError
+from brdfkit.vision._checks import as_float_array
 
 
 def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:
@@ -24,9 +26,9 @@ def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:
         return np.ones(shape, dtype=bool)
     mask = np.asarray(mask, dtype=bool)
     if mask.shape != shape:
-        raise ValueError(f"mask must have shape {shape}, got shape {mask.shape}")
+        raise ParameterError(f"mask must have shape {shape}, got shape {mask.shape}")
     if not mask.any():
-        raise ValueError("mask has no pixels set: the error is undefined")
+        raise ParameterError("mask has no pixels set: the error is undefined")
     return mask
 
 
@@ -47,14 +49,17 @@ def angular_error_map(
     ----------
     B. Shi et al., IEEE TPAMI 41(2), 2019 (the DiLiGenT evaluation code).
     """
-    normals = np.asarray(normals, dtype=np.float64)
-    normals_gt = np.asarray(normals_gt, dtype=np.float64)
+    normals = as_float_array("normals", normals, finite=False)
+    normals_gt = as_float_array("normals_gt", normals_gt, finite=False)
     if normals.shape != normals_gt.shape or normals.ndim != 3 or normals.shape[2] != 3:
-        raise ValueError(
+        raise ParameterError(
             f"normals and normals_gt must both have shape (H, W, 3), got {normals.shape} and "
             f"{normals_gt.shape}"
         )
     mask = _check_mask(mask, normals.shape[:2])
+    for name, value in (("normals", normals), ("normals_gt", normals_gt)):
+        if not np.all(np.isfinite(value[mask])):
+            raise ParameterError(f"{name} must be finite inside the mask")
     cosine = np.clip(dot(normalize(normals), normalize(normals_gt)), -1.0, 1.0)
     return np.where(mask, np.degrees(np.arccos(cosine)), np.nan)
 
@@ -96,17 +101,17 @@ def depth_error(
     Y. Quéau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", J. Math. Imaging Vis. 60,
     576-593, 2018 (evaluation up to the integration constant).
     """
-    depth = np.asarray(depth, dtype=np.float64)
-    depth_gt = np.asarray(depth_gt, dtype=np.float64)
+    depth = as_float_array("depth", depth, finite=False)
+    depth_gt = as_float_array("depth_gt", depth_gt, finite=False)
     if depth.shape != depth_gt.shape or depth.ndim != 2:
-        raise ValueError(
+        raise ParameterError(
             f"depth and depth_gt must both have shape (H, W), got {depth.shape} and "
             f"{depth_gt.shape}"
         )
     mask = _check_mask(mask, depth.shape)
     z, z_gt = depth[mask], depth_gt[mask]
     if not (np.all(np.isfinite(z)) and np.all(np.isfinite(z_gt))):
-        raise ValueError("depth and depth_gt must be finite inside the mask")
+        raise ParameterError("depth and depth_gt must be finite inside the mask")
     design = np.stack([z, np.ones_like(z)], axis=1)
     (scale, offset), *_ = np.linalg.lstsq(design, z_gt, rcond=None)
     rmse = float(np.sqrt(np.mean((scale * z + offset - z_gt) ** 2)))

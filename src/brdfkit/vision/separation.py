@@ -52,13 +52,27 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from brdfkit._array import check_param
+from brdfkit.errors import ParameterError
+from brdfkit.vision._checks import as_float_array, check_count
+
 __all__ = [
+    "MAX_ITERATIONS",
+    "MAX_SIGMA_SPACE",
     "Separation",
     "max_chromaticity",
     "separate_dichromatic",
     "separate_polarization",
     "specular_free",
 ]
+
+
+MAX_ITERATIONS = 10_000
+"""Largest ``iterations`` of :func:`separate_dichromatic`."""
+
+MAX_SIGMA_SPACE = 64.0
+"""Largest ``sigma_space`` (pixels) of :func:`separate_dichromatic`: its filter sums
+``(4 σ + 1)²`` shifted images per iteration."""
 
 
 @dataclass(frozen=True)
@@ -76,11 +90,14 @@ class Separation:
 
 
 def _check_rgb(name: str, image: ArrayLike) -> np.ndarray:
-    image = np.asarray(image, dtype=np.float64)
+    """``image`` as a finite, non-negative (H, W, 3) float64 array, else a ParameterError."""
+    image = as_float_array(name, image, finite=False)
     if image.ndim != 3 or image.shape[-1] != 3:
-        raise ValueError(f"{name} must be an RGB image of shape (H, W, 3); got shape {image.shape}")
+        raise ParameterError(
+            f"{name} must be an RGB image of shape (H, W, 3); got shape {image.shape}"
+        )
     if not np.all(np.isfinite(image)) or np.any(image < 0):
-        raise ValueError(f"{name} must hold finite, non-negative linear values")
+        raise ParameterError(f"{name} must hold finite, non-negative linear values")
     return image
 
 
@@ -88,9 +105,9 @@ def _white_balance(image: np.ndarray, illuminant: ArrayLike | None) -> np.ndarra
     """Per-channel factors ``3 Γ_c`` that the image is divided by so that Γ becomes white."""
     if illuminant is None:
         return np.ones(3)
-    gamma = np.asarray(illuminant, dtype=np.float64)
+    gamma = as_float_array("illuminant", illuminant, finite=False)
     if gamma.shape != (3,) or np.any(gamma <= 0) or not np.all(np.isfinite(gamma)):
-        raise ValueError(
+        raise ParameterError(
             f"illuminant must be 3 positive numbers (its RGB colour); got {illuminant!r}"
         )
     return 3 * gamma / gamma.sum()
@@ -205,12 +222,21 @@ def separate_dichromatic(
     illuminant : RGB colour of the light (any scale); white when omitted.
     sigma_space, sigma_range : the joint bilateral filter's spatial (pixels) and range
         (chromaticity) standard deviations.
-    iterations, tolerance : stopping rule of step 3.
+    iterations, tolerance : stopping rule of step 3 (at most :data:`MAX_ITERATIONS`).
     dark : channel sum below which a pixel is left diffuse.
 
     Returns
     -------
     Separation
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``image`` not a finite, non-negative (H, W, 3) array; a bad ``illuminant``;
+        ``sigma_space`` outside (0, :data:`MAX_SIGMA_SPACE`], ``sigma_range`` not finite and
+        positive, ``tolerance`` or ``dark`` not finite and >= 0.
+    brdfkit.errors.ResourceError
+        ``iterations`` above :data:`MAX_ITERATIONS`.
 
     References
     ----------
@@ -220,11 +246,11 @@ def separate_dichromatic(
     .. [3] G. J. Klinker, S. A. Shafer and T. Kanade, IJCV 2(1), 1988.
     """
     image = _check_rgb("image", image)
-    for name, value in (("sigma_space", sigma_space), ("sigma_range", sigma_range)):
-        if not value > 0:
-            raise ValueError(f"{name} must be positive; got {value!r}")
-    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
-        raise ValueError(f"iterations must be a positive integer; got {iterations!r}")
+    check_param("sigma_space", sigma_space, 0.0, MAX_SIGMA_SPACE, lo_open=True)
+    check_param("sigma_range", sigma_range, 0.0, lo_open=True)
+    check_param("tolerance", tolerance, 0.0)
+    check_param("dark", dark, 0.0)
+    iterations = check_count("iterations", iterations, MAX_ITERATIONS)
     balance = _white_balance(image, illuminant)
     balanced = image / balance
     total = balanced.sum(axis=-1)
@@ -279,15 +305,15 @@ def separate_polarization(parallel: ArrayLike, crossed: ArrayLike) -> Separation
     .. [3] P. Debevec et al., "Acquiring the reflectance field of a human face", SIGGRAPH 2000,
        §2.2 (cross-polarised capture).
     """
-    parallel = np.asarray(parallel, dtype=np.float64)
-    crossed = np.asarray(crossed, dtype=np.float64)
+    parallel = as_float_array("parallel", parallel, finite=False)
+    crossed = as_float_array("crossed", crossed, finite=False)
     if parallel.ndim != 3 or parallel.shape != crossed.shape:
-        raise ValueError(
+        raise ParameterError(
             "parallel and crossed must be images of the same shape (H, W, C); got "
             f"{parallel.shape} and {crossed.shape}"
         )
     for name, value in (("parallel", parallel), ("crossed", crossed)):
         if not np.all(np.isfinite(value)) or np.any(value < 0):
-            raise ValueError(f"{name} must hold finite, non-negative linear values")
+            raise ParameterError(f"{name} must hold finite, non-negative linear values")
     specular = np.maximum(parallel - crossed, 0.0)
     return Separation(parallel + crossed - specular, specular)

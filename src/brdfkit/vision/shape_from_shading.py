@@ -54,7 +54,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["ShapeFromShading", "shape_from_shading"]
+from brdfkit._array import check_param
+from brdfkit.errors import ParameterError, ResourceError
+from brdfkit.vision._checks import as_float_array, check_count
+
+__all__ = ["MAX_ITERATIONS", "MAX_PIXELS", "ShapeFromShading", "shape_from_shading"]
+
+MAX_ITERATIONS = 100_000
+"""Largest ``max_iterations`` of :func:`shape_from_shading`."""
+
+MAX_PIXELS = 2**18
+"""Most mask pixels :func:`shape_from_shading` solves for (512 × 512; downsample larger images:
+the cost grows faster than the pixel count)."""
 
 
 @dataclass(frozen=True)
@@ -166,11 +177,21 @@ def shape_from_shading(
     initial_depth : (H, W) start; by default the tent ``d / 2`` with ``d`` the Euclidean
         distance to the nearest pixel outside the mask (convex, 26.6° slopes: a generic
         "bulges towards the viewer" start, not the answer).
-    max_iterations : limit on residual evaluations.
+    max_iterations : limit on residual evaluations, 1 … :data:`MAX_ITERATIONS`.
 
     Returns
     -------
     ShapeFromShading
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Shapes that disagree; NaN, infinity or negative values in ``image``; a zero, non-finite
+        or back-facing ``light``; ``albedo``, ``smoothness`` or ``initial_depth`` (inside the
+        mask) not finite or out of range; a mask without a 2 × 2 block.
+    brdfkit.errors.ResourceError
+        ``max_iterations`` above :data:`MAX_ITERATIONS` or more than :data:`MAX_PIXELS` mask
+        pixels.
 
     References
     ----------
@@ -180,36 +201,43 @@ def shape_from_shading(
     """
     from scipy.ndimage import distance_transform_edt
 
-    image = np.asarray(image, dtype=np.float64)
+    max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
+    check_param("smoothness", smoothness, 0.0)
+    image = as_float_array("image", image, finite=False)
     if image.ndim == 3:
         image = image.mean(axis=-1)
     if image.ndim != 2:
-        raise ValueError(f"image must have shape (H, W) or (H, W, C); got shape {image.shape}")
+        raise ParameterError(f"image must have shape (H, W) or (H, W, C); got shape {image.shape}")
     if not np.all(np.isfinite(image)) or np.any(image < 0):
-        raise ValueError("image must hold finite, non-negative linear values")
-    light = np.asarray(light, dtype=np.float64)
+        raise ParameterError("image must hold finite, non-negative linear values")
+    light = as_float_array("light", light, finite=False)
     if light.shape != (3,) or not np.linalg.norm(light) > 0 or not np.all(np.isfinite(light)):
-        raise ValueError(f"light must be a non-zero 3-vector; got {light!r}")
+        raise ParameterError(f"light must be a non-zero 3-vector; got {light!r}")
     light = light / np.linalg.norm(light)
     if light[2] <= 0:
-        raise ValueError(f"light must point towards the camera side (l_z > 0); got {light}")
+        raise ParameterError(f"light must point towards the camera side (l_z > 0); got {light}")
     mask = np.ones(image.shape, bool) if mask is None else np.asarray(mask, dtype=bool)
     if mask.shape != image.shape:
-        raise ValueError(f"mask must have shape {image.shape}; got shape {mask.shape}")
-    if not smoothness >= 0:
-        raise ValueError(f"smoothness must be >= 0; got {smoothness!r}")
+        raise ParameterError(f"mask must have shape {image.shape}; got shape {mask.shape}")
+    if mask.sum() > MAX_PIXELS:
+        raise ResourceError(
+            f"the mask has {mask.sum()} pixels, more than MAX_PIXELS = {MAX_PIXELS}: downsample"
+        )
     operators = _operators(mask)
     if operators[0].shape[0] < 1:
-        raise ValueError("mask must contain at least one 2×2 block of pixels")
+        raise ParameterError("mask must contain at least one 2×2 block of pixels")
     if albedo is None:
         albedo = float(np.percentile(image[mask], 99.9))
     if not albedo > 0:
-        raise ValueError(f"albedo must be positive (the image is black?); got {albedo!r}")
+        raise ParameterError(f"albedo must be positive (the image is black?); got {albedo!r}")
+    check_param("albedo", albedo, 0.0, lo_open=True)
     if initial_depth is None:
         initial_depth = distance_transform_edt(mask) / 2
-    z0 = np.asarray(initial_depth, dtype=np.float64)
+    z0 = as_float_array("initial_depth", initial_depth, finite=False)
     if z0.shape != image.shape:
-        raise ValueError(f"initial_depth must have shape {image.shape}; got shape {z0.shape}")
+        raise ParameterError(f"initial_depth must have shape {image.shape}; got shape {z0.shape}")
+    if not np.all(np.isfinite(z0[mask])):
+        raise ParameterError("initial_depth must be finite inside the mask")
     z, iterations, rms = _solve(
         image / albedo, mask, operators, light, smoothness, z0, max_iterations
     )
