@@ -187,3 +187,12 @@ def test_writer_helper_round_trips(felt, tmp_path):
     path.write_bytes(_tensor_bytes(read_tensor_file(felt)))
     wi, wo = _directions(100, 8), _directions(100, 9)
     np.testing.assert_array_equal(read_rgl(path).eval(wi, wo), read_rgl(felt).eval(wi, wo))
+
+
+@pytest.mark.parametrize("length", [12, 13, 14, 17, 18, 19, 25, 40])
+def test_truncated_anywhere_in_the_header(felt, tmp_path, length):
+    bad = tmp_path / "bad.bsdf"
+    bad.write_bytes(felt.read_bytes()[:length])
+    with pytest.raises(FormatError, match="truncated") as info:
+        read_tensor_file(bad)
+    assert "bad.bsdf" in str(info.value)

@@ -95,10 +95,11 @@ def read_tensor_file(path: str | os.PathLike) -> dict[str, np.ndarray]:
     raw = path.read_bytes()
     if raw[:12] != _MAGIC:
         raise FormatError(path, f"does not start with 'tensor_file\\0'; got {raw[:12]!r}", offset=0)
+    pos = 12
     try:
-        version = struct.unpack_from("<BB", raw, 12)
+        version = struct.unpack_from("<BB", raw, pos)
         if version != (1, 0):
-            raise FormatError(path, f"version {version}; expected (1, 0)", offset=12)
+            raise FormatError(path, f"version {version}; expected (1, 0)", offset=pos)
         (count,) = struct.unpack_from("<I", raw, 14)
         pos, fields = 18, {}
         for _ in range(count):
