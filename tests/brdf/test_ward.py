@@ -186,7 +186,7 @@ def test_torch_gradients_flow_to_parameters():
 @pytest.mark.parametrize(
     "kwargs, words",
     [
-        ({"alpha_x": 0.0}, ["alpha_x", "0", "(0.0, 1.0]"]),
+        ({"alpha_x": 0.0}, ["alpha_x", "0", "[0.0001, 1.0]"]),
         ({"alpha_x": 0.1, "alpha_y": 1.5}, ["alpha_y", "1.5"]),
         ({"kd": 0.6, "ks": 0.6}, ["kd + ks", "1.2"]),
         ({"normalization": "dur"}, ["normalization", "dur"]),

@@ -17,13 +17,16 @@ References
 from __future__ import annotations
 
 import dataclasses
+import math
+import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, check_param, constant, namespace, to_numpy
+from brdfkit._array import Array, asarray, check_param, constant, is_abstract, namespace, to_numpy
+from brdfkit.errors import ParameterError
 
 MODELS: dict[str, type[BRDF]] = {}
 """Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
@@ -47,15 +50,127 @@ HEMISPHERES = ("upper", "both")
 transmission."""
 
 
-def check_choice(name: str, value: str, choices: tuple[str, ...]) -> str:
-    """Raise ``ValueError`` naming ``name`` unless ``value`` is one of ``choices``."""
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}; got {value!r}")
+# --------------------------------------------------------------------------- validation
+_SHORT = reprlib.Repr()
+_SHORT.maxstring = _SHORT.maxother = 40
+_SHORT.maxlist = _SHORT.maxtuple = 6
+
+
+def _described(value: Any) -> str:
+    """``value`` for an error message: its type and a shortened repr."""
+    return f"{type(value).__name__} {_SHORT.repr(value)}"
+
+
+def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is one of
+    the strings ``choices``."""
+    if not isinstance(value, str) or value not in choices:
+        raise ParameterError(f"{name} must be one of {choices}; got {_described(value)}")
+    return value
+
+
+def check_flag(name: str, value: Any) -> bool:
+    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is a bool."""
+    if not isinstance(value, bool | np.bool_):
+        raise ParameterError(f"{name} must be True or False; got {_described(value)}")
+    return bool(value)
+
+
+def check_number(name: str, value: Any) -> Any:
+    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is a real
+    number or a non-empty array of them (a list, a NumPy, PyTorch or JAX array), not a bool.
+
+    Strings, ``None``, booleans, complex numbers, empty and ragged lists are refused; the value
+    is returned unchanged.
+    """
+    if hasattr(value, "dtype") and hasattr(value, "shape") and not isinstance(value, np.generic):
+        xp = namespace(value)
+        real = xp.isdtype(value.dtype, ("real floating", "integral"))
+        if real and (is_abstract(value) or math.prod(value.shape) > 0):
+            return value
+    elif isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_
+    ):
+        return value
+    elif isinstance(value, list | tuple | np.generic):
+        try:
+            array = np.asarray(value)
+        except (ValueError, TypeError):  # ragged nesting
+            array = None
+        if array is not None and array.dtype.kind in "iuf" and array.size > 0:
+            return value
+    raise ParameterError(
+        f"{name} must be a real number or a non-empty array of real numbers; got "
+        f"{_described(value)}"
+    )
+
+
+@dataclass(frozen=True)
+class Domain:
+    """The interval a numeric parameter may take: ``[lo, hi]`` (either end open).
+
+    Every numeric parameter of a model is checked against one declared domain, in which its
+    formulas are finite. ``unphysical_hi`` is the upper end when the model's
+    ``allow_unphysical`` switch is on (``None``: the switch does not widen it).
+    """
+
+    lo: float
+    hi: float
+    lo_open: bool = False
+    hi_open: bool = False
+    hint: str = ""
+    unphysical_hi: float | None = None
+
+    def check(self, name: str, value: Any, *, unphysical: bool = False) -> Any:
+        """``value`` unchanged if it is a number (or array) inside the domain.
+
+        Raises
+        ------
+        brdfkit.errors.ParameterError
+            Naming ``name``, the value and the domain (``"alpha must be in [0.0001, 10.0];
+            got 1e+308"``), or the type for a value that is no number.
+        """
+        check_number(name, value)
+        hi = self.unphysical_hi if unphysical and self.unphysical_hi is not None else self.hi
+        hint = self.hint
+        if not unphysical and self.unphysical_hi is not None:
+            hint = f"{hint}; " if hint else ""
+            hint += "pass allow_unphysical=True for more"
+        return check_param(
+            name, value, self.lo, hi, lo_open=self.lo_open, hi_open=self.hi_open, hint=hint
+        )
+
+
+UNPHYSICAL_MAX = 1e6
+"""The upper end of colour and scale parameters beyond physics (``allow_unphysical=True``, the
+factor ``k`` of ``k * model``): data in arbitrary units, far from any float overflow."""
+
+ALBEDO = Domain(0.0, 1.0, hint="an albedo", unphysical_hi=UNPHYSICAL_MAX)
+"""Albedos and reflectances (ρ, k_d, k_s, ``diffuse``, ``reflectance``, f0): [0, 1]."""
+
+ROUGHNESS = Domain(1e-4, 10.0, hint="microfacet roughness α")
+"""Microfacet roughness α (GGX, Beckmann; Cook–Torrance's m): [10⁻⁴, 10]. At 10⁻⁴ the lobe is a
+mirror to 0.006°; at 10 facets slope at 84° on average; in between D, Λ and the samplers stay
+finite in float32."""
+
+EXPONENT = Domain(0.0, 1e6, hint="cosine exponent")
+"""Cosine-lobe exponents n (Phong, Blinn–Phong, Lafortune): [0, 10⁶], a lobe 0.1° wide at the
+top end."""
+
+SCALE = Domain(0.0, UNPHYSICAL_MAX, hint="the factor of k * model")
+"""The factor ``k`` of :class:`Scaled`: [0, 10⁶]."""
+
+
+def check_brdf(name: str, value: Any) -> BRDF:
+    """Raise :class:`~brdfkit.errors.ParameterError` unless ``value`` is a :class:`BRDF`."""
+    if not isinstance(value, BRDF):
+        raise ParameterError(f"{name} must be a BRDF; got {_described(value)}")
     return value
 
 
 def check_hemisphere(hemisphere: str) -> str:
-    """Raise ``ValueError`` unless ``hemisphere`` is one of :data:`HEMISPHERES`."""
+    """Raise :class:`~brdfkit.errors.ParameterError` unless ``hemisphere`` is one of
+    :data:`HEMISPHERES`."""
     return check_choice("hemisphere", hemisphere, HEMISPHERES)
 
 
@@ -63,7 +178,7 @@ def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
     """The channel count C implied by channel-valued parameters (their trailing axis).
 
     Scalars count as 1 and broadcast to any C; two parameters with different trailing sizes > 1
-    are an error that names both.
+    are a :class:`~brdfkit.errors.ParameterError` that names both.
     """
     count, owner = 1, None
     for i, value in enumerate(values):
@@ -73,7 +188,7 @@ def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
             continue
         if count not in (1, c):
             this = names[i] if i < len(names) else f"parameter {i}"
-            raise ValueError(
+            raise ParameterError(
                 f"{this} has {c} channels but {owner} has {count}; channel-valued parameters "
                 "must share their last axis (or have length 1)"
             )
@@ -336,11 +451,17 @@ class Sum(BRDF):
     lobes: tuple[BRDF, ...]
 
     def __post_init__(self) -> None:
-        if len(self.lobes) < 1:
-            raise ValueError("lobes must hold at least one BRDF; got none")
+        if not isinstance(self.lobes, tuple) or len(self.lobes) < 1:
+            raise ParameterError(
+                f"lobes must be a non-empty tuple of BRDFs; got {_described(self.lobes)}"
+            )
+        for i, lobe in enumerate(self.lobes):
+            check_brdf(f"lobes[{i}]", lobe)
         counts = {lobe.channels for lobe in self.lobes} - {1}
         if len(counts) > 1:
-            raise ValueError(f"lobes must share a channel count (or have 1); got {sorted(counts)}")
+            raise ParameterError(
+                f"lobes must share a channel count (or have 1); got {sorted(counts)}"
+            )
 
     @property
     def channels(self) -> int:  # type: ignore[override]
@@ -442,7 +563,8 @@ class Sum(BRDF):
 
 @dataclass(frozen=True, eq=False)
 class Scaled(BRDF):
-    """``k * brdf``: every value and sample weight multiplied by ``k`` (scalar or per channel).
+    """``k * brdf``: every value and sample weight multiplied by ``k`` (scalar or per channel),
+    k ∈ [0, 10⁶] (:data:`SCALE`).
 
     Reciprocal when the inner model is; energy-conserving only when measured so (k may be > 1).
     """
@@ -451,7 +573,8 @@ class Scaled(BRDF):
     inner: BRDF
 
     def __post_init__(self) -> None:
-        check_param("k", self.k, 0.0)
+        check_brdf("inner", self.inner)
+        SCALE.check("k", self.k)
         channel_count(self.k, np.zeros(self.inner.channels), names=("k", "inner model"))
 
     @property
@@ -506,16 +629,25 @@ class Scaled(BRDF):
 
 
 __all__ = [
+    "ALBEDO",
     "BRDF",
+    "EXPONENT",
     "HEMISPHERES",
     "MODELS",
+    "ROUGHNESS",
+    "SCALE",
+    "UNPHYSICAL_MAX",
+    "Domain",
     "Sample",
     "Scaled",
     "Sum",
     "broadcast_channels",
     "channel_count",
+    "check_brdf",
     "check_choice",
+    "check_flag",
     "check_hemisphere",
+    "check_number",
     "check_param",
     "mixture_choices",
     "normalized_weights",

@@ -10,9 +10,11 @@ import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, to_numpy
 from brdfkit.brdf.base import (
+    ALBEDO,
     BRDF,
+    EXPONENT,
+    Domain,
     channel_count,
-    check_param,
     normalized_weights,
     param,
     register,
@@ -27,8 +29,16 @@ from brdfkit.brdf.phong import (
     cosine_power,
     sample_cosine_lobe,
 )
+from brdfkit.errors import ParameterError
 
 _LOBE_PARAMS = ("cx", "cy", "cz", "n")
+
+COEFFICIENT = Domain(-100.0, 100.0, hint="lobe coefficient")
+"""The lobe coefficients C_x, C_y, C_z: [−100, 100]."""
+
+PEAK_MAX = 1e12
+"""The largest lobe peak max(|C_x|, |C_y|, |C_z|)ⁿ allowed, in sr⁻¹: far above any measured
+highlight, and far from overflow in float32."""
 
 
 def _lobe(value: Any, k: int, like: Array) -> Array:
@@ -68,10 +78,11 @@ class Lafortune(MixtureSampled):
     Parameters
     ----------
     kd : diffuse albedo ρd ∈ [0, 1] (broadcast against ``batch + (C,)``).
-    cx, cy, cz : lobe coefficients, any real; the **first axis indexes the lobe**
+    cx, cy, cz : lobe coefficients in [−100, 100]; the **first axis indexes the lobe**
         (``cx=[-1.0]`` is one lobe, ``cx=[-1.0, 0.5]`` two); each ``cx[k]`` broadcasts against
         ``batch + (C,)`` (per channel or per pixel).
-    n : lobe exponents n_k ≥ 0, same first axis.
+    n : lobe exponents n_k ∈ [0, 10⁶], same first axis. Each lobe's peak
+        max(|C_x|, |C_y|, |C_z|)ⁿ must be at most 10¹² sr⁻¹ (:data:`PEAK_MAX`).
 
     References
     ----------
@@ -88,19 +99,23 @@ class Lafortune(MixtureSampled):
     n: Any = (20.0,)
 
     def __post_init__(self) -> None:
-        check_param("kd", self.kd, 0.0, 1.0)
+        ALBEDO.check("kd", self.kd)
         lobes = {}
         for name in _LOBE_PARAMS:
-            shape = np.shape(to_numpy(getattr(self, name)))
-            if len(shape) == 0 or shape[0] < 1:
-                raise ValueError(
+            value = getattr(self, name)
+            (EXPONENT if name == "n" else COEFFICIENT).check(name, value)
+            shape = np.shape(to_numpy(value))
+            if len(shape) == 0:
+                raise ParameterError(
                     f"{name} must have a leading lobe axis of length ≥ 1 (e.g. {name}=[1.0]); "
                     f"got shape {shape}"
                 )
             lobes[name] = shape[0]
-            check_param(name, getattr(self, name), 0.0 if name == "n" else None)
         if len(set(lobes.values())) > 1:
-            raise ValueError(f"cx, cy, cz and n must have the same number of lobes; got {lobes}")
+            raise ParameterError(
+                f"cx, cy, cz and n must have the same number of lobes; got {lobes}"
+            )
+        self._check_peaks()
         values = [self.kd]
         names = ["kd"]
         for name in _LOBE_PARAMS:
@@ -108,6 +123,22 @@ class Lafortune(MixtureSampled):
                 values.append(v)
                 names.append(f"{name}[{k}]")
         object.__setattr__(self, "channels", channel_count(*values, names=tuple(names)))
+
+    def _check_peaks(self) -> None:
+        """Raise unless every lobe's peak max(|C_x|, |C_y|, |C_z|)ⁿ is at most :data:`PEAK_MAX`."""
+        c = [
+            np.abs(to_numpy(getattr(self, name)).astype(np.float64)) for name in ("cx", "cy", "cz")
+        ]
+        n = to_numpy(self.n).astype(np.float64)
+        for k in range(n.shape[0]):
+            largest = np.maximum(np.maximum(c[0][k], c[1][k]), c[2][k])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                log_peak = np.where(n[k] > 0, n[k] * np.log(largest), 0.0)
+            if np.any(log_peak > np.log(PEAK_MAX)):
+                raise ParameterError(
+                    f"n must keep lobe {k}'s peak max(|cx|, |cy|, |cz|)^n at most {PEAK_MAX:g} "
+                    f"sr⁻¹; got {np.max(largest):g}^{np.max(n[k]):g}"
+                )
 
     @property
     def lobe_count(self) -> int:

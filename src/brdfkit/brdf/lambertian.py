@@ -8,11 +8,12 @@ from typing import Any, ClassVar
 
 from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
+    ALBEDO,
     BRDF,
     Sample,
     channel_count,
+    check_flag,
     check_hemisphere,
-    check_param,
     param,
     register,
     result_shape,
@@ -32,7 +33,7 @@ class Lambertian(BRDF):
     Parameters
     ----------
     rho : the albedo ρ ∈ [0, 1], scalar, per channel (``[r, g, b]``) or a per-pixel texture
-        ``(..., C)``. ``allow_unphysical=True`` admits ρ > 1. Spec strings may call it
+        ``(..., C)``. ``allow_unphysical=True`` admits ρ up to 10⁶. Spec strings may call it
         ``albedo`` (``"lambertian(albedo=0.8)"``); the field is ``rho`` because ``albedo`` is
         the protocol's method.
 
@@ -47,12 +48,8 @@ class Lambertian(BRDF):
     spec_aliases: ClassVar[dict[str, str]] = {"albedo": "rho"}
 
     def __post_init__(self) -> None:
-        check_param(
-            "rho",
-            self.rho,
-            0.0,
-            None if self.allow_unphysical else 1.0,
-            hint="pass allow_unphysical=True for ρ > 1",
+        ALBEDO.check(
+            "rho", self.rho, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
         )
         object.__setattr__(self, "channels", channel_count(self.rho, names=("rho",)))
 

@@ -73,14 +73,33 @@ from brdfkit._array import (
     safe_sqrt,
     to_numpy,
 )
-from brdfkit.brdf.base import channel_count, check_param, param
-from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
+from brdfkit.brdf.base import (
+    ALBEDO,
+    ROUGHNESS,
+    Domain,
+    channel_count,
+    check_choice,
+    check_flag,
+    param,
+)
+from brdfkit.errors import ParameterError
+from brdfkit.fresnel import CONDUCTORS, conductor, fresnel_conductor, fresnel_dielectric, schlick
 
 MASKINGS = ("v_groove", "smith_separable", "smith_correlated")
 """The masking–shadowing functions :func:`masking_shadowing` knows."""
 
 FRESNELS = ("none", "dielectric", "conductor", "schlick")
 """The Fresnel factors :class:`FresnelTerm` knows."""
+
+GAUSSIAN_WIDTH = Domain(1e-4, 10.0, hint="angular roughness in radians")
+"""The width m of the Torrance–Sparrow Gaussian: [10⁻⁴, 10] radians (beyond π/2 it is nearly
+uniform)."""
+
+IOR = Domain(0.01, 100.0, hint="relative index of refraction")
+"""A relative index of refraction η (dielectric, or the real part of a conductor's): [0.01, 100]."""
+
+EXTINCTION = Domain(0.0, 100.0, hint="extinction coefficient")
+"""A conductor's extinction coefficient k: [0, 100]."""
 
 _TINY = 1e-30  # guards divisions by squared cosines (representable in float32)
 _GAUSS_LEGENDRE_NODES = 64
@@ -207,8 +226,8 @@ class _StretchedDistribution(MicrofacetDistribution):
     def __post_init__(self) -> None:
         if self.alpha_y is None:
             object.__setattr__(self, "alpha_y", self.alpha_x)
-        check_param("alpha_x", self.alpha_x, 0.0, lo_open=True, hint="roughness must be > 0")
-        check_param("alpha_y", self.alpha_y, 0.0, lo_open=True, hint="roughness must be > 0")
+        ROUGHNESS.check("alpha_x", self.alpha_x)
+        ROUGHNESS.check("alpha_y", self.alpha_y)
         channel_count(self.alpha_x, self.alpha_y, names=("alpha_x", "alpha_y"))
 
     @property
@@ -296,8 +315,8 @@ class GGX(_StretchedDistribution):
 
     Parameters
     ----------
-    alpha_x, alpha_y : roughness along the tangent x and bitangent y, > 0 (α = 1 is very
-        rough); ``alpha_y`` defaults to ``alpha_x`` (isotropic). Scalars or per channel.
+    alpha_x, alpha_y : roughness along the tangent x and bitangent y, in [10⁻⁴, 10] (α = 1 is
+        very rough); ``alpha_y`` defaults to ``alpha_x`` (isotropic). Scalars or per channel.
 
     References
     ----------
@@ -390,8 +409,8 @@ class Beckmann(_StretchedDistribution):
 
     Parameters
     ----------
-    alpha_x, alpha_y : roughness along the tangent x and bitangent y, > 0 (α = √2 × rms slope);
-        ``alpha_y`` defaults to ``alpha_x``. Scalars or per channel.
+    alpha_x, alpha_y : roughness along the tangent x and bitangent y, in [10⁻⁴, 10]
+        (α = √2 × rms slope); ``alpha_y`` defaults to ``alpha_x``. Scalars or per channel.
     approximate_g1 : use Walter's rational G1 (default False: the exact Smith Λ).
 
     References
@@ -405,6 +424,10 @@ class Beckmann(_StretchedDistribution):
     """
 
     approximate_g1: bool = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_flag("approximate_g1", self.approximate_g1)
 
     def _extra(self) -> dict[str, Any]:
         return {"approximate_g1": self.approximate_g1}
@@ -510,7 +533,7 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
 
     Parameters
     ----------
-    m : width of the angular Gaussian in radians, > 0 (0.1 is glossy, 0.5 rough).
+    m : width of the angular Gaussian in radians, in [10⁻⁴, 10] (0.1 is glossy, 0.5 rough).
 
     References
     ----------
@@ -523,7 +546,7 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     m: Any = 0.2
 
     def __post_init__(self) -> None:
-        check_param("m", self.m, 0.0, lo_open=True, hint="angular roughness in radians")
+        GAUSSIAN_WIDTH.check("m", self.m)
 
     def channel_mean(self) -> MicrofacetDistribution:
         return TorranceSparrowGaussian(_mean_over_channels(self.m))
@@ -640,8 +663,8 @@ def masking_shadowing(
 
     Raises
     ------
-    ValueError
-        For an unknown ``kind`` or ``"v_groove"`` with a transmission pair.
+    brdfkit.errors.ParameterError
+        For an unknown ``kind``.
 
     References
     ----------
@@ -679,10 +702,33 @@ def masking_shadowing(
         same_side = (wi[..., 2:3] * wo[..., 2:3]) > 0
         value = xp.where(same_side, reflection, transmission)
         return xp.where(visible, value, xp.zeros_like(value))
-    raise ValueError(f"masking must be one of {', '.join(MASKINGS)}; got {kind!r}")
+    raise ParameterError(f"masking must be one of {', '.join(MASKINGS)}; got {kind!r}")
 
 
 # --------------------------------------------------------------------------- Fresnel
+def check_material(material: Any) -> str | None:
+    """The conductor preset ``material`` names (case-insensitive), or ``None`` for ``None`` and
+    ``"none"`` (no preset).
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        For anything but a string or ``None``, or a name not in
+        :data:`brdfkit.fresnel.CONDUCTORS`.
+    """
+    if material is None:
+        return None
+    known = {name.lower(): name for name in CONDUCTORS}
+    if isinstance(material, str) and material.strip().lower() == "none":
+        return None
+    if not isinstance(material, str) or material.strip().lower() not in known:
+        raise ParameterError(
+            f"material must be 'none' or a conductor of brdfkit.fresnel.CONDUCTORS "
+            f"({', '.join(CONDUCTORS)}); got {type(material).__name__} {material!r:.60}"
+        )
+    return known[material.strip().lower()]
+
+
 @dataclass(frozen=True, eq=False)
 class FresnelTerm:
     r"""The Fresnel factor :math:`F(\omega\cdot\omega_m)` of a microfacet or smooth model.
@@ -690,7 +736,8 @@ class FresnelTerm:
     ``kind`` is ``"none"`` (F = 1), ``"dielectric"`` (exact, relative index ``eta`` = n_inside /
     n_outside), ``"conductor"`` (exact, complex index ``eta + i k``; or ``material`` naming a
     preset of :data:`brdfkit.fresnel.CONDUCTORS`, e.g. ``"Au"``) or ``"schlick"`` (reflectance
-    ``f0`` at normal incidence). Build it with :meth:`from_options`, which validates.
+    ``f0`` at normal incidence). Build it with :meth:`from_options`, which validates: η ∈
+    [0.01, 100] (:data:`IOR`), k ∈ [0, 100] (:data:`EXTINCTION`), f0 ∈ [0, 1].
 
     References
     ----------
@@ -715,30 +762,25 @@ class FresnelTerm:
     ) -> FresnelTerm:
         """Validate the Fresnel options of a model and resolve a ``material`` preset.
 
+        Every option given (not ``None``) is checked, whether ``kind`` uses it or not.
+
         Raises
         ------
-        ValueError
-            Naming the bad option (unknown kind, ``eta`` ≤ 0, ``k`` < 0, ``f0`` outside
-            [0, 1], unknown material, or a material with a non-conductor kind).
+        brdfkit.errors.ParameterError
+            Naming the bad option (unknown kind, ``eta``, ``k`` or ``f0`` outside its domain or
+            no number, unknown material, or a material with a non-conductor kind).
         """
-        if kind not in FRESNELS:
-            raise ValueError(f"fresnel must be one of {', '.join(FRESNELS)}; got {kind!r}")
-        if material is not None and material.lower() != "none":
+        check_choice("fresnel", kind, FRESNELS)
+        for name, value, domain in (("eta", eta, IOR), ("k", k, EXTINCTION), ("f0", f0, ALBEDO)):
+            if value is not None:
+                domain.check(name, value)
+        if check_material(material) is not None:
             if kind != "conductor":
-                raise ValueError(
+                raise ParameterError(
                     "material names a conductor preset, so fresnel must be 'conductor'; "
                     f"got {kind!r}"
                 )
             eta, k = conductor(material)
-        if kind in ("dielectric", "conductor"):
-            eta = 1.5 if eta is None else eta
-            check_param("eta", eta, 0.0, lo_open=True, hint="relative index of refraction")
-        if kind == "conductor":
-            k = 0.0 if k is None else k
-            check_param("k", k, 0.0, hint="extinction coefficient")
-        if kind == "schlick":
-            f0 = 0.04 if f0 is None else f0
-            check_param("f0", f0, 0.0, 1.0, hint="reflectance at normal incidence")
         return cls(
             kind, 1.5 if eta is None else eta, 0.0 if k is None else k, 0.04 if f0 is None else f0
         )
@@ -750,18 +792,20 @@ class FresnelTerm:
 
         Raises
         ------
-        ValueError
+        brdfkit.errors.ParameterError
             When both a material and ``eta`` are given, ``k`` without ``eta``, or bad values.
         """
-        named = material is not None and material.lower() != "none"
+        named = check_material(material) is not None
         if eta is not None and named:
-            raise ValueError(f"material and eta are exclusive; got material={material!r} and eta")
+            raise ParameterError(
+                f"material and eta are exclusive; got material={material!r} and eta"
+            )
         if eta is not None:
             return cls.from_options("conductor", eta=eta, k=k)
         if named:
             return cls.from_options("conductor", material=material)
         if k is not None:
-            raise ValueError("k needs eta (the complex index is eta + i k); got k alone")
+            raise ParameterError("k needs eta (the complex index is eta + i k); got k alone")
         return cls.from_options("none")
 
     @property
@@ -803,12 +847,16 @@ class FresnelTerm:
 
 
 __all__ = [
+    "EXTINCTION",
     "FRESNELS",
+    "GAUSSIAN_WIDTH",
     "GGX",
+    "IOR",
     "MASKINGS",
     "Beckmann",
     "FresnelTerm",
     "MicrofacetDistribution",
     "TorranceSparrowGaussian",
+    "check_material",
     "masking_shadowing",
 ]

@@ -7,10 +7,23 @@ from dataclasses import dataclass
 from typing import Any
 
 from brdfkit._array import Array, namespace, safe_div, safe_sqrt
-from brdfkit.brdf.base import BRDF, channel_count, check_param, param, register, upper_hemisphere
+from brdfkit.brdf.base import (
+    ALBEDO,
+    BRDF,
+    Domain,
+    channel_count,
+    check_choice,
+    check_flag,
+    param,
+    register,
+    upper_hemisphere,
+)
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
 
 _MODELS = ("qualitative", "full")
+
+SIGMA = Domain(0.0, math.pi / 2, hint="slope deviation in radians")
+"""The facet slope deviation σ: [0, π/2] radians."""
 
 
 @register("oren_nayar")
@@ -57,7 +70,7 @@ class OrenNayar(MixtureSampled):
 
     Parameters
     ----------
-    rho : albedo ρ ∈ [0, 1] (``allow_unphysical=True`` admits ρ > 1), broadcast against
+    rho : albedo ρ ∈ [0, 1] (``allow_unphysical=True`` admits ρ up to 10⁶), broadcast against
         ``batch + (C,)``.
     sigma : σ ∈ [0, π/2] radians, the standard deviation of the facet slope angle.
     model : ``"qualitative"`` or ``"full"``.
@@ -77,16 +90,11 @@ class OrenNayar(MixtureSampled):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        if self.model not in _MODELS:
-            raise ValueError(f"model must be one of {_MODELS}; got {self.model!r}")
-        check_param(
-            "rho",
-            self.rho,
-            0.0,
-            None if self.allow_unphysical else 1.0,
-            hint="pass allow_unphysical=True for ρ > 1",
+        check_choice("model", self.model, _MODELS)
+        ALBEDO.check(
+            "rho", self.rho, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
         )
-        check_param("sigma", self.sigma, 0.0, math.pi / 2, hint="slope deviation in radians")
+        SIGMA.check("sigma", self.sigma)
         object.__setattr__(
             self, "channels", channel_count(self.rho, self.sigma, names=("rho", "sigma"))
         )

@@ -39,10 +39,15 @@ from brdfkit._array import (
     to_numpy,
 )
 from brdfkit.brdf.base import (
+    ALBEDO,
     BRDF,
+    EXPONENT,
+    UNPHYSICAL_MAX,
+    Domain,
     Sample,
     channel_count,
     check_choice,
+    check_flag,
     check_param,
     mixture_choices,
     normalized_weights,
@@ -163,17 +168,22 @@ class MixtureSampled(BRDF):
         return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
 
 
-def _check_exponent(n: Any) -> None:
-    check_param("n", n, 0.0, hint="the cosine exponent must be ≥ 0")
+PHONG_KD = Domain(0.0, 1 / math.pi, hint="π·kd is the diffuse albedo", unphysical_hi=UNPHYSICAL_MAX)
+"""The original Phong model's diffuse BRDF value k_d: [0, 1/π] sr⁻¹ (up to 10⁶ unphysical)."""
+
+PHONG_KS = Domain(0.0, UNPHYSICAL_MAX, hint="specular coefficient in sr⁻¹")
+"""The original Phong model's specular coefficient k_s: [0, 10⁶] sr⁻¹."""
 
 
-def check_albedos(kd: Any, ks: Any, allow_unphysical: bool) -> None:
-    """ρd, ρs ∈ [0, 1] and ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``."""
+def check_albedos(kd: Any, ks: Any, allow_unphysical: Any) -> None:
+    """ρd, ρs ∈ [0, 1] and ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``
+    (then each up to 10⁶)."""
     hint = "pass allow_unphysical=True to allow it"
-    hi = None if allow_unphysical else 1.0
-    check_param("kd", kd, 0.0, hi, hint=hint)
-    check_param("ks", ks, 0.0, hi, hint=hint)
-    if not allow_unphysical:
+    unphysical = check_flag("allow_unphysical", allow_unphysical)
+    ALBEDO.check("kd", kd, unphysical=unphysical)
+    ALBEDO.check("ks", ks, unphysical=unphysical)
+    channel_count(kd, ks, names=("kd", "ks"))
+    if not unphysical:
         total = to_numpy(kd).astype(np.float64) + to_numpy(ks).astype(np.float64)
         check_param("kd + ks", total, 0.0, 1.0, hint="ρd + ρs ≤ 1 conserves energy; " + hint)
 
@@ -207,10 +217,10 @@ class Phong(MixtureSampled):
 
     Parameters
     ----------
-    kd : diffuse BRDF value k_d ∈ [0, 1/π] sr⁻¹ (diffuse albedo π k_d ≤ 1); larger values need
-        ``allow_unphysical=True``.
-    ks : specular coefficient k_s ≥ 0 sr⁻¹.
-    n : Phong exponent n ≥ 0 (shininess).
+    kd : diffuse BRDF value k_d ∈ [0, 1/π] sr⁻¹ (diffuse albedo π k_d ≤ 1); larger values, up
+        to 10⁶, need ``allow_unphysical=True``.
+    ks : specular coefficient k_s ∈ [0, 10⁶] sr⁻¹.
+    n : Phong exponent n ∈ [0, 10⁶] (shininess).
     All broadcast against ``batch + (C,)``.
 
     References
@@ -229,15 +239,11 @@ class Phong(MixtureSampled):
     allow_unphysical: bool = False
 
     def __post_init__(self) -> None:
-        check_param(
-            "kd",
-            self.kd,
-            0.0,
-            None if self.allow_unphysical else 1 / math.pi,
-            hint="π·kd is the diffuse albedo; pass allow_unphysical=True for more",
+        PHONG_KD.check(
+            "kd", self.kd, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
         )
-        check_param("ks", self.ks, 0.0)
-        _check_exponent(self.n)
+        PHONG_KS.check("ks", self.ks)
+        EXPONENT.check("n", self.n)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
@@ -299,8 +305,9 @@ class ModifiedPhong(MixtureSampled):
     Parameters
     ----------
     kd : diffuse albedo ρd ∈ [0, 1].
-    ks : specular albedo ρs ∈ [0, 1]; ρd + ρs ≤ 1 unless ``allow_unphysical=True``.
-    n : exponent n ≥ 0.
+    ks : specular albedo ρs ∈ [0, 1]; ρd + ρs ≤ 1 unless ``allow_unphysical=True`` (then ρd,
+        ρs ∈ [0, 10⁶]).
+    n : exponent n ∈ [0, 10⁶].
 
     References
     ----------
@@ -320,11 +327,11 @@ class ModifiedPhong(MixtureSampled):
         return not self.allow_unphysical
 
     def __post_init__(self) -> None:
+        check_albedos(self.kd, self.ks, self.allow_unphysical)
+        EXPONENT.check("n", self.n)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
-        check_albedos(self.kd, self.ks, self.allow_unphysical)
-        _check_exponent(self.n)
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -467,8 +474,9 @@ class BlinnPhong(MixtureSampled):
     Parameters
     ----------
     kd : diffuse albedo ρd ∈ [0, 1].
-    ks : specular albedo ρs ∈ [0, 1]; ρd + ρs ≤ 1 unless ``allow_unphysical=True``.
-    n : exponent n ≥ 0.
+    ks : specular albedo ρs ∈ [0, 1]; ρd + ρs ≤ 1 unless ``allow_unphysical=True`` (then ρd,
+        ρs ∈ [0, 10⁶]).
+    n : exponent n ∈ [0, 10⁶].
     normalization : ``"exact"`` or ``"rtr"``.
 
     References
@@ -487,11 +495,11 @@ class BlinnPhong(MixtureSampled):
 
     def __post_init__(self) -> None:
         check_choice("normalization", self.normalization, _BLINN_NORMALIZATIONS)
+        check_albedos(self.kd, self.ks, self.allow_unphysical)
+        EXPONENT.check("n", self.n)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
-        check_albedos(self.kd, self.ks, self.allow_unphysical)
-        _check_exponent(self.n)
 
     @property
     def energy_conserving(self) -> bool:  # type: ignore[override]

@@ -50,10 +50,20 @@ import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
-from brdfkit.brdf.base import BRDF, Sample, channel_count, param, register, result_shape
+from brdfkit.brdf.base import (
+    BRDF,
+    Sample,
+    channel_count,
+    check_choice,
+    check_flag,
+    param,
+    register,
+    result_shape,
+)
 from brdfkit.brdf.microfacet import masking_shadowing
 from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
 from brdfkit.brdf.torrance_sparrow import defined_params, stretched_distribution
+from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
 
 SMITH_MASKINGS = ("smith_separable", "smith_correlated")
@@ -73,10 +83,11 @@ class RoughDielectric(BRDF):
 
     Parameters
     ----------
-    alpha : isotropic roughness > 0 (scalar or per channel), or
-    alpha_u, alpha_v : anisotropic roughness along the tangent x and bitangent y (both).
+    alpha : isotropic roughness in [10⁻⁴, 10] (scalar or per channel), or
+    alpha_u, alpha_v : anisotropic roughness along the tangent x and bitangent y (both, same
+        domain).
     distribution : ``"ggx"`` (default) or ``"beckmann"``.
-    eta : relative index n_inside / n_outside, > 0 (one per point; 1.5 for glass).
+    eta : relative index n_inside / n_outside in [0.01, 100] (one per point; 1.5 for glass).
     masking : ``"smith_separable"`` (default, as Walter and Mitsuba) or ``"smith_correlated"``.
     sample_visible : sample visible normals (default True) or D cos θh.
     mode : ``"radiance"`` (default) or ``"importance"`` (the η² factor, see module docstring).
@@ -107,11 +118,8 @@ class RoughDielectric(BRDF):
         )
         check_scalar_eta(self.eta)
         check_mode(self.mode)
-        if self.masking not in SMITH_MASKINGS:
-            raise ValueError(
-                f"masking must be one of {', '.join(SMITH_MASKINGS)} (defined for "
-                f"transmission); got {self.masking!r}"
-            )
+        check_choice("masking", self.masking, SMITH_MASKINGS)  # defined for transmission
+        check_flag("sample_visible", self.sample_visible)
         object.__setattr__(self, "ndf", ndf)
         object.__setattr__(
             self, "channels", channel_count(ndf.alpha_x, ndf.alpha_y, names=("alpha_u", "alpha_v"))
@@ -182,7 +190,7 @@ class RoughDielectric(BRDF):
 
     def sample(self, wo: Array, u: Array) -> Sample:
         if u.shape[-1] < 3:
-            raise ValueError(
+            raise ParameterError(
                 "u must have 3 uniforms per sample for rough_dielectric (2 for the normal, 1 "
                 f"to choose reflection or refraction); got shape {tuple(u.shape)}"
             )

@@ -35,34 +35,36 @@ import numpy as np
 
 from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
+    ALBEDO,
     BRDF,
     Sample,
     channel_count,
+    check_choice,
     check_hemisphere,
-    check_param,
     param,
     register,
     result_shape,
 )
-from brdfkit.brdf.microfacet import FresnelTerm
+from brdfkit.brdf.microfacet import IOR, FresnelTerm
 from brdfkit.brdf.torrance_sparrow import defined_params
+from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
 
 MODES = ("radiance", "importance")
 """Transport modes of the dielectric BSDFs (which way the η² factor of refraction goes)."""
 
 
-def check_mode(mode: str) -> None:
-    """Raise ``ValueError`` unless ``mode`` is one of :data:`MODES`."""
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+def check_mode(mode: Any) -> None:
+    """Raise :class:`~brdfkit.errors.ParameterError` unless ``mode`` is one of :data:`MODES`."""
+    check_choice("mode", mode, MODES)
 
 
 def check_scalar_eta(eta: Any) -> None:
-    """Validate a dielectric's relative index: > 0 and one value per point (no dispersion)."""
-    check_param("eta", eta, 0.0, lo_open=True, hint="relative index n_inside / n_outside")
+    """Validate a dielectric's relative index: in [0.01, 100]
+    (:data:`~brdfkit.brdf.microfacet.IOR`) and one value per point (no dispersion)."""
+    IOR.check("eta", eta)
     if channel_count(eta, names=("eta",)) != 1:
-        raise ValueError(
+        raise ParameterError(
             f"eta must have one value per point (a dispersive index would split the refracted "
             f"ray per channel); got shape {np.shape(np.asarray(eta))}"
         )
@@ -91,7 +93,7 @@ class _DeltaReflection(BRDF):
     reflectance: Any
 
     def _setup(self, fresnel_term: FresnelTerm) -> None:
-        check_param("reflectance", self.reflectance, 0.0, 1.0, hint="specular albedo")
+        ALBEDO.check("reflectance", self.reflectance)
         object.__setattr__(self, "fresnel_term", fresnel_term)
         object.__setattr__(
             self,
@@ -166,8 +168,8 @@ class Mirror(_DeltaReflection):
     reflectance : constant specular albedo in [0, 1] (scalar or per channel).
     fresnel : ``"none"`` (default; ``"conductor"`` when ``material`` is given),
         ``"dielectric"``, ``"conductor"`` or ``"schlick"``.
-    eta, k, f0, material : the Fresnel parameters (see
-        :class:`~brdfkit.brdf.microfacet.FresnelTerm`).
+    eta, k, f0, material : the Fresnel parameters: η ∈ [0.01, 100], k ∈ [0, 100], f0 ∈ [0, 1],
+        a conductor preset (see :class:`~brdfkit.brdf.microfacet.FresnelTerm`).
 
     References
     ----------
@@ -217,7 +219,8 @@ class SmoothConductor(_DeltaReflection):
     ----------
     material : conductor preset (``"Au"``, ``"Ag"``, ``"Cu"``, ``"Al"``, ``"Cr"``, ``"W"``), or
         ``"none"`` (default, as Mitsuba: F = 1) — unless
-    eta, k : the complex index η + ik (per channel allowed) is given instead.
+    eta, k : the complex index η + ik, η ∈ [0.01, 100], k ∈ [0, 100] (per channel allowed), is
+        given instead.
     reflectance : an extra specular scale s in [0, 1] (Mitsuba's ``specular_reflectance``).
 
     References
@@ -267,7 +270,8 @@ class SmoothDielectric(BRDF):
 
     Parameters
     ----------
-    eta : relative index n_inside / n_outside (> 0; 1.5 for glass in air), one per point.
+    eta : relative index n_inside / n_outside in [0.01, 100] (1.5 for glass in air), one per
+        point.
     mode : ``"radiance"`` (default) or ``"importance"``.
 
     References

@@ -45,10 +45,14 @@ import numpy as np
 from brdfkit._array import Array, constant, dot, namespace, normalize, safe_div, to_numpy
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
 from brdfkit.brdf.base import (
+    ALBEDO,
     BRDF,
+    ROUGHNESS,
     Sample,
     channel_count,
-    check_param,
+    check_choice,
+    check_flag,
+    check_number,
     register,
     result_shape,
     upper_hemisphere,
@@ -64,6 +68,7 @@ from brdfkit.brdf.microfacet import (
     masking_shadowing,
 )
 from brdfkit.brdf.phong import reflect_about
+from brdfkit.errors import ParameterError
 
 DISTRIBUTIONS = ("ggx", "beckmann")
 """Distributions of :class:`RoughConductor` (and :class:`~brdfkit.brdf.RoughDielectric`)."""
@@ -88,22 +93,23 @@ def stretched_distribution(
 
     Raises
     ------
-    ValueError
-        For an unknown ``name``, only one of ``alpha_u``/``alpha_v``, or a roughness ≤ 0.
+    brdfkit.errors.ParameterError
+        For an unknown ``name``, only one of ``alpha_u``/``alpha_v``, or a roughness outside
+        :data:`~brdfkit.brdf.base.ROUGHNESS`.
     """
-    if name not in DISTRIBUTIONS:
-        raise ValueError(f"distribution must be one of {', '.join(DISTRIBUTIONS)}; got {name!r}")
+    check_choice("distribution", name, DISTRIBUTIONS)
+    check_flag("approximate_g1", approximate_g1)
     if (alpha_u is None) != (alpha_v is None):
-        raise ValueError(
+        raise ParameterError(
             "alpha_u and alpha_v must be given together (anisotropic roughness); got "
-            f"alpha_u={alpha_u!r}, alpha_v={alpha_v!r}"
+            f"alpha_u={alpha_u!r:.60}, alpha_v={alpha_v!r:.60}"
         )
     if alpha_u is None:
-        check_param("alpha", alpha, 0.0, lo_open=True, hint="roughness must be > 0")
+        ROUGHNESS.check("alpha", alpha)
         alpha_u = alpha_v = alpha
     else:
-        check_param("alpha_u", alpha_u, 0.0, lo_open=True, hint="roughness must be > 0")
-        check_param("alpha_v", alpha_v, 0.0, lo_open=True, hint="roughness must be > 0")
+        ROUGHNESS.check("alpha_u", alpha_u)
+        ROUGHNESS.check("alpha_v", alpha_v)
     if name == "ggx":
         return GGX(alpha_u, alpha_v)
     return Beckmann(alpha_u, alpha_v, approximate_g1=approximate_g1)
@@ -137,10 +143,9 @@ class MicrofacetReflection(BRDF):
         visible: bool,
         extra_channels: tuple[Any, ...] = (),
     ) -> None:
-        if self.masking not in MASKINGS:
-            raise ValueError(f"masking must be one of {', '.join(MASKINGS)}; got {self.masking!r}")
-        if visible and not distribution.supports_visible_sampling:
-            raise ValueError(
+        check_choice("masking", self.masking, MASKINGS)
+        if check_flag("sample_visible", visible) and not distribution.supports_visible_sampling:
+            raise ParameterError(
                 f"sample_visible must be False for the {type(distribution).__name__} "
                 "distribution (it has no visible-normal sampler); got True"
             )
@@ -234,7 +239,7 @@ class _WithDiffuse(MicrofacetReflection):
     diffuse: Any
 
     def _setup_diffuse(self) -> None:
-        check_param("diffuse", self.diffuse, 0.0, 1.0, hint="Lambertian albedo")
+        """The Lambertian mixture, for ``diffuse`` (checked before :meth:`_setup`) not 0."""
         has_diffuse = bool(np.any(to_numpy(self.diffuse) != 0)) or hasattr(
             self.diffuse, "requires_grad"
         )
@@ -267,7 +272,10 @@ class _WithDiffuse(MicrofacetReflection):
 
 def _fresnel_options(model: Any) -> FresnelTerm:
     """The Fresnel term of a Torrance–Sparrow/Cook–Torrance model's options (conductor when a
-    ``material`` is named and no ``fresnel`` kind is given, else dielectric)."""
+    ``material`` is named and no ``fresnel`` kind is given, else dielectric); ``eta``, ``k``
+    and ``f0`` are always numbers."""
+    for name in ("eta", "k", "f0"):
+        check_number(name, getattr(model, name))
     kind = model.fresnel
     if kind is None:
         kind = "conductor" if model.material is not None else "dielectric"
@@ -299,10 +307,11 @@ class TorranceSparrow(_WithDiffuse):
 
     Parameters
     ----------
-    m : angular roughness in radians, > 0.
+    m : angular roughness in radians, in [10⁻⁴, 10].
     fresnel : ``"dielectric"`` (default; or ``"conductor"`` when ``material`` is given),
         ``"conductor"``, ``"schlick"`` or ``"none"``.
-    eta, k : relative index (> 0) and extinction coefficient (≥ 0), per channel allowed.
+    eta, k : relative index in [0.01, 100] and extinction coefficient in [0, 100], per channel
+        allowed.
     f0 : Schlick's normal-incidence reflectance in [0, 1].
     material : a conductor preset of :data:`brdfkit.fresnel.CONDUCTORS` (e.g. ``"Au"``).
     diffuse : Lambertian albedo ρd in [0, 1] (default 0: specular lobe only).
@@ -325,6 +334,7 @@ class TorranceSparrow(_WithDiffuse):
     masking: str = "v_groove"
 
     def __post_init__(self) -> None:
+        ALBEDO.check("diffuse", self.diffuse)
         self._setup(TorranceSparrowGaussian(self.m), _fresnel_options(self), False, (self.diffuse,))
         self._setup_diffuse()
 
@@ -359,7 +369,7 @@ class CookTorrance(_WithDiffuse):
 
     Parameters
     ----------
-    m : rms slope of the facets (Beckmann α), > 0.
+    m : rms slope of the facets (Beckmann α), in [10⁻⁴, 10].
     fresnel, eta, k, f0, material, diffuse : as :class:`TorranceSparrow`.
     masking : ``"v_groove"`` (default), ``"smith_separable"`` or ``"smith_correlated"``.
     sample_visible : sample visible normals (default True).
@@ -381,7 +391,8 @@ class CookTorrance(_WithDiffuse):
     sample_visible: bool = True
 
     def __post_init__(self) -> None:
-        check_param("m", self.m, 0.0, lo_open=True, hint="rms slope must be > 0")
+        ROUGHNESS.check("m", self.m)
+        ALBEDO.check("diffuse", self.diffuse)
         self._setup(Beckmann(self.m), _fresnel_options(self), self.sample_visible, (self.diffuse,))
         self._setup_diffuse()
 
@@ -415,12 +426,14 @@ class RoughConductor(MicrofacetReflection):
 
     Parameters
     ----------
-    alpha : isotropic roughness > 0 (scalar or per channel), or
-    alpha_u, alpha_v : anisotropic roughness along the tangent x and bitangent y (both).
+    alpha : isotropic roughness in [10⁻⁴, 10] (scalar or per channel), or
+    alpha_u, alpha_v : anisotropic roughness along the tangent x and bitangent y (both, same
+        domain).
     distribution : ``"ggx"`` (default) or ``"beckmann"``.
     material : conductor preset of :data:`brdfkit.fresnel.CONDUCTORS` (``"Au"``, ``"Cu"``, …),
         or ``"none"`` (default, as Mitsuba: F = 1, a perfect reflector) — unless
-    eta, k : the complex index η + ik (per channel allowed) is given instead.
+    eta, k : the complex index η + ik, η ∈ [0.01, 100], k ∈ [0, 100] (per channel allowed), is
+        given instead.
     masking : ``"smith_correlated"`` (default), ``"smith_separable"`` or ``"v_groove"``.
     sample_visible : sample visible normals (default True) or D cos θh.
     approximate_g1 : Beckmann only — Walter's rational G1, as Mitsuba (default False).
@@ -446,8 +459,9 @@ class RoughConductor(MicrofacetReflection):
 
     def __post_init__(self) -> None:
         fixed = type(self).distribution_name
+        check_choice("distribution", self.distribution, DISTRIBUTIONS)
         if fixed is not None and self.distribution != fixed:
-            raise ValueError(
+            raise ParameterError(
                 f"distribution must be {fixed!r} for the {type(self).spec_name!r} model; got "
                 f"{self.distribution!r} (use rough_conductor to choose)"
             )
