@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import parse
+from brdfkit.errors import ParameterError
 from brdfkit.geometry import spherical_to_cartesian
 from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, spectrum_to_rgb_matrix
 from brdfkit.measured.tabulated import (
     MAX_HALF_VECTOR_PROBABILITY,
     HalfVectorSampling,
+    wavelengths_problem,
     white_sky_weights,
 )
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_uniform_hemisphere
@@ -267,3 +269,44 @@ def test_bad_tables(kwargs, message):
 def test_a_table_has_no_spec():
     with pytest.raises(ValueError, match="no spec string"):
         TabulatedBRDF(np.zeros((2, 2, 2, 1))).to_spec()
+
+
+@pytest.mark.parametrize(
+    ("wavelengths", "message"),
+    [
+        (np.arange(400, 451, 10.0)[:5], "at least 6 within"),  # colour-science: AssertionError
+        (np.linspace(400, 402.5, 6), "whole nanometres"),  # colour-science: broadcast error
+        (np.arange(300, 356, 10.0), "at least 6 within"),  # all outside the observer
+        ([400, 410, np.nan, 430, 440, 450], "finite"),
+        ([], "increasing"),
+    ],
+)
+def test_unconvertible_wavelengths_raise_parameter_error(wavelengths, message):
+    assert message in wavelengths_problem(wavelengths)
+    with pytest.raises(ParameterError, match=message):
+        spectrum_to_rgb_matrix(wavelengths)
+
+
+@pytest.mark.parametrize(
+    "wavelengths", [np.arange(400, 451, 10.0), [350, 400, 450, 500, 600, 700, 800, 900]]
+)
+def test_convertible_wavelengths(wavelengths):
+    assert wavelengths_problem(wavelengths) == ""
+    assert np.all(np.isfinite(spectrum_to_rgb_matrix(wavelengths)))
+
+
+def test_clamped_counts_negative_values():
+    values = np.ones((4, 4, 4, 3))
+    values[0, 0, 0] = -1.0
+    values[1, 2, 3, 1] = -0.5
+    assert TabulatedBRDF(values).clamped == 4
+    assert TabulatedBRDF(np.ones((4, 4, 4, 3))).clamped == 0
+
+
+def test_samples_spanning_no_volume_resample_by_nearest():
+    theta = np.linspace(0.1, 1.2, 10)
+    wi = spherical_to_cartesian(theta, np.zeros_like(theta))
+    samples = MeasuredSamples(wi, wi, theta[:, None])  # θd = 0 for all: a flat point set
+    table = TabulatedBRDF.from_samples(samples, (8, 8, 8))
+    nearest = TabulatedBRDF.from_samples(samples, (8, 8, 8), method="nearest")
+    np.testing.assert_array_equal(table.values, nearest.values)
