@@ -196,3 +196,15 @@ def test_truncated_anywhere_in_the_header(felt, tmp_path, length):
     with pytest.raises(FormatError, match="truncated") as info:
         read_tensor_file(bad)
     assert "bad.bsdf" in str(info.value)
+
+
+def test_saturated_spectra_clip_to_the_gamut(felt, tmp_path):
+    fields = read_tensor_file(felt)
+    spectral = {k: v for k, v in fields.items() if k != "rgb"}
+    spectra = np.zeros((*fields["rgb"].shape[:2], 6, *fields["rgb"].shape[3:]), np.float32)
+    spectra[:, :, 2] = fields["rgb"][:, :, 1]  # all energy at 520 nm: outside the sRGB gamut
+    spectral.update(spectra=spectra, wavelengths=np.linspace(400, 700, 6, dtype=np.float32))
+    path = tmp_path / "green.bsdf"
+    path.write_bytes(_tensor_bytes(spectral))
+    f = read_rgl(path).eval(_directions(200, 10), _directions(200, 11))
+    assert np.all(f >= 0) and np.any(f[:, 1] > 0) and np.all(f[:, [0, 2]] == 0)

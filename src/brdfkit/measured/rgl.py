@@ -26,8 +26,8 @@ measurement, brdfkit's ``wo``; :math:`\omega_o` the light, brdfkit's ``wi``):
 The result is :math:`f\cos\theta_o` (Mitsuba's ``eval``); brdfkit divides by the light's
 cosine to return f. Anisotropic files whose φi grid covers 1/2 or 1/4 of the circle are mirrored
 into it as Mitsuba does. Spectral files are converted to linear sRGB through the CIE 1931
-observer (or kept spectral). Sampling is cosine-weighted (:class:`CosineSampled`), not the
-luminance/VNDF warp of the paper.
+observer (a channel outside the sRGB gamut clipped to 0), or kept spectral. Sampling is
+cosine-weighted (:class:`CosineSampled`), not the luminance/VNDF warp of the paper.
 
 References
 ----------
@@ -428,7 +428,9 @@ class RGLBRDF(CosineSampled):
             wavelengths = np.asarray(f["wavelengths"], dtype=np.float64)
             if not self.spectral:
                 matrix = spectrum_to_rgb_matrix(wavelengths).astype(np.float32)
-                data = np.einsum("pqlhw,lc->pqchw", data.astype(np.float32), matrix)
+                with np.errstate(over="ignore", invalid="ignore"):  # checked below
+                    rgb = np.einsum("pqlhw,lc->pqchw", data.astype(np.float32), matrix)
+                data = np.maximum(rgb, 0.0)  # saturated spectra lie outside the sRGB gamut
             else:
                 object.__setattr__(self, "wavelengths", wavelengths)
         isotropic = phi_i.size <= 2
