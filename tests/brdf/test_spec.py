@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
 
 import brdfkit.brdf  # noqa: F401  (registers every model)
-from brdfkit.brdf._spec import parse
+from brdfkit.brdf._spec import MAX_SPEC_LENGTH, parse
 from brdfkit.brdf.base import MODELS, Scaled, Sum
 from brdfkit.brdf.lambertian import Lambertian
+from brdfkit.errors import ParameterError, SpecError
 from brdfkit.sampling import square_to_uniform_hemisphere
 
 EXAMPLES = [
@@ -109,8 +111,75 @@ def test_aliases_name_the_same_parameter():
 
 
 def test_bad_values_are_reported_with_the_model_name():
-    with pytest.raises(ValueError, match=r"lambertian: rho must be in \[0.0, 1.0\]; got 2"):
+    with pytest.raises(ParameterError, match=r"lambertian: rho must be in \[0.0, 1.0\]; got 2"):
         parse("lambertian(albedo=2)")
+
+
+@pytest.mark.parametrize(
+    ("spec", "match"),
+    [
+        ("ggx(alpha=1e308)", r"ggx: alpha must be in \[0.0001, 10.0\]; got 1e\+308"),
+        ("blinn_phong(n=1e308)", r"blinn_phong: n must be in \[0.0, 1000000.0\]"),
+        ("torrance_sparrow(m=1e-320)", r"torrance_sparrow: m must be in \[0.0001, 10.0\]"),
+        ("ggx(material=2)", "ggx: material must be 'none' or a conductor"),
+        ("ggx(alpha='rough')", "ggx: alpha must be a real number"),
+        ("ggx(alpha=None)", "ggx: alpha must be a real number"),
+        ("ggx(alpha=True)", "ggx: alpha must be a real number"),
+        ("ggx(masking=1)", "ggx: masking must be one of"),
+        ("lambertian(allow_unphysical=1)", "lambertian: allow_unphysical must be True or False"),
+        ("lambertian(albedo=1e999)", "lambertian: rho must be finite"),
+        ("lambertian(albedo=" + "9" * 400 + ")", "lambertian: rho must be finite"),
+        ("1e6 * 1e6 * lambertian", r"k must be in \[0.0, 1000000.0\]; got 1e\+12"),
+        ("lambertian * 1e300 * 1e300", "k must be finite"),
+    ],
+)
+def test_values_outside_a_domain_raise_a_parameter_error(spec, match):
+    with pytest.raises(ParameterError, match=match):
+        parse(spec)
+
+
+def test_long_sums_and_products_parse_without_recursion():
+    brdf = parse(" + ".join(["lambertian"] * 1000))
+    assert isinstance(brdf, Sum) and len(brdf.lobes) == 1000
+    wi, wo = _pairs(4)
+    np.testing.assert_allclose(brdf.eval(wi, wo), np.full((4, 1), 500 / math.pi), rtol=1e-12)
+    scaled = parse("lambertian(albedo=0.5)" + " * 1.0" * 1000 + " * 0.5")
+    assert isinstance(scaled, Scaled) and isinstance(scaled.inner, Lambertian)
+    np.testing.assert_allclose(scaled.eval(wi, wo), np.full((4, 1), 0.25 / math.pi), rtol=1e-15)
+
+
+def test_products_of_factors_of_different_lengths_are_rejected():
+    with pytest.raises(SpecError, match=r"must have one length .* got lengths \[2, 3\]"):
+        parse("[1, 2] * [1, 2, 3] * lambertian")
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [
+        " + ".join(["lambertian"] * 5000),
+        "lambertian" + " * 1" * 5000,
+        "-" * 50_000 + "1",
+        "(" * 300 + "lambertian" + ")" * 300,
+        "lambertian(albedo=" + "[" * 300 + "0.5" + "]" * 300 + ")",
+        "0.5 * (" * 300 + "lambertian" + ")" * 300,
+        "lambertian" + ".a" * 5000,
+        "lambertian" + "()" * 5000,
+        "not " * 20_000 + "lambertian",
+    ],
+    ids=["sum", "product", "signs", "parentheses", "brackets", "scales", "attributes", "calls",
+         "nots"],
+)  # fmt: skip
+def test_deep_nesting_and_long_chains_raise_a_spec_error(spec):
+    with pytest.raises(SpecError, match=r"too deeply|not a valid model expression|not allowed"):
+        parse(spec)
+
+
+def test_a_spec_has_a_maximum_length():
+    spec = "lambertian(albedo=[" + ", ".join(["0.5"] * (MAX_SPEC_LENGTH // 5)) + "])"
+    assert len(spec) > MAX_SPEC_LENGTH
+    with pytest.raises(SpecError, match=f"holds {len(spec)} characters; at most"):
+        parse(spec)
+    assert parse(spec[: MAX_SPEC_LENGTH - 2].rpartition(",")[0] + "])").channels > 10_000
 
 
 @pytest.mark.parametrize("spec", ["lambertian(", "lambertian +", "0.5 ** lambertian)", ""])
@@ -140,16 +209,68 @@ def test_syntax_errors_quote_the_spec(spec):
         ("[0.5, 'a'] * lambertian", "list of numbers"),
         ("lambertian(albedo=-'a')", "sign before a number"),
         ("0.5", "is a value"),
+        ("__import__('os').system('touch /tmp/brdfkit-spec-test')", "not allowed here"),
+        ("lambertian(albedo=__import__('os').getpid())", "not allowed here"),
+        ("().__class__.__bases__[0].__subclasses__()", "not allowed here"),
+        ("lambertian(albedo=(lambda: 0.5)())", "not allowed here"),
+        ("lambertian(albedo=[x for x in (0.5,)])", "not allowed here"),
+        ("lambertian(albedo={0.5})", "not allowed here"),
+        ("lambertian(albedo={'a': 0.5})", "not allowed here"),
+        ("lambertian(albedo=f'{0.5}')", "not allowed here"),
+        ("lambertian(albedo=(x := 0.5))", "not allowed here"),
+        ("9**9**9", "not allowed here"),
+        ("9**9**9 * lambertian", "not allowed here"),
+        ("lambertian(albedo=[0.5][0])", "not allowed here"),
+        ("lambertian(albedo=[*[0.5]])", "not allowed here|list of numbers"),
+        ("lambertian(*[0.5])", "takes parameters by name"),
+        ("lambertian(albedo=0.5 if 1 else 0.2)", "not allowed here"),
+        ("lambertian(albedo=1j)", "not allowed here"),
+        ("lambertian(albedo=b'0.5')", "not allowed here"),
+        ("lambertian(albedo=...)", "not allowed here"),
+        ("lambertian(albedo=[[0.5]])", "list of numbers"),
+        ("lambertian(albedo=[])", "list of numbers"),
+        ("lambertian(albedo=lambertian)", "not allowed here"),
+        ("lambertian(albedo=0.5) and ggx", "not allowed here"),
+        ("ggx < lambertian", "not allowed here"),
+        ("lambertian(albedo=~1)", "not allowed here"),
+        ("lambertian(albedo=" + "9" * 5000 + ")", "not a valid model expression"),
+        ("lamb\x00ertian", "not a valid model expression"),
+        (r"lambertian(albedo='\x00')", "rho must be a real number"),
+        ("lamb\udc80ertian", "not a valid model expression"),
+        (r"lambertian(material='\udcff')", "has no parameter"),
+        (r"ggx(material='\udcff')", "material must be"),
+        ("lambertian # comment", None),
+        ("lambertian;ggx", "not a valid model expression"),
+        ("lambertian\nggx", "not a valid model expression"),
+        ("async def f(): pass", "not a valid model expression"),
+        ("await lambertian", "not allowed here|not a valid model expression"),
+        ("yield lambertian", "not a valid model expression"),
     ],
 )
-def test_anything_outside_the_grammar_is_rejected_without_running(spec, match):
-    with pytest.raises(ValueError, match=match):
+def test_anything_outside_the_grammar_is_rejected_without_running(spec, match, tmp_path):
+    if match is None:  # a comment is no code: the spec is the model before it
+        assert isinstance(parse(spec), Lambertian)
+        return
+    with pytest.raises((SpecError, ParameterError), match=match) as info:
         parse(spec)
+    assert len(str(info.value)) < 1000  # the spec is quoted shortened
+    assert not os.path.exists("/tmp/brdfkit-spec-test")
+
+
+def test_grammar_errors_are_spec_errors_and_values_are_parameter_errors():
+    for spec in ("lambertain", "lambertian(sigma=1)", "lambertian(", "lambertian - ggx", "0.5"):
+        with pytest.raises(SpecError):
+            parse(spec)
+    with pytest.raises(ParameterError):
+        parse("lambertian(albedo=-1)")
 
 
 def test_a_spec_must_be_a_string():
-    with pytest.raises(ValueError, match="spec must be a string; got Lambertian"):
+    with pytest.raises(SpecError, match="spec must be a string; got Lambertian"):
         parse(Lambertian())
+    for value in (None, 1, b"lambertian", ["lambertian"]):
+        with pytest.raises(SpecError, match="spec must be a string"):
+            parse(value)
 
 
 def test_a_sum_samples_torch_directions_with_numpy_uniforms():
