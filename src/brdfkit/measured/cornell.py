@@ -69,7 +69,7 @@ def read_cornell_samples(path: str | os.PathLike) -> MeasuredSamples:
             path,
             f"after {n} wavelengths expected rows of 4 angles + {n} values; got "
             f"{wavelengths.size + rows.size} numbers after the count",
-            offset=_misaligned_line(lines[1:], n, width),
+            offset=_misaligned_line(lines, n, width),
             line=True,
         )
     problem = wavelengths_problem(wavelengths)
@@ -129,9 +129,9 @@ def _numbers(path: Path) -> tuple[np.ndarray, np.ndarray]:
         raise FormatError(
             path, f"holds a non-number, {words[bad]!r}", offset=int(lines[bad]), line=True
         ) from None
-    infinite = np.flatnonzero(~np.isfinite(numbers))
-    if infinite.size:
-        bad = infinite[0]
+    non_finite = np.flatnonzero(~np.isfinite(numbers))
+    if non_finite.size:
+        bad = non_finite[0]
         raise FormatError(
             path, f"{words[bad]!r} is not a finite number", offset=int(lines[bad]), line=True
         )
@@ -162,16 +162,14 @@ def _wavelength_count(path: Path, numbers: np.ndarray, lines: np.ndarray) -> int
 
 
 def _misaligned_line(lines: np.ndarray, n: int, width: int) -> int:
-    """The line where the rows go wrong, given the lines of the numbers after the count (``n``
+    """The line where the rows go wrong, given the line of each number (the count, ``n``
     wavelengths, then rows of ``width``): the first row that starts mid-line or spans lines,
     else the last, incomplete row; the last line when the wavelengths run out."""
-    if lines.size <= n:
-        return int(lines[-1]) if lines.size else 0
-    lines = lines[n:]
-    starts = np.arange(0, lines.size, width)
+    if lines.size <= 1 + n:
+        return int(lines[-1])
+    starts = np.arange(1 + n, lines.size, width)
     ends = np.minimum(starts + width, lines.size) - 1
-    previous = np.concatenate([[-1], lines])[starts]
-    wrong = np.flatnonzero((lines[starts] == previous) | (lines[starts] != lines[ends]))
+    wrong = np.flatnonzero((lines[starts] == lines[starts - 1]) | (lines[starts] != lines[ends]))
     return int(lines[starts[wrong[0]] if wrong.size else starts[-1]])
 
 
