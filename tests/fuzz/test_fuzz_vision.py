@@ -95,14 +95,14 @@ def _fuzz_folder(target: str, root: Path, base: Path, seeds: dict[str, bytes], d
         path.write_bytes(seeds[name])
 
 
-@fuzz_settings(ci_cases=150)
+@fuzz_settings(ci_cases=700)
 @given(st.data())
 def test_fuzz_diligent(data):
     root, seeds = _diligent()
     _fuzz_folder("diligent", root, root, seeds, data.draw)
 
 
-@fuzz_settings(ci_cases=150)
+@fuzz_settings(ci_cases=700)
 @given(st.data())
 def test_fuzz_psm(data):
     root, seeds = _psm()
@@ -120,7 +120,7 @@ def _normal_maps() -> tuple[Path, dict[str, bytes]]:
     return root, _snapshot(root)
 
 
-@fuzz_settings(ci_cases=300)
+@fuzz_settings(ci_cases=1500)
 @given(st.data())
 def test_fuzz_normal_map(data):
     root, seeds = _normal_maps()

@@ -516,7 +516,8 @@ def _divide(images: np.ndarray, intensities: np.ndarray, path: Path) -> None:
     a time); intensities so small that an image leaves the float32 range are an error."""
     limit = np.finfo(np.float32).max
     for k, (image, intensity) in enumerate(zip(images, intensities, strict=True)):
-        scaled = image / intensity
+        with np.errstate(over="ignore"):  # detected just below
+            scaled = image / intensity
         if not np.all(np.abs(scaled) <= limit):
             raise FormatError(path, "intensity too small: the image overflows float32",
                               offset=k + 1, line=True)  # fmt: skip
