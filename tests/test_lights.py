@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from brdfkit.errors import ParameterError, SpecError
 from brdfkit.lights import (
     DirectionalLight,
     DiskLight,
@@ -15,6 +16,7 @@ from brdfkit.lights import (
     RectangleLight,
     SphereLight,
     UniformSky,
+    parse_light,
 )
 from brdfkit.testing import chi2_test
 
@@ -164,3 +166,63 @@ def test_mirror_ball_round_trip_recovers_the_map():
 
 def _rot_z(a):
     return np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+
+
+@pytest.mark.parametrize(
+    ("spec", "error", "match"),
+    [
+        ("directional:nan,0,1", ParameterError, "direction must be finite"),
+        ("directional:0,0,0", ParameterError, "direction must be a non-zero vector"),
+        ("directional:0,0,1:-1", ParameterError, "irradiance must be in"),
+        ("directional:0,0,1:inf", ParameterError, "irradiance must be finite"),
+        ("point:0,0,1:1e13", ParameterError, r"intensity must be in \[0.0, 1000000000000.0\]"),
+        ("point:1e308,0,1", ParameterError, "position must be in"),
+        ("sky:-0.5", ParameterError, "radiance must be in"),
+        ("sky:1e999", ParameterError, "radiance must be finite"),
+        ("envmap:/no/such/file.hdr:-1", ParameterError, "scale must be in"),
+        ("directional:1,2", SpecError, "expected 3 comma-separated numbers"),
+        ("directional:1,2,3:4:5", SpecError, "'4:5' is no number"),
+        ("directional:a,b,c", SpecError, "'a' is no number"),
+        ("point", SpecError, "expected 3 comma-separated numbers"),
+        ("sky:bright", SpecError, "'bright' is no number"),
+        ("spot:0,0,1", SpecError, "unknown kind 'spot'"),
+        ("", SpecError, "unknown kind ''"),
+        ("directional:" + "1," * 100_000 + "1", SpecError, "at most"),
+    ],
+)
+def test_light_specs_raise_spec_errors_for_grammar_and_parameter_errors_for_values(
+    spec, error, match
+):
+    with pytest.raises(error, match=match):
+        parse_light(spec)
+
+
+def test_light_specs_parse_and_normalise_any_finite_direction():
+    light = parse_light("directional:1e300,1e300,0:2")
+    np.testing.assert_allclose(light.direction, [2**-0.5, 2**-0.5, 0], rtol=1e-15)
+    assert parse_light("sky").radiance == 1.0
+    assert parse_light("point:0,0,2:5").intensity == 5.0
+    with pytest.raises(SpecError, match="must be a string"):
+        parse_light(None)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: DirectionalLight("up"),
+        lambda: DirectionalLight((0, 0, 1), irradiance=None),
+        lambda: PointLight((0, 0, "1")),
+        lambda: PointLight(position=[[0, 0], [1]]),
+        lambda: SphereLight(radius=0.0),
+        lambda: SphereLight(radius=1e300),
+        lambda: DiskLight(normal=(0, 0, 0)),
+        lambda: RectangleLight(edge_u=(1e-200, 0, 0), edge_v=(0, 1e-200, 0)),
+        lambda: UniformSky(radiance=True),
+        lambda: EnvironmentMap("not an image"),
+        lambda: EnvironmentMap(np.ones((4, 8, 3)), rotation=np.full((3, 3), np.nan)),
+        lambda: EnvironmentMap(np.ones((4, 8, 3)), scale=-1.0),
+    ],
+)
+def test_light_constructors_raise_parameter_errors(make):
+    with pytest.raises(ParameterError):
+        make()

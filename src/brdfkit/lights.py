@@ -44,7 +44,8 @@ from brdfkit._array import (
     safe_sqrt,
     to_numpy,
 )
-from brdfkit.brdf.base import channel_count, check_param, param
+from brdfkit.brdf.base import Domain, channel_count, check_number, param
+from brdfkit.errors import ParameterError, SpecError
 from brdfkit.geometry import (
     cartesian_to_spherical,
     frame_from_normal,
@@ -58,6 +59,19 @@ from brdfkit.sampling import (
     square_to_uniform_hemisphere,
     square_to_uniform_hemisphere_pdf,
 )
+
+STRENGTH = Domain(0.0, 1e12, hint="a radiometric strength")
+"""Radiance, irradiance, intensity and an environment map's scale: [0, 10¹²] (the sun's
+radiance is about 2·10⁷ W·m⁻²·sr⁻¹)."""
+
+COORDINATE = Domain(-1e12, 1e12, hint="metres")
+"""Each coordinate of a light's position, centre, corner or edge: [−10¹², 10¹²] m."""
+
+DIRECTION = Domain(-math.inf, math.inf, hint="a direction: any length but 0")
+"""Each coordinate of a light's direction or normal: any finite number (normalised)."""
+
+LENGTH = Domain(0.0, 1e12, lo_open=True, hint="metres")
+"""A light's radius: (0, 10¹²] m."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,17 +122,24 @@ def _vector(name: str, value: Any, like: Array) -> Array:
     return asarray(check_vectors(name, asarray(value)), like=like)
 
 
-def _point(name: str, value: Any) -> np.ndarray:
-    """A validated float64 3-vector parameter."""
-    return np.asarray(check_vectors(name, np.asarray(value, dtype=float)))
+def _point(name: str, value: Any, domain: Domain = COORDINATE) -> np.ndarray:
+    """A validated float64 3-vector parameter, each coordinate in ``domain``."""
+    v = np.asarray(to_numpy(check_number(name, value)), dtype=np.float64)
+    if v.shape != (3,):
+        raise ParameterError(
+            f"{name} must have a last axis of length 3 (x, y, z); got shape {v.shape}"
+        )
+    return domain.check(name, v)
 
 
 def _unit(name: str, value: Any) -> np.ndarray:
-    """A validated non-zero 3-vector parameter, normalised."""
-    v = _point(name, value)
-    if np.linalg.norm(v) == 0:
-        raise ValueError(f"{name} must be a non-zero vector; got (0, 0, 0)")
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    """A validated non-zero 3-vector parameter, normalised (without overflow or underflow)."""
+    v = _point(name, value, DIRECTION)
+    largest = np.max(np.abs(v))
+    if largest == 0:
+        raise ParameterError(f"{name} must be a non-zero vector; got (0, 0, 0)")
+    v = v / largest
+    return v / np.linalg.norm(v)
 
 
 # --------------------------------------------------------------------------- delta lights
@@ -151,7 +172,7 @@ class DirectionalLight(_DeltaLight):
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "direction", _unit("direction", self.direction))
-        check_param("irradiance", self.irradiance, 0.0)
+        STRENGTH.check("irradiance", self.irradiance)
         object.__setattr__(self, "channels", channel_count(self.irradiance, names=("irradiance",)))
 
     def sample(self, points: Array, u: Array | None = None) -> LightSample:
@@ -176,7 +197,7 @@ class PointLight(_DeltaLight):
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", _point("position", self.position))
-        check_param("intensity", self.intensity, 0.0)
+        STRENGTH.check("intensity", self.intensity)
         object.__setattr__(self, "channels", channel_count(self.intensity, names=("intensity",)))
 
     def sample(self, points: Array, u: Array | None = None) -> LightSample:
@@ -200,7 +221,7 @@ def _uniform_where(radiance: Any, hit: Array, points: Array, wi: Array) -> Array
 
 # --------------------------------------------------------------------------- area lights
 def _check_radiance(obj: Any) -> None:
-    check_param("radiance", obj.radiance, 0.0)
+    STRENGTH.check("radiance", obj.radiance)
     object.__setattr__(obj, "channels", channel_count(obj.radiance, names=("radiance",)))
 
 
@@ -218,7 +239,7 @@ class SphereLight(Light):
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center", _point("center", self.center))
-        check_param("radius", self.radius, 0.0, lo_open=True)
+        LENGTH.check("radius", self.radius)
         _check_radiance(self)
 
     def _cone(self, points: Array) -> tuple[Array, Array, Array]:
@@ -319,7 +340,7 @@ class DiskLight(_PlanarLight):
     def __post_init__(self) -> None:
         object.__setattr__(self, "center", _point("center", self.center))
         object.__setattr__(self, "normal", _unit("normal", self.normal))
-        check_param("radius", self.radius, 0.0, lo_open=True)
+        LENGTH.check("radius", self.radius)
         _check_radiance(self)
 
     def _area(self) -> float:
@@ -353,8 +374,10 @@ class RectangleLight(_PlanarLight):
     def __post_init__(self) -> None:
         for name in ("corner", "edge_u", "edge_v"):
             object.__setattr__(self, name, _point(name, getattr(self, name)))
-        if np.linalg.norm(np.cross(self.edge_u, self.edge_v)) == 0:
-            raise ValueError("edge_u and edge_v must span a parallelogram; got parallel edges")
+        if not np.linalg.norm(np.cross(self.edge_u, self.edge_v)) > 0:
+            raise ParameterError(
+                "edge_u and edge_v must span a parallelogram; got parallel or vanishing edges"
+            )
         _check_radiance(self)
 
     def _area(self) -> float:
@@ -454,18 +477,20 @@ class EnvironmentMap(Light):
 
         from brdfkit.sampling import Distribution2D
 
-        img = to_numpy(self.image) if self.image is not None else None
+        img = to_numpy(check_number("image", self.image)) if self.image is not None else None
         if img is None or img.ndim != 3 or img.shape[0] < 2 or img.shape[1] < 2:
             shape = None if img is None else img.shape
-            raise ValueError(
+            raise ParameterError(
                 f"image must be an (H, W, C) lat-long array with H, W >= 2; got {shape}"
             )
         if not np.all(np.isfinite(img)) or np.any(img < 0):
-            raise ValueError("image must hold finite, non-negative radiance values")
-        check_param("scale", self.scale, 0.0)
-        rot = np.eye(3) if self.rotation is None else np.asarray(self.rotation, dtype=float)
-        if rot.shape != (3, 3) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
-            raise ValueError(f"rotation must be a 3×3 rotation matrix; got {rot!r}")
+            raise ParameterError("image must hold finite, non-negative radiance values")
+        STRENGTH.check("scale", self.scale)
+        rot = np.eye(3) if self.rotation is None else check_number("rotation", self.rotation)
+        rot = np.asarray(to_numpy(rot), dtype=float)
+        finite = rot.shape == (3, 3) and np.all(np.isfinite(rot))
+        if not finite or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
+            raise ParameterError(f"rotation must be a 3×3 rotation matrix; got {rot!r}")
         object.__setattr__(self, "image", np.ascontiguousarray(img, dtype=np.float32))
         object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "channels", img.shape[2])
@@ -509,7 +534,7 @@ class EnvironmentMap(Light):
 
         photo = to_numpy(photo).astype(np.float32)
         if photo.ndim != 3 or photo.shape[0] < 2:
-            raise ValueError(f"photo must be an (H, W, C) image of the ball; got {photo.shape}")
+            raise ParameterError(f"photo must be an (H, W, C) image of the ball; got {photo.shape}")
         d = latlong_directions(height, width)
         v = np.array([1.0, 0.0, 0.0])
         n = d + v
@@ -623,37 +648,50 @@ LIGHT_SPECS = {
 def parse_light(spec: str) -> Light:
     """A light from a short text spec, e.g. ``"directional:1,0.5,0.7:3"`` or ``"envmap:sky.hdr"``.
 
+    The forms are :data:`LIGHT_SPECS`; numbers are read with :class:`float`, and a spec holds at
+    most :data:`~brdfkit.brdf._spec.MAX_SPEC_LENGTH` characters. An environment map's file is
+    read by :func:`brdfkit.io.read_image`, whose errors pass through.
+
     Raises
     ------
-    ValueError
-        Naming the spec and listing the known forms (:data:`LIGHT_SPECS`).
+    brdfkit.errors.SpecError
+        For a spec outside these forms (an unknown kind, a missing or malformed number), naming
+        the spec and listing the known forms.
+    brdfkit.errors.ParameterError
+        For a value outside its domain (a zero or non-finite direction, a negative or infinite
+        strength), naming it.
     """
-    kind, _, rest = spec.strip().partition(":")
-    known = "; ".join(LIGHT_SPECS.values())
-    try:
-        if kind == "directional":
-            direction, _, value = rest.partition(":")
-            return DirectionalLight(_floats(direction, 3), float(value or 1.0))
-        if kind == "point":
-            position, _, value = rest.partition(":")
-            return PointLight(_floats(position, 3), float(value or 1.0))
-        if kind == "sky":
-            return UniformSky(float(rest or 1.0))
-        if kind == "envmap":
-            path, scale = rest, 1.0
-            head, sep, tail = rest.rpartition(":")
-            if sep and _is_float(tail):
-                path, scale = head, float(tail)
-            if not path:
-                from brdfkit.data import default_envmap_path
+    from brdfkit.brdf._spec import MAX_SPEC_LENGTH
 
-                path = str(default_envmap_path())
-            return EnvironmentMap.from_file(path, scale=scale)
-    except (TypeError, ValueError) as error:
-        raise ValueError(
-            f"light spec {spec!r} is invalid: {error}. Known forms: {known}"
-        ) from error
-    raise ValueError(f"light spec {spec!r} has an unknown kind {kind!r}. Known forms: {known}")
+    if not isinstance(spec, str):
+        raise SpecError(f"light spec must be a string; got {type(spec).__name__} {spec!r:.80}")
+    if len(spec) > MAX_SPEC_LENGTH:
+        raise SpecError(f"light spec holds {len(spec)} characters; at most {MAX_SPEC_LENGTH}")
+    kind, _, rest = spec.strip().partition(":")
+    if kind in ("directional", "point"):
+        vector, _, value = rest.partition(":")
+        numbers = _floats(spec, vector, 3), _float(spec, value or "1")
+        if kind == "directional":
+            return DirectionalLight(*numbers)
+        return PointLight(*numbers)
+    if kind == "sky":
+        return UniformSky(_float(spec, rest or "1"))
+    if kind == "envmap":
+        path, scale = rest, 1.0
+        head, sep, tail = rest.rpartition(":")
+        if sep and _is_float(tail):
+            path, scale = head, float(tail)
+        STRENGTH.check("scale", scale)  # before the file is read
+        if not path:
+            from brdfkit.data import default_envmap_path
+
+            path = str(default_envmap_path())
+        return EnvironmentMap.from_file(path, scale=scale)
+    raise SpecError(f"light spec {spec!r:.80} has an unknown kind {kind!r:.40}. {_known()}")
+
+
+def _known() -> str:
+    return f"Known forms: {'; '.join(LIGHT_SPECS.values())}"
 
 
 def _is_float(text: str) -> bool:
@@ -664,11 +702,24 @@ def _is_float(text: str) -> bool:
     return True
 
 
-def _floats(text: str, count: int) -> tuple[float, ...]:
-    values = tuple(float(x) for x in text.split(","))
-    if len(values) != count:
-        raise ValueError(f"expected {count} comma-separated numbers, got {text!r}")
-    return values
+def _float(spec: str, text: str) -> float:
+    """``text`` as a float, or a :class:`~brdfkit.errors.SpecError` quoting ``spec``."""
+    if not _is_float(text):
+        raise SpecError(
+            f"light spec {spec!r:.80} is invalid: {text!r:.40} is no number. {_known()}"
+        )
+    return float(text)
+
+
+def _floats(spec: str, text: str, count: int) -> tuple[float, ...]:
+    """``count`` comma-separated floats, or a :class:`~brdfkit.errors.SpecError`."""
+    parts = text.split(",")
+    if len(parts) != count:
+        raise SpecError(
+            f"light spec {spec!r:.80} is invalid: expected {count} comma-separated numbers, got "
+            f"{text!r:.40}. {_known()}"
+        )
+    return tuple(_float(spec, part) for part in parts)
 
 
 __all__ = [
