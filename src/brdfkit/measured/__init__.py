@@ -4,6 +4,8 @@ Every reader returns a :class:`~brdfkit.brdf.base.BRDF` (``eval``, ``pdf``, ``sa
 ``albedo``), so checks, rendering, plots and fitting (:mod:`brdfkit.fit`) work on measured data
 unchanged. Measured BRDFs are data, not spec models: they are not registered with the spec
 parser. They sample the cosine-weighted hemisphere (no analytic sampler exists for a table).
+Every reader either returns a BRDF whose ``eval`` is finite and non-negative or raises
+:class:`~brdfkit.errors.FormatError` naming the file (and the field, byte or line).
 
 - :func:`read_merl` / :func:`write_merl` — MERL ``.binary`` (Matusik et al. 2003), bit-exact.
 - :func:`read_rgl` — RGL ``.bsdf`` tensor files (Dupuy & Jakob 2018), evaluated as Mitsuba 3's
