@@ -224,16 +224,23 @@ def write_normal_map(path: str | Path, normals: ArrayLike) -> None:
     brdfkit.errors.ParameterError
         ``normals`` is not a finite (H, W, 3) array.
     brdfkit.errors.OutputError
-        OpenCV cannot write ``path``.
+        ``path`` cannot be written.
     """
-    import cv2
+    from brdfkit.io import write_image
 
     normals = as_float_array("normals", normals)
     if normals.ndim != 3 or normals.shape[2] != 3:
         raise ParameterError(f"normals must have shape (H, W, 3), got {normals.shape}")
-    encoded = np.round(np.clip((normals + 1) / 2, 0, 1) * 65535).astype(np.uint16)
-    if not cv2.imwrite(str(path), encoded[..., ::-1]):
-        raise OutputError(f"cannot write normal map {str(path)!r}")
+    # write_image quantises as round(65535 clip(v, 0, 1)), encoded in memory (any path works).
+    _written(path, lambda: write_image(path, (normals + 1) / 2, bit_depth=16, srgb=False))
+
+
+def _written(path: str | Path, write: Callable[[], object]) -> None:
+    """Run ``write`` and turn a failure of the file system into an OutputError naming ``path``."""
+    try:
+        write()
+    except OSError as error:
+        raise OutputError(f"cannot write {str(path)!r}: {error.strerror or error}") from error
 
 
 def _read_text(path: Path) -> str:
@@ -705,25 +712,27 @@ def save_diligent(data: PhotometricStereoData, folder: str | Path) -> None:
     brdfkit.errors.OutputError
         An image cannot be written.
     """
-    import cv2
     import scipy.io
 
+    from brdfkit.io import write_image
+
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    _written(folder, lambda: folder.mkdir(parents=True, exist_ok=True))
     raw = data.images.astype(np.float64)
-    if data.light_intensities is not None:
-        raw = raw * data.light_intensities[:, None, None, :]
-    raw = np.round(np.clip(raw, 0, 1) * 65535).astype(np.uint16)
+    intensities = data.light_intensities
+    if intensities is not None:
+        raw = raw * intensities[:, None, None, :]
+        intensities = np.broadcast_to(intensities, (len(raw), 3))  # the layout's "r g b" rows
     names = [f"{k + 1:03d}.png" for k in range(len(raw))]
     for name, image in zip(names, raw, strict=True):
-        pixels = image[..., ::-1] if image.shape[2] == 3 else image
-        if not cv2.imwrite(str(folder / name), pixels):
-            raise OutputError(f"cannot write {str(folder / name)!r}")
+        path = folder / name
+        _written(path, lambda: write_image(path, image, bit_depth=16, srgb=False))  # noqa: B023
     (folder / "filenames.txt").write_text("\n".join(names) + "\n")
     np.savetxt(folder / "light_directions.txt", data.light_directions, fmt="%.8f")
-    if data.light_intensities is not None:
-        np.savetxt(folder / "light_intensities.txt", data.light_intensities, fmt="%.8f")
-    cv2.imwrite(str(folder / "mask.png"), data.mask.astype(np.uint8) * 255)
+    if intensities is not None:
+        np.savetxt(folder / "light_intensities.txt", intensities, fmt="%.8f")
+    mask = data.mask.astype(np.float32)
+    _written(folder / "mask.png", lambda: write_image(folder / "mask.png", mask, srgb=False))
     if data.normals is not None:
         scipy.io.savemat(folder / "Normal_gt.mat", {"Normal_gt": data.normals})
 
