@@ -182,7 +182,7 @@ def test_non_finite_images_and_normals_and_sizes_are_named():
 
 
 def test_a_lat_long_map_that_would_not_fit_in_memory_is_refused(monkeypatch):
-    from brdfkit.vision import _checks
+    from brdfkit import _checks
 
     monkeypatch.setattr(_checks, "available_memory", lambda: 2**20)
     with pytest.raises(ResourceError, match="GiB"):

@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
 from brdfkit.errors import ParameterError
 from brdfkit.sh import lambertian_kernel, sh_basis
-from brdfkit.vision._checks import as_float_array, check_count, check_memory
+from brdfkit._checks import as_float_array, check_count, check_memory
 
 __all__ = [
     "MAX_ITERATIONS",

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._array import dot, normalize
 from brdfkit.errors import ParameterError
-from brdfkit.vision._checks import as_float_array
+from brdfkit._checks import as_float_array
 
 
 def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:

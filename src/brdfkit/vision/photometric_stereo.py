@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
 from brdfkit.errors import ParameterError, ResourceError
-from brdfkit.vision._checks import as_float_array, check_count, check_memory
+from brdfkit._checks import as_float_array, check_count, check_memory
 
 MAX_ITERATIONS = 100_000
 """Largest ``max_iterations`` of the iterative solvers."""

@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
 from brdfkit.errors import ParameterError, ResourceError
-from brdfkit.vision._checks import as_float_array, check_count
+from brdfkit._checks import as_float_array, check_count
 
 __all__ = ["MAX_ITERATIONS", "MAX_PIXELS", "ShapeFromShading", "shape_from_shading"]
 

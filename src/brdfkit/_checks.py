@@ -1,4 +1,4 @@
-"""Argument checks shared by the vision modules: numeric arrays, bounded counts, memory.
+"""Argument checks shared across brdfkit: numeric arrays, bounded counts, memory.
 
 Every check raises a type of :mod:`brdfkit.errors`: :class:`~brdfkit.errors.ParameterError`
 for an argument outside its domain, :class:`~brdfkit.errors.ResourceError` for a size above its
