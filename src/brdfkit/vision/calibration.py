@@ -35,9 +35,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
+from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import ParameterError
 from brdfkit.io import read_image, srgb_decode
-from brdfkit._checks import as_float_array, check_count, check_memory
 
 __all__ = [
     "LEVELS",

@@ -53,8 +53,8 @@ from numpy.typing import ArrayLike
 
 from brdfkit import io
 from brdfkit._array import check_param, normalize
-from brdfkit.errors import FormatError, OutputError, ParameterError
 from brdfkit._checks import as_float_array, check_count, check_memory
+from brdfkit.errors import FormatError, OutputError, ParameterError
 from brdfkit.vision.calibration import LINEAR_SUFFIXES
 from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
 

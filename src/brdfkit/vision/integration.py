@@ -50,8 +50,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from brdfkit.errors import ParameterError
 from brdfkit._checks import as_float_array
+from brdfkit.errors import ParameterError
 
 MIN_NZ = 1e-2
 """Smallest ``|n_z|`` used in orthographic slopes ``-n_x / n_z``: caps a slope at 100 (89.4°)."""

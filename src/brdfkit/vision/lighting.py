@@ -41,9 +41,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import ParameterError
 from brdfkit.sh import lambertian_kernel, sh_basis
-from brdfkit._checks import as_float_array, check_count, check_memory
 
 __all__ = [
     "MAX_ITERATIONS",

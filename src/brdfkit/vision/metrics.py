@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import dot, normalize
-from brdfkit.errors import ParameterError
 from brdfkit._checks import as_float_array
+from brdfkit.errors import ParameterError
 
 
 def _check_mask(mask: ArrayLike | None, shape: tuple[int, ...]) -> np.ndarray:

@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
-from brdfkit.errors import ParameterError, ResourceError
 from brdfkit._checks import as_float_array, check_count, check_memory
+from brdfkit.errors import ParameterError, ResourceError
 
 MAX_ITERATIONS = 100_000
 """Largest ``max_iterations`` of the iterative solvers."""

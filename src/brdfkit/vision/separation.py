@@ -53,8 +53,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
-from brdfkit.errors import ParameterError
 from brdfkit._checks import as_float_array, check_count
+from brdfkit.errors import ParameterError
 
 __all__ = [
     "MAX_ITERATIONS",

@@ -55,8 +55,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
-from brdfkit.errors import ParameterError, ResourceError
 from brdfkit._checks import as_float_array, check_count
+from brdfkit.errors import ParameterError, ResourceError
 
 __all__ = ["MAX_ITERATIONS", "MAX_PIXELS", "ShapeFromShading", "shape_from_shading"]
 
