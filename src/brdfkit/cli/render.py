@@ -9,7 +9,6 @@ import typer
 from brdfkit.cli._app import app, console, fail, shown, status
 from brdfkit.cli._output import light_files, output_file
 
-
 _BYTES_PER_PIXEL = 300
 """Peak memory of a render per pixel (measured: 1.2 GB peak at 2048×2048, ≈ 270 B a pixel)."""
 
