@@ -263,7 +263,7 @@ class Sample:
     Attributes
     ----------
     wi : (..., 3) sampled direction towards the light (below the surface for transmission).
-    weight : (..., C) Monte Carlo throughput f·|cos θi| / pdf (for delta lobes, the lobe's
+    weight : (..., C) Monte Carlo throughput ``f·|cos θi| / pdf`` (for delta lobes, the lobe's
         reflectance); 0 where sampling failed.
     pdf : (...,) solid-angle density of ``wi`` (0 for a delta lobe or a failed sample).
     delta : (...,) bool, whether ``wi`` came from a delta lobe.

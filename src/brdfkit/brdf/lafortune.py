@@ -61,7 +61,7 @@ class Lafortune(MixtureSampled):
 
     (a lobe is 0 where its bracket is ≤ 0). C_x = C_y < 0 < C_z gives a Phong lobe about the
     mirror direction (C_x = C_y = −1, C_z = 1 is exactly cosⁿ of the angle to reflect(ωo));
-    C_x = C_y > 0 gives retro-reflection; |C_z| < |C_x| moves the peak towards grazing
+    C_x = C_y > 0 gives retro-reflection; ``|C_z| < |C_x|`` moves the peak towards grazing
     (off-specular reflection); C_x ≠ C_y makes the lobe **anisotropic**; C_x = C_y = 0
     gives a non-Lambertian diffuse lobe. **Reciprocal**: yes (the bracket is symmetric in
     ωi, ωo). **Not energy-conserving** in general: the coefficients are free fit parameters;
@@ -82,7 +82,7 @@ class Lafortune(MixtureSampled):
         (``cx=[-1.0]`` is one lobe, ``cx=[-1.0, 0.5]`` two); each ``cx[k]`` broadcasts against
         ``batch + (C,)`` (per channel or per pixel).
     n : lobe exponents n_k ∈ [0, 10⁶], same first axis. Each lobe's peak
-        max(|C_x|, |C_y|, |C_z|)ⁿ must be at most 10¹² sr⁻¹ (:data:`PEAK_MAX`).
+        ``max(|C_x|, |C_y|, |C_z|)ⁿ`` must be at most 10¹² sr⁻¹ (:data:`PEAK_MAX`).
 
     References
     ----------
