@@ -4,20 +4,20 @@ Every reader, validator and command raises one of these for input it cannot use,
 else: anything outside this family escaping a public function on bad input is a bug. Each is
 also a built-in type (``ValueError`` or ``OSError``), so ``except ValueError`` keeps working.
 
-=====================  ==========================================================================
-type                   raised when
-=====================  ==========================================================================
-:class:`FormatError`   a file is not what its reader expects (truncated, corrupt, NaN inside, …);
-                       the message names the file and, where known, the field or byte offset
+=======================  ==========================================================================
+type                     raised when
+=======================  ==========================================================================
+:class:`FormatError`     a file is not what its reader expects (truncated, corrupt, NaN inside, …);
+                         the message names the file and, where known, the field or byte offset
 :class:`ParameterError`  a parameter or argument is not finite or lies outside its domain; the
-                       message names it, its value and the domain
-:class:`SpecError`     a model or light spec string is outside the grammar or names an unknown
-                       model or parameter
-:class:`ResourceError` a requested size would need more memory than the machine has, or exceeds
-                       the documented maximum of an option
-:class:`OutputError`   an output path cannot be used: it is an input, lies inside one, is an
-                       existing file where a folder is wanted, or cannot be written
-=====================  ==========================================================================
+                         message names it, its value and the domain
+:class:`SpecError`       a model or light spec string is outside the grammar or names an unknown
+                         model or parameter
+:class:`ResourceError`   a requested size would need more memory than the machine has, or exceeds
+                         the documented maximum of an option
+:class:`OutputError`     an output path cannot be used: it is an input, lies inside one, is an
+                         existing file where a folder is wanted, or cannot be written
+=======================  ==========================================================================
 
 The command line prints such an error as one line on standard error and exits with status 2.
 """

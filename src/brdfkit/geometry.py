@@ -35,7 +35,7 @@ from brdfkit._array import (
 def frame_from_normal(normal: Array, tangent: Array | None = None) -> tuple[Array, Array, Array]:
     """An orthonormal frame ``(s, t, n)`` around ``normal``: ``s`` the tangent, ``t = n × s``.
 
-    With no ``tangent``, the branchless construction of Duff et al. [3]_ is used; with one, it is
+    With no ``tangent``, the branchless construction of Duff et al. (2017) is used; with one, it is
     made orthogonal to ``n`` by Gram–Schmidt (it must not be parallel to the normal).
 
     Returns
@@ -165,7 +165,7 @@ def critical_angle(eta: Array | float) -> Array:
 
 
 def half_vector(wi: Array, wo: Array) -> Array:
-    """The normalised half vector h = (wi + wo)/|wi + wo| of a reflection pair."""
+    """The normalised half vector h = ``(wi + wo)/|wi + wo|`` of a reflection pair."""
     return normalize(wi + wo)
 
 
@@ -187,7 +187,7 @@ def _rotate_y(v: Array, angle: Array) -> Array:
 
 
 def to_half_diff(wi: Array, wo: Array) -> tuple[Array, Array, Array, Array]:
-    """Rusinkiewicz [1]_ half/difference angles ``(theta_h, phi_h, theta_d, phi_d)`` of a pair.
+    """Rusinkiewicz (1998) half/difference angles ``(theta_h, phi_h, theta_d, phi_d)`` of a pair.
 
     h = normalize(wi + wo) has spherical angles (θh, φh); the difference vector is ``wi`` rotated
     by −φh about z, then by −θh about y, and has spherical angles (θd, φd). (θh, θd) ∈ [0, π/2]²
@@ -217,7 +217,7 @@ def from_half_diff(
 def to_isotropic(wi: Array, wo: Array) -> tuple[Array, Array, Array]:
     """Isotropic reduction ``(theta_i, theta_o, delta_phi)`` with Δφ = φo − φi wrapped to [0, π].
 
-    An isotropic BRDF depends only on these three numbers (and, being reciprocal, on |Δφ|).
+    An isotropic BRDF depends only on these three numbers (and, being reciprocal, on ``|Δφ|``).
     """
     theta_i, phi_i = cartesian_to_spherical(wi)
     theta_o, phi_o = cartesian_to_spherical(wo)

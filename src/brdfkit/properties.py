@@ -15,7 +15,7 @@ The properties (Nicodemus et al. 1977; Veach 1997, ch. 6):
 * Isotropy: :math:`f_r(R_z\omega_i, R_z\omega_o) = f_r(\omega_i, \omega_o)` for every rotation
   :math:`R_z` about the normal.
 * Non-negativity: :math:`f_r \ge 0` (and 0 below the horizon for a BRDF).
-* Sampling: ``weight`` = f·|cos θi|/pdf, and a χ² goodness-of-fit test of ``sample`` against
+* Sampling: ``weight`` = ``f·|cos θi|/pdf``, and a χ² goodness-of-fit test of ``sample`` against
   ``pdf``.
 * Microfacet distributions: the projected area of the microfacets is the macro-surface's,
   :math:`\int D(\omega_m) \cos\theta_m \, d\omega_m = 1`, and the weak white furnace

@@ -57,7 +57,7 @@ SPHERE_SOLID_ANGLE = 4.0 * math.pi
 
 Surface = Callable[[Array, Array], tuple[Array, Array]]
 """A parametric surface ``(u, v) -> (points, dS)``: ``points`` ``(..., 3)`` and the area-weighted
-normal ``dS = ∂x/∂u × ∂x/∂v`` (= n̂·|∂u×∂v|) ``(..., 3)``, for parameter arrays ``u``, ``v``."""
+normal ``dS = ∂x/∂u × ∂x/∂v`` (= ``n̂·|∂u×∂v|``) ``(..., 3)``, for parameter arrays ``u``, ``v``."""
 
 
 # --------------------------------------------------------------------------- helpers
@@ -835,7 +835,7 @@ def radiance_from_intensity(
     Parameters
     ----------
     intensity : J in W·sr⁻¹ in the direction θ, broadcast against ``batch + (C,)``.
-    area : |X| > 0.
+    area : ``|X|`` > 0.
     cos_theta : cos θ in (0, 1] of that direction to the patch normal.
 
     Returns
