@@ -65,7 +65,7 @@ class Lafortune(MixtureSampled):
     (off-specular reflection); C_x ≠ C_y makes the lobe **anisotropic**; C_x = C_y = 0
     gives a non-Lambertian diffuse lobe. **Reciprocal**: yes (the bracket is symmetric in
     ωi, ωo). **Not energy-conserving** in general: the coefficients are free fit parameters;
-    a lobe's albedo is at most |C∘ωo|ⁿ·2π/(n+1) (measured per example in the tests).
+    a lobe's albedo is at most ``|C∘ωo|ⁿ·2π/(n+1)`` (measured per example in the tests).
 
     Sampling: lobe k equals :math:`\lVert C_k\circ\omega_o\rVert^{n_k}\cos^{n_k}\beta` with β
     the angle between ωi and the axis :math:`a_k = C_k\circ\omega_o/\lVert C_k\circ\omega_o
