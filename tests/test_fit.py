@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import parse
+from brdfkit.errors import ParameterError, SpecError
 from brdfkit.fit import fit, fit_data, fit_errors, residuals
 from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, read_merl, write_merl
 from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
@@ -158,18 +159,45 @@ def test_residuals_and_errors_closed_forms():
         ({"loss_scale": float("nan")}, "loss_scale"),
         ({"mode": "both"}, "mode"),
         ({"starts": 0}, "starts"),
+        ({"loss_scale": True}, "loss_scale must be a positive number; got True"),
+        ({"loss_scale": float("inf")}, "loss_scale"),
+        ({"loss_scale": "0.5"}, "loss_scale"),
+        ({"starts": True}, r"starts must be an integer in \[1, 1000\]; got True"),
+        ({"starts": 10**9}, "starts must be an integer"),
+        ({"coarse_samples": 5}, "coarse_samples"),
+        ({"max_samples": 2.5}, "max_samples"),
+        ({"max_nfev": 0}, "max_nfev"),
+        ({"seed": -1}, "seed"),
+        ({"progress": 3}, "progress must be a callable"),
+        ({"fixed": "rho"}, "fixed must be a collection of parameter names"),
+        ({"fixed": ["unknown_name"]}, "'unknown_name', which is no parameter of the model"),
+        ({"fixed": ["1.rho"]}, "'1.rho', which is no parameter"),
+        ({"fixed": [3]}, "3, which is no parameter"),
     ],
 )
 def test_bad_arguments(kwargs, message):
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ParameterError, match=message):
         fit(_samples(TRUE, 50), "lambertian", **kwargs)
 
 
+def test_an_unknown_fixed_name_lists_the_models_parameters():
+    with pytest.raises(ParameterError) as info:
+        fit(_samples(TRUE, 50), "lambertian + ward", fixed=["alpha"])
+    for name in ("0.rho", "1.alpha_x", "1.ks", "1.scale"):
+        assert name in str(info.value)
+
+
 def test_bad_models():
-    with pytest.raises(ValueError, match="unknown model"):
+    with pytest.raises(SpecError, match="unknown model"):
         fit(_samples(TRUE, 50), "lambertan")
-    with pytest.raises(ValueError, match="no free parameter"):
+    with pytest.raises(SpecError, match="not a valid model expression"):
+        fit(_samples(TRUE, 50), "lambertian(")
+    with pytest.raises(SpecError, match="fitting supports a sum"):
+        fit(_samples(TRUE, 50), "0.5 * (lambertian + ggx)")
+    with pytest.raises(ParameterError, match="no free parameter"):
         fit(_samples(TRUE, 50), "lambertian(rho=0.5)")
+    with pytest.raises(ParameterError, match="model must be a spec string or a BRDF"):
+        fit(_samples(TRUE, 50), 3)
 
 
 def test_fit_data_of_a_table_is_its_measured_nodes():

@@ -106,7 +106,8 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import to_numpy
-from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
+from brdfkit.brdf.base import BRDF, SCALE, Scaled, Sum, check_choice
+from brdfkit.errors import ParameterError, SpecError
 from brdfkit.measured.tabulated import MeasuredSamples, TabulatedBRDF
 
 OBJECTIVES = ("cosine", "log", "cube_root")
@@ -140,6 +141,15 @@ EXPONENT_PARAMETERS = frozenset({"n"})
 
 ROUGHNESS_SWEEP = (0.002, 0.6)
 """The roughness range that the starts after the first sweep, log-uniformly."""
+
+STARTS = (1, 1000)
+"""The allowed range of :func:`fit`'s ``starts``."""
+
+SAMPLES = (10, 100_000_000)
+"""The allowed range of :func:`fit`'s ``coarse_samples`` and ``max_samples``."""
+
+EVALUATIONS = (1, 1_000_000)
+"""The allowed range of :func:`fit`'s ``max_nfev``."""
 
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
@@ -180,7 +190,7 @@ def fit_data(
         values = to_numpy(measured.eval(wi, wo))
         data = MeasuredSamples(wi, wo, values, name=getattr(measured, "name", repr(measured)))
     else:
-        raise ValueError(
+        raise ParameterError(
             f"measured must be a BRDF or MeasuredSamples; got {type(measured).__name__}"
         )
     valid = data.valid
@@ -276,7 +286,7 @@ class _Free:
 
 def _bounds(lobe: BRDF, name: str) -> tuple[float, float]:
     """The interval ``lobe``'s model allows for parameter ``name`` given its other settings
-    (Cook–Torrance checks ``f0`` only under Schlick's Fresnel), read from its validation."""
+    (``allow_unphysical`` on), read from its validation."""
     cls = type(lobe)
     extra = {"allow_unphysical": True} if "allow_unphysical" in _field_names(cls) else {}
     ends = []
@@ -319,7 +329,7 @@ def _lobes(model: BRDF) -> list[_Lobe]:
     for term in model.lobes if isinstance(model, Sum) else (model,):
         lobe = _Lobe(term.inner, term.k) if isinstance(term, Scaled) else _Lobe(term)
         if not lobe.inner.spec_name or type(lobe.inner) is not _registered(lobe.inner):
-            raise ValueError(
+            raise ParameterError(
                 "model must be a sum of registered models, each optionally scaled (k * model); "
                 f"got {term!r} ({type(term).__name__})"
             )
@@ -337,26 +347,53 @@ def _explicit_keywords(spec: str) -> list[set[str]]:
     """The parameter names written in each lobe of ``spec`` (``"scale"`` for a written
     factor), lobes in order."""
     out: list[set[str]] = []
-
-    def visit(node: ast.expr, written: set[str]) -> None:
+    stack = [(ast.parse(spec.strip(), mode="eval").body, frozenset())]
+    while stack:  # depth first, left to right, without recursion (a sum may be long)
+        node, written = stack.pop()
         if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add) and not written:
-            visit(node.left, set())
-            visit(node.right, set())
+            stack += [(node.right, written), (node.left, written)]
         elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
             model_side = node.right if isinstance(node.right, ast.Call | ast.Name) else node.left
-            visit(model_side, written | {"scale"})
+            stack.append((model_side, written | {"scale"}))
         elif isinstance(node, ast.Call):
-            out.append(written | {k.arg for k in node.keywords if k.arg})
+            out.append(set(written) | {k.arg for k in node.keywords if k.arg})
         elif isinstance(node, ast.Name):
-            out.append(written)
+            out.append(set(written))
         else:
-            raise ValueError(
-                f"spec {spec!r}: fitting supports a sum of (optionally scaled) models; "
-                f"got {ast.get_source_segment(spec.strip(), node)!r}"
+            raise SpecError(
+                f"spec {spec!r:.80}: fitting supports a sum of (optionally scaled) models; "
+                f"got {ast.get_source_segment(spec.strip(), node)!r:.80}"
+            )
+    return out
+
+
+def _check_fixed(fixed: Collection[str], lobes: list[_Lobe]) -> None:
+    """Raise :class:`~brdfkit.errors.ParameterError` unless every entry of ``fixed`` names a
+    numeric parameter (or ``"scale"``) of some lobe, or ``"<k>.<name>"`` of lobe k."""
+    if isinstance(fixed, str) or not isinstance(fixed, Collection):
+        raise ParameterError(f"fixed must be a collection of parameter names; got {fixed!r:.60}")
+    names = [
+        {"scale"}
+        | {n for n in _field_names(type(lobe.inner)) if _is_numeric(getattr(lobe.inner, n))}
+        for lobe in lobes
+    ]
+    known = [f"{k}.{n}" for k, lobe_names in enumerate(names) for n in sorted(lobe_names)]
+    for entry in fixed:
+        lobe, _, name = entry.rpartition(".") if isinstance(entry, str) else ("", "", None)
+        valid = (
+            name in set().union(*names)
+            if not lobe
+            else lobe.isdigit() and int(lobe) < len(names) and name in names[int(lobe)]
+        )
+        if not valid:
+            raise ParameterError(
+                f"fixed names {entry!r:.60}, which is no parameter of the model; its "
+                f"parameters are {', '.join(known)} (a name alone holds it in every lobe)"
             )
 
-    visit(ast.parse(spec.strip(), mode="eval").body, set())
-    return out
+
+def _is_integer(value: Any) -> bool:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
 
 
 def _is_number(value: Any) -> bool:
@@ -434,9 +471,11 @@ def _free_parameters(
         if wants_scale and not held:
             start = 1.0 if lobe.scale is None else np.ravel(to_numpy(lobe.scale)).astype(float)
             initial = np.broadcast_to(start, (channels,)).copy()
-            free.append(_Free(k, "scale", channels, 0.0, math.inf, initial, True))
+            free.append(_Free(k, "scale", channels, SCALE.lo, SCALE.hi, initial, True))
     if not free:
-        raise ValueError("the model has no free parameter to fit (all are fixed or non-numeric)")
+        raise ParameterError(
+            "the model has no free parameter to fit (all are fixed or non-numeric)"
+        )
     return free
 
 
@@ -677,17 +716,29 @@ def fit(
     loss_scale : the residual at which a robust loss departs from least squares, relative to
         the median size of the measured values on the objective's scale (default ½).
     mode : ``"shared"`` or ``"per_channel"``.
-    starts : number of starts (≥ 1): the model's values, then a roughness sweep (random
+    starts : number of starts, in [1, 1000]: the model's values, then a roughness sweep (random
         points in the bounds for a model without roughness).
-    fixed : parameter names to hold (``"alpha"`` in every lobe, ``"1.alpha"`` in lobe 1).
-    coarse_samples, max_samples : subset sizes for the starts and for the refinement.
-    max_nfev : residual evaluations (not counting the Jacobian's) per least-squares run.
-    seed : seed of the subsets and random starts.
+    fixed : parameter names to hold (``"alpha"`` in every lobe, ``"1.alpha"`` in lobe 1,
+        ``"scale"`` for the factors); each must name a numeric parameter of the model.
+    coarse_samples, max_samples : subset sizes for the starts and for the refinement, in
+        [10, 10⁸].
+    max_nfev : residual evaluations (not counting the Jacobian's) per least-squares run, in
+        [1, 10⁶].
+    seed : seed of the subsets and random starts, a non-negative integer.
     progress : ``progress(completed, total, description)`` callback (fractional stages).
 
     Returns
     -------
     FitResult
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        For an argument outside its domain (naming it), an unknown name in ``fixed`` (listing
+        the model's parameters), or a model with nothing to fit.
+    brdfkit.errors.SpecError
+        For a spec string that :func:`brdfkit.brdf.parse` cannot read or that is no sum of
+        (optionally scaled) models.
 
     References
     ----------
@@ -699,28 +750,33 @@ def fit(
     began = time.perf_counter()
     check_choice("objective", objective, OBJECTIVES)
     check_choice("loss", loss, LOSSES)
-    if not (isinstance(loss_scale, int | float) and loss_scale > 0 and math.isfinite(loss_scale)):
-        raise ValueError(f"loss_scale must be a positive number; got {loss_scale!r}")
+    if not (_is_number(loss_scale) and 0 < loss_scale < math.inf):
+        raise ParameterError(f"loss_scale must be a positive number; got {loss_scale!r:.40}")
     check_choice("mode", mode, MODES)
-    for name, value, least in (
-        ("starts", starts, 1),
-        ("coarse_samples", coarse_samples, 10),
-        ("max_samples", max_samples, 10),
-        ("max_nfev", max_nfev, 1),
+    for name, value, (least, most) in (
+        ("starts", starts, STARTS),
+        ("coarse_samples", coarse_samples, SAMPLES),
+        ("max_samples", max_samples, SAMPLES),
+        ("max_nfev", max_nfev, EVALUATIONS),
+        ("seed", seed, (0, 2**63 - 1)),
     ):
-        if not isinstance(value, int) or value < least:
-            raise ValueError(f"{name} must be an integer >= {least}; got {value!r}")
+        if not _is_integer(value) or not least <= value <= most:
+            raise ParameterError(
+                f"{name} must be an integer in [{least}, {most}]; got {value!r:.40}"
+            )
+    if progress is not None and not callable(progress):
+        raise ParameterError(f"progress must be a callable or None; got {progress!r:.40}")
     if isinstance(model, str):
-        explicit = _explicit_keywords(model)
-        model = parse(model)
+        model, explicit = parse(model), _explicit_keywords(model)
     elif isinstance(model, BRDF):
         explicit = [set() for _ in _lobes(model)]
     else:
-        raise ValueError(f"model must be a spec string or a BRDF; got {type(model).__name__}")
+        raise ParameterError(f"model must be a spec string or a BRDF; got {type(model).__name__}")
     lobes = _without_redundant_diffuse(_lobes(model), explicit)
+    _check_fixed(fixed, lobes)
     data = fit_data(measured, seed=seed)
     if data.wi.shape[0] < 10:
-        raise ValueError(f"measured holds {data.wi.shape[0]} valid samples; at least 10 needed")
+        raise ParameterError(f"measured holds {data.wi.shape[0]} valid samples; at least 10 needed")
     channels = data.values.shape[1]
     rng = np.random.default_rng(seed)
     coarse = _subset(data, coarse_samples, rng)
@@ -741,7 +797,7 @@ def fit(
     for g, group in enumerate(groups):
         free = _free_parameters(lobes, explicit, fixed, channels if mode == "shared" else 1)
         if mode == "per_channel" and any(p.size != 1 for p in free):
-            raise ValueError(
+            raise ParameterError(
                 "mode='per_channel' needs single-valued free parameters; "
                 f"{[p.name for p in free if p.size != 1]} hold several (fix them or use 'shared')"
             )
@@ -804,9 +860,12 @@ def fit(
 
 __all__ = [
     "COLOUR_PARAMETERS",
+    "EVALUATIONS",
     "LOSSES",
     "MODES",
     "OBJECTIVES",
+    "SAMPLES",
+    "STARTS",
     "FitResult",
     "fit",
     "fit_data",
