@@ -37,7 +37,7 @@ COEFFICIENT = Domain(-100.0, 100.0, hint="lobe coefficient")
 """The lobe coefficients C_x, C_y, C_z: [−100, 100]."""
 
 PEAK_MAX = 1e12
-"""The largest lobe peak max(|C_x|, |C_y|, |C_z|)ⁿ allowed, in sr⁻¹: far above any measured
+"""The largest lobe peak ``max(|C_x|, |C_y|, |C_z|)ⁿ`` allowed, in sr⁻¹: far above any measured
 highlight, and far from overflow in float32."""
 
 
@@ -125,7 +125,8 @@ class Lafortune(MixtureSampled):
         object.__setattr__(self, "channels", channel_count(*values, names=tuple(names)))
 
     def _check_peaks(self) -> None:
-        """Raise unless every lobe's peak max(|C_x|, |C_y|, |C_z|)ⁿ is at most :data:`PEAK_MAX`."""
+        """Raise unless every lobe's peak ``max(|C_x|, |C_y|, |C_z|)ⁿ`` is at most
+        :data:`PEAK_MAX`."""
         c = [
             np.abs(to_numpy(getattr(self, name)).astype(np.float64)) for name in ("cx", "cy", "cz")
         ]
