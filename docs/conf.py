@@ -108,6 +108,8 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "show_memory": False,
     "min_reported_time": 1,
+    # sphinx-gallery reruns only examples whose source changed; the tests rerun them all
+    "run_stale_examples": os.environ.get("BRDFKIT_DOCS_RERUN_EXAMPLES") == "1",
 }
 
 # --------------------------------------------------------------------------- HTML
