@@ -35,6 +35,14 @@ status = Console(stderr=True, markup=False, highlight=False)
 """Progress bars and errors on standard error, so that standard output holds only results."""
 
 
+def progress(*columns: Any) -> Any:
+    """A transient progress bar on stderr (``rich.progress.Progress`` with ``columns``), shown
+    only on a terminal: a pipe or a log file gets neither the bar nor the blank line it leaves."""
+    from rich.progress import Progress
+
+    return Progress(*columns, console=status, transient=True, disable=not status.is_terminal)
+
+
 def shown(text: Any) -> str:
     """``text`` (a path or message) made printable: bytes that are not UTF-8 in a file name
     (carried by Python as lone surrogates) appear as ``\\xff`` escapes."""
