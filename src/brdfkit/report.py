@@ -1,10 +1,11 @@
 """The reflectance atlas: one self-contained HTML page with a card per model.
 
-Each card shows the model's formula, parameters and citation, a row of spheres across its
-example parameters under a directional light and under an environment map, a lobe plot, the
-directional albedo curves, and the physics checks (reciprocity, energy, isotropy, sampling) as
-pass/fail with their numbers, set against what the model claims. Images are embedded as base64
-PNG, so the page opens from disk with no server and no network.
+Each card shows the model's docstring typeset by docutils (its formulas as MathML, parameters
+and citations), a row of spheres across its example parameters under a directional light and
+under an environment map, a lobe plot, the directional albedo curves, and the physics checks
+(reciprocity, energy, isotropy, sampling) as pass/fail with their numbers, set against what the
+model claims. Images are embedded as base64 PNG and browsers draw MathML natively, so the page
+opens from disk with no server, script or network.
 
 References
 ----------
@@ -20,6 +21,7 @@ import inspect
 import io
 import math
 import re
+import textwrap
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,7 +56,7 @@ class Card:
     title: str
     models: list[BRDF]
     labels: list[str]
-    doc: str = ""
+    docs: list[tuple[str, str]] = field(default_factory=list)  # (heading, docstring) per lobe
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
@@ -74,65 +76,115 @@ def _image_png(image: np.ndarray) -> str:
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
-def _doc_of(model: BRDF) -> str:
+def _docs_of(model: BRDF) -> list[tuple[str, str]]:
+    """(heading, docstring) of each lobe of ``model``: one entry with no heading for a single
+    model, one per lobe (headed by its class name) for a sum; factors are looked through."""
     target = model
     while isinstance(target, Scaled):
         target = target.inner
     if isinstance(target, Sum):
-        return "\n\n".join(f"{type(lobe).__name__}: " + _doc_of(lobe) for lobe in target.lobes)
+        return [(type(lobe).__name__, doc) for lobe in target.lobes for _, doc in _docs_of(lobe)]
     # A convenience subclass (``ggx`` of ``RoughConductor``) adds its parent's formula and
     # references to its own short docstring.
     docs = [inspect.cleandoc(cls.__doc__ or "") for cls in type(target).__mro__[:2]]
     own = docs[0]
     if "References" not in own and len(docs) > 1 and "References" in docs[1]:
-        return own + "\n\n" + docs[1]
-    return own
+        return [("", own + "\n\n" + docs[1])]
+    return [("", own)]
 
 
-def _section(doc: str, name: str) -> str:
-    match = re.search(rf"^{name}\n-+\n(.*?)(?:\n\n[A-Z][a-z ]+\n-+\n|\Z)", doc, re.S | re.M)
-    return match.group(1).strip() if match else ""
+_SECTION = re.compile(r"^([A-Z][A-Za-z ]*)\n-{3,}[ \t]*$", re.M)
+"""A numpydoc section header: its name, underlined by dashes."""
+_ITEM_SECTIONS = ("Parameters", "Other Parameters", "Attributes", "Returns", "Yields", "Raises")
+"""numpydoc sections whose entries are ``name : description`` items."""
+_ITEM = re.compile(r"^(\S.*?) : ?(.*)$")
+"""The first line of a numpydoc item, ``names : description`` (or ``names : type``)."""
+_SPHINX_ROLE = re.compile(r":(?:py:)?(?:class|func|data|meth|attr|mod|obj|exc|const):`([^`]+)`")
+"""A role of Sphinx's Python domain, which docutils alone does not know."""
+_INITIAL = re.compile(r"^(\.\. \[[^\]]+\][ \t]+)([A-Z])\.(?=\s)", re.M)
+"""A citation starting with an initial ("B. Walter"), which docutils reads as a list item."""
 
 
-def _summary(doc: str) -> str:
-    head = re.split(r"\n[A-Z][a-z ]+\n-+\n", doc)[0]
-    return head.strip()
+def _literal_role(match: re.Match) -> str:
+    """A Sphinx cross-reference as an inline literal of the name it shows (``~`` keeps the
+    last component; an explicit title ``text <target>`` is kept as the text)."""
+    text = match.group(1)
+    titled = re.fullmatch(r"(.*?)\s*<[^>]*>", text)
+    if titled:
+        return f"``{titled.group(1)}``"
+    if text.startswith("~"):
+        text = text[1:].rsplit(".", 1)[-1]
+    return f"``{text}``"
 
 
-def _formula(doc: str) -> str | None:
-    """The docstring's first formula: a ``.. math::`` block or else a ``:math:`` role."""
-    block = re.search(r"^\.\. math::[ \t]*\n(?:[ \t]*\n)?((?:[ \t]+\S.*\n?)+)", doc, re.M)
-    if block:
-        return " ".join(line.strip() for line in block.group(1).splitlines())
-    role = re.search(r":math:`([^`]+)`", doc)
-    return role.group(1) if role else None
+def _items_rest(body: str) -> str:
+    """numpydoc ``name : description`` items as a reStructuredText definition list; lines
+    outside any item (``All broadcast against …``) stay paragraphs."""
+    items: list[tuple[str | None, list[str]]] = []  # (term or None for a paragraph, lines)
+    for line in body.splitlines():
+        header = _ITEM.match(line)
+        if header:
+            names = ", ".join(f"``{name.strip()}``" for name in header.group(1).split(","))
+            items.append((names, [header.group(2)]))
+        elif items and (not line.strip() or line[:1].isspace() or items[-1][0] is None):
+            items[-1][1].append(line)
+        else:
+            items.append((None, [line]))
+    out = []
+    for term, lines in items:
+        if term is None:
+            out.append("\n".join(lines))
+            continue
+        rest = textwrap.dedent("\n".join(lines[1:])).splitlines()
+        text = "\n".join([lines[0].strip(), *rest]).strip() or "—"
+        out.append(term + "\n" + textwrap.indent(text, "    "))
+    return "\n\n".join(out)
 
 
-_MATHTEXT = {
-    r"\qquad": r"\quad",
-    r"\lVert": r"\|",
-    r"\rVert": r"\|",
-    **{rf"\{size}{side}": "" for size in ("big", "Big", "bigg", "Bigg") for side in "lr"},
-}
-"""LaTeX that matplotlib's mathtext lacks, mapped to what it has (sizes of delimiters dropped)."""
+def _numpydoc_rest(doc: str) -> str:
+    """A numpydoc docstring as plain reStructuredText that docutils renders alone: section
+    headers as rubrics, parameter items as definition lists, Sphinx roles as literals."""
+    doc = _INITIAL.sub(r"\1\2\\.", _SPHINX_ROLE.sub(_literal_role, doc))
+    pieces = _SECTION.split(doc)
+    parts = [pieces[0]]
+    for name, body in zip(pieces[1::2], pieces[2::2], strict=True):
+        body = _items_rest(body) if name in _ITEM_SECTIONS else body
+        parts.append(f"\n.. rubric:: {name}\n\n{body.strip()}\n")
+    return "\n".join(parts)
 
 
-def _formula_png(doc: str) -> str | None:
-    """The formula rendered by matplotlib's mathtext, or None if mathtext cannot typeset it."""
-    formula = _formula(doc)
-    if not formula:
-        return None
-    for latex, mathtext in _MATHTEXT.items():
-        formula = formula.replace(latex, mathtext)
-    formula = re.sub(r"\\mathbf\s+(\w)", r"\\mathbf{\1}", formula)
-    from matplotlib.figure import Figure
+def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> str:
+    """A model's numpydoc docstring as an HTML fragment: formulas as MathML (native in
+    browsers, so the page needs no script or network), citations as footnotes, parameter
+    lists as definition lists.
 
-    fig = Figure(figsize=(6, 0.6))
-    fig.text(0.01, 0.5, f"${formula}$", fontsize=14, va="center")
-    try:
-        return _png(fig, bbox_inches="tight", transparent=True)
-    except ValueError:  # mathtext does not know every LaTeX command: the text shows it instead
-        return None
+    Parameters
+    ----------
+    doc : the docstring (cleaned of its indentation).
+    id_prefix : prefix of the fragment's element ids, so that several fragments (one per
+        card) can share a page.
+    strict : raise on any docutils message (malformed markup, a formula MathML cannot
+        typeset) instead of leaving the markup out of the page.
+
+    Raises
+    ------
+    docutils.utils.SystemMessage
+        With ``strict``, on the first message docutils reports.
+    """
+    from docutils.core import publish_parts
+    from docutils.writers.html5_polyglot import Writer
+
+    settings = {
+        "math_output": "MathML",
+        "id_prefix": id_prefix,
+        "doctitle_xform": False,
+        "report_level": 1 if strict else 5,
+        "halt_level": 1 if strict else 5,
+        "warning_stream": False,
+        "input_encoding": "unicode",
+    }
+    parts = publish_parts(_numpydoc_rest(doc), writer=Writer(), settings_overrides=settings)
+    return parts["body"]
 
 
 def _sphere_row(models: Sequence[BRDF], lights, resolution: int, samples: int) -> np.ndarray:
@@ -162,7 +214,7 @@ def build_card(
 
     models = list(models)
     labels = list(labels) if labels is not None else [model_label(m) for m in models]
-    card = Card(title, models, labels, doc=_doc_of(models[0]))
+    card = Card(title, models, labels, docs=_docs_of(models[0]))
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
     card.images["spheres under a directional light"] = _image_png(
         _sphere_row(models, sun, resolution, samples)
@@ -222,6 +274,15 @@ table{border-collapse:collapse;font-size:.85rem}
 td,th{border-bottom:1px solid #eee;padding:.25rem .6rem;text-align:left}
 .pass{color:#0a7a2f;font-weight:600} .fail{color:#b00020;font-weight:600}
 .claim{color:#555} code{font-size:.82rem}
+.doc{line-height:1.45} .doc h3{margin:.8rem 0 .2rem;font-size:1rem}
+.doc p.rubric{font-weight:600;margin:.9rem 0 .3rem}
+.doc dl{display:grid;grid-template-columns:max-content 1fr;gap:.2rem 1rem;margin:.2rem 0}
+.doc dd{margin:0} .doc dd p{margin:0}
+.doc math[display=block]{margin:.6rem 0;font-size:1.15em}
+.doc .literal{font-family:ui-monospace,monospace;font-size:.85em;background:#f4f4f4;
+padding:0 .2em;border-radius:3px}
+.doc aside.footnote{display:flex;gap:.5rem;font-size:.88rem}
+.doc aside.footnote p{margin:.1rem 0} .doc a.brackets{font-size:.8em;vertical-align:super}
 """
 
 _SCRIPT = """
@@ -242,18 +303,25 @@ def _img(data: str, caption: str) -> str:
     )
 
 
+def _docs_html(card: Card) -> str:
+    """The card's docstrings as HTML, each lobe's under its heading (element ids prefixed by
+    the card's title, so that the cards' footnotes do not collide)."""
+    slug = re.sub(r"\W+", "-", card.title).strip("-")
+    parts = ['<div class="doc">']
+    for i, (heading, doc) in enumerate(card.docs):
+        if heading:
+            parts.append(f"<h3>{html.escape(heading)}</h3>")
+        parts.append(docstring_html(doc, id_prefix=f"{slug}-{i}-"))
+    parts.append("</div>")
+    return "\n".join(parts)
+
+
 def card_html(card: Card) -> str:
     """The HTML of one card."""
     parts = [
         f'<section class="card" id="{html.escape(card.title)}"><h2>{html.escape(card.title)}</h2>'
     ]
-    formula = _formula_png(card.doc)
-    if formula:
-        parts.append(f'<img class="formula" alt="formula" src="data:image/png;base64,{formula}">')
-    parts.append(f"<pre>{html.escape(_summary(card.doc))}</pre>")
-    refs = _section(card.doc, "References")
-    if refs:
-        parts.append(f"<p><b>References</b></p><pre>{html.escape(refs)}</pre>")
+    parts.append(_docs_html(card))
     parts.append("<p><b>Examples</b> (left to right)</p><ol>")
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
