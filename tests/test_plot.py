@@ -66,3 +66,83 @@ def test_every_figure_draws(draw, tmp_path):
     fig = draw(parse("lambertian(albedo=0.3) + blinn_phong(n=30)"))
     plot.save(fig, tmp_path / "f.png")
     assert (tmp_path / "f.png").stat().st_size > 1000
+
+
+def _text_boxes(fig) -> list[tuple[str, object]]:
+    """(text, window extent) of every piece of text the drawn figure shows: titles, labels,
+    the tick labels inside the axes' view, and each legend as one box (its entries inside)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    hidden = set()
+    legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
+    for legend in legends:
+        hidden |= {id(t) for t in legend.findobj(Text)}
+    for ax in fig.axes:
+        if not (ax._axis3don if ax.name == "3d" else ax.axison):  # images: only titles drawn
+            titles = (ax.title, ax._left_title, ax._right_title)
+            hidden |= {id(t) for t in ax.findobj(Text) if t not in titles}
+            continue
+        for axis in ax._axis_map.values():
+            lo, hi = sorted(axis.get_view_interval())
+            slack = 1e-9 * max(1.0, hi - lo)
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                if not lo - slack <= tick.get_loc() <= hi + slack:  # not drawn
+                    hidden |= {id(tick.label1), id(tick.label2)}
+    boxes = [
+        (t.get_text(), t.get_window_extent(renderer))
+        for t in fig.findobj(Text)
+        if id(t) not in hidden and t.get_visible() and t.get_text().strip()
+    ]
+    boxes += [("legend", legend.get_window_extent(renderer)) for legend in legends]
+    return [(text, box) for text, box in boxes if box.width > 0 and box.height > 0]
+
+
+def _assert_text_is_clear(fig) -> None:
+    boxes = _text_boxes(fig)
+    assert len(boxes) >= 2
+    clashes = [
+        (a, b) for i, (a, box) in enumerate(boxes) for b, other in boxes[i + 1 :]
+        if box.overlaps(other)
+    ]  # fmt: skip
+    assert clashes == [], f"overlapping text: {clashes}"
+    width, height = fig.canvas.get_width_height()
+    cut = [t for t, b in boxes if b.x0 < -1 or b.y0 < -1 or b.x1 > width + 1 or b.y1 > height + 1]
+    assert cut == [], f"text cut off at the figure's edge: {cut}"
+
+
+_LONG_SPECS = ("ward(alpha_x=0.3, normalization='ward')", "ward(alpha_x=0.3)")
+
+
+@pytest.mark.parametrize(
+    "draw",
+    [
+        lambda m: plot.lobe_plot(m, [math.radians(a) for a in (0, 30, 60)]),  # the atlas's
+        lambda m: plot.lobe_plot(m, [math.radians(a) for a in (0, 20, 40, 60, 80)], log=True),
+        lambda m: plot.lobe_3d(m, 0.5, resolution=16),
+        lambda m: plot.half_diff_plot(m, resolution=20),
+        lambda m: plot.albedo_plot([m] * 4, labels=["#1", "#2", "#3", "#4"], samples=64, angles=4),
+        lambda m: plot.albedo_plot(
+            [parse(s) for s in _LONG_SPECS], labels=list(_LONG_SPECS), samples=64, angles=4
+        ),
+        lambda m: plot.sphere_gallery(
+            [parse(s) for s in _LONG_SPECS],
+            DirectionalLight((1, 0, 1)),
+            labels=list(_LONG_SPECS),
+            resolution=16,
+            samples=2,
+        ),
+    ],
+    ids=["lobe", "lobe-5-angles", "lobe3d", "half-diff", "albedo", "albedo-specs", "spheres"],
+)
+def test_no_text_overlaps_or_is_cut_off(draw):
+    _assert_text_is_clear(draw(parse("lambertian(albedo=0.3) + blinn_phong(n=30)")))
+
+
+def test_overlap_check_sees_the_old_lobe_legend_over_the_minus_90_label():
+    fig = plot.lobe_plot(Lambertian(0.5))
+    fig.axes[0].legend(loc="upper left", bbox_to_anchor=(-0.25, 0.35), fontsize="x-small")
+    with pytest.raises(AssertionError, match="overlapping text"):
+        _assert_text_is_clear(fig)

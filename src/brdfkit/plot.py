@@ -14,6 +14,7 @@ References
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -100,7 +101,17 @@ def lobe_plot(
             arrowprops={"arrowstyle": "<-", "alpha": 0.3},
         )
     ax.set_yticklabels([])
-    ax.legend(loc="upper left", bbox_to_anchor=(-0.25, 0.35), fontsize="x-small", frameon=False)
+    # The half disc fills the middle half of the polar axes' square box: the legend goes just
+    # below its flat side (y = 1/4 in axes coordinates), clear of the ±90° labels.
+    ax.legend(
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.22),
+        ncols=min(len(ax.get_lines()), 3) or 1,
+        fontsize="x-small",
+        frameon=False,
+        handlelength=1.2,
+        columnspacing=1.0,
+    )
     quantity = "f·cos θo" if cosine else "f"
     ax.set_title(
         title or f"{quantity}{' (log₁₀(1+·))' if log else ''} in the plane of incidence",
@@ -254,7 +265,8 @@ def sphere_gallery(
     images = sphere_images(models, lights, resolution, samples, exposure)
     for ax, image, label in zip(axes, images, labels, strict=True):
         ax.imshow(image)
-        ax.set_title(label, fontsize="x-small")
+        # A spec wider than its sphere wraps at its spaces rather than running into the next.
+        ax.set_title("\n".join(textwrap.wrap(label, 24)), fontsize="x-small")
         ax.axis("off")
     return fig
 
