@@ -266,7 +266,8 @@ def sphere_gallery(
     for ax, image, label in zip(axes, images, labels, strict=True):
         ax.imshow(image)
         # A spec wider than its sphere wraps at its spaces rather than running into the next.
-        ax.set_title("\n".join(textwrap.wrap(label, 24)), fontsize="x-small")
+        lines = textwrap.wrap(label, 24, break_long_words=False, break_on_hyphens=False)
+        ax.set_title("\n".join(lines), fontsize="x-small")
         ax.axis("off")
     return fig
 
