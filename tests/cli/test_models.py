@@ -41,3 +41,61 @@ def test_table_names_every_model():
     assert result.exit_code == 0, result.output
     for name in MODELS:
         assert name in result.stdout
+
+
+def _blocks(text: str) -> list[list[str]]:
+    """The models' blocks of the text output: a line at the margin starts a model."""
+    blocks: list[list[str]] = []
+    names = tuple(f"{name}  " for name in MODELS)
+    for line in text.splitlines():
+        if line.startswith(names):
+            blocks.append([line])
+        elif blocks:
+            blocks[-1].append(line)
+    return blocks
+
+
+def test_each_model_is_a_short_block_at_80_columns_with_no_word_split():
+    narrow = runner.invoke(app, ["models"], env={"COLUMNS": "80"})
+    wide = runner.invoke(app, ["models"], env={"COLUMNS": "1000"})
+    assert narrow.exit_code == 0 and wide.exit_code == 0, narrow.output
+    assert max(len(line) for line in narrow.stdout.splitlines()) <= 80
+    blocks, wide_blocks = _blocks(narrow.stdout), _blocks(wide.stdout)
+    assert [b[0].split()[0] for b in blocks] == sorted(MODELS)
+    for block, one_line in zip(blocks, wide_blocks, strict=True):
+        assert len(block) <= 4, block
+        # Wrapping only moved whole words (and whole parameters) to the next line.
+        assert " ".join(block).split() == " ".join(one_line).split()
+        assert all(line.startswith("  ") for line in block[1:])
+    ggx = next(b for b in blocks if b[0].startswith("ggx "))
+    assert "reciprocal, energy-conserving, isotropic" in ggx[0]
+    assert "alpha=0.1 ∈ [0.0001, 10]" in " ".join(ggx)
+    phong = next(b for b in blocks if b[0].startswith("phong "))
+    assert "not reciprocal" in phong[0]
+
+
+def test_domains_are_the_ones_the_validation_declares():
+    from brdfkit.brdf.base import ALBEDO, EXPONENT, ROUGHNESS
+    from brdfkit.brdf.microfacet import EXTINCTION, IOR
+    from brdfkit.brdf.phong import PHONG_KD
+    from brdfkit.brdf.ward import WARD_ALPHA
+
+    result = runner.invoke(app, ["models", "--json"])
+    records = {r["name"]: r for r in json.loads(result.stdout)}
+
+    def domain(model: str, name: str):
+        record = dict(records[model]["domains"][name])
+        assert record.pop("interval").startswith("[")
+        return type(ROUGHNESS)(**record)
+
+    assert domain("ggx", "alpha") == domain("ggx", "alpha_u") == ROUGHNESS
+    assert domain("ggx", "eta") == IOR and domain("ggx", "k") == EXTINCTION
+    assert domain("lambertian", "rho") == ALBEDO and domain("phong", "n") == EXPONENT
+    assert domain("phong", "kd") == PHONG_KD and domain("ward", "alpha_y") == WARD_ALPHA
+    for name, record in records.items():
+        numeric = [
+            k for k, v in record["parameters"].items() if v is not None and v[:1] in "[-0123456789"
+        ]
+        assert set(numeric) <= set(record["domains"]), name  # every number has its domain
+        for key in record["domains"]:
+            assert key in record["parameters"]

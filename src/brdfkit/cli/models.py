@@ -5,6 +5,9 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
+import textwrap
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import typer
@@ -13,23 +16,92 @@ from rich.text import Text
 from brdfkit.cli._app import app, console
 
 _CLAIMS = ("reciprocal", "energy_conserving", "isotropic", "has_delta", "transmits")
+_CLAIM_WORDS = {
+    "reciprocal": ("reciprocal", "not reciprocal"),
+    "energy_conserving": ("energy-conserving", "not energy-conserving"),
+    "isotropic": ("isotropic", "anisotropic"),
+    "has_delta": ("delta lobes", None),
+    "transmits": ("transmits", None),
+}
+"""How each claim reads when true and when false (``None``: not worth a word)."""
 _ROLE = re.compile(r":\w+:`([^`]*)`")
 """A reStructuredText role such as :math:`x` (shown as its content)."""
-_MARKS = {True: Text("yes", "green"), False: Text("no", "dim"), None: Text("?")}
-_HEADERS = {
-    "reciprocal": "recip-\nrocal",
-    "energy_conserving": "energy\nconserv.",
-    "isotropic": "iso-\ntropic",
-    "has_delta": "has\ndelta",
-    "transmits": "trans-\nmits",
-}
-"""Two-line claim headers, so that the yes/no columns stay narrow."""
-_WIDE = 140
-"""Terminal width from which the models' one-line summaries are shown too."""
+_INDENT = "  "
+"""The indent of a model's parameter lines, under its name."""
+
+
+@contextmanager
+def _recorded_domains() -> Iterator[dict[str, Any]]:
+    """While the block runs, every :meth:`Domain.check <brdfkit.brdf.base.Domain.check>` call
+    records the parameter name it checks and the domain it checks it against."""
+    from brdfkit.brdf.base import Domain
+
+    seen: dict[str, Domain] = {}
+    check = Domain.check
+
+    def recording(self: Domain, name: str, value: Any, **kwargs: Any) -> Any:
+        seen.setdefault(name, self)
+        return check(self, name, value, **kwargs)
+
+    Domain.check = recording  # type: ignore[method-assign]
+    try:
+        yield seen
+    finally:
+        Domain.check = check  # type: ignore[method-assign]
+
+
+def _try_build(cls: type, **values: Any) -> None:
+    """Construct ``cls(**values)``, ignoring the refusal of a combination that does not go."""
+    try:
+        cls(**values)
+    except (ValueError, TypeError):
+        pass
+
+
+def parameter_domains(cls: type) -> dict[str, Any]:
+    """The declared :class:`~brdfkit.brdf.base.Domain` of each numeric parameter of ``cls``.
+
+    Each model declares its domains where it validates its parameters (``ROUGHNESS.check(
+    "alpha", …)`` in ``__post_init__``), so they are read from there rather than written a
+    second time: the default model and the examples are built while the checks are recorded,
+    then every parameter that none of them checked (an optional one, ``None`` by default) is
+    given alone, then beside each other parameter (``k`` needs ``eta``).
+
+    Returns
+    -------
+    dict
+        Parameter name to its domain, in the order of the fields; parameters that are no
+        numbers (options, flags) are absent.
+    """
+    fields = [f.name for f in dataclasses.fields(cls) if f.init]
+    with _recorded_domains() as seen:
+        _try_build(cls)
+        cls.examples()
+        for name in [n for n in fields if n not in seen]:
+            _try_build(cls, **{name: 1.0})
+        for name in [n for n in fields if n not in seen]:
+            for other in fields:
+                if other != name and name not in seen:
+                    _try_build(cls, **{name: 1.0, other: 1.0})
+    return {name: seen[name] for name in fields if name in seen}
+
+
+def _number(x: float) -> str:
+    """``x`` in at most four significant digits, exponents written short (``1e6``)."""
+    mantissa, _, exponent = f"{x:.4g}".partition("e")
+    return f"{mantissa}e{int(exponent)}" if exponent else mantissa
+
+
+def interval(domain: Any) -> str:
+    """A domain as an interval, ``[0, 1]`` or ``(0, 1e6]``."""
+    left = "(" if domain.lo_open else "["
+    right = ")" if domain.hi_open else "]"
+    return f"{left}{_number(domain.lo)}, {_number(domain.hi)}{right}"
 
 
 def model_table() -> list[dict[str, Any]]:
-    """One record per registered model: spec name, class, summary, parameters, claims."""
+    """One record per registered model: spec name, class, summary, parameters (defaults as
+    spec text), their domains, and the claims."""
     from brdfkit.brdf import MODELS
     from brdfkit.brdf.base import _spec_value
 
@@ -46,6 +118,10 @@ def model_table() -> list[dict[str, Any]]:
             else:
                 default = None
             parameters[f.name] = None if default is None else _spec_value(default)
+        domains = {
+            key: {**dataclasses.asdict(domain), "interval": interval(domain)}
+            for key, domain in parameter_domains(cls).items()
+        }
         doc = _ROLE.sub(r"\1", cls.__doc__ or "").strip().splitlines()
         records.append(
             {
@@ -53,6 +129,7 @@ def model_table() -> list[dict[str, Any]]:
                 "class": f"{cls.__module__}.{cls.__qualname__}",
                 "summary": doc[0] if doc else "",
                 "parameters": parameters,
+                "domains": domains,
                 "claims": {claim: _claim(cls, claim) for claim in _CLAIMS},
             }
         )
@@ -71,34 +148,76 @@ def _claim(cls: type, claim: str) -> bool | None:
         return None
 
 
+def _claims_text(claims: dict[str, bool | None]) -> str:
+    """The claims in words: ``reciprocal, not energy-conserving, isotropic``."""
+    words = []
+    for claim, value in claims.items():
+        true, false = _CLAIM_WORDS[claim]
+        if value is None:
+            words.append(f"{true}?")
+        elif value or false is not None:
+            words.append(true if value else false)
+    return ", ".join(words)
+
+
+def _parameter_entries(record: dict[str, Any]) -> list[str]:
+    """``name=default ∈ domain`` per parameter (``name ∈ domain`` for an optional one)."""
+    entries = []
+    for name, default in record["parameters"].items():
+        entry = name if default is None else f"{name}={default}"
+        domain = record["domains"].get(name)
+        entries.append(entry if domain is None else f"{entry} ∈ {domain['interval']}")
+    return entries
+
+
+def _packed(entries: list[str], width: int) -> list[str]:
+    """``entries`` joined by ``"; "`` into indented lines of at most ``width`` columns, never
+    breaking an entry (one longer than a line gets a line of its own)."""
+    lines: list[str] = []
+    for entry in entries:
+        if lines and len(lines[-1]) + 2 + len(entry) + 1 <= width:
+            lines[-1] += f"; {entry}"
+        else:
+            if lines:
+                lines[-1] += ";"
+            lines.append(_INDENT + entry)
+    return lines
+
+
+def model_block(record: dict[str, Any], width: int) -> list[Text]:
+    """A model as a few lines of at most ``width`` columns: its name and claims, then its
+    parameters with their defaults and domains; no word or parameter is broken."""
+    name = record["name"]
+    head = textwrap.wrap(
+        f"{name}  {_claims_text(record['claims'])}",
+        width,
+        subsequent_indent=_INDENT,
+        break_long_words=False,
+        break_on_hyphens=False,
+    )
+    lines = [Text(name, style="bold") + Text(head[0][len(name) :])]
+    lines += [Text(line) for line in head[1:] + _packed(_parameter_entries(record), width)]
+    return lines
+
+
 @app.command("models")
 def models_command(
-    as_json: bool = typer.Option(False, "--json", help="Print the list as JSON."),
+    as_json: bool = typer.Option(
+        False, "--json", help="Print the list as JSON (with classes, summaries and domains)."
+    ),
 ) -> None:
-    """List the registered models with their parameters (and defaults) and physics claims."""
-    from rich.table import Table
-
+    """List the registered models: their physics claims, and their parameters with defaults
+    and domains."""
     records = model_table()
     if as_json:
         typer.echo(json.dumps(records, indent=2, ensure_ascii=False))
         return
-    table = Table(
-        title='registered models (use them in specs: brdfkit check "name(param=…)")',
-        title_justify="left",
+    legend = (
+        'Models for specs such as brdfkit check "ggx(alpha=0.3)": each name with its claims, '
+        "then parameter=default ∈ domain (no default: optional)."
     )
-    table.add_column("model", style="bold", no_wrap=True)
-    table.add_column("parameters (defaults)", overflow="fold")
-    for claim in _CLAIMS:
-        table.add_column(_HEADERS[claim], justify="center", no_wrap=True)
-    wide = console.width >= _WIDE
-    if wide:
-        table.add_column("summary", overflow="fold")
+    for line in textwrap.wrap(legend, console.width):
+        console.print(Text(line, style="dim"))
     for record in records:
-        params = ", ".join(f"{k}={v}" for k, v in record["parameters"].items())
-        marks = [_MARKS[record["claims"][c]] for c in _CLAIMS]
-        table.add_row(record["name"], params, *marks, *([record["summary"]] if wide else []))
-    console.print(table)
-    if not wide:
-        console.print(
-            Text(f"(a terminal {_WIDE} columns wide shows each model's summary too)", "dim")
-        )
+        for line in model_block(record, console.width):
+            console.print(line, no_wrap=True, overflow="ignore")
