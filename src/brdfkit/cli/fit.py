@@ -51,11 +51,12 @@ def fit_command(
         False, "--envmap", help="Also render under the bundled environment map (Monte Carlo)."
     ),
     seed: int = typer.Option(0, "--seed", help="Seed of the subsets and random starts."),
+    as_json: bool = typer.Option(
+        False, "--json", help="Print the fit (and the spheres' differences with -o) as JSON."
+    ),
 ) -> None:
     """Fit a model to measured data; print the parameters and errors, optionally save renders."""
-    import numpy as np
     from rich.progress import Progress
-    from rich.table import Table
 
     import brdfkit.measured as measured_io
     from brdfkit.fit import fit
@@ -88,6 +89,29 @@ def fit_command(
                 task, completed=done, total=total, description=f"fitting: {text}"
             ),
         )
+    if not as_json:
+        _print_fit(file, model, objective, loss, mode, result)
+    summary = {"file": shown(file), **result.to_dict()}
+    if folder is not None:
+        differences = _write_outputs(folder, measured, result, resolution, envmap)
+        summary.update({f"delta_e_{light}": d.to_dict() for light, d in differences.items()})
+        summary["output"] = shown(output)
+        if not as_json:
+            for light, difference in differences.items():
+                console.print(
+                    f"spheres under the {light} light: CIEDE2000 mean {difference.mean:.1f}, "
+                    f"median {difference.median:.1f}, 95th percentile {difference.p95:.1f}"
+                )
+            console.print(f"wrote {shown(output)}/")
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
+
+
+def _print_fit(file: Path, model: str, objective: str, loss: str, mode: str, result) -> None:
+    """The fitted parameters and errors as a table, then the spec and the run's figures."""
+    import numpy as np
+    from rich.table import Table
+
     table = Table(title=f"{shown(file.name)}: {model} ({objective}, {loss}, {mode})")
     table.add_column("parameter")
     table.add_column("value", justify="right")
@@ -101,14 +125,12 @@ def fit_command(
         f"{result.samples} samples, {result.nfev} evaluations, {result.seconds:.1f} s, "
         f"{'converged' if result.success else 'not converged'}"
     )
-    if folder is not None:
-        _write_outputs(folder, measured, result, resolution, envmap)
-        console.print(f"wrote {shown(output)}/")
 
 
-def _write_outputs(folder: OutputFolder, measured, result, resolution: int, envmap: bool) -> None:
-    """``fit.json`` and ``spheres.png`` (measured | fitted, exposed alike; a second row under the
-    environment map), with the spheres' CIEDE2000 difference printed and in the JSON."""
+def _write_outputs(folder: OutputFolder, measured, result, resolution: int, envmap: bool) -> dict:
+    """Write ``fit.json`` and ``spheres.png`` (measured | fitted, exposed alike; a second row
+    under the environment map), the spheres' CIEDE2000 differences in the JSON; return those
+    differences by light."""
     import numpy as np
 
     from brdfkit.appearance import sphere_difference
@@ -119,15 +141,13 @@ def _write_outputs(folder: OutputFolder, measured, result, resolution: int, envm
     lights = {"directional": None}
     if envmap:
         lights["envmap"] = [EnvironmentMap.from_file(default_envmap_path())]
-    rows, summary = [], result.to_dict()
+    rows, summary, differences = [], result.to_dict(), {}
     for name, light in lights.items():
         difference = sphere_difference(measured, result.model, light, resolution)
         rows.append(np.concatenate([difference.reference, difference.other], axis=1))
         summary[f"delta_e_{name}"] = difference.to_dict()
-        console.print(
-            f"spheres under the {name} light: CIEDE2000 mean {difference.mean:.1f}, "
-            f"median {difference.median:.1f}, 95th percentile {difference.p95:.1f}"
-        )
+        differences[name] = difference
     text = json.dumps(summary, indent=2, allow_nan=False) + "\n"
     folder.write("fit.json", lambda path: path.write_text(text, encoding="utf-8"))
     folder.write("spheres.png", lambda path: write_image(path, np.concatenate(rows, axis=0)))
+    return differences

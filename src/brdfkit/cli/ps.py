@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -13,6 +14,7 @@ from brdfkit.cli._output import OutputFolder
 if TYPE_CHECKING:
     import numpy as np
     import trimesh
+    from rich.table import Table
 
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
@@ -50,6 +52,9 @@ def ps_command(
         1, "--step", min=1, max=64, help="Keep every step-th row and column (at most 64)."
     ),
     output: Path = typer.Option(Path("ps"), "--output", "-o", help="Output folder."),
+    as_json: bool = typer.Option(
+        False, "--json", help="Print the measures and the files written as JSON."
+    ),
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
 
@@ -59,7 +64,6 @@ def ps_command(
     """
     import numpy as np
     from rich.progress import Progress
-    from rich.table import Table
 
     from brdfkit.io import write_image
     from brdfkit.vision import datasets, photometric_stereo
@@ -98,34 +102,62 @@ def ps_command(
         perspective = () if intrinsics is None else (intrinsics,)
         depth = integrator(result.normals, data.mask, *perspective)
     mesh = _mesh(depth, data.mask, intrinsics)
-    table = Table(title=f"{data.name}: {method}, {len(data.images)} lights")
-    table.add_column("measure")
-    table.add_column("value", justify="right")
-    table.add_row("pixels", f"{int(data.mask.sum())}")
+    summary: dict[str, Any] = {
+        "dataset": data.name,
+        "method": method,
+        "integration": integration,
+        "lights": len(data.images),
+        "pixels": int(data.mask.sum()),
+    }
     errors = None
     if data.normals is not None:
         errors = angular_error(result.normals, data.normals, data.mask)
-        table.add_row("mean angular error (°)", f"{errors['mean']:.2f}")
-        table.add_row("median angular error (°)", f"{errors['median']:.2f}")
         error_map = angular_error_map(result.normals, data.normals, data.mask)
         truth_depth = integrator(data.normals, data.mask, *perspective)
         relative = depth_error(depth, truth_depth, data.mask)["relative_rmse"]
-        table.add_row("depth RMSE vs GT-normal depth", f"{100 * relative:.2f} % of range")
+        summary["angular_error_deg"] = errors
+        summary["depth_relative_rmse"] = float(relative)
     scale = np.percentile(result.albedo[data.mask], 99) or 1.0
     albedo_shown = (result.albedo / scale).clip(0, 1).astype(np.float32)
-    folder.write("normals.png", lambda path: datasets.write_normal_map(path, result.normals))
-    folder.write("normals.npy", lambda path: np.save(path, result.normals))
-    folder.write("albedo.npy", lambda path: np.save(path, result.albedo))
-    folder.write("albedo.png", lambda path: write_image(path, albedo_shown))
-    folder.write("depth.npy", lambda path: np.save(path, depth))
-    folder.write("lights.txt", lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"))
-    folder.write("mesh.ply", lambda path: mesh.export(path, file_type="ply"))
+    writes = {
+        "normals.png": lambda path: datasets.write_normal_map(path, result.normals),
+        "normals.npy": lambda path: np.save(path, result.normals),
+        "albedo.npy": lambda path: np.save(path, result.albedo),
+        "albedo.png": lambda path: write_image(path, albedo_shown),
+        "depth.npy": lambda path: np.save(path, depth),
+        "lights.txt": lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"),
+        "mesh.ply": lambda path: mesh.export(path, file_type="ply"),
+    }
     if errors is not None:
         error_shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
-        folder.write("angular_error.npy", lambda path: np.save(path, error_map))
-        folder.write("angular_error.png", lambda path: write_image(path, error_shown, srgb=False))
-    console.print(table)
+        writes["angular_error.npy"] = lambda path: np.save(path, error_map)
+        writes["angular_error.png"] = lambda path: write_image(path, error_shown, srgb=False)
+    for name, write in writes.items():
+        folder.write(name, write)
+    summary["output"] = shown(output)
+    summary["files"] = list(writes)
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
+        return
+    console.print(_table(summary))
     console.print(f"wrote {shown(output)}/")
+
+
+def _table(summary: dict[str, Any]) -> Table:
+    """The measures of ``summary`` (what ``--json`` prints) as a table."""
+    from rich.table import Table
+
+    table = Table(title=f"{summary['dataset']}: {summary['method']}, {summary['lights']} lights")
+    table.add_column("measure")
+    table.add_column("value", justify="right")
+    table.add_row("pixels", f"{summary['pixels']}")
+    if "angular_error_deg" in summary:
+        errors = summary["angular_error_deg"]
+        table.add_row("mean angular error (°)", f"{errors['mean']:.2f}")
+        table.add_row("median angular error (°)", f"{errors['median']:.2f}")
+        relative = summary["depth_relative_rmse"]
+        table.add_row("depth RMSE vs GT-normal depth", f"{100 * relative:.2f} % of range")
+    return table
 
 
 def _intrinsics(path: Path, step: int) -> np.ndarray:

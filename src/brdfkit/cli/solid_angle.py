@@ -3,6 +3,7 @@ the lectures' surface integral Ω = ∬ r·n̂ dS/|r|³ computed numerically as 
 
 from __future__ import annotations
 
+import json
 import math
 from enum import StrEnum
 
@@ -90,6 +91,7 @@ def solid_angle_command(
         max=2048,
         help="Gauss–Legendre nodes per parameter of the numerical integral (1–2048).",
     ),
+    as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
 ) -> None:
     """Solid angle Ω of a shape seen from a point, in sr and as a fraction of the hemisphere,
     checked against the numerical surface integral Ω = ∬ r·n̂ dS / |r|³ (CMU 16-385 lecture 14).
@@ -123,13 +125,30 @@ def solid_angle_command(
             )
         )
     rows.append((f"∬ r·n̂ dS/|r|³ (Gauss–Legendre {order}²)", numeric))
+    if as_json:
+        record = {
+            "shape": shape.value,
+            "description": description,
+            "observer": point.tolist(),
+            "rows": [
+                {
+                    "method": label,
+                    "omega_sr": omega,
+                    "fraction_of_hemisphere": omega / (2 * math.pi),
+                }
+                for label, omega in rows
+            ],
+            "abs_difference_sr": abs(numeric - exact),
+        }
+        typer.echo(json.dumps(record, indent=2, ensure_ascii=False))
+        return
     table = Table(
         title=f"{description}\nobserver at ({point[0]:g}, {point[1]:g}, {point[2]:g})",
         caption=f"|numerical − exact| = {abs(numeric - exact):.3e} sr",
     )
     table.add_column("method")
     table.add_column("Ω [sr]", justify="right")
-    table.add_column("Ω / 2π (of the hemisphere)", justify="right")
+    table.add_column("Ω / 2π", justify="right")  # the fraction of the hemisphere
     for label, omega in rows:
         table.add_row(label, f"{omega:.10f}", f"{omega / (2 * math.pi):.10f}")
     console.print(table)
