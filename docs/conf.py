@@ -84,10 +84,16 @@ katex_options = ""
 
 
 def _mathml_output() -> None:
-    """Ask the prerenderer for MathML: sphinxcontrib-katex passes these options to KaTeX."""
+    """Ask the prerenderer for MathML (sphinxcontrib-katex passes these options to KaTeX), and
+    start it race-free."""
     import sphinxcontrib.katex as sk
 
     sk.KATEX_DEFAULT_OPTIONS = {**sk.KATEX_DEFAULT_OPTIONS, "output": "mathml"}
+    # sphinxcontrib-katex 0.9 connects to its Unix socket as soon as the file exists, which can
+    # be before node listens on it (ConnectionRefusedError on a loaded machine); its start over
+    # a loopback TCP port retries until the server answers, so it is used on POSIX too.
+    network = sk.KaTeXServer.start_network_socket.__func__
+    sk.KaTeXServer.start_server_process = classmethod(network)
     if shutil.which(sk.NODEJS_BINARY) is None:
         raise RuntimeError("the docs prerender formulas with node (Node.js); install it first")
 
