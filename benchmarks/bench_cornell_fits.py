@@ -5,8 +5,9 @@ difference between the measured and the fitted sphere
 (:func:`brdfkit.appearance.sphere_difference`) under the default directional light, and its mean
 over :data:`LIGHTS` (four directions: head-on, the default, from the side, grazing). Writes two
 Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and the
-picture ``docs/images/cornell_fits.png`` (rows: materials; columns: measured, then each fit,
-default objective and loss, exposed alike).
+spheres to ``benchmarks/results/cornell_fits.png`` (rows: materials; columns: measured, then
+each fit, default objective and loss, exposed alike). The README's picture is made by
+``examples/plot_cornell_fits.py``.
 
     python benchmarks/bench_cornell_fits.py [--data ../shared/data] [--resolution 96]
         [--loss-scale 0.5]
@@ -87,7 +88,7 @@ def main() -> None:
                     if model in PICTURED:
                         row.append(look.other)
         rows.append(np.concatenate(row, axis=1))
-    write_image(ROOT / "docs" / "images" / "cornell_fits.png", np.concatenate(rows, axis=0))
+    write_image(ROOT / "benchmarks" / "results" / "cornell_fits.png", np.concatenate(rows, axis=0))
     results = ROOT / "benchmarks" / "results" / "cornell_fits.json"
     results.write_text(json.dumps(records, indent=1))
 
