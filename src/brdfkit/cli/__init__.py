@@ -8,13 +8,24 @@ inside their command functions, so that ``brdfkit --help`` stays fast.
 from __future__ import annotations
 
 import importlib
+import inspect
 import pkgutil
 
 from brdfkit.cli._app import app, unwind_on_termination
 
+
+def _reflowed(doc: str) -> str:
+    """A docstring with each paragraph on one line, for the help formatter to wrap to the
+    terminal (it keeps single line breaks, which left hard-wrapped fragments)."""
+    return "\n\n".join(" ".join(paragraph.split()) for paragraph in doc.split("\n\n"))
+
+
 for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
     if not _module.name.startswith("_"):
         importlib.import_module(f"{__name__}.{_module.name}")
+for _command in app.registered_commands:
+    if _command.help is None and _command.callback is not None:
+        _command.help = _reflowed(inspect.getdoc(_command.callback) or "")
 
 
 def main() -> None:

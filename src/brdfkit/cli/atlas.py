@@ -6,49 +6,53 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
 
 @app.command("atlas")
 def atlas_command(
-    output: Path = typer.Option(Path("atlas"), "--output", "-o", help="Output folder."),
+    output: Path = typer.Option(
+        Path("atlas"), "--output", "-o", metavar="FOLDER", help="Output folder."
+    ),
     models: list[str] = typer.Option(
         [],
         "--models",
         "-m",
+        metavar="MODEL",
         help="Model specs or measured files (repeatable); default: all models.",
     ),
     envmap: Path | None = typer.Option(
-        None, "--envmap", help="Lat-long .hdr/.exr map; default: the bundled Poly Haven map."
+        None,
+        "--envmap",
+        metavar="FILE",
+        help="Lat-long .hdr/.exr map; default: the bundled Poly Haven map.",
     ),
-    resolution: int = typer.Option(96, "--resolution", "-r", min=16, max=1024),
-    samples: int = typer.Option(32, "--samples", "-s", min=1, max=4096),
+    resolution: int = typer.Option(96, "--resolution", "-r", metavar="PIXELS", min=16, max=1024),
+    samples: int = typer.Option(32, "--samples", "-s", metavar="N", min=1, max=4096),
     checks: bool = typer.Option(True, "--checks/--no-checks", help="Run the physics checks."),
 ) -> None:
     """Write an HTML atlas: every model's formula, spheres, lobes, albedo and physics checks."""
     import matplotlib
 
     matplotlib.use("Agg")
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from brdfkit.report import build_atlas
 
     if envmap is not None and not envmap.is_file():
         fail(f"envmap must be an existing .hdr/.exr file; got {shown(envmap)!r}")
     folder = OutputFolder(output, ("index.html",), inputs=(envmap, *map(Path, models)))
-    with Progress(
+    with progress(
         TextColumn("{task.description}"),
         BarColumn(),
         TextColumn("{task.completed}/{task.total}"),
         TimeElapsedColumn(),
-        console=status,
-        transient=True,
-    ) as progress:
-        task = progress.add_task("atlas", total=None)
+    ) as bar:
+        task = bar.add_task("atlas", total=None)
 
         def step(title: str, done: int, total: int) -> None:
-            progress.update(task, description=f"atlas: {title}", completed=done, total=total)
+            bar.update(task, description=f"atlas: {title}", completed=done, total=total)
 
         path = folder.write(
             "index.html",

@@ -13,10 +13,14 @@ from brdfkit.cli._app import CHECK_FAILED, app, console, status
 @app.command("check")
 def check_command(
     spec: str = typer.Argument(
-        ..., help='Model spec, e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)" or "phong(n=20)".'
+        ...,
+        metavar="SPEC",
+        help='Model spec, e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)" or "phong(n=20)".',
     ),
     as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
-    seed: int = typer.Option(0, help="Seed of the random directions and Monte Carlo samples."),
+    seed: int = typer.Option(
+        0, metavar="N", help="Seed of the random directions and Monte Carlo samples."
+    ),
 ) -> None:
     """Check reciprocity, energy conservation, isotropy, non-negativity and sampling.
 

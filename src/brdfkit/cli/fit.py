@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.text import Text
 
-from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._app import app, console, fail, progress, shown, status
 from brdfkit.cli._output import OutputFolder
 
 _READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
@@ -17,47 +17,68 @@ _OUTPUTS = ("fit.json", "spheres.png")
 
 @app.command("fit")
 def fit_command(
-    file: Path = typer.Argument(..., help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf."),
+    file: Path = typer.Argument(
+        ..., metavar="FILE", help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf."
+    ),
     model: str = typer.Option(
         "lambertian + cook_torrance",
         "--model",
         "-m",
+        metavar="SPEC",
         help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'.",
     ),
     objective: str = typer.Option(
         "cube_root",
         "--objective",
+        metavar="cube_root|log|cosine",
         help="cube_root (Forés et al. 2012), log (Löw et al. 2012) or cosine (Ngan et al. 2005).",
     ),
     loss: str = typer.Option(
         "soft_l1",
         "--loss",
+        metavar="NAME",
         help="soft_l1 (a few samples the model cannot follow do not decide the fit) or linear "
         "(plain least squares); also huber, cauchy, arctan.",
     ),
     loss_scale: float = typer.Option(
-        0.5, "--loss-scale", help="Where the robust loss departs from least squares (relative)."
+        0.5,
+        "--loss-scale",
+        metavar="X",
+        help="Where the robust loss departs from least squares (relative).",
     ),
-    mode: str = typer.Option("shared", "--mode", help="shared or per_channel."),
+    mode: str = typer.Option(
+        "shared", "--mode", metavar="shared|per_channel", help="shared or per_channel."
+    ),
     starts: int = typer.Option(
-        4, "--starts", min=1, max=64, help="Restarts, at most 64 (the first is the spec)."
+        4,
+        "--starts",
+        metavar="N",
+        min=1,
+        max=64,
+        help="Restarts, at most 64 (the first is the spec).",
     ),
-    fix: list[str] = typer.Option([], "--fix", help="Parameter to hold fixed (repeatable)."),
+    fix: list[str] = typer.Option(
+        [], "--fix", metavar="PARAM", help="Parameter to hold fixed (repeatable)."
+    ),
     output: Path | None = typer.Option(
-        None, "--output", "-o", help="Folder for fit.json and a measured-vs-fitted sphere image."
+        None,
+        "--output",
+        "-o",
+        metavar="FOLDER",
+        help="Folder for fit.json and a measured-vs-fitted sphere image.",
     ),
-    resolution: int = typer.Option(128, "--resolution", "-r", min=16, max=2048),
+    resolution: int = typer.Option(128, "--resolution", "-r", metavar="PIXELS", min=16, max=2048),
     envmap: bool = typer.Option(
         False, "--envmap", help="Also render under the bundled environment map (Monte Carlo)."
     ),
-    seed: int = typer.Option(0, "--seed", help="Seed of the subsets and random starts."),
+    seed: int = typer.Option(
+        0, "--seed", metavar="N", help="Seed of the subsets and random starts."
+    ),
     as_json: bool = typer.Option(
         False, "--json", help="Print the fit (and the spheres' differences with -o) as JSON."
     ),
 ) -> None:
     """Fit a model to measured data; print the parameters and errors, optionally save renders."""
-    from rich.progress import Progress
-
     import brdfkit.measured as measured_io
     from brdfkit.fit import fit
 
@@ -70,10 +91,7 @@ def fit_command(
     if output is not None:
         folder = OutputFolder(output, _OUTPUTS, inputs=(file,))
     measured = getattr(measured_io, reader)(file)
-    clamped = getattr(measured, "clamped", 0)
-    if clamped:
-        status.print(f"note: {clamped} negative 'no data' entries of {shown(file.name)} read as 0")
-    with Progress(console=status, transient=True) as bar:
+    with progress() as bar:
         task = bar.add_task("fitting", total=1)
         result = fit(
             measured,
@@ -89,6 +107,9 @@ def fit_command(
                 task, completed=done, total=total, description=f"fitting: {text}"
             ),
         )
+    clamped = getattr(measured, "clamped", 0)
+    if clamped:  # after the fit, so that a refused option stays the one line on stderr
+        status.print(f"note: {clamped} negative 'no data' entries of {shown(file.name)} read as 0")
     if not as_json:
         _print_fit(file, model, objective, loss, mode, result)
     summary = {"file": shown(file), **result.to_dict()}

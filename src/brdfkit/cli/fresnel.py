@@ -62,17 +62,24 @@ def fresnel_command(
         None,
         "--material",
         "-m",
+        metavar="NAME",
         help="A preset: a conductor (Au, Ag, Al, Cu, Cr, W; RGB) or a dielectric (water, bk7, "
         "diamond, …).",
     ),
     ior: float | None = typer.Option(
-        None, "--ior", help="Relative index of refraction η = n_inside / n_outside."
+        None, "--ior", metavar="ETA", help="Relative index of refraction η = n_inside / n_outside."
     ),
     k: float | None = typer.Option(
-        None, "--k", help="Extinction coefficient κ: with --ior, a conductor of index η + iκ."
+        None,
+        "--k",
+        metavar="KAPPA",
+        help="Extinction coefficient κ: with --ior, a conductor of index η + iκ.",
     ),
     angles: str = typer.Option(
-        DEFAULT_ANGLES, "--angles", help="Angles of incidence in degrees, comma-separated."
+        DEFAULT_ANGLES,
+        "--angles",
+        metavar="A1,A2,...",
+        help="Angles of incidence in degrees, comma-separated.",
     ),
     inside: bool = typer.Option(
         False,

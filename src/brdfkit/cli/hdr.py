@@ -12,19 +12,36 @@ from brdfkit.cli._output import output_file
 
 @app.command("hdr")
 def hdr_command(
-    images: list[Path] = typer.Argument(..., help="8-bit exposures of a static scene."),
-    times: str = typer.Option(..., "--times", "-t", help="Exposure times in seconds: t1,t2,..."),
-    output: Path = typer.Option(Path("merged.exr"), "--output", "-o", help=".exr or .hdr."),
-    response: Path | None = typer.Option(
-        None, "--response", help="Also write the recovered ln f⁻¹ per code (CSV, 256 rows)."
+    images: list[Path] = typer.Argument(
+        ..., metavar="IMAGE", help="8-bit exposures of a static scene."
     ),
-    smoothness: float = typer.Option(50.0, "--smoothness", min=0.0, help="Smoothness λ."),
+    times: str = typer.Option(
+        ..., "--times", "-t", metavar="T1,T2,...", help="Exposure times in seconds: t1,t2,..."
+    ),
+    output: Path = typer.Option(
+        Path("merged.exr"), "--output", "-o", metavar="FILE", help=".exr or .hdr."
+    ),
+    response: Path | None = typer.Option(
+        None,
+        "--response",
+        metavar="FILE",
+        help="Also write the recovered ln f⁻¹ per code (CSV, 256 rows).",
+    ),
+    smoothness: float = typer.Option(
+        50.0, "--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness λ."
+    ),
     samples: int = typer.Option(
-        200, "--samples", min=2, max=100_000, help="Pixels sampled for the fit (at most 100000)."
+        200,
+        "--samples",
+        metavar="N",
+        min=2,
+        max=100_000,
+        help="Pixels sampled for the fit (at most 100000).",
     ),
     fallback_mask: Path | None = typer.Option(
         None,
         "--fallback-mask",
+        metavar="FILE",
         help="Also write a PNG mask of the pixels no exposure showed well (white), whose "
         "radiance comes from the nearest exposure (a bound, not a measurement).",
     ),

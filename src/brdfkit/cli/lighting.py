@@ -14,24 +14,51 @@ METHODS = ("sh", "directional", "mirror-ball")
 
 @app.command("lighting")
 def lighting_command(
-    image: Path = typer.Argument(..., help="Linear .hdr/.exr (or 8/16-bit with --encoding)."),
-    method: str = typer.Option("sh", "--method", "-m", help="sh, directional or mirror-ball."),
-    mask: Path | None = typer.Option(None, "--mask", help="Object mask image (white = object)."),
+    image: Path = typer.Argument(
+        ..., metavar="IMAGE", help="Linear .hdr/.exr (or 8/16-bit with --encoding)."
+    ),
+    method: str = typer.Option(
+        "sh",
+        "--method",
+        "-m",
+        metavar="sh|directional|mirror-ball",
+        help="sh, directional or mirror-ball.",
+    ),
+    mask: Path | None = typer.Option(
+        None, "--mask", metavar="FILE", help="Object mask image (white = object)."
+    ),
     normals: Path | None = typer.Option(
-        None, "--normals", help="Normal map: .npy (H, W, 3) or an RGB image with n = 2v − 1."
+        None,
+        "--normals",
+        metavar="FILE",
+        help="Normal map: .npy (H, W, 3) or an RGB image with n = 2v − 1.",
     ),
     sphere: bool = typer.Option(
         False, "--sphere", help="The object is a sphere: normals from the mask's fitted circle."
     ),
-    albedo: float = typer.Option(1.0, "--albedo", help="Known albedo (1 if unknown: up to scale)."),
+    albedo: float = typer.Option(
+        1.0, "--albedo", metavar="RHO", help="Known albedo (1 if unknown: up to scale)."
+    ),
     encoding: str | None = typer.Option(
-        None, "--encoding", help="How an 8/16-bit input is encoded: srgb or linear."
+        None,
+        "--encoding",
+        metavar="srgb|linear",
+        help="How an 8/16-bit input is encoded: srgb or linear.",
     ),
     output: Path = typer.Option(
-        Path("lighting.json"), "--output", "-o", help="JSON (sh, directional) or .exr/.hdr map."
+        Path("lighting.json"),
+        "--output",
+        "-o",
+        metavar="FILE",
+        help="JSON (sh, directional) or .exr/.hdr map.",
     ),
     height: int = typer.Option(
-        256, "--height", min=2, max=4096, help="Lat-long map height (mirror-ball; at most 4096)."
+        256,
+        "--height",
+        metavar="PIXELS",
+        min=2,
+        max=4096,
+        help="Lat-long map height (mirror-ball; at most 4096).",
     ),
 ) -> None:
     """Estimate the illumination from an image of a known Lambertian object or a mirror ball."""

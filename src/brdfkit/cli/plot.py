@@ -15,17 +15,21 @@ KINDS = ("lobe", "lobe3d", "half-diff", "albedo", "spheres")
 
 @app.command("plot")
 def plot_command(
-    kind: str = typer.Argument(..., help=f"One of: {', '.join(KINDS)}."),
+    kind: str = typer.Argument(..., metavar="KIND", help=f"One of: {', '.join(KINDS)}."),
     models: list[str] = typer.Argument(
-        ..., help="Model specs or measured files (several for albedo/spheres)."
+        ..., metavar="MODEL", help="Model specs or measured files (several for albedo/spheres)."
     ),
-    output: Path = typer.Option(Path("plot.png"), "--output", "-o", help="Output .png/.svg/.pdf."),
+    output: Path = typer.Option(
+        Path("plot.png"), "--output", "-o", metavar="FILE", help="Output .png/.svg/.pdf."
+    ),
     theta_i: list[float] = typer.Option(
-        [0.0, 30.0, 60.0], "--theta-i", help="Incidence angles (degrees)."
+        [0.0, 30.0, 60.0], "--theta-i", metavar="DEGREES", help="Incidence angles (degrees)."
     ),
     log: bool = typer.Option(False, "--log", help="Logarithmic lobe radius."),
-    light: str = typer.Option("envmap", "--light", "-l", help="Light spec for spheres."),
-    resolution: int = typer.Option(128, "--resolution", "-r", min=16, max=1024),
+    light: str = typer.Option(
+        "envmap", "--light", "-l", metavar="SPEC", help="Light spec for spheres."
+    ),
+    resolution: int = typer.Option(128, "--resolution", "-r", metavar="PIXELS", min=16, max=1024),
 ) -> None:
     """Draw a BRDF the way people look at one."""
     import matplotlib

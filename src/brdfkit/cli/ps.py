@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
 if TYPE_CHECKING:
@@ -34,24 +34,46 @@ def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
 @app.command("ps")
 def ps_command(
     dataset: Path = typer.Argument(
-        ..., help="A DiLiGenT object folder (filenames.txt, ...) or a psm object folder."
+        ...,
+        metavar="FOLDER",
+        help="A DiLiGenT object folder (filenames.txt, ...) or a psm object folder.",
     ),
     method: str = typer.Option(
-        "sparse_regression", "--method", "-m", help=f"One of: {', '.join(_METHODS)}."
+        "sparse_regression",
+        "--method",
+        "-m",
+        metavar="METHOD",
+        help=f"One of: {', '.join(_METHODS)}.",
     ),
     chrome: Path | None = typer.Option(
-        None, "--chrome", help="psm chrome-sphere folder: calibrate the lights from it."
+        None,
+        "--chrome",
+        metavar="FOLDER",
+        help="psm chrome-sphere folder: calibrate the lights from it.",
     ),
     integration: str = typer.Option(
-        "least_squares", "--integration", help=f"One of: {', '.join(_INTEGRATORS)}."
+        "least_squares",
+        "--integration",
+        metavar="METHOD",
+        help=f"One of: {', '.join(_INTEGRATORS)}.",
     ),
     camera: Path | None = typer.Option(
-        None, "--camera", help="K.txt (3x3 intrinsics): perspective integration (least_squares)."
+        None,
+        "--camera",
+        metavar="FILE",
+        help="K.txt (3x3 intrinsics): perspective integration (least_squares).",
     ),
     step: int = typer.Option(
-        1, "--step", min=1, max=64, help="Keep every step-th row and column (at most 64)."
+        1,
+        "--step",
+        metavar="N",
+        min=1,
+        max=64,
+        help="Keep every step-th row and column (at most 64).",
     ),
-    output: Path = typer.Option(Path("ps"), "--output", "-o", help="Output folder."),
+    output: Path = typer.Option(
+        Path("ps"), "--output", "-o", metavar="FOLDER", help="Output folder."
+    ),
     as_json: bool = typer.Option(
         False, "--json", help="Print the measures and the files written as JSON."
     ),
@@ -63,7 +85,6 @@ def ps_command(
     lights.txt holds the light directions used. Frame: x right, y up, z towards the camera.
     """
     import numpy as np
-    from rich.progress import Progress
 
     from brdfkit.io import write_image
     from brdfkit.vision import datasets, photometric_stereo
@@ -75,7 +96,7 @@ def ps_command(
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
-    with Progress(console=status, transient=True) as bar:
+    with progress() as bar:
         task = bar.add_task("reading images", total=None)
 
         def advance(done: int, total: int) -> None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, shown, status
+from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import light_files, output_file
 
 _BYTES_PER_PIXEL = 300
@@ -16,41 +16,51 @@ _BYTES_PER_PIXEL = 300
 @app.command("render")
 def render_command(
     shape: str = typer.Argument(
-        "sphere", help="sphere, plane, cylinder, or a normal map (.npy/.png/.exr)."
+        "sphere", metavar="SHAPE", help="sphere, plane, cylinder, or a normal map (.npy/.png/.exr)."
     ),
     brdf: str = typer.Option(
         "lambertian(albedo=0.8)",
         "--brdf",
         "-b",
+        metavar="SPEC",
         help="Model spec, e.g. \"ggx(alpha=0.3, material='Au')\".",
     ),
     light: list[str] = typer.Option(
         ["envmap"],
         "--light",
         "-l",
+        metavar="SPEC",
         help="Light spec (repeatable): directional:X,Y,Z[:E], point:X,Y,Z[:I], sky[:L], "
         "envmap[:PATH[:SCALE]].",
     ),
     output: Path = typer.Option(
-        Path("render.png"), "--output", "-o", help="Output image (.png sRGB, .hdr or .exr linear)."
+        Path("render.png"),
+        "--output",
+        "-o",
+        metavar="FILE",
+        help="Output image (.png sRGB, .hdr or .exr linear).",
     ),
     resolution: int = typer.Option(
-        256, "--resolution", "-r", min=8, max=8192, help="Image size in pixels."
+        256, "--resolution", "-r", metavar="PIXELS", min=8, max=8192, help="Image size in pixels."
     ),
     samples: int = typer.Option(
         64,
         "--samples",
         "-s",
+        metavar="N",
         min=1,
         max=65536,
         help="Monte Carlo samples per pixel and strategy (at most 65536).",
     ),
-    exposure: float = typer.Option(0.0, "--exposure", help="Exposure in stops for PNG output."),
-    mask: Path | None = typer.Option(None, "--mask", help="Mask image for a normal-map input."),
+    exposure: float = typer.Option(
+        0.0, "--exposure", metavar="STOPS", help="Exposure in stops for PNG output."
+    ),
+    mask: Path | None = typer.Option(
+        None, "--mask", metavar="FILE", help="Mask image for a normal-map input."
+    ),
 ) -> None:
     """Render what a surface looks like (direct lighting, linear radiance)."""
     import numpy as np
-    from rich.progress import Progress
 
     from brdfkit._array import check_param
     from brdfkit._checks import check_memory
@@ -85,14 +95,14 @@ def render_command(
         g = normal_map_gbuffer(normals, m)
     height = g.shape[0]
     check_memory(f"rendering {g.shape[1]}×{height} pixels", _BYTES_PER_PIXEL * g.shape[1] * height)
-    with Progress(console=status, transient=True) as progress:
-        task = progress.add_task(f"rendering {g.shape[1]}×{height}", total=height)
+    with progress() as bar:
+        task = bar.add_task(f"rendering {g.shape[1]}×{height}", total=height)
         image = shade(
             g,
             model,
             lights,
             samples=samples,
-            progress=lambda done, total: progress.update(task, completed=done),
+            progress=lambda done, total: bar.update(task, completed=done),
         )
     if image.shape[-1] == 1:
         image = np.repeat(image, 3, axis=-1)

@@ -14,20 +14,34 @@ from brdfkit.cli._output import OutputFolder
 def separate_command(
     image: Path = typer.Argument(
         ...,
+        metavar="IMAGE",
         help="Linear RGB image (.hdr/.exr, or 8/16-bit with --encoding); with --crossed, "
         "the parallel-polariser image.",
     ),
     crossed: Path | None = typer.Option(
-        None, "--crossed", help="Crossed-polariser image: use the polarisation method."
+        None,
+        "--crossed",
+        metavar="IMAGE",
+        help="Crossed-polariser image: use the polarisation method.",
     ),
     illuminant: str | None = typer.Option(
-        None, "--illuminant", help="Light colour R,G,B for the dichromatic method (white)."
+        None,
+        "--illuminant",
+        metavar="R,G,B",
+        help="Light colour R,G,B for the dichromatic method (white).",
     ),
     encoding: str | None = typer.Option(
-        None, "--encoding", help="How 8/16-bit inputs are encoded: srgb or linear."
+        None,
+        "--encoding",
+        metavar="srgb|linear",
+        help="How 8/16-bit inputs are encoded: srgb or linear.",
     ),
     output: Path = typer.Option(
-        Path("separation"), "--output", "-o", help="Folder for diffuse.exr and specular.exr."
+        Path("separation"),
+        "--output",
+        "-o",
+        metavar="FOLDER",
+        help="Folder for diffuse.exr and specular.exr.",
     ),
 ) -> None:
     """Split an image into diffuse and specular reflection (dichromatic model or polarisation)."""

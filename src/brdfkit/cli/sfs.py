@@ -14,18 +14,38 @@ _OUTPUTS = ("depth.npy", "normals.npy", "normals.png")
 
 @app.command("sfs")
 def sfs_command(
-    image: Path = typer.Argument(..., help="Linear .hdr/.exr (or 8/16-bit with --encoding)."),
-    light: str = typer.Option(..., "--light", "-l", help="Direction towards the light: X,Y,Z."),
-    mask: Path | None = typer.Option(None, "--mask", help="Object mask image (white = object)."),
+    image: Path = typer.Argument(
+        ..., metavar="IMAGE", help="Linear .hdr/.exr (or 8/16-bit with --encoding)."
+    ),
+    light: str = typer.Option(
+        ..., "--light", "-l", metavar="X,Y,Z", help="Direction towards the light: X,Y,Z."
+    ),
+    mask: Path | None = typer.Option(
+        None, "--mask", metavar="FILE", help="Object mask image (white = object)."
+    ),
     encoding: str | None = typer.Option(
-        None, "--encoding", help="How an 8/16-bit input is encoded: srgb or linear."
+        None,
+        "--encoding",
+        metavar="srgb|linear",
+        help="How an 8/16-bit input is encoded: srgb or linear.",
     ),
     step: int = typer.Option(
-        1, "--step", min=1, max=64, help="Average step × step pixel blocks first (at most 64)."
+        1,
+        "--step",
+        metavar="N",
+        min=1,
+        max=64,
+        help="Average step × step pixel blocks first (at most 64).",
     ),
-    smoothness: float = typer.Option(1e-4, "--smoothness", min=0.0, help="Smoothness weight λ."),
+    smoothness: float = typer.Option(
+        1e-4, "--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness weight λ."
+    ),
     output: Path = typer.Option(
-        Path("sfs"), "--output", "-o", help="Folder for depth.npy, normals.npy and normals.png."
+        Path("sfs"),
+        "--output",
+        "-o",
+        metavar="FOLDER",
+        help="Folder for depth.npy, normals.npy and normals.png.",
     ),
 ) -> None:
     """Recover depth and normals from one image (Horn's variational shape from shading)."""

@@ -68,25 +68,34 @@ def _planar(shape: Shape, radius: float, width: float, height: float, vertices: 
 
 @app.command("solid-angle")
 def solid_angle_command(
-    shape: Shape = typer.Argument(..., help="disk, rectangle, triangle or cap."),
-    radius: float = typer.Option(1.0, "--radius", "-r", help="Disk radius."),
-    width: float = typer.Option(1.0, "--width", help="Rectangle width (along x)."),
-    height: float = typer.Option(1.0, "--height", help="Rectangle height (along y)."),
+    shape: Shape = typer.Argument(..., metavar="SHAPE", help="disk, rectangle, triangle or cap."),
+    radius: float = typer.Option(1.0, "--radius", "-r", metavar="R", help="Disk radius."),
+    width: float = typer.Option(1.0, "--width", metavar="W", help="Rectangle width (along x)."),
+    height: float = typer.Option(1.0, "--height", metavar="H", help="Rectangle height (along y)."),
     vertices: str = typer.Option(
         DEFAULT_VERTICES,
         "--vertices",
-        help="Triangle vertices 'x,y,z;x,y,z;x,y,z' (default: unit equilateral, in z = 0).",
+        metavar="X,Y,Z;X,Y,Z;X,Y,Z",
+        show_default=False,
+        help="Triangle vertices (default: a unit equilateral triangle in z = 0, centred at the "
+        "origin).",
     ),
     distance: float = typer.Option(
-        1.0, "--distance", "-d", help="Observer height above the shape's plane (z)."
+        1.0, "--distance", "-d", metavar="D", help="Observer height above the shape's plane (z)."
     ),
-    offset: float = typer.Option(0.0, "--offset", help="Observer offset along x from the axis."),
+    offset: float = typer.Option(
+        0.0, "--offset", metavar="X", help="Observer offset along x from the axis."
+    ),
     half_angle: float = typer.Option(
-        90.0, "--half-angle", help="Cap half-angle α in degrees (90: the hemisphere)."
+        90.0,
+        "--half-angle",
+        metavar="DEGREES",
+        help="Cap half-angle α in degrees (90: the hemisphere).",
     ),
     order: int = typer.Option(
         64,
         "--order",
+        metavar="N",
         min=1,
         max=2048,
         help="Gauss–Legendre nodes per parameter of the numerical integral (1–2048).",
