@@ -109,7 +109,10 @@ def fit_command(
         )
     clamped = getattr(measured, "clamped", 0)
     if clamped:  # after the fit, so that a refused option stays the one line on stderr
-        status.print(f"note: {clamped} negative 'no data' entries of {shown(file.name)} read as 0")
+        status.print(
+            f"note: {clamped} values of {shown(file.name)} are negative, the format's 'not "
+            "measured' marker; they evaluate to 0 and take no part in the fit"
+        )
     if not as_json:
         _print_fit(file, model, objective, loss, mode, result)
     summary = {"file": shown(file), **result.to_dict()}
