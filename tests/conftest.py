@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -40,3 +43,39 @@ BACKENDS = {"numpy64": _numpy64, "numpy32": _numpy32, "torch64": _torch64}
 def backend(request):
     """A converter from NumPy data to each backend/dtype under test (numpy f64/f32, torch f64)."""
     return BACKENDS[request.param]
+
+
+CHROMIUM_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",  # the machines' closed network refuses its connections
+    "--disable-component-update",
+    "--disable-sync",
+)
+
+
+@pytest.fixture
+def browser_dom(tmp_path) -> Callable[..., str]:
+    """``dom(url)``: the DOM of a page after its load event (and ``budget_ms`` of virtual time
+    for its scripts), as Debian's headless Chromium sees it; skips when Chromium is absent."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("headless Chromium is not installed (Debian package 'chromium')")
+
+    def dom(url: str, budget_ms: int = 10_000, timeout: float = 180) -> str:
+        command = [
+            chromium,
+            *CHROMIUM_FLAGS,
+            f"--virtual-time-budget={budget_ms}",
+            f"--user-data-dir={tmp_path / 'chromium-profile'}",
+            "--dump-dom",
+            url,
+        ]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+        assert done.returncode == 0, f"chromium failed on {url}: {done.stderr[-2000:]}"
+        return done.stdout
+
+    return dom

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import re
-import shutil
-import subprocess
 
 import matplotlib
 import pytest
@@ -19,36 +17,6 @@ from brdfkit.cli._output import MANIFEST
 from brdfkit.report import DEFAULT_MODELS, atlas_html, build_card
 from test_report_text import raw_marks, visible_text
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-def _browser_dom(path) -> str:
-    """The DOM after the page's load event, as headless Chromium sees it."""
-    if CHROMIUM is None:
-        pytest.skip("headless Chromium is not installed (Debian package 'chromium')")
-    result = subprocess.run(
-        [
-            CHROMIUM,
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--virtual-time-budget=10000",
-            f"--user-data-dir={path.parent / 'chromium'}",
-            "--dump-dom",
-            path.as_uri(),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        check=True,
-    )
-    return result.stdout
-
 
 def _body_counts(dom: str) -> dict[str, int]:
     body = re.search(r"<body([^>]*)>", dom).group(1)
@@ -56,7 +24,7 @@ def _body_counts(dom: str) -> dict[str, int]:
 
 
 @pytest.mark.slow
-def test_readme_atlas_command_renders_every_card_in_a_browser(tmp_path):
+def test_readme_atlas_command_renders_every_card_in_a_browser(tmp_path, browser_dom):
     result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path / "atlas")])
     assert result.exit_code == 0, result.output
     page = tmp_path / "atlas" / "index.html"
@@ -64,7 +32,7 @@ def test_readme_atlas_command_renders_every_card_in_a_browser(tmp_path):
     assert left == [MANIFEST]  # no temporaries left; the record of what brdfkit wrote
     assert raw_marks(visible_text(page.read_text())).total() == 0
     expected_cards = sum(name in MODELS for name in DEFAULT_MODELS)
-    counts = _body_counts(_browser_dom(page))
+    counts = _body_counts(browser_dom(page.as_uri()))
     assert counts["cards"] == expected_cards
     assert counts["images"] >= 4 * expected_cards
     assert counts["images-ok"] == counts["images"], "some images failed to load"
@@ -75,7 +43,7 @@ def test_readme_atlas_command_renders_every_card_in_a_browser(tmp_path):
     assert "CONTRADICTS" not in html  # every model's checks agree with its claims
 
 
-def test_card_has_formula_checks_and_citations(tmp_path):
+def test_card_has_formula_checks_and_citations(tmp_path, browser_dom):
     from brdfkit.brdf import Lambertian
     from brdfkit.lights import DirectionalLight
 
@@ -92,7 +60,7 @@ def test_card_has_formula_checks_and_citations(tmp_path):
     assert "Lambert" in page and "Physics checks" in page
     assert "<math" in page and "References" in page  # the formula as MathML, the citation
     (tmp_path / "a.html").write_text(page)
-    counts = _body_counts(_browser_dom(tmp_path / "a.html"))
+    counts = _body_counts(browser_dom((tmp_path / "a.html").as_uri()))
     assert counts["cards"] == 1 and counts["images-ok"] == counts["images"] >= 4
 
 

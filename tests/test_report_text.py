@@ -4,8 +4,6 @@ parameter lists), with no reStructuredText left for the reader to decode."""
 from __future__ import annotations
 
 import re
-import shutil
-import subprocess
 from collections import Counter
 from html.parser import HTMLParser
 
@@ -14,8 +12,6 @@ import pytest
 from brdfkit.brdf import MODELS, parse
 from brdfkit.plot import model_label
 from brdfkit.report import Card, _docs_of, atlas_html, default_cards, docstring_html
-
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 RAW_MARKS = {
     "a role (:math:, :class:, …)": r":[\w:]+:`",
@@ -130,30 +126,10 @@ window.addEventListener('load', function () {
 denominator: true typesetting, which a browser without MathML would not do."""
 
 
-def test_formulas_are_typeset_by_headless_chromium(default_page, tmp_path):
-    if CHROMIUM is None:
-        pytest.skip("headless Chromium is not installed (Debian package 'chromium')")
+def test_formulas_are_typeset_by_headless_chromium(default_page, tmp_path, browser_dom):
     page = tmp_path / "atlas.html"
     page.write_text(default_page.replace("</body>", _TYPESET_PROBE), encoding="utf-8")
-    dom = subprocess.run(
-        [
-            CHROMIUM,
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            f"--user-data-dir={tmp_path / 'chromium'}",
-            "--dump-dom",
-            page.as_uri(),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=180,
-        check=True,
-    ).stdout
+    dom = browser_dom(page.as_uri())
     body = re.search(r"<body([^>]*)>", dom).group(1)
     counts = {k: int(v) for k, v in re.findall(r'data-([a-z-]+)="(\d+)"', body)}
     assert counts["fractions"] > 10
