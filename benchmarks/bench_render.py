@@ -1,0 +1,135 @@
+"""Rendering efficiency of brdfkit against Mitsuba 3's ``direct`` integrator, side by side.
+
+Scenes: :func:`brdfkit.mitsuba_scenes.benchmark_scenes` (gold GGX under
+``royal_esplanade_1k``, Lambertian + GGX plastic under ``studio_small_03_1k``, a MERL-layout
+table of GGX copper), a unit sphere at 256², brdfkit's orthographic front view; Mitsuba gets
+the same camera, the same map at its own texel nodes and the matching BSDF (see
+:mod:`brdfkit.mitsuba_scenes`).
+
+Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` and Mitsuba's
+``mi.render`` alternate ``--repeats`` times with fresh seeds. Reported: seconds per image (the
+minimum), the relative RMSE against the renderer's *own* reference at ``--reference`` spp
+(≥ 16× the largest spp; inside the silhouette, :func:`~brdfkit.mitsuba_scenes.interior_mask`),
+the efficiency 1/(seconds·error²) and its ratio brdfkit/Mitsuba (> 1: brdfkit is more
+efficient), and how far the two references differ. Mitsuba's llvm variant needs
+``benchmarks/setup.sh``; without it the run falls back to ``scalar_rgb`` and says so.
+
+    python benchmarks/bench_render.py [--data ../shared/data] [--repeats 3] [--reference 1024]
+
+Results go to ``benchmarks/results/render.json`` and a Markdown table on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brdfkit import mitsuba_scenes as ms
+from brdfkit.lights import EnvironmentMap
+from brdfkit.render import render_sphere
+
+RESOLUTION = 256
+SPPS = (16, 64)
+PAUSE = 0.05
+"""Seconds of rest before each timed render: Dr.Jit's worker threads spin after a kernel and
+would slow whatever runs next on a 2-core machine (see bench_brdf.py)."""
+
+
+def timed(render: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
+    """``(seconds, image)`` of one call, after a short rest."""
+    time.sleep(PAUSE)
+    start = time.perf_counter()
+    image = render()
+    return time.perf_counter() - start, image
+
+
+def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Namespace) -> dict:
+    """Interleaved timings and errors of both renderers on one scene."""
+    mi_scene = ms.sphere_scene(mi, scene.mitsuba_bsdf, env, RESOLUTION)
+    renderers: dict[str, Callable[[int, int], np.ndarray]] = {
+        "brdfkit": lambda spp, seed: render_sphere(
+            scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed
+        ),
+        "mitsuba": lambda spp, seed: ms.render(mi, mi_scene, spp, seed),
+    }
+    mask = ms.interior_mask(RESOLUTION)
+    for render in renderers.values():
+        render(4, 12345)  # warm-up: Mitsuba's JIT, brdfkit's caches
+    references, reference_seconds = {}, {}
+    for name, render in renderers.items():
+        reference_seconds[name], references[name] = timed(lambda r=render: r(args.reference, 999))
+    rows = []
+    for spp in SPPS:
+        seconds = {name: [] for name in renderers}
+        errors = {name: [] for name in renderers}
+        for repeat in range(args.repeats):
+            for name, render in renderers.items():
+                t, image = timed(lambda r=render, n=spp, s=1000 * spp + repeat: r(n, s))
+                seconds[name].append(t)
+                errors[name].append(ms.relative_rmse(image, references[name], mask))
+        row = {"scene": scene.name, "spp": spp}
+        for name in renderers:
+            t = min(seconds[name])
+            error = float(np.sqrt(np.mean(np.square(errors[name]))))
+            row[name] = {"seconds": t, "rel_rmse": error, "efficiency": 1 / (t * error**2)}
+        row["efficiency_ratio"] = row["brdfkit"]["efficiency"] / row["mitsuba"]["efficiency"]
+        rows.append(row)
+    agreement = ms.relative_rmse(references["brdfkit"], references["mitsuba"], mask)
+    for row in rows:
+        row["reference_agreement"] = agreement
+        row["reference_seconds"] = reference_seconds
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", default=os.environ.get("BRDFKIT_DATA", "../shared/data"))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--reference", type=int, default=16 * max(SPPS))
+    parser.add_argument("--only", nargs="*", help="scene names to run (default: all)")
+    parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "render.json"))
+    args = parser.parse_args()
+    mi, variant = ms.load_mitsuba()
+    if variant != "llvm_ad_rgb":
+        print(f"Mitsuba's llvm_ad_rgb is unavailable (run benchmarks/setup.sh): using {variant}")
+    rows = []
+    print(
+        "| scene | spp | brdfkit s | Mitsuba s | brdfkit rel. RMSE | Mitsuba rel. RMSE "
+        "| efficiency brdfkit/Mitsuba | references differ |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for scene in ms.benchmark_scenes():
+        if args.only and scene.name not in args.only:
+            continue
+        env = EnvironmentMap.from_file(Path(args.data) / "envmaps" / "polyhaven" / scene.envmap)
+        for row in bench_scene(mi, scene, env, args):
+            rows.append(row)
+            b, m = row["brdfkit"], row["mitsuba"]
+            print(
+                f"| {row['scene']} | {row['spp']} | {b['seconds']:.3f} | {m['seconds']:.3f} "
+                f"| {b['rel_rmse']:.4f} | {m['rel_rmse']:.4f} | {row['efficiency_ratio']:.2f} "
+                f"| {row['reference_agreement']:.4f} |",
+                flush=True,
+            )
+    record = {
+        "resolution": RESOLUTION,
+        "reference_spp": args.reference,
+        "repeats": args.repeats,
+        "mitsuba": f"{mi.__version__} {variant}",
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_version()}",
+        "rows": rows,
+    }
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(record, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
