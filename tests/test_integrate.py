@@ -265,3 +265,49 @@ def test_optimal_mis_has_lower_error_than_either_strategy_on_every_map(shared_da
     env = EnvironmentMap.from_file(shared_data / "envmaps" / name)
     errors = _actual_errors(env, parse("ggx(alpha=0.1)"))
     assert errors["mis"] < errors["brdf"] and errors["mis"] < errors["light"], errors
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [
+        "lambertian(albedo=[0.2, 0.5, 0.7])",
+        "lambertian(albedo=0.3) + ggx(alpha=0.3)",
+        "0.5 * lambertian(albedo=0.6) + 0.8 * ggx(alpha=0.2) + lambertian(albedo=0.1)",
+    ],
+)
+def test_auto_takes_lambertian_lobes_from_the_irradiance_and_agrees_with_mis(spec):
+    """ "auto" = ρE(n)/π + MC of the other lobes: equal to plain MIS within their errors."""
+    from brdfkit.brdf import parse
+
+    env = EnvironmentMap(np.random.default_rng(3).gamma(0.5, 2.0, size=(16, 32, 3)))
+    normals = _directions(12, 6, upper=False)
+    wo = normals + 0.4 * _directions(12, 7, upper=False)
+    brdf = parse(spec)
+    auto = reflected_radiance(brdf, env, wo, normal=normals, samples=4096, seed=1)
+    mis = reflected_radiance(brdf, env, wo, normal=normals, method="mis", samples=65536, seed=2)
+    spread = np.sqrt(auto.stderr**2 + mis.stderr**2)
+    assert np.all(np.abs(auto.value - mis.value) <= 4.5 * spread + 1e-4 * np.abs(mis.value))
+    if spec.startswith("lambertian(albedo=[0.2"):
+        assert np.all(auto.stderr == 0)  # no Monte Carlo left
+
+
+def test_auto_white_out_is_exact_for_any_normal_under_a_constant_map():
+    env = EnvironmentMap(np.full((8, 16, 3), 1.5))
+    normals = _directions(10, 2, upper=False)
+    wo = normals + 0.3 * _directions(10, 3, upper=False)
+    e = reflected_radiance(Lambertian(0.4), env, wo, normal=normals)
+    below = np.sum(wo * normals, axis=-1) <= 0  # one-sided: nothing reflects below
+    expected = np.where(below, 0.0, 0.6)[:, None] * np.ones(3)
+    np.testing.assert_allclose(e.value, expected, rtol=1e-6)
+    np.testing.assert_array_equal(e.stderr, 0.0)
+
+
+def test_split_diffuse_finds_lambertian_lobes_in_sums_and_scales():
+    from brdfkit.brdf import parse
+    from brdfkit.integrate import split_diffuse
+
+    rho, rest = split_diffuse(parse("0.5 * lambertian(albedo=0.6) + ggx(alpha=0.2)"))
+    assert float(rho) == pytest.approx(0.3) and rest.spec_name == "ggx"
+    assert split_diffuse(parse("lambertian(albedo=0.2)"))[1] is None
+    ggx = parse("ggx(alpha=0.2)")
+    assert split_diffuse(ggx) == (None, ggx)

@@ -18,17 +18,20 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, check_vectors, namespace, normalize, safe_div
-from brdfkit.brdf.base import BRDF, check_choice
+from brdfkit._array import Array, asarray, asarrays, check_vectors, namespace, normalize, safe_div
+from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
+from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
-from brdfkit.lights import Light, LightSample, UniformSky
+from brdfkit.lights import EnvironmentMap, Light, LightSample, UniformSky
 
 Method = Literal["auto", "quadrature", "brdf", "light", "mis"]
 METHODS = ("auto", "quadrature", "brdf", "light", "mis")
@@ -95,8 +98,9 @@ def reflected_radiance(
         optional tangent (for anisotropic BRDFs).
     method : ``"quadrature"`` (θ×φ Gauss–Legendre × midpoint grid of ``theta_steps`` ×
         ``phi_steps`` over the hemisphere), ``"brdf"`` / ``"light"`` (Monte Carlo sampling the
-        BRDF / the light), ``"mis"`` (both, combined by ``heuristic``), or ``"auto"`` (MIS).
-        Delta lights are always evaluated exactly.
+        BRDF / the light), ``"mis"`` (both, combined by ``heuristic``), or ``"auto"`` (MIS,
+        except that Lambertian lobes under an environment map need no samples: see
+        :func:`split_diffuse`). Delta lights are always evaluated exactly.
     samples : Monte Carlo samples per query (per strategy for MIS).
     heuristic : MIS weights: Veach's ``"power"`` (β = 2) or ``"balance"`` heuristic, or
         ``"optimal"`` (Kondapaneni et al. 2019: the balance heuristic with the two pdfs as
@@ -127,9 +131,17 @@ def reflected_radiance(
         )
     xp, point, frame, wo_local, _ = _setup(wo, normal, point, tangent)
     rng = _Uniforms(np.random.default_rng(seed), sequence)
+    rho, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
     value = stderr2 = None
     for lt in _as_lights(light):
-        if lt.delta:
+        if rho is not None and isinstance(lt, EnvironmentMap):
+            v, e2 = _diffuse_envmap(rho, lt, frame, wo_local), None
+            if rest is not None:
+                v_rest, e2 = _monte_carlo(
+                    rest, lt, point, frame, wo_local, samples, "mis", heuristic, rng
+                )
+                v = v + v_rest
+        elif lt.delta:
             v, e2 = _delta(brdf, lt, point, frame, wo_local), None
         elif method == "quadrature":
             v, e2 = _quadrature(brdf, lt, point, frame, wo_local, theta_steps, phi_steps), None
@@ -143,6 +155,43 @@ def reflected_radiance(
             stderr2 = e2 if stderr2 is None else stderr2 + e2
     stderr = xp.zeros_like(value) if stderr2 is None else xp.sqrt(stderr2)
     return Estimate(value, stderr)
+
+
+def split_diffuse(brdf: BRDF) -> tuple[Array | None, BRDF | None]:
+    r"""``brdf`` as ρ/π + the rest: the summed albedo ρ of its Lambertian lobes and the other
+    lobes (``None`` for either part that is empty).
+
+    Lambertian lobes are found alone, inside a :class:`~brdfkit.brdf.base.Sum` and inside a
+    :class:`~brdfkit.brdf.base.Scaled` (ρ scales by k). Under an environment map their
+    reflected radiance is :math:`\rho E(n)/\pi` exactly
+    (:meth:`~brdfkit.lights.EnvironmentMap.irradiance`), so only the rest needs Monte Carlo;
+    its estimator, and so the sum's, stays unbiased.
+    """
+    if isinstance(brdf, Lambertian):
+        return brdf.rho, None
+    if isinstance(brdf, Scaled):
+        rho, rest = split_diffuse(brdf.inner)
+        return (
+            None if rho is None else operator.mul(*asarrays(brdf.k, rho)),
+            None if rest is None else Scaled(brdf.k, rest),
+        )
+    if isinstance(brdf, Sum):
+        parts = [split_diffuse(lobe) for lobe in brdf.lobes]
+        rhos = [rho for rho, _ in parts if rho is not None]
+        rests = [rest for _, rest in parts if rest is not None]
+        rho = functools.reduce(lambda a, b: operator.add(*asarrays(a, b)), rhos) if rhos else None
+        rest = None if not rests else rests[0] if len(rests) == 1 else Sum(tuple(rests))
+        return rho, rest
+    return None, brdf
+
+
+def _diffuse_envmap(rho: Array, env: EnvironmentMap, frame, wo_local: Array) -> Array:
+    """ρ E(n)/π towards viewers above the surface (Lambertian is one-sided), else 0."""
+    xp = namespace(wo_local)
+    irradiance = env.irradiance(frame[2])
+    above = xp.astype(wo_local[..., 2] > 0, wo_local.dtype)[..., None]
+    rho = asarray(rho, xp, like=wo_local)
+    return rho * irradiance * (above / math.pi)
 
 
 class _Uniforms:
@@ -330,4 +379,5 @@ __all__ = [
     "directional_albedo",
     "hemispherical_reflectance",
     "reflected_radiance",
+    "split_diffuse",
 ]

@@ -283,8 +283,10 @@ def shade(
     Pixels are shaded in tiles of rows holding at most ``max_evaluations`` BRDF evaluations
     (pixels × samples), which bounds memory (~1 KB per evaluation at most). Pixels use shifted
     scrambled Sobol samples by default (``sequence``, see
-    :func:`~brdfkit.integrate.reflected_radiance`). ``progress(done, total)`` is called after each
-    tile.
+    :func:`~brdfkit.integrate.reflected_radiance`); with ``method="auto"`` Lambertian lobes under
+    an environment map come noise-free from the map's irradiance
+    (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are sampled.
+    ``progress(done, total)`` is called after each tile.
     """
     height, width = g.shape
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
