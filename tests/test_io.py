@@ -425,10 +425,18 @@ def _png_header(width: int, height: int) -> bytes:
     )
 
 
-def test_header_beyond_the_pixel_limit_is_an_image_read_error(tmp_path):
-    path = tmp_path / "huge.png"
-    path.write_bytes(_png_header(100_000, 100_000))
-    with pytest.raises(io.ImageReadError, match=r"huge\.png"):
+@pytest.mark.parametrize(
+    ("name", "data"),
+    [
+        ("huge.png", _png_header(100_000, 100_000)),
+        ("huge.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n" + bytes(64)),
+    ],
+)
+def test_header_beyond_the_pixel_limit_is_an_image_read_error(tmp_path, name, data):
+    """OpenCV's pixel limit raised a raw cv2.error out of read_image."""
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(io.ImageReadError, match=name.replace(".", r"\.")):
         io.read_image(path)
 
 
