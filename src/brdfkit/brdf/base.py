@@ -110,8 +110,9 @@ class Domain:
     """The interval a numeric parameter may take: ``[lo, hi]`` (either end open).
 
     Every numeric parameter of a model is checked against one declared domain, in which its
-    formulas are finite. ``unphysical_hi`` is the upper end when the model's
-    ``allow_unphysical`` switch is on (``None``: the switch does not widen it).
+    formulas are finite (the model's :attr:`BRDF.domains`, read by :func:`parameter_domains`).
+    ``unphysical_hi`` is the upper end when the model's ``allow_unphysical`` switch is on
+    (``None``: the switch does not widen it).
     """
 
     lo: float
@@ -159,6 +160,56 @@ top end."""
 
 SCALE = Domain(0.0, UNPHYSICAL_MAX, hint="the factor of k * model")
 """The factor ``k`` of :class:`Scaled`: [0, 10⁶]."""
+
+
+def parameter_domains(cls: type[BRDF]) -> dict[str, Domain]:
+    """The declared :class:`Domain` of each numeric parameter of the model class ``cls``.
+
+    Read from the class attribute :attr:`BRDF.domains` of ``cls`` and of its bases (a
+    subclass's entry overrides its base's), the one declaration that validation
+    (:func:`check_domains`), ``brdfkit models`` and the explorer's sliders share.
+
+    Parameters
+    ----------
+    cls : a model class (a dataclass subclass of :class:`BRDF`).
+
+    Returns
+    -------
+    dict
+        Parameter name to its domain, in the order of the dataclass fields; parameters that
+        are no numbers (options, flags) are absent.
+    """
+    declared: dict[str, Domain] = {}
+    for klass in reversed(cls.__mro__):
+        declared.update(vars(klass).get("domains", {}))
+    order = {f.name: i for i, f in enumerate(dataclasses.fields(cls))}
+    return dict(sorted(declared.items(), key=lambda item: order.get(item[0], len(order))))
+
+
+def check_domains(model: BRDF) -> None:
+    """Check every numeric parameter of ``model`` against its declared domain
+    (:func:`parameter_domains`).
+
+    An optional parameter (one whose default is ``None``) that is ``None`` is not checked; a
+    model with an ``allow_unphysical`` switch has it checked first, and when it is on, domains
+    with an ``unphysical_hi`` reach up to that. Cross-parameter conditions (ρd + ρs ≤ 1, the
+    Fresnel options) stay with each model.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Naming the first parameter (in field order) that is no number or lies outside its
+        domain, or ``allow_unphysical`` when it is no bool.
+    """
+    cls = type(model)
+    optional = {f.name for f in dataclasses.fields(cls) if f.default is None}
+    unphysical = hasattr(model, "allow_unphysical") and check_flag(
+        "allow_unphysical", model.allow_unphysical
+    )
+    for name, domain in parameter_domains(cls).items():
+        value = getattr(model, name)
+        if value is not None or name not in optional:
+            domain.check(name, value, unphysical=unphysical)
 
 
 def check_brdf(name: str, value: Any) -> BRDF:
@@ -288,6 +339,10 @@ class BRDF:
     spec_name: ClassVar[str] = ""
     spec_aliases: ClassVar[dict[str, str]] = {}
     """Alternative parameter names that spec strings accept (``{"albedo": "rho"}``)."""
+    domains: ClassVar[dict[str, Domain]] = {}
+    """The :class:`Domain` of each numeric parameter declared by this class (``{"alpha":
+    ROUGHNESS}``); :func:`parameter_domains` merges those of the bases, and
+    :func:`check_domains` validates against them."""
     reciprocal: ClassVar[bool] = True
     """Whether f(wi, wo) = f(wo, wi) for every parameter value (Helmholtz reciprocity)."""
     energy_conserving: ClassVar[bool] = True
@@ -645,6 +700,7 @@ __all__ = [
     "channel_count",
     "check_brdf",
     "check_choice",
+    "check_domains",
     "check_flag",
     "check_hemisphere",
     "check_number",
@@ -652,6 +708,7 @@ __all__ = [
     "mixture_choices",
     "normalized_weights",
     "param",
+    "parameter_domains",
     "register",
     "result_shape",
     "upper_hemisphere",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -15,6 +15,7 @@ from brdfkit.brdf.base import (
     EXPONENT,
     Domain,
     channel_count,
+    check_domains,
     normalized_weights,
     param,
     register,
@@ -97,14 +98,19 @@ class Lafortune(MixtureSampled):
     cy: Any = (-1.0,)
     cz: Any = (1.0,)
     n: Any = (20.0,)
+    domains: ClassVar[dict[str, Domain]] = {
+        "kd": ALBEDO,
+        "cx": COEFFICIENT,
+        "cy": COEFFICIENT,
+        "cz": COEFFICIENT,
+        "n": EXPONENT,
+    }
 
     def __post_init__(self) -> None:
-        ALBEDO.check("kd", self.kd)
+        check_domains(self)
         lobes = {}
         for name in _LOBE_PARAMS:
-            value = getattr(self, name)
-            (EXPONENT if name == "n" else COEFFICIENT).check(name, value)
-            shape = np.shape(to_numpy(value))
+            shape = np.shape(to_numpy(getattr(self, name)))
             if len(shape) == 0:
                 raise ParameterError(
                     f"{name} must have a leading lobe axis of length ≥ 1 (e.g. {name}=[1.0]); "

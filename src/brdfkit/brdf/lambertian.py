@@ -10,9 +10,10 @@ from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
+    Domain,
     Sample,
     channel_count,
-    check_flag,
+    check_domains,
     check_hemisphere,
     param,
     register,
@@ -46,11 +47,10 @@ class Lambertian(BRDF):
     rho: Any = 0.5
     allow_unphysical: bool = False
     spec_aliases: ClassVar[dict[str, str]] = {"albedo": "rho"}
+    domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO}
 
     def __post_init__(self) -> None:
-        ALBEDO.check(
-            "rho", self.rho, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
-        )
+        check_domains(self)
         object.__setattr__(self, "channels", channel_count(self.rho, names=("rho",)))
 
     @classmethod

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from brdfkit._array import Array, namespace, safe_div, safe_sqrt
 from brdfkit.brdf.base import (
@@ -13,7 +13,7 @@ from brdfkit.brdf.base import (
     Domain,
     channel_count,
     check_choice,
-    check_flag,
+    check_domains,
     param,
     register,
     upper_hemisphere,
@@ -89,12 +89,11 @@ class OrenNayar(MixtureSampled):
     model: str = "qualitative"
     allow_unphysical: bool = False
 
+    domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "sigma": SIGMA}
+
     def __post_init__(self) -> None:
         check_choice("model", self.model, _MODELS)
-        ALBEDO.check(
-            "rho", self.rho, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
-        )
-        SIGMA.check("sigma", self.sigma)
+        check_domains(self)
         object.__setattr__(
             self, "channels", channel_count(self.rho, self.sigma, names=("rho", "sigma"))
         )

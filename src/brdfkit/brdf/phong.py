@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -47,6 +47,7 @@ from brdfkit.brdf.base import (
     Sample,
     channel_count,
     check_choice,
+    check_domains,
     check_flag,
     check_param,
     mixture_choices,
@@ -175,13 +176,17 @@ PHONG_KS = Domain(0.0, UNPHYSICAL_MAX, hint="specular coefficient in sr⁻¹")
 """The original Phong model's specular coefficient k_s: [0, 10⁶] sr⁻¹."""
 
 
-def check_albedos(kd: Any, ks: Any, allow_unphysical: Any) -> None:
-    """ρd, ρs ∈ [0, 1] and ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``
-    (then each up to 10⁶)."""
+ALBEDOS: dict[str, Domain] = {"kd": ALBEDO, "ks": ALBEDO, "n": EXPONENT}
+"""The domains of the albedo-parametrised lobes (modified Phong, Blinn–Phong): ρd, ρs ∈ [0, 1]
+(each up to 10⁶ with ``allow_unphysical``) and the exponent n."""
+
+
+def check_albedo_sum(kd: Any, ks: Any, allow_unphysical: Any) -> None:
+    """ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``, for ρd, ρs already
+    checked against their domains (:func:`~brdfkit.brdf.base.check_domains`); they must share
+    their channels."""
     hint = "pass allow_unphysical=True to allow it"
     unphysical = check_flag("allow_unphysical", allow_unphysical)
-    ALBEDO.check("kd", kd, unphysical=unphysical)
-    ALBEDO.check("ks", ks, unphysical=unphysical)
     channel_count(kd, ks, names=("kd", "ks"))
     if not unphysical:
         total = to_numpy(kd).astype(np.float64) + to_numpy(ks).astype(np.float64)
@@ -237,13 +242,10 @@ class Phong(MixtureSampled):
     ks: Any = 0.1
     n: Any = 10.0
     allow_unphysical: bool = False
+    domains: ClassVar[dict[str, Domain]] = {"kd": PHONG_KD, "ks": PHONG_KS, "n": EXPONENT}
 
     def __post_init__(self) -> None:
-        PHONG_KD.check(
-            "kd", self.kd, unphysical=check_flag("allow_unphysical", self.allow_unphysical)
-        )
-        PHONG_KS.check("ks", self.ks)
-        EXPONENT.check("n", self.n)
+        check_domains(self)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
@@ -321,14 +323,15 @@ class ModifiedPhong(MixtureSampled):
     ks: Any = 0.3
     n: Any = 20.0
     allow_unphysical: bool = False
+    domains: ClassVar[dict[str, Domain]] = ALBEDOS
 
     @property
     def energy_conserving(self) -> bool:  # type: ignore[override]
         return not self.allow_unphysical
 
     def __post_init__(self) -> None:
-        check_albedos(self.kd, self.ks, self.allow_unphysical)
-        EXPONENT.check("n", self.n)
+        check_domains(self)
+        check_albedo_sum(self.kd, self.ks, self.allow_unphysical)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )
@@ -492,11 +495,12 @@ class BlinnPhong(MixtureSampled):
     n: Any = 40.0
     normalization: str = "exact"
     allow_unphysical: bool = False
+    domains: ClassVar[dict[str, Domain]] = ALBEDOS
 
     def __post_init__(self) -> None:
         check_choice("normalization", self.normalization, _BLINN_NORMALIZATIONS)
-        check_albedos(self.kd, self.ks, self.allow_unphysical)
-        EXPONENT.check("n", self.n)
+        check_domains(self)
+        check_albedo_sum(self.kd, self.ks, self.allow_unphysical)
         object.__setattr__(
             self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
         )

@@ -44,7 +44,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -52,15 +52,18 @@ from brdfkit._array import Array, dot, namespace, normalize, safe_div
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
 from brdfkit.brdf.base import (
     BRDF,
+    ROUGHNESS,
+    Domain,
     Sample,
     channel_count,
     check_choice,
+    check_domains,
     check_flag,
     param,
     register,
     result_shape,
 )
-from brdfkit.brdf.microfacet import masking_shadowing
+from brdfkit.brdf.microfacet import IOR, masking_shadowing
 from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
 from brdfkit.brdf.torrance_sparrow import defined_params, stretched_distribution
 from brdfkit.errors import ParameterError
@@ -111,8 +114,15 @@ class RoughDielectric(BRDF):
 
     transmits = True
     reciprocal = False
+    domains: ClassVar[dict[str, Domain]] = {
+        "alpha": ROUGHNESS,
+        "alpha_u": ROUGHNESS,
+        "alpha_v": ROUGHNESS,
+        "eta": IOR,
+    }
 
     def __post_init__(self) -> None:
+        check_domains(self)
         ndf = stretched_distribution(
             self.distribution, self.alpha, self.alpha_u, self.alpha_v, self.approximate_g1
         )

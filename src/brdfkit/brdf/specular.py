@@ -29,7 +29,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -37,15 +37,17 @@ from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
+    Domain,
     Sample,
     channel_count,
     check_choice,
+    check_domains,
     check_hemisphere,
     param,
     register,
     result_shape,
 )
-from brdfkit.brdf.microfacet import IOR, FresnelTerm
+from brdfkit.brdf.microfacet import EXTINCTION, IOR, FresnelTerm
 from brdfkit.brdf.torrance_sparrow import defined_params
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
@@ -60,9 +62,9 @@ def check_mode(mode: Any) -> None:
 
 
 def check_scalar_eta(eta: Any) -> None:
-    """Validate a dielectric's relative index: in [0.01, 100]
-    (:data:`~brdfkit.brdf.microfacet.IOR`) and one value per point (no dispersion)."""
-    IOR.check("eta", eta)
+    """Raise :class:`~brdfkit.errors.ParameterError` unless a dielectric's relative index,
+    already checked against :data:`~brdfkit.brdf.microfacet.IOR`, has one value per point (no
+    dispersion)."""
     if channel_count(eta, names=("eta",)) != 1:
         raise ParameterError(
             f"eta must have one value per point (a dispersive index would split the refracted "
@@ -85,15 +87,16 @@ def _mirror(wo: Array) -> Array:
 class _DeltaReflection(BRDF):
     """A one-sided delta reflector of reflectance ``reflectance · F(cos θo)``.
 
-    Subclasses set ``fresnel_term`` (via :meth:`_setup`) and the field ``reflectance``.
+    Subclasses set ``fresnel_term`` (via :meth:`_setup`) and the field ``reflectance``, and
+    check their parameters against their domains first (``check_domains``).
     """
 
     has_delta = True
     fresnel_term: FresnelTerm
     reflectance: Any
+    domains: ClassVar[dict[str, Domain]] = {"reflectance": ALBEDO}
 
     def _setup(self, fresnel_term: FresnelTerm) -> None:
-        ALBEDO.check("reflectance", self.reflectance)
         object.__setattr__(self, "fresnel_term", fresnel_term)
         object.__setattr__(
             self,
@@ -183,8 +186,10 @@ class Mirror(_DeltaReflection):
     k: Any = None
     f0: Any = None
     material: str | None = None
+    domains: ClassVar[dict[str, Domain]] = {"eta": IOR, "k": EXTINCTION, "f0": ALBEDO}
 
     def __post_init__(self) -> None:
+        check_domains(self)
         kind = self.fresnel
         if kind is None:
             kind = "conductor" if self.material is not None else "none"
@@ -233,8 +238,10 @@ class SmoothConductor(_DeltaReflection):
     eta: Any = None
     k: Any = None
     reflectance: Any = 1.0
+    domains: ClassVar[dict[str, Domain]] = {"eta": IOR, "k": EXTINCTION}
 
     def __post_init__(self) -> None:
+        check_domains(self)
         term = FresnelTerm.for_conductor(self.material, self.eta, self.k)
         self._setup(term)
 
@@ -288,8 +295,10 @@ class SmoothDielectric(BRDF):
     has_delta = True
     transmits = True
     reciprocal = False
+    domains: ClassVar[dict[str, Domain]] = {"eta": IOR}
 
     def __post_init__(self) -> None:
+        check_domains(self)
         check_scalar_eta(self.eta)
         check_mode(self.mode)
 

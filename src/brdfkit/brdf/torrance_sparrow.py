@@ -48,18 +48,22 @@ from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
     ROUGHNESS,
+    Domain,
     Sample,
     channel_count,
     check_choice,
+    check_domains,
     check_flag,
-    check_number,
     register,
     result_shape,
     upper_hemisphere,
 )
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.microfacet import (
+    EXTINCTION,
+    GAUSSIAN_WIDTH,
     GGX,
+    IOR,
     MASKINGS,
     Beckmann,
     FresnelTerm,
@@ -86,16 +90,17 @@ def defined_params(model: Any) -> dict[str, Any]:
 def stretched_distribution(
     name: str, alpha: Any, alpha_u: Any, alpha_v: Any, approximate_g1: bool
 ) -> GGX | Beckmann:
-    """The GGX or Beckmann distribution of a model's roughness options, validated.
+    """The GGX or Beckmann distribution of a model's roughness options.
 
     ``alpha`` gives an isotropic roughness; ``alpha_u`` and ``alpha_v`` (both, along the
     tangent x and the bitangent y, as in Mitsuba 3) an anisotropic one and take precedence.
+    The model has checked each roughness against :data:`~brdfkit.brdf.base.ROUGHNESS`
+    (:func:`~brdfkit.brdf.base.check_domains`); the distribution checks the pair it gets.
 
     Raises
     ------
     brdfkit.errors.ParameterError
-        For an unknown ``name``, only one of ``alpha_u``/``alpha_v``, or a roughness outside
-        :data:`~brdfkit.brdf.base.ROUGHNESS`.
+        For an unknown ``name``, or only one of ``alpha_u``/``alpha_v``.
     """
     check_choice("distribution", name, DISTRIBUTIONS)
     check_flag("approximate_g1", approximate_g1)
@@ -105,11 +110,7 @@ def stretched_distribution(
             f"alpha_u={alpha_u!r:.60}, alpha_v={alpha_v!r:.60}"
         )
     if alpha_u is None:
-        ROUGHNESS.check("alpha", alpha)
         alpha_u = alpha_v = alpha
-    else:
-        ROUGHNESS.check("alpha_u", alpha_u)
-        ROUGHNESS.check("alpha_v", alpha_v)
     if name == "ggx":
         return GGX(alpha_u, alpha_v)
     return Beckmann(alpha_u, alpha_v, approximate_g1=approximate_g1)
@@ -237,6 +238,7 @@ class _WithDiffuse(MicrofacetReflection):
     """
 
     diffuse: Any
+    domains: ClassVar[dict[str, Domain]] = {"diffuse": ALBEDO}
 
     def _setup_diffuse(self) -> None:
         """The Lambertian mixture, for ``diffuse`` (checked before :meth:`_setup`) not 0."""
@@ -270,12 +272,15 @@ class _WithDiffuse(MicrofacetReflection):
         return self.mixture.sampling_weight(wo)
 
 
+FRESNEL_DOMAINS: dict[str, Domain] = {"eta": IOR, "k": EXTINCTION, "f0": ALBEDO}
+"""The domains of the Fresnel parameters of Torrance–Sparrow and Cook–Torrance."""
+
+
 def _fresnel_options(model: Any) -> FresnelTerm:
     """The Fresnel term of a Torrance–Sparrow/Cook–Torrance model's options (conductor when a
     ``material`` is named and no ``fresnel`` kind is given, else dielectric); ``eta``, ``k``
-    and ``f0`` are always numbers."""
-    for name in ("eta", "k", "f0"):
-        check_number(name, getattr(model, name))
+    and ``f0``, never ``None`` here, are checked by :func:`~brdfkit.brdf.base.check_domains`
+    first."""
     kind = model.fresnel
     if kind is None:
         kind = "conductor" if model.material is not None else "dielectric"
@@ -332,9 +337,10 @@ class TorranceSparrow(_WithDiffuse):
     material: str | None = None
     diffuse: Any = 0.0
     masking: str = "v_groove"
+    domains: ClassVar[dict[str, Domain]] = {"m": GAUSSIAN_WIDTH, **FRESNEL_DOMAINS}
 
     def __post_init__(self) -> None:
-        ALBEDO.check("diffuse", self.diffuse)
+        check_domains(self)
         self._setup(TorranceSparrowGaussian(self.m), _fresnel_options(self), False, (self.diffuse,))
         self._setup_diffuse()
 
@@ -389,10 +395,10 @@ class CookTorrance(_WithDiffuse):
     diffuse: Any = 0.0
     masking: str = "v_groove"
     sample_visible: bool = True
+    domains: ClassVar[dict[str, Domain]] = {"m": ROUGHNESS, **FRESNEL_DOMAINS}
 
     def __post_init__(self) -> None:
-        ROUGHNESS.check("m", self.m)
-        ALBEDO.check("diffuse", self.diffuse)
+        check_domains(self)
         self._setup(Beckmann(self.m), _fresnel_options(self), self.sample_visible, (self.diffuse,))
         self._setup_diffuse()
 
@@ -456,8 +462,16 @@ class RoughConductor(MicrofacetReflection):
     masking: str = "smith_correlated"
     sample_visible: bool = True
     approximate_g1: bool = False
+    domains: ClassVar[dict[str, Domain]] = {
+        "alpha": ROUGHNESS,
+        "alpha_u": ROUGHNESS,
+        "alpha_v": ROUGHNESS,
+        "eta": IOR,
+        "k": EXTINCTION,
+    }
 
     def __post_init__(self) -> None:
+        check_domains(self)
         fixed = type(self).distribution_name
         check_choice("distribution", self.distribution, DISTRIBUTIONS)
         if fixed is not None and self.distribution != fixed:
