@@ -6,8 +6,6 @@ import dataclasses
 import json
 import re
 import textwrap
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 import typer
@@ -30,62 +28,6 @@ _INDENT = "  "
 """The indent of a model's parameter lines, under its name."""
 
 
-@contextmanager
-def _recorded_domains() -> Iterator[dict[str, Any]]:
-    """While the block runs, every :meth:`Domain.check <brdfkit.brdf.base.Domain.check>` call
-    records the parameter name it checks and the domain it checks it against."""
-    from brdfkit.brdf.base import Domain
-
-    seen: dict[str, Domain] = {}
-    check = Domain.check
-
-    def recording(self: Domain, name: str, value: Any, **kwargs: Any) -> Any:
-        seen.setdefault(name, self)
-        return check(self, name, value, **kwargs)
-
-    Domain.check = recording  # type: ignore[method-assign]
-    try:
-        yield seen
-    finally:
-        Domain.check = check  # type: ignore[method-assign]
-
-
-def _try_build(cls: type, **values: Any) -> None:
-    """Construct ``cls(**values)``, ignoring the refusal of a combination that does not go."""
-    try:
-        cls(**values)
-    except (ValueError, TypeError):
-        pass
-
-
-def parameter_domains(cls: type) -> dict[str, Any]:
-    """The declared :class:`~brdfkit.brdf.base.Domain` of each numeric parameter of ``cls``.
-
-    Each model declares its domains where it validates its parameters (``ROUGHNESS.check(
-    "alpha", …)`` in ``__post_init__``), so they are read from there rather than written a
-    second time: the default model and the examples are built while the checks are recorded,
-    then every parameter that none of them checked (an optional one, ``None`` by default) is
-    given alone, then beside each other parameter (``k`` needs ``eta``).
-
-    Returns
-    -------
-    dict
-        Parameter name to its domain, in the order of the fields; parameters that are no
-        numbers (options, flags) are absent.
-    """
-    fields = [f.name for f in dataclasses.fields(cls) if f.init]
-    with _recorded_domains() as seen:
-        _try_build(cls)
-        cls.examples()
-        for name in [n for n in fields if n not in seen]:
-            _try_build(cls, **{name: 1.0})
-        for name in [n for n in fields if n not in seen]:
-            for other in fields:
-                if other != name and name not in seen:
-                    _try_build(cls, **{name: 1.0, other: 1.0})
-    return {name: seen[name] for name in fields if name in seen}
-
-
 def _number(x: float) -> str:
     """``x`` in at most four significant digits, exponents written short (``1e6``)."""
     mantissa, _, exponent = f"{x:.4g}".partition("e")
@@ -103,7 +45,7 @@ def model_table() -> list[dict[str, Any]]:
     """One record per registered model: spec name, class, summary, parameters (defaults as
     spec text), their domains, and the claims."""
     from brdfkit.brdf import MODELS
-    from brdfkit.brdf.base import _spec_value
+    from brdfkit.brdf.base import _spec_value, parameter_domains
 
     records = []
     for name, cls in sorted(MODELS.items()):
