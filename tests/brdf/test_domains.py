@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import MODELS
-from brdfkit.brdf.base import BRDF
+from brdfkit.brdf.base import BRDF, parameter_domains
 from brdfkit.errors import ParameterError
 from brdfkit.sampling import square_to_uniform_hemisphere
 
@@ -36,6 +36,16 @@ WRONG_FLAGS = [1, 0, "yes", "True", [True], 0.5, np.nan]
 
 COMPANIONS = {"alpha_u": {"alpha_v": 0.2}, "alpha_v": {"alpha_u": 0.2}, "k": {"eta": 1.5}}
 """Parameters that only take effect together with another."""
+
+EDGE_COMPANIONS = {
+    "kd": {"ks": 0.0},
+    "ks": {"kd": 0.0},
+    "cx": {"n": (1.0,)},
+    "cy": {"n": (1.0,)},
+    "cz": {"n": (1.0,)},
+}
+"""What a parameter needs beside it to stand at an end of its domain: the other albedo 0 (so
+that ρd + ρs ≤ 1), a Lafortune lobe of exponent 1 (so that its peak stays bounded)."""
 
 
 def _fields(cls: type[BRDF], kind: str) -> list[str]:
@@ -174,3 +184,37 @@ def test_the_reported_cases_raise():
     ):
         with pytest.raises(ParameterError, match=f"{next(iter(kwargs))} must be"):
             MODELS[spec](**kwargs)
+
+
+def _at_edge(cls: type[BRDF], name: str, value: float, **options: object) -> BRDF:
+    """``cls`` with ``name=value`` (as a one-lobe tuple for a lobe-indexed parameter), beside
+    the companions it needs there."""
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    companions = {**COMPANIONS.get(name, {}), **EDGE_COMPANIONS.get(name, {})}
+    kwargs = {k: v for k, v in companions.items() if k in fields}
+    lobed = isinstance(fields[name].default, tuple)
+    return cls(**kwargs, **options, **{name: (value,) if lobed else value})
+
+
+@pytest.mark.parametrize("cls", [pytest.param(c, id=s) for s, c in sorted(MODELS.items())])
+def test_every_numeric_parameter_declares_its_domain(cls):
+    assert list(parameter_domains(cls)) == _fields(cls, "Any")
+
+
+@pytest.mark.parametrize(("cls", "name"), NUMERIC)
+def test_validation_accepts_the_ends_of_the_declared_domain_and_nothing_beyond(cls, name):
+    domain = parameter_domains(cls)[name]
+    ends = [(domain.lo, domain.lo_open, -math.inf), (domain.hi, domain.hi_open, math.inf)]
+    for end, is_open, outwards in ends:
+        if is_open:
+            with pytest.raises(ParameterError, match=f"{name} must be in"):
+                _at_edge(cls, name, end)
+        else:
+            _at_edge(cls, name, end)
+        with pytest.raises(ParameterError, match=f"{name} must be in"):
+            _at_edge(cls, name, float(np.nextafter(end, outwards)))
+    if domain.unphysical_hi is not None and "allow_unphysical" in _fields(cls, "bool"):
+        _at_edge(cls, name, domain.unphysical_hi, allow_unphysical=True)
+        beyond = float(np.nextafter(domain.unphysical_hi, math.inf))
+        with pytest.raises(ParameterError, match=f"{name} must be in"):
+            _at_edge(cls, name, beyond, allow_unphysical=True)
