@@ -36,6 +36,7 @@ def _run(tests: list[str], cases: int, report: Path) -> tuple[int, float]:
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests],
         cwd=ROOT,
         env=environment,
+        stdout=sys.stderr,  # pytest's report; standard output holds only this script's table
         check=False,
     )
     return done.returncode, time.perf_counter() - start
