@@ -322,3 +322,65 @@ def test_backends_dtype_and_gradient(cls, backend):
     total = dist_t.D(m_t).sum() + dist_t.smith_lambda(w_t).sum() + dist_t.pdf(m_t).sum()
     total.backward()
     assert alpha.grad is not None and torch.isfinite(alpha.grad) and alpha.grad != 0
+
+
+def _gaussian_with_order(monkeypatch, name: str, order: int) -> None:
+    """Set the Gauss–Legendre order ``name`` of TorranceSparrowGaussian (for references)."""
+    import brdfkit.brdf.microfacet as microfacet
+
+    monkeypatch.setattr(microfacet, name, order)
+
+
+def test_gaussian_cdf_quadrature_is_exact_to_rounding():
+    """The 24-point CDF ∫_0^θ e^{-(s/m)²} sin 2s ds of the Gaussian D agrees with a 512-point
+    rule to 1e-13 relative over its whole domain (m ∈ [10⁻⁴, 10], θ ∈ (0, π/2])."""
+    dist = TorranceSparrowGaussian(0.3)
+    m, theta = np.meshgrid(np.geomspace(1e-4, 10, 81), np.linspace(0, math.pi / 2, 121)[1:])
+    m, theta = m.ravel(), theta.ravel()
+    value = dist._partial_integral(m, theta)
+    reference = dist._partial_integral(m, theta, 512)
+    assert np.max(np.abs(value - reference) / reference) < 1e-13
+    # and the reference itself against adaptive quadrature at a few points
+    for mi, ti in [(1e-3, 0.5), (0.05, 0.2), (0.4, 1.0), (1.2, math.pi / 2), (10.0, 1.3)]:
+        expected, _ = integrate.quad(
+            lambda s, mi=mi: math.exp(-((s / mi) ** 2)) * math.sin(2 * s),
+            0,
+            ti,
+            epsabs=0,
+            epsrel=1e-13,
+            points=[mi],
+            limit=200,
+        )
+        got = dist._partial_integral(np.array([mi]), np.array([ti]))[0]
+        assert got == pytest.approx(expected, rel=1e-12)
+
+
+def test_gaussian_smith_lambda_quadrature_matches_reference(monkeypatch):
+    """The 32-point Λ of the Gaussian D agrees with a 512-point rule: |ΔΛ|/(1+Λ) < 1e-12
+    for m ∈ [10⁻⁴, 10] and θ from 0 to 10⁻⁸ below grazing (the measured maximum is 7e-14)."""
+    theta = np.concatenate(
+        [
+            np.linspace(0, math.pi / 2, 120, endpoint=False),
+            math.pi / 2 - np.geomspace(1e-8, 1e-2, 12),
+        ]
+    )
+    w = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
+    ms = np.geomspace(1e-4, 10, 25)
+    value = np.array([TorranceSparrowGaussian(m).smith_lambda(w)[:, 0] for m in ms])
+    _gaussian_with_order(monkeypatch, "_GAUSSIAN_LAMBDA_NODES", 512)
+    reference = np.array([TorranceSparrowGaussian(m).smith_lambda(w)[:, 0] for m in ms])
+    assert np.all(np.isfinite(reference)) and np.all(reference >= 0)
+    assert np.max(np.abs(value - reference) / (1 + reference)) < 1e-12
+
+
+@pytest.mark.parametrize("m", [1e-3, 0.05, 0.3, 1.2, 10.0])
+def test_gaussian_sampler_solves_the_reference_cdf(m):
+    """The two-phase Newton sampler solves the 512-point CDF to rounding for 20,000 u1."""
+    dist = TorranceSparrowGaussian(m)
+    u = np.random.default_rng(7).random((20_000, 2))
+    wm = dist.sample(u)
+    theta = np.arctan2(np.hypot(wm[..., 0], wm[..., 1]), wm[..., 2])  # accurate at small θ
+    mm = np.full_like(theta, m)
+    total = dist._partial_integral(mm[:1], np.full(1, math.pi / 2), 512)[0]
+    cdf = dist._partial_integral(mm, theta, 512) / total
+    assert np.max(np.abs(cdf - np.clip(u[:, 0], 0, 1 - 1e-12))) < 1e-13

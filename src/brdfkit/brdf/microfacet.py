@@ -102,21 +102,28 @@ EXTINCTION = Domain(0.0, 100.0, hint="extinction coefficient")
 """A conductor's extinction coefficient k: [0, 100]."""
 
 _TINY = 1e-30  # guards divisions by squared cosines (representable in float32)
-_GAUSS_LEGENDRE_NODES = 64
+_GAUSS_LEGENDRE_NODES = 64  # the default order of _quadrature
+# Orders of the Gauss–Legendre rules of TorranceSparrowGaussian, each the smallest whose error
+# against a 512-point reference is at rounding over the whole (m, θ) domain (scanned in
+# tests/brdf/test_microfacet.py): the CDF ∫_0^θ e^{-(s/m)²} sin 2s ds (max. relative error
+# 5e-15 at 24 nodes, 1.4e-13 at 20), and Λ (|ΔΛ|/(1+Λ) ≤ 7e-14 at 32 nodes, 3.5e-13 at 28).
+_GAUSSIAN_CDF_NODES = 24
+_GAUSSIAN_GUESS_NODES = 12  # the sampler's first Newton phase: relative error ≤ 2e-6
+_GAUSSIAN_LAMBDA_NODES = 32
 _GAUSSIAN_SUPPORT = 6.0  # exp(-(θ/m)²) < 3e-16 beyond θ = 6 m
 _GAUSSIAN_NEWTON_MAX_STEPS = 60  # bisection fallback: 60 halvings reach float64 resolution
 
 
-@functools.lru_cache(maxsize=4)
+@functools.lru_cache(maxsize=8)
 def _gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre nodes and weights on [0, 1]."""
     x, w = np.polynomial.legendre.leggauss(n)
     return 0.5 * (x + 1), 0.5 * w
 
 
-def _quadrature(like: Array) -> tuple[Array, Array]:
-    """64-point Gauss–Legendre nodes and weights on [0, 1], in the dtype/device of ``like``."""
-    x, w = _gauss_legendre(_GAUSS_LEGENDRE_NODES)
+def _quadrature(like: Array, n: int = _GAUSS_LEGENDRE_NODES) -> tuple[Array, Array]:
+    """``n``-point Gauss–Legendre nodes and weights on [0, 1], in the dtype/device of ``like``."""
+    x, w = _gauss_legendre(n)
     return asarray(x, like=like, dtype=like.dtype), asarray(w, like=like, dtype=like.dtype)
 
 
@@ -519,17 +526,24 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     with θm = α_h the angle between the facet normal (the half vector) and n; the lectures
     write it :math:`e^{-\alpha^2/(2\sigma_\alpha^2)}`, so :math:`m = \sqrt2\,\sigma_\alpha`.
     The normalisation :math:`\int D\cos\theta_m\,d\omega_m = 1` is computed numerically by
-    64-point Gauss–Legendre quadrature in :math:`t = \theta/m` over
-    :math:`[0, \min(\pi/(2m), 6)]` (exact to rounding; the tail beyond 6m is < 3e-16), which
-    stays differentiable in m. For small m, :math:`c \to 1/(\pi m^2)`, Beckmann's value.
+    24-point Gauss–Legendre quadrature in :math:`t = \theta/m` over
+    :math:`[0, \min(\pi/(2m), 6)]` (exact to rounding: ≤ 5e-15 relative against 512 points
+    over the whole domain; the tail beyond 6m is < 3e-16), which stays differentiable in m.
+    For small m, :math:`c \to 1/(\pi m^2)`, Beckmann's value.
 
     The distribution has no closed-form Smith Λ; :meth:`smith_lambda` integrates Heitz's
     (2014, eq. 72) projected area numerically: with the azimuthal integral in closed form,
     :math:`\Lambda(\omega) = \int_{\pi/2-\theta}^{\pi/2} D\sin\theta_m
     \left[I(\theta,\theta_m)/\cos\theta - 2\pi\cos\theta_m\right]d\theta_m`,
-    :math:`I = \int_0^{2\pi}\max(0,\cos\theta\cos\theta_m+\sin\theta\sin\theta_m\cos\phi)d\phi`.
-    :meth:`sample` draws :math:`D\cos\theta_m` by inverting the CDF in θm with a safeguarded
-    Newton iteration (the CDF by the same quadrature). There is no visible-normal sampler.
+    :math:`I = \int_0^{2\pi}\max(0,\cos\theta\cos\theta_m+\sin\theta\sin\theta_m\cos\phi)d\phi`,
+    by 32-point Gauss–Legendre quadrature in :math:`s`, :math:`\theta_m = \pi/2-\theta +
+    (\text{span})\,s^2` (which smooths the :math:`(\theta_m-\pi/2+\theta)^{3/2}` onset of
+    partial visibility): :math:`|\Delta\Lambda|/(1+\Lambda) \le 7\cdot10^{-14}` against
+    a 512/1024-point reference over m ∈ [10⁻⁴, 10] and θ up to 10⁻⁸ from grazing (the
+    64-point rule of earlier versions: 3e-14, i.e. both at the rounding of the integrand).
+    :meth:`sample` draws :math:`D\cos\theta_m` by inverting the CDF in θm with safeguarded
+    Newton iterations: first on a 12-point CDF (relative error ≤ 2e-6) to ~1e-7, then on the
+    exact 24-point CDF to rounding (two or three steps). There is no visible-normal sampler.
 
     Parameters
     ----------
@@ -551,10 +565,17 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     def channel_mean(self) -> MicrofacetDistribution:
         return TorranceSparrowGaussian(_mean_over_channels(self.m))
 
-    def _partial_integral(self, m: Array, theta: Array) -> Array:
-        r""":math:`\int_0^{\theta} e^{-(s/m)^2}\sin 2s\,ds` by quadrature in t = s/m."""
+    def _partial_integral(self, m: Array, theta: Array, order: int = _GAUSSIAN_CDF_NODES) -> Array:
+        r""":math:`P(\theta) = \int_0^{\theta} e^{-(s/m)^2}\sin 2s\,ds` by ``order``-point
+        Gauss–Legendre quadrature in :math:`t = s/m` over :math:`[0, \min(\theta/m, 6)]`.
+
+        The integrand :math:`e^{-t^2}\sin(2mt)` is entire and its domain bounded
+        (:math:`t \le 6`, :math:`2mt \le \pi`), so the error of the rule is uniform over it:
+        at the default 24 points it is at rounding (≤ 5e-15 relative against a 512-point
+        reference on a scan of m ∈ [10⁻⁴, 10], θ ∈ (0, π/2]; 1.4e-13 at 20 points).
+        """
         xp = namespace(m, theta)
-        nodes, weights = _quadrature(m)
+        nodes, weights = _quadrature(m, order)
         upper = xp.minimum(theta / m, constant(_GAUSSIAN_SUPPORT, m))
         t = upper[..., None] * nodes
         integrand = xp.exp(-t * t) * xp.sin(2 * m[..., None] * t)
@@ -581,37 +602,36 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         lower = math.pi / 2 - theta  # facets steeper than this are partly back-facing
         upper = xp.minimum(constant(math.pi / 2, m), _GAUSSIAN_SUPPORT * m)
         span = xp.maximum(upper - lower, xp.zeros_like(lower * upper))
-        nodes, weights = _quadrature(w)
+        nodes, weights = _quadrature(w, _GAUSSIAN_LAMBDA_NODES)
         # θm = lower + span s²: smooths the (θm − lower)^{3/2} onset of partial visibility.
         s = nodes
         theta_m = lower[..., None] + span[..., None] * s * s
         jac = 2 * span[..., None] * s
         a = cos_theta[..., None] * xp.cos(theta_m)
-        b = sin_theta[..., None] * xp.sin(theta_m)
+        sin_theta_m = xp.sin(theta_m)
+        b = sin_theta[..., None] * sin_theta_m
         ratio = clamp(safe_div(-a, b), -1.0, 1.0)
         phi0 = xp.acos(ratio)
         azimuthal = 2 * (a * phi0 + b * safe_sqrt(1 - ratio * ratio))
         excess = safe_div(azimuthal, cos_theta[..., None]) - 2 * math.pi * xp.cos(theta_m)
         density = self.normalization(w)[..., None] * xp.exp(-((theta_m / m[..., None]) ** 2))
-        integrand = density * xp.sin(theta_m) * excess * jac
+        integrand = density * sin_theta_m * excess * jac
         value = xp.sum(weights * integrand, axis=-1)
         grazing = cos_theta <= 0
         return xp.where(grazing, constant(math.inf, value) + 0 * value, value)
 
-    def sample(self, u: Array) -> Array:
-        xp = namespace(u)
-        m = param(self.channel_mean().m, u)
-        u1 = clamp(u[..., 0:1], 0.0, 1 - 1e-12)
-        norm = self.channel_mean().normalization(u)
-        target = u1 / (math.pi * norm)  # ∫_0^θ e^{-(s/m)²} sin 2s ds to reach
-        half_pi = constant(math.pi / 2, u1)
-        lo = xp.zeros_like(u1 + m)
-        hi = lo + half_pi
-        theta = clamp(m * xp.sqrt(-xp.log1p(-u1)), 0.0, math.pi / 2)  # small-angle solution
-        eps = float(xp.finfo(theta.dtype).eps)
-        total = 1 / (math.pi * norm)  # the full integral: the scale of rounding in `value`
+    def _newton(
+        self, m: Array, theta: Array, target: Array, total: Array, order: int, tol: float
+    ) -> Array:
+        """Solve :math:`P(\\theta) =` ``target`` for θ ∈ [0, π/2] from ``theta``: Newton steps
+        safeguarded by bisection, P by ``order``-point quadrature, until every element is
+        within ``tol`` (16 ``tol`` relative to ``total`` in P, or ``tol`` relative to m in θ).
+        """
+        xp = namespace(m, theta)
+        lo = xp.zeros_like(theta)
+        hi = lo + constant(math.pi / 2, theta)
         for _ in range(_GAUSSIAN_NEWTON_MAX_STEPS):
-            value = self._partial_integral(m, theta) - target
+            value = self._partial_integral(m, theta, order) - target
             lo = xp.where(value < 0, theta, lo)
             hi = xp.where(value < 0, hi, theta)
             slope = xp.exp(-((theta / m) ** 2)) * xp.sin(2 * theta)
@@ -619,11 +639,28 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
             inside = (newton >= lo) & (newton <= hi) & (slope > 0)
             updated = xp.where(inside, newton, 0.5 * (lo + hi))
             converged = bool(
-                xp.all((xp.abs(value) <= 16 * eps * total) | (xp.abs(updated - theta) <= eps * m))
+                xp.all((xp.abs(value) <= 16 * tol * total) | (xp.abs(updated - theta) <= tol * m))
             )
             theta = updated
             if converged:
                 break
+        return theta
+
+    def sample(self, u: Array) -> Array:
+        xp = namespace(u)
+        m = param(self.channel_mean().m, u)
+        u1 = clamp(u[..., 0:1], 0.0, 1 - 1e-12)
+        norm = self.channel_mean().normalization(u)
+        target = u1 / (math.pi * norm)  # ∫_0^θ e^{-(s/m)²} sin 2s ds to reach
+        theta = clamp(m * xp.sqrt(-xp.log1p(-u1)), 0.0, math.pi / 2)  # small-angle solution
+        theta = theta + 0 * m
+        eps = float(xp.finfo(theta.dtype).eps)
+        total = 1 / (math.pi * norm)  # the full integral: the scale of rounding in `value`
+        # Newton first on the cheap 12-point CDF (error ≤ 2e-6 relative, so its root is the
+        # exact one to ~1e-6 relative), then on the exact 24-point CDF from there: about two
+        # quadratically convergent steps reach rounding instead of the whole iteration.
+        theta = self._newton(m, theta, target, total, _GAUSSIAN_GUESS_NODES, max(1e-7, 4 * eps))
+        theta = self._newton(m, theta, target, total, _GAUSSIAN_CDF_NODES, eps)
         phi = (2 * math.pi) * u[..., 1:2]
         sin_theta = xp.sin(theta)
         sin_theta, cos_phi, sin_phi = xp.broadcast_arrays(sin_theta, xp.cos(phi), xp.sin(phi))
