@@ -277,6 +277,7 @@ def shade(
     max_evaluations: int = 2_000_000,
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
+    compiled: bool | str = False,
 ) -> np.ndarray:
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
 
@@ -287,6 +288,12 @@ def shade(
     an environment map come noise-free from the map's irradiance
     (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are sampled.
     ``progress(done, total)`` is called after each tile.
+
+    ``compiled`` (opt-in; one :class:`~brdfkit.lights.EnvironmentMap`, ``method`` ``"auto"``
+    or ``"mis"``, a BRDF :mod:`brdfkit.accel` compiles) shades each tile with the numba kernel
+    of :class:`brdfkit.render_kernel.EnvironmentShader` instead of NumPy: ``True`` in float32,
+    ``"float64"`` in float64 (then the image equals the NumPy one to rounding). Same tiles,
+    seeds and uniforms; pixels outside the mask are not sampled.
     """
     height, width = g.shape
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
@@ -294,23 +301,40 @@ def shade(
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
+    shader = None
+    if compiled is not False:
+        from brdfkit.render_kernel import EnvironmentShader
+
+        dtype = np.float32 if compiled is True else compiled
+        shader = EnvironmentShader(brdf, light_list, method=method, dtype=dtype)
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
         if np.any(m):
-            tile_brdf = slice_brdf(brdf, (height, width), rows)
-            estimate = reflected_radiance(
-                tile_brdf,
-                light_list,
-                g.wo[rows],
-                normal=g.normals[rows],
-                point=g.points[rows],
-                tangent=g.tangents[rows],
-                method=method,
-                samples=samples,
-                seed=seed + r0,
-                sequence=sequence,
-            )
+            if shader is not None:
+                estimate = shader(
+                    g.wo[rows],
+                    g.normals[rows],
+                    g.points[rows],
+                    g.tangents[rows],
+                    samples=samples,
+                    seed=seed + r0,
+                    sequence=sequence,
+                    mask=m,
+                )
+            else:
+                estimate = reflected_radiance(
+                    slice_brdf(brdf, (height, width), rows),
+                    light_list,
+                    g.wo[rows],
+                    normal=g.normals[rows],
+                    point=g.points[rows],
+                    tangent=g.tangents[rows],
+                    method=method,
+                    samples=samples,
+                    seed=seed + r0,
+                    sequence=sequence,
+                )
             value = to_numpy(estimate.value)
             image[rows] = np.where(m[..., None], value, background)
         if progress is not None:

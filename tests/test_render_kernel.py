@@ -1,0 +1,107 @@
+"""The compiled environment-map shader equals the NumPy path and passes a furnace test."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from brdfkit.brdf import Lambertian, RoughConductor
+from brdfkit.integrate import directional_albedo, reflected_radiance
+from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.render import Sphere, gbuffer, render_sphere, shade
+from brdfkit.render_kernel import EnvironmentShader
+from brdfkit.render_kernel import reflected_radiance as compiled_radiance
+
+GOLD = RoughConductor(alpha=0.2, material="Au", masking="smith_separable")
+
+
+def _map(seed: int = 1, rotation: np.ndarray | None = None) -> EnvironmentMap:
+    """A small map with bright texels (a peaked distribution) and dark ones."""
+    image = np.random.default_rng(seed).random((16, 32, 3)) ** 4 * 5
+    return EnvironmentMap(image, scale=1.5, rotation=rotation)
+
+
+def _rotation() -> np.ndarray:
+    a, b = 0.7, -0.4
+    rz = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    rx = np.array([[1, 0, 0], [0, math.cos(b), -math.sin(b)], [0, math.sin(b), math.cos(b)]])
+    return rz @ rx
+
+
+@pytest.mark.parametrize("brdf", [GOLD, Lambertian([0.3, 0.2, 0.1]) + GOLD])
+def test_shade_compiled_float64_equals_numpy_path_on_a_sphere(brdf):
+    g = gbuffer(Sphere(), None, 16)
+    env = _map()
+    expected = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000)  # several tiles
+    image = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000, compiled="float64")
+    assert np.all(image[~g.mask] == 0)
+    np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+def test_shade_compiled_float32_equals_numpy_path_to_float32_precision():
+    g = gbuffer(Sphere(), None, 16)
+    env = _map()
+    expected = shade(g, GOLD, env, samples=16, seed=2)
+    image = shade(g, GOLD, env, samples=16, seed=2, compiled=True)
+    scale = np.max(expected)
+    assert np.max(np.abs(image - expected)) < 1e-3 * scale
+    assert np.median(np.abs(image - expected)[g.mask]) < 1e-5 * scale
+
+
+@pytest.mark.parametrize("heuristic", ["power", "balance"])
+def test_random_uniforms_rotated_map_and_stderr_equal_numpy_path(heuristic):
+    g = gbuffer(Sphere(), None, 8)
+    env = _map(3, _rotation())
+    args = (GOLD, env, g.wo, g.normals, g.points, g.tangents)
+    kwargs = {"samples": 12, "seed": 9, "sequence": "random", "heuristic": heuristic}
+    expected = reflected_radiance(*args, method="mis", **kwargs)
+    estimate = compiled_radiance(*args, method="mis", dtype=np.float64, **kwargs)
+    np.testing.assert_allclose(estimate.value, expected.value, rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(estimate.stderr, expected.stderr, rtol=1e-9, atol=1e-13)
+
+
+def test_constant_map_furnace_gives_radiance_times_directional_albedo():
+    """Under a constant map L the reflected radiance is L·ρ(wo) (ρ by quadrature)."""
+    radiance = 0.8
+    env = EnvironmentMap(np.full((8, 16, 3), radiance))
+    theta = np.linspace(0.05, 1.45, 8)
+    wo = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
+    albedo = directional_albedo(GOLD, wo, method="quadrature", theta_steps=128, phi_steps=256)
+    estimate = EnvironmentShader(GOLD, env, dtype=np.float64)(wo, samples=4096, seed=4)
+    z = (estimate.value - radiance * albedo.value) / estimate.stderr
+    assert np.all(np.abs(z) < 5), z
+    # a Lambertian lobe alone needs no samples: ρ·L exactly
+    white = EnvironmentShader(Lambertian([0.5, 0.7, 0.9]), env, dtype=np.float64)(wo)
+    expected = np.broadcast_to(radiance * np.array([0.5, 0.7, 0.9]), white.value.shape)
+    np.testing.assert_allclose(white.value, expected, rtol=1e-5)
+    assert np.all(white.stderr == 0)
+
+
+def test_mask_skips_pixels_without_changing_the_others():
+    g = gbuffer(Sphere(), None, 8)
+    shader = EnvironmentShader(GOLD, _map(), dtype=np.float64)
+    full = shader(g.wo, g.normals, g.points, g.tangents, samples=8, sequence="sobol")
+    masked = shader(g.wo, g.normals, g.points, g.tangents, samples=8, sequence="sobol", mask=g.mask)
+    np.testing.assert_array_equal(masked.value[g.mask], full.value[g.mask])
+    assert np.all(masked.value[~g.mask] == 0)
+
+
+def test_unsupported_inputs_are_refused():
+    env = _map()
+    with pytest.raises(ValueError, match="one EnvironmentMap"):
+        EnvironmentShader(GOLD, DirectionalLight((0, 0, 1), 1.0))
+    with pytest.raises(ValueError, match="one EnvironmentMap"):
+        EnvironmentShader(GOLD, [env, env])
+    with pytest.raises(ValueError, match="heuristic"):
+        EnvironmentShader(GOLD, env, heuristic="optimal")
+    with pytest.raises(ValueError, match="method"):
+        EnvironmentShader(GOLD, env, method="quadrature")
+    with pytest.raises(ValueError, match="dtype"):
+        EnvironmentShader(GOLD, env, dtype=np.int32)
+    textured = Lambertian(np.full((8, 8, 3), 0.5)) + GOLD
+    with pytest.raises(ValueError, match="per-pixel"):
+        render_sphere(textured, env, resolution=8, samples=2, compiled=True)
+    with pytest.raises(ValueError, match="samples"):
+        EnvironmentShader(GOLD, env)(np.array([0.0, 0.0, 1.0]), samples=0)
