@@ -6,13 +6,16 @@ table of GGX copper), a unit sphere at 256², brdfkit's orthographic front view;
 the same camera, the same map at its own texel nodes and the matching BSDF (see
 :mod:`brdfkit.mitsuba_scenes`).
 
-Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` and Mitsuba's
-``mi.render`` alternate ``--repeats`` times with fresh seeds. Reported: seconds per image (the
-minimum), the relative RMSE against the renderer's *own* reference at ``--reference`` spp
-(≥ 16× the largest spp; inside the silhouette, :func:`~brdfkit.mitsuba_scenes.interior_mask`),
-the efficiency 1/(seconds·error²) and its ratio brdfkit/Mitsuba (> 1: brdfkit is more
-efficient), and how far the two references differ. Mitsuba's llvm variant needs
-``benchmarks/setup.sh``; without it the run falls back to ``scalar_rgb`` and says so.
+Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` (NumPy, and
+``compiled=True``: the float32 kernel of :mod:`brdfkit.render_kernel`, where the BRDF compiles)
+and Mitsuba's ``mi.render`` alternate ``--repeats`` times with fresh seeds. Reported: seconds
+per image (the minimum), the relative RMSE against the renderer's *own* reference at
+``--reference`` spp (≥ 16× the largest spp; inside the silhouette,
+:func:`~brdfkit.mitsuba_scenes.interior_mask`; the compiled path is held against the NumPy
+path's reference, the same estimator), the efficiency 1/(seconds·error²) and its ratio to
+Mitsuba's (> 1: brdfkit is more efficient), and how far the two references differ. Mitsuba's
+llvm variant needs ``benchmarks/setup.sh``; without it the run falls back to ``scalar_rgb``
+and says so.
 
     python benchmarks/bench_render.py [--data ../shared/data] [--repeats 3] [--reference 1024]
 
@@ -35,6 +38,7 @@ import numpy as np
 from brdfkit import mitsuba_scenes as ms
 from brdfkit.lights import EnvironmentMap
 from brdfkit.render import render_sphere
+from brdfkit.render_kernel import EnvironmentShader
 
 RESOLUTION = 256
 SPPS = (16, 64)
@@ -60,12 +64,23 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
         ),
         "mitsuba": lambda spp, seed: ms.render(mi, mi_scene, spp, seed),
     }
+    try:
+        EnvironmentShader(scene.brdf, env)
+    except ValueError:  # a BRDF brdfkit.accel cannot compile (the tabulated one)
+        pass
+    else:
+        renderers["compiled"] = lambda spp, seed: render_sphere(
+            scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed, compiled=True
+        )
     mask = ms.interior_mask(RESOLUTION)
     for render in renderers.values():
         render(4, 12345)  # warm-up: Mitsuba's JIT, brdfkit's caches
     references, reference_seconds = {}, {}
     for name, render in renderers.items():
-        reference_seconds[name], references[name] = timed(lambda r=render: r(args.reference, 999))
+        if name != "compiled":
+            reference = timed(lambda r=render: r(args.reference, 999))
+            reference_seconds[name], references[name] = reference
+    references["compiled"] = references["brdfkit"]
     rows = []
     for spp in SPPS:
         seconds = {name: [] for name in renderers}
@@ -81,6 +96,9 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
             error = float(np.sqrt(np.mean(np.square(errors[name]))))
             row[name] = {"seconds": t, "rel_rmse": error, "efficiency": 1 / (t * error**2)}
         row["efficiency_ratio"] = row["brdfkit"]["efficiency"] / row["mitsuba"]["efficiency"]
+        if "compiled" in row:
+            ratio = row["compiled"]["efficiency"] / row["mitsuba"]["efficiency"]
+            row["compiled_efficiency_ratio"] = ratio
         rows.append(row)
     agreement = ms.relative_rmse(references["brdfkit"], references["mitsuba"], mask)
     for row in rows:
@@ -103,9 +121,10 @@ def main() -> None:
     rows = []
     print(
         "| scene | spp | brdfkit s | Mitsuba s | brdfkit rel. RMSE | Mitsuba rel. RMSE "
-        "| efficiency brdfkit/Mitsuba | references differ |"
+        "| efficiency brdfkit/Mitsuba | references differ | compiled s | compiled rel. RMSE "
+        "| efficiency compiled/Mitsuba |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for scene in ms.benchmark_scenes():
         if args.only and scene.name not in args.only:
             continue
@@ -113,10 +132,15 @@ def main() -> None:
         for row in bench_scene(mi, scene, env, args):
             rows.append(row)
             b, m = row["brdfkit"], row["mitsuba"]
+            c = row.get("compiled")
+            compiled = " – | – | – |"
+            if c:
+                ratio = row["compiled_efficiency_ratio"]
+                compiled = f" {c['seconds']:.3f} | {c['rel_rmse']:.4f} | {ratio:.2f} |"
             print(
                 f"| {row['scene']} | {row['spp']} | {b['seconds']:.3f} | {m['seconds']:.3f} "
                 f"| {b['rel_rmse']:.4f} | {m['rel_rmse']:.4f} | {row['efficiency_ratio']:.2f} "
-                f"| {row['reference_agreement']:.4f} |",
+                f"| {row['reference_agreement']:.4f} |" + compiled,
                 flush=True,
             )
     record = {
