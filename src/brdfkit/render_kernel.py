@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import functools
 import math
+import weakref
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -60,6 +61,25 @@ HEURISTICS = ("power", "balance")
 METHODS = ("auto", "mis")
 BLOCK = 256
 """Pixels per call of the BRDF kernels inside the tile kernel (their vectorised batch)."""
+
+
+_BRDF_KERNELS: weakref.WeakKeyDictionary[BRDF, dict[np.dtype, tuple[Any, ...]]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _brdf_kernels(model: BRDF, dtype: np.dtype) -> tuple[Any, ...]:
+    """The numba functions of ``model``'s compiled ``sample`` (3 uniforms), ``eval`` and
+    ``pdf`` (:func:`brdfkit.accel.compile`), kept per model object: tracing a model with JAX
+    takes ~0.1 s, longer than shading a 256² tile at 16 spp."""
+    per_dtype = _BRDF_KERNELS.setdefault(model, {})
+    if dtype not in per_dtype:
+        compiled = accel.compile(model, dtype)
+        per_dtype[dtype] = tuple(
+            compiled._kernel(method, width)._function
+            for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
+        )
+    return per_dtype[dtype]
 
 
 @functools.cache
@@ -89,6 +109,7 @@ def _tile_kernel(
     channels = max(brdf_channels, map_channels)
     cb_step = 1 if brdf_channels > 1 else 0
     cl_step = 1 if map_channels > 1 else 0
+    select = accel._intrinsics()["_select"]
 
     @jit
     def unit(x: Any, y: Any, z: Any) -> tuple[Any, Any, Any]:
@@ -110,11 +131,10 @@ def _tile_kernel(
         return phi / two_pi, theta / pi, theta
 
     @jit
-    def lookup(wx: Any, wy: Any, wz: Any, image: np.ndarray, rot: np.ndarray, scale: Any,
-               out: np.ndarray) -> None:  # fmt: skip
-        """``EnvironmentMap._lookup``: bilinear, columns wrapping, rows clamped; into ``out``."""
+    def lookup(x: Any, y: Any, image: np.ndarray, scale: Any, out: np.ndarray) -> None:
+        """``EnvironmentMap._lookup`` at map coordinates (x, y): bilinear, columns wrapping,
+        rows clamped; into ``out``."""
         height, width, nc = image.shape
-        x, y, _ = map_coordinates(wx, wy, wz, rot)
         row, col = y * T(height) - half, x * T(width) - half
         r0f, c0f = np.floor(row), np.floor(col)
         fr, fc = row - r0f, col - c0f
@@ -123,8 +143,10 @@ def _tile_kernel(
         c_index = int(c0f) if abs(c0f) < T(1e9) else 0
         r0 = min(max(r_index, 0), height - 1)
         r1 = min(max(r_index + 1, 0), height - 1)
-        c0 = c_index % width
-        c1 = (c0 + 1) % width
+        # c_index % width and (c0 + 1) % width without integer divisions (tens of cycles
+        # each): c_index is in [−1, W − 1] for x in [0, 1]
+        c0 = c_index if 0 <= c_index < width else c_index % width
+        c1 = c0 + 1 if c0 + 1 < width else 0
         for c in range(nc):
             top = image[r0, c0, c] * (one - fc) + image[r0, c1, c] * fc
             bottom = image[r1, c0, c] * (one - fc) + image[r1, c1, c] * fc
@@ -137,11 +159,8 @@ def _tile_kernel(
         return pdf_uv / denominator if denominator != zero else zero
 
     @jit
-    def map_pdf(wx: Any, wy: Any, wz: Any, rot: np.ndarray, density: np.ndarray,
-                height: int, width: int) -> Any:  # fmt: skip
-        """``EnvironmentMap.pdf`` at a world direction (normalised here, as there)."""
-        ux, uy, uz = unit(wx, wy, wz)
-        x, y, theta = map_coordinates(ux, uy, uz, rot)
+    def map_pdf(x: Any, y: Any, theta: Any, density: np.ndarray, height: int, width: int) -> Any:
+        """``EnvironmentMap.pdf`` at map coordinates (x, y) and polar angle θ."""
         if not (x >= zero and x < one and y >= zero and y < one):
             return zero
         col = min(max(np.floor(np.float64(x) * width), 0.0), width - 1.0)
@@ -149,39 +168,35 @@ def _tile_kernel(
         return solid_angle_pdf(T(density[int(row) * width + int(col)]), theta)
 
     @jit
-    def find_interval(cdf: np.ndarray, base: int, u: float, count: int, steps: int) -> int:
-        """``sampling._find_interval``: the same fixed number of bisection steps."""
-        lo, hi = 0, count
+    def find_intervals(cdf: np.ndarray, base: np.ndarray, u: np.ndarray, count: int,
+                       steps: int, nb: int, out: np.ndarray) -> None:  # fmt: skip
+        """``sampling._find_interval`` for ``nb`` samples at once, in lock step: the same
+        fixed number of bisection steps, each over all samples, so that their independent
+        table reads overlap instead of waiting one after another; into ``out``."""
+        for j in range(nb):
+            out[j] = 0
+        hi = np.empty(nb, np.int64)
+        for j in range(nb):
+            hi[j] = count
         for _ in range(steps):
-            mid = (lo + hi) // 2
-            if cdf[base + mid] <= u:
-                lo = mid
-            else:
-                hi = mid
-        return lo
+            for j in range(nb):
+                mid = (out[j] + hi[j]) >> 1
+                right = cdf[base[j] + mid] <= u[j]
+                out[j], hi[j] = select(right, mid, out[j]), select(right, hi[j], mid)
 
     @jit
-    def map_sample(u0: Any, u1: Any, rot: np.ndarray, marginal: np.ndarray,
-                   conditional: np.ndarray, density: np.ndarray, height: int, width: int,
-                   row_steps: int, col_steps: int) -> tuple[Any, Any, Any, Any]:  # fmt: skip
-        """``EnvironmentMap.sample``'s direction (world) and solid-angle pdf."""
-        a = min(np.float64(u0), below_one_64)
-        b = min(np.float64(u1), below_one_64)
-        row = find_interval(marginal, 0, b, height, row_steps)
-        base = row * (width + 1)
-        col = find_interval(conditional, base, a, width, col_steps)
-        m0, m1 = marginal[row], marginal[row + 1]
-        c0, c1 = conditional[base + col], conditional[base + col + 1]
-        x = min(T((col + (a - c0) / (c1 - c0)) / width), below_one)
-        y = min(T((row + (b - m0) / (m1 - m0)) / height), below_one)
-        pdf_uv = T(density[row * width + col])
-        theta, phi = y * pi, x * two_pi
-        sin_theta = np.sin(theta)
-        mx, my, mz = sin_theta * np.cos(phi), sin_theta * np.sin(phi), np.cos(theta)
-        wx = mx * rot[0, 0] + my * rot[0, 1] + mz * rot[0, 2]
-        wy = mx * rot[1, 0] + my * rot[1, 1] + mz * rot[1, 2]
-        wz = mx * rot[2, 0] + my * rot[2, 1] + mz * rot[2, 2]
-        return wx, wy, wz, solid_angle_pdf(pdf_uv, theta)
+    def map_samples(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
+                    conditional: np.ndarray, height: int, width: int, row_steps: int,
+                    col_steps: int, nb: int, rows: np.ndarray, cols: np.ndarray,
+                    base: np.ndarray) -> None:  # fmt: skip
+        """``Distribution2D.sample``'s texels for float64 variates ``a`` (column) and ``b``
+        (row) already clamped below 1: the marginal's row, then the row's column."""
+        for j in range(nb):
+            base[j] = 0
+        find_intervals(marginal, base, b, height, row_steps, nb, rows)
+        for j in range(nb):
+            base[j] = rows[j] * (width + 1)
+        find_intervals(conditional, base, a, width, col_steps, nb, cols)
 
     @jit
     def fraction(x: float) -> float:
@@ -230,11 +245,17 @@ def _tile_kernel(
         wil_buf = np.empty(BLOCK * 3, T)
         f_buf = np.empty(BLOCK * brdf_channels, T)
         pbl_buf = np.empty(BLOCK, T)
-        cbw = np.empty((BLOCK, channels), T)
-        value_l = np.empty((BLOCK, map_channels), T)
+        coords = np.empty((BLOCK, 6), T)  # (x, y, θ) of the BRDF's and the map's directions
         pdf_l = np.empty(BLOCK, T)
         cos_l = np.empty(BLOCK, T)
+        cbw = np.empty((BLOCK, channels), T)
+        value_l = np.empty((BLOCK, map_channels), T)
         radiance = np.empty(map_channels, T)
+        a_buf = np.empty(BLOCK, np.float64)
+        b_buf = np.empty(BLOCK, np.float64)
+        rows = np.empty(BLOCK, np.int64)
+        cols = np.empty(BLOCK, np.int64)
+        base = np.empty(BLOCK, np.int64)
         for start in range(0, pixels.shape[0], BLOCK):
             nb = min(BLOCK, pixels.shape[0] - start)
             for j in range(nb):
@@ -245,6 +266,7 @@ def _tile_kernel(
                     mean[start + j, c] = 0.0
                     m2[start + j, c] = 0.0
             for s in range(samples):
+                inverse_count = 1.0 / (s + 1)
                 # BRDF sampling, vectorised over the block
                 for j in range(nb):
                     p = pixels[start + j]
@@ -252,6 +274,8 @@ def _tile_kernel(
                     for k in range(3):
                         u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
                 sample_fn(wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb)
+                # Directions, map coordinates and the map's CDF searches first, texel reads
+                # after: short loops whose independent cache misses overlap.
                 for j in range(nb):
                     p = pixels[start + j]
                     v0, v1, v2 = wi_buf[j * 3], wi_buf[j * 3 + 1], wi_buf[j * 3 + 2]
@@ -259,25 +283,32 @@ def _tile_kernel(
                     wy = v0 * frame[p, 0, 1] + v1 * frame[p, 1, 1] + v2 * frame[p, 2, 1]
                     wz = v0 * frame[p, 0, 2] + v1 * frame[p, 1, 2] + v2 * frame[p, 2, 2]
                     ux, uy, uz = unit(wx, wy, wz)
-                    lookup(ux, uy, uz, image, rot, scale, radiance)
-                    p_light = map_pdf(wx, wy, wz, rot, density, height, width)
-                    w_b = one if delta_buf[j] else weight(pdf_buf[j], p_light, power)
-                    upper = v2 > zero
-                    for c in range(channels):
-                        term = wt_buf[j * brdf_channels + c * cb_step] * radiance[c * cl_step]
-                        cbw[j, c] = term * w_b if upper else zero * w_b
-                    # environment-map sampling
+                    coords[j, 0], coords[j, 1], coords[j, 2] = map_coordinates(ux, uy, uz, rot)
                     q = p if per_pixel_l else 0
                     a = T(fraction(points_l[q, s, 0] + shift_l[p, 0]))
                     b = T(fraction(points_l[q, s, 1] + shift_l[p, 1]))
-                    lx, ly, lz, pl = map_sample(
-                        a, b, rot, marginal, conditional, density, height, width,
-                        row_steps, col_steps,
-                    )  # fmt: skip
-                    lookup(lx, ly, lz, image, rot, scale, radiance)
-                    for c in range(map_channels):
-                        value_l[j, c] = radiance[c] / pl if pl != zero else zero
-                    pdf_l[j] = pl
+                    a_buf[j] = min(np.float64(a), below_one_64)
+                    b_buf[j] = min(np.float64(b), below_one_64)
+                map_samples(
+                    a_buf, b_buf, marginal, conditional, height, width, row_steps, col_steps,
+                    nb, rows, cols, base,
+                )  # fmt: skip
+                for j in range(nb):
+                    p = pixels[start + j]
+                    row, col, a, b = rows[j], cols[j], a_buf[j], b_buf[j]
+                    m0, m1 = marginal[row], marginal[row + 1]
+                    c0, c1 = conditional[base[j] + col], conditional[base[j] + col + 1]
+                    x = min(T((col + (a - c0) / (c1 - c0)) / width), below_one)
+                    y = min(T((row + (b - m0) / (m1 - m0)) / height), below_one)
+                    pdf_uv = T(density[row * width + col])
+                    coords[j, 3], coords[j, 4] = x, y
+                    theta, phi = y * pi, x * two_pi
+                    pdf_l[j] = solid_angle_pdf(pdf_uv, theta)
+                    sin_theta = np.sin(theta)
+                    mx, my, mz = sin_theta * np.cos(phi), sin_theta * np.sin(phi), np.cos(theta)
+                    lx = mx * rot[0, 0] + my * rot[0, 1] + mz * rot[0, 2]
+                    ly = mx * rot[1, 0] + my * rot[1, 1] + mz * rot[1, 2]
+                    lz = mx * rot[2, 0] + my * rot[2, 1] + mz * rot[2, 2]
                     for k in range(3):
                         wil_buf[j * 3 + k] = (
                             lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
@@ -286,14 +317,28 @@ def _tile_kernel(
                 eval_fn(wil_buf, wo_buf, f_buf, nb)
                 pdf_fn(wil_buf, wo_buf, pbl_buf, nb)
                 for j in range(nb):
-                    w_l = weight(pdf_l[j], pbl_buf[j], power)
+                    x, y, theta = coords[j, 0], coords[j, 1], coords[j, 2]
+                    lookup(x, y, image, scale, radiance)
+                    p_light = map_pdf(x, y, theta, density, height, width)
+                    w_b = one if delta_buf[j] else weight(pdf_buf[j], p_light, power)
+                    upper = wi_buf[j * 3 + 2] > zero
+                    for c in range(channels):
+                        term = wt_buf[j * brdf_channels + c * cb_step] * radiance[c * cl_step]
+                        cbw[j, c] = term * w_b if upper else zero * w_b
+                    # the map's sample: its radiance at the sampled coordinates (the NumPy
+                    # path converts them to a direction and back, equal to rounding)
+                    lookup(coords[j, 3], coords[j, 4], image, scale, radiance)
+                    pl = pdf_l[j]
+                    for c in range(map_channels):
+                        value_l[j, c] = radiance[c] / pl if pl != zero else zero
+                    w_l = weight(pl, pbl_buf[j], power)
                     for c in range(channels):
                         c_l = f_buf[j * brdf_channels + c * cb_step] * value_l[j, c * cl_step]
-                        x = np.float64(cbw[j, c] + c_l * cos_l[j] * w_l)
+                        x64 = np.float64(cbw[j, c] + c_l * cos_l[j] * w_l)
                         previous = mean[start + j, c]
-                        current = previous + (x - previous) / (s + 1)
+                        current = previous + (x64 - previous) * inverse_count
                         mean[start + j, c] = current
-                        m2[start + j, c] += (x - previous) * (x - current)
+                        m2[start + j, c] += (x64 - previous) * (x64 - current)
 
     return shade
 
@@ -347,13 +392,11 @@ class EnvironmentShader:
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
         if self.rest is not None:
-            compiled = accel.compile(self.rest, self.dtype)
-            functions = [
-                compiled._kernel(method, width)._function
-                for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
-            ]
             self._kernel = _tile_kernel(
-                *functions, self.dtype.type, self.rest.channels, self.env.channels
+                *_brdf_kernels(self.rest, self.dtype),
+                self.dtype.type,
+                self.rest.channels,
+                self.env.channels,
             )
         env, t = self.env, self.dtype
         distribution = env._distribution
