@@ -19,7 +19,8 @@ pixels, the BRDF kernels that :func:`brdfkit.accel.compile` builds from the mode
 - per sample k, the BRDF's ``sample`` kernel over the block's pixels (vectorised across them);
 - per pixel, the map's radiance and pdf at the BRDF's direction, a map sample (the marginal
   CDF over rows, then the row's conditional CDF over columns, by the same fixed-step bisection
-  as :class:`~brdfkit.sampling.Distribution2D`), its radiance and the solid-angle pdf
+  as :class:`~brdfkit.sampling.Distribution2D`, run in lock step over the block), its radiance
+  and the solid-angle pdf
   :math:`p_\omega = p_{uv}/(2\pi^2\sin\theta)`;
 - the BRDF's ``eval`` and ``pdf`` kernels at the map's directions, then the MIS sum.
 
@@ -95,7 +96,11 @@ def _tile_kernel(
 
     Every step mirrors the NumPy code it replaces, operation by operation and in its dtype
     (``T``); the map's CDF searches run in float64 as :class:`~brdfkit.sampling.Distribution2D`
-    does.
+    does. One shortcut: a map sample's radiance is read at its map coordinates, where the
+    NumPy path turns them into a direction and back (the same texel weights to rounding). Per
+    block of :data:`BLOCK` pixels and per sample, loops are split so that the unpredictable
+    table reads (bisection steps in lock step over the block, then texel fetches) overlap:
+    measured 1.1–1.4× over one loop doing each pixel's work in turn (2k × 1k and 64 × 32 maps).
     """
     import numba
 
