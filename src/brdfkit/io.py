@@ -500,8 +500,9 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
         write_fn(tmp)
         os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    except BaseException:
+        tmp.unlink(missing_ok=True)  # only our temporary: after the rename the name is not ours
+        raise
     return path
 
 

@@ -267,3 +267,15 @@ def test_hdr_response_never_replaces_a_folder(inputs, tmp_path):
     )
     assert result.exit_code == 2 and "existing folder" in result.stderr
     assert (folder / "keep.txt").read_text() == "mine" and not (tmp_path / "m.exr").exists()
+
+
+def test_a_file_that_appears_during_the_work_is_not_replaced(tmp_path):
+    from brdfkit.cli._output import OutputFolder
+    from brdfkit.errors import OutputError
+
+    folder = OutputFolder(tmp_path / "out", ("result.txt",))
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "result.txt").write_text("written by someone else meanwhile")
+    with pytest.raises(OutputError, match="did not write"):
+        folder.write("result.txt", lambda path: path.write_text("ours"))
+    assert (tmp_path / "out" / "result.txt").read_text() == "written by someone else meanwhile"

@@ -47,8 +47,10 @@ def _check_not_input(output: Path, inputs: Iterable[Path | None], option: str) -
             continue
         origin = _resolved(Path(source))
         if target == origin:
-            raise OutputError(f"{option} {shown(output)} is an input of this command; "
-                              "choose another path so that the input is kept")  # fmt: skip
+            raise OutputError(
+                f"{option} {shown(output)} is an input of this command; "
+                "choose another path so that the input is kept"
+            )
         if origin.is_dir() and _inside(target, origin):
             raise OutputError(
                 f"{option} {shown(output)} lies inside the input folder {shown(source)}; "
@@ -142,13 +144,17 @@ class OutputFolder:
         _check_writable(self.path / MANIFEST, option)
         self._written = self._manifest()
         for name in self.files:
-            target = self.path / name
-            if target.exists() and self._written.get(name) != _digest(target):
-                raise OutputError(
-                    f"{option} {shown(self.path)} already holds {shown(name)}, which brdfkit did "
-                    "not write there (or which was changed since); choose a new or empty folder "
-                    "so that it is kept"
-                )
+            self._check_ours(name)
+
+    def _check_ours(self, name: str) -> None:
+        """Refuse to replace ``name`` unless it is absent or brdfkit wrote it as it is."""
+        target = self.path / name
+        if target.exists() and self._written.get(name) != _digest(target):
+            raise OutputError(
+                f"{self.option} {shown(self.path)} already holds {shown(name)}, which brdfkit did "
+                "not write there (or which was changed since); choose a new or empty folder so "
+                "that it is kept"
+            )
 
     def _manifest(self) -> dict[str, str]:
         try:
@@ -163,6 +169,7 @@ class OutputFolder:
 
         if name not in self.files:
             raise AssertionError(f"{name!r} is not among the declared outputs {self.files}")
+        self._check_ours(name)  # again: the file may have appeared while the command worked
         target = self.path / name
         # Each encoder writes to the path it is given: the temporary, renamed when complete.
         atomic_write(target, write_fn)

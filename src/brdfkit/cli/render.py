@@ -91,10 +91,11 @@ def render_command(
                 f"shape must be one of {sorted(shapes)} or a normal-map file; got {shown(shape)!r}"
             )
         normals = read_normal_map(path)
+        height, width = normals.shape[:2]
+        check_memory(f"rendering {width}×{height} pixels", _BYTES_PER_PIXEL * width * height)
         m = None if mask is None else read_image(mask)[..., 0] > 0.5
         g = normal_map_gbuffer(normals, m)
     height = g.shape[0]
-    check_memory(f"rendering {g.shape[1]}×{height} pixels", _BYTES_PER_PIXEL * g.shape[1] * height)
     with progress() as bar:
         task = bar.add_task(f"rendering {g.shape[1]}×{height}", total=height)
         image = shade(
