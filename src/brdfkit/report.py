@@ -45,6 +45,9 @@ DEFAULT_MODELS = (
     "rough_dielectric",
     "mirror",
     "smooth_dielectric",
+    "lommel_seeliger",
+    "minnaert",
+    "hapke",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 

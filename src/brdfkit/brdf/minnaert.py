@@ -1,0 +1,132 @@
+r"""Minnaert's (1941) limb-darkening law for the Moon and planets."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from brdfkit._array import Array, constant, namespace
+from brdfkit.brdf.base import (
+    ALBEDO,
+    BRDF,
+    Domain,
+    channel_count,
+    check_domains,
+    check_hemisphere,
+    param,
+    register,
+    upper_hemisphere,
+)
+from brdfkit.brdf.phong import (
+    Component,
+    MixtureSampled,
+    channel_mean,
+    cosine_lobe_pdf,
+    sample_cosine_lobe,
+)
+
+MINNAERT_K = Domain(0.0, 10.0, hint="Minnaert exponent k (1: Lambertian)")
+"""Minnaert's exponent k: [0, 10]; k = 1 is Lambertian, k = ½ the flat full-Moon disk."""
+
+
+@register("minnaert")
+@dataclass(frozen=True, eq=False)
+class Minnaert(MixtureSampled):
+    r"""Minnaert (1941): the reciprocal power law :math:`L \propto \mu_0^k\mu^{k-1}`.
+
+    .. math::
+        f_r(\omega_i, \omega_o) = \rho\,\frac{k+1}{2\pi}\,(\mu_0\,\mu)^{k-1},
+        \qquad \mu_0 = \cos\theta_i,\ \mu = \cos\theta_o,
+
+    normalised so that the albedo at normal view is ρ: the directional albedo is exactly
+    :math:`\rho(\mu) = \rho\,\mu^{k-1}`. k = 1 is the Lambertian ρ/π; lit from the camera
+    (μ0 = μ) the disk's radiance is :math:`\rho E (k+1)\mu^{2k-1}/(2\pi)`, flat for k = ½ (the
+    full Moon, whose fitted k is ≈ 0.5–0.7 at small phase angles) and limb-dark for k > ½.
+
+    **Reciprocal**: yes (symmetric in μ0, μ; Minnaert built it so). **Energy-conserving**: no
+    (``energy_conserving = False``): for k < 1 the albedo ρ μ^{k−1} exceeds 1 at grazing view
+    (μ < ρ^{1/(1−k)}) and f is unbounded at the horizon; for k ≥ 1 it is ≤ ρ.
+
+    Sampled exactly in proportion to :math:`f\cos\theta_i \propto \mu_0^k`: the cosine-power
+    lobe of exponent k about the normal, so ``weight`` = ρ μ^{k−1} (the channel mean of a
+    channel-varying k is sampled).
+
+    Parameters
+    ----------
+    rho : albedo at normal view, in [0, 1] (``allow_unphysical=True``: up to 10⁶).
+    k : Minnaert's exponent in [0, 10].
+    Both scalars or per channel.
+
+    References
+    ----------
+    .. [1] M. Minnaert, "The reciprocity principle in lunar photometry", Astrophysical Journal
+           93, 403–410, 1941.
+    .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, §12.6.
+    """
+
+    energy_conserving = False
+
+    rho: Any = 0.5
+    k: Any = 0.5
+    allow_unphysical: bool = False
+    domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "k": MINNAERT_K}
+
+    def __post_init__(self) -> None:
+        check_domains(self)
+        object.__setattr__(self, "channels", channel_count(self.rho, self.k, names=("rho", "k")))
+
+    @classmethod
+    def examples(cls) -> list[BRDF]:
+        return [
+            cls(0.3, 0.5),
+            cls(0.8, 1.0),
+            cls(0.5, 0.7),
+            cls(1.0, 2.5),
+            cls([0.4, 0.3, 0.2], 0.6),
+        ]
+
+    def eval(self, wi: Array, wo: Array) -> Array:
+        xp = namespace(wi, wo)
+        rho, k = param(self.rho, wi), param(self.k, wi)
+        upper = upper_hemisphere(wi, wo)
+        mu_mu0 = wi[..., 2:3] * wo[..., 2:3]
+        base = xp.where(upper, mu_mu0, xp.ones_like(mu_mu0))
+        value = rho * (k + 1) / (2 * math.pi) * base ** (k - 1)
+        return xp.where(upper, value, xp.zeros_like(value))
+
+    def components(self, wo: Array) -> list[Component]:
+        xp = namespace(wo)
+        batch = wo.shape[:-1]
+        n = xp.broadcast_to(channel_mean(param(self.k, wo)), batch)
+        normal = xp.broadcast_to(xp.asarray([0.0, 0.0, 1.0], dtype=wo.dtype), wo.shape)
+        return [
+            (
+                xp.ones_like(wo[..., 2]),
+                lambda wi: cosine_lobe_pdf(wi[..., 2], n),
+                lambda u: sample_cosine_lobe(normal, n, u),
+            )
+        ]
+
+    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
+        r"""Exact: :math:`\rho\,\mu^{k-1}` above the surface (``samples``, ``seed`` unused)."""
+        xp = namespace(wo)
+        rho, k = param(self.rho, wo), param(self.k, wo)
+        mu = wo[..., 2:3]
+        positive = mu > 0
+        value = rho * xp.where(positive, mu, xp.ones_like(mu)) ** (k - 1)
+        return xp.where(positive, value, constant(0, value))
+
+    def albedo_estimate(
+        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
+    ) -> tuple[Array, Array]:
+        """Exact (:meth:`albedo`), with zero error; nothing is transmitted."""
+        check_hemisphere(hemisphere)
+        value = self.albedo(wo)
+        return value, namespace(value).zeros_like(value)
+
+    def sampling_weight(self, wo: Array) -> Array:
+        return channel_mean(self.albedo(wo))
+
+
+__all__ = ["MINNAERT_K", "Minnaert"]
