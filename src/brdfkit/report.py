@@ -48,6 +48,7 @@ DEFAULT_MODELS = (
     "lommel_seeliger",
     "minnaert",
     "hapke",
+    "kulla_conty",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 
