@@ -49,6 +49,7 @@ DEFAULT_MODELS = (
     "minnaert",
     "hapke",
     "kulla_conty",
+    "thin_film",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 
