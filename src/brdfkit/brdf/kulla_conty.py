@@ -21,7 +21,7 @@ from brdfkit.brdf.base import (
 )
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR, FresnelTerm
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
-from brdfkit.brdf.torrance_sparrow import RoughConductor
+from brdfkit.brdf.torrance_sparrow import RoughConductor, defined_params
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import spherical_to_cartesian
 
@@ -239,6 +239,9 @@ class KullaConty(MixtureSampled):
     def sampling_weight(self, wo: Array) -> Array:
         single, multiple = self._weights(wo)
         return single + multiple
+
+    def params(self) -> dict[str, Any]:
+        return defined_params(self)
 
 
 __all__ = [

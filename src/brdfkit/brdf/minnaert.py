@@ -55,7 +55,7 @@ class Minnaert(MixtureSampled):
     Parameters
     ----------
     rho : albedo at normal view, in [0, 1] (``allow_unphysical=True``: up to 10⁶).
-    k : Minnaert's exponent in [0, 10].
+    exponent : Minnaert's exponent k in [0, 10] (spec strings may call it ``k``).
     Both scalars or per channel.
 
     References
@@ -68,13 +68,16 @@ class Minnaert(MixtureSampled):
     energy_conserving = False
 
     rho: Any = 0.5
-    k: Any = 0.5
+    exponent: Any = 0.5
     allow_unphysical: bool = False
-    domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "k": MINNAERT_K}
+    spec_aliases: ClassVar[dict[str, str]] = {"k": "exponent"}
+    domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "exponent": MINNAERT_K}
 
     def __post_init__(self) -> None:
         check_domains(self)
-        object.__setattr__(self, "channels", channel_count(self.rho, self.k, names=("rho", "k")))
+        object.__setattr__(
+            self, "channels", channel_count(self.rho, self.exponent, names=("rho", "exponent"))
+        )
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -88,7 +91,7 @@ class Minnaert(MixtureSampled):
 
     def eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
-        rho, k = param(self.rho, wi), param(self.k, wi)
+        rho, k = param(self.rho, wi), param(self.exponent, wi)
         upper = upper_hemisphere(wi, wo)
         mu_mu0 = wi[..., 2:3] * wo[..., 2:3]
         base = xp.where(upper, mu_mu0, xp.ones_like(mu_mu0))
@@ -98,7 +101,7 @@ class Minnaert(MixtureSampled):
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)
         batch = wo.shape[:-1]
-        n = xp.broadcast_to(channel_mean(param(self.k, wo)), batch)
+        n = xp.broadcast_to(channel_mean(param(self.exponent, wo)), batch)
         normal = xp.broadcast_to(xp.asarray([0.0, 0.0, 1.0], dtype=wo.dtype), wo.shape)
         return [
             (
@@ -111,7 +114,7 @@ class Minnaert(MixtureSampled):
     def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
         r"""Exact: :math:`\rho\,\mu^{k-1}` above the surface (``samples``, ``seed`` unused)."""
         xp = namespace(wo)
-        rho, k = param(self.rho, wo), param(self.k, wo)
+        rho, k = param(self.rho, wo), param(self.exponent, wo)
         mu = wo[..., 2:3]
         positive = mu > 0
         value = rho * xp.where(positive, mu, xp.ones_like(mu)) ** (k - 1)

@@ -304,7 +304,9 @@ class ThinFilm(MicrofacetReflection):
                         f"{getattr(self, name)!r:.60}; give wavelengths for a dispersive base"
                     )
         fresnel = ThinFilmFresnel(self.thickness, self.film_eta, self.eta, self.k, self.wavelengths)
-        fresnel.channels  # noqa: B018 (validates the channel counts)
+        channel_count(
+            self.alpha, np.zeros(fresnel.channels), names=("alpha", "the film's reflectance")
+        )
         self._setup(GGX(self.alpha), fresnel, self.sample_visible)
 
     @classmethod
