@@ -176,3 +176,18 @@ def test_compiled_path_matches_numpy(model):
     ours, theirs = compiled.sample(wo, u), model.sample(wo, u)
     np.testing.assert_allclose(ours.wi, theirs.wi, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(ours.weight, theirs.weight, rtol=1e-9)
+
+
+@pytest.mark.parametrize("model", [LommelSeeliger(0.5), Minnaert(0.5, 0.6), Hapke()], ids=repr)
+@pytest.mark.slow  # XLA compiles the whole model: 5–40 s on 2 busy cores
+def test_jax_matches_numpy_with_finite_gradients(model):
+    jax = pytest.importorskip("jax")
+    jnp = jax.numpy
+    rng = np.random.default_rng(5)
+    wi = spherical_to_cartesian(rng.random(64) * 1.5, rng.random(64) * 6)
+    wo = spherical_to_cartesian(rng.random(64) * 1.5, rng.random(64) * 6)
+    wi_j, wo_j = jnp.asarray(wi, dtype=jnp.float32), jnp.asarray(wo, dtype=jnp.float32)
+    value = jax.jit(model.eval)(wi_j, wo_j)  # one compilation, not one per operation
+    np.testing.assert_allclose(np.asarray(value), model.eval(wi, wo), rtol=2e-5, atol=1e-7)
+    grad = jax.jit(jax.grad(lambda w: model.eval(w, wo_j).sum()))(wi_j)
+    assert bool(jnp.all(jnp.isfinite(grad)))

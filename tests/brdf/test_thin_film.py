@@ -144,3 +144,19 @@ def test_compiled_path_matches_numpy(wavelengths):
     wo = spherical_to_cartesian(rng.random(400) * 1.55, rng.random(400) * 6)
     compiled = accel.compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-9, atol=1e-14)
+
+
+@pytest.mark.parametrize("wavelengths", [None, [450.0, 550.0, 650.0]])
+@pytest.mark.slow  # XLA compiles the whole model: 5–40 s on 2 busy cores
+def test_jax_matches_numpy_with_finite_gradients(wavelengths):
+    jax = pytest.importorskip("jax")
+    jnp = jax.numpy
+    model = ThinFilm(alpha=0.25, thickness=350.0, film_eta=1.6, wavelengths=wavelengths)
+    rng = np.random.default_rng(5)
+    wi = spherical_to_cartesian(rng.random(64) * 1.5, rng.random(64) * 6)
+    wo = spherical_to_cartesian(rng.random(64) * 1.5, rng.random(64) * 6)
+    wi_j, wo_j = jnp.asarray(wi, dtype=jnp.float32), jnp.asarray(wo, dtype=jnp.float32)
+    value = jax.jit(model.eval)(wi_j, wo_j)  # one compilation, not one per operation
+    np.testing.assert_allclose(np.asarray(value), model.eval(wi, wo), rtol=1e-4, atol=1e-6)
+    grad = jax.jit(jax.grad(lambda w: model.eval(w, wo_j).sum()))(wi_j)
+    assert bool(jnp.all(jnp.isfinite(grad)))
