@@ -30,7 +30,7 @@ ASYMMETRY = Domain(-0.95, 0.95, hint="Henyey–Greenstein asymmetry ξ (< 0: bac
 
 SURGE_AMPLITUDE = Domain(0.0, 10.0, hint="opposition-surge amplitude B0")
 """The amplitude B0 of the shadow-hiding opposition surge: [0, 10] (B0 ≤ 1 when the particles
-scatter like the regolith's; Hapke 1986 §IV allows more)."""
+scatter like the regolith's; Hapke 1986 allows more)."""
 
 SURGE_WIDTH = Domain(1e-3, 10.0, hint="opposition-surge width h (radians, about half the HWHM)")
 """The angular width parameter h of the opposition surge: [10⁻³, 10]."""
@@ -44,7 +44,7 @@ def henyey_greenstein(cos_g: Array, xi: Array) -> Array:
     References
     ----------
     .. [1] L. G. Henyey, J. L. Greenstein, "Diffuse radiation in the galaxy", ApJ 93, 1941.
-    .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, eq. 6.7.
+    .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, ch. 6.
     """
     xp = namespace(cos_g, xi)
     base = 1 + 2 * xi * cos_g + xi * xi
@@ -58,13 +58,13 @@ def chandrasekhar_h(x: Array, w: Array) -> Array:
         H(x) \approx \Bigl[1 - w\,x\Bigl(r_0 + \frac{1 - 2r_0x}{2}\ln\frac{1+x}{x}\Bigr)
         \Bigr]^{-1},\qquad r_0 = \frac{1-\gamma}{1+\gamma},\ \gamma = \sqrt{1-w},
 
-    within 1 % of the exact H for every w ∈ [0, 1] and x ∈ [0, 1] (Hapke 2002, eq. 13); H(0) = 1.
+    within 1 % of the exact H for every w ∈ [0, 1] and x ∈ [0, 1] (Hapke 2002); H(0) = 1.
     ``x`` ``(..., 1)`` ≥ 0 and ``w`` ``(..., C)`` broadcast.
 
     References
     ----------
     .. [1] B. Hapke, "Bidirectional reflectance spectroscopy 5. The coherent backscatter
-           opposition effect and anisotropic scattering", Icarus 157, 523–534, 2002, eq. 13.
+           opposition effect and anisotropic scattering", Icarus 157, 523–534, 2002.
     .. [2] S. Chandrasekhar, *Radiative Transfer*, Oxford, 1950, ch. V.
     """
     xp = namespace(x, w)
@@ -89,7 +89,7 @@ def opposition_surge(tan_half_g: Array, b0: Array, h: Array) -> Array:
     References
     ----------
     .. [1] B. Hapke, "Bidirectional reflectance spectroscopy 4. The extinction coefficient and
-           the opposition effect", Icarus 67, 264–280, 1986, eq. 14.
+           the opposition effect", Icarus 67, 264–280, 1986.
     """
     return b0 / (1 + tan_half_g / h)
 
@@ -108,7 +108,7 @@ class Hapke(MixtureSampled):
     phase function (:func:`henyey_greenstein`, asymmetry ξ), B(g) = B0/(1 + tan(g/2)/h) the
     shadow-hiding opposition surge (Hapke 1986; :func:`opposition_surge`) and H the
     multiple-scattering function of isotropic scatterers in Hapke's 2002 approximation
-    (:func:`chandrasekhar_h`). This is the bidirectional reflectance r of Hapke 1981 eq. 16
+    (:func:`chandrasekhar_h`). This is the bidirectional reflectance r of Hapke (1981)
     with Hapke 1986's B(g), divided by μ0 (r = f μ0). Macroscopic roughness (Hapke 1984's θ̄)
     and the coherent-backscatter surge (2002) are not included. B0 = 0, ξ = 0 and
     :math:`H \equiv 1` give :class:`~brdfkit.brdf.lommel_seeliger.LommelSeeliger`.
@@ -133,8 +133,9 @@ class Hapke(MixtureSampled):
     b0 : surge amplitude B0 in [0, 10].
     h : surge width h in [10⁻³, 10] (the surge falls to half at tan(g/2) = h).
 
-    The defaults (w = 0.25, ξ = −0.25, B0 = 1, h = 0.06) are lunar-like (Helfenstein & Veverka
-    1987 fit ξ ≈ −0.2 to −0.3, h ≈ 0.05–0.07 to the Moon's disk-integrated phase curve).
+    The defaults (w = 0.25, ξ = −0.25, B0 = 1, h = 0.06) are chosen lunar-like: dark,
+    backscattering particles and a narrow surge (compare the fits of Helfenstein & Veverka
+    1987; they are not a fit).
 
     References
     ----------

@@ -153,7 +153,7 @@ class KullaConty(MixtureSampled):
     References
     ----------
     .. [1] C. Kulla, A. Conty, "Revisiting physically based shading at Imageworks", SIGGRAPH
-           2017 course *Physically Based Shading in Theory and Practice*, slides 16–19.
+           2017 course *Physically Based Shading in Theory and Practice*.
     .. [2] C. Kelemen, L. Szirmay-Kalos, "A microfacet based coupled specular-matte BRDF model
            with importance sampling", Eurographics 2001 (the (1 − E)(1 − E) lobe).
     .. [3] E. Heitz, J. Hanika, E. d'Eon, C. Dachsbacher, "Multiple-scattering microfacet

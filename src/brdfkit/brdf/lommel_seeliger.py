@@ -45,7 +45,7 @@ class LommelSeeliger(MixtureSampled):
         f_r(\omega_i, \omega_o) = \frac{w}{4\pi}\,\frac{1}{\mu_0 + \mu},
         \qquad \mu_0 = \cos\theta_i,\ \mu = \cos\theta_o,
 
-    with w the single-scattering albedo of the particles (Hapke 2012, eq. 8.37 with an isotropic
+    with w the single-scattering albedo of the particles (Hapke 2012, ch. 8, with an isotropic
     phase function, p = 1, and no multiple scattering). Lit from the camera (μ0 = μ, a full Moon)
     the radiance :math:`f\mu_0 E = wE/(8\pi)` is the same at every point of the disk: no limb
     darkening, unlike a Lambertian sphere (:math:`\rho\mu E/\pi`). Multiplied by a phase
@@ -67,8 +67,8 @@ class LommelSeeliger(MixtureSampled):
     .. [1] H. Seeliger, "Zur Photometrie zerstreut reflectirender Substanzen",
            Sitzungsberichte der Bayerischen Akademie der Wissenschaften 18, 201–248, 1888.
     .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., Cambridge
-           University Press, 2012, §8.5.
-    .. [3] S. Chandrasekhar, *Radiative Transfer*, Oxford, 1950, §1.4.
+           University Press, 2012, ch. 8.
+    .. [3] S. Chandrasekhar, *Radiative Transfer*, Oxford, 1950, ch. I.
     """
 
     w: Any = 0.5

@@ -62,7 +62,7 @@ class Minnaert(MixtureSampled):
     ----------
     .. [1] M. Minnaert, "The reciprocity principle in lunar photometry", Astrophysical Journal
            93, 403–410, 1941.
-    .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, §12.6.
+    .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, ch. 12.
     """
 
     energy_conserving = False

@@ -14,7 +14,7 @@ checked against it), not a model: the walk is stochastic per ray.
 References
 ----------
 .. [1] E. Heitz, J. Hanika, E. d'Eon, C. Dachsbacher, "Multiple-scattering microfacet BSDFs
-       with the Smith model", ACM TOG 35(4), 2016, §3–5 and its supplemental code.
+       with the Smith model", ACM TOG 35(4), 2016, and its supplemental code.
 .. [2] J. Dupuy, A. Benyoub, "Sampling visible GGX normals with spherical caps", Computer
        Graphics Forum 42(8), 2023.
 """
@@ -90,7 +90,7 @@ def random_walk_albedo(
     for order in range(max_order + 1):
         up = wr[:, 2] > 0
         lam = ggx.smith_lambda(wr)[:, 0]  # even in w.z
-        lam = np.where(up, lam, -1 - lam)  # Heitz 2016 eq. 8 for downward rays
+        lam = np.where(up, lam, -1 - lam)  # Λ(−ω) = −1 − Λ(ω) (Heitz 2016)
         u = rng.random(paths)
         g1 = np.where(up, c1**lam, 0.0)
         leaves = alive & up & (u > 1 - g1)

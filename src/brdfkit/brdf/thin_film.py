@@ -11,7 +11,7 @@ two interfaces, per polarisation (s, p), averaged:
 
 with :math:`r_{12}` the (real, signed) amplitude of the air–film interface and
 :math:`r_{23} = \rho_{23}e^{i\varphi_{23}}` the complex amplitude of the film–base interface
-(Born & Wolf §1.6, §13.4; :func:`airy_reflectance`, exact, in real arithmetic). In RGB,
+(Born & Wolf; :func:`airy_reflectance`, exact, in real arithmetic). In RGB,
 Belcour & Barla write R as the Fourier series
 :math:`R = C_0 + 2\sum_{m\ge1} C_m\cos(m\Phi)`, :math:`C_0 = R_{12} + R_s`,
 :math:`C_m = (R_s - T_{121})\sqrt{R_{12}R_{23}}^{\,m}`,
@@ -22,8 +22,8 @@ removes the spectral aliasing of a few-wavelength rendering (:func:`belcour_barl
 References
 ----------
 .. [1] L. Belcour, P. Barla, "A practical extension to microfacet theory for the modeling of
-       varying iridescence", ACM TOG 36(4) (SIGGRAPH), 2017, §3–4 and its supplemental code.
-.. [2] M. Born, E. Wolf, *Principles of Optics*, 7th ed., §1.6.4 and §14.4, 1999.
+       varying iridescence", ACM TOG 36(4) (SIGGRAPH), 2017, and its supplemental code.
+.. [2] M. Born, E. Wolf, *Principles of Optics*, 7th ed., ch. 1 and 14, 1999.
 .. [3] The Khronos Group, ``KHR_materials_iridescence`` (glTF 2.0), 2022 (the sensitivity
        fits in nanometres).
 """
@@ -135,7 +135,7 @@ def _sensitivity(opd: Array, shift: Array) -> Array:
 
     References
     ----------
-    .. [1] L. Belcour, P. Barla, ACM TOG 36(4), 2017, §4.2 and supplemental code
+    .. [1] L. Belcour, P. Barla, ACM TOG 36(4), 2017, and its supplemental code
            (``evalSensitivity``); KHR_materials_iridescence for the nanometre form.
     """
     xp = namespace(opd, shift)
