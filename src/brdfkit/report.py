@@ -46,6 +46,8 @@ DEFAULT_MODELS = (
     "mirror",
     "smooth_dielectric",
     "principled",
+    "plastic",
+    "rough_plastic",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 
