@@ -48,6 +48,7 @@ DEFAULT_MODELS = (
     "principled",
     "plastic",
     "rough_plastic",
+    "charlie",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 
