@@ -124,3 +124,15 @@ def test_parameters_are_checked():
         SunSky(sun_direction=(1.0, 0.0, -0.1))
     with pytest.raises(ParameterError, match="albedo"):
         SunSky(albedo=1.5)
+
+
+def test_torch_matches_numpy():
+    torch = pytest.importorskip("torch")
+    light = SunSky(sun_direction=_sun(25.0), turbidity=5.0)
+    points = np.zeros((512, 3))
+    u = np.random.default_rng(3).random((512, 2))
+    s, s_t = light.sample(points, u), light.sample(torch.tensor(points), torch.tensor(u))
+    assert isinstance(s_t.value, torch.Tensor)
+    np.testing.assert_allclose(s_t.wi.numpy(), s.wi, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(s_t.value.numpy(), s.value, rtol=1e-9)
+    np.testing.assert_allclose(s_t.pdf.numpy(), s.pdf, rtol=1e-9)
