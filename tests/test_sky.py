@@ -136,3 +136,16 @@ def test_torch_matches_numpy():
     np.testing.assert_allclose(s_t.wi.numpy(), s.wi, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(s_t.value.numpy(), s.value, rtol=1e-9)
     np.testing.assert_allclose(s_t.pdf.numpy(), s.pdf, rtol=1e-9)
+
+
+def test_light_spec():
+    from brdfkit.errors import SpecError
+    from brdfkit.lights import parse_light
+
+    light = parse_light("sunsky:0,0.6,0.8:4")
+    assert isinstance(light, SunSky) and light.turbidity == 4.0
+    np.testing.assert_allclose(light.sun_direction, [0, 0.6, 0.8])
+    with pytest.raises(SpecError, match="sunsky"):
+        parse_light("sunsky:0,1")
+    with pytest.raises(ParameterError, match="turbidity"):
+        parse_light("sunsky:0,0.6,0.8:11")
