@@ -238,7 +238,9 @@ def test_lobes_switch_off():
         Principled(metallic=[0.1, 0.2, 0.3])
 
 
+@pytest.mark.slow
 def test_compiled_path_matches_numpy():
+    """(~20 s: numba compiles eval, pdf and sample.)"""
     from brdfkit import accel
 
     model = Principled(**PARAMETER_SETS[-1])
