@@ -737,6 +737,7 @@ LIGHT_SPECS = {
     "point": "point:X,Y,Z[:I]  (position, intensity I)",
     "sky": "sky[:L]  (uniform radiance L over the upper hemisphere)",
     "envmap": "envmap:PATH[:SCALE]  (lat-long .hdr/.exr; 'envmap' alone: the bundled map)",
+    "sunsky": "sunsky:X,Y,Z[:T]  (Hosek–Wilkie sky and sun towards X,Y,Z, turbidity T)",
 }
 
 
@@ -782,6 +783,11 @@ def parse_light(spec: str) -> Light:
 
             path = str(default_envmap_path())
         return EnvironmentMap.from_file(path, scale=scale)
+    if kind == "sunsky":
+        from brdfkit.sunsky import SunSky
+
+        vector, _, value = rest.partition(":")
+        return SunSky(_floats(spec, vector, 3), turbidity=_float(spec, value or "3"))
     raise SpecError(f"light spec {spec!r:.80} has an unknown kind {kind!r:.40}. {_known()}")
 
 
