@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 from typer.testing import CliRunner
 
@@ -63,7 +64,10 @@ def test_each_model_is_a_short_block_at_80_columns_with_no_word_split():
     blocks, wide_blocks = _blocks(narrow.stdout), _blocks(wide.stdout)
     assert [b[0].split()[0] for b in blocks] == sorted(MODELS)
     for block, one_line in zip(blocks, wide_blocks, strict=True):
-        assert len(block) <= 4, block
+        # Parameters fill their lines: a block is at most one line longer than the fewest
+        # 78-column lines its parameter text could take (no parameter alone on a line).
+        parameters = " ".join(line.strip() for line in one_line[1:])
+        assert len(block) <= 2 + math.ceil(len(parameters) / 78), block
         # Wrapping only moved whole words (and whole parameters) to the next line.
         assert " ".join(block).split() == " ".join(one_line).split()
         assert all(line.startswith("  ") for line in block[1:])
