@@ -110,9 +110,10 @@ def test_relighting_real_psm_photographs(shared_data):
         ls = least_squares(images[train], lights[train], data.mask)
         lambert = lambertian_relight(ls.albedo, ls.normals, data.mask, lights[held])
         baseline = np.sqrt(np.mean((lambert[:, data.mask] - real) ** 2))
-        # Measured (step 4): gray 0.0195 vs 0.0209, owl 0.0165 vs 0.0174. Over all four folds
-        # and the six objects the SVBRDF does NOT beat Lambertian on average (see
-        # benchmarks/README.md): this holds for these two objects and this fold only.
+        # Measured (step 4, these lights held out): gray 0.0199 vs 0.0209, owl 0.0165 vs
+        # 0.0174. This is NOT the general result: over the four folds and six objects of
+        # benchmarks/bench_relighting.py the SVBRDF loses to Lambertian on average (0.0339 vs
+        # 0.0317), winning on gray only; this test pins the two cases where it wins.
         assert error < baseline
 
 
