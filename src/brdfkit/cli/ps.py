@@ -137,7 +137,10 @@ def ps_command(
         if uncalibrated:
             from dataclasses import replace
 
-            estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, method=method)
+            # The integrability smoothing is 1 px of the full-resolution images (see the module).
+            estimate = solve_uncalibrated(
+                data.images, data.mask, cue=gbr_cue, method=method, sigma=1.0 / step
+            )
             cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
             light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
             result = estimate.result

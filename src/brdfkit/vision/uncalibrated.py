@@ -44,11 +44,13 @@ peaks of this real sphere lie 2-24° from the calibrated lights: its reflectance
 Lambert's by about 4 % rms, and 8-bit plateaus move the maxima). The fragile step is
 integrability: on these images the smallest singular values of its system are within a factor
 1.2-2.5 of each other (160 on a render), and the result depends on the smoothing ``sigma``,
-chosen (1 px) on this very sphere: 0, 2, 3 and 4 px give lights 69°, 11.7°, 12.9° and 13.3°
-off, and half resolution with ``sigma = 1`` 11.9°. Even the best GBR within the integrable
-family found (fitted to the calibrated lights, an oracle) is 3.5-25° off depending on these
-choices, while the rank-3 factorisation itself admits lights within 1.4° (the best general
-linear map): the factorisation is sound, integrability on real 8-bit data is not robust.
+chosen (1 px, about 1 % of the sphere's radius) on this very sphere: 0, 0.5, 1.5, 2, 3 and
+4 px give lights 69°, 79°, 9.5°, 11.7°, 12.9° and 13.3° off; at half resolution the same
+smoothing on the object (0.5 px) gives 4.9°, and 1 px there 11.9°. Even the best GBR within
+the integrable family found (fitted to the calibrated lights, an oracle) is 3.5-25° off
+depending on these choices, while the rank-3 factorisation itself admits lights within 1.4°
+(the best general linear map): the factorisation is sound, integrability on real 8-bit data is
+not robust.
 
 References
 ----------
