@@ -77,8 +77,23 @@ def ps_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print the measures and the files written as JSON."
     ),
+    uncalibrated: bool = typer.Option(
+        False,
+        "--uncalibrated",
+        help="Estimate the lights from the images (the given lights are only compared).",
+    ),
+    gbr_cue: str = typer.Option(
+        "entropy",
+        "--gbr-cue",
+        metavar="CUE",
+        help="With --uncalibrated: entropy or diffuse_maxima.",
+    ),
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
+
+    With --uncalibrated the lights are estimated from the images (Hayakawa factorisation,
+    integrability, the GBR from --gbr-cue) and compared with the known ones (--chrome's or the
+    data set's): lights.txt then holds the estimate.
 
     Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
     depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);
@@ -90,9 +105,12 @@ def ps_command(
     from brdfkit.vision import datasets, photometric_stereo
     from brdfkit.vision import integration as integrate
     from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
+    from brdfkit.vision.uncalibrated import CUES
+    from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
 
     _choice(method, _METHODS, "--method")
     _choice(integration, _INTEGRATORS, "--integration")
+    _choice(gbr_cue, CUES, "--gbr-cue")
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
@@ -116,7 +134,19 @@ def ps_command(
         bar.update(task, description=f"{method}", completed=0, total=None)
         solver = photometric_stereo.METHODS[method]
         extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
-        result = solver(data.images, data.light_directions, data.mask, **extra)
+        if uncalibrated:
+            from dataclasses import replace
+
+            # The integrability smoothing is 1 px of the full-resolution images (see the module).
+            estimate = solve_uncalibrated(
+                data.images, data.mask, cue=gbr_cue, method=method, sigma=1.0 / step
+            )
+            cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
+            light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+            result = estimate.result
+            data = replace(data, light_directions=estimate.light_directions)
+        else:
+            result = solver(data.images, data.light_directions, data.mask, **extra)
         bar.update(task, description=f"integrating ({integration})", total=None)
         intrinsics = None if camera is None else _intrinsics(camera, step)
         integrator = integrate.METHODS[integration]
@@ -130,6 +160,11 @@ def ps_command(
         "lights": len(data.images),
         "pixels": int(data.mask.sum()),
     }
+    if uncalibrated:  # the lights of --chrome or of the data set, compared with the estimate
+        summary["gbr_cue"] = gbr_cue
+        summary["light_error_deg"] = {
+            "mean": float(light_error.mean()), "median": float(np.median(light_error))
+        }  # fmt: skip
     errors = None
     if data.normals is not None:
         errors = angular_error(result.normals, data.normals, data.mask)
@@ -172,6 +207,8 @@ def _table(summary: dict[str, Any]) -> Table:
     table.add_column("measure")
     table.add_column("value", justify="right")
     table.add_row("pixels", f"{summary['pixels']}")
+    if "light_error_deg" in summary:
+        table.add_row("median light error (°)", f"{summary['light_error_deg']['median']:.2f}")
     if "angular_error_deg" in summary:
         errors = summary["angular_error_deg"]
         table.add_row("mean angular error (°)", f"{errors['mean']:.2f}")

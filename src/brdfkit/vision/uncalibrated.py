@@ -1,0 +1,483 @@
+r"""Uncalibrated photometric stereo: lights and normals from the images alone.
+
+Lambertian images of ``P`` pixels under ``N`` distant lights form the rank-3 matrix
+``M = L B`` (``L`` the ``(N, 3)`` lights times their intensities, ``B`` the ``(3, P)``
+pseudo-normals ``b = rho n``). The pipeline:
+
+1. **Factorisation** (Hayakawa 1994): the SVD ``M = U S V^T`` of the pixels that no light
+   leaves in shadow, truncated to rank 3, gives ``L = U_3 S_3^{1/2} A^{-1}`` and
+   ``B = A S_3^{1/2} V_3^T`` up to an unknown invertible ``A`` (9 unknowns).
+2. **Integrability** (Yuille & Snow 1997; Belhumeur, Kriegman & Yuille 1999): a surface
+   ``z(x, y)`` has ``b_1 / b_3 = -z_x``, ``b_2 / b_3 = -z_y`` and so
+   ``d_y(b_1 / b_3) = d_x(b_2 / b_3)``, i.e. ``b_3 d_y b_1 - b_1 d_y b_3 = b_3 d_x b_2 -
+   b_2 d_x b_3``. With ``b = A e`` (``e`` the columns of the factor) and the identity
+   ``(a.c)(b.d) - (a.d)(b.c) = (a x b).(c x d)`` this reads, at every pixel,
+   ``(e x e_y) . c_1 - (e x e_x) . c_2 = 0`` with ``c_1 = a_3 x a_1``, ``c_2 = a_3 x a_2``
+   (``a_i`` the rows of ``A``): a homogeneous linear system in 6 unknowns. Its solution
+   fixes ``A`` up to the generalised bas-relief (GBR) transformation.
+3. **The GBR ambiguity** (Belhumeur, Kriegman & Yuille 1999): the surfaces
+   ``lambda z + mu x + nu y`` give the same images, with pseudo-normals ``b -> K b`` and lights
+   ``l -> K^{-T} l``,
+
+   ``K = [[lambda, 0, -mu], [0, lambda, -nu], [0, 0, 1]]``.
+
+   Its three parameters are fixed by a cue: **local diffuse reflectance maxima** (Papadhimitri
+   & Favaro): where the (locally uniform-albedo) shading of image ``k`` peaks, the normal points
+   at the light, ``K b ∥ K^{-T} l_k``, i.e. ``Q b ∥ l_k`` with ``Q = K^T K`` — linear in the
+   four entries of ``Q = [[q_1, 0, q_2], [0, q_1, q_3], [q_2, q_3, q_4]]``, solved in closed
+   form; or **minimum entropy of the albedo distribution** (Alldrin, Mallick & Kriegman 2007):
+   the GBR that makes the albedo histogram most concentrated. The sign of ``lambda`` (the
+   convex/concave ambiguity, which no image cue resolves) is chosen so that the normals next
+   to the mask's occluding contour point outwards.
+
+Finally the recovered lights (direction and relative intensity) go to a calibrated solver of
+:mod:`brdfkit.vision.photometric_stereo`, which estimates the normals at every pixel, shadowed
+ones included.
+
+Frame: x right, y up, z towards the camera (see :mod:`brdfkit.vision`).
+
+Measured on the real psm gray sphere (12 images, 8-bit; lights compared with the chrome-sphere
+calibration; ``tests/vision/test_uncalibrated.py``): with the entropy cue at full resolution
+the lights are 4.25° off (median; 9.1° at most) and the least-squares normals 9.07° mean
+against 6.39° with the calibrated lights; the diffuse-maxima cue gives 5.67° (the shading
+peaks of this real sphere lie 2-24° from the calibrated lights: its reflectance departs from
+Lambert's by about 4 % rms, and 8-bit plateaus move the maxima). The fragile step is
+integrability: on these images the smallest singular values of its system are within a factor
+1.2-2.5 of each other (160 on a render), and the result depends on the smoothing ``sigma``,
+chosen (1 px, about 1 % of the sphere's radius) on this very sphere: 0, 0.5, 1.5, 2, 3 and
+4 px give lights 69°, 79°, 9.5°, 11.7°, 12.9° and 13.3° off; at half resolution the same
+smoothing on the object (0.5 px) gives 4.9°, and 1 px there 11.9°. Even the best GBR within
+the integrable family found (fitted to the calibrated lights, an oracle) is 3.5-25° off
+depending on these choices, while the rank-3 factorisation itself admits lights within 1.4°
+(the best general linear map): the factorisation is sound, integrability on real 8-bit data is
+not robust.
+
+References
+----------
+.. [1] H. Hayakawa, "Photometric stereo under a light source with arbitrary motion", JOSA A
+   11(11), 3079-3089, 1994.
+.. [2] A. Yuille, D. Snow, "Shape and albedo from multiple images using integrability",
+   CVPR 1997.
+.. [3] P. N. Belhumeur, D. J. Kriegman, A. L. Yuille, "The bas-relief ambiguity", IJCV 35(1),
+   33-44, 1999.
+.. [4] T. Papadhimitri, P. Favaro, "A closed-form, consistent and robust solution to
+   uncalibrated photometric stereo via local diffuse reflectance maxima", IJCV 107(2),
+   139-154, 2014 (first as P. Favaro, T. Papadhimitri, "A closed-form solution to uncalibrated
+   photometric stereo via diffuse maxima", CVPR 2012).
+.. [5] N. G. Alldrin, S. P. Mallick, D. J. Kriegman, "Resolving the generalized bas-relief
+   ambiguity by entropy minimization", CVPR 2007.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from brdfkit.errors import ParameterError
+from brdfkit.vision import photometric_stereo
+from brdfkit.vision.photometric_stereo import PhotometricStereoResult, _gray, _prepare
+
+Cue = Literal["diffuse_maxima", "entropy"]
+CUES: tuple[str, ...] = ("diffuse_maxima", "entropy")
+"""The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
+
+
+@dataclass(frozen=True)
+class UncalibratedResult:
+    """Output of :func:`uncalibrated`.
+
+    Attributes
+    ----------
+    light_directions : (N, 3) unit directions towards the lights (x right, y up, z to camera).
+    light_intensities : (N,) relative intensities, median 1 (the overall scale is unknowable).
+    result : the calibrated solve with those lights (normals, albedo, mask).
+    gbr : ``(mu, nu, lambda)`` of the GBR transformation the cue chose, applied after the
+        integrability step.
+    """
+
+    light_directions: np.ndarray
+    light_intensities: np.ndarray
+    result: PhotometricStereoResult
+    gbr: tuple[float, float, float]
+
+
+def gbr_matrix(mu: float, nu: float, lam: float) -> np.ndarray:
+    """``K``, the GBR transformation of pseudo-normals ``b -> K b`` (lights go by ``K^{-T}``).
+
+    ``K = [[lambda, 0, -mu], [0, lambda, -nu], [0, 0, 1]]``: the surface ``z`` becomes
+    ``lambda z + mu x + nu y`` (up to the scale of ``b``, which only scales the albedo).
+
+    References
+    ----------
+    P. N. Belhumeur, D. J. Kriegman, A. L. Yuille, IJCV 35(1), 1999, eq. 3.
+    """
+    if lam == 0 or not np.all(np.isfinite((mu, nu, lam))):
+        raise ParameterError(f"GBR needs finite mu, nu and lambda != 0; got {(mu, nu, lam)}")
+    return np.array([[lam, 0.0, -mu], [0.0, lam, -nu], [0.0, 0.0, 1.0]])
+
+
+def lit_everywhere(
+    gray: np.ndarray, *, shadow_threshold: float = 0.05, saturation: float = 0.98
+) -> np.ndarray:
+    """Pixels ``(P,)`` that every light reaches and none saturates: where ``M`` is rank 3.
+
+    An observation is a shadow when it is below ``shadow_threshold`` times the 99th percentile
+    of its image, saturated when at or above ``saturation`` (images in [0, 1]).
+    """
+    if not 0 <= shadow_threshold < 1:
+        raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
+    level = np.percentile(gray, 99, axis=1, keepdims=True)
+    return np.all((gray > shadow_threshold * level) & (gray < saturation), axis=0)
+
+
+def factorize(gray: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rank-3 factorisation ``M ≈ L B`` of an ``(N, P)`` matrix (Hayakawa 1994).
+
+    ``M = U S V^T`` truncated to the three largest singular values:
+    ``L = U_3 S_3^{1/2}``, ``B = S_3^{1/2} V_3^T`` (computed from the ``N x N`` Gram matrix,
+    so the cost is ``N^2 P``).
+
+    Returns
+    -------
+    L : (N, 3); B : (3, P).
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994, §3.
+    """
+    eigenvalues, u = np.linalg.eigh(gray @ gray.T)
+    order = np.argsort(eigenvalues)[::-1][:3]
+    s = np.sqrt(np.maximum(eigenvalues[order], 0.0))
+    if s[2] <= 1e-12 * s[0]:
+        raise ParameterError("the images have rank below 3: the lights are coplanar or too few")
+    u = u[:, order]
+    v_t = (u.T @ gray) / s[:, None]
+    return u * np.sqrt(s), np.sqrt(s)[:, None] * v_t
+
+
+def integrability_transform(
+    pseudo_normals: np.ndarray, valid: np.ndarray, *, sigma: float = 0.0
+) -> np.ndarray:
+    """``A`` (3, 3) making ``A e`` integrable, up to a GBR transformation (Yuille & Snow 1997).
+
+    ``pseudo_normals`` is the ``(H, W, 3)`` map of the factor ``e`` (zero where not ``valid``).
+    The map is first smoothed by a Gaussian of ``sigma`` pixels inside ``valid`` (normalised
+    convolution; ``A`` commutes with it), which tames the derivatives of 8-bit images. At every
+    pixel whose four neighbours are valid, central differences give ``e_x`` (along a row) and
+    ``e_y`` (minus the difference down a column, as y goes up); the rows
+    ``[(e x e_y)^T, -(e x e_x)^T]`` form a homogeneous system for ``(c_1, c_2)``, solved by
+    the singular vector of the smallest singular value (rows scaled to unit length). Then
+    ``a_3 = c_1 x c_2 / |c_1 x c_2|``, ``a_1 = c_1 x a_3``, ``a_2 = c_2 x a_3`` (which give
+    back ``a_3 x a_i = c_i``); every other solution is ``K A`` with ``K`` a GBR matrix.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 6 pixels with four valid neighbours, or a degenerate solution.
+
+    References
+    ----------
+    A. Yuille, D. Snow, CVPR 1997, §3; P. N. Belhumeur et al., IJCV 35(1), 1999, §4.
+    """
+    e, v = pseudo_normals, valid
+    if sigma > 0:  # normalised convolution inside ``valid``; A commutes with it
+        from scipy import ndimage
+
+        weight = ndimage.gaussian_filter(v.astype(np.float64), sigma)
+        e = ndimage.gaussian_filter(e, (sigma, sigma, 0)) / np.maximum(weight, 1e-12)[..., None]
+        v = ndimage.binary_erosion(v, iterations=int(np.ceil(2 * sigma)))
+    both = v[1:-1, 1:-1] & v[1:-1, 2:] & v[1:-1, :-2] & v[2:, 1:-1] & v[:-2, 1:-1]
+    if both.sum() < 6:
+        raise ParameterError(
+            f"only {int(both.sum())} pixels have four lit neighbours; the integrability "
+            "constraint needs at least 6 (a larger, less shadowed mask)"
+        )
+    centre = e[1:-1, 1:-1][both]
+    e_x = (e[1:-1, 2:][both] - e[1:-1, :-2][both]) / 2
+    e_y = -(e[2:, 1:-1][both] - e[:-2, 1:-1][both]) / 2
+    rows = np.concatenate([np.cross(centre, e_y), -np.cross(centre, e_x)], axis=1)
+    rows /= np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-300)
+    _, _, v_t = np.linalg.svd(rows.T @ rows)
+    c_1, c_2 = v_t[-1, :3], v_t[-1, 3:]
+    a_3 = np.cross(c_1, c_2)
+    if np.linalg.norm(a_3) < 1e-12:
+        raise ParameterError("the integrability constraint is degenerate on these images")
+    a_3 /= np.linalg.norm(a_3)
+    return np.stack([np.cross(c_1, a_3), np.cross(c_2, a_3), a_3])
+
+
+def _local_maxima(image: np.ndarray, mask: np.ndarray, radius: int, sigma: float) -> np.ndarray:
+    """Pixels (bool map) that are the strict maximum of the smoothed ``image`` in a
+    ``(2 radius + 1)^2`` window lying wholly inside ``mask``."""
+    from scipy import ndimage
+
+    smooth = ndimage.gaussian_filter(np.where(mask, image, 0.0), sigma)
+    weight = ndimage.gaussian_filter(mask.astype(np.float64), sigma)
+    smooth = np.where(mask, smooth / np.maximum(weight, 1e-12), -np.inf)
+    size = 2 * radius + 1
+    peak = ndimage.maximum_filter(smooth, size=size, mode="constant", cval=-np.inf)
+    inside = ndimage.binary_erosion(mask, np.ones((size, size), bool), border_value=0)
+    return inside & (smooth == peak) & np.isfinite(smooth)
+
+
+def _q_to_gbr(q: np.ndarray) -> tuple[float, float, float]:
+    """``(mu, nu, |lambda|)`` from ``Q = K^T K`` up to scale: ``q = t (lambda^2, -lambda mu,
+    -lambda nu, mu^2 + nu^2 + 1)``."""
+    if q[0] < 0:
+        q = -q
+    if q[0] <= 0:
+        raise ParameterError("the diffuse maxima do not determine the GBR (q_1 = 0)")
+    m, n = -q[1] / q[0], -q[2] / q[0]
+    inverse_lam2 = q[3] / q[0] - m**2 - n**2
+    if inverse_lam2 <= 0:
+        raise ParameterError(
+            "the diffuse maxima are inconsistent with a GBR transformation (Q not positive "
+            "definite): too few maxima, or they are not where the normal meets the light"
+        )
+    lam = 1.0 / np.sqrt(inverse_lam2)
+    return float(lam * m), float(lam * n), float(lam)
+
+
+def _solve_q(b: np.ndarray, l: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Least-squares ``q`` of ``(Q b) x l = 0`` over pairs ``b, l`` (rows, unit length)."""
+    bx, by, bz = b.T
+    zero = np.zeros_like(bx)
+    # Q b = (q1 bx + q2 bz, q1 by + q3 bz, q2 bx + q3 by + q4 bz), as a (P, 3, 4) map of q.
+    qb = np.stack(
+        [np.stack([bx, bz, zero, zero], 1), np.stack([by, zero, bz, zero], 1),
+         np.stack([zero, bx, by, bz], 1)], axis=1,
+    )  # fmt: skip
+    rows = np.cross(qb, l[:, :, None], axis=1)  # (P, 3, 4): each component of (Q b) x l
+    rows = (rows * np.sqrt(weights)[:, None, None]).reshape(-1, 4)
+    _, _, v_t = np.linalg.svd(rows, full_matrices=False)
+    return v_t[-1]
+
+
+def resolve_gbr_diffuse_maxima(
+    gray_maps: np.ndarray,
+    pseudo_normals: np.ndarray,
+    lights: np.ndarray,
+    mask: np.ndarray,
+    *,
+    radius: int = 5,
+    sigma: float = 1.5,
+    iterations: int = 3,
+) -> tuple[float, float, float]:
+    """GBR ``(mu, nu, lambda)`` from local diffuse reflectance maxima (Papadhimitri & Favaro).
+
+    In each image the strict local maxima of the (Gaussian-smoothed) shading, away from the
+    mask's edge, are where ``n ∥ l_k`` when the albedo is locally uniform; there
+    ``Q b ∥ l_k`` with ``Q = K^T K``. The 4 entries of ``Q`` solve all these
+    ``(Q b) x l_k = 0`` in the least-squares sense (closed form: a 4-vector SVD); ``K`` follows
+    up to the sign of ``lambda`` (returned positive). Maxima whose angle between ``K b`` and
+    ``K^{-T} l_k`` exceeds twice the median (shading maxima that are albedo edges or
+    highlights) are dropped and the solve repeated ``iterations`` times.
+
+    Parameters
+    ----------
+    gray_maps : (N, H, W) shading images.
+    pseudo_normals : (H, W, 3) integrable pseudo-normals ``b`` (zero outside ``mask``).
+    lights : (N, 3) lights ``l`` with ``M = L B``.
+    mask : (H, W) pixels where ``b`` is known.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 2 maxima, or maxima that no GBR explains.
+
+    References
+    ----------
+    T. Papadhimitri, P. Favaro, IJCV 107(2), 2014, §4 (and CVPR 2012).
+    """
+    b_rows, l_rows = [], []
+    for k, image in enumerate(gray_maps):
+        peaks = _local_maxima(image, mask, radius, sigma)
+        b_rows.append(pseudo_normals[peaks])
+        l_rows.append(np.broadcast_to(lights[k], (int(peaks.sum()), 3)))
+    b = np.concatenate(b_rows)
+    l = np.concatenate(l_rows)
+    if len(b) < 2:
+        raise ParameterError(
+            f"found {len(b)} local diffuse maxima; resolving the GBR needs at least 2"
+        )
+    b = b / np.linalg.norm(b, axis=1, keepdims=True)
+    l = l / np.linalg.norm(l, axis=1, keepdims=True)
+    weights = np.ones(len(b))
+    for _ in range(iterations + 1):
+        mu, nu, lam = _q_to_gbr(_solve_q(b, l, weights))
+        k = gbr_matrix(mu, nu, lam)
+        n = b @ k.T
+        s = l @ np.linalg.inv(k)  # rows of K^{-T} l
+        cosine = np.sum(n * s, 1) / (np.linalg.norm(n, axis=1) * np.linalg.norm(s, axis=1))
+        angle = np.arccos(np.clip(cosine, -1, 1))
+        weights = (angle <= 2 * np.median(angle) + 1e-9).astype(np.float64)
+        if weights.sum() < 2:
+            break
+    return mu, nu, lam
+
+
+def _albedo_entropy(rho: np.ndarray, bins: int, bandwidth: float) -> float:
+    """Entropy of the density of ``rho / mean(rho)`` on ``[0, 3]``: linear binning into
+    ``bins`` bins, then a Gaussian kernel of ``bandwidth`` (a Parzen estimate that varies
+    continuously with ``rho``, as a minimiser needs)."""
+    from scipy import ndimage
+
+    position = np.clip(rho / rho.mean(), 0.0, 3.0) / 3.0 * (bins - 1)
+    low = np.minimum(np.floor(position).astype(np.int64), bins - 2)
+    upper = position - low
+    density = np.bincount(low, 1.0 - upper, bins) + np.bincount(low + 1, upper, bins)
+    density = ndimage.gaussian_filter1d(density, bandwidth / 3.0 * (bins - 1), mode="constant")
+    p = density[density > 0] / density.sum()
+    return float(-(p * np.log(p)).sum())
+
+
+def resolve_gbr_entropy(
+    pseudo_normals: np.ndarray, *, bins: int = 600, bandwidth: float = 0.01
+) -> tuple[float, float, float]:
+    """GBR ``(mu, nu, lambda)`` minimising the entropy of the albedo distribution (Alldrin 2007).
+
+    Under ``K`` the albedo is ``rho = |K b|``; a surface made of few materials has the most
+    concentrated albedo distribution at the true GBR. The albedos are normalised by their mean
+    (the overall scale is not observable), their density estimated on ``[0, 3]`` (Parzen
+    window of ``bandwidth``) and its Shannon entropy minimised over ``(mu, nu, log lambda)``:
+    a coarse grid search, then Nelder-Mead. ``lambda`` is returned positive.
+
+    Parameters
+    ----------
+    pseudo_normals : (P, 3) integrable pseudo-normals ``b``.
+    bins, bandwidth : the density estimate (bandwidth in units of the mean albedo).
+
+    References
+    ----------
+    N. G. Alldrin, S. P. Mallick, D. J. Kriegman, CVPR 2007, §3.
+    """
+    from scipy.optimize import minimize
+
+    b = pseudo_normals
+
+    def cost(x: np.ndarray) -> float:
+        mu, nu, log_lam = x
+        lam = np.exp(log_lam)
+        rho = np.sqrt((lam * b[:, 0] - mu * b[:, 2]) ** 2 + (lam * b[:, 1] - nu * b[:, 2]) ** 2
+                      + b[:, 2] ** 2)  # fmt: skip
+        return _albedo_entropy(rho, bins, bandwidth)
+
+    grid = [
+        (mu, nu, log_lam)
+        for mu in np.linspace(-2, 2, 9)
+        for nu in np.linspace(-2, 2, 9)
+        for log_lam in np.linspace(-1.5, 1.5, 7)
+    ]
+    x0 = np.array(min(grid, key=cost))
+    best = minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-5, "fatol": 1e-8})
+    mu, nu, log_lam = best.x
+    return float(mu), float(nu), float(np.exp(log_lam))
+
+
+def _outward_sign(normals: np.ndarray, mask: np.ndarray, width: int = 6) -> float:
+    """``+1`` when the normals within ``width`` pixels of the mask's edge point outwards on
+    average (x right, y up), ``-1`` otherwise: the convex reading of the bas-relief sign."""
+    from scipy import ndimage
+
+    distance = ndimage.distance_transform_edt(mask)
+    rim = mask & (distance <= width)
+    grad_row, grad_col = np.gradient(ndimage.gaussian_filter(distance, 2.0))
+    # Outwards = down the distance gradient; y is minus the row direction.
+    score = np.sum(-grad_col[rim] * normals[rim, 0] + grad_row[rim] * normals[rim, 1])
+    return 1.0 if score >= 0 else -1.0
+
+
+def uncalibrated(
+    images: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    cue: Cue = "diffuse_maxima",
+    method: str = "least_squares",
+    shadow_threshold: float = 0.05,
+    sigma: float = 1.0,
+) -> UncalibratedResult:
+    """Uncalibrated Lambertian photometric stereo: lights, then normals and albedo.
+
+    Factorisation of the fully lit pixels (:func:`factorize`), integrability
+    (:func:`integrability_transform`), the GBR from ``cue``
+    (:func:`resolve_gbr_diffuse_maxima` or :func:`resolve_gbr_entropy`), the convex sign, and
+    the calibrated ``method`` of :data:`brdfkit.vision.photometric_stereo.METHODS` run with
+    the lights found (the images divided by the relative intensities).
+
+    Parameters
+    ----------
+    images : (N, H, W) or (N, H, W, C) linear images, N >= 3 lights of unknown direction and
+        intensity.
+    mask : (H, W) bool, the object; all pixels when omitted.
+    cue : ``"diffuse_maxima"`` (closed form, any albedo that is locally uniform) or
+        ``"entropy"`` (objects of few albedos).
+    method : the calibrated solver for the final normals.
+    shadow_threshold : see :func:`lit_everywhere`.
+    sigma : smoothing (pixels) before the integrability derivatives
+        (:func:`integrability_transform`).
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images or mask (as :func:`~brdfkit.vision.photometric_stereo.least_squares`), an
+        unknown ``cue`` or ``method``, too few fully lit pixels, or images the cue cannot
+        resolve.
+    brdfkit.errors.ResourceError
+        The data would not fit in memory.
+
+    References
+    ----------
+    See the module: Hayakawa 1994; Yuille & Snow 1997; Belhumeur et al. 1999; Papadhimitri &
+    Favaro 2014; Alldrin et al. 2007.
+    """
+    if cue not in CUES:
+        raise ParameterError(f"cue must be one of {', '.join(CUES)}; got {cue!r}")
+    if method not in photometric_stereo.METHODS:
+        choices = ", ".join(photometric_stereo.METHODS)
+        raise ParameterError(f"method must be one of {choices}; got {method!r}")
+    images = np.asarray(images)
+    n_lights = images.shape[0] if images.ndim in (3, 4) else 0
+    placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
+    observations, _, mask = _prepare(images, placeholder, mask)
+    gray = _gray(observations)
+    lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
+    if lit.sum() < 10:
+        raise ParameterError(
+            f"only {int(lit.sum())} pixels are lit in every image; the factorisation needs "
+            "at least 10 (lower shadow_threshold, or use a larger mask)"
+        )
+    lights_hat, b_hat = factorize(gray[:, lit])
+    height, width = mask.shape
+    lit_map = np.zeros((height, width), bool)
+    lit_map.flat[np.flatnonzero(mask)[lit]] = True
+    e_map = np.zeros((height, width, 3))
+    e_map[lit_map] = b_hat.T
+    a = integrability_transform(e_map, lit_map, sigma=sigma)
+    b0 = a @ b_hat
+    if np.median(b0[2]) < 0:  # b -> -b, l -> -l explain the images too; normals face the camera
+        a = -a
+        b0 = -b0
+    lights0 = lights_hat @ np.linalg.inv(a)
+    b0_map = np.zeros((height, width, 3))
+    b0_map[lit_map] = b0.T
+    if cue == "diffuse_maxima":
+        gray_maps = np.zeros((n_lights, height, width))
+        gray_maps[:, mask] = gray
+        mu, nu, lam = resolve_gbr_diffuse_maxima(gray_maps, b0_map, lights0, lit_map)
+    else:
+        mu, nu, lam = resolve_gbr_entropy(b0.T)
+    k = gbr_matrix(mu, nu, lam)
+    if _outward_sign(np.einsum("ij,hwj->hwi", k, b0_map), lit_map) < 0:
+        mu, nu, lam = -mu, -nu, -lam  # the concave reading: K -> diag(-1, -1, 1) K
+        k = gbr_matrix(mu, nu, lam)
+    lights = lights0 @ np.linalg.inv(k)  # rows of K^{-T} l
+    intensity = np.linalg.norm(lights, axis=1)
+    directions = lights / intensity[:, None]
+    intensity = intensity / np.median(intensity)
+    shape = (-1,) + (1,) * (images.ndim - 1)
+    scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
+    result = photometric_stereo.METHODS[method](scaled, directions, mask)
+    return UncalibratedResult(directions, intensity, result, (mu, nu, lam))
