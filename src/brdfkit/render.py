@@ -33,7 +33,7 @@ import numpy as np
 
 from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF, Scaled, Sum
-from brdfkit.integrate import reflected_radiance
+from brdfkit.integrate import Estimate, reflected_radiance
 from brdfkit.lights import Light
 
 FRONT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -280,7 +280,7 @@ def shade(
     max_evaluations: int = 2_000_000,
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
-    compiled: bool | str = False,
+    compiled: bool | str = "auto",
 ) -> np.ndarray:
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
 
@@ -292,11 +292,16 @@ def shade(
     (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are sampled.
     ``progress(done, total)`` is called after each tile.
 
-    ``compiled`` (opt-in; one :class:`~brdfkit.lights.EnvironmentMap`, ``method`` ``"auto"``
-    or ``"mis"``, a BRDF :mod:`brdfkit.accel` compiles) shades each tile with the numba kernel
-    of :class:`brdfkit.render_kernel.EnvironmentShader` instead of NumPy: ``True`` in float32,
-    ``"float64"`` in float64 (then the image equals the NumPy one to rounding). Same tiles,
-    seeds and uniforms; pixels outside the mask are not sampled.
+    ``compiled`` chooses the compiled path: each tile shaded by the numba kernel of
+    :class:`brdfkit.render_kernel.EnvironmentShader` where it applies (one
+    :class:`~brdfkit.lights.EnvironmentMap` plus any delta lights, ``method`` ``"auto"`` or
+    ``"mis"``, a BRDF :mod:`brdfkit.accel` compiles: see
+    :func:`~brdfkit.render_kernel.compiled_shader`), NumPy elsewhere. ``"auto"`` (default):
+    float32 kernels when this model's are built already or the render has at least
+    :data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK` pixel-samples (building them costs
+    seconds); ``True``: float32 kernels wherever they apply; ``"float64"``: float64 kernels
+    (the image then equals the NumPy one to rounding); ``False``: NumPy. Same tiles, seeds and
+    uniforms on both paths (float32 kernels: equal to float32 precision).
     """
     return _shade(
         g, brdf, lights, method=method, samples=samples, seed=seed, sequence=sequence,
@@ -327,17 +332,13 @@ def _shade(
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels))
-    shader = None
-    if compiled is not False:
-        from brdfkit.render_kernel import EnvironmentShader
-
-        dtype = np.float32 if compiled is True else compiled
-        shader = EnvironmentShader(brdf, light_list, method=method, dtype=dtype)
+    plan = _compiled_plan(brdf, light_list, method, compiled, np.count_nonzero(g.mask) * samples)
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
         if np.any(m):
-            if shader is not None:
+            if plan is not None:
+                shader, others = plan
                 estimate = shader(
                     g.wo[rows],
                     g.normals[rows],
@@ -348,6 +349,12 @@ def _shade(
                     sequence=sequence,
                     mask=m,
                 )
+                if others:  # delta lights: exact, no samples
+                    exact = reflected_radiance(
+                        slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
+                        normal=g.normals[rows], point=g.points[rows], tangent=g.tangents[rows],
+                    )  # fmt: skip
+                    estimate = Estimate(estimate.value + to_numpy(exact.value), estimate.stderr)
             else:
                 estimate = reflected_radiance(
                     slice_brdf(brdf, (height, width), rows),
@@ -367,6 +374,27 @@ def _shade(
         if progress is not None:
             progress(rows.stop, height)
     return image, stderr
+
+
+COMPILED = (True, False, "auto", "float64")
+"""Values of :func:`shade`'s ``compiled``."""
+
+
+def _compiled_plan(
+    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str, work: int
+) -> tuple[Any, list[Light]] | None:
+    """The compiled shader and the delta lights left to NumPy, or ``None`` for the NumPy path."""
+    if not any(compiled is c or (isinstance(compiled, str) and compiled == c) for c in COMPILED):
+        raise ValueError(
+            f"compiled must be one of True, False, 'auto', 'float64'; got {compiled!r}"
+        )
+    if compiled is False:
+        return None
+    from brdfkit.render_kernel import AUTO_COMPILE_WORK, compiled_shader
+
+    dtype = np.float64 if compiled == "float64" else np.float32
+    build = compiled != "auto" or work >= AUTO_COMPILE_WORK
+    return compiled_shader(brdf, lights, method=method, dtype=dtype, build=build)
 
 
 def render_sphere(
@@ -414,11 +442,13 @@ def progressive(
     The first pass shades ``first_samples`` samples per pixel (an image in a fraction of a
     full render's time); each later pass shades as many samples as all passes before it,
     with its own seeds, so the total doubles (1, 2, 4, …) until ``max_samples``. Each pass is
-    a :func:`shade` call (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …; the
-    compiled path when available). Passes are combined by the exact pooled mean and sum of
-    squared deviations (Chan et al.), so ``stderr`` is :math:`\sqrt{M_2}/N` over all N
-    samples — the per-sample spread between passes included (0 after a single sample: no
-    estimate yet; with Sobol sequences a conservative over-estimate). Setting ``cancel``
+    a :func:`shade` call (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …). With
+    ``compiled="auto"`` (default) the compiled kernels are built on a background thread while
+    the first passes run on NumPy, and used from the next pass once they are ready. Passes
+    are combined by the exact pooled mean and sum of squared deviations (Chan et al.), so
+    ``stderr`` is :math:`\sqrt{M_2}/N` over all N samples — the per-sample spread between
+    passes included (0 after a single sample: no estimate yet; with Sobol sequences a
+    conservative over-estimate). Setting ``cancel``
     stops rendering between tiles: the pass under way is dropped and the iterator ends.
 
     References
@@ -443,6 +473,8 @@ def progressive(
         if user_progress is not None:
             user_progress(done, total)
 
+    kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
+    builder = _background_build(brdf, lights, kwargs) if kwargs["compiled"] == "auto" else None
     start = time.perf_counter()
     count, mean, m2 = 0, None, None
     index = 0
@@ -452,10 +484,12 @@ def progressive(
         n = min(first_samples if count == 0 else count, max_samples - count)
         pass_seed = seed if index == 0 else _pass_seed(seed, index)
         try:
+            if builder is not None and not builder.is_alive():
+                # the kernels are ready (or do not apply: NumPy from now on)
+                kwargs["compiled"], builder = builder.built, None  # type: ignore[attr-defined]
             value, stderr = _shade(
-                g, brdf, lights, **{**_SHADE_DEFAULTS, **shade_kwargs},
-                samples=n, seed=pass_seed, progress=between_tiles,
-            )  # fmt: skip
+                g, brdf, lights, **kwargs, samples=n, seed=pass_seed, progress=between_tiles
+            )
         except _Cancelled:
             return
         pass_m2 = stderr * stderr * (n * n)
@@ -469,6 +503,31 @@ def progressive(
         count += n
         index += 1
         yield Pass(mean.copy(), np.sqrt(m2) / count, count, time.perf_counter() - start)
+
+
+def _background_build(
+    brdf: BRDF, lights: Light | Sequence[Light], kwargs: dict[str, Any]
+) -> threading.Thread | None:
+    """A thread building the compiled shader while the first passes run on NumPy, or ``None``
+    where it is built already (``kwargs["compiled"]`` then becomes ``True``)."""
+    from brdfkit.render_kernel import compiled_shader
+
+    light_list = [lights] if isinstance(lights, Light) else list(lights)
+    method = kwargs["method"]
+    if compiled_shader(brdf, light_list, method=method, build=False) is not None:
+        kwargs["compiled"] = True
+        return None
+
+    def build() -> None:
+        plan = compiled_shader(brdf, light_list, method=method)
+        if plan is not None:
+            plan[0].build()
+            thread.built = True  # type: ignore[attr-defined]
+
+    thread = threading.Thread(target=build, name="brdfkit-compile", daemon=True)
+    thread.built = False  # type: ignore[attr-defined]
+    thread.start()
+    return thread
 
 
 def progressive_sphere(
