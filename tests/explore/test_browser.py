@@ -255,3 +255,38 @@ def test_requests_without_the_token_are_refused(page, server):
         f"ws://127.0.0.1:{server.port}/ws",
     )
     assert closed == "closed"
+
+
+def test_the_environment_lit_sphere_refines_and_agrees_with_python(server, browser):
+    from brdfkit.render import progressive_sphere
+
+    server.session.warmed.wait(timeout=120)
+    context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
+    page = context.new_page()
+    page.goto(server.url)
+    settled(page)
+    page.locator(".bx-envmap").check()
+    page.wait_for_function(
+        "() => (window.explorer.env.b1 || {}).samples >= 8", timeout=120_000, polling=200
+    )
+    env = page.evaluate("window.explorer.env.b1")
+    assert env["noise"] > 0
+    caption = page.locator(".bx-env-box .bx-caption").first.inner_text()
+    assert "spp" in caption and "noise" in caption
+    # the pass's values and the canvas, read at once (a new pass may arrive at any time)
+    values, pixels, samples = page.evaluate(
+        """() => { const c = document.querySelector('.bx-env[data-id="b1"]');
+           const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+           return [window.explorer.envImage('b1'), Array.from(d), window.explorer.env.b1.samples];
+        }"""
+    )
+    brdf = parse(entry(page, 0)["info"]["spec"])
+    reference = list(progressive_sphere(brdf, server.session.envmap, 256, max_samples=16))[-1]
+    shown = np.asarray(values, np.float64).reshape(reference.image.shape)
+    sigma = reference.stderr * math.sqrt(1 + reference.samples / samples)
+    off = np.abs(shown - reference.image) > 5 * sigma + 1e-3
+    assert off.mean() < 0.01, f"{off.mean():.3%} of pixels disagree beyond 5σ"
+    # the canvas shows those values, tone-mapped as the directional sphere is
+    pixels = np.asarray(pixels, np.int64).reshape(256, 256, 4)[..., :3]
+    assert np.abs(pixels - expected_pixels(shown)).max() <= 1
+    context.close()

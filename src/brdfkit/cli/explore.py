@@ -17,6 +17,12 @@ def explore_command(
         help='Model specs ("ggx(alpha=0.1)") and measured files (MERL .binary, RGL .bsdf, '
         "Cornell .brdf) to show; the default is a Lambertian + GGX.",
     ),
+    envmap: Path = typer.Option(
+        None,
+        "--envmap",
+        metavar="FILE",
+        help="Lat-long .hdr/.exr map of the environment-lit sphere (default: the bundled one).",
+    ),
     port: int = typer.Option(0, "--port", metavar="N", help="Port on 127.0.0.1 (0: a free one)."),
     no_browser: bool = typer.Option(
         False, "--no-browser", help="Print the address instead of opening a browser."
@@ -35,7 +41,7 @@ def explore_command(
 
     if not 0 <= port <= 65535:
         fail(f"--port must be in [0, 65535]; got {port}")
-    session = Session()
+    session = Session(envmap)
     initial = []
     for item in items or []:
         if Path(item).suffix.lower() in MEASURED_SUFFIXES:

@@ -140,7 +140,7 @@ def _entry(raw: Any, index: int) -> Entry:
 def _view(raw: Any) -> ViewState:
     if not isinstance(raw, dict):
         raise ProtocolError("state.view must be an object")
-    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance"}
+    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap"}
     if unknown:
         raise ProtocolError(f"state.view has unknown fields {sorted(unknown)[:5]}")
     values: dict[str, Any] = {}
@@ -151,6 +151,10 @@ def _view(raw: Any) -> ViewState:
         if raw["resolution"] not in RESOLUTIONS or isinstance(raw["resolution"], bool):
             raise ProtocolError(f"view.resolution must be one of {RESOLUTIONS}")
         values["resolution"] = int(raw["resolution"])
+    if "envmap" in raw:
+        if not isinstance(raw["envmap"], bool):
+            raise ProtocolError("view.envmap must be true or false")
+        values["envmap"] = raw["envmap"]
     if "irradiance" in raw:
         values["irradiance"] = _number("view.irradiance", raw["irradiance"], 0.0, 1e6)
     return ViewState(**values)

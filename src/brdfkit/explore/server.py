@@ -114,7 +114,10 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
         return FileResponse(STATIC / "index.html", headers=SECURITY_HEADERS)
 
     async def config(request: Request) -> Response:
-        return JSONResponse({"initial": initial, "files": session.files}, headers=SECURITY_HEADERS)
+        return JSONResponse(
+            {"initial": initial, "files": session.files, "envmap": session.envmap_name},
+            headers=SECURITY_HEADERS,
+        )
 
     async def upload(request: Request) -> Response:
         name = request.query_params.get("name", "")
@@ -169,9 +172,29 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
                     if any(pending[k] is not None for k in kinds):
                         wake.set()
 
+        env: dict[str, Any] = {"message": None, "cancel": threading.Event()}
+        wakes["env"] = asyncio.Event()
+
+        async def environment() -> None:
+            # The environment-lit spheres, pass by pass; a newer render cancels the old one.
+            while True:
+                await wakes["env"].wait()
+                wakes["env"].clear()
+                message, env["message"] = env["message"], None
+                if message is None:
+                    continue
+                cancel = env["cancel"] = threading.Event()
+                passes = session.environment(message, cancel)
+                while not cancel.is_set():
+                    result = await asyncio.to_thread(next, passes, None)
+                    if result is None or cancel.is_set():
+                        break
+                    await reply([result])
+
         workers = [
             asyncio.create_task(work(wakes["fast"], ("render",))),
             asyncio.create_task(work(wakes["slow"], ("checks", "albedo"))),
+            asyncio.create_task(environment()),
         ]
         try:
             while True:
@@ -188,6 +211,10 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
                     continue
                 pending[message.type] = message
                 wakes["fast" if message.type == "render" else "slow"].set()
+                if message.type == "render":
+                    env["cancel"].set()
+                    env["message"] = message
+                    wakes["env"].set()
         except WebSocketDisconnect:
             pass
         finally:
@@ -226,6 +253,8 @@ class ExplorerServer:
         self._socket.bind(("127.0.0.1", port))
         self.port = self._socket.getsockname()[1]
         self.app = build_app(session, self.token, self.port, initial)
+        specs = [item for item in initial if item not in session.files]
+        threading.Thread(target=session.warm_up, args=(specs,), daemon=True).start()
         self._server: Any = None
         self._thread: threading.Thread | None = None
 

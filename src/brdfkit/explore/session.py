@@ -13,7 +13,7 @@ import shutil
 import tempfile
 import threading
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -42,13 +42,23 @@ Reply = tuple[dict[str, Any], list[np.ndarray]]
 class Session:
     """The state behind one explorer page or widget."""
 
-    def __init__(self) -> None:
+    def __init__(self, envmap: str | os.PathLike | None = None) -> None:
+        """``envmap``: the environment map (``.hdr``/``.exr``) of the environment-lit sphere;
+        ``None``, the bundled one (:func:`brdfkit.data.default_envmap_path`)."""
+        from brdfkit.data import default_envmap_path
+        from brdfkit.lights import EnvironmentMap
+
+        path = Path(envmap) if envmap is not None else default_envmap_path()
+        self.envmap = EnvironmentMap.from_file(path)
+        self.envmap_name = path.name
         self._paths: dict[str, Path] = {}
         self._brdfs: dict[str, BRDF] = {}
         self._cache: OrderedDict[str, BRDF] = OrderedDict()
         self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
         self._lock = threading.Lock()
         self._uploads: Path | None = None
+        self.warmed = threading.Event()
+        """Set once :meth:`warm_up` has run."""
 
     # -- files -------------------------------------------------------------------------------
     @property
@@ -217,6 +227,55 @@ class Session:
             "arrays": table,
         }
         return header, arrays
+
+    def environment(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
+        """The environment-lit sphere of each visible entry, refined pass by pass (the entries'
+        passes interleaved), until ``cancel`` is set or every sphere has its samples."""
+        if not message.view.envmap:
+            return
+        resolution = min(message.view.resolution, 256)
+        mask = views.sphere_gbuffer(resolution).mask
+        runs = []
+        for entry in message.entries:
+            if entry.visible:
+                try:
+                    brdf, _ = self.brdf(entry)
+                except (BrdfkitError, ValueError):
+                    continue
+                runs.append(
+                    (entry.id, views.environment_passes(brdf, self.envmap, resolution, cancel))
+                )
+        while runs and not cancel.is_set():
+            for entry_id, run in list(runs):
+                p = next(run, None)
+                if p is None or cancel.is_set():
+                    runs.remove((entry_id, run))
+                    continue
+                image = p.image.astype(np.float32)
+                header = {
+                    "type": "env",
+                    "seq": message.seq,
+                    "id": entry_id,
+                    "samples": p.samples,
+                    "seconds": p.seconds,
+                    "noise": views.relative_noise(p, mask),
+                    "map": self.envmap_name,
+                    "arrays": array_table([image])[0],
+                }
+                yield header, [image]
+
+    def warm_up(self, specs: list[str]) -> None:
+        """Render the environment-lit sphere of ``specs`` once, small: the map's tables and the
+        compiled kernels of those models are built before the page asks (in a fresh process
+        the first pass otherwise takes seconds)."""
+        for spec in specs or ["lambertian + ggx"]:
+            try:
+                brdf = parse(spec)
+            except (BrdfkitError, ValueError):
+                continue
+            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=4):
+                pass
+        self.warmed.set()
 
     def checks(self, message: Message) -> Reply:
         """The physics checks (:func:`brdfkit.properties.check`) of the message's entry."""

@@ -17,6 +17,8 @@ References
 from __future__ import annotations
 
 import math
+import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -24,8 +26,8 @@ import numpy as np
 
 from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import from_half_diff, spherical_to_cartesian
-from brdfkit.lights import DirectionalLight
-from brdfkit.render import GBuffer, Sphere, gbuffer, shade
+from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive, shade
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
@@ -39,6 +41,9 @@ SLICE_RESOLUTION = 90
 
 LOBE_GRID = (24, 48)
 """(θo, φo) nodes of the 3D lobe mesh."""
+
+ENV_MAX_SAMPLES = 1024
+"""Samples per pixel at which the environment-lit sphere stops refining."""
 
 ALBEDO_ANGLES = 16
 ALBEDO_SAMPLES = 1024
@@ -55,6 +60,7 @@ class ViewState:
     phi_d: float = 90.0
     resolution: int = 256
     irradiance: float = math.pi
+    envmap: bool = False
 
     def wi(self) -> np.ndarray:
         """The incident direction (local), ``(3,)``."""
@@ -80,6 +86,26 @@ def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
 HORIZON = 1e-6
 """Directions with cos θ at most this are drawn as 0 (at the horizon f·cos θ has a finite limit
 but f itself may overflow)."""
+
+
+def environment_passes(
+    brdf: BRDF,
+    envmap: EnvironmentMap,
+    resolution: int,
+    cancel: threading.Event | None = None,
+    max_samples: int = ENV_MAX_SAMPLES,
+) -> Iterator[Pass]:
+    """The sphere under ``envmap`` refined progressively (:func:`brdfkit.render.progressive`:
+    1, 2, 4, … samples per pixel), stopping when ``cancel`` is set."""
+    return progressive(
+        sphere_gbuffer(resolution), brdf, envmap, max_samples=max_samples, cancel=cancel
+    )
+
+
+def relative_noise(p: Pass, mask: np.ndarray) -> float:
+    """The image's Monte Carlo noise: RMS standard error over the sphere / its mean value."""
+    mean = float(np.mean(p.image[mask]))
+    return float(np.sqrt(np.mean(p.stderr[mask] ** 2)) / mean) if mean > 0 else 0.0
 
 
 def _eval(brdf: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -163,15 +189,18 @@ __all__ = [
     "ALBEDO_ANGLES",
     "ALBEDO_SAMPLES",
     "CURVE_SAMPLES",
+    "ENV_MAX_SAMPLES",
     "HORIZON",
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
     "SLICE_RESOLUTION",
     "ViewState",
     "albedo",
+    "environment_passes",
     "half_diff_slice",
     "incidence_plane",
     "lobe",
+    "relative_noise",
     "sphere",
     "sphere_gbuffer",
     "theta_d_curve",

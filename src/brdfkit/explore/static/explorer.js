@@ -241,7 +241,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, shown: { seq: 0, time: 0 }, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, shown: { seq: 0, time: 0 }, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -297,6 +297,12 @@ export function createExplorer(root, transport, config = {}) {
     inputs[key] = { check: c };
     globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: label })]));
   };
+  if (config.envmap) {
+    const c = el("input", { type: "checkbox", checked: !!state.view.envmap, className: "bx-envmap" });
+    c.addEventListener("change", () => { state.view.envmap = c.checked; changed(); });
+    inputs.envmap = { check: c };
+    globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: `environment map (${config.envmap})` })]));
+  }
   check("log", "log-scale plots");
   check("cosine", "multiply by cos θ (lobe, polar, θv)");
   const exports = el("div", { className: "bx-exports" }, [
@@ -314,6 +320,8 @@ export function createExplorer(root, transport, config = {}) {
     return { box, canvas };
   };
   const spheres = el("div", { className: "bx-panel bx-spheres" });
+  const envPanel = el("div", { className: "bx-panel bx-envs" });
+  const envs = new Map();  // id → {canvas, caption, data, size, C}
   const slices = el("div", { className: "bx-panel bx-slices" });
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
   const lobe = panel("lobe", "3D lobe (drag to rotate)", 360, 300);
@@ -326,7 +334,7 @@ export function createExplorer(root, transport, config = {}) {
   const checksBox = el("div", { className: "bx-panel bx-checks" }, [el("div", { className: "bx-title", textContent: "physics checks" })]);
   const checksBody = el("div", { className: "bx-checks-body", textContent: "select a BRDF's “check” button" });
   checksBox.append(checksBody);
-  mainPane.append(spheres, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), slices, checksBox);
+  mainPane.append(spheres, envPanel, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), slices, checksBox);
 
   let drag = null;
   lobe.canvas.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY }; lobe.canvas.setPointerCapture(e.pointerId); });
@@ -452,6 +460,8 @@ export function createExplorer(root, transport, config = {}) {
     } else if (header.type === "albedo") {
       albedo = { header, arrays };
       redraw();
+    } else if (header.type === "env") {
+      showEnv(header, arrays[0]);
     } else if (header.type === "checks") {
       showChecks(header);
     } else if (header.type === "error") {
@@ -479,6 +489,39 @@ export function createExplorer(root, transport, config = {}) {
     saveUrl();
   }
 
+  let envSeq = 0;
+  function showEnv(header, data) {
+    if (header.seq < envSeq) return;  // a pass of a cancelled render
+    envSeq = header.seq;
+    let item = envs.get(header.id);
+    if (!item) {
+      const canvas = el("canvas", { className: "bx-env", title: "environment-lit sphere, refined progressively" });
+      canvas.dataset.id = header.id;
+      const caption = el("div", { className: "bx-caption" });
+      item = { canvas, caption, box: el("div", { className: "bx-env-box" }, [canvas, caption]) };
+      envs.set(header.id, item);
+    }
+    const size = header.arrays[0].shape[0];
+    Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
+    api.env[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, time: performance.now() };
+    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    drawEnvs();
+  }
+  function drawEnvs() {
+    const ids = visibleIds();
+    const shown = state.view.envmap ? state.entries.filter((e) => ids.has(e.id) && envs.has(e.id)) : [];
+    for (const e of shown) {
+      const item = envs.get(e.id);
+      if (item.canvas.width !== item.size) { item.canvas.width = item.size; item.canvas.height = item.size; }
+      item.canvas.style.borderColor = e.color;
+      item.canvas.getContext("2d").putImageData(new ImageData(toPixels(item.data, item.size, item.C, state.display), item.size, item.size), 0, 0);
+    }
+    const boxes = shown.map((e) => envs.get(e.id).box);
+    const current = Array.from(envPanel.children);
+    if (current.length !== boxes.length || current.some((c, i) => c !== boxes[i])) envPanel.replaceChildren(...boxes);
+    envPanel.hidden = !shown.length;
+  }
+
   function showChecks(header) {
     const r = header.report;
     const rows = r.checks.map((c) => el("tr", { className: c.contradicts_claim ? "bad" : c.passed ? "ok" : "" }, [
@@ -496,6 +539,7 @@ export function createExplorer(root, transport, config = {}) {
   function redraw() {
     saveUrl();
     if (!frame) return;
+    drawEnvs();
     const { header, arrays } = frame;
     const d = state.display;
     const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
@@ -660,6 +704,7 @@ export function createExplorer(root, transport, config = {}) {
     }
   }
   api.addEntry = addEntry;
+  api.envImage = (id) => Array.from(envs.get(id).data);
   api.restore = restore;
   api.persistent = persistent;
   if (config.saved) restore(config.saved);
