@@ -251,6 +251,7 @@ class ExplorerServer:
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._socket.bind(("127.0.0.1", port))
+        self._socket.listen(64)  # connections wait in the backlog until uvicorn serves
         self.port = self._socket.getsockname()[1]
         self.app = build_app(session, self.token, self.port, initial)
         specs = [item for item in initial if item not in session.files]
