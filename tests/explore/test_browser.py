@@ -9,9 +9,11 @@ token are refused.
 
 from __future__ import annotations
 
+import json
 import math
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ from brdfkit.brdf import parse
 from brdfkit.geometry import from_half_diff
 from brdfkit.lights import DirectionalLight
 from brdfkit.measured import read
+from brdfkit.properties import check
 from brdfkit.render import render_sphere
 
 pytestmark = pytest.mark.slow
@@ -30,7 +33,9 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 @pytest.fixture(scope="module")
 def page(server, browser):
-    context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
+    context = browser.new_context(
+        viewport={"width": 1500, "height": 1100}, bypass_csp=True, accept_downloads=True
+    )
     p = context.new_page()
     errors: list[str] = []
     p.on("pageerror", lambda e: errors.append(str(e)))
@@ -220,6 +225,44 @@ def test_uploading_a_file(page, merl_file):
     e = entry(page, 3)
     assert e["source"]["file"].endswith(".binary") and e["source"]["file"] != merl_file.name
     assert_sphere_matches(page, read(merl_file), e["id"])
+
+
+def test_solo_physics_checks_and_exports(page):
+    ids = page.evaluate("window.explorer.state.entries.map((e) => e.id)")
+    before = page.evaluate("window.explorer.shown.seq")
+    page.locator(f'.bx-entry[data-id="{ids[2]}"] .bx-solo').click()
+    settled(page, before)
+    assert page.evaluate(
+        "Array.from(document.querySelectorAll('.bx-sphere')).map(c => c.dataset.id)"
+    ) == [ids[2]]
+    # the physics checks of the gold GGX, with their numbers
+    page.locator(f'.bx-entry[data-id="{ids[2]}"] .bx-check').click()
+    page.wait_for_selector(".bx-checks table", timeout=120_000)
+    rows = page.locator(".bx-checks tr").all_inner_texts()
+    shown = [row.split("\t")[:2] for row in rows[1:]]
+    report = check(parse(entry(page, 2)["info"]["spec"]))
+    assert shown == [[r.name, r.verdict] for r in report.results]
+    assert {"reciprocity", "energy"} <= {name for name, _ in shown}
+    # exports: a PNG of a view, the specs, the parameters as JSON
+    with page.expect_download() as png:
+        page.locator(".bx-panel-polar .bx-png").click()
+    assert png.value.suggested_filename == "polar.png"
+    assert Path(png.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with page.expect_download() as spheres:
+        page.locator(".bx-panel-spheres .bx-png").click()
+    assert Path(spheres.value.path()).read_bytes()[:4] == b"\x89PNG"
+    with page.expect_download() as specs:
+        page.locator(".bx-export-spec").click()
+    lines = Path(specs.value.path()).read_text().splitlines()
+    assert parse(lines[2]).to_spec() == parse(entry(page, 2)["info"]["spec"]).to_spec()
+    with page.expect_download() as saved:
+        page.locator(".bx-export-json").click()
+    state = json.loads(Path(saved.value.path()).read_text())
+    assert [e["id"] for e in state["entries"]] == ids
+    before = page.evaluate("window.explorer.shown.seq")
+    page.locator(f'.bx-entry[data-id="{ids[2]}"] .bx-solo').click()
+    settled(page, before)
+    assert page.locator(".bx-sphere").count() >= 3
 
 
 def test_the_url_restores_the_state(page, browser):

@@ -319,10 +319,25 @@ export function createExplorer(root, transport, config = {}) {
     const box = el("div", { className: `bx-panel bx-panel-${name}` }, [el("div", { className: "bx-title" }, [el("span", { textContent: title }), png]), canvas]);
     return { box, canvas };
   };
-  const spheres = el("div", { className: "bx-panel bx-spheres" });
-  const envPanel = el("div", { className: "bx-panel bx-envs" });
+  // A panel of several canvases (one per BRDF); its PNG puts them side by side.
+  const group = (name, title) => {
+    const body = el("div", { className: `bx-${name}` });
+    const png = el("button", { textContent: "PNG", className: "bx-png", onclick: () => {
+      const parts = Array.from(body.querySelectorAll("canvas"));
+      const out = el("canvas", { width: parts.reduce((w, c) => w + c.width, 0) || 1, height: Math.max(1, ...parts.map((c) => c.height)) });
+      let x = 0;
+      for (const c of parts) { out.getContext("2d").drawImage(c, x, 0); x += c.width; }
+      out.toBlob((b) => download(`${name}.png`, b));
+    } });
+    const box = el("div", { className: `bx-panel bx-panel-${name}` }, [el("div", { className: "bx-title" }, [el("span", { textContent: title }), png]), body]);
+    return { box, body };
+  };
+  const sphereGroup = group("spheres", "lit spheres, directional light (drag to move it); last: |first − second|");
+  const envGroup = group("envs", "lit spheres, environment map (refined progressively)");
+  const spheres = sphereGroup.body, envPanel = envGroup.body;
   const envs = new Map();  // id → {canvas, caption, data, size, C}
-  const slices = el("div", { className: "bx-panel bx-slices" });
+  const sliceGroup = group("slices", "θh × θd slices (log)");
+  const slices = sliceGroup.body;
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
   const lobe = panel("lobe", "3D lobe (drag to rotate)", 360, 300);
   const curves = {
@@ -334,7 +349,7 @@ export function createExplorer(root, transport, config = {}) {
   const checksBox = el("div", { className: "bx-panel bx-checks" }, [el("div", { className: "bx-title", textContent: "physics checks" })]);
   const checksBody = el("div", { className: "bx-checks-body", textContent: "select a BRDF's “check” button" });
   checksBox.append(checksBody);
-  mainPane.append(spheres, envPanel, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), slices, checksBox);
+  mainPane.append(sphereGroup.box, envGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
 
   let drag = null;
   lobe.canvas.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY }; lobe.canvas.setPointerCapture(e.pointerId); });
@@ -519,7 +534,7 @@ export function createExplorer(root, transport, config = {}) {
     const boxes = shown.map((e) => envs.get(e.id).box);
     const current = Array.from(envPanel.children);
     if (current.length !== boxes.length || current.some((c, i) => c !== boxes[i])) envPanel.replaceChildren(...boxes);
-    envPanel.hidden = !shown.length;
+    envGroup.box.hidden = !shown.length;
   }
 
   function showChecks(header) {
@@ -603,7 +618,8 @@ export function createExplorer(root, transport, config = {}) {
     lobePlot(lobe.canvas, meshes, wi, state.rotation);
 
     // θh × θd slices (log colour scale)
-    slices.replaceChildren(el("div", { className: "bx-title", textContent: `θh × θd slice at φd = ${state.view.phi_d}° (log)` }), ...shown.map((e) => {
+    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${state.view.phi_d}° (log colour scale)`;
+    slices.replaceChildren(...shown.map((e) => {
       const spec = header.arrays[header.views[e.id].slice];
       const n = spec.shape[0];
       const v = channelOf(arr(e, "slice"), channels(e), d.channel);
