@@ -225,6 +225,16 @@ def test_uploading_a_file(page, merl_file):
     e = entry(page, 3)
     assert e["source"]["file"].endswith(".binary") and e["source"]["file"] != merl_file.name
     assert_sphere_matches(page, read(merl_file), e["id"])
+    # a fit.json (brdfkit fit's result) becomes its fitted model
+    fit = merl_file.with_name("fit.json")
+    fit.write_text(json.dumps({"file": merl_file.name, "spec": "phong(n=12, ks=0.3)"}))
+    before = page.evaluate("window.explorer.shown.seq")
+    page.set_input_files(".bx-upload", str(fit))
+    page.wait_for_function("window.explorer.state.entries.length === 5", timeout=60_000)
+    settled(page, before)
+    fitted = parse(entry(page, 4)["info"]["spec"])
+    assert fitted.to_spec() == parse("phong(n=12, ks=0.3)").to_spec()
+    assert_sphere_matches(page, fitted, entry(page, 4)["id"])
 
 
 def test_solo_physics_checks_and_exports(page):

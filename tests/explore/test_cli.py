@@ -78,3 +78,11 @@ def test_the_command_serves_the_page_on_loopback():
     finally:
         process.terminate()
         process.wait(timeout=10)
+
+
+def test_a_bad_fit_json_is_refused(tmp_path):
+    fit = tmp_path / "fit.json"
+    fit.write_text('{"spec": "ggx(alpha=-1)"}')
+    one_error_line(runner.invoke(app, ["explore", "--no-browser", str(fit)]), "alpha")
+    fit.write_text("[]")
+    one_error_line(runner.invoke(app, ["explore", "--no-browser", str(fit)]), "fit.json")

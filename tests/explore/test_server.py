@@ -162,3 +162,15 @@ def test_an_oversized_message_closes_the_channel_not_the_server(server):
     with connect(server) as ws:  # the server still serves
         ws.send(json.dumps(RENDER))
         assert receive(ws)["type"] == "frame"
+
+
+def test_a_fit_json_upload_gives_its_spec(server):
+    origin = {"Origin": f"http://127.0.0.1:{server.port}"}
+    url = server.url + "upload?name=fit.json"
+    body = json.dumps({"file": "gold.binary", "spec": "ggx(alpha=0.3, material='Au')"}).encode()
+    request = urllib.request.Request(url, headers=origin, data=body)
+    with urllib.request.urlopen(request, timeout=5) as response:
+        spec = json.loads(response.read())["spec"]
+    assert spec.startswith("ggx(alpha=0.3") and "'Au'" in spec
+    for bad in (b"{", b'{"spec": 3}', b'{"spec": "__import__(1)"}'):
+        assert status(url, origin, data=bad) == 400

@@ -14,8 +14,9 @@ def explore_command(
     items: list[str] = typer.Argument(
         None,
         metavar="[SPEC_OR_FILE]...",
-        help='Model specs ("ggx(alpha=0.1)") and measured files (MERL .binary, RGL .bsdf, '
-        "Cornell .brdf) to show; the default is a Lambertian + GGX.",
+        help='Model specs ("ggx(alpha=0.1)"), measured files (MERL .binary, RGL .bsdf, '
+        "Cornell .brdf) and fit.json results of brdfkit fit to show; the default is a "
+        "Lambertian + GGX.",
     ),
     envmap: Path = typer.Option(
         None,
@@ -37,7 +38,7 @@ def explore_command(
     """
     from brdfkit.brdf._spec import parse
     from brdfkit.explore.server import ExplorerServer
-    from brdfkit.explore.session import MEASURED_SUFFIXES, Session
+    from brdfkit.explore.session import MEASURED_SUFFIXES, Session, fit_spec
 
     if not 0 <= port <= 65535:
         fail(f"--port must be in [0, 65535]; got {port}")
@@ -46,6 +47,8 @@ def explore_command(
     for item in items or []:
         if Path(item).suffix.lower() in MEASURED_SUFFIXES:
             initial.append(session.add_file(item))
+        elif Path(item).suffix.lower() == ".json":
+            initial.append(fit_spec(Path(item).read_bytes(), item))
         else:
             parse(item)  # a bad spec is refused now, with the parser's message
             initial.append(item)

@@ -35,7 +35,7 @@ from brdfkit.explore.protocol import (
     encode_frame,
     parse_message,
 )
-from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply
+from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply, fit_spec
 
 Scope = MutableMapping[str, Any]
 Receive = Callable[[], Awaitable[Any]]
@@ -126,6 +126,12 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
             data += chunk
             if len(data) > MAX_UPLOAD_BYTES:
                 return JSONResponse({"error": f"upload over {MAX_UPLOAD_BYTES} bytes"}, 413)
+        if name.lower().endswith(".json"):  # a fit.json: its spec, no file kept
+            try:
+                spec = fit_spec(bytes(data), name[:60])
+            except (BrdfkitError, ValueError) as error:
+                return JSONResponse({"error": str(error)[:500]}, 400, headers=SECURITY_HEADERS)
+            return JSONResponse({"spec": spec}, headers=SECURITY_HEADERS)
         try:
             key = await asyncio.to_thread(session.add_upload, name, bytes(data))
         except (BrdfkitError, ValueError, OSError) as error:

@@ -36,7 +36,33 @@ MAX_UPLOAD_BYTES = 64 << 20
 MAX_FILES = 32
 """The most files one session holds."""
 
+MAX_FIT_BYTES = 1 << 20
+"""The largest ``fit.json`` (:command:`brdfkit fit`'s result) the explorer reads."""
+
 Reply = tuple[dict[str, Any], list[np.ndarray]]
+
+
+def fit_spec(data: bytes, where: str) -> str:
+    """The fitted model's spec in the bytes of a ``fit.json`` written by ``brdfkit fit``,
+    checked by the spec parser.
+
+    Raises
+    ------
+    FormatError
+        Naming ``where``, for bytes over :data:`MAX_FIT_BYTES`, not JSON, or with no ``"spec"``
+        string; the parser's errors for a spec it refuses.
+    """
+    import json
+
+    if len(data) > MAX_FIT_BYTES:
+        raise FormatError(where, f"holds {len(data)} bytes; a fit.json has at most {MAX_FIT_BYTES}")
+    try:
+        record = json.loads(data)
+    except (ValueError, RecursionError):
+        raise FormatError(where, "is not JSON (a fit.json written by brdfkit fit)") from None
+    if not isinstance(record, dict) or not isinstance(record.get("spec"), str):
+        raise FormatError(where, 'has no "spec" string (a fit.json written by brdfkit fit)')
+    return parse(record["spec"]).to_spec()
 
 
 class Session:
@@ -306,4 +332,12 @@ def error_reply(seq: int, error: Exception) -> Reply:
     return {"type": "error", "seq": seq, "message": str(error)[:500], "arrays": []}, []
 
 
-__all__ = ["MAX_UPLOAD_BYTES", "MEASURED_SUFFIXES", "Reply", "Session", "error_reply"]
+__all__ = [
+    "MAX_FIT_BYTES",
+    "MAX_UPLOAD_BYTES",
+    "MEASURED_SUFFIXES",
+    "Reply",
+    "Session",
+    "error_reply",
+    "fit_spec",
+]

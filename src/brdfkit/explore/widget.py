@@ -24,7 +24,7 @@ from brdfkit.brdf._spec import parse
 from brdfkit.brdf.base import BRDF
 from brdfkit.errors import BrdfkitError
 from brdfkit.explore.protocol import ProtocolError, array_table, parse_object
-from brdfkit.explore.session import MEASURED_SUFFIXES, Session, error_reply
+from brdfkit.explore.session import MEASURED_SUFFIXES, Session, error_reply, fit_spec
 
 _STATIC = Path(__file__).with_name("static")
 
@@ -39,8 +39,9 @@ class Explorer(anywidget.AnyWidget):
 
     Parameters
     ----------
-    *items : specs (``"ggx(alpha=0.1)"``), BRDF objects with a spec form, or paths of measured
-        files (MERL ``.binary``, RGL ``.bsdf``, Cornell ``.brdf``), shown at once.
+    *items : specs (``"ggx(alpha=0.1)"``), BRDF objects with a spec form, paths of measured
+        files (MERL ``.binary``, RGL ``.bsdf``, Cornell ``.brdf``) or of ``fit.json`` results of
+        ``brdfkit fit``, shown at once.
 
     Attributes
     ----------
@@ -71,6 +72,8 @@ class Explorer(anywidget.AnyWidget):
                 initial.append(item.to_spec())
             elif Path(item).suffix.lower() in MEASURED_SUFFIXES:
                 initial.append(self.session.add_file(item))
+            elif Path(item).suffix.lower() == ".json":
+                initial.append(fit_spec(Path(item).read_bytes(), str(item)))
             else:
                 initial.append(parse(str(item)).to_spec())
         return initial

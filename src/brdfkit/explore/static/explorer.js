@@ -261,9 +261,9 @@ export function createExplorer(root, transport, config = {}) {
   fileSelect.addEventListener("change", () => { if (fileSelect.value) addEntry({ file: fileSelect.value }); fileSelect.value = ""; });
   side.append(el("h3", { textContent: "BRDFs" }), entryList, addSpec, fileSelect);
   if (transport.upload) {
-    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf" });
+    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json" });
     picker.addEventListener("change", async () => { for (const f of picker.files) await uploadFile(f); picker.value = ""; });
-    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell: " }, [picker]));
+    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell or fit.json: " }, [picker]));
     root.addEventListener("dragover", (e) => e.preventDefault());
     root.addEventListener("drop", async (e) => { e.preventDefault(); for (const f of e.dataTransfer.files) await uploadFile(f); });
   }
@@ -692,10 +692,13 @@ export function createExplorer(root, transport, config = {}) {
   async function uploadFile(file) {
     status.textContent = `uploading ${file.name}…`;
     try {
-      const name = await transport.upload(file);
-      config.files = [...(config.files || []), name];
-      refreshFiles(config.files);
-      addEntry({ file: name });
+      const reply = await transport.upload(file);
+      if (reply.spec) addEntry({ spec: reply.spec });
+      else {
+        config.files = [...(config.files || []), reply.name];
+        refreshFiles(config.files);
+        addEntry({ file: reply.name });
+      }
       status.textContent = "";
     } catch (err) {
       status.textContent = String(err.message || err);

@@ -34,7 +34,7 @@ function transport(base) {
       const response = await fetch(base + "upload?name=" + encodeURIComponent(file.name), { method: "POST", body: file });
       const reply = await response.json();
       if (!response.ok) throw new Error(reply.error || response.statusText);
-      return reply.name;
+      return reply;  // {name} of a measured file, or {spec} of a fit.json
     },
   };
 }
