@@ -297,9 +297,9 @@ def test_requests_without_the_token_are_refused(page, server):
     base = f"http://127.0.0.1:{server.port}/"
     for url in (base, base + "static/explorer.js", base + "x" + server.token[1:] + "/"):
         with pytest.raises(urllib.error.HTTPError) as refused:
-            urllib.request.urlopen(url, timeout=5)
+            urllib.request.urlopen(url, timeout=60)
         assert refused.value.code == 403
-    with urllib.request.urlopen(server.url, timeout=5) as ok:
+    with urllib.request.urlopen(server.url, timeout=60) as ok:
         assert ok.status == 200
     # the page's own WebSocket is refused without the token
     closed = page.evaluate(

@@ -36,7 +36,7 @@ def server():
 def status(url: str, headers: dict[str, str] | None = None, data: bytes | None = None) -> int:
     request = urllib.request.Request(url, headers=headers or {}, data=data)
     try:
-        with urllib.request.urlopen(request, timeout=5) as response:
+        with urllib.request.urlopen(request, timeout=60) as response:
             return response.status
     except urllib.error.HTTPError as error:
         return error.code
@@ -48,7 +48,7 @@ def connect(server, path: str = "ws", origin: str | None = "same", **kw):
         f"ws://127.0.0.1:{server.port}/{server.token}/{path}",
         origin=origin,
         max_size=2**26,
-        open_timeout=5,
+        open_timeout=30,
         **kw,
     )
 
@@ -85,18 +85,17 @@ def test_uploads_need_the_page_origin(server):
 
 
 def test_websocket_needs_token_and_origin(server):
-    from websockets.exceptions import InvalidStatus, WebSocketException
+    from websockets.exceptions import InvalidStatus
 
     for kwargs in ({"origin": "http://evil.example"}, {"origin": None}):
-        with pytest.raises((InvalidStatus, WebSocketException, OSError)):
-            with connect(server, **kwargs) as ws:
-                ws.send(json.dumps(RENDER))
-                ws.recv(timeout=5)
-    with pytest.raises((InvalidStatus, WebSocketException, OSError)):
-        with websockets_sync.connect(
+        with pytest.raises(InvalidStatus) as refused:
+            connect(server, **kwargs)
+        assert refused.value.response.status_code == 403
+    with pytest.raises(InvalidStatus) as refused:
+        websockets_sync.connect(
             f"ws://127.0.0.1:{server.port}/ws", origin=f"http://127.0.0.1:{server.port}"
-        ) as ws:
-            ws.recv(timeout=5)
+        )
+    assert refused.value.response.status_code == 403
 
 
 def test_a_render_reply_holds_every_view(server):
@@ -169,7 +168,7 @@ def test_a_fit_json_upload_gives_its_spec(server):
     url = server.url + "upload?name=fit.json"
     body = json.dumps({"file": "gold.binary", "spec": "ggx(alpha=0.3, material='Au')"}).encode()
     request = urllib.request.Request(url, headers=origin, data=body)
-    with urllib.request.urlopen(request, timeout=5) as response:
+    with urllib.request.urlopen(request, timeout=60) as response:
         spec = json.loads(response.read())["spec"]
     assert spec.startswith("ggx(alpha=0.3") and "'Au'" in spec
     for bad in (b"{", b'{"spec": 3}', b'{"spec": "__import__(1)"}'):
