@@ -81,6 +81,7 @@ class Session:
         self._brdfs: dict[str, BRDF] = {}
         self._cache: OrderedDict[str, BRDF] = OrderedDict()
         self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
+        self._half_diff: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
         self._lock = threading.Lock()
         self._uploads: Path | None = None
         self.warmed = threading.Event()
@@ -197,12 +198,13 @@ class Session:
             if not entry.visible:
                 continue
             try:
+                theta_h, theta_d, slice_ = self._half_diff_views(brdf, info, state)
                 per_entry[entry.id] = {
                     "sphere": put(views.sphere(brdf, state).astype(np.float32)),
                     "theta_v": put(views.theta_v_curve(brdf, state)[1]),
-                    "theta_h": put(views.theta_h_curve(brdf, state)[1]),
-                    "theta_d": put(views.theta_d_curve(brdf, state)[1]),
-                    "slice": put(views.half_diff_slice(brdf, state).astype(np.float32)),
+                    "theta_h": put(theta_h),
+                    "theta_d": put(theta_d),
+                    "slice": put(slice_),
                     "lobe": put(views.lobe(brdf, state).astype(np.float32)),
                 }
             except (BrdfkitError, ValueError, FloatingPointError) as error:
@@ -219,6 +221,32 @@ class Session:
             "arrays": table,
         }
         return header, arrays
+
+    def _half_diff_views(
+        self, brdf: BRDF, info: dict[str, Any], state: views.ViewState
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light: cached
+        by BRDF and (θh, θd, φd), so that dragging the light recomputes only what it moves."""
+        key = (
+            info.get("spec") or f"file:{info['file']}",
+            state.theta_h,
+            state.theta_d,
+            state.phi_d,
+        )
+        with self._lock:
+            if key in self._half_diff:
+                self._half_diff.move_to_end(key)
+                return self._half_diff[key]
+        result = (
+            views.theta_h_curve(brdf, state)[1],
+            views.theta_d_curve(brdf, state)[1],
+            views.half_diff_slice(brdf, state).astype(np.float32),
+        )
+        with self._lock:
+            self._half_diff[key] = result
+            while len(self._half_diff) > 16:
+                self._half_diff.popitem(last=False)
+        return result
 
     def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """The directional albedo (with its standard error) of each visible entry, from a cache
