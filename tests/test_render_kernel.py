@@ -9,9 +9,9 @@ import pytest
 
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.integrate import directional_albedo, reflected_radiance
-from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.lights import DirectionalLight, EnvironmentMap, PointLight, SphereLight
 from brdfkit.render import Sphere, gbuffer, render_sphere, shade
-from brdfkit.render_kernel import EnvironmentShader
+from brdfkit.render_kernel import EnvironmentShader, compiled_shader, kernels_built
 from brdfkit.render_kernel import reflected_radiance as compiled_radiance
 
 GOLD = RoughConductor(alpha=0.2, material="Au", masking="smith_separable")
@@ -100,8 +100,60 @@ def test_unsupported_inputs_are_refused():
         EnvironmentShader(GOLD, env, method="quadrature")
     with pytest.raises(ValueError, match="dtype"):
         EnvironmentShader(GOLD, env, dtype=np.int32)
-    textured = Lambertian(np.full((8, 8, 3), 0.5)) + GOLD
     with pytest.raises(ValueError, match="per-pixel"):
-        render_sphere(textured, env, resolution=8, samples=2, compiled=True)
+        EnvironmentShader(Lambertian(np.full((8, 8, 3), 0.5)) + GOLD, env)
+    with pytest.raises(ValueError, match="compiled"):
+        render_sphere(GOLD, env, resolution=8, samples=2, compiled="yes")
     with pytest.raises(ValueError, match="samples"):
         EnvironmentShader(GOLD, env)(np.array([0.0, 0.0, 1.0]), samples=0)
+
+
+def test_where_the_kernel_does_not_apply_shade_falls_back_to_numpy():
+    env = _map()
+    textured = Lambertian(np.full((8, 8, 3), 0.5)) + GOLD  # a per-pixel albedo
+    sky = [env, DirectionalLight((0, 0, 1), 1.0)]
+    for brdf, lights, method in [
+        (textured, env, "auto"),
+        (GOLD, env, "brdf"),
+        (GOLD, [env, env], "mis"),
+    ]:
+        expected = render_sphere(
+            brdf, lights, resolution=8, samples=2, method=method, compiled=False
+        )
+        image = render_sphere(brdf, lights, resolution=8, samples=2, method=method, compiled=True)
+        np.testing.assert_array_equal(image, expected)
+    assert compiled_shader(GOLD, sky, method="auto") is not None
+    assert compiled_shader(GOLD, [env, SphereLight((0, 0, 3), 0.5, 1.0)], method="auto") is None
+
+
+@pytest.mark.slow
+def test_sums_scaled_lobes_and_delta_lights_equal_numpy_path():
+    brdf = Lambertian([0.3, 0.2, 0.1]) + 0.5 * GOLD + 0.3 * RoughConductor(alpha=0.5)
+    lights = [
+        DirectionalLight((1, 0.3, 0.5), 2.0),
+        _map(2, _rotation()),
+        PointLight((2, 1, 1), 3.0),
+    ]
+    g = gbuffer(Sphere(), None, 12)
+    expected = shade(g, brdf, lights, samples=8, seed=3, compiled=False)
+    image = shade(g, brdf, lights, samples=8, seed=3, compiled="float64")
+    np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+@pytest.mark.slow
+def test_auto_compiles_only_large_renders_or_models_already_built():
+    model = RoughConductor(alpha=0.35, material="Cu", masking="smith_separable")
+    env = _map()
+    g = gbuffer(Sphere(), None, 10)
+    assert not kernels_built(model)
+    numpy_image = shade(g, model, env, samples=4, seed=1, compiled=False)
+    np.testing.assert_array_equal(shade(g, model, env, samples=4, seed=1), numpy_image)
+    assert not kernels_built(model)  # a small render does not pay for compiling
+    EnvironmentShader(model, env).build()
+    assert kernels_built(model)
+    image = shade(g, model, env, samples=4, seed=1)  # now the compiled path
+    np.testing.assert_array_equal(image, shade(g, model, env, samples=4, seed=1, compiled=True))
+    assert not np.array_equal(image, numpy_image)
+    scale = np.max(numpy_image)
+    assert np.max(np.abs(image - numpy_image)) < 1e-3 * scale
+    assert np.median(np.abs(image - numpy_image)[g.mask]) < 1e-5 * scale

@@ -21,8 +21,11 @@ References
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
-from collections.abc import Callable, Sequence
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -30,7 +33,7 @@ import numpy as np
 
 from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF, Scaled, Sum
-from brdfkit.integrate import reflected_radiance
+from brdfkit.integrate import Estimate, reflected_radiance
 from brdfkit.lights import Light
 
 FRONT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -277,7 +280,7 @@ def shade(
     max_evaluations: int = 2_000_000,
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
-    compiled: bool | str = False,
+    compiled: bool | str = "auto",
 ) -> np.ndarray:
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
 
@@ -289,29 +292,53 @@ def shade(
     (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are sampled.
     ``progress(done, total)`` is called after each tile.
 
-    ``compiled`` (opt-in; one :class:`~brdfkit.lights.EnvironmentMap`, ``method`` ``"auto"``
-    or ``"mis"``, a BRDF :mod:`brdfkit.accel` compiles) shades each tile with the numba kernel
-    of :class:`brdfkit.render_kernel.EnvironmentShader` instead of NumPy: ``True`` in float32,
-    ``"float64"`` in float64 (then the image equals the NumPy one to rounding). Same tiles,
-    seeds and uniforms; pixels outside the mask are not sampled.
+    ``compiled`` chooses the compiled path: each tile shaded by the numba kernel of
+    :class:`brdfkit.render_kernel.EnvironmentShader` where it applies (one
+    :class:`~brdfkit.lights.EnvironmentMap` plus any delta lights, ``method`` ``"auto"`` or
+    ``"mis"``, a BRDF :mod:`brdfkit.accel` compiles: see
+    :func:`~brdfkit.render_kernel.compiled_shader`), NumPy elsewhere. ``"auto"`` (default):
+    float32 kernels when this model's are built already or the render has at least
+    :data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK` pixel-samples (building them costs
+    seconds); ``True``: float32 kernels wherever they apply; ``"float64"``: float64 kernels
+    (the image then equals the NumPy one to rounding); ``False``: NumPy. Same tiles, seeds and
+    uniforms on both paths (float32 kernels: equal to float32 precision).
     """
+    return _shade(
+        g, brdf, lights, method=method, samples=samples, seed=seed, sequence=sequence,
+        max_evaluations=max_evaluations, background=background, progress=progress,
+        compiled=compiled,
+    )[0]  # fmt: skip
+
+
+def _shade(
+    g: GBuffer,
+    brdf: BRDF,
+    lights: Light | Sequence[Light],
+    *,
+    method: str,
+    samples: int,
+    seed: int,
+    sequence: str,
+    max_evaluations: int,
+    background: float,
+    progress: Callable[[int, int], None] | None,
+    compiled: bool | str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`shade`'s image and its per-pixel standard error (0 outside the mask)."""
     height, width = g.shape
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
     rows_per_tile = max(1, max_evaluations // (per_pixel * width))
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
-    shader = None
-    if compiled is not False:
-        from brdfkit.render_kernel import EnvironmentShader
-
-        dtype = np.float32 if compiled is True else compiled
-        shader = EnvironmentShader(brdf, light_list, method=method, dtype=dtype)
+    stderr = np.zeros((height, width, channels))
+    plan = _compiled_plan(brdf, light_list, method, compiled, np.count_nonzero(g.mask) * samples)
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
         if np.any(m):
-            if shader is not None:
+            if plan is not None:
+                shader, others = plan
                 estimate = shader(
                     g.wo[rows],
                     g.normals[rows],
@@ -322,6 +349,12 @@ def shade(
                     sequence=sequence,
                     mask=m,
                 )
+                if others:  # delta lights: exact, no samples
+                    exact = reflected_radiance(
+                        slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
+                        normal=g.normals[rows], point=g.points[rows], tangent=g.tangents[rows],
+                    )  # fmt: skip
+                    estimate = Estimate(estimate.value + to_numpy(exact.value), estimate.stderr)
             else:
                 estimate = reflected_radiance(
                     slice_brdf(brdf, (height, width), rows),
@@ -337,9 +370,31 @@ def shade(
                 )
             value = to_numpy(estimate.value)
             image[rows] = np.where(m[..., None], value, background)
+            stderr[rows] = np.where(m[..., None], to_numpy(estimate.stderr), 0.0)
         if progress is not None:
             progress(rows.stop, height)
-    return image
+    return image, stderr
+
+
+COMPILED = (True, False, "auto", "float64")
+"""Values of :func:`shade`'s ``compiled``."""
+
+
+def _compiled_plan(
+    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str, work: int
+) -> tuple[Any, list[Light]] | None:
+    """The compiled shader and the delta lights left to NumPy, or ``None`` for the NumPy path."""
+    if not any(compiled is c or (isinstance(compiled, str) and compiled == c) for c in COMPILED):
+        raise ValueError(
+            f"compiled must be one of True, False, 'auto', 'float64'; got {compiled!r}"
+        )
+    if compiled is False:
+        return None
+    from brdfkit.render_kernel import AUTO_COMPILE_WORK, compiled_shader
+
+    dtype = np.float64 if compiled == "float64" else np.float32
+    build = compiled != "auto" or work >= AUTO_COMPILE_WORK
+    return compiled_shader(brdf, lights, method=method, dtype=dtype, build=build)
 
 
 def render_sphere(
@@ -354,15 +409,164 @@ def render_sphere(
     return shade(g, brdf, lights, **kwargs)
 
 
+# --------------------------------------------------------------------------- progressive
+@dataclass(frozen=True, eq=False)
+class Pass:
+    """One refinement of :func:`progressive`: the running mean ``image`` ``(H, W, C)``, its
+    per-pixel standard error ``stderr`` (same shape), the total samples per pixel so far and
+    the seconds elapsed since rendering began."""
+
+    image: np.ndarray
+    stderr: np.ndarray
+    samples: int
+    seconds: float
+
+
+class _Cancelled(Exception):
+    """Raised between tiles when :func:`progressive`'s ``cancel`` is set."""
+
+
+def progressive(
+    g: GBuffer,
+    brdf: BRDF,
+    lights: Light | Sequence[Light],
+    *,
+    max_samples: int = 1024,
+    first_samples: int = 1,
+    seed: int = 0,
+    cancel: threading.Event | None = None,
+    **shade_kwargs: Any,
+) -> Iterator[Pass]:
+    r"""Render the G-buffer in passes of doubling sample counts, yielding the running mean.
+
+    The first pass shades ``first_samples`` samples per pixel (an image in a fraction of a
+    full render's time); each later pass shades as many samples as all passes before it,
+    with its own seeds, so the total doubles (1, 2, 4, …) until ``max_samples``. Each pass is
+    a :func:`shade` call (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …). With
+    ``compiled="auto"`` (default) the compiled kernels are built on a background thread while
+    the first passes run on NumPy, and used from the next pass once they are ready. Passes
+    are combined by the exact pooled mean and sum of squared deviations (Chan et al.), so
+    ``stderr`` is :math:`\sqrt{M_2}/N` over all N samples — the per-sample spread between
+    passes included (0 after a single sample: no estimate yet; with Sobol sequences a
+    conservative over-estimate). Setting ``cancel``
+    stops rendering between tiles: the pass under way is dropped and the iterator ends.
+
+    References
+    ----------
+    .. [1] T. F. Chan, G. H. Golub, R. J. LeVeque, "Updating formulae and a pairwise
+           algorithm for computing sample variances", COMPSTAT 1982.
+    """
+    if first_samples < 1:
+        raise ValueError(f"first_samples must be >= 1; got {first_samples}")
+    if max_samples < first_samples:
+        raise ValueError(
+            f"max_samples must be >= first_samples ({first_samples}); got {max_samples}"
+        )
+    unknown = set(shade_kwargs) - _SHADE_OPTIONS
+    if unknown:
+        raise TypeError(f"progressive() got unexpected keyword arguments {sorted(unknown)}")
+    user_progress = shade_kwargs.pop("progress", None)
+
+    def between_tiles(done: int, total: int) -> None:
+        if cancel is not None and cancel.is_set():
+            raise _Cancelled
+        if user_progress is not None:
+            user_progress(done, total)
+
+    kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
+    builder = _background_build(brdf, lights, kwargs) if kwargs["compiled"] == "auto" else None
+    start = time.perf_counter()
+    count, mean, m2 = 0, None, None
+    index = 0
+    while count < max_samples:
+        if cancel is not None and cancel.is_set():
+            return
+        n = min(first_samples if count == 0 else count, max_samples - count)
+        pass_seed = seed if index == 0 else _pass_seed(seed, index)
+        try:
+            if builder is not None and not builder.is_alive():
+                # the kernels are ready (or do not apply: NumPy from now on)
+                kwargs["compiled"], builder = builder.built, None  # type: ignore[attr-defined]
+            value, stderr = _shade(
+                g, brdf, lights, **kwargs, samples=n, seed=pass_seed, progress=between_tiles
+            )
+        except _Cancelled:
+            return
+        pass_m2 = stderr * stderr * (n * n)
+        if mean is None:
+            mean, m2 = value, pass_m2
+        else:
+            delta = value - mean
+            total = count + n
+            mean = mean + delta * (n / total)
+            m2 = m2 + pass_m2 + delta * delta * (count * n / total)
+        count += n
+        index += 1
+        yield Pass(mean.copy(), np.sqrt(m2) / count, count, time.perf_counter() - start)
+
+
+def _background_build(
+    brdf: BRDF, lights: Light | Sequence[Light], kwargs: dict[str, Any]
+) -> threading.Thread | None:
+    """A thread building the compiled shader while the first passes run on NumPy, or ``None``
+    where it is built already (``kwargs["compiled"]`` then becomes ``True``)."""
+    from brdfkit.render_kernel import compiled_shader
+
+    light_list = [lights] if isinstance(lights, Light) else list(lights)
+    method = kwargs["method"]
+    if compiled_shader(brdf, light_list, method=method, build=False) is not None:
+        kwargs["compiled"] = True
+        return None
+
+    def build() -> None:
+        plan = compiled_shader(brdf, light_list, method=method)
+        if plan is not None:
+            plan[0].build()
+            thread.built = True  # type: ignore[attr-defined]
+
+    thread = threading.Thread(target=build, name="brdfkit-compile", daemon=True)
+    thread.built = False  # type: ignore[attr-defined]
+    thread.start()
+    return thread
+
+
+def progressive_sphere(
+    brdf: BRDF,
+    lights: Light | Sequence[Light],
+    resolution: int = 256,
+    camera: Camera | None = None,
+    **kwargs: Any,
+) -> Iterator[Pass]:
+    """:func:`progressive` on a unit sphere seen by ``camera`` (as :func:`render_sphere`)."""
+    return progressive(gbuffer(Sphere(), camera, resolution), brdf, lights, **kwargs)
+
+
+def _pass_seed(seed: int, index: int) -> int:
+    """An independent seed per pass (tiles add their first row to it)."""
+    return int(np.random.SeedSequence([seed, index]).generate_state(1, np.uint64)[0] >> 2)
+
+
+_SHADE_DEFAULTS: dict[str, Any] = {
+    name: parameter.default
+    for name, parameter in inspect.signature(shade).parameters.items()
+    if parameter.kind is inspect.Parameter.KEYWORD_ONLY
+    and name not in ("samples", "seed", "progress")
+}
+_SHADE_OPTIONS = set(_SHADE_DEFAULTS) | {"progress"}
+
+
 __all__ = [
     "FRONT",
     "Camera",
     "Cylinder",
     "GBuffer",
+    "Pass",
     "Plane",
     "Sphere",
     "gbuffer",
     "normal_map_gbuffer",
+    "progressive",
+    "progressive_sphere",
     "render_sphere",
     "shade",
     "slice_brdf",

@@ -44,7 +44,6 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 import weakref
 from collections.abc import Callable, Sequence
@@ -83,8 +82,25 @@ def _brdf_kernels(model: BRDF, dtype: np.dtype) -> tuple[Any, ...]:
     return per_dtype[dtype]
 
 
-@functools.cache
+_TILE_KERNELS: dict[tuple[Any, ...], Any] = {}
+
+
 def _tile_kernel(
+    sample_fn: Callable[..., None],
+    eval_fn: Callable[..., None],
+    pdf_fn: Callable[..., None],
+    dtype: type,
+    brdf_channels: int,
+    map_channels: int,
+) -> Callable[..., None]:
+    """:func:`_new_tile_kernel`, built once per set of arguments."""
+    key = (sample_fn, eval_fn, pdf_fn, dtype, brdf_channels, map_channels)
+    if key not in _TILE_KERNELS:
+        _TILE_KERNELS[key] = _new_tile_kernel(*key)
+    return _TILE_KERNELS[key]
+
+
+def _new_tile_kernel(
     sample_fn: Callable[..., None],
     eval_fn: Callable[..., None],
     pdf_fn: Callable[..., None],
@@ -448,6 +464,11 @@ class EnvironmentShader:
             stderr2 = m2 / samples / samples
         return Estimate(value, np.sqrt(stderr2))
 
+    def build(self) -> EnvironmentShader:
+        """Compile the kernels now (numba compiles on first call) with a one-pixel call."""
+        self(np.array([[0.0, 0.0, 1.0]]), samples=1)
+        return self
+
     def _monte_carlo(
         self,
         frame: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -519,6 +540,57 @@ def _uniforms(
     return np.ascontiguousarray(points[None]), shifts
 
 
+AUTO_COMPILE_WORK = 4_000_000
+"""Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
+trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes 5–10 s
+per model on a 2-core machine, about what the NumPy path takes for this many MIS
+pixel-samples of a GGX conductor (~1.7 µs each). Below it, the NumPy path unless the kernels
+are built already."""
+
+
+def compiled_shader(
+    brdf: BRDF,
+    lights: Sequence[Light],
+    *,
+    method: str,
+    dtype: Any = np.float32,
+    build: bool = True,
+) -> tuple[EnvironmentShader, list[Light]] | None:
+    """The compiled shader for ``brdf`` under ``lights`` and the lights it leaves to the NumPy
+    path, or ``None`` where the compiled path does not apply.
+
+    It applies to exactly one :class:`~brdfkit.lights.EnvironmentMap` plus any delta lights
+    (directional, point: evaluated exactly, no samples, by the NumPy path), ``method``
+    ``"auto"`` or ``"mis"``, a BRDF whose non-Lambertian part :func:`brdfkit.accel.compile`
+    compiles (no per-pixel parameters), with numba and JAX installed. With ``build=False`` it
+    is returned only when it costs no compilation: the model's kernels are built already, or
+    the BRDF is Lambertian (no Monte Carlo).
+    """
+    maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
+    others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
+    if method not in METHODS or len(maps) != 1 or not all(lt.delta for lt in others):
+        return None
+    dtype = np.dtype(dtype)
+    if not build:
+        _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+        if rest is not None and not kernels_built(rest, dtype):
+            return None
+    try:
+        return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
+    except (ValueError, ImportError):
+        return None
+
+
+def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
+    """Whether this model object's compiled shading kernels exist (compiled) in this process."""
+    dtype = np.dtype(dtype)
+    kernels = _BRDF_KERNELS.get(model, {}).get(dtype)
+    if kernels is None:
+        return False
+    tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
+    return any(t.signatures for t in tiles)
+
+
 def reflected_radiance(
     brdf: BRDF,
     light: Light | Sequence[Light],
@@ -540,4 +612,13 @@ def reflected_radiance(
     return shader(wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence)
 
 
-__all__ = ["BLOCK", "HEURISTICS", "METHODS", "EnvironmentShader", "reflected_radiance"]
+__all__ = [
+    "AUTO_COMPILE_WORK",
+    "BLOCK",
+    "HEURISTICS",
+    "METHODS",
+    "EnvironmentShader",
+    "compiled_shader",
+    "kernels_built",
+    "reflected_radiance",
+]

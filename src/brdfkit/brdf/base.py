@@ -112,7 +112,8 @@ class Domain:
     Every numeric parameter of a model is checked against one declared domain, in which its
     formulas are finite (the model's :attr:`BRDF.domains`, read by :func:`parameter_domains`).
     ``unphysical_hi`` is the upper end when the model's ``allow_unphysical`` switch is on
-    (``None``: the switch does not widen it).
+    (``None``: the switch does not widen it). ``log`` says that the parameter is best varied on
+    a logarithmic scale (roughness, exponents: the explorer's sliders read it).
     """
 
     lo: float
@@ -121,6 +122,7 @@ class Domain:
     hi_open: bool = False
     hint: str = ""
     unphysical_hi: float | None = None
+    log: bool = False
 
     def check(self, name: str, value: Any, *, unphysical: bool = False) -> Any:
         """``value`` unchanged if it is a number (or array) inside the domain.
@@ -149,12 +151,12 @@ factor ``k`` of ``k * model``): data in arbitrary units, far from any float over
 ALBEDO = Domain(0.0, 1.0, hint="an albedo", unphysical_hi=UNPHYSICAL_MAX)
 """Albedos and reflectances (ρ, k_d, k_s, ``diffuse``, ``reflectance``, f0): [0, 1]."""
 
-ROUGHNESS = Domain(1e-4, 10.0, hint="microfacet roughness α")
+ROUGHNESS = Domain(1e-4, 10.0, hint="microfacet roughness α", log=True)
 """Microfacet roughness α (GGX, Beckmann; Cook–Torrance's m): [10⁻⁴, 10]. At 10⁻⁴ the lobe is a
 mirror to 0.006°; at 10 facets slope at 84° on average; in between D, Λ and the samplers stay
 finite in float32."""
 
-EXPONENT = Domain(0.0, 1e6, hint="cosine exponent")
+EXPONENT = Domain(0.0, 1e6, hint="cosine exponent", log=True)
 """Cosine-lobe exponents n (Phong, Blinn–Phong, Lafortune): [0, 10⁶], a lobe 0.1° wide at the
 top end."""
 

@@ -91,7 +91,7 @@ MASKINGS = ("v_groove", "smith_separable", "smith_correlated")
 FRESNELS = ("none", "dielectric", "conductor", "schlick")
 """The Fresnel factors :class:`FresnelTerm` knows."""
 
-GAUSSIAN_WIDTH = Domain(1e-4, 10.0, hint="angular roughness in radians")
+GAUSSIAN_WIDTH = Domain(1e-4, 10.0, hint="angular roughness in radians", log=True)
 """The width m of the Torrance–Sparrow Gaussian: [10⁻⁴, 10] radians (beyond π/2 it is nearly
 uniform)."""
 

@@ -1,0 +1,146 @@
+"""Explorer latency in a real browser: slider → updated sphere and plots, and the env-lit sphere.
+
+Starts ``brdfkit explore``'s server in-process and drives the real page in headless Chromium
+(Debian's ``/usr/bin/chromium``, software WebGL): for each workload the θi slider is moved
+``--moves`` times, one move after the previous frame is shown, and the time from the slider's
+``input`` event to the frame being drawn (the 256² directional-light sphere and every plot of
+every visible BRDF) is measured in the page with ``performance.now()``. Interleaved with each
+move, the same sphere is rendered in Python by :func:`brdfkit.render.render_sphere` (the peer:
+the compute alone), so the ratio latency / render says what the server, the WebSocket and the
+drawing add. Workloads: Lambertian + GGX, and a MERL-layout table (written by
+:func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
+
+Under the environment map (the bundled one), the time from switching the view on to the first
+image and to 1 % relative noise (RMS standard error / mean over the sphere,
+:func:`brdfkit.explore.views.relative_noise`) is reported, after the server's warm-up.
+
+Run ``python benchmarks/bench_explore.py`` (needs the ``explore`` and ``explore-test``
+extras); results go to ``benchmarks/results/explore.json`` and a Markdown table on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from playwright.sync_api import sync_playwright
+
+from brdfkit.brdf import parse
+from brdfkit.explore.server import ExplorerServer
+from brdfkit.explore.session import Session
+from brdfkit.explore.views import ViewState
+from brdfkit.measured import read, write_merl
+from brdfkit.render import render_sphere
+
+CHROMIUM_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
+ANALYTIC = "lambertian(albedo=[0.8, 0.4, 0.2]) + ggx(alpha=0.2)"
+
+MOVE = """(value) => new Promise((resolve) => {
+  const x = window.explorer, range = document.querySelector('.bx-theta_i');
+  const start = performance.now(), before = x.shown.seq;
+  const wait = () => (x.shown.seq > before && x.shown.seq === x.sent.seq)
+      ? resolve(x.shown.time - start) : requestAnimationFrame(wait);
+  range.value = value; range.dispatchEvent(new Event('input'));
+  requestAnimationFrame(wait);
+})"""
+
+ENV = """([limit]) => new Promise((resolve) => {
+  const x = window.explorer, box = document.querySelector('.bx-envmap');
+  const start = performance.now();
+  let first = null;
+  box.checked = true; box.dispatchEvent(new Event('change'));
+  const seq = x.sent.seq;
+  const poll = () => {
+    const e = x.env.b1;
+    if (e && e.seq >= seq) {
+      if (first === null) first = e.time - start;
+      if (e.noise > 0 && e.noise <= 0.01) return resolve({first, noise1: e.time - start, ...e});
+    }
+    if (performance.now() - start > limit) return resolve({first, noise1: null, ...(e || {})});
+    setTimeout(poll, 10);
+  };
+  poll();
+})"""
+
+
+def percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(values, q))
+
+
+def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
+    """Slider-to-frame times in the page, with render_sphere timed between the moves."""
+    page.evaluate(MOVE, 30)  # warm-up
+    browser_ms, render_ms = [], []
+    for i in range(moves):
+        theta = 20 + (i * 37) % 60
+        browser_ms.append(page.evaluate(MOVE, theta))
+        light = ViewState(theta_i=theta).light()
+        start = time.perf_counter()
+        render_sphere(brdf, light, resolution=256)
+        render_ms.append(1e3 * (time.perf_counter() - start))
+    median = statistics.median(browser_ms)
+    return {
+        "median_ms": median,
+        "p95_ms": percentile(browser_ms, 95),
+        "render_sphere_median_ms": statistics.median(render_ms),
+        "ratio_to_render_sphere": median / statistics.median(render_ms),
+        "moves": moves,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--moves", type=int, default=40)
+    parser.add_argument("--chromium", default="/usr/bin/chromium")
+    parser.add_argument("--env-limit", type=float, default=20.0, help="seconds")
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results/explore.json")
+    args = parser.parse_args()
+
+    results: dict[str, Any] = {"platform": platform.platform(), "workloads": {}}
+    with tempfile.TemporaryDirectory() as folder, sync_playwright() as p:
+        merl = Path(folder) / "table.binary"
+        write_merl(merl, parse("lambertian(albedo=[0.3, 0.5, 0.7]) + ggx(alpha=0.15)"))
+        browser = p.chromium.launch(executable_path=args.chromium, args=CHROMIUM_ARGS)
+        for name, item in (("lambertian+ggx", ANALYTIC), ("MERL table", str(merl))):
+            session = Session()
+            initial = [session.add_file(item)] if item.endswith(".binary") else [item]
+            brdf = read(merl) if item.endswith(".binary") else parse(item)
+            server = ExplorerServer(session, initial).start()
+            session.warmed.wait(timeout=300)
+            context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
+            page = context.new_page()
+            page.goto(server.url)
+            page.wait_for_function("window.explorer && window.explorer.shown.seq > 0")
+            record = latency(page, brdf, args.moves)
+            if name == "lambertian+ggx":
+                record["envmap"] = page.evaluate(ENV, [1e3 * args.env_limit])
+            results["workloads"][name] = record
+            context.close()
+            server.stop()
+        browser.close()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(results, indent=2))
+    print("| workload | median ms | p95 ms | render_sphere ms | ratio |")
+    print("|---|---|---|---|---|")
+    for name, r in results["workloads"].items():
+        print(
+            f"| {name} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
+            f"{r['render_sphere_median_ms']:.1f} | {r['ratio_to_render_sphere']:.2f} |"
+        )
+    env = results["workloads"]["lambertian+ggx"]["envmap"]
+    noise1 = "not reached" if env["noise1"] is None else f"{env['noise1']:.0f} ms"
+    print(
+        f"\nenvironment map: first image {env['first']:.0f} ms; 1 % noise {noise1} "
+        f"(last pass: {env.get('samples')} spp, noise {100 * env.get('noise', 0):.1f} %)"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,226 @@
+"""The messages between the explorer's front end and its server (or notebook kernel).
+
+The front end sends JSON text; every message is checked here before anything acts on it, and a
+bad one gets an error reply naming what was wrong, never a crash. Replies carry a JSON header and
+binary arrays: over a WebSocket one frame ``[uint32 header length][header][arrays]`` with each
+array 8-byte aligned (:func:`encode_frame`); in a notebook the header is the message and the
+arrays are its buffers.
+
+Messages from the front end::
+
+    {"type": "render", "seq": 3, "state": {"entries": [...], "view": {...}}}
+    {"type": "checks", "seq": 4, "entry": {...}}
+
+An entry is ``{"id": "b1", "visible": true, "source": S}`` with ``S`` one of ``{"spec": "ggx"}``,
+``{"tree": {...}}`` (:mod:`brdfkit.explore.model_tree`) or ``{"file": "name"}`` (a file the server
+was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from brdfkit.errors import BrdfkitError
+from brdfkit.explore.views import ViewState
+
+MAX_MESSAGE_BYTES = 1 << 20
+"""The largest message the front end may send (a spec holds at most 100 000 characters)."""
+
+MAX_ENTRIES = 8
+"""The most BRDFs shown at once."""
+
+RESOLUTIONS = (64, 128, 256, 512)
+"""Sphere resolutions the front end may ask for."""
+
+_ANGLES = {
+    "theta_i": (0.0, 89.9),
+    "phi_i": (-360.0, 360.0),
+    "theta_h": (0.0, 90.0),
+    "theta_d": (0.0, 90.0),
+    "phi_d": (-360.0, 360.0),
+}
+
+
+class ProtocolError(BrdfkitError, ValueError):
+    """A message that is not JSON, too large, or not of the documented form."""
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One BRDF of the state: its id, visibility and source (``kind`` spec, tree or file)."""
+
+    id: str
+    visible: bool
+    kind: str
+    value: Any
+
+
+@dataclass(frozen=True)
+class Message:
+    """A checked message: its type, sequence number, entries and view."""
+
+    type: str
+    seq: int
+    entries: tuple[Entry, ...]
+    view: ViewState
+
+
+def parse_message(data: str | bytes) -> Message:
+    """Check and decode one message from the front end.
+
+    Raises
+    ------
+    ProtocolError
+        Naming the field and what it must be; for a message over :data:`MAX_MESSAGE_BYTES` or
+        that is not a JSON object.
+    """
+    if len(data) > MAX_MESSAGE_BYTES:
+        raise ProtocolError(f"message holds {len(data)} bytes; at most {MAX_MESSAGE_BYTES}")
+    try:
+        raw = json.loads(data)
+    except (ValueError, RecursionError) as error:
+        raise ProtocolError(f"message is not JSON: {str(error)[:80]}") from None
+    return parse_object(raw)
+
+
+def parse_object(raw: Any) -> Message:
+    """:func:`parse_message` of an already decoded JSON value (a notebook's message)."""
+    if not isinstance(raw, dict):
+        raise ProtocolError(f"message must be a JSON object; got {type(raw).__name__}")
+    kind = raw.get("type")
+    seq = raw.get("seq", 0)
+    if not isinstance(seq, int) or isinstance(seq, bool) or not 0 <= seq < 2**53:
+        raise ProtocolError("seq must be a non-negative integer")
+    if kind == "render":
+        state = _object(raw, "state")
+        entries = state.get("entries", [])
+        if not isinstance(entries, list) or len(entries) > MAX_ENTRIES:
+            raise ProtocolError(f"state.entries must be a list of at most {MAX_ENTRIES} entries")
+        view = _view(state.get("view", {}))
+        return Message("render", seq, tuple(_entry(e, i) for i, e in enumerate(entries)), view)
+    if kind == "checks":
+        return Message("checks", seq, (_entry(raw.get("entry"), 0),), ViewState())
+    raise ProtocolError(f"message type must be 'render' or 'checks'; got {str(kind)[:40]!r}")
+
+
+def _object(raw: dict[str, Any], key: str) -> dict[str, Any]:
+    value = raw.get(key)
+    if not isinstance(value, dict):
+        raise ProtocolError(f"{key} must be a JSON object")
+    return value
+
+
+def _entry(raw: Any, index: int) -> Entry:
+    where = f"entries[{index}]"
+    if not isinstance(raw, dict):
+        raise ProtocolError(f"{where} must be an object")
+    entry_id = raw.get("id")
+    if not isinstance(entry_id, str) or not 0 < len(entry_id) <= 32 or not entry_id.isprintable():
+        raise ProtocolError(f"{where}.id must be a printable string of 1 to 32 characters")
+    visible = raw.get("visible", True)
+    if not isinstance(visible, bool):
+        raise ProtocolError(f"{where}.visible must be true or false")
+    source = raw.get("source")
+    if not isinstance(source, dict) or len(source) != 1:
+        raise ProtocolError(f"{where}.source must be one of {{spec}}, {{tree}}, {{file}}")
+    ((kind, value),) = source.items()
+    if kind in ("spec", "file") and not isinstance(value, str):
+        raise ProtocolError(f"{where}.source.{kind} must be a string")
+    if kind not in ("spec", "tree", "file"):
+        raise ProtocolError(f"{where}.source must be one of {{spec}}, {{tree}}, {{file}}")
+    return Entry(entry_id, visible, kind, value)
+
+
+def _view(raw: Any) -> ViewState:
+    if not isinstance(raw, dict):
+        raise ProtocolError("state.view must be an object")
+    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap"}
+    if unknown:
+        raise ProtocolError(f"state.view has unknown fields {sorted(unknown)[:5]}")
+    values: dict[str, Any] = {}
+    for name, (lo, hi) in _ANGLES.items():
+        if name in raw:
+            values[name] = _number(f"view.{name}", raw[name], lo, hi)
+    if "resolution" in raw:
+        if raw["resolution"] not in RESOLUTIONS or isinstance(raw["resolution"], bool):
+            raise ProtocolError(f"view.resolution must be one of {RESOLUTIONS}")
+        values["resolution"] = int(raw["resolution"])
+    if "envmap" in raw:
+        if not isinstance(raw["envmap"], bool):
+            raise ProtocolError("view.envmap must be true or false")
+        values["envmap"] = raw["envmap"]
+    if "irradiance" in raw:
+        values["irradiance"] = _number("view.irradiance", raw["irradiance"], 0.0, 1e6)
+    return ViewState(**values)
+
+
+def _number(name: str, value: Any, lo: float, hi: float) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or not lo <= value <= hi
+    ):
+        raise ProtocolError(f"{name} must be a number in [{lo}, {hi}]; got {str(value)[:40]}")
+    return float(value)
+
+
+def array_table(arrays: list[np.ndarray]) -> tuple[list[dict[str, Any]], list[bytes]]:
+    """The description (dtype, shape) of each array and its little-endian C-order bytes."""
+    table, buffers = [], []
+    for array in arrays:
+        a = np.ascontiguousarray(array, dtype=array.dtype.newbyteorder("<"))
+        table.append({"dtype": a.dtype.name, "shape": list(a.shape)})
+        buffers.append(a.tobytes())
+    return table, buffers
+
+
+def encode_frame(header: dict[str, Any], buffers: list[bytes]) -> bytes:
+    """One binary WebSocket frame: the header (with each buffer's offset added) and the buffers,
+    each starting at a multiple of 8 bytes from the frame's start."""
+    offsets, position = [], 0
+    for b in buffers:
+        offsets.append(position)
+        position += -(-len(b) // 8) * 8
+    text = json.dumps({**header, "offsets": offsets}, allow_nan=False).encode()
+    start = -(-(4 + len(text)) // 8) * 8
+    out = bytearray(struct.pack("<I", len(text)) + text)
+    out += b" " * (start - len(out))
+    for b in buffers:
+        out += b + b"\0" * (-len(b) % 8)
+    return bytes(out)
+
+
+def decode_frame(frame: bytes) -> tuple[dict[str, Any], list[np.ndarray]]:
+    """Inverse of :func:`encode_frame` (for tests and Python clients)."""
+    (length,) = struct.unpack_from("<I", frame)
+    header = json.loads(frame[4 : 4 + length])
+    start = -(-(4 + length) // 8) * 8
+    arrays = []
+    for spec, offset in zip(header.get("arrays", []), header["offsets"], strict=True):
+        dtype = np.dtype(spec["dtype"]).newbyteorder("<")
+        count = math.prod(spec["shape"])
+        a = np.frombuffer(frame, dtype, count, start + offset).reshape(spec["shape"])
+        arrays.append(a)
+    return header, arrays
+
+
+__all__ = [
+    "MAX_ENTRIES",
+    "MAX_MESSAGE_BYTES",
+    "RESOLUTIONS",
+    "Entry",
+    "Message",
+    "ProtocolError",
+    "array_table",
+    "decode_frame",
+    "encode_frame",
+    "parse_message",
+    "parse_object",
+]

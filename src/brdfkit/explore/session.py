@@ -1,0 +1,371 @@
+"""One explorer session: the BRDFs it may show, and the replies to the front end's messages.
+
+A :class:`Session` is shared by the web server and the notebook widget; it reads only the files
+it is given (:meth:`Session.add_file`, the command line) or that are uploaded
+(:meth:`Session.add_upload`, written into a temporary folder the session owns and removes).
+Every reply is ``(header, arrays)``: :mod:`brdfkit.explore.protocol` frames it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brdfkit.brdf._spec import parse
+from brdfkit.brdf.base import BRDF
+from brdfkit.errors import BrdfkitError, FormatError
+from brdfkit.explore import views
+from brdfkit.explore.model_tree import brdf_of, controls_of, tree_of
+from brdfkit.explore.protocol import Entry, Message, ProtocolError, array_table
+
+MEASURED_SUFFIXES = (".binary", ".bsdf", ".brdf")
+"""Files the explorer reads as measured BRDFs (MERL, RGL, Cornell), with
+:func:`brdfkit.measured.read`."""
+
+MAX_UPLOAD_BYTES = 64 << 20
+"""The largest file the page may upload (a MERL table holds 35 MB)."""
+
+MAX_FILES = 32
+"""The most files one session holds."""
+
+MAX_FIT_BYTES = 1 << 20
+"""The largest ``fit.json`` (:command:`brdfkit fit`'s result) the explorer reads."""
+
+Reply = tuple[dict[str, Any], list[np.ndarray]]
+
+
+def fit_spec(data: bytes, where: str) -> str:
+    """The fitted model's spec in the bytes of a ``fit.json`` written by ``brdfkit fit``,
+    checked by the spec parser.
+
+    Raises
+    ------
+    FormatError
+        Naming ``where``, for bytes over :data:`MAX_FIT_BYTES`, not JSON, or with no ``"spec"``
+        string; the parser's errors for a spec it refuses.
+    """
+    import json
+
+    if len(data) > MAX_FIT_BYTES:
+        raise FormatError(where, f"holds {len(data)} bytes; a fit.json has at most {MAX_FIT_BYTES}")
+    try:
+        record = json.loads(data)
+    except (ValueError, RecursionError):
+        raise FormatError(where, "is not JSON (a fit.json written by brdfkit fit)") from None
+    if not isinstance(record, dict) or not isinstance(record.get("spec"), str):
+        raise FormatError(where, 'has no "spec" string (a fit.json written by brdfkit fit)')
+    return parse(record["spec"]).to_spec()
+
+
+class Session:
+    """The state behind one explorer page or widget."""
+
+    def __init__(self, envmap: str | os.PathLike | None = None) -> None:
+        """``envmap``: the environment map (``.hdr``/``.exr``) of the environment-lit sphere;
+        ``None``, the bundled one (:func:`brdfkit.data.default_envmap_path`)."""
+        from brdfkit.data import default_envmap_path
+        from brdfkit.lights import EnvironmentMap
+
+        path = Path(envmap) if envmap is not None else default_envmap_path()
+        self.envmap = EnvironmentMap.from_file(path)
+        self.envmap_name = path.name
+        self._paths: dict[str, Path] = {}
+        self._brdfs: dict[str, BRDF] = {}
+        self._cache: OrderedDict[str, BRDF] = OrderedDict()
+        self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
+        self._half_diff: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
+        self._lock = threading.Lock()
+        self._uploads: Path | None = None
+        self.warmed = threading.Event()
+        """Set once :meth:`warm_up` has run."""
+
+    # -- files -------------------------------------------------------------------------------
+    @property
+    def files(self) -> list[str]:
+        """The names of the files this session may show."""
+        return list(self._paths)
+
+    def add_file(self, path: str | os.PathLike, name: str | None = None) -> str:
+        """Read the measured BRDF at ``path`` now (its errors propagate) and return its name."""
+        from brdfkit.measured import read
+
+        path = Path(path)
+        if path.suffix.lower() not in MEASURED_SUFFIXES:
+            raise FormatError(path, f"must end in one of {', '.join(MEASURED_SUFFIXES)}")
+        if len(self._paths) >= MAX_FILES:
+            raise ProtocolError(f"a session holds at most {MAX_FILES} files")
+        brdf = read(path)
+        base = name or path.name
+        key, n = base, 1
+        while key in self._paths:
+            n += 1
+            key = f"{Path(base).stem}-{n}{Path(base).suffix}"
+        self._paths[key], self._brdfs[key] = path, brdf
+        return key
+
+    def add_upload(self, name: str, data: bytes) -> str:
+        """Write uploaded bytes into the session's own folder, read them, return the name."""
+        suffix = Path(name).suffix.lower()
+        if suffix not in MEASURED_SUFFIXES:
+            raise ProtocolError(
+                f"uploaded file {name[:60]!r} must end in one of {', '.join(MEASURED_SUFFIXES)}"
+            )
+        if len(data) > MAX_UPLOAD_BYTES:
+            raise ProtocolError(
+                f"uploaded file holds {len(data)} bytes; at most {MAX_UPLOAD_BYTES}"
+            )
+        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(name).name)[:64]
+        with self._lock:
+            if self._uploads is None:
+                self._uploads = Path(tempfile.mkdtemp(prefix="brdfkit-explore-"))
+            path = self._uploads / f"{len(self._paths)}-{safe}"
+            path.write_bytes(data)
+        try:
+            return self.add_file(path, name=safe)
+        except BrdfkitError:
+            path.unlink()
+            raise
+
+    def close(self) -> None:
+        """Remove the uploads folder (only this session's own files are in it)."""
+        if self._uploads is not None:
+            shutil.rmtree(self._uploads, ignore_errors=True)
+            self._uploads = None
+
+    # -- BRDFs -------------------------------------------------------------------------------
+    def brdf(self, entry: Entry) -> tuple[BRDF, dict[str, Any]]:
+        """The BRDF of an entry and its description for the front end (canonical spec, tree
+        and controls for an analytic model; the file's name for a measured one)."""
+        if entry.kind == "file":
+            if entry.value not in self._brdfs:
+                raise ProtocolError(f"no file named {entry.value[:60]!r} in this session")
+            brdf = self._brdfs[entry.value]
+            return brdf, {"label": entry.value, "file": entry.value, "channels": brdf.channels}
+        brdf = self._parsed(entry.kind, entry.value)
+        info = {"label": brdf.to_spec(), "spec": brdf.to_spec(), "channels": brdf.channels}
+        try:
+            info |= {"tree": tree_of(brdf), "controls": controls_of(brdf)}
+        except (BrdfkitError, ValueError):  # a model with no spec form has no sliders
+            pass
+        return brdf, info
+
+    def _parsed(self, kind: str, value: Any) -> BRDF:
+        brdf = brdf_of(value) if kind == "tree" else parse(value)
+        key = brdf.to_spec()
+        with self._lock:
+            if key in self._cache:
+                self._cache.move_to_end(key)
+                return self._cache[key]
+            self._cache[key] = brdf
+            while len(self._cache) > 32:
+                self._cache.popitem(last=False)
+        return brdf
+
+    # -- replies -----------------------------------------------------------------------------
+    def render(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
+        """Every view of every visible entry; ``None`` as soon as ``stale()`` says a newer
+        message is waiting."""
+        state = message.view
+        arrays: list[np.ndarray] = []
+
+        def put(a: np.ndarray) -> int:
+            arrays.append(a)
+            return len(arrays) - 1
+
+        axes = {
+            "theta_v": put(views.incidence_plane(state)[0]),
+            "theta_h": put(np.radians(np.linspace(0, 90, views.CURVE_SAMPLES))),
+            "theta_d": put(np.radians(np.linspace(0, 90, views.CURVE_SAMPLES))),
+        }
+        entries, per_entry = [], {}
+        for entry in message.entries:
+            if stale():
+                return None
+            try:
+                brdf, info = self.brdf(entry)
+            except (BrdfkitError, ValueError) as error:
+                entries.append({"id": entry.id, "error": str(error)})
+                continue
+            entries.append({"id": entry.id, **info})
+            if not entry.visible:
+                continue
+            try:
+                theta_h, theta_d, slice_ = self._half_diff_views(brdf, info, state)
+                per_entry[entry.id] = {
+                    "sphere": put(views.sphere(brdf, state).astype(np.float32)),
+                    "theta_v": put(views.theta_v_curve(brdf, state)[1]),
+                    "theta_h": put(theta_h),
+                    "theta_d": put(theta_d),
+                    "slice": put(slice_),
+                    "lobe": put(views.lobe(brdf, state).astype(np.float32)),
+                }
+            except (BrdfkitError, ValueError, FloatingPointError) as error:
+                entries[-1]["error"] = f"cannot evaluate: {error}"
+        table, _ = array_table(arrays)
+        light = state.light().direction
+        header = {
+            "type": "frame",
+            "seq": message.seq,
+            "entries": entries,
+            "views": per_entry,
+            "axes": axes,
+            "light": [float(x) for x in light],
+            "arrays": table,
+        }
+        return header, arrays
+
+    def _half_diff_views(
+        self, brdf: BRDF, info: dict[str, Any], state: views.ViewState
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light: cached
+        by BRDF and (θh, θd, φd), so that dragging the light recomputes only what it moves."""
+        key = (
+            info.get("spec") or f"file:{info['file']}",
+            state.theta_h,
+            state.theta_d,
+            state.phi_d,
+        )
+        with self._lock:
+            if key in self._half_diff:
+                self._half_diff.move_to_end(key)
+                return self._half_diff[key]
+        result = (
+            views.theta_h_curve(brdf, state)[1],
+            views.theta_d_curve(brdf, state)[1],
+            views.half_diff_slice(brdf, state).astype(np.float32),
+        )
+        with self._lock:
+            self._half_diff[key] = result
+            while len(self._half_diff) > 16:
+                self._half_diff.popitem(last=False)
+        return result
+
+    def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
+        """The directional albedo (with its standard error) of each visible entry, from a cache
+        keyed by the BRDF (it changes only when the BRDF does)."""
+        arrays: list[np.ndarray] = []
+        result: dict[str, Any] = {}
+        theta = np.radians(np.linspace(0.0, 89.0, views.ALBEDO_ANGLES))
+        for entry in message.entries:
+            if not entry.visible or stale():
+                continue
+            try:
+                brdf, info = self.brdf(entry)
+                key = info.get("spec") or f"file:{info['file']}"
+                if key not in self._albedo:
+                    self._albedo[key] = views.albedo(brdf)[1:]
+                    while len(self._albedo) > 64:
+                        self._albedo.popitem(last=False)
+            except (BrdfkitError, ValueError):
+                continue
+            mean, stderr = self._albedo[key]
+            arrays += [mean, stderr]
+            result[entry.id] = {"albedo": len(arrays) - 2, "albedo_err": len(arrays) - 1}
+        if stale():
+            return None
+        arrays.append(theta)
+        table, _ = array_table(arrays)
+        header = {
+            "type": "albedo",
+            "seq": message.seq,
+            "views": result,
+            "axes": {"albedo": len(arrays) - 1},
+            "arrays": table,
+        }
+        return header, arrays
+
+    def environment(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
+        """The environment-lit sphere of each visible entry, refined pass by pass (the entries'
+        passes interleaved), until ``cancel`` is set or every sphere has its samples."""
+        if not message.view.envmap:
+            return
+        resolution = min(message.view.resolution, 256)
+        mask = views.sphere_gbuffer(resolution).mask
+        runs = []
+        for entry in message.entries:
+            if entry.visible:
+                try:
+                    brdf, _ = self.brdf(entry)
+                except (BrdfkitError, ValueError):
+                    continue
+                runs.append(
+                    (entry.id, views.environment_passes(brdf, self.envmap, resolution, cancel))
+                )
+        while runs and not cancel.is_set():
+            for entry_id, run in list(runs):
+                p = next(run, None)
+                if p is None or cancel.is_set():
+                    runs.remove((entry_id, run))
+                    continue
+                image = p.image.astype(np.float32)
+                header = {
+                    "type": "env",
+                    "seq": message.seq,
+                    "id": entry_id,
+                    "samples": p.samples,
+                    "seconds": p.seconds,
+                    "noise": views.relative_noise(p, mask),
+                    "map": self.envmap_name,
+                    "arrays": array_table([image])[0],
+                }
+                yield header, [image]
+
+    def warm_up(self, specs: list[str]) -> None:
+        """Render the environment-lit sphere of ``specs`` once, small: the map's tables and the
+        compiled kernels of those models are built before the page asks (in a fresh process
+        the first pass otherwise takes seconds)."""
+        for spec in specs or ["lambertian + ggx"]:
+            try:
+                brdf = parse(spec)
+            except (BrdfkitError, ValueError):
+                continue
+            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=4):
+                pass
+        self.warmed.set()
+
+    def checks(self, message: Message) -> Reply:
+        """The physics checks (:func:`brdfkit.properties.check`) of the message's entry."""
+        from brdfkit.properties import check
+
+        entry = message.entries[0]
+        brdf, _ = self.brdf(entry)
+        report = check(brdf)
+        return {
+            "type": "checks",
+            "seq": message.seq,
+            "id": entry.id,
+            "report": report.to_dict(),
+            "arrays": [],
+        }, []
+
+    def handle(self, message: Message) -> list[Reply]:
+        """Every reply to one message, in turn (the notebook widget's synchronous path): a
+        render is followed by its albedo curves."""
+        if message.type == "checks":
+            return [self.checks(message)]
+        replies = [self.render(message), self.albedo(message)]
+        return [r for r in replies if r is not None]
+
+
+def error_reply(seq: int, error: Exception) -> Reply:
+    """The reply to a message that could not be acted on."""
+    return {"type": "error", "seq": seq, "message": str(error)[:500], "arrays": []}, []
+
+
+__all__ = [
+    "MAX_FIT_BYTES",
+    "MAX_UPLOAD_BYTES",
+    "MEASURED_SUFFIXES",
+    "Reply",
+    "Session",
+    "error_reply",
+    "fit_spec",
+]

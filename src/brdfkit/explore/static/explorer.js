@@ -1,0 +1,735 @@
+// brdfkit explorer: the front end shared by the web page (page.js) and the notebook widget
+// (widget.js). Rendering happens in Python (one source of truth for every BRDF); this module
+// draws the arrays it receives and sends the state back. It imports nothing, so that the
+// notebook widget can ship it as one ES module.
+//
+// transport: { send(object), onMessage(callback(header, buffers: ArrayBuffer-views)),
+//              upload?(File) -> Promise<name> }
+
+const PALETTE = ["#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6", "#9a6324"];
+const LUMA = [0.2126, 0.7152, 0.0722];
+const DEFAULT_VIEW = { theta_i: 45, phi_i: 0, theta_h: 20, theta_d: 30, phi_d: 90, resolution: 256, irradiance: Math.PI };
+const DEFAULT_DISPLAY = { exposure: 0, gamma: "srgb", channel: "rgb", log: false, cosine: true };
+const ANGLE_SLIDERS = [
+  ["theta_i", "θi", 0, 89.9], ["phi_i", "φi", -180, 180],
+  ["theta_h", "θh", 0, 90], ["theta_d", "θd", 0, 90], ["phi_d", "φd", 0, 180],
+];
+
+// ------------------------------------------------------------------------------ small helpers
+function el(tag, props = {}, children = []) {
+  const node = document.createElement(tag);
+  for (const [k, v] of Object.entries(props)) {
+    if (k === "dataset") Object.assign(node.dataset, v);
+    else if (k.startsWith("on")) node.addEventListener(k.slice(2), v);
+    else node[k] = v;
+  }
+  for (const c of [].concat(children)) node.append(c);
+  return node;
+}
+
+export function srgbEncode(x) {
+  return x <= 0.0031308 ? 12.92 * Math.max(x, 0) : 1.055 * Math.pow(x, 1 / 2.4) - 0.055;
+}
+function srgbDecode(v) {
+  return v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4);
+}
+
+// A typed view of one array described in a frame header.
+function typedArray(spec, buffer) {
+  const kinds = { float32: Float32Array, float64: Float64Array, int32: Int32Array, uint8: Uint8Array };
+  const Kind = kinds[spec.dtype];
+  const count = spec.shape.reduce((a, b) => a * b, 1);
+  return new Kind(buffer.buffer, buffer.byteOffset, count);
+}
+
+// Channel selection: values (n*C) → n grey values. "rgb" on a plot is luminance.
+export function channelOf(data, channels, channel) {
+  const n = data.length / channels;
+  const out = new Float64Array(n);
+  for (let i = 0; i < n; i++) {
+    if (channels === 1) out[i] = data[i];
+    else if (channel === "r") out[i] = data[i * channels];
+    else if (channel === "g") out[i] = data[i * channels + 1];
+    else if (channel === "b") out[i] = data[i * channels + 2];
+    else out[i] = LUMA[0] * data[i * channels] + LUMA[1] * data[i * channels + 1] + LUMA[2] * data[i * channels + 2];
+  }
+  return out;
+}
+
+function encodeDisplay(v, display) {
+  const x = Math.min(Math.max(v, 0), 1);
+  const g = display.gamma === "srgb" ? srgbEncode(x) : Math.pow(x, 1 / Number(display.gamma));
+  return Math.round(g * 255);
+}
+
+// Linear (R, R, C) image → RGBA pixels with exposure, channel and display encoding.
+export function toPixels(data, size, channels, display) {
+  const out = new Uint8ClampedArray(size * size * 4);
+  const scale = Math.pow(2, display.exposure);
+  for (let p = 0; p < size * size; p++) {
+    let r, g, b;
+    if (channels === 1) r = g = b = data[p];
+    else if (display.channel === "rgb") { r = data[3 * p]; g = data[3 * p + 1]; b = data[3 * p + 2]; }
+    else {
+      const k = { r: 0, g: 1, b: 2 }[display.channel];
+      r = g = b = k === undefined ? LUMA[0] * data[3 * p] + LUMA[1] * data[3 * p + 1] + LUMA[2] * data[3 * p + 2] : data[3 * p + k];
+    }
+    out[4 * p] = encodeDisplay(r * scale, display);
+    out[4 * p + 1] = encodeDisplay(g * scale, display);
+    out[4 * p + 2] = encodeDisplay(b * scale, display);
+    out[4 * p + 3] = 255;
+  }
+  return out;
+}
+
+function getPath(obj, path) { return path.reduce((o, k) => (o === undefined ? undefined : o[k]), obj); }
+function setPath(obj, path, value) { getPath(obj, path.slice(0, -1))[path[path.length - 1]] = value; }
+
+function hexOf(rgb) {
+  return "#" + rgb.map((v) => Math.round(srgbEncode(Math.min(Math.max(v, 0), 1)) * 255).toString(16).padStart(2, "0")).join("");
+}
+function rgbOf(hex) {
+  return [1, 3, 5].map((i) => Number(srgbDecode(parseInt(hex.slice(i, i + 2), 16) / 255).toFixed(6)));
+}
+
+function sliderToValue(t, s) {
+  return s.log ? s.lo * Math.pow(s.hi / s.lo, t) : s.lo + (s.hi - s.lo) * t;
+}
+function valueToSlider(v, s) {
+  const t = s.log ? Math.log(Math.max(v, s.lo) / s.lo) / Math.log(s.hi / s.lo) : (v - s.lo) / (s.hi - s.lo);
+  return Math.min(Math.max(t, 0), 1);
+}
+function tidy(v) { return Number(v.toPrecision(6)); }
+
+function parseText(text) {
+  const t = text.trim();
+  if (t === "" || t === "None" || t === "null") return null;
+  if (t === "True" || t === "true") return true;
+  if (t === "False" || t === "false") return false;
+  if (!Number.isNaN(Number(t))) return Number(t);
+  if (t.startsWith("[")) { try { return JSON.parse(t); } catch (e) { /* a string then */ } }
+  return t.replace(/^['"]|['"]$/g, "");
+}
+function showText(v) { return v === null || v === undefined ? "None" : Array.isArray(v) ? JSON.stringify(v) : String(v); }
+
+export function encodeState(s) {
+  const bytes = new TextEncoder().encode(JSON.stringify(s));
+  let bin = "";
+  for (const b of bytes) bin += String.fromCharCode(b);
+  return btoa(bin).replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "");
+}
+export function decodeState(text) {
+  const bin = atob(text.replace(/-/g, "+").replace(/_/g, "/"));
+  return JSON.parse(new TextDecoder().decode(Uint8Array.from(bin, (c) => c.charCodeAt(0))));
+}
+
+// ------------------------------------------------------------------------------ plotting
+function clear(canvas) {
+  const ctx = canvas.getContext("2d");
+  ctx.fillStyle = "#fff";
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  return ctx;
+}
+
+// A Cartesian plot of several series {x (radians), y, color, band?}; x shown in degrees.
+function linePlot(canvas, series, { log = false, xmin = 0, xmax = 90, title = "" } = {}) {
+  const ctx = clear(canvas);
+  const W = canvas.width, H = canvas.height, L = 46, R = 8, T = 18, B = 26;
+  let ymax = 0;
+  for (const s of series) for (let i = 0; i < s.y.length; i++) ymax = Math.max(ymax, s.y[i] + (s.band ? s.band[i] : 0));
+  if (!(ymax > 0)) ymax = 1;
+  const ymin = log ? ymax * 1e-4 : 0;
+  const fy = (y) => {
+    const v = log ? (Math.log10(Math.max(y, ymin)) - Math.log10(ymin)) / (Math.log10(ymax) - Math.log10(ymin)) : y / ymax;
+    return T + (H - T - B) * (1 - v);
+  };
+  const fx = (x) => L + ((x * 180) / Math.PI - xmin) / (xmax - xmin) * (W - L - R);
+  ctx.strokeStyle = "#999"; ctx.fillStyle = "#333"; ctx.font = "11px sans-serif";
+  ctx.strokeRect(L, T, W - L - R, H - T - B);
+  ctx.fillText(title, L, 12);
+  for (const d of [xmin, (xmin + xmax) / 2, xmax]) ctx.fillText(`${d}°`, fx((d * Math.PI) / 180) - 8, H - 8);
+  ctx.fillText(log ? ymax.toExponential(1) : ymax.toPrecision(3), 2, T + 8);
+  ctx.fillText(log ? ymin.toExponential(0) : "0", 2, H - B);
+  for (const s of series) {
+    if (s.band) {
+      ctx.fillStyle = s.color + "44";
+      ctx.beginPath();
+      for (let i = 0; i < s.x.length; i++) ctx.lineTo(fx(s.x[i]), fy(s.y[i] + s.band[i]));
+      for (let i = s.x.length - 1; i >= 0; i--) ctx.lineTo(fx(s.x[i]), fy(s.y[i] - s.band[i]));
+      ctx.fill();
+    }
+    ctx.strokeStyle = s.color; ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    for (let i = 0; i < s.x.length; i++) ctx.lineTo(fx(s.x[i]), fy(s.y[i]));
+    ctx.stroke();
+  }
+}
+
+// The polar plot in the plane of incidence: r(θv) with θv = 0 up, the light at −θi.
+function polarPlot(canvas, series, thetaI, log) {
+  const ctx = clear(canvas);
+  const W = canvas.width, H = canvas.height, cx = W / 2, cy = H - 14, rad = Math.min(W / 2, H) - 18;
+  let rmax = 0;
+  for (const s of series) for (const y of s.y) rmax = Math.max(rmax, log ? Math.log10(1 + y) : y);
+  if (!(rmax > 0)) rmax = 1;
+  ctx.strokeStyle = "#ccc";
+  for (const f of [0.25, 0.5, 0.75, 1]) { ctx.beginPath(); ctx.arc(cx, cy, rad * f, Math.PI, 2 * Math.PI); ctx.stroke(); }
+  ctx.beginPath(); ctx.moveTo(cx - rad, cy); ctx.lineTo(cx + rad, cy); ctx.stroke();
+  const ti = (thetaI * Math.PI) / 180;
+  ctx.strokeStyle = "#e0a000"; ctx.lineWidth = 2;
+  ctx.beginPath(); ctx.moveTo(cx, cy); ctx.lineTo(cx - rad * Math.sin(ti), cy - rad * Math.cos(ti)); ctx.stroke();
+  for (const s of series) {
+    ctx.strokeStyle = s.color; ctx.lineWidth = 1.5; ctx.beginPath();
+    for (let i = 0; i < s.x.length; i++) {
+      const r = ((log ? Math.log10(1 + s.y[i]) : s.y[i]) / rmax) * rad;
+      ctx.lineTo(cx + r * Math.sin(s.x[i]), cy - r * Math.cos(s.x[i]));
+    }
+    ctx.stroke();
+  }
+  ctx.fillStyle = "#333"; ctx.font = "11px sans-serif";
+  ctx.fillText(`max ${rmax.toPrecision(3)}${log ? " (log₁₀(1+·))" : ""}`, 4, 12);
+}
+
+// A wireframe of the 3D lobe r(wo)·wo, rotated by yaw/pitch, orthographic.
+function lobePlot(canvas, meshes, wi, rot) {
+  const ctx = clear(canvas);
+  const W = canvas.width, H = canvas.height;
+  let rmax = 0;
+  for (const m of meshes) for (const r of m.r) rmax = Math.max(rmax, r);
+  if (!(rmax > 0)) rmax = 1;
+  const s = (0.42 * Math.min(W, H)) / rmax;
+  const cy = Math.cos(rot.yaw), sy = Math.sin(rot.yaw), cp = Math.cos(rot.pitch), sp = Math.sin(rot.pitch);
+  const project = (x, y, z) => {
+    const x1 = cy * x - sy * y, y1 = sy * x + cy * y;  // yaw about the normal
+    const y2 = cp * y1 - sp * z, z2 = sp * y1 + cp * z;  // pitch
+    return [W / 2 + s * x1, H * 0.7 - s * z2, y2];
+  };
+  const line = (pts, color, width = 1) => {
+    ctx.strokeStyle = color; ctx.lineWidth = width; ctx.beginPath();
+    for (const p of pts) ctx.lineTo(p[0], p[1]);
+    ctx.stroke();
+  };
+  line([project(-rmax, 0, 0), project(rmax, 0, 0)], "#ccc");
+  line([project(0, -rmax, 0), project(0, rmax, 0)], "#ccc");
+  line([project(0, 0, 0), project(0, 0, rmax)], "#999");
+  line([project(0, 0, 0), project(wi[0] * rmax, wi[1] * rmax, wi[2] * rmax)], "#e0a000", 2);
+  for (const m of meshes) {
+    const [T, P] = m.shape;
+    const point = (t, p) => {
+      const th = (t / (T - 1)) * (Math.PI / 2), ph = (p / (P - 1)) * 2 * Math.PI, r = m.r[t * P + p];
+      return project(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
+    };
+    for (let t = 1; t < T; t += 2) line(Array.from({ length: P }, (_, p) => point(t, p)), m.color + "aa");
+    for (let p = 0; p < P - 1; p += 3) line(Array.from({ length: T }, (_, t) => point(t, p)), m.color + "aa");
+  }
+}
+
+// A perceptual-ish colour map (dark purple → orange → yellow) for the θh × θd slice.
+const STOPS = [[0, 0, 4], [81, 18, 124], [183, 55, 121], [252, 137, 97], [252, 253, 191]];
+function colormap(t) {
+  const x = Math.min(Math.max(t, 0), 1) * (STOPS.length - 1), i = Math.min(Math.floor(x), STOPS.length - 2), f = x - i;
+  return STOPS[i].map((c, k) => Math.round(c + (STOPS[i + 1][k] - c) * f));
+}
+
+// ------------------------------------------------------------------------------ the explorer
+export function createExplorer(root, transport, config = {}) {
+  const state = {
+    entries: [],
+    view: { ...DEFAULT_VIEW },
+    display: { ...DEFAULT_DISPLAY },
+    rotation: { yaw: -0.6, pitch: 1.1 },
+  };
+  let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
+  const listeners = [];
+  const api = { state, plotted: {}, env: {}, shown: { seq: 0, time: 0 }, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  root.classList.add("brdfkit-explorer");
+
+  // ---- layout
+  const side = el("div", { className: "bx-side" });
+  const mainPane = el("div", { className: "bx-main" });
+  root.append(side, mainPane);
+  const entryList = el("div", { className: "bx-entries" });
+  const addSpec = el("input", { type: "text", className: "bx-add-spec", placeholder: "add a BRDF: ggx(alpha=0.1)  (Enter)" });
+  addSpec.addEventListener("keydown", (e) => {
+    if (e.key === "Enter" && addSpec.value.trim()) { addEntry({ spec: addSpec.value.trim() }); addSpec.value = ""; }
+  });
+  const fileSelect = el("select", { className: "bx-add-file" });
+  const refreshFiles = (files) => {
+    fileSelect.replaceChildren(el("option", { value: "", textContent: "add a measured file…" }), ...files.map((f) => el("option", { value: f, textContent: f })));
+  };
+  refreshFiles(config.files || []);
+  fileSelect.addEventListener("change", () => { if (fileSelect.value) addEntry({ file: fileSelect.value }); fileSelect.value = ""; });
+  side.append(el("h3", { textContent: "BRDFs" }), entryList, addSpec, fileSelect);
+  if (transport.upload) {
+    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json" });
+    picker.addEventListener("change", async () => { for (const f of picker.files) await uploadFile(f); picker.value = ""; });
+    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell or fit.json: " }, [picker]));
+    root.addEventListener("dragover", (e) => e.preventDefault());
+    root.addEventListener("drop", async (e) => { e.preventDefault(); for (const f of e.dataTransfer.files) await uploadFile(f); });
+  }
+  const status = el("div", { className: "bx-status" });
+
+  // global sliders
+  const globals = el("div", { className: "bx-globals" });
+  const inputs = {};
+  const slider = (key, label, lo, hi, step, target, onchange) => {
+    const range = el("input", { type: "range", min: lo, max: hi, step, value: target[key], className: `bx-${key}` });
+    const out = el("span", { className: "bx-value", textContent: String(target[key]) });
+    range.addEventListener("input", () => { target[key] = Number(range.value); out.textContent = range.value; onchange(); });
+    inputs[key] = { range, out };
+    globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: label }), range, out]));
+  };
+  for (const [key, label, lo, hi] of ANGLE_SLIDERS) slider(key, label, lo, hi, 0.1, state.view, changed);
+  slider("exposure", "exposure", -10, 10, 0.1, state.display, redraw);
+  const select = (key, label, options, target, onchange) => {
+    const s = el("select", { className: `bx-${key}` }, options.map(([v, t]) => el("option", { value: v, textContent: t })));
+    s.value = String(target[key]);
+    s.addEventListener("change", () => { target[key] = isNaN(Number(s.value)) ? s.value : Number(s.value); onchange(); });
+    inputs[key] = { select: s };
+    globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: label }), s]));
+  };
+  select("gamma", "display", [["srgb", "sRGB"], ["2.2", "γ 2.2"], ["1", "linear"]], state.display, redraw);
+  select("channel", "channel", [["rgb", "RGB (plots: luminance)"], ["r", "R"], ["g", "G"], ["b", "B"], ["lum", "luminance"]], state.display, redraw);
+  select("resolution", "sphere", [["128", "128²"], ["256", "256²"], ["512", "512²"]], state.view, changed);
+  const check = (key, label) => {
+    const c = el("input", { type: "checkbox", checked: state.display[key], className: `bx-${key}` });
+    c.addEventListener("change", () => { state.display[key] = c.checked; redraw(); });
+    inputs[key] = { check: c };
+    globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: label })]));
+  };
+  if (config.envmap) {
+    const c = el("input", { type: "checkbox", checked: !!state.view.envmap, className: "bx-envmap" });
+    c.addEventListener("change", () => { state.view.envmap = c.checked; changed(); });
+    inputs.envmap = { check: c };
+    globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: `environment map (${config.envmap})` })]));
+  }
+  check("log", "log-scale plots");
+  check("cosine", "multiply by cos θ (lobe, polar, θv)");
+  const exports = el("div", { className: "bx-exports" }, [
+    el("button", { textContent: "copy URL", className: "bx-copy-url", onclick: () => navigator.clipboard && navigator.clipboard.writeText(location.href) }),
+    el("button", { textContent: "spec", className: "bx-export-spec", onclick: () => download("brdfs.txt", state.entries.map(specText).join("\n") + "\n", "text/plain") }),
+    el("button", { textContent: "JSON", className: "bx-export-json", onclick: () => download("explorer.json", JSON.stringify(persistent(), null, 2), "application/json") }),
+  ]);
+  side.append(el("h3", { textContent: "view" }), globals, el("h3", { textContent: "export" }), exports, status);
+
+  // views
+  const panel = (name, title, w, h) => {
+    const canvas = el("canvas", { width: w, height: h, className: `bx-canvas bx-${name}` });
+    const png = el("button", { textContent: "PNG", className: "bx-png", onclick: () => canvas.toBlob((b) => download(`${name}.png`, b)) });
+    const box = el("div", { className: `bx-panel bx-panel-${name}` }, [el("div", { className: "bx-title" }, [el("span", { textContent: title }), png]), canvas]);
+    return { box, canvas };
+  };
+  // A panel of several canvases (one per BRDF); its PNG puts them side by side.
+  const group = (name, title) => {
+    const body = el("div", { className: `bx-${name}` });
+    const png = el("button", { textContent: "PNG", className: "bx-png", onclick: () => {
+      const parts = Array.from(body.querySelectorAll("canvas"));
+      const out = el("canvas", { width: parts.reduce((w, c) => w + c.width, 0) || 1, height: Math.max(1, ...parts.map((c) => c.height)) });
+      let x = 0;
+      for (const c of parts) { out.getContext("2d").drawImage(c, x, 0); x += c.width; }
+      out.toBlob((b) => download(`${name}.png`, b));
+    } });
+    const box = el("div", { className: `bx-panel bx-panel-${name}` }, [el("div", { className: "bx-title" }, [el("span", { textContent: title }), png]), body]);
+    return { box, body };
+  };
+  const sphereGroup = group("spheres", "lit spheres, directional light (drag to move it); last: |first − second|");
+  const envGroup = group("envs", "lit spheres, environment map (refined progressively)");
+  const spheres = sphereGroup.body, envPanel = envGroup.body;
+  const envs = new Map();  // id → {canvas, caption, data, size, C}
+  const sliceGroup = group("slices", "θh × θd slices (log)");
+  const slices = sliceGroup.body;
+  const polar = panel("polar", "plane of incidence (polar)", 360, 200);
+  const lobe = panel("lobe", "3D lobe (drag to rotate)", 360, 300);
+  const curves = {
+    theta_v: panel("theta_v", "θv curve (plane of incidence)", 360, 180),
+    theta_h: panel("theta_h", "θh curve (at θd, φd)", 360, 180),
+    theta_d: panel("theta_d", "θd curve (at θh, φd)", 360, 180),
+    albedo: panel("albedo", "directional albedo ± 2σ (Monte Carlo)", 360, 180),
+  };
+  const checksBox = el("div", { className: "bx-panel bx-checks" }, [el("div", { className: "bx-title", textContent: "physics checks" })]);
+  const checksBody = el("div", { className: "bx-checks-body", textContent: "select a BRDF's “check” button" });
+  checksBox.append(checksBody);
+  mainPane.append(sphereGroup.box, envGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
+
+  let drag = null;
+  lobe.canvas.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY }; lobe.canvas.setPointerCapture(e.pointerId); });
+  lobe.canvas.addEventListener("pointermove", (e) => {
+    if (!drag) return;
+    state.rotation.yaw += (e.clientX - drag.x) * 0.01;
+    state.rotation.pitch = Math.min(Math.max(state.rotation.pitch + (e.clientY - drag.y) * 0.01, 0), Math.PI / 2);
+    drag = { x: e.clientX, y: e.clientY };
+    redraw();
+  });
+  lobe.canvas.addEventListener("pointerup", () => { drag = null; });
+
+  // ---- entries
+  function visibleIds() {
+    const solo = state.entries.some((e) => e.solo);
+    return new Set(state.entries.filter((e) => (solo ? e.solo : e.visible)).map((e) => e.id));
+  }
+  function specText(e) { return e.info && e.info.spec ? e.info.spec : e.source.spec || e.source.file || ""; }
+
+  function addEntry(source, extra = {}) {
+    const id = extra.id || `b${nextId++}`;
+    const entry = { id, source, visible: true, solo: false, color: PALETTE[(state.entries.length) % PALETTE.length], ...extra, info: null, signature: "" };
+    state.entries.push(entry);
+    entry.dom = entryDom(entry);
+    entryList.append(entry.dom.box);
+    changed();
+    return entry;
+  }
+  function removeEntry(entry) {
+    state.entries.splice(state.entries.indexOf(entry), 1);
+    entry.dom.box.remove();
+    changed();
+  }
+  function entryDom(entry) {
+    const color = el("input", { type: "color", value: entry.color, className: "bx-color" });
+    color.addEventListener("input", () => { entry.color = color.value; redraw(); saveUrl(); });
+    const visible = el("input", { type: "checkbox", checked: entry.visible, className: "bx-visible", title: "visible" });
+    visible.addEventListener("change", () => { entry.visible = visible.checked; changed(); });
+    const solo = el("button", { textContent: "solo", className: "bx-solo" });
+    solo.addEventListener("click", () => { entry.solo = !entry.solo; solo.classList.toggle("on", entry.solo); changed(); });
+    solo.classList.toggle("on", entry.solo);
+    const checkButton = el("button", { textContent: "check", className: "bx-check", onclick: () => requestChecks(entry) });
+    const remove = el("button", { textContent: "×", className: "bx-remove", onclick: () => removeEntry(entry) });
+    const spec = el("textarea", { className: "bx-spec", rows: 2, value: entry.source.spec || entry.source.file || "" });
+    spec.readOnly = !!entry.source.file;
+    spec.addEventListener("keydown", (e) => {
+      if (e.key === "Enter" && !e.shiftKey) { e.preventDefault(); entry.source = { spec: spec.value }; entry.signature = ""; changed(); }
+    });
+    const error = el("div", { className: "bx-error" });
+    const controls = el("div", { className: "bx-controls" });
+    const box = el("div", { className: "bx-entry", dataset: { id: entry.id } }, [
+      el("div", { className: "bx-entry-head" }, [color, visible, solo, checkButton, remove]), spec, error, controls,
+    ]);
+    return { box, spec, error, controls };
+  }
+
+  function buildControls(entry) {
+    const { controls } = entry.dom;
+    controls.replaceChildren();
+    const tree = entry.source.tree;
+    for (const c of entry.info.controls || []) {
+      const value = getPath(tree, c.path);
+      const key = c.path.join(".");
+      const set = (v) => { setPath(entry.source.tree, c.path, v); changed(); };
+      const label = el("span", { className: "bx-param-name", textContent: `${c.model}.${c.name}`, title: (c.slider && c.slider.hint) || "" });
+      let widget;
+      if (c.kind === "number") {
+        const range = el("input", { type: "range", min: 0, max: 1000, step: 1, value: Math.round(valueToSlider(value, c.slider) * 1000) });
+        const box = el("input", { type: "number", value: tidy(value), step: "any", className: "bx-number" });
+        range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v); });
+        box.addEventListener("change", () => { range.value = Math.round(valueToSlider(Number(box.value), c.slider) * 1000); set(Number(box.value)); });
+        widget = [range, box];
+      } else if (c.kind === "rgb") {
+        const pick = el("input", { type: "color", value: hexOf(value) });
+        const text = el("input", { type: "text", value: JSON.stringify(value), className: "bx-text" });
+        pick.addEventListener("input", () => { const v = rgbOf(pick.value); text.value = JSON.stringify(v); set(v); });
+        text.addEventListener("change", () => { const v = parseText(text.value); if (Array.isArray(v)) pick.value = hexOf(v); set(v); });
+        widget = [pick, text];
+      } else if (c.kind === "bool") {
+        const box = el("input", { type: "checkbox", checked: !!value });
+        box.addEventListener("change", () => set(box.checked));
+        widget = [box];
+      } else {
+        const text = el("input", { type: "text", value: showText(value), className: "bx-text" });
+        text.addEventListener("change", () => set(parseText(text.value)));
+        widget = [text];
+      }
+      controls.append(el("label", { className: "bx-param", dataset: { path: key } }, [label, ...widget]));
+    }
+  }
+
+  // ---- messages
+  function wireState() {
+    const ids = visibleIds();
+    return {
+      entries: state.entries.map((e) => ({ id: e.id, visible: ids.has(e.id), source: e.source })),
+      view: state.view,
+    };
+  }
+  function changed() {
+    saveUrl();
+    if (inFlight) { pending = true; return; }
+    inFlight = ++seq;
+    api.sent = { seq, time: performance.now() };
+    transport.send({ type: "render", seq, state: wireState() });
+  }
+  function requestChecks(entry) {
+    checksBody.textContent = `checking ${specText(entry).slice(0, 80)}…`;
+    transport.send({ type: "checks", seq: ++seq, entry: { id: entry.id, visible: true, source: entry.source } });
+  }
+
+  transport.onMessage((header, buffers) => {
+    const arrays = (header.arrays || []).map((spec, i) => typedArray(spec, buffers[i]));
+    if (header.type === "frame") {
+      if (header.seq === inFlight) inFlight = 0;
+      frame = { header, arrays };
+      applyEntries(header.entries);
+      redraw();
+      api.shown = { seq: header.seq, time: performance.now() };
+      status.textContent = "";
+      for (const f of listeners) f(header);
+      if (pending && !inFlight) { pending = false; changed(); }
+    } else if (header.type === "albedo") {
+      albedo = { header, arrays };
+      redraw();
+    } else if (header.type === "env") {
+      showEnv(header, arrays[0]);
+    } else if (header.type === "checks") {
+      showChecks(header);
+    } else if (header.type === "error") {
+      status.textContent = header.message;
+      if (header.seq === inFlight || header.seq === 0) inFlight = 0;
+      if (pending && !inFlight) { pending = false; changed(); }
+    }
+  });
+
+  function applyEntries(infos) {
+    for (const info of infos) {
+      const entry = state.entries.find((e) => e.id === info.id);
+      if (!entry) continue;
+      entry.dom.error.textContent = info.error || "";
+      if (info.error && !info.label) continue;
+      entry.info = info;
+      if (document.activeElement !== entry.dom.spec) entry.dom.spec.value = info.spec || info.file;
+      if (info.tree && !entry.source.file) {
+        const signature = JSON.stringify((info.controls || []).map((c) => c.path));
+        const fresh = !entry.source.tree || signature !== entry.signature;
+        entry.source = { tree: entry.source.tree && !fresh ? entry.source.tree : info.tree };
+        if (fresh) { entry.signature = signature; buildControls(entry); }
+      }
+    }
+    saveUrl();
+  }
+
+  let envSeq = 0;
+  function showEnv(header, data) {
+    if (header.seq < envSeq) return;  // a pass of a cancelled render
+    envSeq = header.seq;
+    let item = envs.get(header.id);
+    if (!item) {
+      const canvas = el("canvas", { className: "bx-env", title: "environment-lit sphere, refined progressively" });
+      canvas.dataset.id = header.id;
+      const caption = el("div", { className: "bx-caption" });
+      item = { canvas, caption, box: el("div", { className: "bx-env-box" }, [canvas, caption]) };
+      envs.set(header.id, item);
+    }
+    const size = header.arrays[0].shape[0];
+    Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
+    api.env[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, time: performance.now() };
+    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    drawEnvs();
+  }
+  function drawEnvs() {
+    const ids = visibleIds();
+    const shown = state.view.envmap ? state.entries.filter((e) => ids.has(e.id) && envs.has(e.id)) : [];
+    for (const e of shown) {
+      const item = envs.get(e.id);
+      if (item.canvas.width !== item.size) { item.canvas.width = item.size; item.canvas.height = item.size; }
+      item.canvas.style.borderColor = e.color;
+      item.canvas.getContext("2d").putImageData(new ImageData(toPixels(item.data, item.size, item.C, state.display), item.size, item.size), 0, 0);
+    }
+    const boxes = shown.map((e) => envs.get(e.id).box);
+    const current = Array.from(envPanel.children);
+    if (current.length !== boxes.length || current.some((c, i) => c !== boxes[i])) envPanel.replaceChildren(...boxes);
+    envGroup.box.hidden = !shown.length;
+  }
+
+  function showChecks(header) {
+    const r = header.report;
+    const rows = r.checks.map((c) => el("tr", { className: c.contradicts_claim ? "bad" : c.passed ? "ok" : "" }, [
+      el("td", { textContent: c.name }), el("td", { textContent: c.verdict }),
+      el("td", { textContent: c.value === null ? "—" : Number(c.value).toPrecision(3) }),
+      el("td", { textContent: c.tolerance === null ? "—" : Number(c.tolerance).toPrecision(3) }),
+    ]));
+    checksBody.replaceChildren(
+      el("div", { textContent: `${r.model.slice(0, 120)}: ${r.consistent ? "every measurement agrees with its claims" : "a measurement CONTRADICTS a claim"}` }),
+      el("table", {}, [el("tr", {}, ["check", "verdict", "value", "tolerance"].map((t) => el("th", { textContent: t }))), ...rows]),
+    );
+  }
+
+  // ---- drawing
+  function redraw() {
+    saveUrl();
+    if (!frame) return;
+    drawEnvs();
+    const { header, arrays } = frame;
+    const d = state.display;
+    const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
+    const channels = (e) => (e.info ? e.info.channels : 1);
+    const arr = (e, name) => arrays[header.views[e.id][name]];
+    api.plotted = {};
+
+    // lit spheres (+ the difference of the first two)
+    const R = state.view.resolution;
+    const sphereData = [];
+    const canvases = shown.map((e) => {
+      const data = arr(e, "sphere");
+      const C = data.length / (R * R);
+      sphereData.push({ data, C });
+      return sphereCanvas(e.id, e.color, toPixels(data, R, C, d), R);
+    });
+    if (sphereData.length >= 2) {
+      const [a, b] = sphereData;
+      const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
+      for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+      canvases.push(sphereCanvas("difference", "#000", toPixels(diff, R, C, d), R, "|first − second|"));
+    }
+    const current = Array.from(spheres.children);
+    if (current.length !== canvases.length || current.some((c, i) => c !== canvases[i])) spheres.replaceChildren(...canvases);
+
+    // curves
+    const curve = (name, cosine) => shown.map((e) => {
+      const x = arrays[header.axes[name]];
+      let y = channelOf(arr(e, name), channels(e), d.channel);
+      if (cosine) y = y.map((v, i) => v * Math.max(Math.cos(x[i]), 0));
+      api.plotted[name] = api.plotted[name] || {};
+      api.plotted[name][e.id] = { x: Array.from(x), y: Array.from(y) };
+      return { x, y, color: e.color };
+    });
+    const tv = curve("theta_v", d.cosine);
+    polarPlot(polar.canvas, tv, state.view.theta_i, d.log);
+    linePlot(curves.theta_v.canvas, tv, { log: d.log, xmin: -90, xmax: 90, title: d.cosine ? "f·cos θv" : "f" });
+    linePlot(curves.theta_h.canvas, curve("theta_h", false), { log: d.log, title: `f at θd = ${state.view.theta_d}°, φd = ${state.view.phi_d}°` });
+    linePlot(curves.theta_d.canvas, curve("theta_d", false), { log: d.log, title: `f at θh = ${state.view.theta_h}°, φd = ${state.view.phi_d}°` });
+    if (albedo) {
+      const ax = albedo.arrays[albedo.header.axes.albedo];
+      const series = shown.filter((e) => albedo.header.views[e.id]).map((e) => {
+        const v = albedo.header.views[e.id];
+        const mean = channelOf(albedo.arrays[v.albedo], channels(e), d.channel);
+        const err = channelOf(albedo.arrays[v.albedo_err], channels(e), d.channel).map((s) => 2 * s);
+        return { x: ax, y: mean, band: err, color: e.color };
+      });
+      linePlot(curves.albedo.canvas, series, { xmin: 0, xmax: 90, title: "ρ(θo)" });
+    }
+
+    // 3D lobe
+    const wi = [Math.sin(rad(state.view.theta_i)) * Math.cos(rad(state.view.phi_i)), Math.sin(rad(state.view.theta_i)) * Math.sin(rad(state.view.phi_i)), Math.cos(rad(state.view.theta_i))];
+    const meshes = shown.map((e) => {
+      const spec = header.arrays[header.views[e.id].lobe];
+      const [T, P] = spec.shape;
+      let r = channelOf(arr(e, "lobe"), channels(e), d.channel);
+      if (d.cosine) r = r.map((v, i) => v * Math.cos((Math.floor(i / P) / (T - 1)) * (Math.PI / 2)));
+      if (d.log) r = r.map((v) => Math.log10(1 + v));
+      return { r, shape: [T, P], color: e.color };
+    });
+    lobePlot(lobe.canvas, meshes, wi, state.rotation);
+
+    // θh × θd slices (log colour scale)
+    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${state.view.phi_d}° (log colour scale)`;
+    slices.replaceChildren(...shown.map((e) => {
+      const spec = header.arrays[header.views[e.id].slice];
+      const n = spec.shape[0];
+      const v = channelOf(arr(e, "slice"), channels(e), d.channel);
+      let vmax = 0;
+      for (const x of v) vmax = Math.max(vmax, x);
+      const vmin = vmax * 1e-4, px = new Uint8ClampedArray(n * n * 4);
+      for (let row = 0; row < n; row++) for (let col = 0; col < n; col++) {
+        const value = v[row * n + col], out = ((n - 1 - row) * n + col) * 4;  // θd up
+        const c = value > 0 ? colormap(Math.log(value / vmin) / Math.log(vmax / vmin)) : [0, 0, 0];
+        px.set([...c, 255], out);
+      }
+      const canvas = el("canvas", { width: n, height: n, className: "bx-slice", title: e.info.label });
+      canvas.dataset.id = e.id;
+      canvas.style.borderColor = e.color;
+      canvas.getContext("2d").putImageData(new ImageData(px, n, n), 0, 0);
+      return canvas;
+    }));
+  }
+  const rad = (deg) => (deg * Math.PI) / 180;
+
+  // Sphere canvases persist across frames (a drag keeps its pointer capture).
+  const sphereCanvases = new Map();
+  function sphereCanvas(id, color, pixels, R, title) {
+    let canvas = sphereCanvases.get(id);
+    if (!canvas) {
+      canvas = el("canvas", { className: "bx-sphere", title: title || "drag to move the light" });
+      canvas.dataset.id = id;
+      sphereCanvases.set(id, canvas);
+      const move = (e) => {
+        const rect = canvas.getBoundingClientRect();
+        let x = ((e.clientX - rect.left) / rect.width) * 2 - 1, y = 1 - ((e.clientY - rect.top) / rect.height) * 2;
+        const r = Math.hypot(x, y);
+        if (r > 0.9999) { x *= 0.9999 / r; y *= 0.9999 / r; }
+        // the point's normal is the light direction: world (√(1−x²−y²), x, y) = local (x, y, z)
+        const z = Math.sqrt(Math.max(1 - x * x - y * y, 0));
+        state.view.theta_i = Math.min(tidy((Math.acos(z) * 180) / Math.PI), 89.9);
+        state.view.phi_i = tidy((Math.atan2(y, x) * 180) / Math.PI);
+        for (const k of ["theta_i", "phi_i"]) { inputs[k].range.value = state.view[k]; inputs[k].out.textContent = state.view[k]; }
+        changed();
+      };
+      canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; move(e); });
+      canvas.addEventListener("pointermove", (e) => { if (canvas.dataset.dragging) move(e); });
+      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; });
+    }
+    if (canvas.width !== R) { canvas.width = R; canvas.height = R; }
+    canvas.style.borderColor = color;
+    canvas.getContext("2d").putImageData(new ImageData(pixels, R, R), 0, 0);
+    return canvas;
+  }
+
+  // ---- state in the URL, exports
+  function persistent() {
+    return {
+      entries: state.entries.map((e) => ({ id: e.id, source: e.source, visible: e.visible, solo: e.solo, color: e.color })),
+      view: state.view, display: state.display, rotation: state.rotation,
+    };
+  }
+  let urlTimer = 0;
+  function saveUrl() {
+    if (!config.url) return;
+    clearTimeout(urlTimer);
+    urlTimer = setTimeout(() => history.replaceState(null, "", "#s=" + encodeState(persistent())), 150);
+  }
+  function download(name, data, type) {
+    const blob = data instanceof Blob ? data : new Blob([data], { type });
+    const a = el("a", { href: URL.createObjectURL(blob), download: name });
+    a.click();
+    setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+  }
+  async function uploadFile(file) {
+    status.textContent = `uploading ${file.name}…`;
+    try {
+      const reply = await transport.upload(file);
+      if (reply.spec) addEntry({ spec: reply.spec });
+      else {
+        config.files = [...(config.files || []), reply.name];
+        refreshFiles(config.files);
+        addEntry({ file: reply.name });
+      }
+      status.textContent = "";
+    } catch (err) {
+      status.textContent = String(err.message || err);
+    }
+  }
+
+  // ---- start: from a saved state, else the initial specs and files
+  function restore(saved) {
+    Object.assign(state.view, saved.view || {});
+    Object.assign(state.display, saved.display || {});
+    Object.assign(state.rotation, saved.rotation || {});
+    for (const [k, v] of Object.entries({ ...state.view, ...state.display })) {
+      const input = inputs[k];
+      if (!input) continue;
+      if (input.range) { input.range.value = v; input.out.textContent = v; }
+      if (input.select) input.select.value = String(v);
+      if (input.check) input.check.checked = v;
+    }
+    for (const e of saved.entries || []) {
+      nextId = Math.max(nextId, Number(String(e.id).replace(/\D/g, "")) + 1 || nextId);
+      addEntry(e.source, { id: e.id, visible: e.visible !== false, solo: !!e.solo, color: e.color || PALETTE[0] });
+    }
+  }
+  api.addEntry = addEntry;
+  api.envImage = (id) => Array.from(envs.get(id).data);
+  api.restore = restore;
+  api.persistent = persistent;
+  if (config.saved) restore(config.saved);
+  else for (const item of config.initial || ["lambertian(albedo=0.5) + ggx(alpha=0.2)"]) {
+    addEntry((config.files || []).includes(item) ? { file: item } : { spec: item });
+  }
+  if (!state.entries.length) changed();
+  return api;
+}

@@ -1,0 +1,209 @@
+"""What each view of the explorer shows, computed from the BRDF's own ``eval`` and the renderer.
+
+Every view is linked to one incident direction ``wi`` = (θi, φi) in the local frame (z the
+normal). The lit sphere is :func:`brdfkit.render.shade` of a unit sphere under a
+:class:`~brdfkit.lights.DirectionalLight` whose world direction is ``wi`` carried by
+:data:`LOCAL_TO_WORLD`: the frame at the sphere's centre pixel, whose normal faces the default
+camera, so that the sphere's centre sees the BRDF at exactly (θi, φi) with ``wo`` = the normal.
+
+References
+----------
+.. [1] S. Rusinkiewicz, "A new change of variables for efficient BRDF representation", EGWR 1998
+       (the θh, θd, φd coordinates).
+.. [2] B. Burley, "Physically-based shading at Disney", SIGGRAPH 2012 course notes (BRDF
+       Explorer's views: θh/θd/θv curves, the θh×θd slice, the lit sphere).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from brdfkit.brdf.base import BRDF
+from brdfkit.geometry import from_half_diff, spherical_to_cartesian
+from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive, shade
+
+LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+"""Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
+the sphere's centre, is +x towards the default camera; local x is the image's right, +y)."""
+
+CURVE_SAMPLES = 181
+"""Points on each curve (θv over [−90°, 90°] in 1° steps; θh and θd over [0°, 90°])."""
+
+SLICE_RESOLUTION = 90
+"""Cells per side of the θh × θd slice (1° each)."""
+
+LOBE_GRID = (24, 48)
+"""(θo, φo) nodes of the 3D lobe mesh."""
+
+ENV_MAX_SAMPLES = 1024
+"""Samples per pixel at which the environment-lit sphere stops refining."""
+
+ALBEDO_ANGLES = 16
+ALBEDO_SAMPLES = 1024
+
+
+@dataclass(frozen=True)
+class ViewState:
+    """The shared settings of all views (angles in degrees, as the sliders show them)."""
+
+    theta_i: float = 45.0
+    phi_i: float = 0.0
+    theta_h: float = 20.0
+    theta_d: float = 30.0
+    phi_d: float = 90.0
+    resolution: int = 256
+    irradiance: float = math.pi
+    envmap: bool = False
+
+    def wi(self) -> np.ndarray:
+        """The incident direction (local), ``(3,)``."""
+        return spherical_to_cartesian(np.radians(self.theta_i), np.radians(self.phi_i))
+
+    def light(self) -> DirectionalLight:
+        """The sphere's light: from :meth:`wi` in the world, delivering :attr:`irradiance`."""
+        return DirectionalLight(direction=LOCAL_TO_WORLD @ self.wi(), irradiance=self.irradiance)
+
+
+@lru_cache(maxsize=4)
+def sphere_gbuffer(resolution: int) -> GBuffer:
+    """The unit sphere's G-buffer in the default camera (cached: only the light moves)."""
+    return gbuffer(Sphere(), None, resolution)
+
+
+def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
+    """Linear radiance ``(R, R, C)`` of the lit sphere, exactly ``render_sphere(brdf,
+    state.light(), state.resolution)``."""
+    return shade(sphere_gbuffer(state.resolution), brdf, state.light())
+
+
+HORIZON = 1e-6
+"""Directions with cos θ at most this are drawn as 0 (at the horizon f·cos θ has a finite limit
+but f itself may overflow)."""
+
+
+def environment_passes(
+    brdf: BRDF,
+    envmap: EnvironmentMap,
+    resolution: int,
+    cancel: threading.Event | None = None,
+    max_samples: int = ENV_MAX_SAMPLES,
+) -> Iterator[Pass]:
+    """The sphere under ``envmap`` refined progressively (:func:`brdfkit.render.progressive`:
+    1, 2, 4, … samples per pixel), stopping when ``cancel`` is set."""
+    return progressive(
+        sphere_gbuffer(resolution), brdf, envmap, max_samples=max_samples, cancel=cancel
+    )
+
+
+def relative_noise(p: Pass, mask: np.ndarray) -> float:
+    """The image's Monte Carlo noise: RMS standard error over the sphere / its mean value."""
+    mean = float(np.mean(p.image[mask]))
+    return float(np.sqrt(np.mean(p.stderr[mask] ** 2)) / mean) if mean > 0 else 0.0
+
+
+def _eval(brdf: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """f as float64 ``(..., C)``; 0 where a direction lies at or below the :data:`HORIZON`."""
+    wi, wo = np.broadcast_arrays(wi, wo)
+    f = np.asarray(brdf.eval(np.ascontiguousarray(wi), np.ascontiguousarray(wo)), np.float64)
+    below = (wi[..., 2] <= HORIZON) | (wo[..., 2] <= HORIZON)
+    return np.where(below[..., None], 0.0, np.nan_to_num(f, nan=0.0, posinf=0.0))
+
+
+def incidence_plane(state: ViewState) -> tuple[np.ndarray, np.ndarray]:
+    """``(theta_v, wo)``: signed view angles over [−90°, 90°] in the plane of incidence and their
+    directions; θv = +θi is the mirror direction."""
+    theta_v = np.radians(np.linspace(-90.0, 90.0, CURVE_SAMPLES))
+    phi = math.radians(state.phi_i) + math.pi  # the mirror side is opposite the light
+    wo = np.stack(
+        [np.sin(theta_v) * math.cos(phi), np.sin(theta_v) * math.sin(phi), np.cos(theta_v)], -1
+    )
+    return theta_v, wo
+
+
+def theta_v_curve(brdf: BRDF, state: ViewState) -> tuple[np.ndarray, np.ndarray]:
+    """f(wi, wo(θv)) in the plane of incidence (the polar plot and the θv curve): ``(θv, f)``."""
+    theta_v, wo = incidence_plane(state)
+    return theta_v, _eval(brdf, state.wi(), wo)
+
+
+def theta_h_curve(brdf: BRDF, state: ViewState) -> tuple[np.ndarray, np.ndarray]:
+    """f over θh ∈ [0°, 90°] at the state's θd and φd (φh = 0)."""
+    theta_h = np.radians(np.linspace(0.0, 90.0, CURVE_SAMPLES))
+    wi, wo = from_half_diff(
+        theta_h,
+        0 * theta_h,
+        np.full_like(theta_h, math.radians(state.theta_d)),
+        np.full_like(theta_h, math.radians(state.phi_d)),
+    )
+    return theta_h, _eval(brdf, wi, wo)
+
+
+def theta_d_curve(brdf: BRDF, state: ViewState) -> tuple[np.ndarray, np.ndarray]:
+    """f over θd ∈ [0°, 90°] at the state's θh and φd (φh = 0)."""
+    theta_d = np.radians(np.linspace(0.0, 90.0, CURVE_SAMPLES))
+    wi, wo = from_half_diff(
+        np.full_like(theta_d, math.radians(state.theta_h)),
+        0 * theta_d,
+        theta_d,
+        np.full_like(theta_d, math.radians(state.phi_d)),
+    )
+    return theta_d, _eval(brdf, wi, wo)
+
+
+def half_diff_slice(brdf: BRDF, state: ViewState) -> np.ndarray:
+    """f on the θh × θd grid at the state's φd, ``(θd, θh, C)`` with cell centres 0.5°, 1.5°, …"""
+    centres = (np.arange(SLICE_RESOLUTION) + 0.5) * (math.pi / 2 / SLICE_RESOLUTION)
+    th, td = np.meshgrid(centres, centres)
+    wi, wo = from_half_diff(th, 0 * th, td, np.full_like(th, math.radians(state.phi_d)))
+    return _eval(brdf, wi, wo)
+
+
+def lobe(brdf: BRDF, state: ViewState) -> np.ndarray:
+    """f(wi, wo) on the :data:`LOBE_GRID` of (θo, φo) nodes (θo from 0° to 90°, φo over a full
+    turn with the seam repeated), ``(T, P, C)``; the front end draws r = f (or f·cos θo)."""
+    theta = np.radians(np.linspace(0.0, 90.0, LOBE_GRID[0]))
+    phi = np.radians(np.linspace(0.0, 360.0, LOBE_GRID[1]))
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    wo = spherical_to_cartesian(t, p)
+    wo[..., 2] = np.maximum(wo[..., 2], 2 * HORIZON)  # the horizon row, just above it
+    return _eval(brdf, state.wi(), wo)
+
+
+def albedo(brdf: BRDF) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Directional albedo ρ(θo) at :data:`ALBEDO_ANGLES` angles in [0°, 89°] with its Monte Carlo
+    standard error (:meth:`BRDF.albedo_estimate`, :data:`ALBEDO_SAMPLES` samples): ``(θ, ρ, σ)``."""
+    theta = np.radians(np.linspace(0.0, 89.0, ALBEDO_ANGLES))
+    wo = spherical_to_cartesian(theta, np.zeros_like(theta))
+    mean, stderr = brdf.albedo_estimate(wo, samples=ALBEDO_SAMPLES)
+    return theta, np.asarray(mean, np.float64), np.asarray(stderr, np.float64)
+
+
+__all__ = [
+    "ALBEDO_ANGLES",
+    "ALBEDO_SAMPLES",
+    "CURVE_SAMPLES",
+    "ENV_MAX_SAMPLES",
+    "HORIZON",
+    "LOBE_GRID",
+    "LOCAL_TO_WORLD",
+    "SLICE_RESOLUTION",
+    "ViewState",
+    "albedo",
+    "environment_passes",
+    "half_diff_slice",
+    "incidence_plane",
+    "lobe",
+    "relative_noise",
+    "sphere",
+    "sphere_gbuffer",
+    "theta_d_curve",
+    "theta_h_curve",
+    "theta_v_curve",
+]

@@ -1,0 +1,132 @@
+"""The notebook widget in a real Jupyter kernel (nbclient), and its front end in Chromium."""
+
+from __future__ import annotations
+
+import base64
+import json
+import textwrap
+
+import numpy as np
+import pytest
+from _page import canvas_pixels, expected_pixels, light_world
+
+pytest.importorskip("anywidget")
+
+SPEC = "lambertian(albedo=[0.2, 0.5, 0.8]) + ggx(alpha=0.25)"
+
+
+@pytest.mark.slow
+def test_the_widget_renders_in_a_jupyter_kernel(monkeypatch):
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    from pathlib import Path
+
+    import brdfkit
+
+    src = str(Path(brdfkit.__file__).parents[1])
+    cells = [
+        f"import sys; sys.path.insert(0, {src!r})\nfrom brdfkit.explore import Explorer\n"
+        f"w = Explorer({SPEC!r})\nw",
+        textwrap.dedent(
+            """
+            import json
+            sent = []
+            w.send = lambda content, buffers=None: sent.append((content, buffers))
+            message = {"type": "render", "seq": 7, "state": {
+                "entries": [{"id": "b1", "visible": True, "source": {"spec": SPEC_HERE}}],
+                "view": {"resolution": 64}}}
+            w._handle_custom_msg(message, [])
+            header, buffers = sent[0]
+            print(json.dumps({"types": [c["type"] for c, _ in sent], "seq": header["seq"],
+                              "spec": header["entries"][0]["spec"],
+                              "sphere": header["arrays"][header["views"]["b1"]["sphere"]],
+                              "bytes": len(buffers[header["views"]["b1"]["sphere"]])}))
+            """
+        ).replace("SPEC_HERE", repr(SPEC)),
+    ]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    client = nbclient.NotebookClient(nb, timeout=120, kernel_name="python3", resources={})
+    monkeypatch.setenv("PYTHONPATH", src)  # the kernel imports this tree's brdfkit
+    monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
+    client.execute()
+    view = nb.cells[0].outputs[-1]["data"]["application/vnd.jupyter.widget-view+json"]
+    widgets = nb.metadata["widgets"]["application/vnd.jupyter.widget-state+json"]["state"]
+    state = widgets[view["model_id"]]["state"]
+    assert "createExplorer" in state["_esm"] and "export default" in state["_esm"]
+    config = json.loads(state["config"])
+    assert config["initial"][0].startswith("lambertian(rho=[0.2, 0.5, 0.8]")
+    reply = json.loads(nb.cells[1].outputs[0]["text"])
+    assert reply["types"] == ["frame", "albedo"] and reply["seq"] == 7
+    assert reply["sphere"] == {"dtype": "float32", "shape": [64, 64, 3]}
+    assert reply["bytes"] == 64 * 64 * 3 * 4
+
+
+MOCK_HOST = """
+  const handlers = [];
+  const values = { config: window.__config, state: "{}" };
+  const model = {
+    get: (k) => values[k], set: (k, v) => { values[k] = v; }, save_changes() {},
+    on: (name, h) => { if (name === "msg:custom") handlers.push(h); },
+    send: async (message) => {
+      for (const [header, buffers] of await window.pyHandle(message)) {
+        const views = buffers.map((b) => {
+          const bytes = Uint8Array.from(atob(b), (c) => c.charCodeAt(0));
+          return new DataView(bytes.buffer);
+        });
+        for (const h of handlers) h(header, views);
+      }
+    },
+  };
+  const url = URL.createObjectURL(new Blob([window.__esm], { type: "text/javascript" }));
+  const widget = (await import(url)).default;
+  const el = document.getElementById("cell");
+  widget.render({ model, el });
+  window.explorer = el.explorer;
+  window.values = values;
+"""
+
+
+@pytest.mark.slow
+def test_the_widget_front_end_draws_what_python_renders(browser):
+    """anywidget's ``render({model, el})`` with a stand-in model whose messages reach the
+    widget's Python handler: the widget draws the same sphere as render_sphere."""
+    from _page import settled
+
+    from brdfkit.brdf import parse
+    from brdfkit.explore import Explorer
+    from brdfkit.lights import DirectionalLight
+    from brdfkit.render import render_sphere
+
+    widget = Explorer(SPEC)
+
+    def handle(message):
+        return [
+            (header, [base64.b64encode(b).decode() for b in buffers])
+            for header, buffers in widget.handle(message)
+        ]
+
+    context = browser.new_context(bypass_csp=True)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.on("console", lambda m: errors.append(m.text))
+    page.expose_function("pyHandle", handle)
+    page.set_content('<div id="cell"></div>')
+    page.evaluate(
+        "([esm, config]) => { window.__esm = esm; window.__config = config; }",
+        [widget._esm, widget.config],
+    )
+    page.add_script_tag(content=MOCK_HOST, type="module")
+    try:
+        settled(page)
+    except Exception:
+        raise AssertionError(errors) from None
+    v = page.evaluate("window.explorer.state.view")
+    light = DirectionalLight(direction=light_world(v["theta_i"], v["phi_i"]), irradiance=np.pi)
+    expected = expected_pixels(render_sphere(parse(SPEC), light, resolution=v["resolution"]))
+    shown = canvas_pixels(page, '.bx-sphere[data-id="b1"]')[..., :3].astype(np.int64)
+    assert np.abs(shown - expected).max() <= 1
+    assert json.loads(page.evaluate("window.values.state"))["entries"][0]["id"] == "b1"
+    assert not errors
+    context.close()

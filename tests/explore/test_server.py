@@ -1,0 +1,175 @@
+"""The explorer server's guard (token, Host, Origin) and its handling of bad messages."""
+
+from __future__ import annotations
+
+import json
+import urllib.error
+import urllib.request
+
+import pytest
+
+pytest.importorskip("starlette")
+pytest.importorskip("uvicorn")
+websockets_sync = pytest.importorskip("websockets.sync.client")
+
+from brdfkit.explore.protocol import MAX_MESSAGE_BYTES, decode_frame  # noqa: E402
+from brdfkit.explore.server import ExplorerServer  # noqa: E402
+from brdfkit.explore.session import Session  # noqa: E402
+
+RENDER = {
+    "type": "render",
+    "seq": 1,
+    "state": {
+        "entries": [{"id": "a", "visible": True, "source": {"spec": "ggx(alpha=0.3)"}}],
+        "view": {"theta_i": 30, "resolution": 64},
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def server():
+    srv = ExplorerServer(Session(), ["lambertian"]).start()
+    yield srv
+    srv.stop()
+
+
+def status(url: str, headers: dict[str, str] | None = None, data: bytes | None = None) -> int:
+    request = urllib.request.Request(url, headers=headers or {}, data=data)
+    try:
+        with urllib.request.urlopen(request, timeout=60) as response:
+            return response.status
+    except urllib.error.HTTPError as error:
+        return error.code
+
+
+def connect(server, path: str = "ws", origin: str | None = "same", **kw):
+    origin = f"http://127.0.0.1:{server.port}" if origin == "same" else origin
+    return websockets_sync.connect(
+        f"ws://127.0.0.1:{server.port}/{server.token}/{path}",
+        origin=origin,
+        max_size=2**26,
+        open_timeout=30,
+        **kw,
+    )
+
+
+def receive(ws) -> dict:
+    message = ws.recv(timeout=20)
+    if isinstance(message, bytes):
+        return decode_frame(message)[0]
+    return json.loads(message)
+
+
+def test_the_page_needs_the_token(server):
+    assert status(server.url) == 200
+    assert status(server.url + "static/explorer.js") == 200
+    assert status(f"http://127.0.0.1:{server.port}/") == 403
+    assert status(f"http://127.0.0.1:{server.port}/static/explorer.js") == 403
+    wrong = server.token[:-1] + ("A" if server.token[-1] != "A" else "B")
+    assert status(f"http://127.0.0.1:{server.port}/{wrong}/") == 403
+
+
+def test_a_foreign_host_is_refused(server):
+    # DNS rebinding: a page of evil.example resolved to 127.0.0.1 sends its own Host
+    assert status(server.url, {"Host": f"evil.example:{server.port}"}) == 403
+    assert status(server.url, {"Host": f"localhost:{server.port}"}) == 200
+
+
+def test_uploads_need_the_page_origin(server):
+    url = server.url + "upload?name=x.binary"
+    assert status(url, data=b"123") == 403  # no Origin
+    assert status(url, {"Origin": "http://evil.example"}, data=b"123") == 403
+    origin = {"Origin": f"http://127.0.0.1:{server.port}"}
+    assert status(url, origin, data=b"not a MERL table") == 400  # read, and refused as data
+    assert status(server.url + "upload?name=x.py", origin, data=b"print(1)") == 400
+
+
+def test_websocket_needs_token_and_origin(server):
+    from websockets.exceptions import InvalidStatus
+
+    for kwargs in ({"origin": "http://evil.example"}, {"origin": None}):
+        with pytest.raises(InvalidStatus) as refused:
+            connect(server, **kwargs)
+        assert refused.value.response.status_code == 403
+    with pytest.raises(InvalidStatus) as refused:
+        websockets_sync.connect(
+            f"ws://127.0.0.1:{server.port}/ws", origin=f"http://127.0.0.1:{server.port}"
+        )
+    assert refused.value.response.status_code == 403
+
+
+def test_a_render_reply_holds_every_view(server):
+    with connect(server) as ws:
+        ws.send(json.dumps(RENDER))
+        frame = ws.recv(timeout=20)
+        header, arrays = decode_frame(frame)
+        assert header["type"] == "frame" and header["seq"] == 1
+        views = header["views"]["a"]
+        assert arrays[views["sphere"]].shape == (64, 64, 1)
+        assert arrays[views["theta_v"]].shape == (181, 1)
+        assert header["entries"][0]["spec"].startswith("ggx(alpha=0.3")
+        assert receive(ws)["type"] == "albedo"
+
+
+@pytest.mark.parametrize(
+    ("message", "expected"),
+    [
+        ("not json", "not JSON"),
+        ("[1, 2]", "JSON object"),
+        ('{"type": "exec", "seq": 1}', "message type"),
+        ('{"type": "render", "seq": -1, "state": {}}', "seq"),
+        ('{"type": "render", "seq": 1, "state": {"view": {"theta_i": 1e308}}}', "theta_i"),
+        ('{"type": "render", "seq": 1, "state": {"view": {"resolution": 100000}}}', "resolution"),
+        ('{"type": "render", "seq": 1, "state": {"entries": [{"id": "a"}]}}', "source"),
+        ("[" * 100_000 + "]" * 100_000, "not JSON"),
+    ],
+)
+def test_malformed_messages_get_an_error_and_the_channel_lives(server, message, expected):
+    with connect(server) as ws:
+        ws.send(message)
+        reply = receive(ws)
+        assert reply["type"] == "error" and expected in reply["message"]
+        ws.send(json.dumps(RENDER))  # the channel still works
+        assert receive(ws)["type"] == "frame"
+
+
+def test_an_unknown_file_or_a_bad_spec_is_an_entry_error(server):
+    state = {
+        "entries": [
+            {"id": "f", "source": {"file": "/etc/passwd"}},
+            {"id": "s", "source": {"spec": "__import__('os').system('id')"}},
+            {"id": "t", "source": {"tree": {"model": "ggx", "params": {"alpha": "0.1); x=("}}}},
+        ]
+    }
+    with connect(server) as ws:
+        ws.send(json.dumps({"type": "render", "seq": 2, "state": state}))
+        header = receive(ws)
+        errors = {e["id"]: e.get("error", "") for e in header["entries"]}
+        assert "no file named" in errors["f"]
+        assert "not allowed" in errors["s"]
+        assert "alpha" in errors["t"]
+        assert header["views"] == {}
+
+
+def test_an_oversized_message_closes_the_channel_not_the_server(server):
+    from websockets.exceptions import ConnectionClosed
+
+    with connect(server) as ws:
+        ws.send("x" * (MAX_MESSAGE_BYTES + 10))
+        with pytest.raises(ConnectionClosed):
+            ws.recv(timeout=10)
+    with connect(server) as ws:  # the server still serves
+        ws.send(json.dumps(RENDER))
+        assert receive(ws)["type"] == "frame"
+
+
+def test_a_fit_json_upload_gives_its_spec(server):
+    origin = {"Origin": f"http://127.0.0.1:{server.port}"}
+    url = server.url + "upload?name=fit.json"
+    body = json.dumps({"file": "gold.binary", "spec": "ggx(alpha=0.3, material='Au')"}).encode()
+    request = urllib.request.Request(url, headers=origin, data=body)
+    with urllib.request.urlopen(request, timeout=60) as response:
+        spec = json.loads(response.read())["spec"]
+    assert spec.startswith("ggx(alpha=0.3") and "'Au'" in spec
+    for bad in (b"{", b'{"spec": 3}', b'{"spec": "__import__(1)"}'):
+        assert status(url, origin, data=bad) == 400
