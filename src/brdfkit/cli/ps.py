@@ -77,6 +77,14 @@ def ps_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print the measures and the files written as JSON."
     ),
+    chunks: int | None = typer.Option(
+        None,
+        "--chunks",
+        metavar="PIXELS",
+        min=16,
+        help="Out of core: tiles of PIXELS² on Dask, Zarr outputs (also when the stack would "
+        "not fit in memory).",
+    ),
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
 
@@ -93,6 +101,12 @@ def ps_command(
 
     _choice(method, _METHODS, "--method")
     _choice(integration, _INTEGRATORS, "--integration")
+    from brdfkit.cli import _ps_tiled
+
+    if _ps_tiled.wanted(dataset, chunks, step):
+        refused = {"--chrome": chrome, "--camera": camera, "--step": step != 1}
+        _ps_tiled.run(dataset, method, integration, chunks, refused, output, as_json)
+        return
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
