@@ -52,7 +52,9 @@ def client(
         core; NumPy's BLAS gets one thread per worker from Dask's defaults). The machine's core
         count when omitted.
     scheduler : the address of a running scheduler (``tcp://host:8786``); then ``workers`` and
-        ``memory_limit`` are the cluster's business and must be omitted.
+        ``memory_limit`` are the cluster's business and must be omitted. When omitted (and
+        ``workers`` too), Dask's own setting ``scheduler-address`` (the environment variable
+        ``DASK_SCHEDULER_ADDRESS``) is used if set.
     memory_limit : per-worker memory limit of the local cluster (bytes or ``"2GiB"``); Dask's
         ``"auto"`` (the machine's memory shared among the workers) when omitted.
 
@@ -63,8 +65,12 @@ def client(
         be reached within :data:`CONNECT_TIMEOUT` seconds.
     """
     require_dask()
+    import dask
+
     from distributed import Client, LocalCluster
 
+    if scheduler is None and workers is None and memory_limit is None:
+        scheduler = dask.config.get("scheduler-address", None)
     if scheduler is not None:
         if workers is not None or memory_limit is not None:
             raise ParameterError(
@@ -90,7 +96,7 @@ def client(
         processes=True,
         memory_limit=memory_limit if memory_limit is not None else "auto",
         dashboard_address=None,
-        silence_logs=logging.ERROR,
+        silence_logs=logging.CRITICAL,
     )
     with cluster, Client(cluster) as local:
         yield local
