@@ -29,7 +29,11 @@ def run_batch(
     ``<file>-<key>/fit.json`` per fit in ``output``; print a summary table (or JSON)."""
     from brdfkit.distributed import batch, cluster
 
+    from brdfkit.brdf import parse
+
     cluster.require_dask()
+    for model in models:  # a spec that does not read is refused before any work
+        parse(model)
     if output is None:
         fail("a batch (several files or models, --workers or --scheduler) needs -o FOLDER")
     folder = OutputFolder(output, RESULTS, inputs=files)
