@@ -27,9 +27,8 @@ def run_batch(
 ) -> None:
     """Fit every file × model on a Dask cluster; write ``results.jsonl``, ``results.csv`` and
     ``<file>-<key>/fit.json`` per fit in ``output``; print a summary table (or JSON)."""
-    from brdfkit.distributed import batch, cluster
-
     from brdfkit.brdf import parse
+    from brdfkit.distributed import batch, cluster
 
     cluster.require_dask()
     for model in models:  # a spec that does not read is refused before any work
