@@ -11,7 +11,7 @@ limit.
    workers (LocalCluster ``memory_limit``; Dask pauses a worker at 80 % of it and restarts one
    at 95 %), then :func:`brdfkit.distributed.tiled.solve` runs least squares tile by tile.
    Reported: stack bytes, the limit per worker and in all, each worker's peak resident memory
-   (``getrusage`` ``ru_maxrss``: the kernel's high-water mark, imports included), the solve's
+   (``VmHWM`` of ``/proc/self/status``: the kernel's high-water mark, imports included), the solve's
    seconds and pixels per second, and the mean angular error against the sphere.
 
 Prints a summary and one JSON object; ``--json-out FILE`` keeps it. The machine may be shared:
@@ -35,6 +35,11 @@ import numpy as np
 
 
 def _peak_rss() -> int:
+    """This process's peak resident memory since its ``exec`` (``VmHWM``; ``ru_maxrss`` would
+    carry the parent's peak across the fork and exec that start a worker)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 

@@ -203,29 +203,92 @@ def _grown(
     )
 
 
-def _integrate_tile(normals_store: str, mask: np.ndarray, window: tuple[slice, slice]) -> tuple:
-    """Least-squares depth of one grown tile and the labels of its mask's pieces (a task)."""
+def _local(inner: tuple[slice, slice], outer: tuple[slice, slice]) -> tuple[slice, slice]:
+    """``inner`` (image coordinates) in the coordinates of the window ``outer`` that holds it."""
+    return tuple(
+        slice(a.start - b.start, a.stop - b.start) for a, b in zip(inner, outer, strict=True)
+    )
+
+
+def _integrate_tile(
+    normals_store: str, scratch: str, i: int, grown: tuple[slice, slice], mask: np.ndarray,
+    components: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """Integrate grown tile ``i`` (a task): its depth and piece labels go to the scratch store;
+    returns the global component of each of its pieces (``(count,)``)."""
     import scipy.ndimage
     import zarr
 
     from brdfkit.vision.integration import least_squares_integration
 
-    normals = np.asarray(zarr.open_array(normals_store, mode="r")[window], dtype=np.float64)
-    depth = np.full(mask.shape, np.nan)
     labels, count = scipy.ndimage.label(mask)
+    depth = np.full(mask.shape, np.nan)
     if count:
+        normals = np.asarray(zarr.open_array(normals_store, mode="r")[grown], dtype=np.float64)
         depth = least_squares_integration(normals, mask)
-    return depth, labels, count
+    store = zarr.open_group(scratch, mode="r+")
+    h, w = mask.shape
+    store["depth"][i, :h, :w] = depth
+    store["labels"][i, :h, :w] = labels
+    of_piece = np.zeros(count + 1, dtype=np.int64)
+    of_piece[labels[mask]] = components[mask]
+    return of_piece[1:]
+
+
+def _tile_of(scratch: str, i: int, grown: tuple[slice, slice]) -> tuple[np.ndarray, np.ndarray]:
+    import zarr
+
+    store = zarr.open_group(scratch, mode="r")
+    h, w = grown[0].stop - grown[0].start, grown[1].stop - grown[1].start
+    return store["depth"][i, :h, :w], store["labels"][i, :h, :w]
+
+
+def _overlap(scratch: str, i: int, j: int, grown_i: tuple, grown_j: tuple) -> np.ndarray:
+    """Rows ``(piece of i, piece of j, sum of z_j - z_i, pixels)`` over the overlap of grown
+    tiles ``i`` and ``j`` (a task)."""
+    common = tuple(slice(max(a.start, b.start), min(a.stop, b.stop))
+                   for a, b in zip(grown_i, grown_j, strict=True))  # fmt: skip
+    depth_i, labels_i = (x[_local(common, grown_i)] for x in _tile_of(scratch, i, grown_i))
+    depth_j, labels_j = (x[_local(common, grown_j)] for x in _tile_of(scratch, j, grown_j))
+    both = (labels_i > 0) & (labels_j > 0)
+    if not both.any():
+        return np.zeros((0, 4))
+    pairs, inverse, counts = np.unique(
+        np.stack([labels_i[both], labels_j[both]], axis=1), axis=0, return_inverse=True,
+        return_counts=True,
+    )  # fmt: skip
+    sums = np.bincount(inverse.ravel(), (depth_j - depth_i)[both])
+    return np.column_stack([pairs, sums, counts]).astype(np.float64)
+
+
+def _shifted_core(scratch: str, i: int, window: tuple, grown: tuple, constants: np.ndarray):
+    """The core of grown tile ``i`` plus its pieces' constants (NaN off the mask)."""
+    depth, labels = _tile_of(scratch, i, grown)
+    return (depth + np.concatenate([[np.nan], constants])[labels])[_local(window, grown)]
+
+
+def _core_minima(scratch, i, window, grown, constants, components, count) -> np.ndarray:
+    """The least shifted depth of each global component in tile ``i``'s core (a task)."""
+    core = _shifted_core(scratch, i, window, grown, constants)
+    nearest = np.full(count + 1, np.inf)
+    inside = components > 0
+    np.minimum.at(nearest, components[inside], core[inside])
+    return nearest
+
+
+def _write_core(scratch, i, window, grown, constants, components, nearest, depth_store) -> None:
+    """Write tile ``i``'s core, each component's nearest pixel at 0 (a task)."""
+    import zarr
+
+    core = _shifted_core(scratch, i, window, grown, constants)
+    out = np.where(components > 0, core - nearest[components], np.nan)
+    zarr.open_array(depth_store, mode="r+")[window] = out
 
 
 def integrate(
-    normals_store: str | Path,
-    mask: np.ndarray,
-    depth_store: str | Path,
-    *,
-    tile: int,
+    normals_store: str | Path, mask: np.ndarray, depth_store: str | Path, *, tile: int,
     overlap: int = OVERLAP,
-) -> None:
+) -> None:  # fmt: skip
     """Orthographic depth of a large normal map, tile by tile, into a Zarr array ``(H, W)``.
 
     Each tile, grown by ``overlap`` pixels on every side, is integrated by
@@ -237,15 +300,19 @@ def integrate(
     piece's constant; finally each component's nearest pixel is put at 0, as
     :func:`~brdfkit.vision.integration.least_squares_integration` does.
 
-    For an integrable field this is the global solution up to each tile's own least-squares
-    fit; across a non-integrable field the tiles' seams show as small steps of the overlap's
-    mismatch.
+    The grown tiles' depths wait in a scratch Zarr store beside ``depth_store`` (removed at the
+    end); the client holds the mask and its component labels (5 bytes a pixel) and one
+    constant per piece. For an integrable field this is the global solution up to each tile's
+    own least-squares fit; across a non-integrable field the seams show as small steps of the
+    overlaps' mismatch.
 
     Raises
     ------
     brdfkit.errors.ParameterError
         ``tile`` below 16, or ``overlap`` below 1 or not below ``tile``.
     """
+    import shutil
+
     import dask
     import scipy.ndimage
     import scipy.sparse
@@ -257,74 +324,61 @@ def integrate(
     shape = mask.shape
     windows = _tiles(shape, tile)
     grown = [_grown(w, shape, overlap) for w in windows]
-    parts = dask.compute(*[
-        dask.delayed(_integrate_tile, pure=False)(str(normals_store), mask[g], g) for g in grown
-    ])  # fmt: skip
-    offsets = np.cumsum([0] + [count for _, _, count in parts])  # piece index of tile i's label 1
-    rows, columns, values, targets = [], [], [], []
-    equation = 0
-    for i, j in _neighbours(grown):
-        (depth_i, labels_i, _), (depth_j, labels_j, _) = parts[i], parts[j]
-        common = tuple(slice(max(a.start, b.start), min(a.stop, b.stop))
-                       for a, b in zip(grown[i], grown[j], strict=True))  # fmt: skip
-        local_i = tuple(
-            slice(c.start - g.start, c.stop - g.start)
-            for c, g in zip(common, grown[i], strict=True)
-        )
-        local_j = tuple(
-            slice(c.start - g.start, c.stop - g.start)
-            for c, g in zip(common, grown[j], strict=True)
-        )
-        a, b = labels_i[local_i], labels_j[local_j]
-        both = (a > 0) & (b > 0)
-        if not both.any():
-            continue
-        difference = (depth_j[local_j] - depth_i[local_i])[both]
-        pairs, inverse, counts = np.unique(
-            np.stack([a[both], b[both]], axis=1), axis=0, return_inverse=True, return_counts=True
-        )
-        sums = np.bincount(inverse.ravel(), difference)
-        for (la, lb), total, count in zip(pairs, sums, counts, strict=True):
-            weight = np.sqrt(count)
-            rows += [equation, equation]
-            columns += [offsets[i] + la - 1, offsets[j] + lb - 1]
-            values += [weight, -weight]
-            targets.append(total / count * weight)
-            equation += 1
-    # One piece per global component anchored at 0: its first piece in tile order.
-    labels, components = scipy.ndimage.label(mask)
-    anchored = set()
-    for i, (g, (_, piece_labels, count)) in enumerate(zip(grown, parts, strict=True)):
-        for piece in range(1, count + 1):
-            component = int(labels[g][piece_labels == piece][0])
-            if component not in anchored:
-                anchored.add(component)
-                rows.append(equation)
-                columns.append(offsets[i] + piece - 1)
-                values.append(1.0)
-                targets.append(0.0)
-                equation += 1
-    system = scipy.sparse.csr_matrix((values, (rows, columns)), shape=(equation, offsets[-1]))
-    constants = scipy.sparse.linalg.lsqr(system, np.asarray(targets), atol=1e-14, btol=1e-14)[0]
-    depth_out = zarr.open_array(
-        str(depth_store), mode="w", shape=shape, chunks=(tile, tile), dtype="float64",
-        fill_value=np.nan,
-    )  # fmt: skip
-    nearest = np.full(components + 1, np.inf)
-    cores = []
-    for i, (w, g) in enumerate(zip(windows, grown, strict=True)):
-        depth, piece_labels, _ = parts[i]
-        shifted = (
-            depth + np.concatenate([[np.nan], constants[offsets[i] : offsets[i + 1]]])[piece_labels]
-        )
-        core = shifted[
-            tuple(slice(a.start - b.start, a.stop - b.start) for a, b in zip(w, g, strict=True))
-        ]
-        inside = mask[w]
-        np.minimum.at(nearest, labels[w][inside], core[inside])
-        cores.append(core)
-    for w, core in zip(windows, cores, strict=True):
-        depth_out[w] = np.where(mask[w], core - nearest[labels[w]], np.nan)
+    components, count = scipy.ndimage.label(mask)
+    side = tile + 2 * overlap
+    scratch = str(Path(depth_store).with_name(f".{Path(depth_store).name}.scratch"))
+    group = zarr.open_group(scratch, mode="w")
+    group.create_array("depth", shape=(len(windows), side, side), chunks=(1, side, side),
+                       dtype="float64", fill_value=np.nan)  # fmt: skip
+    group.create_array("labels", shape=(len(windows), side, side), chunks=(1, side, side),
+                       dtype="int32", fill_value=0)  # fmt: skip
+    try:
+        delayed = dask.delayed(pure=False)
+        pieces = dask.compute(*[
+            delayed(_integrate_tile)(str(normals_store), scratch, i, g, mask[g], components[g])
+            for i, g in enumerate(grown)
+        ])  # fmt: skip
+        offsets = np.cumsum([0] + [len(p) for p in pieces])  # first piece of each tile
+        pairs = _neighbours(grown)
+        stats = dask.compute(*[
+            delayed(_overlap)(scratch, i, j, grown[i], grown[j]) for i, j in pairs
+        ])  # fmt: skip
+        rows, columns, values, targets = [], [], [], []
+        for (i, j), table in zip(pairs, stats, strict=True):
+            for la, lb, total, pixels in table:
+                weight = np.sqrt(pixels)
+                rows += [len(targets)] * 2
+                columns += [offsets[i] + int(la) - 1, offsets[j] + int(lb) - 1]
+                values += [weight, -weight]
+                targets.append(total / pixels * weight)
+        anchored: set[int] = set()
+        for i, of_piece in enumerate(pieces):  # each component's first piece is held at 0
+            for piece, component in enumerate(of_piece):
+                if int(component) not in anchored:
+                    anchored.add(int(component))
+                    rows.append(len(targets))
+                    columns.append(offsets[i] + piece)
+                    values.append(1.0)
+                    targets.append(0.0)
+        system = scipy.sparse.csr_matrix((values, (rows, columns)),
+                                         shape=(len(targets), offsets[-1]))  # fmt: skip
+        constants = scipy.sparse.linalg.lsqr(system, np.asarray(targets), atol=1e-14,
+                                             btol=1e-14)[0]  # fmt: skip
+        per_tile = [constants[offsets[i] : offsets[i + 1]] for i in range(len(windows))]
+        minima = dask.compute(*[
+            delayed(_core_minima)(scratch, i, w, g, per_tile[i], components[w], count)
+            for i, (w, g) in enumerate(zip(windows, grown, strict=True))
+        ])  # fmt: skip
+        nearest = np.min(np.stack(minima), axis=0) if minima else np.full(count + 1, np.inf)
+        zarr.open_array(str(depth_store), mode="w", shape=shape, chunks=(tile, tile),
+                        dtype="float64", fill_value=np.nan)  # fmt: skip
+        dask.compute(*[
+            delayed(_write_core)(scratch, i, w, g, per_tile[i], components[w], nearest,
+                                 str(depth_store))
+            for i, (w, g) in enumerate(zip(windows, grown, strict=True))
+        ])  # fmt: skip
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)  # our scratch store only
 
 
 def _neighbours(grown: list[tuple[slice, slice]]) -> list[tuple[int, int]]:
