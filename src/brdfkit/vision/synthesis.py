@@ -44,7 +44,7 @@ def render_brdf(
     *,
     irradiance: ArrayLike = 1.0,
 ) -> np.ndarray:
-    """Radiance images ``I_k = f_r E_k max(0, n . l_k)`` (module docstring) of the mask pixels.
+    """Radiance images ``I_k = f_r E_k max(0, n·l_k)`` (module docstring) of the mask pixels.
 
     Parameters
     ----------
