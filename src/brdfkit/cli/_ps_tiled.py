@@ -39,11 +39,16 @@ def stack_values(dataset: Path) -> int | None:
 
 
 def wanted(dataset: Path, chunks: int | None, step: int) -> bool:
-    """Whether to go out of core: ``--chunks`` given, or a stack too large for memory."""
+    """Whether to go out of core: ``--chunks`` given, or a stack too large for memory (with
+    Dask installed)."""
     from brdfkit._checks import available_memory
 
     if chunks is not None:
         return True
+    import importlib.util
+
+    if importlib.util.find_spec("distributed") is None:  # the in-memory path says what fits
+        return False
     values, available = stack_values(dataset), available_memory()
     return bool(values and available and step == 1 and 16 * values > MEMORY_SHARE * available)
 
