@@ -6,6 +6,8 @@ limit.
    :func:`brdfkit.distributed.batch.run` on a LocalCluster of 1 worker process and of 2, each
    cluster started before its clock starts; the two are **interleaved** ``--repeats`` times
    (1, 2, 1, 2, …) and the minimum of each is kept. Speed-up = t(1 worker) / t(2 workers).
+   "Cores busy" = the workers' CPU seconds per wall second: near 1 and 2 on a quiet machine;
+   when the 2-worker run gets no more than the 1-worker one, the machine had no core to give.
 2. **Out of core.** A Lambertian sphere stack ``(N, H, W, 3)`` float32 is written straight to a
    Zarr store (one band at a time), several times larger than the memory limit given to the
    workers (LocalCluster ``memory_limit``; Dask pauses a worker at 80 % of it and restarts one
@@ -59,6 +61,7 @@ def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
                "starts": 1, "fixed": [], "seed": 0}  # fmt: skip
     base = batch.tasks(files, ["lambertian + ggx"], **options)
     times: dict[int, list[float]] = {1: [], 2: []}
+    cores: dict[int, list[float]] = {1: [], 2: []}  # worker CPU seconds per wall second
     for repeat in range(repeats):
         for workers in (1, 2):
             tasks = [
@@ -82,17 +85,21 @@ def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
                 Client(cluster) as client,
             ):
                 client.run(lambda: __import__("brdfkit.fit"))  # imports outside the clock
+                cpu = sum(client.run(time.process_time).values())
                 began = time.perf_counter()
                 done: list[str] = []
                 batch.run(
                     client, tasks, lambda task, record, done=done: done.append(record["status"])
                 )
                 times[workers].append(time.perf_counter() - began)
+                cpu = sum(client.run(time.process_time).values()) - cpu
+                cores[workers].append(cpu / times[workers][-1])
             assert done.count("ok") == fits, done
-            print(f"  batch repeat {repeat + 1}: {workers} worker(s) {times[workers][-1]:.1f} s",
-                  file=sys.stderr)  # fmt: skip
+            print(f"  batch repeat {repeat + 1}: {workers} worker(s) {times[workers][-1]:.1f} s, "
+                  f"{cores[workers][-1]:.2f} cores busy", file=sys.stderr)  # fmt: skip
     best = {w: min(t) for w, t in times.items()}
     return {"fits": fits, "repeats": repeats, "seconds": times, "best_seconds": best,
+            "cores_busy": cores,
             "speedup_1_to_2": best[1] / best[2]}  # fmt: skip
 
 
@@ -183,7 +190,9 @@ def main() -> None:
         b = report["batch"]
         print(f"batch fitting: {b['fits']} fits, best of {b['repeats']}: 1 worker "
               f"{b['best_seconds'][1]:.1f} s, 2 workers {b['best_seconds'][2]:.1f} s -> speed-up "
-              f"{b['speedup_1_to_2']:.2f}x (target >= 1.8x)")  # fmt: skip
+              f"{b['speedup_1_to_2']:.2f}x (target >= 1.8x); cores busy "
+              f"{[round(c, 2) for c in b['cores_busy'][1]]} and "
+              f"{[round(c, 2) for c in b['cores_busy'][2]]}")  # fmt: skip
     if "out_of_core" in report:
         o = report["out_of_core"]
         mib = 2**20
