@@ -180,10 +180,43 @@ class OutputFolder:
         )
         return target
 
+    def write_folder(self, name: str, write_fn: Callable[[Path], object]) -> Path:
+        """Write the folder ``name`` (a Zarr store, say) with ``write_fn(path)`` into a
+        temporary folder beside it, then put it in place and record it; an earlier version
+        (which brdfkit wrote, see :meth:`write`) is moved aside first and removed after."""
+        import shutil
+
+        if name not in self.files:
+            raise AssertionError(f"{name!r} is not among the declared outputs {self.files}")
+        self._check_ours(name)
+        target = self.path / name
+        self.path.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".brdfkit-", dir=self.path))
+        try:
+            write_fn(tmp / "new")
+            old = tmp / "old"
+            if target.exists():
+                os.replace(target, old)
+            os.replace(tmp / "new", target)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)  # our temporary, and the version we replaced
+        self._written[name] = _digest(target)
+        record = {"written_by": "brdfkit", "files": dict(sorted(self._written.items()))}
+        from brdfkit.io import atomic_write
+
+        atomic_write(
+            self.path / MANIFEST, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
+        )
+        return target
+
 
 def _digest(path: Path) -> str:
-    """``sha256:<hex>`` of a file's contents."""
+    """``sha256:<hex>`` of a file's contents (of a folder's: names and contents, sorted)."""
     digest = hashlib.sha256()
+    if path.is_dir():
+        for item in sorted(p for p in path.rglob("*") if p.is_file()):
+            digest.update(f"{item.relative_to(path).as_posix()}\0{_digest(item)}\0".encode())
+        return f"sha256:{digest.hexdigest()}"
     with open(path, "rb") as stream:
         for block in iter(lambda: stream.read(1 << 20), b""):
             digest.update(block)

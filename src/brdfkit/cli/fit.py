@@ -1,4 +1,5 @@
-"""``brdfkit fit``: fit an analytic model to a measured BRDF file (MERL, RGL, Cornell)."""
+"""``brdfkit fit``: fit an analytic model to a measured BRDF file (MERL, RGL, Cornell); many
+files × models as a batch on Dask (:mod:`brdfkit.cli._fit_batch`)."""
 
 from __future__ import annotations
 
@@ -17,15 +18,18 @@ _OUTPUTS = ("fit.json", "spheres.png")
 
 @app.command("fit")
 def fit_command(
-    file: Path = typer.Argument(
-        ..., metavar="FILE", help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf."
+    files: list[Path] = typer.Argument(
+        ...,
+        metavar="FILE...",
+        help="Measured BRDF: MERL .binary, RGL .bsdf, Cornell .brdf (several: a batch).",
     ),
-    model: str = typer.Option(
-        "lambertian + cook_torrance",
+    models: list[str] = typer.Option(
+        ["lambertian + cook_torrance"],
         "--model",
         "-m",
         metavar="SPEC",
-        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'.",
+        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx' "
+        "(repeatable: a batch).",
     ),
     objective: str = typer.Option(
         "cube_root",
@@ -77,10 +81,39 @@ def fit_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print the fit (and the spheres' differences with -o) as JSON."
     ),
+    workers: int | None = typer.Option(
+        None,
+        "--workers",
+        metavar="N",
+        min=1,
+        help="Run as a batch on N local Dask worker processes (default: one per core).",
+    ),
+    scheduler: str | None = typer.Option(
+        None,
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Run as a batch on the Dask cluster of this scheduler (tcp://host:8786).",
+    ),
 ) -> None:
-    """Fit a model to measured data; print the parameters and errors, optionally save renders."""
+    """Fit a model to measured data; print the parameters and errors, optionally save renders.
+
+    Several files or models (or --workers, --scheduler) make a batch: every file × model is a
+    Dask task; -o FOLDER gets results.jsonl, results.csv and <file>-<key>/fit.json per fit, and
+    a re-run skips the fits done (keyed by the file's SHA-256 and the options).
+    """
     import brdfkit.measured as measured_io
     from brdfkit.fit import fit
+
+    if len(files) > 1 or len(models) > 1 or workers is not None or scheduler is not None:
+        from brdfkit.cli._fit_batch import run_batch
+
+        if envmap:
+            fail("--envmap renders spheres of a single fit; a batch writes fit.json only")
+        options = {"objective": objective, "loss": loss, "loss_scale": loss_scale,
+                   "mode": mode, "starts": starts, "fixed": sorted(fix), "seed": seed}  # fmt: skip
+        run_batch(files, models, options, output, workers, scheduler, as_json)
+        return
+    file, model = files[0], models[0]
 
     if not file.is_file():
         fail(f"file {shown(file)!r} does not exist")

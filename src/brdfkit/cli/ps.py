@@ -88,6 +88,14 @@ def ps_command(
         metavar="CUE",
         help="With --uncalibrated: entropy or diffuse_maxima.",
     ),
+    chunks: int | None = typer.Option(
+        None,
+        "--chunks",
+        metavar="PIXELS",
+        min=16,
+        help="Out of core: tiles of PIXELS² on Dask, Zarr outputs (also when the stack would "
+        "not fit in memory).",
+    ),
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
 
@@ -101,6 +109,7 @@ def ps_command(
     """
     import numpy as np
 
+    from brdfkit.cli import _ps_tiled
     from brdfkit.io import write_image
     from brdfkit.vision import datasets, photometric_stereo
     from brdfkit.vision import integration as integrate
@@ -111,6 +120,15 @@ def ps_command(
     _choice(method, _METHODS, "--method")
     _choice(integration, _INTEGRATORS, "--integration")
     _choice(gbr_cue, CUES, "--gbr-cue")
+    if _ps_tiled.wanted(dataset, chunks, step):
+        refused = {
+            "--chrome": chrome,
+            "--camera": camera,
+            "--step": step != 1,
+            "--uncalibrated": uncalibrated,
+        }
+        _ps_tiled.run(dataset, method, integration, chunks, refused, output, as_json)
+        return
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))

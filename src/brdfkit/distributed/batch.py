@@ -1,0 +1,178 @@
+"""Batch fitting: every measured file × every model as one Dask task, with a results table
+keyed by what determines a fit (so that a re-run skips what is done).
+
+A fit is determined by the bytes of its file and its options (model spec, objective, loss,
+loss scale, mode, starts, fixed parameters, seed): :attr:`FitTask.key` hashes exactly these, so
+renaming or moving a file keeps its results, and changing a byte or an option makes a new fit.
+Tasks return their record to the client, which alone writes files: a task that Dask runs again
+(its worker died) cannot write twice, and workers need no access to the output folder.
+
+References
+----------
+.. [1] A. Ngan, F. Durand, W. Matusik, "Experimental analysis of BRDF models", EGSR 2005 (the
+   100 MERL materials × 7 models study this kind of batch serves).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import traceback
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from brdfkit.errors import BrdfkitError, FormatError
+
+READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
+"""The reader of each measured format, by file suffix."""
+
+TABLE_COLUMNS = ("key", "file", "model", "status", "spec", "cost", "nfev", "samples",
+                 "success", "seconds", "message")  # fmt: skip
+"""The first columns of ``results.csv``; the errors and parameters follow, by name."""
+
+
+def file_sha256(path: str | Path) -> str:
+    """``sha256:<hex>`` of a file's bytes."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return f"sha256:{digest.hexdigest()}"
+
+
+@dataclass(frozen=True)
+class FitTask:
+    """One fit of a batch: a measured file, a model spec and the options of
+    :func:`brdfkit.fit.fit` (``objective``, ``loss``, ``loss_scale``, ``mode``, ``starts``,
+    ``fixed``, ``seed``)."""
+
+    file: str
+    file_sha256: str
+    model: str
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        """16 hex digits of SHA-256 over the file's hash, the spec and the options."""
+        identity = {"file_sha256": self.file_sha256, "model": self.model, **self.options}
+        text = json.dumps(identity, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @property
+    def folder(self) -> str:
+        """The fit's sub-folder name: the file's stem (safe characters) and the key."""
+        stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(self.file).stem)
+        return f"{stem[:60]}-{self.key}"
+
+
+def tasks(files: Iterable[str | Path], models: Iterable[str], **options: Any) -> list[FitTask]:
+    """Every file × model as a :class:`FitTask` (files hashed here, once each).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        A file that does not exist or whose suffix no reader takes.
+    """
+    models = list(models)
+    options = {k: (list(v) if isinstance(v, tuple | list) else v) for k, v in options.items()}
+    result = []
+    for file in files:
+        path = Path(file)
+        if not path.is_file():
+            raise FormatError(path, "file does not exist")
+        if path.suffix.lower() not in READERS:
+            raise FormatError(path, f"must end in {', '.join(READERS)}")
+        digest = file_sha256(path)
+        result += [FitTask(str(path), digest, model, dict(options)) for model in models]
+    return result
+
+
+def fit_one(task: FitTask) -> dict[str, Any]:
+    """Run one fit (on a worker); return its record: the task's identity and
+    :meth:`brdfkit.fit.FitResult.to_dict`, ``status`` ``"ok"``; or ``status`` ``"error"`` and
+    the error's message when the file or the options are refused (or the fit fails)."""
+    import brdfkit.measured as measured_io
+    from brdfkit.fit import fit
+
+    record: dict[str, Any] = {
+        "key": task.key,
+        "file": task.file,
+        "file_sha256": task.file_sha256,
+        "model": task.model,
+        "options": task.options,
+    }
+    try:
+        if file_sha256(task.file) != task.file_sha256:
+            raise FormatError(task.file, "changed since the batch was planned")
+        reader = getattr(measured_io, READERS[Path(task.file).suffix.lower()])
+        result = fit(reader(task.file), task.model, **task.options)
+    except (BrdfkitError, ValueError, OSError) as error:
+        return {**record, "status": "error", "message": str(error) or type(error).__name__}
+    except Exception as error:  # a bug: keep the batch going, and say where
+        where = traceback.format_exc(limit=-1).strip().splitlines()[-2].strip()
+        return {
+            **record,
+            "status": "error",
+            "message": f"{type(error).__name__}: {error} ({where})",
+        }
+    return {**record, "status": "ok", **result.to_dict()}
+
+
+def run(
+    dask_client: Any,
+    batch: Iterable[FitTask],
+    on_result: Callable[[FitTask, dict[str, Any]], None],
+) -> None:
+    """Fit every task of ``batch`` on ``dask_client``; call ``on_result(task, record)`` as each
+    finishes (once per task, in the order they finish)."""
+    from brdfkit.distributed.cluster import completed
+
+    by_key = {task.key: task for task in batch}
+    arguments = {key: (task,) for key, task in by_key.items()}
+    for key, record in completed(dask_client, fit_one, arguments, prefix="fit"):
+        on_result(by_key[key], record)
+
+
+def read_records(text: str) -> dict[str, dict[str, Any]]:
+    """The records of a ``results.jsonl`` text by key (unreadable lines are skipped)."""
+    records = {}
+    for line in text.splitlines():
+        try:
+            record = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(record, dict) and isinstance(record.get("key"), str):
+            records[record["key"]] = record
+    return records
+
+
+def jsonl(records: Iterable[dict[str, Any]]) -> str:
+    """Records as JSON lines, one per record."""
+    return "".join(json.dumps(r, ensure_ascii=False, allow_nan=False) + "\n" for r in records)
+
+
+def table(records: Iterable[dict[str, Any]]) -> str:
+    """Records as CSV: :data:`TABLE_COLUMNS`, then ``error.<name>`` and ``param.<name>``
+    columns (the union over the records; a colour parameter's values joined by spaces)."""
+    records = list(records)
+    rows, extra = [], {}
+    for record in records:
+        row = {name: record.get(name, "") for name in TABLE_COLUMNS}
+        for prefix, values in (
+            ("error", record.get("errors", {})),
+            ("param", record.get("params", {})),
+        ):
+            for name, value in values.items():
+                column = f"{prefix}.{name}"
+                extra[column] = None
+                row[column] = " ".join(map(repr, value)) if isinstance(value, list) else repr(value)
+        rows.append(row)
+    stream = io.StringIO()
+    writer = csv.DictWriter(stream, [*TABLE_COLUMNS, *extra], restval="", lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return stream.getvalue()

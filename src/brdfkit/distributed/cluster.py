@@ -1,0 +1,125 @@
+"""The Dask client every distributed command runs on: local worker processes or a cluster.
+
+References
+----------
+.. [1] Dask.distributed documentation, "LocalCluster" and "Client"
+   (https://distributed.dask.org).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from brdfkit.errors import ParameterError
+
+CONNECT_TIMEOUT = 10.0
+"""Seconds to wait for a scheduler given by address before giving up."""
+
+
+def require_dask() -> None:
+    """Raise a one-line error naming the extra when dask.distributed is not installed.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``dask.distributed`` cannot be imported.
+    """
+    try:
+        import dask.array  # noqa: F401
+
+        import distributed  # noqa: F401
+    except ImportError as error:
+        raise ParameterError(
+            f"this needs Dask ({error}); install it with: pip install 'brdfkit[dask]'"
+        ) from None
+
+
+@contextmanager
+def client(
+    workers: int | None = None,
+    scheduler: str | None = None,
+    *,
+    memory_limit: str | int | None = None,
+) -> Iterator[Any]:
+    """A :class:`dask.distributed.Client`, closed on exit.
+
+    Parameters
+    ----------
+    workers : worker processes of a local cluster (one thread each, so that each task has a
+        core; NumPy's BLAS gets one thread per worker from Dask's defaults). The machine's core
+        count when omitted.
+    scheduler : the address of a running scheduler (``tcp://host:8786``); then ``workers`` and
+        ``memory_limit`` are the cluster's business and must be omitted. When omitted (and
+        ``workers`` too), Dask's own setting ``scheduler-address`` (the environment variable
+        ``DASK_SCHEDULER_ADDRESS``) is used if set.
+    memory_limit : per-worker memory limit of the local cluster (bytes or ``"2GiB"``); Dask's
+        ``"auto"`` (the machine's memory shared among the workers) when omitted.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Both ``workers`` and ``scheduler``, a worker count below 1, or a scheduler that cannot
+        be reached within :data:`CONNECT_TIMEOUT` seconds.
+    """
+    require_dask()
+    import dask
+
+    from distributed import Client, LocalCluster
+
+    if scheduler is None and workers is None and memory_limit is None:
+        scheduler = dask.config.get("scheduler-address", None)
+    if scheduler is not None:
+        if workers is not None or memory_limit is not None:
+            raise ParameterError(
+                f"--workers and the memory limit belong to a local cluster; with --scheduler "
+                f"{scheduler!r} the cluster sets them"
+            )
+        try:
+            remote = Client(scheduler, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as error:
+            raise ParameterError(
+                f"--scheduler {scheduler!r}: cannot reach a Dask scheduler there ({error})"
+            ) from None
+        with remote:
+            yield remote
+        return
+    if workers is not None and workers < 1:
+        raise ParameterError(f"--workers must be at least 1; got {workers}")
+    import os
+
+    cluster = LocalCluster(
+        n_workers=workers or os.cpu_count() or 1,
+        threads_per_worker=1,
+        processes=True,
+        memory_limit=memory_limit if memory_limit is not None else "auto",
+        dashboard_address=None,
+        silence_logs=logging.CRITICAL,
+    )
+    with cluster, Client(cluster) as local:
+        yield local
+
+
+def completed(
+    dask_client: Any,
+    function: Callable[..., Any],
+    arguments: dict[str, tuple],
+    *,
+    prefix: str,
+) -> Iterable[tuple[str, Any]]:
+    """Submit ``function(*arguments[key])`` for every key; yield ``(key, result)`` as the
+    scheduler reports each task finished, each key exactly once.
+
+    Keys name the tasks (``prefix-key``), so a task that Dask runs again after its worker died
+    still yields one result. A task's exception is raised here when its result is reached.
+    """
+    from distributed import as_completed
+
+    futures = {
+        dask_client.submit(function, *args, key=f"{prefix}-{key}", pure=False, retries=0): key
+        for key, args in arguments.items()
+    }
+    for future, result in as_completed(futures, with_results=True):
+        yield futures[future], result
