@@ -6,18 +6,20 @@ table of GGX copper), a unit sphere at 256², brdfkit's orthographic front view;
 the same camera, the same map at its own texel nodes and the matching BSDF (see
 :mod:`brdfkit.mitsuba_scenes`).
 
-Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` (NumPy, and
-``compiled=True``: the float32 kernel of :mod:`brdfkit.render_kernel`, where the BRDF compiles)
-and Mitsuba's ``mi.render`` alternate ``--repeats`` times with fresh seeds. Reported: seconds
-per image (the minimum), the relative RMSE against the renderer's *own* reference at
+Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` (``compiled=True``:
+the float32 kernel of :mod:`brdfkit.render_kernel`, where the BRDF compiles; the NumPy path
+where it does not, or with ``--numpy`` as well) and Mitsuba's ``mi.render`` alternate
+``--repeats`` times with fresh seeds. Reported: seconds per image (the minimum; the kernels'
+build time apart, "compile s"), the relative RMSE against the renderer's *own* reference at
 ``--reference`` spp (≥ 16× the largest spp; inside the silhouette,
-:func:`~brdfkit.mitsuba_scenes.interior_mask`; the compiled path is held against the NumPy
-path's reference, the same estimator), the efficiency 1/(seconds·error²) and its ratio to
-Mitsuba's (> 1: brdfkit is more efficient), and how far the two references differ. Mitsuba's
+:func:`~brdfkit.mitsuba_scenes.interior_mask`; NumPy and compiled share one estimator and the
+compiled reference), the efficiency 1/(seconds·error²) and its ratio to Mitsuba's (> 1:
+brdfkit is more efficient), and how far the two references differ. Mitsuba's
 llvm variant needs ``benchmarks/setup.sh``; without it the run falls back to ``scalar_rgb``
 and says so.
 
     python benchmarks/bench_render.py [--data ../shared/data] [--repeats 3] [--reference 1024]
+        [--only gold plastic] [--numpy] [--json]
 
 Results go to ``benchmarks/results/render.json`` and a Markdown table on stdout.
 """
@@ -38,7 +40,7 @@ import numpy as np
 from brdfkit import mitsuba_scenes as ms
 from brdfkit.lights import EnvironmentMap
 from brdfkit.render import render_sphere
-from brdfkit.render_kernel import EnvironmentShader
+from brdfkit.render_kernel import compiled_shader
 
 RESOLUTION = 256
 SPPS = (16, 64)
@@ -55,32 +57,35 @@ def timed(render: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
     return time.perf_counter() - start, image
 
 
-def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Namespace) -> dict:
-    """Interleaved timings and errors of both renderers on one scene."""
+def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Namespace) -> list:
+    """Interleaved timings and errors of the renderers on one scene."""
     mi_scene = ms.sphere_scene(mi, scene.mitsuba_bsdf, env, RESOLUTION)
     renderers: dict[str, Callable[[int, int], np.ndarray]] = {
-        "brdfkit": lambda spp, seed: render_sphere(
-            scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed
-        ),
         "mitsuba": lambda spp, seed: ms.render(mi, mi_scene, spp, seed),
     }
-    try:
-        EnvironmentShader(scene.brdf, env)
-    except ValueError:  # a BRDF brdfkit.accel cannot compile (the tabulated one)
-        pass
-    else:
+    compile_seconds = None
+    plan = compiled_shader(scene.brdf, [env], method="auto")
+    if plan is not None:  # where brdfkit.accel compiles the BRDF (not the tabulated one)
+        start = time.perf_counter()
+        plan[0].build()
+        compile_seconds = time.perf_counter() - start
         renderers["compiled"] = lambda spp, seed: render_sphere(
             scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed, compiled=True
+        )
+    if args.numpy or plan is None:
+        renderers["numpy"] = lambda spp, seed: render_sphere(
+            scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed, compiled=False
         )
     mask = ms.interior_mask(RESOLUTION)
     for render in renderers.values():
         render(4, 12345)  # warm-up: Mitsuba's JIT, brdfkit's caches
+    # each renderer's own reference; NumPy and compiled share one estimator (and the compiled
+    # reference where there is one)
     references, reference_seconds = {}, {}
-    for name, render in renderers.items():
-        if name != "compiled":
-            reference = timed(lambda r=render: r(args.reference, 999))
-            reference_seconds[name], references[name] = reference
-    references["compiled"] = references["brdfkit"]
+    for name in ("mitsuba", "compiled" if "compiled" in renderers else "numpy"):
+        reference = timed(lambda r=renderers[name]: r(args.reference, 999))
+        reference_seconds[name], references[name] = reference
+    references.setdefault("numpy", references.get("compiled"))
     rows = []
     for spp in SPPS:
         seconds = {name: [] for name in renderers}
@@ -90,21 +95,31 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
                 t, image = timed(lambda r=render, n=spp, s=1000 * spp + repeat: r(n, s))
                 seconds[name].append(t)
                 errors[name].append(ms.relative_rmse(image, references[name], mask))
-        row = {"scene": scene.name, "spp": spp}
+        row: dict[str, Any] = {"scene": scene.name, "spp": spp}
         for name in renderers:
             t = min(seconds[name])
             error = float(np.sqrt(np.mean(np.square(errors[name]))))
             row[name] = {"seconds": t, "rel_rmse": error, "efficiency": 1 / (t * error**2)}
-        row["efficiency_ratio"] = row["brdfkit"]["efficiency"] / row["mitsuba"]["efficiency"]
-        if "compiled" in row:
-            ratio = row["compiled"]["efficiency"] / row["mitsuba"]["efficiency"]
-            row["compiled_efficiency_ratio"] = ratio
-        rows.append(row)
-    agreement = ms.relative_rmse(references["brdfkit"], references["mitsuba"], mask)
-    for row in rows:
-        row["reference_agreement"] = agreement
+        for name in ("compiled", "numpy"):
+            if name in row:
+                ratio = row[name]["efficiency"] / row["mitsuba"]["efficiency"]
+                row[f"{name}_efficiency_ratio"] = ratio
+        row["compile_seconds"] = compile_seconds
+        brdfkit = "compiled" if "compiled" in references else "numpy"
+        row["reference_agreement"] = ms.relative_rmse(
+            references[brdfkit], references["mitsuba"], mask
+        )
         row["reference_seconds"] = reference_seconds
+        rows.append(row)
     return rows
+
+
+def _cell(row: dict, name: str) -> str:
+    if name not in row:
+        return " – | – | – |"
+    r = row[name]
+    ratio = row[f"{name}_efficiency_ratio"]
+    return f" {r['seconds']:.3f} | {r['rel_rmse']:.4f} | {ratio:.2f} |"
 
 
 def main() -> None:
@@ -113,36 +128,38 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--reference", type=int, default=16 * max(SPPS))
     parser.add_argument("--only", nargs="*", help="scene names to run (default: all)")
+    parser.add_argument("--numpy", action="store_true", help="also time the NumPy path")
+    parser.add_argument("--json", action="store_true", help="print the record as JSON")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "render.json"))
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()
     if variant != "llvm_ad_rgb":
         print(f"Mitsuba's llvm_ad_rgb is unavailable (run benchmarks/setup.sh): using {variant}")
     rows = []
-    print(
-        "| scene | spp | brdfkit s | Mitsuba s | brdfkit rel. RMSE | Mitsuba rel. RMSE "
-        "| efficiency brdfkit/Mitsuba | references differ | compiled s | compiled rel. RMSE "
-        "| efficiency compiled/Mitsuba |"
-    )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    if not args.json:
+        print(
+            "| scene | spp | Mitsuba s | Mitsuba rel. RMSE | compiled s | compiled rel. RMSE "
+            "| efficiency compiled/Mitsuba | NumPy s | NumPy rel. RMSE "
+            "| efficiency NumPy/Mitsuba | compile s | references differ |"
+        )
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for scene in ms.benchmark_scenes():
         if args.only and scene.name not in args.only:
             continue
         env = EnvironmentMap.from_file(Path(args.data) / "envmaps" / "polyhaven" / scene.envmap)
         for row in bench_scene(mi, scene, env, args):
             rows.append(row)
-            b, m = row["brdfkit"], row["mitsuba"]
-            c = row.get("compiled")
-            compiled = " – | – | – |"
-            if c:
-                ratio = row["compiled_efficiency_ratio"]
-                compiled = f" {c['seconds']:.3f} | {c['rel_rmse']:.4f} | {ratio:.2f} |"
-            print(
-                f"| {row['scene']} | {row['spp']} | {b['seconds']:.3f} | {m['seconds']:.3f} "
-                f"| {b['rel_rmse']:.4f} | {m['rel_rmse']:.4f} | {row['efficiency_ratio']:.2f} "
-                f"| {row['reference_agreement']:.4f} |" + compiled,
-                flush=True,
-            )
+            m = row["mitsuba"]
+            compile_s = row["compile_seconds"]
+            if not args.json:
+                print(
+                    f"| {row['scene']} | {row['spp']} | {m['seconds']:.3f} | {m['rel_rmse']:.4f} |"
+                    + _cell(row, "compiled")
+                    + _cell(row, "numpy")
+                    + (f" {compile_s:.1f} |" if compile_s is not None else " – |")
+                    + f" {row['reference_agreement']:.4f} |",
+                    flush=True,
+                )
     record = {
         "resolution": RESOLUTION,
         "reference_spp": args.reference,
@@ -151,6 +168,18 @@ def main() -> None:
         "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_version()}",
         "rows": rows,
     }
+    if args.json:
+        print(json.dumps(record, indent=2))
+    else:
+        worst = min(
+            (
+                r.get("compiled_efficiency_ratio") or r.get("numpy_efficiency_ratio"),
+                r["scene"],
+                r["spp"],
+            )
+            for r in rows
+        )
+        print(f"\nlowest efficiency brdfkit/Mitsuba: {worst[0]:.2f} ({worst[1]}, {worst[2]} spp)")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(record, indent=2) + "\n")
 

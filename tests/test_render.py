@@ -80,13 +80,32 @@ def test_normal_map_render_and_errors():
 
 
 @pytest.mark.slow
-def test_2048_render_needs_less_than_1_gb():
-    """A 2048² render, G-buffer included, goes tile by tile and peaks below 1 GB."""
+def test_2048_render_under_an_environment_map_holds_a_few_hundred_mb():
+    """A 2048² Monte Carlo render goes band by band (G-buffer) and tile by tile (samples):
+    its peak is the image (100 MB) and one tile, below 400 MB."""
     import tracemalloc
 
+    from brdfkit.brdf import RoughConductor
+    from brdfkit.lights import EnvironmentMap
+
+    env = EnvironmentMap(np.random.default_rng(0).random((64, 128, 3)))
+    _ = env.irradiance_table
     tracemalloc.start()
-    img = render_sphere(Lambertian(0.5), DirectionalLight((1, 0, 0), 1.0), resolution=2048)
+    img = render_sphere(RoughConductor(alpha=0.3), env, resolution=2048, samples=1, compiled=False)
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    assert img.shape == (2048, 2048, 1)
-    assert peak < 1_000_000_000, f"peak {peak / 1e9:.2f} GB"
+    assert img.shape == (2048, 2048, 3) and np.all(np.isfinite(img))
+    assert peak < 400_000_000, f"peak {peak / 1e6:.0f} MB"
+
+
+def test_render_sphere_in_bands_equals_one_g_buffer(monkeypatch):
+    from brdfkit import render
+    from brdfkit.brdf import RoughConductor
+    from brdfkit.lights import EnvironmentMap
+
+    env = EnvironmentMap(np.random.default_rng(1).random((16, 32, 3)))
+    brdf = Lambertian(0.3) + RoughConductor(alpha=0.4)
+    kwargs = {"samples": 4, "seed": 7, "max_evaluations": 36 * 5 * 4, "compiled": False}
+    whole = shade(gbuffer(Sphere(), None, 36), brdf, env, **kwargs)
+    monkeypatch.setattr(render, "BAND_PIXELS", 36 * 10)  # bands of 2 tiles of 5 rows
+    np.testing.assert_array_equal(render_sphere(brdf, env, 36, **kwargs), whole)

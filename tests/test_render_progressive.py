@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lambertian, RoughConductor
+from brdfkit.integrate import FLOOR_DIRECTIONS
 from brdfkit.lights import EnvironmentMap
 from brdfkit.render import Pass, Sphere, gbuffer, progressive, progressive_sphere, shade
 from brdfkit.render_kernel import kernels_built
@@ -98,11 +99,11 @@ def test_cancel_before_during_and_between_passes():
             max_samples=1024,
             cancel=cancel,
             progress=progress,
-            max_evaluations=200,
+            max_evaluations=(2 + FLOOR_DIRECTIONS) * 16 * 6,  # 1 spp: tiles of 6 rows
             **NUMPY,
         )
     )
-    assert [p.samples for p in passes] == [1]  # 16 rows of 1 spp MIS fill the first pass
+    assert [p.samples for p in passes] == [1]  # its 3 tiles fill the first pass
     assert len(tiles) == 3
 
 

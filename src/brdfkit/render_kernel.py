@@ -30,7 +30,9 @@ scrambled Sobol point set per strategy, Cranley–Patterson-shifted per pixel, o
 uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
 rounding, and with float32 to float32 precision away from the rare samples whose texel flips.
 Lambertian lobes are taken out as :math:`\rho E(n)/\pi` as in ``method="auto"``
-(:func:`~brdfkit.integrate.split_diffuse`). Blocks run on :func:`brdfkit.accel.threads`
+(:func:`~brdfkit.integrate.split_diffuse`), and so is the control variate :math:`k\,E(n)` of
+the rest (:func:`~brdfkit.integrate.diffuse_floor`: k from the compiled ``eval``, the kernel
+samples f − k). Blocks run on :func:`brdfkit.accel.threads`
 threads (the kernel releases the GIL).
 
 References
@@ -54,7 +56,14 @@ import numpy as np
 
 from brdfkit import accel
 from brdfkit.brdf.base import BRDF, check_choice
-from brdfkit.integrate import Estimate, _diffuse_envmap, _setup, split_diffuse
+from brdfkit.integrate import (
+    FLOOR_DIRECTIONS,
+    Estimate,
+    _diffuse_envmap,
+    _floor_directions,
+    _setup,
+    split_diffuse,
+)
 from brdfkit.lights import EnvironmentMap, Light
 
 HEURISTICS = ("power", "balance")
@@ -63,21 +72,24 @@ BLOCK = 256
 """Pixels per call of the BRDF kernels inside the tile kernel (their vectorised batch)."""
 
 
-_BRDF_KERNELS: weakref.WeakKeyDictionary[BRDF, dict[np.dtype, tuple[Any, ...]]] = (
-    weakref.WeakKeyDictionary()
-)
+_BRDF_KERNELS: weakref.WeakKeyDictionary[
+    BRDF, dict[np.dtype, tuple[accel.CompiledBRDF, tuple[Any, ...]]]
+] = weakref.WeakKeyDictionary()
 
 
-def _brdf_kernels(model: BRDF, dtype: np.dtype) -> tuple[Any, ...]:
-    """The numba functions of ``model``'s compiled ``sample`` (3 uniforms), ``eval`` and
-    ``pdf`` (:func:`brdfkit.accel.compile`), kept per model object: tracing a model with JAX
-    takes ~0.1 s, longer than shading a 256² tile at 16 spp."""
+def _compiled(model: BRDF, dtype: np.dtype) -> tuple[accel.CompiledBRDF, tuple[Any, ...]]:
+    """``model`` compiled (:func:`brdfkit.accel.compile`) and the numba functions of its
+    ``sample`` (3 uniforms), ``eval`` and ``pdf`` kernels, kept per model object: tracing a
+    model with JAX takes ~0.1 s, longer than shading a 256² tile at 16 spp."""
     per_dtype = _BRDF_KERNELS.setdefault(model, {})
     if dtype not in per_dtype:
         compiled = accel.compile(model, dtype)
-        per_dtype[dtype] = tuple(
-            compiled._kernel(method, width)._function
-            for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
+        per_dtype[dtype] = (
+            compiled,
+            tuple(
+                compiled._kernel(method, width)._function
+                for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
+            ),
         )
     return per_dtype[dtype]
 
@@ -250,6 +262,7 @@ def _new_tile_kernel(
         row_steps: int,
         col_steps: int,
         power: bool,
+        control: np.ndarray,
         mean: np.ndarray,
         m2: np.ndarray,
     ) -> None:
@@ -338,13 +351,17 @@ def _new_tile_kernel(
                 eval_fn(wil_buf, wo_buf, f_buf, nb)
                 pdf_fn(wil_buf, wo_buf, pbl_buf, nb)
                 for j in range(nb):
+                    p = pixels[start + j]
                     x, y, theta = coords[j, 0], coords[j, 1], coords[j, 2]
                     lookup(x, y, image, scale, radiance)
                     p_light = map_pdf(x, y, theta, density, height, width)
                     w_b = one if delta_buf[j] else weight(pdf_buf[j], p_light, power)
                     upper = wi_buf[j * 3 + 2] > zero
+                    pb = pdf_buf[j]
+                    cos_over_p = wi_buf[j * 3 + 2] / pb if pb != zero else zero
                     for c in range(channels):
-                        term = wt_buf[j * brdf_channels + c * cb_step] * radiance[c * cl_step]
+                        k = control[p, c * cb_step] * cos_over_p  # (f − k)·cos/p
+                        term = (wt_buf[j * brdf_channels + c * cb_step] - k) * radiance[c * cl_step]
                         cbw[j, c] = term * w_b if upper else zero * w_b
                     # the map's sample: its radiance at the sampled coordinates (the NumPy
                     # path converts them to a direction and back, equal to rounding)
@@ -354,7 +371,8 @@ def _new_tile_kernel(
                         value_l[j, c] = radiance[c] / pl if pl != zero else zero
                     w_l = weight(pl, pbl_buf[j], power)
                     for c in range(channels):
-                        c_l = f_buf[j * brdf_channels + c * cb_step] * value_l[j, c * cl_step]
+                        f_k = f_buf[j * brdf_channels + c * cb_step] - control[p, c * cb_step]
+                        c_l = f_k * value_l[j, c * cl_step]
                         x64 = np.float64(cbw[j, c] + c_l * cos_l[j] * w_l)
                         previous = mean[start + j, c]
                         current = previous + (x64 - previous) * inverse_count
@@ -377,7 +395,8 @@ class EnvironmentShader:
     ----------
     brdf : the surface's reflectance.
     light : the environment map (or a sequence holding only it).
-    method : ``"auto"`` (Lambertian lobes as ρE(n)/π, the rest by MIS) or ``"mis"``.
+    method : ``"auto"`` (Lambertian lobes as ρE(n)/π, the rest by MIS of f − k with the
+        control variate k·E(n), :func:`~brdfkit.integrate.diffuse_floor`) or ``"mis"``.
     heuristic : ``"power"`` (β = 2) or ``"balance"`` (β = 1).
     dtype : float32 (fastest) or float64 (the NumPy path's precision) for the arithmetic.
 
@@ -412,9 +431,12 @@ class EnvironmentShader:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
+        # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
+        self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
         if self.rest is not None:
+            self._rest, functions = _compiled(self.rest, self.dtype)
             self._kernel = _tile_kernel(
-                *_brdf_kernels(self.rest, self.dtype),
+                *functions,
                 self.dtype.type,
                 self.rest.channels,
                 self.env.channels,
@@ -459,7 +481,16 @@ class EnvironmentShader:
         if self.rho is not None:
             value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
         if self._kernel is not None:
-            mean, m2 = self._monte_carlo(frame, wo_local, batch, samples, seed, sequence, mask)
+            n = math.prod(batch)
+            keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
+            control = np.zeros((n, self.rest.channels), self.dtype)
+            if self.control:
+                control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
+                k = control.reshape(*batch, self.rest.channels).astype(np.float64)
+                value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
+            mean, m2 = self._monte_carlo(
+                frame, wo_local, batch, samples, seed, sequence, keep, control
+            )
             value = value + mean
             stderr2 = m2 / samples / samples
         return Estimate(value, np.sqrt(stderr2))
@@ -469,6 +500,14 @@ class EnvironmentShader:
         self(np.array([[0.0, 0.0, 1.0]]), samples=1)
         return self
 
+    def _floor(self, wo_local: np.ndarray) -> np.ndarray:
+        """:func:`~brdfkit.integrate.diffuse_floor` of the sampled part by its compiled
+        ``eval``, ``(n, C)``."""
+        directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
+        f = self._rest.eval(directions, wo_local[:, None, :].astype(self.dtype))
+        median = np.partition(f, FLOOR_DIRECTIONS // 2, axis=-2)[:, FLOOR_DIRECTIONS // 2]
+        return np.maximum(median, 0)
+
     def _monte_carlo(
         self,
         frame: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -477,7 +516,8 @@ class EnvironmentShader:
         samples: int,
         seed: int | None,
         sequence: str,
-        mask: np.ndarray | None,
+        keep: np.ndarray,
+        control: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
         t = self.dtype
@@ -490,7 +530,6 @@ class EnvironmentShader:
             np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
             dtype=t,
         )
-        keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
         pixels = np.flatnonzero(keep)
         mean = np.zeros((n, self.channels))
         m2 = np.zeros((n, self.channels))
@@ -503,7 +542,7 @@ class EnvironmentShader:
             hi = min(lo + _CHUNK, pixels.size)
             kernel(
                 pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b, points_l, shift_l,
-                *self._tables, power, found_mean[lo:hi], found_m2[lo:hi],
+                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi],
             )  # fmt: skip
 
         starts = range(0, pixels.size, _CHUNK)
@@ -584,9 +623,10 @@ def compiled_shader(
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
     dtype = np.dtype(dtype)
-    kernels = _BRDF_KERNELS.get(model, {}).get(dtype)
-    if kernels is None:
+    entry = _BRDF_KERNELS.get(model, {}).get(dtype)
+    if entry is None:
         return False
+    kernels = entry[1]
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
     return any(t.signatures for t in tiles)
 

@@ -378,6 +378,49 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
     )
 
 
+def _build_cards(
+    entries: list[tuple[str, list[BRDF]]],
+    options: dict,
+    progress: Callable[[str, int, int], None] | None,
+) -> list[Card]:
+    """:func:`build_card` for every entry, on as many processes as this process has cores
+    (cards are independent; NumPy work runs on one core at a time), in their order."""
+    import multiprocessing
+    import os
+    import threading
+
+    workers = min(len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1,
+                  len(entries))  # fmt: skip
+    # forked workers (no re-import, no __main__ guard needed), only from a single-threaded
+    # process: a fork copies no other thread, and a lock one of them held would stay locked
+    fork = "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    if workers <= 1 or not fork:
+        cards = []
+        for done, (title, examples) in enumerate(entries):
+            if progress is not None:
+                progress(title, done, len(entries))
+            cards.append(build_card(title, examples, **options))
+        return cards
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
+    context = multiprocessing.get_context("fork")
+    results: dict[int, Card] = {}
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        futures = {
+            pool.submit(build_card, title, examples, **options): k
+            for k, (title, examples) in enumerate(entries)
+        }
+        if progress is not None:
+            progress(entries[0][0], 0, len(entries))
+        for future in as_completed(futures):
+            k = futures[future]
+            results[k] = future.result()
+            if progress is not None:
+                progress(entries[k][0], len(results), len(entries))
+    return [results[k] for k in range(len(entries))]
+
+
 def build_atlas(
     output: Path,
     models: Sequence[str | BRDF] | None = None,
@@ -395,21 +438,9 @@ def build_atlas(
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
-    cards = []
     entries = default_cards(models)
-    for done, (title, examples) in enumerate(entries):
-        if progress is not None:
-            progress(title, done, len(entries))
-        cards.append(
-            build_card(
-                title,
-                examples,
-                envmap=light,
-                resolution=resolution,
-                samples=samples,
-                run_checks=run_checks,
-            )
-        )
+    options = {"envmap": light, "resolution": resolution, "samples": samples}
+    cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
     page = atlas_html(cards, envmap_path.name)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
 
