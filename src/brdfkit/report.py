@@ -45,6 +45,7 @@ DEFAULT_MODELS = (
     "rough_dielectric",
     "mirror",
     "smooth_dielectric",
+    "ashikhmin_shirley",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 
