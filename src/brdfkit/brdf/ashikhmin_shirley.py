@@ -22,7 +22,7 @@ from brdfkit.brdf.base import (
     register,
     upper_hemisphere,
 )
-from brdfkit.brdf.microfacet import FresnelTerm
+from brdfkit.brdf.microfacet import IOR, FresnelTerm
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
@@ -142,12 +142,18 @@ class AshikhminShirley(MixtureSampled):
     diffuse term, chosen ∝ the channel means of Schlick's F at θo and of the diffuse albedo at
     θo; channel-varying exponents are sampled with their channel means.
 
+    With ``eta`` given, F is instead the exact dielectric Fresnel reflectance of relative index
+    η (Low et al. 2012's variant, written in Cook & Torrance's form), and R_s only couples the
+    diffuse term; that variant is not claimed energy-conserving (measured, not proven).
+
     Parameters
     ----------
     rd : diffuse reflectance R_d ∈ [0, 1].
     rs : specular reflectance at normal incidence R_s ∈ [0, 1].
     nu : exponent n_u ∈ [0, 10⁶] along the tangent x.
     nv : exponent n_v ∈ [0, 10⁶] along y; ``None`` means n_v = n_u (isotropic).
+    eta : ``None`` (Schlick's F with R_s, the paper) or a relative index of refraction
+        η ∈ [0.01, 100] for the exact dielectric F.
 
     References
     ----------
@@ -155,24 +161,39 @@ class AshikhminShirley(MixtureSampled):
            Tools 5(2), 25–32, 2000.
     .. [2] C. Schlick, "An inexpensive BRDF model for physically-based rendering", Computer
            Graphics Forum 13(3), 1994.
+    .. [3] J. Löw, J. Kronander, A. Ynnerman, J. Unger, "BRDF models for accurate and
+           efficient rendering of glossy surfaces", ACM TOG 31(1), 2012.
     """
 
     rd: Any = 0.5
     rs: Any = 0.05
     nu: Any = 100.0
     nv: Any = None
+    eta: Any = None
 
     domains: ClassVar[dict[str, Domain]] = {
         "rd": ALBEDO,
         "rs": ALBEDO,
         "nu": EXPONENT,
         "nv": EXPONENT,
+        "eta": IOR,
     }
 
     def __post_init__(self) -> None:
         check_domains(self)
-        values = (self.rd, self.rs, self.nu, self._nv)
-        object.__setattr__(self, "channels", channel_count(*values, names=("rd", "rs", "nu", "nv")))
+        values = (self.rd, self.rs, self.nu, self._nv, 1.0 if self.eta is None else self.eta)
+        names = ("rd", "rs", "nu", "nv", "eta")
+        object.__setattr__(self, "channels", channel_count(*values, names=names))
+
+    @property
+    def energy_conserving(self) -> bool:  # type: ignore[override]
+        return self.eta is None
+
+    def _fresnel(self) -> FresnelTerm:
+        """Schlick's F with R_s, or the exact dielectric F of index η when ``eta`` is given."""
+        if self.eta is None:
+            return FresnelTerm("schlick", f0=self.rs)
+        return FresnelTerm("dielectric", eta=self.eta)
 
     @property
     def _nv(self) -> Any:
@@ -183,10 +204,11 @@ class AshikhminShirley(MixtureSampled):
         return self.nv is None or bool(np.array_equal(to_numpy(self.nu), to_numpy(self.nv)))
 
     def params(self) -> dict[str, Any]:
-        """The parameters, without ``nv`` when it is ``None`` (n_v = n_u)."""
+        """The parameters, without ``nv`` and ``eta`` when they are ``None``."""
         params = super().params()
-        if self.nv is None:
-            del params["nv"]
+        for name in ("nv", "eta"):
+            if params[name] is None:
+                del params[name]
         return params
 
     @classmethod
@@ -197,12 +219,12 @@ class AshikhminShirley(MixtureSampled):
             cls(0.8, 0.2, 1.0),
             cls(0.3, 0.1, 10.0, 1000.0),
             cls([0.6, 0.3, 0.1], [0.05, 0.1, 0.2], [20.0, 40.0, 80.0], 5.0),
+            cls(0.0, 0.0, 300.0, eta=1.45),
         ]
 
     def specular(self, wi: Array, wo: Array) -> Array:
         """The specular lobe alone (its first term), ``(..., C)``; valid above the surface."""
         xp = namespace(wi, wo)
-        rs = param(self.rs, wi)
         nu, nv = param(self.nu, wi), param(self._nv, wi)
         h = normalize(wi + wo)
         k_dot_h = dot(wi, h, keepdims=True)
@@ -211,7 +233,7 @@ class AshikhminShirley(MixtureSampled):
         positive = denominator > 0
         safe = xp.where(positive, denominator, xp.ones_like(denominator))
         lobe = cosine_power(h[..., 2:3], ashikhmin_shirley_exponent(h, nu, nv))
-        fresnel = FresnelTerm("schlick", f0=rs)(k_dot_h)
+        fresnel = self._fresnel()(k_dot_h)
         value = xp.sqrt((nu + 1) * (nv + 1)) / (8 * math.pi) * lobe * fresnel / safe
         return xp.where(positive, value, xp.zeros_like(value))
 
@@ -229,7 +251,7 @@ class AshikhminShirley(MixtureSampled):
         rd, rs = param(self.rd, wo), param(self.rs, wo)
         cos_o = xp.clip(wo[..., 2:3], 0.0, 1.0)
         diffuse = rd * (1 - rs) * (1 - (1 - cos_o / 2) ** 5)
-        specular = FresnelTerm("schlick", f0=rs)(cos_o)
+        specular = self._fresnel()(cos_o)
         return channel_mean(diffuse), channel_mean(specular)
 
     def components(self, wo: Array) -> list[Component]:
