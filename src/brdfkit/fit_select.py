@@ -69,7 +69,7 @@ def fit_any(measured: BRDF | MeasuredSamples, spec: str, **options: Any) -> FitR
         return fit(measured, spec, **options)
     start = time.perf_counter()
     data = fit_data(measured)
-    model = fit_bivariate(data, smoothness=options.get("smoothness", 1e-2))
+    model = fit_bivariate(data, smoothness=options.get("smoothness", 1e-3))
     nh, nd, _ = model.table.shape
     return FitResult(
         model=model,
