@@ -8,29 +8,29 @@ Bagher et al.'s (2012) fits to 100. Each preset is the fit's Lambertian plus its
 model, converted to brdfkit's models so that its value equals ``bbm``'s C++ (``ngan.h``,
 ``low.h``, ``bagher.h``) exactly:
 
-==========================  =====================================================================
-fit (``bbm`` model)          brdfkit
-==========================  =====================================================================
-``ngan_ward``                ``Ward(kd=ρ, ks=albedo, alpha_x=roughness, normalization="ward")``
-``ngan_wardduer``            the same with ``normalization="duer"``
-``ngan_blinnphong``          ``ModifiedPhong(kd=ρ, ks=albedo, n=sharpness)`` (``ngan.h``'s
-                             "Blinn-Phong" is an alias of the modified Phong lobe about the
-                             mirror direction, not a half-vector lobe)
-``ngan_lafortune``           ``Lambertian(ρ) + albedo·(n+2)/(2π) · Lafortune(C/M, n)``,
-                             M = max(|C_xy|, |C_z|): Ngan's extra factor
-                             (n+2)/(2π max(C_z², C_xy²)^{n/2}) folded into the coefficients
-``ngan_cooktorrance``        ``Lambertian(ρ) + (4·albedo/π) · CookTorrance(m, schlick, f0=eta)``
-                             (Beckmann with 1/π, V-groove, Schlick with "eta" = F0, over
-                             π cos θi cos θo)
-``ngan_ashikhminshirley``    ``Lambertian(ρ) + albedo · AshikhminShirley(rd=0, rs=F0, nu=n)``
-``low_cooktorrance_E*``      ``Lambertian(ρ) + 4·albedo · CookTorrance(m, dielectric, eta)``
-                             (Beckmann without 1/π, Cook's Fresnel of index η)
-``low_ashikhminshirley_E*``  ``Lambertian(ρ) + albedo · AshikhminShirley(rd=0, nu=n, eta=η)``
-``low_lowmicrofacet_E2``     ``Lambertian(ρ) + LowMicrofacet(A, B, C, eta)``
-``low_lowsmooth_E2``         ``Lambertian(ρ) + LowSmooth(A, B, C, eta)``
-``bagher_sgd``               ``Lambertian(ρ) + BagherSGD(ks=albedo·K, ...)``, eta = [F0, F1]
-``ngan_he``                  not converted (see :data:`UNCONVERTED`)
-==========================  =====================================================================
+============================  =====================================================================
+fit (``bbm`` model)           brdfkit
+============================  =====================================================================
+``ngan_ward``                 ``Ward(kd=ρ, ks=albedo, alpha_x=roughness, normalization="ward")``
+``ngan_wardduer``             the same with ``normalization="duer"``
+``ngan_blinnphong``           ``ModifiedPhong(kd=ρ, ks=albedo, n=sharpness)`` (``ngan.h``'s
+                              "Blinn-Phong" is an alias of the modified Phong lobe about the
+                              mirror direction, not a half-vector lobe)
+``ngan_lafortune``            ``Lambertian(ρ) + albedo·(n+2)/(2π) · Lafortune(C/M, n)``,
+                              M = max(|C_xy|, |C_z|): Ngan's extra factor
+                              (n+2)/(2π max(C_z², C_xy²)^{n/2}) folded into the coefficients
+``ngan_cooktorrance``         ``Lambertian(ρ) + (4·albedo/π) · CookTorrance(m, schlick, f0=eta)``
+                              (Beckmann with 1/π, V-groove, Schlick with "eta" = F0, over
+                              π cos θi cos θo)
+``ngan_ashikhminshirley``     ``Lambertian(ρ) + albedo · AshikhminShirley(rd=0, rs=F0, nu=n)``
+``low_cooktorrance_E*``       ``Lambertian(ρ) + 4·albedo · CookTorrance(m, dielectric, eta)``
+                              (Beckmann without 1/π, Cook's Fresnel of index η)
+``low_ashikhminshirley_E*``   ``Lambertian(ρ) + albedo · AshikhminShirley(rd=0, nu=n, eta=η)``
+``low_lowmicrofacet_E2``      ``Lambertian(ρ) + LowMicrofacet(A, B, C, eta)``
+``low_lowsmooth_E2``          ``Lambertian(ρ) + LowSmooth(A, B, C, eta)``
+``bagher_sgd``                ``Lambertian(ρ) + BagherSGD(ks=albedo·K, ...)``, eta = [F0, F1]
+``ngan_he``                   not converted (see :data:`UNCONVERTED`)
+============================  =====================================================================
 
 References
 ----------
