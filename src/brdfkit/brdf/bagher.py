@@ -75,11 +75,13 @@ class BagherSGD(MixtureSampled):
 
     Parameters
     ----------
-    ks : scale, the fits' "albedo" times K, [0, 10⁶]. alpha : SGD width α ∈ [10⁻⁶, 10].
-    p : SGD shape ∈ [0, 10]. f0, f1 : Fresnel coefficients ∈ [−10, 10].
-    lam, c : G1's Λ and c ∈ [0, 10³⁰⁰].
-    power : G1's exponent k ∈ [0, 10⁶]. theta0 : G1's onset angle θ0 in radians
-    ∈ [−10, 10]. (``bbm``'s ``Lambda``, ``c``, ``k``, ``theta0``.)
+    ks : scale, the fits' "albedo" times K, [0, 10⁶].
+    alpha : SGD width α ∈ [10⁻⁶, 10].
+    p : SGD shape ∈ [0, 10].
+    f0, f1 : Fresnel coefficients ∈ [−10, 10].
+    lam, c : G1's Λ and c ∈ [0, 10³⁰⁰] (``bbm``'s ``Lambda``, ``c``).
+    power : G1's exponent (``bbm``'s ``k``) ∈ [0, 10⁶].
+    theta0 : G1's onset angle θ0 in radians ∈ [−10, 10].
 
     References
     ----------

@@ -171,7 +171,9 @@ class LowMicrofacet(_ABC):
 
     Parameters
     ----------
-    A : scale in [0, 10⁶] sr⁻¹. B : sharpness in [10⁻⁶, 10⁹]. C : exponent in [0, 100].
+    A : scale in [0, 10⁶] sr⁻¹.
+    B : sharpness in [10⁻⁶, 10⁹].
+    C : exponent in [0, 100].
     eta : relative index of refraction η ∈ [0.01, 100]. All broadcast against ``batch + (C,)``.
 
     References
@@ -225,7 +227,9 @@ class LowSmooth(_ABC):
 
     Parameters
     ----------
-    A : scale in [0, 10⁶] sr⁻¹. B : sharpness in [10⁻⁶, 10⁹]. C : exponent in [0, 100].
+    A : scale in [0, 10⁶] sr⁻¹.
+    B : sharpness in [10⁻⁶, 10⁹].
+    C : exponent in [0, 100].
     eta : relative index of refraction η ∈ [0.01, 100].
 
     References

@@ -17,7 +17,7 @@ fit (``bbm`` model)           brdfkit
                               "Blinn-Phong" is an alias of the modified Phong lobe about the
                               mirror direction, not a half-vector lobe)
 ``ngan_lafortune``            ``Lambertian(ρ) + albedo·(n+2)/(2π) · Lafortune(C/M, n)``,
-                              M = max(|C_xy|, |C_z|): Ngan's extra factor
+                              M = max(abs(C_xy), abs(C_z)): Ngan's extra factor
                               (n+2)/(2π max(C_z², C_xy²)^{n/2}) folded into the coefficients
 ``ngan_cooktorrance``         ``Lambertian(ρ) + (4·albedo/π) · CookTorrance(m, schlick, f0=eta)``
                               (Beckmann with 1/π, V-groove, Schlick with "eta" = F0, over

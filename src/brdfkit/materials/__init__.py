@@ -48,10 +48,10 @@ def catalogue(fit: str | None = None, model: str | None = None) -> list[dict[str
     return records
 
 
+# Material is documented at brdfkit.brdf.Material (imported here for catalogue()).
 __all__ = [
     "CONVERTERS",
     "UNCONVERTED",
-    "Material",
     "catalogue",
     "citation",
     "fits",
