@@ -54,6 +54,7 @@ DEFAULT_MODELS = (
     "hapke",
     "kulla_conty",
     "thin_film",
+    "ashikhmin_shirley",
 )
 """The models of the default atlas, in the order of the lectures (those registered are shown)."""
 

@@ -28,8 +28,9 @@ def fit_command(
         "--model",
         "-m",
         metavar="SPEC",
-        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx' "
-        "(repeatable: a batch).",
+        help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'; "
+        "'bivariate' (the data-driven (θh, θd) table), or 'auto' (the candidate with the "
+        "least held-out error). Repeatable: a batch.",
     ),
     objective: str = typer.Option(
         "cube_root",
@@ -103,6 +104,7 @@ def fit_command(
     """
     import brdfkit.measured as measured_io
     from brdfkit.fit import fit
+    from brdfkit.fit_select import BIVARIATE, fit_any, select_model
 
     if len(files) > 1 or len(models) > 1 or workers is not None or scheduler is not None:
         from brdfkit.cli._fit_batch import run_batch
@@ -123,23 +125,30 @@ def fit_command(
     folder = None
     if output is not None:
         folder = OutputFolder(output, _OUTPUTS, inputs=(file,))
+    if model.strip() in ("auto", BIVARIATE) and fix:
+        fail(f"--fix does not apply to --model {model.strip()}; got --fix {', '.join(fix)}")
     measured = getattr(measured_io, reader)(file)
+    selection = None
     with progress() as bar:
         task = bar.add_task("fitting", total=1)
-        result = fit(
-            measured,
-            model,
-            objective=objective,
-            loss=loss,
-            loss_scale=loss_scale,
-            mode=mode,
-            starts=starts,
-            fixed=fix,
-            seed=seed,
-            progress=lambda done, total, text: bar.update(
+        options = {
+            "objective": objective,
+            "loss": loss,
+            "loss_scale": loss_scale,
+            "mode": mode,
+            "starts": starts,
+            "seed": seed,
+            "progress": lambda done, total, text: bar.update(
                 task, completed=done, total=total, description=f"fitting: {text}"
             ),
-        )
+        }
+        if model.strip() == "auto":
+            selection = select_model(measured, **options)
+            result = selection.result
+        elif model.strip() == BIVARIATE:
+            result = fit_any(measured, BIVARIATE, objective=objective)
+        else:
+            result = fit(measured, model, fixed=fix, **options)
     clamped = getattr(measured, "clamped", 0)
     if clamped:  # after the fit, so that a refused option stays the one line on stderr
         status.print(
@@ -148,7 +157,15 @@ def fit_command(
         )
     if not as_json:
         _print_fit(file, model, objective, loss, mode, result)
+        if selection is not None:
+            console.print(
+                f"chosen: {selection.chosen}; held-out RMS residual ({objective}): "
+                + ", ".join(f"{k} {v:.4g}" for k, v in selection.held_out.items())
+            )
     summary = {"file": shown(file), **result.to_dict()}
+    if selection is not None:
+        summary["chosen"] = selection.chosen
+        summary["held_out_rms"] = selection.held_out
     if folder is not None:
         differences = _write_outputs(folder, measured, result, resolution, envmap)
         summary.update({f"delta_e_{light}": d.to_dict() for light, d in differences.items()})
