@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brdfkit.vision import bivariate, datasets
+from brdfkit.vision import bivariate, consensus, datasets
 from brdfkit.vision.metrics import angular_error
 from brdfkit.vision.photometric_stereo import least_squares, sphere_normals
 
@@ -14,6 +14,7 @@ NONLAMBERTIAN = {
     "bipolynomial": bivariate.bipolynomial,
     "constrained_bivariate": bivariate.constrained_bivariate,
     "shared_bivariate": bivariate.shared_bivariate,
+    "consensus": consensus.consensus,
 }
 
 
@@ -45,12 +46,14 @@ def baseline(glossy):
 
 
 # Measured on this sphere (mean / median °): least squares 10.4 / 6.1, bipolynomial 3.8 / 0.54,
-# constrained bivariate 3.5 / 0.98, shared bivariate 0.87 / 0.16. Bounds: fractions of least
-# squares' mean and median.
+# constrained bivariate 3.5 / 0.98, shared bivariate 0.87 / 0.16, consensus 5.0 / 3.1 (its
+# rank order is biased by the highlight, as Higo et al.'s is). Bounds: fractions of least
+# squares' mean and median, and the albedo's relative tolerance.
 BOUNDS = {
     "bipolynomial": (0.45, 0.15),
     "constrained_bivariate": (0.45, 0.25),
     "shared_bivariate": (0.15, 0.05),
+    "consensus": (0.6, 0.65),
 }
 
 
@@ -68,7 +71,8 @@ def test_beats_least_squares_on_a_glossy_sphere(name, glossy, baseline):
     np.testing.assert_allclose(np.linalg.norm(result.normals[glossy.mask], axis=1), 1.0)
     # The diffuse albedo comes back through the highlight (per channel, chromaticity kept).
     median_albedo = np.median(result.albedo[glossy.mask], axis=0)
-    np.testing.assert_allclose(median_albedo, [0.6, 0.4, 0.3], rtol=0.1)
+    rtol = 0.15 if name == "consensus" else 0.05
+    np.testing.assert_allclose(median_albedo, [0.6, 0.4, 0.3], rtol=rtol)
 
 
 def test_lambertian_sphere_is_recovered_exactly_enough():
@@ -79,8 +83,14 @@ def test_lambertian_sphere_is_recovered_exactly_enough():
     data = datasets.render_synthetic(normals, lit, lights, albedo=0.5)
     for name, method in NONLAMBERTIAN.items():
         result = method(data.images, data.light_directions, lit)
+        errors = angular_error(result.normals, normals, lit)
+        if name == "consensus":
+            # Only the order of the 24 intensities is used: every normal of the cell where the
+            # cosines keep that order fits (measured 2.2° mean, 1.3° median).
+            assert errors["mean"] < 3.0 and errors["median"] < 2.0
+            continue
         # Noise-free Lambertian data lies in every model: the search converges to the truth.
-        assert angular_error(result.normals, normals, lit)["mean"] < 0.05, name
+        assert errors["mean"] < 0.05, name
         np.testing.assert_allclose(result.albedo[lit], 0.5, rtol=2e-3)
 
 
@@ -94,8 +104,15 @@ def test_bad_input_is_named():
             method(images, lights, np.ones((8, 9), bool))
         with pytest.raises(ValueError, match="shadow_threshold"):
             method(images, lights, shadow_threshold=1.5)
+    for method in (
+        bivariate.bipolynomial,
+        bivariate.constrained_bivariate,
+        bivariate.shared_bivariate,
+    ):
         with pytest.raises(ValueError, match="iterations"):
             method(images, lights, iterations=0)
+    with pytest.raises(ValueError, match="candidates"):
+        consensus.consensus(images, lights, candidates=3)
     with pytest.raises(ValueError, match="lower the degree"):
         bivariate.bipolynomial(images, lights, degree=(3, 1))
     with pytest.raises(ValueError, match="degree"):

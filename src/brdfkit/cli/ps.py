@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vision.bivariate
+_METHODS += ("consensus",)  # vision.consensus
 _INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
 _OUTPUTS = (
     "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
@@ -170,9 +171,9 @@ def ps_command(
 
 def _solvers() -> dict[str, Any]:
     """Every calibrated method by name: the Lambertian and robust ones, the non-Lambertian."""
-    from brdfkit.vision import bivariate, photometric_stereo
+    from brdfkit.vision import bivariate, consensus, photometric_stereo
 
-    return {**photometric_stereo.METHODS, **bivariate.METHODS}
+    return {**photometric_stereo.METHODS, **bivariate.METHODS, **consensus.METHODS}
 
 
 def _table(summary: dict[str, Any]) -> Table:
