@@ -121,3 +121,19 @@ def test_bad_input_is_named():
         bivariate.constrained_bivariate(images, lights, knots=8)
     with pytest.raises(ValueError, match="smoothness"):
         bivariate.shared_bivariate(images, lights, smoothness=-1.0)
+
+
+def test_robust_pca_rank_three_is_what_wu_et_al_recover(glossy, baseline):
+    from brdfkit.vision.photometric_stereo import robust_pca
+
+    convex = robust_pca(glossy.images, glossy.light_directions, glossy.mask, rank=None)
+    ranked = robust_pca(glossy.images, glossy.light_directions, glossy.mask)
+    convex_errors = angular_error(convex.normals, glossy.normals, glossy.mask)
+    errors = angular_error(ranked.normals, glossy.normals, glossy.mask)
+    # Measured: convex program alone 8.3° / 3.8°, rank 3 kept 4.5° / 0.22° (least squares
+    # 10.4° / 6.1°): the highlights no longer leak into a 4th-6th singular vector.
+    assert errors["mean"] < 0.65 * convex_errors["mean"]
+    assert errors["median"] < 0.1 * convex_errors["median"]
+    assert errors["median"] < 0.05 * baseline["median"]
+    with pytest.raises(ValueError, match="rank"):
+        robust_pca(glossy.images, glossy.light_directions, glossy.mask, rank=0)
