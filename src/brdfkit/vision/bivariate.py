@@ -24,8 +24,8 @@ and the normal is the minimiser of the remaining residual (variable projection):
 The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
 the normal, the residual's Jacobian by forward differences, all pixels in lock step (batched
 small solves, no Python loop over pixels), started from trimmed least squares. Observations
-darker than ``shadow_threshold`` times a pixel's brightest are shadows and excluded; this
-selection does not depend on the candidate normal, so costs stay comparable.
+darker than ``shadow_threshold`` times a pixel's 90th-percentile observation are shadows and
+excluded; this selection does not depend on the candidate normal, so costs stay comparable.
 
 References
 ----------
@@ -197,16 +197,23 @@ def _refine_normals(
     return normals
 
 
+def _reference(intensities: np.ndarray) -> np.ndarray:
+    """Each pixel's reference brightness for the shadow test, ``(P,)`` from ``(P, N)``: its
+    90th-percentile observation, not its brightest, so that a sharp highlight (tens of times
+    the diffuse level) does not turn the diffuse observations into "shadows"."""
+    return np.percentile(intensities, 90, axis=1)
+
+
 def _start(
     gray: np.ndarray, lights: np.ndarray, shadow_threshold: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the pixel's
-    brightest) and candidate start normals ``(S, P, 3)``: trimmed least squares dropping
-    (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the observations (a
-    broad lobe needs the last, a sharp one the first)."""
+    """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
+    pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
+    squares dropping (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the
+    observations (a broad lobe needs the last, a sharp one the first)."""
     if not 0 <= shadow_threshold < 1:
         raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
-    lit = (gray > shadow_threshold * gray.max(axis=0, keepdims=True)).T.astype(np.float64)
+    lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
     starts = []
     n_lights = len(lights)
     for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)):
@@ -310,7 +317,7 @@ def bipolynomial(
         I_k = max(0, n·l_k) Σ_{a <= A, b <= B} c_ab cos^a θ_h cos^b θ_d,
 
     with the coefficients ``c`` per pixel. Per pixel, the ``bright_fraction`` brightest
-    observations (the spike) and those below ``shadow_threshold`` times the brightest are
+    observations (the spike) and those below ``shadow_threshold`` times the 90th percentile are
     dropped; the normal minimises the residual of the least-squares ``c`` (see the module).
 
     Parameters
@@ -320,7 +327,8 @@ def bipolynomial(
         orders Shi et al. find sufficient for MERL's low-frequency parts) when at least 40
         lights remain, else ``(1, 0)`` (few lights leave no redundancy for 8 coefficients).
     bright_fraction : fraction of each pixel's brightest observations dropped, in [0, 1).
-    shadow_threshold : fraction of a pixel's brightest below which an observation is a shadow.
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
     iterations : Levenberg–Marquardt iterations (1 … :data:`MAX_ITERATIONS`).
     callback : ``callback(iteration, iterations)`` after each iteration.
 
@@ -407,7 +415,7 @@ def constrained_bivariate(
     knots (``g`` uniform in ``n·l`` on [0, 1]; ``s`` uniform in ``θ_h`` on [0°, 90°], denser
     near the mirror direction in ``n·h``) with non-negative increments: the monotonicity and
     non-negativity constraints that make the regression well posed. Every observation brighter
-    than ``shadow_threshold`` times the pixel's brightest is used, highlights included; the
+    than ``shadow_threshold`` times the pixel's 90th percentile is used, highlights included; the
     weights follow by non-negative least squares (batched projected gradient) for each
     candidate normal, the normal by the search of the module docstring.
 
@@ -416,7 +424,8 @@ def constrained_bivariate(
     images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
     knots : knots per lobe, 3 … 32; by default ``min(8, N // 4 + 1)`` for ``N`` lights (8
         at DiLiGenT's 96; fewer lights afford fewer weights).
-    shadow_threshold : fraction of a pixel's brightest below which an observation is a shadow.
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
     iterations : Levenberg–Marquardt iterations (1 … :data:`MAX_ITERATIONS`).
     callback : ``callback(iteration, iterations)`` after each iteration.
 
@@ -591,7 +600,8 @@ def shared_bivariate(
     bins : table nodes in ``θ_h`` and ``θ_d`` (2 … 256 each).
     smoothness : weight of the second-difference penalty relative to the data term (>= 0).
     rounds : alternations (1 … 50).
-    shadow_threshold : fraction of a pixel's brightest below which an observation is a shadow.
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
     iterations : normal-search iterations per round (1 … :data:`MAX_ITERATIONS`).
     callback : ``callback(round, rounds)`` after each round.
 

@@ -8,11 +8,11 @@ normal (*monotonicity*), and a point is dark exactly where the light is behind i
     cost(n) = (1 - ρ_S(I, n·L)) / 2 + mean_k | [I_k lit] - [n·l_k > 0] |,
 
 ``ρ_S`` the Spearman rank correlation over the lit observations (brighter than
-``shadow_threshold`` times the pixel's brightest) and the second term the fraction of
-observations whose visibility disagrees. The search is global: every pixel is scored against a
-Fibonacci set of ``candidates`` directions on the front hemisphere (rank correlations against
-shared candidates are matrix products), then refined by hill climbing on rings of decreasing
-radius around the best (4°, 2°, 1°, 0.5°, 0.25°).
+``shadow_threshold`` times the pixel's 90th-percentile observation) and the second term the
+fraction of observations whose visibility disagrees. The search is global: every pixel is
+scored against a Fibonacci set of ``candidates`` directions on the front hemisphere (rank
+correlations against shared candidates are matrix products), then refined by hill climbing on
+rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°).
 
 Higo et al. also use an isotropy constraint and a Markov random field over the image to
 smooth the per-pixel choices; both are omitted here (each pixel is solved alone), so this is
@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
-from brdfkit.vision.bivariate import _finish, _tangent_frame
+from brdfkit.vision.bivariate import _finish, _reference, _tangent_frame
 from brdfkit.vision.photometric_stereo import (
     Callback,
     PhotometricStereoResult,
@@ -127,7 +127,8 @@ def consensus(
     images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
     candidates : directions of the global search (16 … :data:`MAX_CANDIDATES`); 800 are about
         5° apart.
-    shadow_threshold : fraction of a pixel's brightest below which an observation is a shadow,
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow,
         in [0, 1).
     callback : ``callback(step, steps)`` after the global search and each ring.
 
@@ -148,7 +149,7 @@ def consensus(
     observations, lights, mask = _prepare(images, light_directions, mask)
     gray = _gray(observations)
     intensities = gray.T
-    lit = (intensities > shadow_threshold * intensities.max(axis=1, keepdims=True)).astype(float)
+    lit = (intensities > shadow_threshold * _reference(intensities)[:, None]).astype(float)
     ranks = _ranks(intensities)
     steps = 1 + len(_RINGS)
     normals = _global_search(ranks, lit, lights, _hemisphere(count))
