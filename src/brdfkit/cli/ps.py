@@ -17,10 +17,12 @@ if TYPE_CHECKING:
     from rich.table import Table
 
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
+_METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vision.bivariate
+_METHODS += ("consensus",)  # vision.consensus
 _INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
 _OUTPUTS = (
     "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
-    "mesh.ply", "angular_error.npy", "angular_error.png",
+    "mesh.ply", "angular_error.npy", "angular_error.png", "metrics.json",
 )  # fmt: skip
 
 
@@ -105,7 +107,8 @@ def ps_command(
 
     Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
     depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);
-    lights.txt holds the light directions used. Frame: x right, y up, z towards the camera.
+    lights.txt holds the light directions used; metrics.json the measures (as --json prints
+    them). Frame: x right, y up, z towards the camera.
     """
     import numpy as np
 
@@ -150,7 +153,7 @@ def ps_command(
                 data.images, lights, data.mask, data.normals, data.light_intensities, data.name
             )
         bar.update(task, description=f"{method}", completed=0, total=None)
-        solver = photometric_stereo.METHODS[method]
+        solver = _solvers()[method]
         extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
         if uncalibrated:
             from dataclasses import replace
@@ -206,6 +209,8 @@ def ps_command(
         error_shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
         writes["angular_error.npy"] = lambda path: np.save(path, error_map)
         writes["angular_error.png"] = lambda path: write_image(path, error_shown, srgb=False)
+    measures = json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+    writes["metrics.json"] = lambda path: path.write_text(measures, encoding="utf-8")
     for name, write in writes.items():
         folder.write(name, write)
     summary["output"] = shown(output)
@@ -215,6 +220,13 @@ def ps_command(
         return
     console.print(_table(summary))
     console.print(f"wrote {shown(output)}/")
+
+
+def _solvers() -> dict[str, Any]:
+    """Every calibrated method by name: the Lambertian and robust ones, the non-Lambertian."""
+    from brdfkit.vision import bivariate, consensus, photometric_stereo
+
+    return {**photometric_stereo.METHODS, **bivariate.METHODS, **consensus.METHODS}
 
 
 def _table(summary: dict[str, Any]) -> Table:

@@ -18,8 +18,10 @@ unknown *is* the depth, so integrability holds by construction, and the energy
 Laplacian, Horn's "departure from smoothness" of the slopes) is minimised as a sparse non-linear
 least-squares problem (trust-region Gauss–Newton with the exact Jacobian, ``scipy.optimize.
 least_squares``), which converges in tens of iterations where Horn's own relaxation needs
-thousands. The cost grows quickly with the pixel count: work on images of about 64–100 pixels
-across (downsample larger ones). Like every variational SfS method it needs a start on the right
+thousands. Above 4096 mask pixels the start comes from the solution at half the resolution
+(recursively, cascadic multigrid), and the finer levels take a few Levenberg–Marquardt steps
+solved by preconditioned conjugate gradients, so the cost grows about linearly with the pixels
+(see ``benchmarks/bench_sfs.py``). Like every variational SfS method it needs a start on the right
 side of the convex/concave ambiguity: by default a tent ``z₀ ∝`` the distance to the mask's boundary
 (objects bulge towards the viewer inside their occluding contour, Ikeuchi & Horn 1981).
 
@@ -63,9 +65,18 @@ __all__ = ["MAX_ITERATIONS", "MAX_PIXELS", "ShapeFromShading", "shape_from_shadi
 MAX_ITERATIONS = 100_000
 """Largest ``max_iterations`` of :func:`shape_from_shading`."""
 
+_CG_ITERATIONS = 60
+"""Conjugate-gradient iterations per Levenberg–Marquardt step of :func:`_solve_large`."""
+
+_FINE_ITERATIONS = 12
+"""Residual evaluations at each level above the coarsest of the cascade."""
+
+_COARSE = 4096
+"""Mask pixels above which the start comes from the half-resolution solution."""
+
 MAX_PIXELS = 2**18
-"""Most mask pixels :func:`shape_from_shading` solves for (512 × 512; downsample larger images:
-the cost grows faster than the pixel count)."""
+"""Most mask pixels :func:`shape_from_shading` solves for (512 × 512; downsample larger
+images)."""
 
 
 @dataclass(frozen=True)
@@ -199,8 +210,6 @@ def shape_from_shading(
     .. [2] B. K. P. Horn and M. J. Brooks, CVGIP 33(2), 1986.
     .. [3] R. Zhang et al., "Shape from shading: a survey", IEEE TPAMI 21(8), 1999.
     """
-    from scipy.ndimage import distance_transform_edt
-
     max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     check_param("smoothness", smoothness, 0.0)
     image = as_float_array("image", image, finite=False)
@@ -232,21 +241,48 @@ def shape_from_shading(
         raise ParameterError(f"albedo must be positive (the image is black?); got {albedo!r}")
     check_param("albedo", albedo, 0.0, lo_open=True)
     if initial_depth is None:
-        initial_depth = distance_transform_edt(mask) / 2
-    z0 = as_float_array("initial_depth", initial_depth, finite=False)
-    if z0.shape != image.shape:
-        raise ParameterError(f"initial_depth must have shape {image.shape}; got shape {z0.shape}")
-    if not np.all(np.isfinite(z0[mask])):
-        raise ParameterError("initial_depth must be finite inside the mask")
-    z, iterations, rms = _solve(
-        image / albedo, mask, operators, light, smoothness, z0, max_iterations
-    )
+        z, iterations, rms = _cascade(image / albedo, mask, light, smoothness, max_iterations)
+    else:
+        z0 = as_float_array("initial_depth", initial_depth, finite=False)
+        if z0.shape != image.shape:
+            raise ParameterError(
+                f"initial_depth must have shape {image.shape}; got shape {z0.shape}"
+            )
+        if not np.all(np.isfinite(z0[mask])):
+            raise ParameterError("initial_depth must be finite inside the mask")
+        z, iterations, rms = _solve(
+            image / albedo, mask, operators, light, smoothness, z0, max_iterations
+        )
     depth = np.full(image.shape, np.nan)
     depth[mask] = z - z.min()
     return ShapeFromShading(depth, _normals_from_depth(depth, mask), albedo, iterations, rms)
 
 
-def _solve(
+def _downsample(image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """2 × 2 block means of ``image`` and the blocks wholly inside ``mask`` (odd edges cropped)."""
+    h, w = (n // 2 * 2 for n in mask.shape)
+    blocks = image[:h, :w].reshape(h // 2, 2, w // 2, 2).mean(axis=(1, 3))
+    inside = mask[:h, :w].reshape(h // 2, 2, w // 2, 2).all(axis=(1, 3))
+    return blocks, inside
+
+
+def _upsample(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """A coarse depth (NaN outside its mask) at twice the resolution on ``mask``'s grid:
+    holes filled from the nearest known coarse value, then bilinear interpolation (fine pixel
+    ``r`` sits at coarse coordinate ``(r - 1/2) / 2``), depth doubled (pixel units)."""
+    from scipy.ndimage import distance_transform_edt, map_coordinates
+
+    missing = np.isnan(depth)
+    if missing.all():
+        return np.zeros(mask.shape)
+    _, (rows, columns) = distance_transform_edt(missing, return_indices=True)
+    filled = depth[rows, columns]
+    r, c = np.indices(mask.shape, dtype=np.float64)
+    coordinates = np.stack([(r - 0.5) / 2, (c - 0.5) / 2])
+    return 2 * map_coordinates(filled, coordinates, order=1, mode="nearest")
+
+
+def _solve_small(
     image: np.ndarray,
     mask: np.ndarray,
     operators: tuple,
@@ -255,8 +291,9 @@ def _solve(
     initial_depth: np.ndarray,
     max_iterations: int,
 ) -> tuple[np.ndarray, int, float]:
-    """Minimise Horn's energy with the :func:`_operators` of ``mask``: depths of the mask pixels,
-    iterations, RMS."""
+    """Minimise Horn's energy with the :func:`_operators` of ``mask`` by scipy's trust-region
+    reflective solver (robust from a far start; its LSMR steps grow slow beyond a few thousand
+    unknowns): depths of the mask pixels, iterations, RMS."""
     from scipy import sparse
     from scipy.optimize import least_squares
 
@@ -293,3 +330,139 @@ def _solve(
     )
     rms = float(np.sqrt(np.mean(result.fun[: brightness.size] ** 2)))
     return result.x, int(result.nfev), rms
+
+
+def _solve_large(
+    image: np.ndarray,
+    mask: np.ndarray,
+    operators: tuple,
+    light: np.ndarray,
+    smoothness: float,
+    initial_depth: np.ndarray,
+    max_iterations: int,
+) -> tuple[np.ndarray, int, float]:
+    """Minimise Horn's energy with the :func:`_operators` of ``mask`` from a near start:
+    depths of the mask pixels, iterations, RMS.
+
+    Levenberg–Marquardt: each step solves ``(J^T J + mu diag(J^T J)) d = -J^T r`` by at most
+    :data:`_CG_ITERATIONS` conjugate-gradient iterations with the diagonal as preconditioner
+    (the start comes from the coarser level of :func:`_cascade`, so only short wavelengths
+    remain to be corrected, which CG resolves quickly). A step is kept when the energy falls
+    (``mu`` shrinks), otherwise ``mu`` grows; it stops when the energy's relative decrease
+    falls below ``1e-8`` twice in a row or after ``max_iterations`` residual evaluations.
+    """
+    from scipy import sparse
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    d_x, d_y, average, laplacian = operators
+    brightness = average @ image[mask]
+    weight = np.sqrt(smoothness)
+    smooth = weight * laplacian
+    smooth_t = smooth.T.tocsr()
+    d_x_t, d_y_t = d_x.T.tocsr(), d_y.T.tocsr()
+
+    def shading(z: np.ndarray) -> tuple[np.ndarray, ...]:
+        p, q = d_x @ z, d_y @ z
+        s = np.sqrt(1 + p * p + q * q)
+        u = -p * light[0] - q * light[1] + light[2]
+        return p, q, s, u
+
+    def residuals(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        _, _, s, u = shading(z)
+        return np.maximum(u, 0) / s - brightness, smooth @ z
+
+    def energy(parts: tuple[np.ndarray, np.ndarray]) -> float:
+        return float(parts[0] @ parts[0] + parts[1] @ parts[1])
+
+    z = initial_depth[mask].astype(np.float64)
+    parts = residuals(z)
+    cost = energy(parts)
+    mu = 1e-3
+    evaluations = 1
+    small = 0
+    n = z.size
+    smooth_diagonal = np.asarray(smooth.multiply(smooth).sum(axis=0)).ravel()
+    while evaluations < max_iterations:
+        p, q, s, u = shading(z)
+        lit = u > 0
+        r_p = np.where(lit, -light[0] / s - u * p / s**3, 0.0)
+        r_q = np.where(lit, -light[1] / s - u * q / s**3, 0.0)
+        gradient = d_x_t @ (r_p * parts[0]) + d_y_t @ (r_q * parts[0]) + smooth_t @ parts[1]
+
+        def apply(v: np.ndarray, r_p=r_p, r_q=r_q) -> np.ndarray:
+            jv = r_p * (d_x @ v) + r_q * (d_y @ v)
+            return d_x_t @ (r_p * jv) + d_y_t @ (r_q * jv) + smooth_t @ (smooth @ v)
+
+        jacobian = sparse.diags(r_p) @ d_x + sparse.diags(r_q) @ d_y
+        diagonal = np.asarray(jacobian.power(2).sum(axis=0)).ravel() + smooth_diagonal
+        diagonal = np.maximum(diagonal, 1e-12 * max(diagonal.max(), 1e-300))
+        while evaluations < max_iterations:
+            damped = diagonal * (1 + mu)
+            operator = LinearOperator(
+                (n, n), matvec=lambda v, mu=mu, d=diagonal: apply(v) + mu * d * v
+            )
+            step, _ = cg(
+                operator, -gradient, rtol=1e-4, maxiter=_CG_ITERATIONS, M=sparse.diags(1.0 / damped)
+            )
+            trial = z + step
+            trial_parts = residuals(trial)
+            evaluations += 1
+            trial_cost = energy(trial_parts)
+            if trial_cost < cost:
+                decrease = (cost - trial_cost) / max(cost, 1e-300)
+                z, parts, cost = trial, trial_parts, trial_cost
+                mu = max(mu / 3, 1e-9)
+                break
+            mu *= 4
+            if mu > 1e12:
+                decrease = 0.0
+                break
+        else:
+            break
+        small = small + 1 if decrease < 1e-8 else 0  # scipy's default ftol, twice in a row
+        if small == 2:
+            break
+    rms = float(np.sqrt(np.mean(parts[0] ** 2)))
+    return z, evaluations, rms
+
+
+def _solve(
+    image: np.ndarray,
+    mask: np.ndarray,
+    operators: tuple,
+    light: np.ndarray,
+    smoothness: float,
+    initial_depth: np.ndarray,
+    max_iterations: int,
+) -> tuple[np.ndarray, int, float]:
+    """:func:`_solve_small` up to :data:`_COARSE` mask pixels, :func:`_solve_large` beyond."""
+    solver = _solve_small if mask.sum() <= _COARSE else _solve_large
+    return solver(image, mask, operators, light, smoothness, initial_depth, max_iterations)
+
+
+def _cascade(
+    image: np.ndarray, mask: np.ndarray, light: np.ndarray, smoothness: float, max_iterations: int
+) -> tuple[np.ndarray, int, float]:
+    """:func:`_solve` from the tent start ``d / 2`` or — above :data:`_COARSE` mask pixels —
+    from the solution at half the resolution, upsampled (cascadic multigrid: each level
+    corrects the short wavelengths its coarser level cannot represent). Returns the depths of
+    the mask pixels, the evaluations summed over the levels, and the finest level's RMS."""
+    from scipy.ndimage import distance_transform_edt
+
+    coarse_image, coarse_mask = _downsample(image, mask)
+    evaluations = 0
+    if mask.sum() > _COARSE and _operators(coarse_mask)[0].shape[0] >= 1:
+        coarse_depth, evaluations, _ = _cascade(
+            coarse_image, coarse_mask, light, smoothness, max_iterations
+        )
+        depth = np.full(coarse_mask.shape, np.nan)
+        depth[coarse_mask] = coarse_depth
+        initial_depth = _upsample(depth, mask)
+        # From the coarse solution only short wavelengths remain: a few steps correct them.
+        max_iterations = min(max_iterations, _FINE_ITERATIONS)
+    else:
+        initial_depth = distance_transform_edt(mask) / 2
+    z, count, rms = _solve(
+        image, mask, _operators(mask), light, smoothness, initial_depth, max_iterations
+    )
+    return z, evaluations + count, rms

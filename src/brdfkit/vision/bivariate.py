@@ -1,0 +1,656 @@
+r"""Non-Lambertian calibrated photometric stereo with isotropic bivariate reflectance models.
+
+For an isotropic BRDF seen from a fixed view ``v = (0, 0, 1)`` under distant lights ``l_k``,
+reflectance depends mostly on two angles of the half vector ``h_k = (l_k + v) / |l_k + v|``
+(Romeiro, Vasilyev, Zickler 2008): ``cos θ_h = n·h_k`` and ``cos θ_d = l_k·h_k``; the
+observation at a pixel is
+
+.. math:: I_k = \max(0, n·l_k)\, \rho(\cos θ_{h,k}, \cos θ_{d,k}) \;(+ \text{noise, shadows}).
+
+The methods here model ``ρ`` by a linear combination of ``K`` basis functions whose weights are
+per pixel, so that for a candidate normal the weights follow by (non-negative) least squares
+and the normal is the minimiser of the remaining residual (variable projection):
+
+- :func:`bipolynomial` (Shi et al. 2014, "ST14"): ``ρ`` a bi-polynomial in ``cos θ_h`` and
+  ``cos θ_d`` fitted to the *low-frequency* observations only (the brightest, specular spike,
+  and the darkest, shadowed, are dropped);
+- :func:`constrained_bivariate` (Ikehata & Aizawa 2014, "IA14"): the sum of two monotone,
+  non-negative piecewise-linear functions of ``n·l`` and ``n·h`` fitted to every lit
+  observation, highlights included;
+- :func:`shared_bivariate` (Alldrin, Zickler, Kriegman 2008, "AZ08"): a non-parametric table
+  ``ρ(θ_h, θ_d)`` shared by the whole object (per-pixel diffuse and specular weights),
+  alternating with the normals.
+
+The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
+the normal, the residual's Jacobian by forward differences, all pixels in lock step (batched
+small solves, no Python loop over pixels), started from trimmed least squares. Observations
+darker than ``shadow_threshold`` times a pixel's 90th-percentile observation are shadows and
+excluded; this selection does not depend on the candidate normal, so costs stay comparable.
+
+References
+----------
+.. [1] B. Shi, P. Tan, Y. Matsushita, K. Ikeuchi, "Bi-polynomial modeling of low-frequency
+   reflectances", IEEE TPAMI 36(6), 2014.
+.. [2] S. Ikehata, K. Aizawa, "Photometric stereo using constrained bivariate regression for
+   general isotropic surfaces", CVPR 2014.
+.. [3] N. Alldrin, T. Zickler, D. Kriegman, "Photometric stereo with non-parametric and
+   spatially-varying reflectance", CVPR 2008.
+.. [4] F. Romeiro, Y. Vasilyev, T. Zickler, "Passive reflectometry", ECCV 2008 (the bivariate
+   approximation of isotropic BRDFs).
+.. [5] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
+   for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from brdfkit._checks import check_count
+from brdfkit.errors import ParameterError
+from brdfkit.vision.photometric_stereo import (
+    Callback,
+    PhotometricStereoResult,
+    _gray,
+    _prepare,
+    _result,
+    _trim_weights,
+    _weighted_least_squares,
+)
+
+MAX_ITERATIONS = 200
+"""Largest ``iterations`` of the normal search."""
+
+Basis = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""``basis(cos_theta_i, cos_theta_h, cos_theta_d)`` → ``(P, N, K)`` design, cosine included."""
+
+_VIEW = np.array([0.0, 0.0, 1.0])
+
+
+def _half_vectors(lights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit half vectors ``h_k`` of the lights and the view, and ``cos θ_d = l_k·h_k``."""
+    half = lights + _VIEW
+    half /= np.linalg.norm(half, axis=1, keepdims=True)
+    return half, np.sum(lights * half, axis=1)
+
+
+def _tangent_frame(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents ``t_1, t_2`` orthogonal to each row of ``normals`` ``(P, 3)``."""
+    helper = np.where(np.abs(normals[:, 2:3]) < 0.9, _VIEW, np.array([1.0, 0.0, 0.0]))
+    t_1 = np.cross(normals, helper)
+    t_1 /= np.linalg.norm(t_1, axis=1, keepdims=True)
+    return t_1, np.cross(normals, t_1)
+
+
+def _solve_weights(gram: np.ndarray, rhs: np.ndarray, nonnegative: bool) -> np.ndarray:
+    """Per-pixel ``argmin_c c^T G c / 2 - r^T c`` (``c >= 0`` if ``nonnegative``), ``(P, K)``.
+
+    Unconstrained: the normal equations with a tiny ridge. Non-negative: an active-set
+    iteration in lock step over the pixels (Lawson & Hanson 1974, ch. 23): solve on the free
+    variables, then free the clamped ones whose gradient points inside and clamp the free
+    ones that went negative, until no pixel changes (at most ``2 K`` rounds).
+    """
+    k = gram.shape[-1]
+    ridge = 1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / k + 1e-300
+    gram = gram + ridge * np.eye(k)
+    if not nonnegative:
+        return np.linalg.solve(gram, rhs[..., None])[..., 0]
+    free = np.ones(rhs.shape, dtype=bool)
+    identity = np.eye(k, dtype=bool)
+    weights = np.zeros_like(rhs)
+    for _ in range(2 * k):
+        both = free[:, :, None] & free[:, None, :]
+        reduced = np.where(both, gram, identity)
+        weights = np.linalg.solve(reduced, np.where(free, rhs, 0.0)[..., None])[..., 0]
+        weights = np.where(free, weights, 0.0)
+        negative = free & (weights < 0)
+        gradient = np.einsum("pkl,pl->pk", gram, np.maximum(weights, 0.0)) - rhs
+        release = ~free & (gradient < -1e-12 * np.abs(rhs).max(axis=1, keepdims=True))
+        if not negative.any() and not release.any():
+            break
+        # Clamp only the most negative variable of a pixel per round (stable), or free the one
+        # with the steepest descent when none is negative.
+        worst = np.argmin(np.where(negative, weights, np.inf), axis=1)
+        steepest = np.argmin(np.where(release, gradient, np.inf), axis=1)
+        rows = np.arange(len(free))
+        has_negative = negative.any(axis=1)
+        free[rows[has_negative], worst[has_negative]] = False
+        freeing = ~has_negative & release.any(axis=1)
+        free[rows[freeing], steepest[freeing]] = True
+    return np.maximum(weights, 0.0)
+
+
+def _residuals(
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    basis: Basis,
+    nonnegative: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted residuals ``(P, N)`` of the best reflectance for ``normals`` ``(P, 3)``, and the
+    reflectance weights ``(P, K)``."""
+    half, cos_theta_d = _half_vectors(lights)
+    cos_theta_i = normals @ lights.T
+    cos_theta_h = normals @ half.T
+    design = basis(cos_theta_i, cos_theta_h, np.broadcast_to(cos_theta_d, cos_theta_i.shape))
+    weighted = design * weights[..., None]
+    gram = np.matmul(weighted.transpose(0, 2, 1), design)
+    rhs = np.einsum("pnk,pn->pk", weighted, gray)
+    coefficients = _solve_weights(gram, rhs, nonnegative)
+    model = np.einsum("pnk,pk->pn", design, coefficients)
+    return np.sqrt(weights) * (gray - model), coefficients
+
+
+def _refine_normals(
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    basis: Basis,
+    *,
+    nonnegative: bool = False,
+    iterations: int = 10,
+    callback: Callback | None = None,
+) -> np.ndarray:
+    """Levenberg–Marquardt on the tangent coordinates of every pixel's normal, ``(P, 3)``.
+
+    ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts for :func:`_best_start`.
+
+    ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
+    residual comes from forward differences of ``1e-4`` rad; a step is kept for the pixels
+    whose cost falls, and their damping shrinks (grows otherwise).
+    """
+    if normals.ndim == 3:
+        normals = _best_start(normals, gray, weights, lights, basis, nonnegative)
+    epsilon = 1e-4
+    damping = np.full(len(normals), 1e-3)
+    residual, _ = _residuals(normals, gray, weights, lights, basis, nonnegative)
+    cost = np.sum(residual**2, axis=1)
+    for iteration in range(iterations):
+        t_1, t_2 = _tangent_frame(normals)
+        columns = []
+        for tangent in (t_1, t_2):
+            moved = normals + epsilon * tangent
+            moved /= np.linalg.norm(moved, axis=1, keepdims=True)
+            shifted, _ = _residuals(moved, gray, weights, lights, basis, nonnegative)
+            columns.append((shifted - residual) / epsilon)
+        jacobian = np.stack(columns, axis=2)  # (P, N, 2)
+        jtj = np.matmul(jacobian.transpose(0, 2, 1), jacobian)
+        jtr = np.einsum("pnj,pn->pj", jacobian, residual)
+        scale = np.trace(jtj, axis1=1, axis2=2)[:, None, None] / 2 + 1e-300
+        step = -np.linalg.solve(jtj + damping[:, None, None] * scale * np.eye(2), jtr[..., None])
+        step = np.clip(step[..., 0], -0.2, 0.2)  # at most ~11° per iteration
+        trial = normals + step[:, :1] * t_1 + step[:, 1:] * t_2
+        trial /= np.linalg.norm(trial, axis=1, keepdims=True)
+        trial_residual, _ = _residuals(trial, gray, weights, lights, basis, nonnegative)
+        trial_cost = np.sum(trial_residual**2, axis=1)
+        better = trial_cost < cost
+        normals = np.where(better[:, None], trial, normals)
+        residual = np.where(better[:, None], trial_residual, residual)
+        cost = np.where(better, trial_cost, cost)
+        damping = np.clip(np.where(better, damping / 3, damping * 4), 1e-7, 1e7)
+        if callback is not None:
+            callback(iteration + 1, iterations)
+    return normals
+
+
+def _reference(intensities: np.ndarray) -> np.ndarray:
+    """Each pixel's reference brightness for the shadow test, ``(P,)`` from ``(P, N)``: its
+    90th-percentile observation, not its brightest, so that a sharp highlight (tens of times
+    the diffuse level) does not turn the diffuse observations into "shadows"."""
+    return np.percentile(intensities, 90, axis=1)
+
+
+def _start(
+    gray: np.ndarray, lights: np.ndarray, shadow_threshold: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
+    pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
+    squares dropping (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the
+    observations (a broad lobe needs the last, a sharp one the first)."""
+    if not 0 <= shadow_threshold < 1:
+        raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
+    lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
+    starts = []
+    n_lights = len(lights)
+    for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)):
+        if n_lights - int(dark * n_lights) - int(bright * n_lights) < 3:
+            continue
+        b = _weighted_least_squares(gray, lights, _trim_weights(gray, dark, bright)).T
+        length = np.linalg.norm(b, axis=1, keepdims=True)
+        starts.append(np.where(length > 0, b / np.where(length > 0, length, 1.0), _VIEW))
+    return lit, np.stack(starts)
+
+
+def _best_start(
+    starts: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    basis: Basis,
+    nonnegative: bool,
+    ring: float = np.radians(12.0),
+) -> np.ndarray:
+    """Per pixel, the candidate of least model cost among ``starts`` ``(S, P, 3)`` and a ring of
+    6 normals ``ring`` radians around the best of them: a coarse global step against the
+    local minima a highlight puts near a biased least-squares start."""
+
+    def cost(normals: np.ndarray) -> np.ndarray:
+        residual, _ = _residuals(normals, gray, weights, lights, basis, nonnegative)
+        return np.sum(residual**2, axis=1)
+
+    def pick(candidates: list[np.ndarray]) -> np.ndarray:
+        costs = np.stack([cost(c) for c in candidates])
+        best = np.argmin(costs, axis=0)
+        return np.stack(candidates)[best, np.arange(len(best))]
+
+    normals = pick(list(starts))
+    t_1, t_2 = _tangent_frame(normals)
+    ring_normals = [normals]
+    for angle in np.arange(6) * np.pi / 3:
+        tilted = normals * np.cos(ring) + np.sin(ring) * (np.cos(angle) * t_1 + np.sin(angle) * t_2)
+        ring_normals.append(tilted)
+    return pick(ring_normals)
+
+
+def _finish(
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    observations: np.ndarray,
+    mask: np.ndarray,
+) -> PhotometricStereoResult:
+    """Result with the diffuse albedo ``ρ_d`` (the Lambertian fit of the darker half of the lit
+    observations along the found normals) times the pixel's chromaticity."""
+    cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
+    lit = weights * (cos_theta_i > 0.1)
+    trim = _trim_weights(gray, 0.25, 0.25).T * lit
+    use = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit)
+    rho = np.sum(use * cos_theta_i * gray.T, axis=1) / np.maximum(
+        np.sum(use * cos_theta_i**2, axis=1), 1e-300
+    )
+    return _result((normals * rho[:, None]).T, observations, mask, use.T)
+
+
+def _check_iterations(iterations: int) -> int:
+    return check_count("iterations", iterations, MAX_ITERATIONS)
+
+
+# ----------------------------------------------------------------------------------------------
+# Shi et al. 2014: bi-polynomial low-frequency reflectance
+
+
+def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
+    """``cos θ_i cos^a θ_h cos^b θ_d`` for ``a <= degree_h``, ``b <= degree_d``."""
+
+    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
+        shading = np.clip(cos_i, 0.0, None)
+        cos_h = np.clip(cos_h, 0.0, None)
+        terms = [
+            shading * cos_h**a * cos_d**b for a in range(degree_h + 1) for b in range(degree_d + 1)
+        ]
+        return np.stack(terms, axis=2)
+
+    return basis
+
+
+def bipolynomial(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    degree: tuple[int, int] | None = None,
+    bright_fraction: float = 0.3,
+    shadow_threshold: float = 0.05,
+    iterations: int = 12,
+    callback: Callback | None = None,
+) -> PhotometricStereoResult:
+    r"""Photometric stereo with a bi-polynomial low-frequency reflectance (Shi et al. 2014).
+
+    The low-frequency part of an isotropic BRDF — what remains after the specular spike and the
+    shadows are removed — is a bi-polynomial of the half-vector angles::
+
+        I_k = max(0, n·l_k) Σ_{a <= A, b <= B} c_ab cos^a θ_h cos^b θ_d,
+
+    with the coefficients ``c`` per pixel. Per pixel, the ``bright_fraction`` brightest
+    observations (the spike) and those below ``shadow_threshold`` times the 90th percentile are
+    dropped; the normal minimises the residual of the least-squares ``c`` (see the module).
+
+    Parameters
+    ----------
+    images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
+    degree : ``(A, B)``, the orders in ``cos θ_h`` and ``cos θ_d``. By default ``(3, 1)`` (the
+        orders Shi et al. find sufficient for MERL's low-frequency parts) when at least 40
+        lights remain, else ``(1, 0)`` (few lights leave no redundancy for 8 coefficients).
+    bright_fraction : fraction of each pixel's brightest observations dropped, in [0, 1).
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
+    iterations : Levenberg–Marquardt iterations (1 … :data:`MAX_ITERATIONS`).
+    callback : ``callback(iteration, iterations)`` after each iteration.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images, lights or mask; a ``degree`` of negative orders or with more coefficients
+        than the observations kept; fractions outside [0, 1).
+    brdfkit.errors.ResourceError
+        ``iterations`` above :data:`MAX_ITERATIONS`, or data that would not fit in memory.
+
+    References
+    ----------
+    B. Shi, P. Tan, Y. Matsushita, K. Ikeuchi, "Bi-polynomial modeling of low-frequency
+    reflectances", IEEE TPAMI 36(6), 2014.
+    """
+    iterations = _check_iterations(iterations)
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    gray = _gray(observations)
+    n_lights = len(lights)
+    kept = n_lights - int(np.floor(bright_fraction * n_lights)) if 0 <= bright_fraction < 1 else 0
+    if not 0 <= bright_fraction < 1:
+        raise ParameterError(f"bright_fraction must be in [0, 1), got {bright_fraction}")
+    if degree is None:
+        degree = (3, 1) if kept >= 40 else (1, 0)
+    if len(degree) != 2 or any(int(d) != d or d < 0 for d in degree):
+        raise ParameterError(f"degree must be two non-negative integers (A, B), got {degree}")
+    n_terms = (degree[0] + 1) * (degree[1] + 1)
+    if kept < n_terms + 2:
+        raise ParameterError(
+            f"degree={tuple(degree)} has {n_terms} coefficients but bright_fraction="
+            f"{bright_fraction} keeps {kept} of {n_lights} observations; need at least "
+            f"{n_terms + 2}: lower the degree"
+        )
+    lit, normals = _start(gray, lights, shadow_threshold)
+    low_frequency = lit * _trim_weights(gray, 0.0, bright_fraction).T
+    basis = _bipolynomial_basis(int(degree[0]), int(degree[1]))
+    normals = _refine_normals(
+        normals, gray.T, low_frequency, lights, basis, iterations=iterations, callback=callback
+    )
+    return _finish(normals, gray, low_frequency, lights, observations, mask)
+
+
+# ----------------------------------------------------------------------------------------------
+# Ikehata & Aizawa 2014: constrained bivariate regression
+
+
+def _ramps(x: np.ndarray, knots: np.ndarray) -> np.ndarray:
+    """Saturating ramps ``clip((x - t_m) / (t_{m+1} - t_m), 0, 1)``, ``x.shape + (M - 1,)``:
+    with non-negative weights their sums are the monotone non-decreasing piecewise-linear
+    functions on the knots that vanish below the first."""
+    lower, upper = knots[:-1], knots[1:]
+    return np.clip((x[..., None] - lower) / (upper - lower), 0.0, 1.0)
+
+
+def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
+    """``[n·l > 0] (ramps(n·l), ramps(n·h))``: ``g(n·l) + s(n·h)`` with monotone ``g, s``."""
+
+    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
+        front = (cos_i > 0)[..., None]
+        return np.concatenate([_ramps(cos_i, knots_i), _ramps(cos_h, knots_h) * front], axis=2)
+
+    return basis
+
+
+def constrained_bivariate(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    knots: int | None = None,
+    shadow_threshold: float = 0.05,
+    iterations: int = 12,
+    callback: Callback | None = None,
+) -> PhotometricStereoResult:
+    r"""Photometric stereo by constrained bivariate regression (Ikehata & Aizawa 2014).
+
+    The radiance of an isotropic surface is written as a sum of two lobes, each a monotone
+    non-decreasing, non-negative function of one cosine::
+
+        I_k = [n·l_k > 0] ( g(n·l_k) + s(n·h_k) ),   g(0) = 0,
+
+    ``g`` the diffuse-like lobe, ``s`` the specular lobe, both piecewise linear on ``knots``
+    knots (``g`` uniform in ``n·l`` on [0, 1]; ``s`` uniform in ``θ_h`` on [0°, 90°], denser
+    near the mirror direction in ``n·h``) with non-negative increments: the monotonicity and
+    non-negativity constraints that make the regression well posed. Every observation brighter
+    than ``shadow_threshold`` times the pixel's 90th percentile is used, highlights included; the
+    weights follow by non-negative least squares (batched projected gradient) for each
+    candidate normal, the normal by the search of the module docstring.
+
+    Parameters
+    ----------
+    images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
+    knots : knots per lobe, 3 … 32; by default ``min(8, N // 4 + 1)`` for ``N`` lights (8
+        at DiLiGenT's 96; fewer lights afford fewer weights).
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
+    iterations : Levenberg–Marquardt iterations (1 … :data:`MAX_ITERATIONS`).
+    callback : ``callback(iteration, iterations)`` after each iteration.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images, lights or mask; ``knots`` outside 3 … 32 or ``2 (knots - 1) + 2`` above the
+        number of lights; ``shadow_threshold`` outside [0, 1).
+    brdfkit.errors.ResourceError
+        ``iterations`` above :data:`MAX_ITERATIONS`, or data that would not fit in memory.
+
+    References
+    ----------
+    S. Ikehata, K. Aizawa, "Photometric stereo using constrained bivariate regression for
+    general isotropic surfaces", CVPR 2014.
+    """
+    iterations = _check_iterations(iterations)
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    if knots is None:
+        knots = max(3, min(8, len(lights) // 4 + 1))
+    knots = check_count("knots", knots, 32, minimum=3)
+    if 2 * (knots - 1) + 2 > len(lights):
+        raise ParameterError(
+            f"knots={knots} gives {2 * (knots - 1)} weights per pixel, too many for "
+            f"{len(lights)} lights; use knots <= {max((len(lights) - 2) // 2 + 1, 1)}"
+        )
+    gray = _gray(observations)
+    lit, normals = _start(gray, lights, shadow_threshold)
+    knots_i = np.linspace(0.0, 1.0, knots)
+    knots_h = np.cos(np.linspace(np.pi / 2, 0.0, knots))
+    basis = _sum_of_lobes_basis(knots_i, knots_h)
+    normals = _refine_normals(
+        normals,
+        gray.T,
+        lit,
+        lights,
+        basis,
+        nonnegative=True,
+        iterations=iterations,
+        callback=callback,
+    )
+    return _finish(normals, gray, lit, lights, observations, mask)
+
+
+# ----------------------------------------------------------------------------------------------
+# Alldrin, Zickler & Kriegman 2008: a non-parametric bivariate BRDF shared by the object
+
+
+class _Table:
+    """A table ``T(θ_h, θ_d)`` on ``[0, π/2]²`` with bilinear interpolation; the ``θ_h`` axis is
+    uniform in ``sqrt(θ_h)`` (fine near the mirror direction, where lobes are narrow)."""
+
+    def __init__(self, n_h: int, n_d: int) -> None:
+        self.n_h, self.n_d = n_h, n_d
+        self.values = np.zeros(n_h * n_d)
+
+    def weights(
+        self, cos_h: np.ndarray, cos_d: np.ndarray
+    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """The 4 flat indices and bilinear weights of each ``(cos θ_h, cos θ_d)``."""
+        u = np.sqrt(np.arccos(np.clip(cos_h, 0.0, 1.0)) / (np.pi / 2)) * (self.n_h - 1)
+        w = np.arccos(np.clip(cos_d, 0.0, 1.0)) / (np.pi / 2) * (self.n_d - 1)
+        i = np.minimum(np.floor(u).astype(np.intp), self.n_h - 2)
+        j = np.minimum(np.floor(w).astype(np.intp), self.n_d - 2)
+        fu, fw = u - i, w - j
+        index = [i * self.n_d + j, (i + 1) * self.n_d + j, i * self.n_d + j + 1]
+        index.append((i + 1) * self.n_d + j + 1)
+        weight = [(1 - fu) * (1 - fw), fu * (1 - fw), (1 - fu) * fw, fu * fw]
+        return index, weight
+
+    def __call__(self, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
+        index, weight = self.weights(cos_h, cos_d)
+        return sum(self.values[k] * w for k, w in zip(index, weight, strict=True))
+
+
+def _shared_basis(table: _Table) -> Basis:
+    """``max(0, n·l) (1, T(θ_h, θ_d))``: per-pixel diffuse and specular weights."""
+
+    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
+        shading = np.clip(cos_i, 0.0, None)
+        return np.stack([shading, shading * table(cos_h, cos_d)], axis=2)
+
+    return basis
+
+
+def _fit_table(
+    table: _Table,
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    coefficients: np.ndarray,
+    smoothness: float,
+) -> None:
+    """Least-squares table given normals and per-pixel ``(ρ_d, ρ_s)``, with a second-difference
+    smoothness penalty ``smoothness`` (relative to the data term's scale); clipped at 0 and
+    scaled to a maximum of 1 (the scale is the pixels' ``ρ_s``)."""
+    from scipy import sparse
+    from scipy.sparse.linalg import spsolve
+
+    half, cos_theta_d = _half_vectors(lights)
+    shading = np.clip(normals @ lights.T, 0.0, None)
+    index, weight = table.weights(normals @ half.T, np.broadcast_to(cos_theta_d, shading.shape))
+    scale = shading * coefficients[:, 1:2]  # (P, N): d model / d T
+    target = gray - shading * coefficients[:, :1]
+    size = table.n_h * table.n_d
+    rows, cols, values, rhs = [], [], [], np.zeros(size)
+    for a in range(4):
+        wa = weights * scale * weight[a]
+        rhs += np.bincount(index[a].ravel(), (wa * target).ravel(), size)
+        for b in range(4):
+            rows.append(index[a].ravel())
+            cols.append(index[b].ravel())
+            values.append((wa * scale * weight[b]).ravel())
+    normal_matrix = sparse.coo_matrix(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
+    ).tocsr()
+    grid = np.arange(size).reshape(table.n_h, table.n_d)
+    differences = []
+    for axis in (0, 1):
+        a, b, c = (
+            np.take(grid, range(k, grid.shape[axis] - 2 + k), axis).ravel() for k in (0, 1, 2)
+        )
+        m = len(a)
+        differences.append(
+            sparse.coo_matrix(
+                (
+                    np.tile([1.0, -2.0, 1.0], m),
+                    (np.repeat(np.arange(m), 3), np.stack([a, b, c], 1).ravel()),
+                ),
+                (m, size),
+            )
+        )
+    penalty = sparse.vstack(differences).tocsr()
+    level = normal_matrix.diagonal().mean() + 1e-300
+    system = (
+        normal_matrix + smoothness * level * (penalty.T @ penalty) + 1e-9 * level * sparse.eye(size)
+    )
+    values = np.clip(spsolve(system.tocsc(), rhs), 0.0, None)
+    peak = values.max()
+    table.values = values / peak if peak > 0 else values
+
+
+def shared_bivariate(
+    images: ArrayLike,
+    light_directions: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    bins: tuple[int, int] = (24, 6),
+    smoothness: float = 1e-2,
+    rounds: int = 3,
+    shadow_threshold: float = 0.05,
+    iterations: int = 6,
+    callback: Callback | None = None,
+) -> PhotometricStereoResult:
+    r"""Photometric stereo with a non-parametric bivariate BRDF shared by the object (AZ08).
+
+    The object's reflectance is a Lambertian term plus one tabulated isotropic lobe
+    ``T(θ_h, θ_d)`` common to every pixel, each pixel with its own non-negative weights::
+
+        I_k = max(0, n·l_k) ( ρ_d + ρ_s T(θ_h,k, θ_d,k) ),
+
+    ``T`` a non-negative table of ``bins = (n_h, n_d)`` nodes (bilinear, ``sqrt(θ_h)``-uniform)
+    regularised by second differences. Alldrin et al.'s alternation: with the normals fixed, the
+    weights (non-negative least squares per pixel) and the table (one sparse least-squares
+    solve over the whole object); with the reflectance fixed, the normals (the search of the
+    module docstring); ``rounds`` times, from trimmed least squares and a Gaussian lobe.
+
+    Parameters
+    ----------
+    images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
+    bins : table nodes in ``θ_h`` and ``θ_d`` (2 … 256 each).
+    smoothness : weight of the second-difference penalty relative to the data term (>= 0).
+    rounds : alternations (1 … 50).
+    shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
+        observation is a shadow.
+    iterations : normal-search iterations per round (1 … :data:`MAX_ITERATIONS`).
+    callback : ``callback(round, rounds)`` after each round.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Bad images, lights or mask, or parameters outside the ranges above.
+    brdfkit.errors.ResourceError
+        Counts above their maxima, or data that would not fit in memory.
+
+    References
+    ----------
+    N. Alldrin, T. Zickler, D. Kriegman, "Photometric stereo with non-parametric and
+    spatially-varying reflectance", CVPR 2008 (their method mixes several such tables per
+    pixel; here one lobe plus the Lambertian term, the common case of a dielectric object).
+    """
+    iterations = _check_iterations(iterations)
+    rounds = check_count("rounds", rounds, 50)
+    n_h, n_d = (check_count(f"bins[{k}]", int(b), 256, minimum=2) for k, b in enumerate(bins))
+    if not (np.isfinite(smoothness) and smoothness >= 0):
+        raise ParameterError(f"smoothness must be finite and >= 0, got {smoothness}")
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    gray = _gray(observations)
+    lit, starts = _start(gray, lights, shadow_threshold)
+    normals = starts[-1]
+    table = _Table(n_h, n_d)
+    theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
+    table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
+    basis = _shared_basis(table)
+    for round_ in range(rounds):
+        _, coefficients = _residuals(normals, gray.T, lit, lights, basis, True)
+        _fit_table(table, normals, gray.T, lit, lights, coefficients, smoothness)
+        normals = _refine_normals(
+            starts if round_ == 0 else normals,
+            gray.T,
+            lit,
+            lights,
+            basis,
+            nonnegative=True,
+            iterations=iterations,
+        )
+        if callback is not None:
+            callback(round_ + 1, rounds)
+    return _finish(normals, gray, lit, lights, observations, mask)
+
+
+METHODS: dict[str, Callable[..., PhotometricStereoResult]] = {
+    "bipolynomial": bipolynomial,
+    "constrained_bivariate": constrained_bivariate,
+    "shared_bivariate": shared_bivariate,
+}
+"""The bivariate-reflectance methods by name (``--method`` choices of ``brdfkit ps``)."""
