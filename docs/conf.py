@@ -105,6 +105,8 @@ sphinx_gallery_conf = {
     "examples_dirs": str(ROOT / "examples"),
     "gallery_dirs": "auto_examples",
     "filename_pattern": r"/plot_",
+    # explore_screenshot.py serves a page: not a gallery script
+    "ignore_pattern": r"__init__\.py|explore_screenshot\.py",
     "download_all_examples": False,
     "remove_config_comments": True,
     "matplotlib_animations": False,

@@ -282,3 +282,18 @@ def test_a_sum_samples_torch_directions_with_numpy_uniforms():
     mixed, same = model.sample(wo, u), model.sample(wo, torch.from_numpy(u))
     assert isinstance(mixed.wi, torch.Tensor)
     assert torch.equal(mixed.wi, same.wi) and torch.equal(mixed.weight, same.weight)
+
+
+def test_a_long_chain_is_refused_whatever_the_recursion_limit():
+    import sys
+
+    from brdfkit.brdf._spec import MAX_CHAIN
+
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(20_000)  # IPython (which anywidget imports) raises it to 3000
+    try:
+        assert len(parse(" + ".join(["lambertian"] * MAX_CHAIN)).lobes) == MAX_CHAIN
+        with pytest.raises(SpecError, match="chained too deeply"):
+            parse(" + ".join(["lambertian"] * (MAX_CHAIN + 1)))
+    finally:
+        sys.setrecursionlimit(limit)

@@ -27,9 +27,10 @@ The string is read with :func:`ast.parse` and only the node types above are inte
 never passed to :func:`eval`, so a spec cannot run code. :meth:`BRDF.to_spec` writes specs that
 this parser reads back.
 
-A spec holds at most :data:`MAX_SPEC_LENGTH` characters; sums and products are read without
-recursion, but Python's parser refuses expressions nested more than about 200 parentheses deep
-or chained more than about 2000 operators long, and so does :func:`parse`.
+A spec holds at most :data:`MAX_SPEC_LENGTH` characters and a sum or product at most
+:data:`MAX_CHAIN` operands (read without recursion, and refused whatever the interpreter's
+recursion limit, which IPython, for one, raises); Python's parser refuses expressions nested
+more than about 200 parentheses deep, and so does :func:`parse`.
 
 Errors: a spec outside the grammar (a syntax error, an unknown model or parameter, a construct
 not listed above, too long or too deeply nested) raises :class:`~brdfkit.errors.SpecError`; a
@@ -63,6 +64,9 @@ Value = float | str | bool | None | list[float]
 MAX_SPEC_LENGTH = 100_000
 """The longest spec string :func:`parse` reads, in characters (a spatially varying model has no
 spec; a spectral one with a few thousand values per parameter fits)."""
+
+MAX_CHAIN = 2000
+"""The most operands one sum or product of a spec may chain (``a + b + …``)."""
 
 _QUOTED = 80  # characters of a spec quoted in an error message
 
@@ -141,6 +145,8 @@ def _chain(node: ast.expr, op: type[ast.operator]) -> list[ast.expr]:
             stack += [item.right, item.left]
         else:
             operands.append(item)
+        if len(operands) > MAX_CHAIN:
+            raise SpecError(f"a sum or product is chained too deeply: at most {MAX_CHAIN} operands")
     return operands
 
 
@@ -293,4 +299,4 @@ def _unsupported(node: ast.AST, text: str, expected: str) -> SpecError:
     )
 
 
-__all__ = ["MAX_SPEC_LENGTH", "parse"]
+__all__ = ["MAX_CHAIN", "MAX_SPEC_LENGTH", "parse"]

@@ -13,12 +13,16 @@ from brdfkit.cli._app import app, console, fail
 
 @app.command("materials")
 def materials_command(
-    fit: str = typer.Option(
-        None, "--fit", help="Keep one fit (e.g. ngan_ward, low_lowsmooth_E2, bagher_sgd)."
+    fit: str | None = typer.Option(
+        None,
+        "--fit",
+        metavar="FIT",
+        help="Keep one fit (e.g. ngan_ward, low_lowsmooth_E2, bagher_sgd).",
     ),
-    model: str = typer.Option(
+    model: str | None = typer.Option(
         None,
         "--model",
+        metavar="TEXT",
         help="Keep the fits whose name or bbm model contains this text (e.g. ward, cook).",
     ),
     as_json: bool = typer.Option(

@@ -40,6 +40,7 @@ MAX_FIT_BYTES = 1 << 20
 """The largest ``fit.json`` (:command:`brdfkit fit`'s result) the explorer reads."""
 
 Reply = tuple[dict[str, Any], list[np.ndarray]]
+"""A reply to the page: its JSON header and the arrays sent after it as binary frames."""
 
 
 def fit_spec(data: bytes, where: str) -> str:
@@ -364,7 +365,6 @@ __all__ = [
     "MAX_FIT_BYTES",
     "MAX_UPLOAD_BYTES",
     "MEASURED_SUFFIXES",
-    "Reply",
     "Session",
     "error_reply",
     "fit_spec",
