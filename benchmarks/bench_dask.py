@@ -6,6 +6,8 @@ limit.
    :func:`brdfkit.distributed.batch.run` on a LocalCluster of 1 worker process and of 2, each
    cluster started before its clock starts; the two are **interleaved** ``--repeats`` times
    (1, 2, 1, 2, …) and the minimum of each is kept. Speed-up = t(1 worker) / t(2 workers).
+   The workers are brdfkit's (:func:`brdfkit.distributed.cluster.local_cluster`: glibc's
+   adaptive mmap threshold kept, see ``WORKER_CONFIG``).
    Each worker first runs one fit outside the clock (imports and JIT compilation, seconds per
    process: the steady state is measured, as compile time is kept apart elsewhere).
    "Cores busy" = the workers' CPU seconds per wall second: near 1 and 2 on a quiet machine;
@@ -50,8 +52,9 @@ def _peak_rss() -> int:
 def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
     from brdfkit.brdf import parse
     from brdfkit.distributed import batch
+    from brdfkit.distributed.cluster import local_cluster
     from brdfkit.measured import write_merl
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     files = []
     for k in range(2):
@@ -76,16 +79,7 @@ def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
                 for s in range(fits // len(base) + 1)
                 for t in base
             ][:fits]
-            with (
-                LocalCluster(
-                    n_workers=workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    silence_logs=50,
-                ) as cluster,  # fmt: skip
-                Client(cluster) as client,
-            ):
+            with local_cluster(workers) as cluster, Client(cluster) as client:
                 # imports and each worker's first fit (its JIT compilation, seconds) outside
                 # the clock, as compile time is kept apart in the other benchmarks
                 client.run(batch.fit_one, base[0])
@@ -113,9 +107,10 @@ def out_of_core(size: int, lights: int, limit: str, tile: int, folder: Path) -> 
     from dask.utils import parse_bytes
 
     from brdfkit.distributed import tiled
+    from brdfkit.distributed.cluster import local_cluster
     from brdfkit.vision.datasets import diligent_like_lights
     from brdfkit.vision.photometric_stereo import sphere_normals
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     directions = diligent_like_lights(lights // 4, 4, np.radians(30))
     store = folder / "stack.zarr"
@@ -138,14 +133,7 @@ def out_of_core(size: int, lights: int, limit: str, tile: int, folder: Path) -> 
                        (len(directions), size, size, 3))  # fmt: skip
     with (
         dask.config.set({"distributed.worker.memory.spill": False}),
-        LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            memory_limit=limit,
-            dashboard_address=None,
-            silence_logs=50,
-        ) as cluster,  # fmt: skip
+        local_cluster(2, limit) as cluster,
         Client(cluster) as client,
     ):
         client.run(lambda: __import__("brdfkit.vision.photometric_stereo"))

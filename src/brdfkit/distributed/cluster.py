@@ -18,6 +18,17 @@ from brdfkit.errors import ParameterError
 CONNECT_TIMEOUT = 10.0
 """Seconds to wait for a scheduler given by address before giving up."""
 
+WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+"""Dask settings for brdfkit's local worker processes.
+
+Dask exports ``MALLOC_TRIM_THRESHOLD_=65536`` to every worker so that freed memory returns to the
+system quickly. Setting it switches off glibc's adaptive mmap threshold: then every large
+temporary array is a fresh ``mmap``, zeroed page by page on first touch. A brdfkit fit allocates
+many such arrays; measured on a 2-core machine, a ~1 s fit took 5× the page faults (50,000 against
+10,000) and 0.32 s of system time against 0.08 s, and two workers faulting at once slowed each
+other. brdfkit's workers keep glibc's default (a variable the user exports still applies).
+"""
+
 
 def require_dask() -> None:
     """Raise a one-line error naming the extra when dask.distributed is not installed.
@@ -67,7 +78,7 @@ def client(
     require_dask()
     import dask
 
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler is None and workers is None and memory_limit is None:
         scheduler = dask.config.get("scheduler-address", None)
@@ -88,18 +99,32 @@ def client(
         return
     if workers is not None and workers < 1:
         raise ParameterError(f"--workers must be at least 1; got {workers}")
+    with local_cluster(workers, memory_limit) as cluster, Client(cluster) as local:
+        yield local
+
+
+def local_cluster(workers: int | None = None, memory_limit: str | int | None = None) -> Any:
+    """A :class:`dask.distributed.LocalCluster` of ``workers`` single-threaded processes
+    (the core count when omitted) with :data:`WORKER_CONFIG`, no dashboard and quiet logs.
+
+    ``memory_limit`` is per worker (Dask's ``"auto"`` when omitted).
+    """
+    require_dask()
     import os
 
-    cluster = LocalCluster(
-        n_workers=workers or os.cpu_count() or 1,
-        threads_per_worker=1,
-        processes=True,
-        memory_limit=memory_limit if memory_limit is not None else "auto",
-        dashboard_address=None,
-        silence_logs=logging.CRITICAL,
-    )
-    with cluster, Client(cluster) as local:
-        yield local
+    import dask
+
+    from distributed import LocalCluster
+
+    with dask.config.set(WORKER_CONFIG):  # read when each nanny is made
+        return LocalCluster(
+            n_workers=workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            memory_limit=memory_limit if memory_limit is not None else "auto",
+            dashboard_address=None,
+            silence_logs=logging.CRITICAL,
+        )
 
 
 def completed(
