@@ -15,6 +15,8 @@ from brdfkit.brdf.kulla_conty import (
     chebyshev_nodes,
     chebyshev_weights,
     conductor_from_table_coordinates,
+    fresnel_ratio_node,
+    fresnel_ratio_table,
     ggx_albedo,
     table_coordinates_from_conductor,
 )
@@ -113,7 +115,7 @@ def test_gold_at_the_former_gap_agrees_with_the_random_walk():
     np.testing.assert_allclose(ours, walk, rtol=0.02)
 
 
-@pytest.mark.slow  # 56 walks of 2^16 paths: ~40 s on two busy cores
+@pytest.mark.slow  # 112 walks of 2^16 paths: ~70 s on two busy cores
 def test_compensated_albedo_agrees_with_the_random_walk_everywhere():
     """Au, Cu, Al and F = 1, α ∈ [0.05, 1], θo < 85°: within 2 % per channel of the walk
     (seeds and directions independent of the table's; measured worst: see the benchmark
@@ -186,3 +188,13 @@ def test_jax_matches_numpy_with_finite_gradients():
     np.testing.assert_allclose(np.asarray(value), model.eval(wi, wo), rtol=1e-4, atol=1e-6)
     grad = jax.jit(jax.grad(lambda w: model.eval(w, wo_j).sum()))(wi_j)
     assert bool(jnp.all(jnp.isfinite(grad)))
+
+
+@pytest.mark.slow  # one walk of 2^17 paths with 60 Fresnel channels: ~9 s
+def test_the_shipped_fresnel_table_is_what_its_recipe_computes():
+    """One (α, μo) node recomputed by the walk (same seed) equals the shipped float32 value:
+    the table is not stale against the walk or the axes (another seed differs by ~10⁻³;
+    the tolerance allows a few paths decided differently by another CPU's libm)."""
+    ratio, _ = fresnel_ratio_node(1, 7)
+    np.testing.assert_allclose(fresnel_ratio_table()[1, 7], ratio, atol=5e-5)
+    assert np.all((ratio >= 0) & (ratio <= 1))

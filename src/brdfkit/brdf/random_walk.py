@@ -8,8 +8,10 @@ it, its energy multiplied by the facet's Fresnel reflectance. The mean energy of
 rays is the microsurface's directional albedo with every order of scattering; the first order
 alone is the classical GGX conductor with height-correlated Smith masking–shadowing.
 
-This is a NumPy Monte Carlo reference for tests and benchmarks (:class:`KullaConty` is
-checked against it), not a model: the walk is stochastic per ray.
+This is a NumPy Monte Carlo reference, not a model: the walk is stochastic per ray.
+:class:`KullaConty`'s Fresnel table is generated from it (``benchmarks/kulla_conty_table.py``)
+and the model is checked against it with independent seeds and directions. Only the paths
+still inside are carried from one order to the next, so the cost is the paths' total length.
 
 References
 ----------
