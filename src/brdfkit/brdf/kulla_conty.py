@@ -312,8 +312,9 @@ class KullaConty(MixtureSampled):
         single = RoughConductor(alpha=self.alpha, material=self.material, eta=self.eta, k=self.k)
         fresnel = single.fresnel_term
         channels = single.channels
-        alphas = np.broadcast_to(np.atleast_1d(alphas), (channels,))
+        alphas = np.atleast_1d(alphas)  # E per distinct α channel: (1,) for a scalar α
         e_series = np.stack([albedo_table(float(a))[0] for a in alphas], axis=-1)
+        alphas = np.broadcast_to(alphas, (channels,))
         if fresnel.kind == "none":
             r_series = np.ones((1, channels))  # R = 1
         else:
@@ -395,12 +396,18 @@ class KullaConty(MixtureSampled):
 
 def _clenshaw(coefficients: tuple[np.ndarray, ...], mu: Array) -> Array:
     r"""A per-channel Chebyshev series in :math:`x = 2\sqrt\mu - 1` at ``mu`` ``(..., 1)``
-    (Clenshaw's recurrence), ``(..., C)``."""
+    (Clenshaw's recurrence), ``(..., C)``. Each channel runs on ``(..., 1)`` arrays with
+    scalar coefficients, then the channels are joined: NumPy's loops over a trailing axis of
+    length 3 cost ~5× those over the batch."""
+    xp = namespace(mu)
     x = 2 * safe_sqrt(clamp(mu, 0.0, 1.0)) - 1
-    b1 = b2 = 0 * x
-    for c in coefficients[:0:-1]:
-        b1, b2 = param(c, mu) + 2 * x * b1 - b2, b1
-    return param(coefficients[0], mu) + x * b1 - b2
+    channels = []
+    for c in range(coefficients[0].shape[-1]):
+        b1 = b2 = 0 * x
+        for a in coefficients[:0:-1]:
+            b1, b2 = float(a[c]) + 2 * x * b1 - b2, b1
+        channels.append(float(coefficients[0][c]) + x * b1 - b2)
+    return channels[0] if len(channels) == 1 else xp.concat(channels, axis=-1)
 
 
 __all__ = [
