@@ -8,8 +8,10 @@ it, its energy multiplied by the facet's Fresnel reflectance. The mean energy of
 rays is the microsurface's directional albedo with every order of scattering; the first order
 alone is the classical GGX conductor with height-correlated Smith masking–shadowing.
 
-This is a NumPy Monte Carlo reference for tests and benchmarks (:class:`KullaConty` is
-checked against it), not a model: the walk is stochastic per ray.
+This is a NumPy Monte Carlo reference, not a model: the walk is stochastic per ray.
+:class:`KullaConty`'s Fresnel table is generated from it (``benchmarks/kulla_conty_table.py``)
+and the model is checked against it with independent seeds and directions. Only the paths
+still inside are carried from one order to the next, so the cost is the paths' total length.
 
 References
 ----------
@@ -39,12 +41,16 @@ class WalkResult:
     stderr : its Monte Carlo standard error.
     single : the part that escaped after exactly one reflection (single scattering).
     lost : the energy still inside after the last order allowed (a bias, ≤ this).
+    escaped_later : the fraction of paths that escaped after two or more reflections, a
+        scalar: the multiple-scattering albedo with F = 1 *of the same paths* (the
+        denominator of a ratio estimator of the Fresnel attenuation of multiple scattering).
     """
 
     albedo: np.ndarray
     stderr: np.ndarray
     single: np.ndarray
     lost: np.ndarray
+    escaped_later: float
 
 
 def sample_visible_any(alpha: float, w: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -81,36 +87,43 @@ def random_walk_albedo(
     rng = np.random.default_rng(seed)
     fresnel = fresnel or FresnelTerm("none")
     ggx = GGX(alpha)
+    # Only the paths still inside are carried from one order to the next.
     wr = np.broadcast_to(-np.asarray(wo, dtype=np.float64), (paths, 3)).copy()
     c1 = np.ones(paths)  # C1(h) of the current height: the walk starts above the surface
     energy = np.ones((paths, fresnel.channels))
-    escaped = np.zeros_like(energy)
+    total = np.zeros(fresnel.channels)
+    total_sq = np.zeros(fresnel.channels)
     single = np.zeros(fresnel.channels)
-    alive = np.ones(paths, dtype=bool)
+    later = 0
     for order in range(max_order + 1):
         up = wr[:, 2] > 0
         lam = ggx.smith_lambda(wr)[:, 0]  # even in w.z
         lam = np.where(up, lam, -1 - lam)  # Λ(−ω) = −1 − Λ(ω) (Heitz 2016)
-        u = rng.random(paths)
-        g1 = np.where(up, c1**lam, 0.0)
-        leaves = alive & up & (u > 1 - g1)
-        escaped[leaves] = energy[leaves]
+        u = rng.random(wr.shape[0])
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            g1 = np.where(up, c1**lam, 0.0)
+        leaves = up & (u > 1 - g1)
+        out = energy[leaves]
+        total += out.sum(axis=0)
+        total_sq += (out * out).sum(axis=0)
         if order == 1:
-            single = escaped.sum(axis=0) / paths
-        alive &= ~leaves
-        if order == max_order or not alive.any():
+            single = out.sum(axis=0) / paths
+        elif order > 1:
+            later += int(leaves.sum())
+        stay = ~leaves
+        wr, c1, u, lam, energy = wr[stay], c1[stay], u[stay], lam[stay], energy[stay]
+        if order == max_order or wr.shape[0] == 0:
             break
         with np.errstate(divide="ignore", over="ignore"):
-            c1 = np.where(alive, c1 / (1 - u) ** (1 / lam), c1)
-        c1 = np.clip(c1, 0.0, 1.0)
-        wm = sample_visible_any(alpha, -wr, rng.random((paths, 2)))
+            c1 = np.clip(c1 / (1 - u) ** (1 / lam), 0.0, 1.0)
+        wm = sample_visible_any(alpha, -wr, rng.random((wr.shape[0], 2)))
         cos_m = np.sum(-wr * wm, axis=-1, keepdims=True)
-        energy = energy * np.where(alive[:, None], fresnel(cos_m), 1.0)
+        energy = energy * fresnel(cos_m)
         wr = wr - 2 * np.sum(wr * wm, axis=-1, keepdims=True) * wm
-    lost = energy[alive].sum(axis=0) / paths
-    albedo = escaped.mean(axis=0)
-    stderr = escaped.std(axis=0) / math.sqrt(paths)
-    return WalkResult(albedo, stderr, single, lost)
+    lost = energy.sum(axis=0) / paths
+    albedo = total / paths
+    stderr = np.sqrt(np.maximum(total_sq / paths - albedo**2, 0) / paths)
+    return WalkResult(albedo, stderr, single, lost, later / paths)
 
 
 __all__ = ["WalkResult", "random_walk_albedo", "sample_visible_any"]
