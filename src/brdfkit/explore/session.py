@@ -12,8 +12,10 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -82,7 +84,7 @@ class Session:
         self._brdfs: dict[str, BRDF] = {}
         self._cache: OrderedDict[str, BRDF] = OrderedDict()
         self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
-        self._half_diff: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
+        self._views: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
         self._lock = threading.Lock()
         self._uploads: Path | None = None
         self.warmed = threading.Event()
@@ -174,6 +176,7 @@ class Session:
     def render(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """Every view of every visible entry; ``None`` as soon as ``stale()`` says a newer
         message is waiting."""
+        start = time.perf_counter()
         state = message.view
         arrays: list[np.ndarray] = []
 
@@ -199,14 +202,22 @@ class Session:
             if not entry.visible:
                 continue
             try:
-                theta_h, theta_d, slice_ = self._half_diff_views(brdf, info, state)
+                key = info.get("spec") or f"file:{info['file']}"
+                sphere, theta_v, lobe = self._cached(
+                    (key, state.theta_i, state.phi_i, state.resolution, state.irradiance),
+                    partial(self._incident_views, brdf, state),
+                )
+                theta_h, theta_d, slice_ = self._cached(
+                    (key, state.theta_h, state.theta_d, state.phi_d),
+                    partial(self._half_diff_views, brdf, state),
+                )
                 per_entry[entry.id] = {
-                    "sphere": put(views.sphere(brdf, state).astype(np.float32)),
-                    "theta_v": put(views.theta_v_curve(brdf, state)[1]),
+                    "sphere": put(sphere),
+                    "theta_v": put(theta_v),
                     "theta_h": put(theta_h),
                     "theta_d": put(theta_d),
                     "slice": put(slice_),
-                    "lobe": put(views.lobe(brdf, state).astype(np.float32)),
+                    "lobe": put(lobe),
                 }
             except (BrdfkitError, ValueError, FloatingPointError) as error:
                 entries[-1]["error"] = f"cannot evaluate: {error}"
@@ -220,34 +231,44 @@ class Session:
             "axes": axes,
             "light": [float(x) for x in light],
             "arrays": table,
+            "seconds": time.perf_counter() - start,
         }
         return header, arrays
 
-    def _half_diff_views(
-        self, brdf: BRDF, info: dict[str, Any], state: views.ViewState
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The θh and θd curves and the θh×θd slice, which do not depend on the light: cached
-        by BRDF and (θh, θd, φd), so that dragging the light recomputes only what it moves."""
-        key = (
-            info.get("spec") or f"file:{info['file']}",
-            state.theta_h,
-            state.theta_d,
-            state.phi_d,
-        )
+    def _cached(
+        self, key: tuple[Any, ...], compute: Callable[[], tuple[np.ndarray, ...]]
+    ) -> tuple[np.ndarray, ...]:
+        """``compute()``, remembered by ``key`` (the BRDF and the angles a view depends on):
+        dragging the light recomputes only the views the light moves, and a θh/θd/φd slider
+        only those it moves."""
         with self._lock:
-            if key in self._half_diff:
-                self._half_diff.move_to_end(key)
-                return self._half_diff[key]
-        result = (
+            if key in self._views:
+                self._views.move_to_end(key)
+                return self._views[key]
+        result = compute()
+        with self._lock:
+            self._views[key] = result
+            while len(self._views) > 32:
+                self._views.popitem(last=False)
+        return result
+
+    @staticmethod
+    def _incident_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
+        """The views that depend on the incident direction: the sphere, θv curve and lobe."""
+        return (
+            views.sphere(brdf, state).astype(np.float32),
+            views.theta_v_curve(brdf, state)[1],
+            views.lobe(brdf, state).astype(np.float32),
+        )
+
+    @staticmethod
+    def _half_diff_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light."""
+        return (
             views.theta_h_curve(brdf, state)[1],
             views.theta_d_curve(brdf, state)[1],
             views.half_diff_slice(brdf, state).astype(np.float32),
         )
-        with self._lock:
-            self._half_diff[key] = result
-            while len(self._half_diff) > 16:
-                self._half_diff.popitem(last=False)
-        return result
 
     def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """The directional albedo (with its standard error) of each visible entry, from a cache

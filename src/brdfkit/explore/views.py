@@ -24,10 +24,12 @@ from functools import lru_cache
 
 import numpy as np
 
+from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import from_half_diff, spherical_to_cartesian
+from brdfkit.integrate import _delta, _setup
 from brdfkit.lights import DirectionalLight, EnvironmentMap
-from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive, shade
+from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
@@ -77,10 +79,37 @@ def sphere_gbuffer(resolution: int) -> GBuffer:
     return gbuffer(Sphere(), None, resolution)
 
 
+@dataclass(frozen=True, eq=False)
+class Disk:
+    """The sphere's visible pixels, flattened, with what :func:`~brdfkit.render.shade` derives
+    from their G-buffer before it evaluates a light (:func:`brdfkit.integrate._setup`): the
+    points, the local frames (normal, tangent) and ``wo`` in them, each ``(N, 3)``."""
+
+    mask: np.ndarray
+    point: np.ndarray
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray]
+    wo_local: np.ndarray
+
+
+@lru_cache(maxsize=4)
+def sphere_disk(resolution: int) -> Disk:
+    """The :class:`Disk` of :func:`sphere_gbuffer` (cached: only the light moves)."""
+    g = sphere_gbuffer(resolution)
+    m = g.mask
+    _, point, frame, wo_local, _ = _setup(g.wo[m], g.normals[m], g.points[m], g.tangents[m])
+    return Disk(m, point, frame, wo_local)
+
+
 def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
-    """Linear radiance ``(R, R, C)`` of the lit sphere, exactly ``render_sphere(brdf,
-    state.light(), state.resolution)``."""
-    return shade(sphere_gbuffer(state.resolution), brdf, state.light())
+    """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
+    state.resolution)``: the same delta-light term of the reflection equation
+    (:func:`brdfkit.integrate.reflected_radiance`), evaluated in one batch on the visible
+    pixels only, from geometry computed once per resolution (the background stays 0)."""
+    disk = sphere_disk(state.resolution)
+    value = to_numpy(_delta(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
+    image = np.zeros((*disk.mask.shape, value.shape[-1]))
+    image[disk.mask] = value
+    return image
 
 
 HORIZON = 1e-6
@@ -194,6 +223,7 @@ __all__ = [
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
     "SLICE_RESOLUTION",
+    "Disk",
     "ViewState",
     "albedo",
     "environment_passes",
@@ -202,6 +232,7 @@ __all__ = [
     "lobe",
     "relative_noise",
     "sphere",
+    "sphere_disk",
     "sphere_gbuffer",
     "theta_d_curve",
     "theta_h_curve",
