@@ -45,8 +45,10 @@ ANALYTIC = "lambertian(albedo=[0.8, 0.4, 0.2]) + ggx(alpha=0.2)"
 MOVE = """(value) => new Promise((resolve) => {
   const x = window.explorer, range = document.querySelector('.bx-theta_i');
   const start = performance.now(), before = x.shown.seq;
-  const wait = () => (x.shown.seq > before && x.shown.seq === x.sent.seq)
-      ? resolve(x.shown.time - start) : requestAnimationFrame(wait);
+  const done = () => x.shown && x.sent && x.shown.seq > before && x.shown.seq === x.sent.seq;
+  const wait = () => done()
+      ? resolve([x.shown.time - start, 1e3 * x.frame().header.seconds, x.drawMs])
+      : requestAnimationFrame(wait);
   range.value = value; range.dispatchEvent(new Event('input'));
   requestAnimationFrame(wait);
 })"""
@@ -77,10 +79,13 @@ def percentile(values: list[float], q: float) -> float:
 def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
     """Slider-to-frame times in the page, with render_sphere timed between the moves."""
     page.evaluate(MOVE, 30)  # warm-up
-    browser_ms, render_ms = [], []
+    browser_ms, render_ms, server_ms, draw_ms = [], [], [], []
     for i in range(moves):
         theta = 20 + (i * 37) % 60
-        browser_ms.append(page.evaluate(MOVE, theta))
+        total, server, draw = page.evaluate(MOVE, theta)
+        browser_ms.append(total)
+        server_ms.append(server)
+        draw_ms.append(draw)
         light = ViewState(theta_i=theta).light()
         start = time.perf_counter()
         render_sphere(brdf, light, resolution=256)
@@ -91,6 +96,8 @@ def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
         "p95_ms": percentile(browser_ms, 95),
         "render_sphere_median_ms": statistics.median(render_ms),
         "ratio_to_render_sphere": median / statistics.median(render_ms),
+        "server_views_median_ms": statistics.median(server_ms),
+        "page_draw_median_ms": statistics.median(draw_ms),
         "moves": moves,
     }
 
@@ -127,11 +134,15 @@ def main() -> None:
         browser.close()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2))
-    print("| workload | median ms | p95 ms | render_sphere ms | ratio |")
-    print("|---|---|---|---|---|")
+    print(
+        "| workload | median ms | p95 ms | server views ms | page draw ms | render_sphere ms "
+        "| ratio |"
+    )
+    print("|---|---|---|---|---|---|---|")
     for name, r in results["workloads"].items():
         print(
             f"| {name} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
+            f"{r['server_views_median_ms']:.1f} | {r['page_draw_median_ms']:.1f} | "
             f"{r['render_sphere_median_ms']:.1f} | {r['ratio_to_render_sphere']:.2f} |"
         )
     env = results["workloads"]["lambertian+ggx"]["envmap"]

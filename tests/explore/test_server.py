@@ -173,3 +173,22 @@ def test_a_fit_json_upload_gives_its_spec(server):
     assert spec.startswith("ggx(alpha=0.3") and "'Au'" in spec
     for bad in (b"{", b'{"spec": 3}', b'{"spec": "__import__(1)"}'):
         assert status(url, origin, data=bad) == 400
+
+
+def test_an_upload_over_64_mib_is_refused_with_its_size(server):
+    from brdfkit.explore.session import MAX_UPLOAD_BYTES
+
+    url = server.url + "upload?name=big.binary"
+    origin = {"Origin": f"http://127.0.0.1:{server.port}"}
+    size = MAX_UPLOAD_BYTES + 1
+    for chunked in (False, True):  # refused by its Content-Length, or while it streams
+        body = iter([b"\0" * (1 << 20)] * (size >> 20) + [b"\0"]) if chunked else b"\0" * size
+        headers = {**origin, "Transfer-Encoding": "chunked"} if chunked else origin
+        request = urllib.request.Request(url, headers=headers, data=body)
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(request, timeout=60)
+        assert refused.value.code == 413
+        message = json.loads(refused.value.read())["error"]
+        assert "'big.binary'" in message and "at most 64 MiB" in message
+        assert (str(size) in message) != chunked
+    assert "big.binary" not in server.session.files

@@ -305,10 +305,14 @@ class Session:
         return header, arrays
 
     def environment(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
-        """The environment-lit sphere of each visible entry, refined pass by pass (the entries'
-        passes interleaved), until ``cancel`` is set or every sphere has its samples."""
+        """The environment-lit sphere of each visible entry: first the exact diffuse term
+        (:func:`~brdfkit.explore.views.diffuse_term`, ``samples`` 0), then refined pass by pass
+        (the entries' passes interleaved), until ``cancel`` is set or every sphere has its
+        samples. ``noise`` is :func:`~brdfkit.explore.views.relative_noise` against the
+        previous pass (``None`` before there is one)."""
         if not message.view.envmap:
             return
+        start = time.perf_counter()
         resolution = min(message.view.resolution, 256)
         mask = views.sphere_gbuffer(resolution).mask
         runs = []
@@ -318,39 +322,61 @@ class Session:
                     brdf, _ = self.brdf(entry)
                 except (BrdfkitError, ValueError):
                     continue
-                runs.append(
-                    (entry.id, views.environment_passes(brdf, self.envmap, resolution, cancel))
-                )
+                passes = views.environment_passes(brdf, self.envmap, resolution, cancel)
+                runs.append([entry.id, passes, None])
+                diffuse = views.diffuse_term(brdf, self.envmap, resolution)
+                if diffuse is not None and not cancel.is_set():
+                    yield self._env_reply(message, entry.id, diffuse, 0, start, None)
         while runs and not cancel.is_set():
-            for entry_id, run in list(runs):
-                p = next(run, None)
+            for run in list(runs):
+                entry_id, passes, previous = run
+                p = next(passes, None)
                 if p is None or cancel.is_set():
-                    runs.remove((entry_id, run))
+                    runs.remove(run)
                     continue
-                image = p.image.astype(np.float32)
-                header = {
-                    "type": "env",
-                    "seq": message.seq,
-                    "id": entry_id,
-                    "samples": p.samples,
-                    "seconds": p.seconds,
-                    "noise": views.relative_noise(p, mask),
-                    "map": self.envmap_name,
-                    "arrays": array_table([image])[0],
-                }
-                yield header, [image]
+                noise = views.relative_noise(p, mask, previous) if previous else None
+                run[2] = p
+                yield self._env_reply(message, entry_id, p.image, p.samples, start, noise)
+
+    def _env_reply(
+        self,
+        message: Message,
+        entry_id: str,
+        image: np.ndarray,
+        samples: int,
+        start: float,
+        noise: float | None,
+    ) -> Reply:
+        image = image.astype(np.float32)
+        header = {
+            "type": "env",
+            "seq": message.seq,
+            "id": entry_id,
+            "samples": samples,
+            "seconds": time.perf_counter() - start,
+            "noise": noise,
+            "map": self.envmap_name,
+            "arrays": array_table([image])[0],
+        }
+        return header, [image]
 
     def warm_up(self, specs: list[str]) -> None:
-        """Render the environment-lit sphere of ``specs`` once, small: the map's tables and the
-        compiled kernels of those models are built before the page asks (in a fresh process
-        the first pass otherwise takes seconds)."""
+        """Build, before the page asks, what the environment-lit sphere of ``specs`` needs:
+        the map's tables and the compiled kernels of the very BRDF objects the page's
+        messages resolve to (:meth:`brdf` keeps them by spec; kernels are kept per object).
+        In a fresh process the first passes otherwise run on NumPy while the kernels build."""
+        from brdfkit.render_kernel import compiled_shader
+
         for spec in specs or ["lambertian + ggx"]:
             try:
-                brdf = parse(spec)
+                brdf = self._parsed("spec", spec)
             except (BrdfkitError, ValueError):
                 continue
-            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=4):
+            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=1):
                 pass
+            plan = compiled_shader(brdf, [self.envmap], method="auto")
+            if plan is not None:
+                plan[0].build()
         self.warmed.set()
 
     def checks(self, message: Message) -> Reply:

@@ -548,7 +548,9 @@ export function createExplorer(root, transport, config = {}) {
     const size = header.arrays[0].shape[0];
     Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
     api.env[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, time: performance.now() };
-    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    const noise = header.noise === null ? "" : ` · noise ${(100 * header.noise).toFixed(1)} %`;
+    const what = header.samples ? `${header.samples} spp` : "exact diffuse term (0 spp)";
+    item.caption.textContent = `${what}${noise} · ${header.seconds.toFixed(2)} s`;
     drawEnvs();
   }
   function drawEnvs() {
@@ -719,6 +721,11 @@ export function createExplorer(root, transport, config = {}) {
     setTimeout(() => URL.revokeObjectURL(a.href), 1000);
   }
   async function uploadFile(file) {
+    const limit = config.max_upload;
+    if (limit && file.size > limit) {  // the server refuses it too (413)
+      status.textContent = `'${file.name}' holds ${file.size} bytes; an upload holds at most ${limit / 1048576} MiB (${limit} bytes)`;
+      return;
+    }
     status.textContent = `uploading ${file.name}…`;
     try {
       const reply = await transport.upload(file);
