@@ -11,8 +11,14 @@ drawing add. Workloads: Lambertian + GGX, and a MERL-layout table (written by
 :func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
 
 Under the environment map (the bundled one), the time from switching the view on to the first
-image and to 1 % relative noise (RMS standard error / mean over the sphere,
-:func:`brdfkit.explore.views.relative_noise`) is reported, after the server's warm-up.
+image (the exact diffuse term, :func:`brdfkit.explore.views.diffuse_term`), to the first pass
+(1 spp of the whole estimator) and to 1 % relative noise (the RMS error / mean over the sphere,
+estimated from successive passes: :func:`brdfkit.explore.views.relative_noise`) is reported,
+after the server's warm-up (which builds the compiled kernels of the shown BRDF).
+
+The sphere's latency is from the slider's ``input`` event until the page has drawn the reply
+holding every view (sphere, polar, θv/θh/θd curves, lobe, slice); ``server views ms`` is the
+Python time of those views, ``page draw ms`` the page's drawing of them.
 
 Run ``python benchmarks/bench_explore.py`` (needs the ``explore`` and ``explore-test``
 extras); results go to ``benchmarks/results/explore.json`` and a Markdown table on stdout.
@@ -56,16 +62,21 @@ MOVE = """(value) => new Promise((resolve) => {
 ENV = """([limit]) => new Promise((resolve) => {
   const x = window.explorer, box = document.querySelector('.bx-envmap');
   const start = performance.now();
-  let first = null;
+  let first = null, firstPass = null;
   box.checked = true; box.dispatchEvent(new Event('change'));
   const seq = x.sent.seq;
   const poll = () => {
     const e = x.env.b1;
     if (e && e.seq >= seq) {
       if (first === null) first = e.time - start;
-      if (e.noise > 0 && e.noise <= 0.01) return resolve({first, noise1: e.time - start, ...e});
+      if (firstPass === null && e.samples >= 1) firstPass = e.time - start;
+      if (e.noise > 0 && e.noise <= 0.01) {
+        return resolve({first, firstPass, noise1: e.time - start, ...e});
+      }
     }
-    if (performance.now() - start > limit) return resolve({first, noise1: null, ...(e || {})});
+    if (performance.now() - start > limit) {
+      return resolve({first, firstPass, noise1: null, ...(e || {})});
+    }
     setTimeout(poll, 10);
   };
   poll();
@@ -147,9 +158,12 @@ def main() -> None:
         )
     env = results["workloads"]["lambertian+ggx"]["envmap"]
     noise1 = "not reached" if env["noise1"] is None else f"{env['noise1']:.0f} ms"
+    first_pass = "none" if env["firstPass"] is None else f"{env['firstPass']:.0f} ms"
+    first = "none" if env["first"] is None else f"{env['first']:.0f} ms"
     print(
-        f"\nenvironment map: first image {env['first']:.0f} ms; 1 % noise {noise1} "
-        f"(last pass: {env.get('samples')} spp, noise {100 * env.get('noise', 0):.1f} %)"
+        f"\nenvironment map: first image {first} (first pass {first_pass}); "
+        f"1 % noise {noise1} "
+        f"(last pass: {env.get('samples')} spp, noise {100 * (env.get('noise') or 0):.1f} %)"
     )
 
 
