@@ -135,7 +135,8 @@ def main() -> None:
             context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
             page = context.new_page()
             page.goto(server.url)
-            page.wait_for_function("window.explorer && window.explorer.shown.seq > 0")
+            # until the module runs, window.explorer is the page's <div id="explorer">
+            page.wait_for_function("(window.explorer?.shown?.seq ?? 0) > 0")
             record = latency(page, brdf, args.moves)
             if name == "lambertian+ggx":
                 record["envmap"] = page.evaluate(ENV, [1e3 * args.env_limit])

@@ -289,7 +289,11 @@ class ExplorerServer:
         import uvicorn
 
         config = uvicorn.Config(
-            self.app, log_level="warning", ws_max_size=MAX_MESSAGE_BYTES, lifespan="off"
+            self.app,
+            log_level="warning",
+            ws_max_size=MAX_MESSAGE_BYTES,
+            ws_per_message_deflate=False,  # float arrays barely compress; zlib cost ~100 ms
+            lifespan="off",
         )
         self._server = uvicorn.Server(config)
         return self._server

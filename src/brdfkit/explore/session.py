@@ -372,11 +372,13 @@ class Session:
                 brdf = self._parsed("spec", spec)
             except (BrdfkitError, ValueError):
                 continue
-            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=1):
-                pass
             plan = compiled_shader(brdf, [self.envmap], method="auto")
             if plan is not None:
                 plan[0].build()
+            # then the map's tables, on the kernels just built (with none built, progressive
+            # would start a background build that outlives the warm-up)
+            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=1):
+                pass
         self.warmed.set()
 
     def checks(self, message: Message) -> Reply:
