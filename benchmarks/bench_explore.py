@@ -11,8 +11,14 @@ drawing add. Workloads: Lambertian + GGX, and a MERL-layout table (written by
 :func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
 
 Under the environment map (the bundled one), the time from switching the view on to the first
-image and to 1 % relative noise (RMS standard error / mean over the sphere,
-:func:`brdfkit.explore.views.relative_noise`) is reported, after the server's warm-up.
+image (the exact diffuse term, :func:`brdfkit.explore.views.diffuse_term`), to the first pass
+(1 spp of the whole estimator) and to 1 % relative noise (the RMS error / mean over the sphere,
+estimated from successive passes: :func:`brdfkit.explore.views.relative_noise`) is reported,
+after the server's warm-up (which builds the compiled kernels of the shown BRDF).
+
+The sphere's latency is from the slider's ``input`` event until the page has drawn the reply
+holding every view (sphere, polar, θv/θh/θd curves, lobe, slice); ``server views ms`` is the
+Python time of those views, ``page draw ms`` the page's drawing of them.
 
 Run ``python benchmarks/bench_explore.py`` (needs the ``explore`` and ``explore-test``
 extras); results go to ``benchmarks/results/explore.json`` and a Markdown table on stdout.
@@ -45,8 +51,10 @@ ANALYTIC = "lambertian(albedo=[0.8, 0.4, 0.2]) + ggx(alpha=0.2)"
 MOVE = """(value) => new Promise((resolve) => {
   const x = window.explorer, range = document.querySelector('.bx-theta_i');
   const start = performance.now(), before = x.shown.seq;
-  const wait = () => (x.shown.seq > before && x.shown.seq === x.sent.seq)
-      ? resolve(x.shown.time - start) : requestAnimationFrame(wait);
+  const done = () => x.shown && x.sent && x.shown.seq > before && x.shown.seq === x.sent.seq;
+  const wait = () => done()
+      ? resolve([x.shown.time - start, 1e3 * x.frame().header.seconds, x.drawMs])
+      : requestAnimationFrame(wait);
   range.value = value; range.dispatchEvent(new Event('input'));
   requestAnimationFrame(wait);
 })"""
@@ -54,16 +62,21 @@ MOVE = """(value) => new Promise((resolve) => {
 ENV = """([limit]) => new Promise((resolve) => {
   const x = window.explorer, box = document.querySelector('.bx-envmap');
   const start = performance.now();
-  let first = null;
+  let first = null, firstPass = null;
   box.checked = true; box.dispatchEvent(new Event('change'));
   const seq = x.sent.seq;
   const poll = () => {
     const e = x.env.b1;
     if (e && e.seq >= seq) {
       if (first === null) first = e.time - start;
-      if (e.noise > 0 && e.noise <= 0.01) return resolve({first, noise1: e.time - start, ...e});
+      if (firstPass === null && e.samples >= 1) firstPass = e.time - start;
+      if (e.noise > 0 && e.noise <= 0.01) {
+        return resolve({first, firstPass, noise1: e.time - start, ...e});
+      }
     }
-    if (performance.now() - start > limit) return resolve({first, noise1: null, ...(e || {})});
+    if (performance.now() - start > limit) {
+      return resolve({first, firstPass, noise1: null, ...(e || {})});
+    }
     setTimeout(poll, 10);
   };
   poll();
@@ -77,10 +90,13 @@ def percentile(values: list[float], q: float) -> float:
 def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
     """Slider-to-frame times in the page, with render_sphere timed between the moves."""
     page.evaluate(MOVE, 30)  # warm-up
-    browser_ms, render_ms = [], []
+    browser_ms, render_ms, server_ms, draw_ms = [], [], [], []
     for i in range(moves):
         theta = 20 + (i * 37) % 60
-        browser_ms.append(page.evaluate(MOVE, theta))
+        total, server, draw = page.evaluate(MOVE, theta)
+        browser_ms.append(total)
+        server_ms.append(server)
+        draw_ms.append(draw)
         light = ViewState(theta_i=theta).light()
         start = time.perf_counter()
         render_sphere(brdf, light, resolution=256)
@@ -91,6 +107,8 @@ def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
         "p95_ms": percentile(browser_ms, 95),
         "render_sphere_median_ms": statistics.median(render_ms),
         "ratio_to_render_sphere": median / statistics.median(render_ms),
+        "server_views_median_ms": statistics.median(server_ms),
+        "page_draw_median_ms": statistics.median(draw_ms),
         "moves": moves,
     }
 
@@ -117,7 +135,8 @@ def main() -> None:
             context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
             page = context.new_page()
             page.goto(server.url)
-            page.wait_for_function("window.explorer && window.explorer.shown.seq > 0")
+            # until the module runs, window.explorer is the page's <div id="explorer">
+            page.wait_for_function("(window.explorer?.shown?.seq ?? 0) > 0")
             record = latency(page, brdf, args.moves)
             if name == "lambertian+ggx":
                 record["envmap"] = page.evaluate(ENV, [1e3 * args.env_limit])
@@ -127,18 +146,25 @@ def main() -> None:
         browser.close()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2))
-    print("| workload | median ms | p95 ms | render_sphere ms | ratio |")
-    print("|---|---|---|---|---|")
+    print(
+        "| workload | median ms | p95 ms | server views ms | page draw ms | render_sphere ms "
+        "| ratio |"
+    )
+    print("|---|---|---|---|---|---|---|")
     for name, r in results["workloads"].items():
         print(
             f"| {name} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
+            f"{r['server_views_median_ms']:.1f} | {r['page_draw_median_ms']:.1f} | "
             f"{r['render_sphere_median_ms']:.1f} | {r['ratio_to_render_sphere']:.2f} |"
         )
     env = results["workloads"]["lambertian+ggx"]["envmap"]
     noise1 = "not reached" if env["noise1"] is None else f"{env['noise1']:.0f} ms"
+    first_pass = "none" if env["firstPass"] is None else f"{env['firstPass']:.0f} ms"
+    first = "none" if env["first"] is None else f"{env['first']:.0f} ms"
     print(
-        f"\nenvironment map: first image {env['first']:.0f} ms; 1 % noise {noise1} "
-        f"(last pass: {env.get('samples')} spp, noise {100 * env.get('noise', 0):.1f} %)"
+        f"\nenvironment map: first image {first} (first pass {first_pass}); "
+        f"1 % noise {noise1} "
+        f"(last pass: {env.get('samples')} spp, noise {100 * (env.get('noise') or 0):.1f} %)"
     )
 
 

@@ -237,6 +237,59 @@ def test_uploading_a_file(page, merl_file):
     assert_sphere_matches(page, fitted, entry(page, 4)["id"])
 
 
+DROP = """(selector) => {
+  const input = document.querySelector(selector);
+  const data = new DataTransfer();
+  for (const f of input.files) data.items.add(f);
+  const root = document.querySelector('.brdfkit-explorer');
+  const options = { dataTransfer: data, bubbles: true, cancelable: true };
+  root.dispatchEvent(new DragEvent('dragover', options));
+  root.dispatchEvent(new DragEvent('drop', options));
+}"""
+
+
+def drop(page, path: Path) -> None:
+    """Drop ``path`` on the explorer as a user drags it from a file manager: the file enters
+    the page through a test-only file input, then travels in a drop event's DataTransfer."""
+    page.evaluate(
+        "() => { const i = document.createElement('input'); i.type = 'file';"
+        " i.id = 'test-drop'; i.hidden = true; document.body.append(i); }"
+    )
+    page.set_input_files("#test-drop", str(path))
+    page.evaluate(DROP, "#test-drop")
+    page.evaluate("() => document.getElementById('test-drop').remove()")
+
+
+def test_dropping_a_measured_file_loads_it(page, merl_file, tmp_path):
+    count = page.evaluate("window.explorer.state.entries.length")
+    dropped = tmp_path / "dropped.binary"
+    dropped.write_bytes(merl_file.read_bytes())
+    before = page.evaluate("window.explorer.shown.seq")
+    drop(page, dropped)
+    page.wait_for_function(f"window.explorer.state.entries.length === {count + 1}", timeout=60_000)
+    settled(page, before)
+    e = entry(page, count)
+    assert e["source"]["file"].endswith("dropped.binary")
+    assert_sphere_matches(page, read(merl_file), e["id"])
+    assert_curves_match(page, read(merl_file), e["id"])
+    assert not page.errors
+
+
+def test_a_file_over_64_mib_is_refused_with_a_clear_message(page, tmp_path):
+    from brdfkit.explore.session import MAX_UPLOAD_BYTES
+
+    count = page.evaluate("window.explorer.state.entries.length")
+    big = tmp_path / "big.binary"
+    with big.open("wb") as f:
+        f.truncate(MAX_UPLOAD_BYTES + 1)
+    drop(page, big)
+    status = page.locator(".bx-status")
+    status.filter(has_text="at most 64 MiB").wait_for(timeout=30_000)
+    assert f"'big.binary' holds {MAX_UPLOAD_BYTES + 1} bytes" in status.inner_text()
+    assert page.evaluate("window.explorer.state.entries.length") == count
+    assert not page.errors
+
+
 def test_solo_physics_checks_and_exports(page):
     ids = page.evaluate("window.explorer.state.entries.map((e) => e.id)")
     before = page.evaluate("window.explorer.shown.seq")

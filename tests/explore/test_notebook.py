@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import json
 import textwrap
+import threading
 
 import numpy as np
 import pytest
@@ -38,10 +39,25 @@ def test_the_widget_renders_in_a_jupyter_kernel(monkeypatch):
                 "view": {"resolution": 64}}}
             w._handle_custom_msg(message, [])
             header, buffers = sent[0]
-            print(json.dumps({"types": [c["type"] for c, _ in sent], "seq": header["seq"],
+            types = [c["type"] for c, _ in sent]
+            # the environment view: its passes come from a thread, the next message stops them
+            message["seq"], message["state"]["view"]["envmap"] = 8, True
+            w._handle_custom_msg(message, [])
+            import time
+            deadline = time.monotonic() + 90
+            while time.monotonic() < deadline and not any(
+                    c["type"] == "env" and c["samples"] >= 1 for c, _ in sent):
+                time.sleep(0.05)
+            entry = message["state"]["entries"][0]
+            w._handle_custom_msg({"type": "checks", "seq": 9, "entry": entry}, [])
+            w._passes.join(timeout=30)
+            env = [c for c, _ in sent if c["type"] == "env"]
+            print(json.dumps({"types": types, "seq": header["seq"],
                               "spec": header["entries"][0]["spec"],
                               "sphere": header["arrays"][header["views"]["b1"]["sphere"]],
-                              "bytes": len(buffers[header["views"]["b1"]["sphere"]])}))
+                              "bytes": len(buffers[header["views"]["b1"]["sphere"]]),
+                              "env": [[c["seq"], c["samples"]] for c in env],
+                              "stopped": not w._passes.is_alive()}))
             """
         ).replace("SPEC_HERE", repr(SPEC)),
     ]
@@ -60,6 +76,9 @@ def test_the_widget_renders_in_a_jupyter_kernel(monkeypatch):
     assert reply["types"] == ["frame", "albedo"] and reply["seq"] == 7
     assert reply["sphere"] == {"dtype": "float32", "shape": [64, 64, 3]}
     assert reply["bytes"] == 64 * 64 * 3 * 4
+    assert reply["env"][0] == [8, 0]  # the exact diffuse term first, then passes
+    assert [8, 1] in reply["env"] and reply["stopped"]
+    assert json.loads(state["config"])["envmap"]
 
 
 MOCK_HOST = """
@@ -69,7 +88,8 @@ MOCK_HOST = """
     get: (k) => values[k], set: (k, v) => { values[k] = v; }, save_changes() {},
     on: (name, h) => { if (name === "msg:custom") handlers.push(h); },
     send: async (message) => {
-      for (const [header, buffers] of await window.pyHandle(message)) {
+      const replies = [...await window.pyHandle(message), ...await window.pyEnv(message)];
+      for (const [header, buffers] of replies) {
         const views = buffers.map((b) => {
           const bytes = Uint8Array.from(atob(b), (c) => c.charCodeAt(0));
           return new DataView(bytes.buffer);
@@ -106,12 +126,21 @@ def test_the_widget_front_end_draws_what_python_renders(browser):
             for header, buffers in widget.handle(message)
         ]
 
+    def environment(message):  # the widget's passes, up to 2 spp, in the reply
+        cancel, out = threading.Event(), []
+        for header, buffers in widget.environment(message, cancel):
+            out.append((header, [base64.b64encode(b).decode() for b in buffers]))
+            if header["samples"] >= 2:
+                cancel.set()
+        return out
+
     context = browser.new_context(bypass_csp=True)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.on("console", lambda m: errors.append(m.text))
     page.expose_function("pyHandle", handle)
+    page.expose_function("pyEnv", environment)
     page.set_content('<div id="cell"></div>')
     page.evaluate(
         "([esm, config]) => { window.__esm = esm; window.__config = config; }",
@@ -128,5 +157,13 @@ def test_the_widget_front_end_draws_what_python_renders(browser):
     shown = canvas_pixels(page, '.bx-sphere[data-id="b1"]')[..., :3].astype(np.int64)
     assert np.abs(shown - expected).max() <= 1
     assert json.loads(page.evaluate("window.values.state"))["entries"][0]["id"] == "b1"
+    # the environment view: the widget's passes drawn as on the web page
+    page.locator(".bx-envmap").check()
+    page.wait_for_function("() => (window.explorer.env.b1 || {}).samples >= 2", timeout=120_000)
+    values = np.asarray(page.evaluate("window.explorer.envImage('b1')"), np.float64)
+    pixels = canvas_pixels(page, '.bx-env[data-id="b1"]')[..., :3].astype(np.int64)
+    assert np.abs(pixels - expected_pixels(values.reshape(pixels.shape))).max() <= 1
+    assert values.max() > 0
+    assert "2 spp" in page.locator(".bx-env-box .bx-caption").first.inner_text()
     assert not errors
     context.close()

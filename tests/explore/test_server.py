@@ -173,3 +173,50 @@ def test_a_fit_json_upload_gives_its_spec(server):
     assert spec.startswith("ggx(alpha=0.3") and "'Au'" in spec
     for bad in (b"{", b'{"spec": 3}', b'{"spec": "__import__(1)"}'):
         assert status(url, origin, data=bad) == 400
+
+
+def test_an_upload_over_64_mib_is_refused_with_its_size(server):
+    """Refused from its Content-Length before a byte is read, or as soon as a stream without
+    one passes the limit (the ASGI app driven directly, chunk by chunk); nothing is kept."""
+    import asyncio
+
+    from brdfkit.explore.server import build_app
+    from brdfkit.explore.session import MAX_UPLOAD_BYTES
+
+    size = MAX_UPLOAD_BYTES + 1
+    origin = {"Origin": f"http://127.0.0.1:{server.port}"}
+    request = urllib.request.Request(
+        server.url + "upload?name=big.binary",
+        headers={**origin, "Content-Length": str(size)},
+        data=b"\0",  # the header alone decides
+    )
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(request, timeout=60)
+    assert refused.value.code == 413
+    message = json.loads(refused.value.read())["error"]
+    assert f"'big.binary' holds {size} bytes; an upload holds at most 64 MiB" in message
+
+    session = Session()
+    app = build_app(session, "tok", 8123, [])
+    chunks = [b"\0" * (1 << 20)] * (size >> 20) + [b"\0"] * 8
+    sent, read = [], [0]
+
+    async def receive():
+        read[0] += 1
+        return {"type": "http.request", "body": chunks[read[0] - 1], "more_body": True}
+
+    async def send(event):
+        sent.append(event)
+
+    scope = {
+        "type": "http", "method": "POST", "path": "/tok/upload", "raw_path": b"/tok/upload",
+        "root_path": "", "scheme": "http", "query_string": b"name=big.binary",
+        "server": ("127.0.0.1", 8123), "client": ("127.0.0.1", 1), "http_version": "1.1",
+        "headers": [(b"host", b"127.0.0.1:8123"), (b"origin", b"http://127.0.0.1:8123")],
+    }  # fmt: skip
+    asyncio.run(app(scope, receive, send))
+    assert sent[0]["status"] == 413
+    assert read[0] == (size >> 20) + 1  # stopped at the first chunk past the limit
+    message = json.loads(sent[1]["body"])["error"]
+    assert f"holds more than {MAX_UPLOAD_BYTES} bytes; an upload holds at most 64 MiB" in message
+    assert session.files == []

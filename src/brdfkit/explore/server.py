@@ -115,17 +115,32 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
 
     async def config(request: Request) -> Response:
         return JSONResponse(
-            {"initial": initial, "files": session.files, "envmap": session.envmap_name},
+            {
+                "initial": initial,
+                "files": session.files,
+                "envmap": session.envmap_name,
+                "max_upload": MAX_UPLOAD_BYTES,
+            },
             headers=SECURITY_HEADERS,
         )
 
+    def too_large(name: str, size: str) -> Response:
+        message = (
+            f"{name[:60]!r} holds {size} bytes; an upload holds at most "
+            f"{MAX_UPLOAD_BYTES >> 20} MiB ({MAX_UPLOAD_BYTES} bytes)"
+        )
+        return JSONResponse({"error": message}, 413, headers=SECURITY_HEADERS)
+
     async def upload(request: Request) -> Response:
         name = request.query_params.get("name", "")
+        length = request.headers.get("content-length", "")
+        if length.isdigit() and int(length) > MAX_UPLOAD_BYTES:
+            return too_large(name, length)
         data = bytearray()
         async for chunk in request.stream():
             data += chunk
             if len(data) > MAX_UPLOAD_BYTES:
-                return JSONResponse({"error": f"upload over {MAX_UPLOAD_BYTES} bytes"}, 413)
+                return too_large(name, f"more than {MAX_UPLOAD_BYTES}")
         if name.lower().endswith(".json"):  # a fit.json: its spec, no file kept
             try:
                 spec = fit_spec(bytes(data), name[:60])
@@ -274,7 +289,11 @@ class ExplorerServer:
         import uvicorn
 
         config = uvicorn.Config(
-            self.app, log_level="warning", ws_max_size=MAX_MESSAGE_BYTES, lifespan="off"
+            self.app,
+            log_level="warning",
+            ws_max_size=MAX_MESSAGE_BYTES,
+            ws_per_message_deflate=False,  # float arrays barely compress; zlib cost ~100 ms
+            lifespan="off",
         )
         self._server = uvicorn.Server(config)
         return self._server

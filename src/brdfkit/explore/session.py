@@ -12,8 +12,10 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -82,7 +84,7 @@ class Session:
         self._brdfs: dict[str, BRDF] = {}
         self._cache: OrderedDict[str, BRDF] = OrderedDict()
         self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
-        self._half_diff: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
+        self._views: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
         self._lock = threading.Lock()
         self._uploads: Path | None = None
         self.warmed = threading.Event()
@@ -174,6 +176,7 @@ class Session:
     def render(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """Every view of every visible entry; ``None`` as soon as ``stale()`` says a newer
         message is waiting."""
+        start = time.perf_counter()
         state = message.view
         arrays: list[np.ndarray] = []
 
@@ -199,14 +202,22 @@ class Session:
             if not entry.visible:
                 continue
             try:
-                theta_h, theta_d, slice_ = self._half_diff_views(brdf, info, state)
+                key = info.get("spec") or f"file:{info['file']}"
+                sphere, theta_v, lobe = self._cached(
+                    (key, state.theta_i, state.phi_i, state.resolution, state.irradiance),
+                    partial(self._incident_views, brdf, state),
+                )
+                theta_h, theta_d, slice_ = self._cached(
+                    (key, state.theta_h, state.theta_d, state.phi_d),
+                    partial(self._half_diff_views, brdf, state),
+                )
                 per_entry[entry.id] = {
-                    "sphere": put(views.sphere(brdf, state).astype(np.float32)),
-                    "theta_v": put(views.theta_v_curve(brdf, state)[1]),
+                    "sphere": put(sphere),
+                    "theta_v": put(theta_v),
                     "theta_h": put(theta_h),
                     "theta_d": put(theta_d),
                     "slice": put(slice_),
-                    "lobe": put(views.lobe(brdf, state).astype(np.float32)),
+                    "lobe": put(lobe),
                 }
             except (BrdfkitError, ValueError, FloatingPointError) as error:
                 entries[-1]["error"] = f"cannot evaluate: {error}"
@@ -220,34 +231,44 @@ class Session:
             "axes": axes,
             "light": [float(x) for x in light],
             "arrays": table,
+            "seconds": time.perf_counter() - start,
         }
         return header, arrays
 
-    def _half_diff_views(
-        self, brdf: BRDF, info: dict[str, Any], state: views.ViewState
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The θh and θd curves and the θh×θd slice, which do not depend on the light: cached
-        by BRDF and (θh, θd, φd), so that dragging the light recomputes only what it moves."""
-        key = (
-            info.get("spec") or f"file:{info['file']}",
-            state.theta_h,
-            state.theta_d,
-            state.phi_d,
-        )
+    def _cached(
+        self, key: tuple[Any, ...], compute: Callable[[], tuple[np.ndarray, ...]]
+    ) -> tuple[np.ndarray, ...]:
+        """``compute()``, remembered by ``key`` (the BRDF and the angles a view depends on):
+        dragging the light recomputes only the views the light moves, and a θh/θd/φd slider
+        only those it moves."""
         with self._lock:
-            if key in self._half_diff:
-                self._half_diff.move_to_end(key)
-                return self._half_diff[key]
-        result = (
+            if key in self._views:
+                self._views.move_to_end(key)
+                return self._views[key]
+        result = compute()
+        with self._lock:
+            self._views[key] = result
+            while len(self._views) > 32:
+                self._views.popitem(last=False)
+        return result
+
+    @staticmethod
+    def _incident_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
+        """The views that depend on the incident direction: the sphere, θv curve and lobe."""
+        return (
+            views.sphere(brdf, state).astype(np.float32),
+            views.theta_v_curve(brdf, state)[1],
+            views.lobe(brdf, state).astype(np.float32),
+        )
+
+    @staticmethod
+    def _half_diff_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light."""
+        return (
             views.theta_h_curve(brdf, state)[1],
             views.theta_d_curve(brdf, state)[1],
             views.half_diff_slice(brdf, state).astype(np.float32),
         )
-        with self._lock:
-            self._half_diff[key] = result
-            while len(self._half_diff) > 16:
-                self._half_diff.popitem(last=False)
-        return result
 
     def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """The directional albedo (with its standard error) of each visible entry, from a cache
@@ -284,10 +305,14 @@ class Session:
         return header, arrays
 
     def environment(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
-        """The environment-lit sphere of each visible entry, refined pass by pass (the entries'
-        passes interleaved), until ``cancel`` is set or every sphere has its samples."""
+        """The environment-lit sphere of each visible entry: first the exact diffuse term
+        (:func:`~brdfkit.explore.views.diffuse_term`, ``samples`` 0), then refined pass by pass
+        (the entries' passes interleaved), until ``cancel`` is set or every sphere has its
+        samples. ``noise`` is :func:`~brdfkit.explore.views.relative_noise` against the
+        previous pass (``None`` before there is one)."""
         if not message.view.envmap:
             return
+        start = time.perf_counter()
         resolution = min(message.view.resolution, 256)
         mask = views.sphere_gbuffer(resolution).mask
         runs = []
@@ -297,38 +322,62 @@ class Session:
                     brdf, _ = self.brdf(entry)
                 except (BrdfkitError, ValueError):
                     continue
-                runs.append(
-                    (entry.id, views.environment_passes(brdf, self.envmap, resolution, cancel))
-                )
+                passes = views.environment_passes(brdf, self.envmap, resolution, cancel)
+                runs.append([entry.id, passes, None])
+                diffuse = views.diffuse_term(brdf, self.envmap, resolution)
+                if diffuse is not None and not cancel.is_set():
+                    yield self._env_reply(message, entry.id, diffuse, 0, start, None)
         while runs and not cancel.is_set():
-            for entry_id, run in list(runs):
-                p = next(run, None)
+            for run in list(runs):
+                entry_id, passes, previous = run
+                p = next(passes, None)
                 if p is None or cancel.is_set():
-                    runs.remove((entry_id, run))
+                    runs.remove(run)
                     continue
-                image = p.image.astype(np.float32)
-                header = {
-                    "type": "env",
-                    "seq": message.seq,
-                    "id": entry_id,
-                    "samples": p.samples,
-                    "seconds": p.seconds,
-                    "noise": views.relative_noise(p, mask),
-                    "map": self.envmap_name,
-                    "arrays": array_table([image])[0],
-                }
-                yield header, [image]
+                noise = views.relative_noise(p, mask, previous) if previous else None
+                run[2] = p
+                yield self._env_reply(message, entry_id, p.image, p.samples, start, noise)
+
+    def _env_reply(
+        self,
+        message: Message,
+        entry_id: str,
+        image: np.ndarray,
+        samples: int,
+        start: float,
+        noise: float | None,
+    ) -> Reply:
+        image = image.astype(np.float32)
+        header = {
+            "type": "env",
+            "seq": message.seq,
+            "id": entry_id,
+            "samples": samples,
+            "seconds": time.perf_counter() - start,
+            "noise": noise,
+            "map": self.envmap_name,
+            "arrays": array_table([image])[0],
+        }
+        return header, [image]
 
     def warm_up(self, specs: list[str]) -> None:
-        """Render the environment-lit sphere of ``specs`` once, small: the map's tables and the
-        compiled kernels of those models are built before the page asks (in a fresh process
-        the first pass otherwise takes seconds)."""
+        """Build, before the page asks, what the environment-lit sphere of ``specs`` needs:
+        the map's tables and the compiled kernels of the very BRDF objects the page's
+        messages resolve to (:meth:`brdf` keeps them by spec; kernels are kept per object).
+        In a fresh process the first passes otherwise run on NumPy while the kernels build."""
+        from brdfkit.render_kernel import compiled_shader
+
         for spec in specs or ["lambertian + ggx"]:
             try:
-                brdf = parse(spec)
+                brdf = self._parsed("spec", spec)
             except (BrdfkitError, ValueError):
                 continue
-            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=4):
+            plan = compiled_shader(brdf, [self.envmap], method="auto")
+            if plan is not None:
+                plan[0].build()
+            # then the map's tables, on the kernels just built (with none built, progressive
+            # would start a background build that outlives the warm-up)
+            for _ in views.environment_passes(brdf, self.envmap, 32, max_samples=1):
                 pass
         self.warmed.set()
 

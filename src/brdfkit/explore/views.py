@@ -24,10 +24,12 @@ from functools import lru_cache
 
 import numpy as np
 
+from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import from_half_diff, spherical_to_cartesian
+from brdfkit.integrate import _delta, _diffuse_envmap, _setup, split_diffuse
 from brdfkit.lights import DirectionalLight, EnvironmentMap
-from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive, shade
+from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
@@ -77,10 +79,37 @@ def sphere_gbuffer(resolution: int) -> GBuffer:
     return gbuffer(Sphere(), None, resolution)
 
 
+@dataclass(frozen=True, eq=False)
+class Disk:
+    """The sphere's visible pixels, flattened, with what :func:`~brdfkit.render.shade` derives
+    from their G-buffer before it evaluates a light (:func:`brdfkit.integrate._setup`): the
+    points, the local frames (normal, tangent) and ``wo`` in them, each ``(N, 3)``."""
+
+    mask: np.ndarray
+    point: np.ndarray
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray]
+    wo_local: np.ndarray
+
+
+@lru_cache(maxsize=4)
+def sphere_disk(resolution: int) -> Disk:
+    """The :class:`Disk` of :func:`sphere_gbuffer` (cached: only the light moves)."""
+    g = sphere_gbuffer(resolution)
+    m = g.mask
+    _, point, frame, wo_local, _ = _setup(g.wo[m], g.normals[m], g.points[m], g.tangents[m])
+    return Disk(m, point, frame, wo_local)
+
+
 def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
-    """Linear radiance ``(R, R, C)`` of the lit sphere, exactly ``render_sphere(brdf,
-    state.light(), state.resolution)``."""
-    return shade(sphere_gbuffer(state.resolution), brdf, state.light())
+    """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
+    state.resolution)``: the same delta-light term of the reflection equation
+    (:func:`brdfkit.integrate.reflected_radiance`), evaluated in one batch on the visible
+    pixels only, from geometry computed once per resolution (the background stays 0)."""
+    disk = sphere_disk(state.resolution)
+    value = to_numpy(_delta(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
+    image = np.zeros((*disk.mask.shape, value.shape[-1]))
+    image[disk.mask] = value
+    return image
 
 
 HORIZON = 1e-6
@@ -102,10 +131,44 @@ def environment_passes(
     )
 
 
-def relative_noise(p: Pass, mask: np.ndarray) -> float:
-    """The image's Monte Carlo noise: RMS standard error over the sphere / its mean value."""
+def diffuse_term(brdf: BRDF, envmap: EnvironmentMap, resolution: int) -> np.ndarray | None:
+    """The exact part of the environment-lit sphere that needs no samples: ρ E(n)/π of the
+    BRDF's Lambertian lobes (:func:`brdfkit.integrate.split_diffuse`, the term
+    :func:`brdfkit.render.progressive`'s estimator adds to every pass), ``(R, R, C)``;
+    ``None`` for a BRDF without a Lambertian lobe. The page shows it before the first pass."""
+    rho, _ = split_diffuse(brdf)
+    if rho is None or np.ndim(rho) > 1:
+        return None
+    disk = sphere_disk(resolution)
+    value = to_numpy(_diffuse_envmap(rho, envmap, disk.frame, disk.wo_local))
+    image = np.zeros((*disk.mask.shape, value.shape[-1]))
+    image[disk.mask] = value
+    return image
+
+
+def relative_noise(p: Pass, mask: np.ndarray, previous: Pass | None = None) -> float:
+    r"""The image's Monte Carlo noise relative to its mean value over the sphere.
+
+    With the ``previous`` pass of :func:`~brdfkit.render.progressive`, where pass ``p`` drew
+    as many samples as all before it (its running mean :math:`\bar x = (a + b)/2` of the
+    earlier mean ``a`` and the new pass ``b``, independently seeded): the unbiased estimate of
+    the mean squared error :math:`\operatorname{Var}\bar x = E[(a - b)^2]/4 = E[(\bar x - a)^2]`
+    per pixel, whatever the two variances (scrambled Sobol points converge faster than their
+    per-sample spread says). Otherwise the RMS of ``p.stderr`` (conservative with Sobol).
+
+    References
+    ----------
+    .. [1] A. B. Owen, *Monte Carlo theory, methods and examples*, 2013, §17.2 (independent
+           replicates of randomized quasi-Monte Carlo estimate its variance).
+    """
     mean = float(np.mean(p.image[mask]))
-    return float(np.sqrt(np.mean(p.stderr[mask] ** 2)) / mean) if mean > 0 else 0.0
+    if mean <= 0:
+        return 0.0
+    if previous is not None and p.samples == 2 * previous.samples:
+        error2 = (p.image[mask] - previous.image[mask]) ** 2
+    else:
+        error2 = p.stderr[mask] ** 2
+    return float(np.sqrt(np.mean(error2)) / mean)
 
 
 def _eval(brdf: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
@@ -194,14 +257,17 @@ __all__ = [
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
     "SLICE_RESOLUTION",
+    "Disk",
     "ViewState",
     "albedo",
+    "diffuse_term",
     "environment_passes",
     "half_diff_slice",
     "incidence_plane",
     "lobe",
     "relative_noise",
     "sphere",
+    "sphere_disk",
     "sphere_gbuffer",
     "theta_d_curve",
     "theta_h_curve",

@@ -2,7 +2,9 @@
 
 The front end is the web page's own ES module (``static/explorer.js``) with a few lines of
 glue (``static/widget.js``); messages travel over the widget's comm instead of a WebSocket and
-are answered by the same :class:`~brdfkit.explore.session.Session` in the kernel.
+are answered by the same :class:`~brdfkit.explore.session.Session` in the kernel; the
+environment-lit spheres' passes are sent from a background thread as they come, the next
+message cancelling them.
 
 References
 ----------
@@ -13,7 +15,8 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -62,7 +65,15 @@ class Explorer(anywidget.AnyWidget):
     def __init__(self, *items: str | os.PathLike | BRDF, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.session = Session()
-        self.config = json.dumps({"initial": self._initial(items), "files": self.session.files})
+        self.config = json.dumps(
+            {
+                "initial": self._initial(items),
+                "files": self.session.files,
+                "envmap": self.session.envmap_name,
+            }
+        )
+        self._cancel = threading.Event()
+        self._passes: threading.Thread | None = None
         self.on_msg(self._receive)
 
     def _initial(self, items: Sequence[str | os.PathLike | BRDF]) -> list[str]:
@@ -92,12 +103,38 @@ class Explorer(anywidget.AnyWidget):
             out.append((header, buffers))
         return out
 
+    def environment(
+        self, content: Any, cancel: threading.Event
+    ) -> Iterator[tuple[dict[str, Any], list[bytes]]]:
+        """The environment-lit spheres of a render message, pass by pass
+        (:meth:`Session.environment`), until ``cancel`` is set; nothing for another message
+        or with the environment view off."""
+        try:
+            message = parse_object(content)
+        except ProtocolError:
+            return
+        if message.type != "render":
+            return
+        for header, arrays in self.session.environment(message, cancel):
+            yield header, array_table(arrays)[1]
+
     def _receive(self, _widget: Any, content: Any, _buffers: list[Any]) -> None:
+        self._cancel.set()  # a newer message stops the passes under way
         for header, buffers in self.handle(content):
             self.send(header, buffers)
+        if isinstance(content, dict) and content.get("type") == "render":
+            cancel = self._cancel = threading.Event()
+
+            def send_passes() -> None:
+                for header, buffers in self.environment(content, cancel):
+                    self.send(header, buffers)
+
+            self._passes = threading.Thread(target=send_passes, daemon=True)
+            self._passes.start()
 
     def close(self) -> None:
-        """Close the widget and remove its session's uploads."""
+        """Close the widget, stop its passes and remove its session's uploads."""
+        self._cancel.set()
         self.session.close()
         super().close()
 

@@ -482,7 +482,9 @@ class TabulatedBRDF(MixtureSampled):
         # divides, so unmeasured nodes drop out of the interpolation.
         measured = np.all(np.nan_to_num(values, nan=-1.0) >= 0, axis=-1, keepdims=True)
         table = np.concatenate([np.where(measured, values * scale, 0.0), measured], axis=-1)
-        object.__setattr__(self, "_table", table.reshape(-1, channels + 1))
+        # C order: np.take copies a non-contiguous table (a MERL file's is transposed) whole
+        # on every call
+        object.__setattr__(self, "_table", np.ascontiguousarray(table.reshape(-1, channels + 1)))
 
     @property
     def isotropic(self) -> bool:  # type: ignore[override]

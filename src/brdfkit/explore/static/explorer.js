@@ -62,21 +62,48 @@ function encodeDisplay(v, display) {
   return Math.round(g * 255);
 }
 
+// The 8-bit display encoding as a table: thresholds[k] is the least linear value shown as k
+// (found by bisection on encodeDisplay itself), and a coarse index into them, so that a pixel
+// costs a table read and a comparison or two instead of a power — the same levels as
+// encodeDisplay.
+const LUT_BINS = 4096;
+const encoders = new Map();
+function encoder(display) {
+  const key = String(display.gamma);
+  if (encoders.has(key)) return encoders.get(key);
+  const thresholds = new Float64Array(257);
+  thresholds[256] = Infinity;
+  for (let k = 1; k < 256; k++) {
+    let lo = 0, hi = 1;
+    for (let i = 0; i < 60; i++) { const mid = (lo + hi) / 2; if (encodeDisplay(mid, display) >= k) hi = mid; else lo = mid; }
+    thresholds[k] = hi;
+  }
+  const start = new Uint8Array(LUT_BINS + 1);
+  for (let b = 0, k = 0; b <= LUT_BINS; b++) { while (k < 255 && thresholds[k + 1] <= b / LUT_BINS) k++; start[b] = k; }
+  const encode = (x) => {
+    if (!(x > 0)) return 0;
+    if (x >= 1) return 255;
+    let k = start[(x * LUT_BINS) | 0];
+    while (x >= thresholds[k + 1]) k++;
+    return k;
+  };
+  encoders.set(key, encode);
+  return encode;
+}
+
 // Linear (R, R, C) image → RGBA pixels with exposure, channel and display encoding.
 export function toPixels(data, size, channels, display) {
   const out = new Uint8ClampedArray(size * size * 4);
-  const scale = Math.pow(2, display.exposure);
+  const scale = Math.pow(2, display.exposure), encode = encoder(display);
+  const k = { r: 0, g: 1, b: 2 }[display.channel];
   for (let p = 0; p < size * size; p++) {
     let r, g, b;
     if (channels === 1) r = g = b = data[p];
     else if (display.channel === "rgb") { r = data[3 * p]; g = data[3 * p + 1]; b = data[3 * p + 2]; }
-    else {
-      const k = { r: 0, g: 1, b: 2 }[display.channel];
-      r = g = b = k === undefined ? LUMA[0] * data[3 * p] + LUMA[1] * data[3 * p + 1] + LUMA[2] * data[3 * p + 2] : data[3 * p + k];
-    }
-    out[4 * p] = encodeDisplay(r * scale, display);
-    out[4 * p + 1] = encodeDisplay(g * scale, display);
-    out[4 * p + 2] = encodeDisplay(b * scale, display);
+    else r = g = b = k === undefined ? LUMA[0] * data[3 * p] + LUMA[1] * data[3 * p + 1] + LUMA[2] * data[3 * p + 2] : data[3 * p + k];
+    out[4 * p] = encode(r * scale);
+    out[4 * p + 1] = encode(g * scale);
+    out[4 * p + 2] = encode(b * scale);
     out[4 * p + 3] = 255;
   }
   return out;
@@ -241,7 +268,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, env: {}, shown: { seq: 0, time: 0 }, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -466,9 +493,11 @@ export function createExplorer(root, transport, config = {}) {
     if (header.type === "frame") {
       if (header.seq === inFlight) inFlight = 0;
       frame = { header, arrays };
+      const start = performance.now();
       applyEntries(header.entries);
       redraw();
       api.shown = { seq: header.seq, time: performance.now() };
+      api.drawMs = api.shown.time - start;
       status.textContent = "";
       for (const f of listeners) f(header);
       if (pending && !inFlight) { pending = false; changed(); }
@@ -519,7 +548,9 @@ export function createExplorer(root, transport, config = {}) {
     const size = header.arrays[0].shape[0];
     Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
     api.env[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, time: performance.now() };
-    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    const noise = header.noise === null ? "" : ` · noise ${(100 * header.noise).toFixed(1)} %`;
+    const what = header.samples ? `${header.samples} spp` : "exact diffuse term (0 spp)";
+    item.caption.textContent = `${what}${noise} · ${header.seconds.toFixed(2)} s`;
     drawEnvs();
   }
   function drawEnvs() {
@@ -690,6 +721,11 @@ export function createExplorer(root, transport, config = {}) {
     setTimeout(() => URL.revokeObjectURL(a.href), 1000);
   }
   async function uploadFile(file) {
+    const limit = config.max_upload;
+    if (limit && file.size > limit) {  // the server refuses it too (413)
+      status.textContent = `'${file.name}' holds ${file.size} bytes; an upload holds at most ${limit / 1048576} MiB (${limit} bytes)`;
+      return;
+    }
     status.textContent = `uploading ${file.name}…`;
     try {
       const reply = await transport.upload(file);
