@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import secrets
 import socket
 import threading
@@ -115,7 +116,12 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
 
     async def config(request: Request) -> Response:
         return JSONResponse(
-            {"initial": initial, "files": session.files, "envmap": session.envmap_name},
+            {
+                "initial": initial,
+                "files": session.files,
+                "envmap": session.envmap_name,
+                "materials": _material_choices(),  # the picker of static/materials.js
+            },
             headers=SECURITY_HEADERS,
         )
 
@@ -304,6 +310,14 @@ class ExplorerServer:
             self._thread.join(timeout=5)
         self._socket.close()
         self.session.close()
+
+
+@functools.cache
+def _material_choices() -> list[list[str]]:
+    """``[fit, name, spec]`` of every real-material preset, for the page's material picker."""
+    from brdfkit.materials import catalogue
+
+    return [[r["fit"], r["name"], r["spec"]] for r in catalogue()]
 
 
 __all__ = ["STATIC", "ExplorerServer", "Guard", "build_app"]
