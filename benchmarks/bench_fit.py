@@ -3,9 +3,12 @@
 A MERL file is written from Lambertian + two GGX lobes (a sharp and a broad one), read back, and
 ``lambertian + ggx + ggx`` is fitted to it with :func:`brdfkit.fit.fit` (defaults: 4 starts on
 4 000 samples, refinement on 30 000, errors on all measured nodes), with a rich progress bar on
-stderr. The same run measures, on all the table's samples, one NumPy evaluation of the
-3-lobe model against one torch forward + backward pass (the cost of an autograd gradient), the
-comparison behind the choice of finite-difference least squares on NumPy.
+stderr: by the default path (the Jacobian one lobe per column, one BLAS thread inside the least
+squares) and, interleaved in the same run (``--repeats`` pairs), by the previous one as the peer
+(scipy's ``"2-point"`` Jacobian, P + 1 full evaluations, the process's BLAS threads). The same
+run measures, on all the table's samples, one NumPy evaluation of the 3-lobe model against one
+torch forward + backward pass (the cost of an autograd gradient), the comparison behind the
+choice of finite-difference least squares on NumPy.
 
 Prints one JSON object: wall time, samples, recovered parameters, errors, and the timings.
 Run with two threads to reproduce the 2-core figure: ``OMP_NUM_THREADS=2 python
@@ -14,6 +17,7 @@ benchmarks/bench_fit.py``.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -21,6 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import brdfkit.fit as fitting
 from brdfkit.brdf import MODELS, parse
 from brdfkit.fit import fit, fit_data
 from brdfkit.measured import read_merl, write_merl
@@ -61,28 +66,46 @@ def main() -> None:
         path = write_merl(Path(folder) / "three_lobes.binary", parse(TRUTH))
         table = read_merl(path)
     data = fit_data(table)
-    with Progress(console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("fit", total=1)
-        result = fit(
-            table,
-            MODEL,
-            progress=lambda done, total, text: bar.update(
-                task, completed=done, total=total, description=text
-            ),
-        )
-    alphas = sorted([result.params["1.ggx.alpha"], result.params["2.ggx.alpha"]])
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=2)
+    repeats = parser.parse_args().repeats
+    paths = {"default": ("lobes", 1), "peer_2point": ("2-point", None)}
+    runs: dict[str, list[dict]] = {name: [] for name in paths}
+    for _ in range(repeats):
+        for name, (jacobian, threads) in paths.items():
+            fitting._JACOBIAN, fitting._BLAS_THREADS = jacobian, threads
+            with Progress(console=Console(stderr=True), transient=True) as bar:
+                task = bar.add_task(name, total=1)
+                result = fit(
+                    table,
+                    MODEL,
+                    progress=lambda done, total, text, task=task: bar.update(
+                        task, completed=done, total=total, description=text
+                    ),
+                )
+            alphas = sorted([result.params["1.ggx.alpha"], result.params["2.ggx.alpha"]])
+            runs[name].append(
+                {
+                    "seconds": round(result.seconds, 2),
+                    "nfev": result.nfev,
+                    "alpha_relative_errors": [abs(alphas[0] / 0.05 - 1), abs(alphas[1] / 0.3 - 1)],
+                    "cube_root_rmse": result.errors["cube_root_rmse"],
+                    "success": result.success,
+                }
+            )
+    fitting._JACOBIAN, fitting._BLAS_THREADS = paths["default"]
     record = {
         "samples": result.samples,
         "fit_samples": result.fit_samples,
-        "seconds": round(result.seconds, 2),
         "threads": os.environ.get("OMP_NUM_THREADS", "all"),
         "cpus": os.cpu_count(),
+        "load_average": os.getloadavg(),
         "truth": TRUTH,
-        "spec": result.spec,
-        "alpha_relative_errors": [abs(alphas[0] / 0.05 - 1), abs(alphas[1] / 0.3 - 1)],
-        "errors": result.errors,
-        "nfev": result.nfev,
-        "success": result.success,
+        "runs": runs,
+        "speedup": [
+            round(p["seconds"] / d["seconds"], 2)
+            for d, p in zip(runs["default"], runs["peer_2point"], strict=True)
+        ],
         **torch_timing(data),
     }
     json.dump(record, sys.stdout, indent=2)

@@ -2,8 +2,9 @@
 still good on it?
 
 For each of the five shared measured files (four Cornell paints, the RGL felt) and each
-configuration of :data:`CONFIGS` (model × objective, soft-L1 loss), the mean CIEDE2000 of the
-measured and fitted spheres under the default light (as ``bench_cornell_fits.py``). Then, per
+configuration of :data:`CONFIGS` (model × objective, soft-L1 loss; the models include Lambertian
++ two GGX lobes), the mean CIEDE2000 of the measured and fitted spheres under the default light
+(as ``bench_cornell_fits.py``). Then, per
 held-out file, the configuration with the least mean over the *other four* files, and its score
 on the held-out one. Prints a Markdown table; writes ``benchmarks/results/loo_fits.json``.
 
@@ -32,7 +33,7 @@ FILES = (
 )
 CONFIGS = tuple(
     (model, objective)
-    for model in ("lambertian + cook_torrance", "lambertian + ggx")
+    for model in ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ggx + ggx")
     for objective in ("cube_root", "log")
 )
 ROOT = Path(__file__).resolve().parents[1]

@@ -248,3 +248,32 @@ def test_cornell_fits_converge_and_look_like_the_measurement(shared_data, materi
         wrong = sphere_difference(other, result.model, resolution=48).mean
         assert look < lambertian_look, (spec, look, lambertian_look)
         assert look < min(wrong / 2, ALIKE), (spec, look, wrong)
+
+
+@pytest.mark.parametrize("objective", ["cosine", "cube_root"])
+def test_lobe_jacobian_equals_scipys_differences(objective):
+    """The Jacobian that re-evaluates one lobe per column is scipy's "2-point" Jacobian of the
+    whole model's residuals (same steps), to the rounding of the differences."""
+    from scipy.optimize._numdiff import approx_derivative
+
+    from brdfkit import fit as fitting
+
+    data = _samples("lambertian(rho=[0.3, 0.2, 0.1]) + [0.4, 0.5, 0.6] * ggx(alpha=0.2)", 400)
+    lobes = fitting._lobes(parse("lambertian + 0.5 * ggx(alpha=0.15)"))
+    free = fitting._free_parameters(lobes, [set(), set()], (), 3)
+    x = np.concatenate([p.initial for p in free])
+    lower = np.concatenate([np.full(p.size, p.lower) for p in free])
+    upper = np.concatenate([np.full(p.size, p.upper) for p in free])
+    robust = fitting._Robust(objective, "linear", 1.0)
+    ours = fitting._LobeValues(lobes, free, data).jacobian(
+        x, np.arange(x.size), lower, upper, robust, slice(None)
+    )
+
+    def whole(x_):
+        model = fitting._assemble(lobes, free, x_, relax=True)
+        return residuals(model, data, objective).ravel()
+
+    theirs = approx_derivative(whole, x, method="2-point", bounds=(lower, upper))
+    assert ours.shape == theirs.shape == (1200, x.size)
+    scale = np.abs(theirs).max(axis=0)
+    assert np.all(np.abs(ours - theirs).max(axis=0) <= 1e-6 * scale)

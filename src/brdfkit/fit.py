@@ -64,13 +64,22 @@ colours alone (the :data:`COLOUR_PARAMETERS` and the lobes' factors), its shape 
 everything. A start far too bright otherwise escapes through its shape: Cook–Torrance started at
 m = 0.4 shrank m to 0.02 and tuned η to dim itself. Every start is optimised on a seeded random
 subset of ``coarse_samples`` measurements; the best is refined on ``max_samples`` of them, and the
-errors are reported on all. With finite differences one Jacobian costs (P + 1) evaluations of the
-model, so subsets keep a 1.5 M-sample MERL table to well under a minute (6.8–7.9 s for Lambertian +
-2 GGX lobes on 1.11 M measured nodes, two cores, Intel Xeon, six runs). Torch autograd would not
-make it cheaper: a forward and backward pass of that model on all the nodes takes about as long as
-one NumPy evaluation (0.56–0.74 s against 0.46–0.56 s), and it gives a gradient, whereas the
-trust-region least squares needs the whole Jacobian (one backward pass per residual, or one
-forward-mode pass per parameter, as the finite differences take); see ``benchmarks/bench_fit.py``.
+errors are reported on all.
+
+**Jacobian.** The model is a sum of lobes and a parameter changes one lobe only, so each column
+of the forward-difference Jacobian re-evaluates that lobe alone beside the others' cached values,
+and a lobe factor's column needs no evaluation at all (scipy's own ``"2-point"`` differences take
+P + 1 evaluations of the whole model). The least squares runs its SVDs of the tall, narrow
+Jacobian on one BLAS thread (threads do not speed them up; on a busy machine a threaded OpenBLAS
+spins and makes them tens of times slower). Lambertian + 2 GGX lobes fitted to a MERL-sized table
+(1.11 M measured nodes): 302 evaluations against 1509 (the better Jacobian converges in fewer
+steps), both α recovered to 10⁻¹⁵, 6.2–7.2 s against 63–73 s by scipy's differences on threaded
+BLAS, measured interleaved on the 2-core machine under a load average of 16 (about 8 other jobs;
+one NumPy evaluation of the model on all nodes took 2.1 s there, against 0.46–0.56 s quiet);
+``benchmarks/bench_fit.py``. Torch autograd would not make it cheaper: a forward and backward pass
+of that model on all the nodes takes about as long as one NumPy evaluation (0.56–0.74 s against
+0.46–0.56 s, quiet), and it gives a gradient, whereas the trust-region least squares needs the
+whole Jacobian (one backward pass per residual, or one forward-mode pass per parameter).
 
 References
 ----------
@@ -150,6 +159,17 @@ SAMPLES = (10, 100_000_000)
 
 EVALUATIONS = (1, 1_000_000)
 """The allowed range of :func:`fit`'s ``max_nfev``."""
+
+_BLAS_THREADS: int | None = 1
+"""BLAS threads inside a least-squares run (``None``: the process's own). Its SVDs and products
+are of tall, narrow Jacobians (≤ 10⁵ × a dozen), which threads do not speed up; on a busy machine
+a threaded OpenBLAS spins and makes them tens of times slower (12 000 × 11: 6 ms on one thread,
+0.15–0.23 s on two, under load)."""
+
+_JACOBIAN = "lobes"
+"""How a least-squares run differentiates: ``"lobes"`` (:class:`_LobeValues`: one lobe
+re-evaluated per column, factors free) or ``"2-point"`` (scipy's own differences, P + 1 full
+evaluations; the peer in ``benchmarks/bench_fit.py``)."""
 
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
@@ -493,6 +513,18 @@ def _without_redundant_diffuse(lobes: list[_Lobe], explicit: list[set[str]]) -> 
 
 def _assemble(lobes: list[_Lobe], free: list[_Free], x: np.ndarray, relax: bool) -> BRDF:
     """The model with the free parameters set from the vector ``x``."""
+    built = [
+        inner if scale is None else Scaled(scale, inner)
+        for inner, scale in _terms(lobes, free, x, relax)
+    ]
+    return built[0] if len(built) == 1 else Sum(tuple(built))
+
+
+def _terms(
+    lobes: list[_Lobe], free: list[_Free], x: np.ndarray, relax: bool, only: int | None = None
+) -> list[tuple[BRDF, Any]]:
+    """Each lobe as ``(inner model, factor or None)`` with the free parameters set from ``x``
+    (only lobe ``only`` if given: a one-element list)."""
     changes: list[dict[str, Any]] = [{} for _ in lobes]
     scales = [lobe.scale for lobe in lobes]
     i = 0
@@ -504,13 +536,14 @@ def _assemble(lobes: list[_Lobe], free: list[_Free], x: np.ndarray, relax: bool)
             scales[p.lobe] = value
         else:
             changes[p.lobe][p.name] = value
-    built = []
-    for lobe, change, scale in zip(lobes, changes, scales, strict=True):
+    terms = []
+    for k, (lobe, change, scale) in enumerate(zip(lobes, changes, scales, strict=True)):
+        if only is not None and k != only:
+            continue
         if relax and "allow_unphysical" in _field_names(type(lobe.inner)):
             change["allow_unphysical"] = True
-        inner = dataclasses.replace(lobe.inner, **change) if change else lobe.inner
-        built.append(inner if scale is None else Scaled(scale, inner))
-    return built[0] if len(built) == 1 else Sum(tuple(built))
+        terms.append((dataclasses.replace(lobe.inner, **change) if change else lobe.inner, scale))
+    return terms
 
 
 def _physical(model: BRDF) -> BRDF:
@@ -603,9 +636,9 @@ class FitResult:
     errors : :func:`fit_errors` on all valid measurements.
     objective, loss, mode : as requested. loss_scale : the residual scale the loss used
     (absolute). cost : the final loss on the refinement set (½Σr² for ``"linear"``).
-    starts : restarts tried. nfev : model evaluations in all. samples : measurements in the
-    errors. fit_samples : measurements in the refinement. success, message : from scipy.
-    seconds : wall time.
+    starts : restarts tried. nfev : residual evaluations and Jacobians in all. samples :
+    measurements in the errors. fit_samples : measurements in the refinement. success,
+    message : from scipy. seconds : wall time.
     """
 
     model: BRDF
@@ -642,6 +675,82 @@ class _Robust:
     f_scale: float
 
 
+class _LobeValues:
+    r"""The model's values lobe by lobe at the measurements, and its residuals' Jacobian.
+
+    The model is a sum :math:`\hat f = \sum_j k_j g_j(\theta_j)`; a parameter of lobe
+    :math:`j` changes that lobe alone, so each column of the forward-difference Jacobian
+    re-evaluates one lobe (:math:`g_j` at :math:`\theta_j + h e`) and adds it to the other lobes'
+    cached values; a factor's column needs no evaluation (:math:`k_j + h e` times the cached
+    :math:`g_j`). The columns are scipy's ``"2-point"`` differences (its step
+    :math:`h = \sqrt{\epsilon}\max(1, |x|)`, turned back where it would cross a bound), at a
+    fraction of the (P + 1) full evaluations.
+    """
+
+    def __init__(self, lobes: list[_Lobe], free: list[_Free], data: MeasuredSamples):
+        self.lobes, self.free, self.data = lobes, free, data
+        self.owner = [(p, j) for p in free for j in range(p.size)]
+        self._key: bytes | None = None
+        self._values: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def _term_values(self, inner: BRDF, scale: Any) -> tuple[np.ndarray, np.ndarray]:
+        g = np.broadcast_to(
+            to_numpy(inner.eval(self.data.wi, self.data.wo)), self.data.values.shape
+        )
+        return g, np.asarray(1.0 if scale is None else scale, dtype=np.float64)
+
+    def values(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``(g_j, k_j)`` of every lobe at ``x`` (cached for the last ``x``)."""
+        key = x.tobytes()
+        if key != self._key:
+            terms = _terms(self.lobes, self.free, x, relax=True)
+            self._values = [self._term_values(inner, scale) for inner, scale in terms]
+            self._key = key
+        return self._values
+
+    @staticmethod
+    def total(values: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+        total = values[0][1] * values[0][0]
+        for g, k in values[1:]:
+            total = total + k * g
+        return total
+
+    def jacobian(
+        self,
+        x: np.ndarray,
+        columns: np.ndarray,
+        lower: np.ndarray,
+        upper: np.ndarray,
+        robust: _Robust,
+        channels: slice,
+    ) -> np.ndarray:
+        """The forward-difference Jacobian of the residuals over the entries ``columns``."""
+        values = self.values(x)
+        total = self.total(values)
+        r0 = _residuals(total, self.data, robust.objective)[:, channels].ravel()
+        jacobian = np.empty((r0.size, columns.size))
+        for c, i in enumerate(columns):
+            p, j = self.owner[i]
+            h = math.sqrt(np.finfo(np.float64).eps) * max(1.0, abs(x[i])) * (1 if x[i] >= 0 else -1)
+            if not lower[i] <= x[i] + h <= upper[i] and lower[i] <= x[i] - h <= upper[i]:
+                h = -h
+            h = (x[i] + h) - x[i]
+            g, k = values[p.lobe]
+            if p.name == "scale":
+                step = np.zeros(np.broadcast_shapes(k.shape, (p.size,)))
+                step[j] = h
+                changed = total + step * g
+            else:
+                x_step = x.copy()
+                x_step[i] += h
+                ((inner, scale),) = _terms(self.lobes, self.free, x_step, relax=True, only=p.lobe)
+                g_step, k_step = self._term_values(inner, scale)
+                changed = total - k * g + k_step * g_step
+            r = _residuals(changed, self.data, robust.objective)[:, channels].ravel()
+            jacobian[:, c] = (r - r0) / h
+        return jacobian
+
+
 def _least_squares(
     lobes: tuple[BRDF, ...],
     free: list[_Free],
@@ -655,30 +764,44 @@ def _least_squares(
 ) -> Any:
     """Least squares over the entries of ``x0`` where ``active`` holds (the rest stay put)."""
     from scipy.optimize import least_squares
+    from threadpoolctl import threadpool_limits
 
     lower = np.concatenate([np.full(p.size, p.lower) for p in free])
     upper = np.concatenate([np.full(p.size, p.upper) for p in free])
     x0 = np.clip(x0, lower, upper)
+    model = _LobeValues(lobes, free, data)
     calls = [0]
+
+    def full(x_active: np.ndarray) -> np.ndarray:
+        x = x0.copy()
+        x[active] = x_active
+        return x
 
     def fun(x_active: np.ndarray) -> np.ndarray:
         calls[0] += 1
         report(calls[0])
-        x = x0.copy()
-        x[active] = x_active
-        model = _assemble(lobes, free, x, relax=True)
-        return residuals(model, data, robust.objective)[:, channels].ravel()
+        total = model.total(model.values(full(x_active)))
+        return _residuals(total, data, robust.objective)[:, channels].ravel()
 
-    result = least_squares(
-        fun,
-        x0[active],
-        bounds=(lower[active], upper[active]),
-        method="trf",
-        x_scale="jac",
-        loss=robust.loss,
-        f_scale=robust.f_scale,
-        max_nfev=max_nfev,
-    )
+    def jac(x_active: np.ndarray) -> np.ndarray:
+        calls[0] += 1
+        report(calls[0])
+        return model.jacobian(
+            full(x_active), np.flatnonzero(active), lower, upper, robust, channels
+        )
+
+    with threadpool_limits(_BLAS_THREADS, user_api="blas"):
+        result = least_squares(
+            fun,
+            x0[active],
+            jac=jac if _JACOBIAN == "lobes" else _JACOBIAN,
+            bounds=(lower[active], upper[active]),
+            method="trf",
+            x_scale="jac",
+            loss=robust.loss,
+            f_scale=robust.f_scale,
+            max_nfev=max_nfev,
+        )
     x = x0.copy()
     x[active] = result.x
     result.x, result.calls = x, calls[0]

@@ -4,11 +4,12 @@ fits, models and sources."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import typer
 from rich.text import Text
 
-from brdfkit.cli._app import app, console, fail
+from brdfkit.cli._app import app, console, fail, progress, shown
 
 
 @app.command("materials")
@@ -28,6 +29,12 @@ def materials_command(
     as_json: bool = typer.Option(
         False, "--json", help="Print the presets as JSON (with specs and citations)."
     ),
+    gallery: Path | None = typer.Option(
+        None,
+        "--gallery",
+        metavar="OUT.html",
+        help="Write a page with one small sphere per preset kept (a few seconds for all).",
+    ),
 ) -> None:
     """List the real-material presets: each MERL material as fitted by a published model, for
     specs such as brdfkit render "material(name='alum-bronze', fit='ngan_ward')"."""
@@ -36,6 +43,9 @@ def materials_command(
     if fit is not None and fit not in fits():
         fail(f"--fit: unknown fit {fit!r}; expected one of {', '.join(fits())}")
     records = catalogue(fit=fit, model=model)
+    if gallery is not None:
+        _write_gallery(gallery, fit, model, len(records))
+        return
     if as_json:
         typer.echo(json.dumps(records, indent=2, ensure_ascii=False))
         return
@@ -46,3 +56,18 @@ def materials_command(
         chosen = [r["name"] for r in records if r["fit"] == key]
         console.print(Text(f"{key}", style="bold") + Text(f"  ({len(chosen)}) {citation(key)}"))
         console.print(Text("  " + ", ".join(chosen)), soft_wrap=False)
+
+
+def _write_gallery(path: Path, fit: str | None, model: str | None, count: int) -> None:
+    from brdfkit.cli._output import output_file
+    from brdfkit.io import atomic_write_bytes
+    from brdfkit.materials.gallery import gallery_html
+
+    path = output_file(path, option="--gallery", suffixes=(".html", ".htm"))
+    if count == 0:
+        fail(f"--model: no presets match {model!r}; nothing to draw")
+    with progress() as bar:
+        task = bar.add_task("spheres", total=count)
+        page = gallery_html(fit, model, progress=lambda done, _: bar.update(task, completed=done))
+    atomic_write_bytes(path, page.encode("utf-8"))
+    console.print(f"wrote {shown(path)} ({count} presets)")

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import secrets
 import socket
 import threading
@@ -120,6 +121,7 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
                 "files": session.files,
                 "envmap": session.envmap_name,
                 "max_upload": MAX_UPLOAD_BYTES,
+                "materials": _material_choices(),  # the picker of static/materials.js
             },
             headers=SECURITY_HEADERS,
         )
@@ -323,6 +325,14 @@ class ExplorerServer:
             self._thread.join(timeout=5)
         self._socket.close()
         self.session.close()
+
+
+@functools.cache
+def _material_choices() -> list[list[str]]:
+    """``[fit, name, spec]`` of every real-material preset, for the page's material picker."""
+    from brdfkit.materials import catalogue
+
+    return [[r["fit"], r["name"], r["spec"]] for r in catalogue()]
 
 
 __all__ = ["STATIC", "ExplorerServer", "Guard", "build_app"]

@@ -1,6 +1,7 @@
 // The web page's transport: one WebSocket to the local server (same origin, token in the path),
 // uploads by POST. The page's state lives in its URL (#s=…), so that the URL restores it.
 import { createExplorer, decodeState } from "./explorer.js";
+import { materialPicker } from "./materials.js";
 
 function transport(base) {
   const url = base.replace(/^http/, "ws") + "ws";
@@ -43,3 +44,4 @@ const base = location.origin + location.pathname.replace(/[^/]*$/, "");
 const config = await (await fetch(base + "config")).json();
 const saved = location.hash.startsWith("#s=") ? decodeState(location.hash.slice(3)) : null;
 window.explorer = createExplorer(document.getElementById("explorer"), transport(base), { ...config, saved, url: true });
+materialPicker(document.getElementById("explorer"), config.materials);
