@@ -9,7 +9,10 @@ formula:
 1. **Trace.** The model method (``eval``, ``pdf``, ``sample``) is run once by
    :func:`jax.make_jaxpr` on a batch of *one* direction pair (the models are written against
    the array API, so they run on JAX unchanged). The jaxpr is the model's arithmetic as a
-   graph of primitives; the parameters enter it as constants.
+   graph of primitives. The model's numeric parameters enter it as inputs: the model is
+   rebuilt on abstract values of their shapes (:mod:`brdfkit._structure`), so the graph
+   depends on the model's structure alone. Where a model's constructor needs concrete values
+   (it branches on one in Python), they enter as constants instead.
 2. **Scalarise.** The graph is interpreted on NumPy *object* arrays whose elements are scalar
    symbols: every array of the batch-of-one trace becomes its handful of per-lane scalars
    (``(1, 3)`` → 3 scalars), so slicing, concatenation, broadcasting and reductions over the
@@ -18,7 +21,9 @@ formula:
 3. **Compile.** That code is the body of a ``numba.njit(nogil=True)`` loop over a range of
    the batch; LLVM vectorises it across lanes (AVX2: 8 float32 lanes; AVX-512: 16, asked for
    per kernel, see :func:`vector_bits`), and blocks of the batch run on a thread pool. Kernels
-   are cached per model structure, parameter values and dtype; their outputs come from a
+   are cached per model structure and dtype (a new parameter set costs neither tracing nor
+   compiling: its values are the kernel's parameter array, and what depends on them alone is
+   computed once per call, before the loop); their outputs come from a
    pool that reuses memory no array refers to any more (fresh pages cost their zeroing).
 
 A model's method qualifies when it is elementwise over the batch (every protocol method is:

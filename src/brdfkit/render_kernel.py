@@ -588,9 +588,10 @@ def _uniforms(
 AUTO_COMPILE_WORK = 4_000_000
 """Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
 trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes 5–10 s
-per model on a 2-core machine, about what the NumPy path takes for this many MIS
+per model structure on a 2-core machine, about what the NumPy path takes for this many MIS
 pixel-samples of a GGX conductor (~1.7 µs each). Below it, the NumPy path unless the kernels
-are built already."""
+are built already — for any model of the same structure (:func:`kernels_built`): once one
+parameter set is built, every other set of that structure shades compiled at no build cost."""
 
 
 def compiled_shader(
