@@ -49,7 +49,6 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -551,14 +550,7 @@ class EnvironmentShader:
                 *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi],
             )  # fmt: skip
 
-        starts = range(0, pixels.size, _CHUNK)
-        workers = min(accel.threads(), len(starts))
-        if workers <= 1:
-            for lo in starts:
-                run(lo)
-        else:
-            with ThreadPoolExecutor(workers) as pool:
-                list(pool.map(run, starts))
+        accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
         mean[pixels], m2[pixels] = found_mean, found_m2
         shape = (*batch, self.channels)
         return mean.reshape(shape), m2.reshape(shape)
