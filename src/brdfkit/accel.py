@@ -10,7 +10,7 @@ formula:
    :func:`jax.make_jaxpr` on a batch of *one* direction pair (the models are written against
    the array API, so they run on JAX unchanged). The jaxpr is the model's arithmetic as a
    graph of primitives. The model's numeric parameters enter it as inputs: the model is
-   rebuilt on abstract values of their shapes (:mod:`brdfkit._structure`), so the graph
+   rebuilt on abstract values of their shapes (``brdfkit._structure``), so the graph
    depends on the model's structure alone. Where a model's constructor needs concrete values
    (it branches on one in Python), they enter as constants instead.
 2. **Scalarise.** The graph is interpreted on NumPy *object* arrays whose elements are scalar
@@ -1112,7 +1112,7 @@ class CompiledBRDF:
     The methods take and return NumPy arrays with the protocol's shapes; inputs are converted
     to the compiled ``dtype``. Each method's kernel is built on its first call (its build time
     is in :attr:`compile_seconds`) and kept for the model's *structure*
-    (:mod:`brdfkit._structure`: its spec tree with the parameter values left out), which reads
+    (``brdfkit._structure``: its spec tree with the parameter values left out), which reads
     the values from :attr:`parameters` at each call: a model of the same structure with other
     values reuses it without tracing or compiling. Where a model's constructor cannot take
     abstract values (it reads a parameter's value in Python), its kernels bake the values in,
@@ -1136,7 +1136,7 @@ class CompiledBRDF:
         self.parameters = np.concatenate(
             [np.asarray(v, dtype=self.dtype).reshape(-1) for v in values] or [np.zeros(0)]
         ).astype(self.dtype)
-        """The model's parameter values, flat, in :func:`brdfkit._structure.split`'s order."""
+        """The model's parameter values, flat, in ``brdfkit._structure.split``'s order."""
 
     @property
     def channels(self) -> int:
