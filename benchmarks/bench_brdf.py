@@ -19,6 +19,7 @@ Run ``benchmarks/setup.sh`` once, then ``python benchmarks/bench_brdf.py``; resu
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -276,6 +277,16 @@ class Runner:
         for (impl, (_, extra)), timing in zip(fns.items(), timings, strict=True):
             self.add("eval", n, impl, timing, **extra)
         if n <= 1_000_000:  # one call allocates ~200 bytes per pair: 2 GB at 1e7
+            # Another parameter set of the same structure: no trace, no compile (its first
+            # call's extra time is the binding of its values only).
+            other = accel.compile(dataclasses.replace(ggx32, alpha=np.float32(0.35)))
+            self.add(
+                "eval",
+                n,
+                "brdfkit accel f32, new parameters",
+                lambda: other.eval(wi, wo),
+                r,
+            )
             self.add("eval", n, "brdfkit NumPy f32", lambda: ggx32.eval(wi, wo), slow)
             self.add("eval", n, "brdfkit NumPy f64", lambda: ggx64.eval(wi64, wo64), slow)
         if workers > 1:  # what the threads add (NumPy holds the GIL between its loops)

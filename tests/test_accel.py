@@ -370,3 +370,49 @@ def test_eval_chunked_bad_arguments() -> None:
         accel.eval_chunked(model, w, w, workers=0)
     with pytest.raises(ValueError, match="out must be a C-contiguous array"):
         accel.eval_chunked(model, w, w, out=np.empty((10, 2)))
+
+
+def _no_second_build(*args, **kwargs):
+    raise AssertionError("a kernel was traced or compiled again")
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_a_second_parameter_set_of_one_structure_reuses_the_kernels(dtype, monkeypatch) -> None:
+    """The kernels depend on the model's structure; parameter values are read at call time."""
+    first = RoughConductor(
+        alpha=0.3, eta=[0.2, 0.4, 1.4], k=[3.0, 2.5, 1.9], masking="smith_separable"
+    )
+    second = RoughConductor(
+        alpha=0.07, eta=[1.1, 0.9, 0.3], k=[2.0, 2.2, 3.1], masking="smith_separable"
+    )
+    rng = np.random.default_rng(7)
+    wi, wo = directions(rng, 3000, dtype), directions(rng, 3000, dtype)
+    u = rng.random((3000, 2)).astype(dtype)
+    a = accel.compile(first, dtype)
+    a.eval(wi, wo), a.pdf(wi, wo), a.sample(wo, u)
+    b = accel.compile(second, dtype)
+    assert all(b.built(m, w) for m, w in (("eval", 0), ("pdf", 0), ("sample", 2)))
+    monkeypatch.setattr(accel, "_compile", _no_second_build)
+    monkeypatch.setattr(accel, "_numba_kernel", _no_second_build)
+    assert b._kernel("eval")._function is a._kernel("eval")._function
+    assert b.compile_seconds == 0
+    rtol = 1e-11 if dtype == np.float64 else 64 * float(np.finfo(np.float32).eps)
+    for compiled, model in ((b, second), (a, first)):
+        assert_close(compiled.eval(wi, wo), model.eval(wi, wo), rtol)
+        assert_close(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol)
+        if dtype == np.float64:  # float32 sampling: see the error-budget test above
+            ours, theirs = compiled.sample(wo, u), model.sample(wo, u)
+            assert_close(ours.wi, theirs.wi, rtol)
+            assert_close(ours.weight, theirs.weight, 100 * rtol)
+    assert not np.allclose(b.eval(wi, wo), a.eval(wi, wo))
+
+
+def test_a_constructor_that_needs_values_bakes_them_in() -> None:
+    """Models whose constructor reads a parameter's value compile per parameter set, as
+    before, and still equal the NumPy path."""
+    model = CookTorrance(m=0.25, diffuse=0.2)  # which terms it has depends on diffuse's value
+    rng = np.random.default_rng(8)
+    wi, wo = directions(rng, 1000), directions(rng, 1000)
+    compiled = accel.compile(model, dtype=np.float64)
+    assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
+    assert compiled._kernel("eval").parameters.size == 0  # values baked in

@@ -9,7 +9,10 @@ formula:
 1. **Trace.** The model method (``eval``, ``pdf``, ``sample``) is run once by
    :func:`jax.make_jaxpr` on a batch of *one* direction pair (the models are written against
    the array API, so they run on JAX unchanged). The jaxpr is the model's arithmetic as a
-   graph of primitives; the parameters enter it as constants.
+   graph of primitives. The model's numeric parameters enter it as inputs: the model is
+   rebuilt on abstract values of their shapes (``brdfkit._structure``), so the graph
+   depends on the model's structure alone. Where a model's constructor needs concrete values
+   (it branches on one in Python), they enter as constants instead.
 2. **Scalarise.** The graph is interpreted on NumPy *object* arrays whose elements are scalar
    symbols: every array of the batch-of-one trace becomes its handful of per-lane scalars
    (``(1, 3)`` → 3 scalars), so slicing, concatenation, broadcasting and reductions over the
@@ -18,7 +21,9 @@ formula:
 3. **Compile.** That code is the body of a ``numba.njit(nogil=True)`` loop over a range of
    the batch; LLVM vectorises it across lanes (AVX2: 8 float32 lanes; AVX-512: 16, asked for
    per kernel, see :func:`vector_bits`), and blocks of the batch run on a thread pool. Kernels
-   are cached per model structure, parameter values and dtype; their outputs come from a
+   are cached per model structure and dtype (a new parameter set costs neither tracing nor
+   compiling: its values are the kernel's parameter array, and what depends on them alone is
+   computed once per call, before the loop); their outputs come from a
    pool that reuses memory no array refers to any more (fresh pages cost their zeroing).
 
 A model's method qualifies when it is elementwise over the batch (every protocol method is:
@@ -60,6 +65,7 @@ from typing import Any
 
 import numpy as np
 
+from brdfkit import _structure
 from brdfkit._array import Array, namespace, to_numpy
 from brdfkit.brdf.base import BRDF, Sample
 
@@ -153,6 +159,7 @@ class _Emitter:
         self.constants: dict[str, np.generic] = {}
         self._const_names: dict[tuple[str, bytes], str] = {}
         self._memo: dict[tuple[str, tuple[str, ...]], _Sym] = {}
+        self.uniform: set[str] = set()  # symbols of the parameters alone: computed once per call
 
     def ref(self, x: Any) -> str:
         """The code name of a symbol or constant (constants become typed module globals)."""
@@ -179,6 +186,8 @@ class _Emitter:
                 code = f"{_cast_name(dtype)}({code})"
             self.lines.append((name, code, refs))
             self._memo[key] = _Sym(name, dtype)
+            if all(not isinstance(a, _Sym) or a.name in self.uniform for a in args):
+                self.uniform.add(name)
         return self._memo[key]
 
 
@@ -291,6 +300,8 @@ def _apply(em: _Emitter, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
 
         template = f"_erfinv{8 * dtype.itemsize}({{0}})"
         return [_elementwise(em, special.erfinv, template, ins, dtype)]
+    if name == "div" and dtype.kind == "f":
+        return [_divide(em, *ins, dtype)]
     if name in _UNARY:
         return [_elementwise(em, *_UNARY[name], ins, dtype)]
     if name in _BINARY:
@@ -372,6 +383,27 @@ def _apply(em: _Emitter, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
     )
 
 
+def _divide(em: _Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """``x / y``; by a divisor computed once per call (of the parameters alone), as ``x``
+    times its reciprocal. A constant divisor becomes that under LLVM's reciprocal fast-math
+    flag already, in every copy of the loop alike; a per-call one would too, but LLVM may
+    then do it in the vectorised loop and not in its scalar remainder, and a pixel's value
+    would depend on its place in the batch."""
+    x, y = np.broadcast_arrays(x, y)
+    out = np.empty(x.shape, dtype=object)
+    fold, template = _BINARY["div"]
+    one = np.ones((), dtype=dtype)
+    for index in np.ndindex(out.shape):
+        a, b = x[index], y[index]
+        per_call = isinstance(b, _Sym) and b.name in em.uniform
+        if per_call and not (_is_const(a) or a.name in em.uniform):
+            reciprocal = em.emit(template, [one, b], dtype)
+            out[index] = em.emit(_BINARY["mul"][1], [a, reciprocal], dtype)
+        else:
+            out[index] = _elementwise(em, fold, template, [np.array(a), np.array(b)], dtype)[()]
+    return out
+
+
 def _integer_pow(em: _Emitter, x: np.ndarray, y: int, dtype: np.dtype) -> np.ndarray:
     """``x**y`` for an integer ``y`` by repeated squaring (as XLA does)."""
     mul = _BINARY["mul"]
@@ -423,10 +455,14 @@ def threads() -> int:
 
 
 def _run_parallel(
-    function: Callable[..., None], arrays: list[np.ndarray], widths: list[int], n: int
+    function: Callable[..., None],
+    parameters: np.ndarray,
+    arrays: list[np.ndarray],
+    widths: list[int],
+    n: int,
 ) -> None:
-    """Run ``function(*arrays, n)`` over ``n`` elements in blocks, on the calling thread and
-    ``threads() - 1`` pool threads.
+    """Run ``function(parameters, *arrays, n)`` over ``n`` elements in blocks, on the calling
+    thread and ``threads() - 1`` pool threads.
 
     ``arrays`` are flat, holding ``max(width, 1)`` values per element. The kernels release the
     GIL (``nogil``), so blocks run truly in parallel; :data:`_BLOCKS_PER_THREAD` blocks per
@@ -439,35 +475,49 @@ def _run_parallel(
     on these kernels (it cannot prove the indices non-negative), so each block gets views of
     its slice and a loop over ``range(n)``.
     """
-    global _POOL
     workers = threads()
     if workers == 1 or n <= _BLOCK:
         if n:
-            function(*arrays, n)
+            function(parameters, *arrays, n)
+        return
+    size = max(_BLOCK, -(-n // (workers * _BLOCKS_PER_THREAD)))
+
+    def block(lo: int) -> None:
+        hi = min(lo + size, n)
+        views = [a[lo * max(w, 1) : hi * max(w, 1)] for a, w in zip(arrays, widths, strict=True)]
+        function(parameters, *views, hi - lo)
+
+    run_tasks(block, range(0, n, size), workers)
+
+
+def run_tasks(task: Callable[[int], None], items: Sequence[int], workers: int) -> None:
+    """``task(item)`` for every item, taken from a queue by the calling thread and
+    ``workers - 1`` threads of one pool kept for the process (starting threads per call costs
+    milliseconds: measured 5 ms per tile of a 256² render). ``task`` must not call this
+    function itself (a pool thread would wait on the pool)."""
+    global _POOL
+    if workers <= 1 or len(items) <= 1:
+        for item in items:
+            task(item)
         return
     with _KERNELS_LOCK:
-        if _POOL is None or _POOL._max_workers != workers - 1:
+        if _POOL is None or _POOL._max_workers < workers - 1:
             _POOL = ThreadPoolExecutor(workers - 1, thread_name_prefix="brdfkit-accel")
         pool = _POOL
-    size = max(_BLOCK, -(-n // (workers * _BLOCKS_PER_THREAD)))
-    starts: queue.SimpleQueue[int] = queue.SimpleQueue()
-    for lo in range(0, n, size):
-        starts.put(lo)
+    pending: queue.SimpleQueue[int] = queue.SimpleQueue()
+    for item in items:
+        pending.put(item)
 
     def work() -> None:
         while True:
             try:
-                lo = starts.get_nowait()
+                item = pending.get_nowait()
             except queue.Empty:
                 return
-            hi = min(lo + size, n)
-            views = [
-                a[lo * max(w, 1) : hi * max(w, 1)] for a, w in zip(arrays, widths, strict=True)
-            ]
-            function(*views, hi - lo)
+            task(item)
 
-    helpers = [pool.submit(work) for _ in range(workers - 1)]
-    work()  # the calling thread takes blocks too
+    helpers = [pool.submit(work) for _ in range(min(workers, len(items)) - 1)]
+    work()  # the calling thread takes tasks too
     for helper in helpers:
         helper.result()
 
@@ -529,17 +579,39 @@ class Kernel:
     """A compiled per-element function of arrays ``(n, width)`` (or ``(n,)``).
 
     Built by :func:`compile_function`; call it with arrays whose leading (batch) axes
-    broadcast. Attributes ``source`` (the generated Python) and ``compile_seconds``.
+    broadcast. Attributes ``source`` (the generated Python), ``compile_seconds`` and
+    ``parameters``, the values of the model parameters the kernel reads at each call (empty
+    for a plain function; :meth:`bind` gives the same compiled code other values).
     """
 
     def __init__(
-        self, function: Callable[..., None], source: str, ins: list[_Port], outs: list[_Port]
+        self,
+        function: Callable[..., None],
+        source: str,
+        ins: list[_Port],
+        outs: list[_Port],
+        parameters: np.ndarray | None = None,
     ) -> None:
         self._function = function
         self.source = source
         self.inputs = ins
         self.outputs = outs
+        dtype = ins[0].dtype if ins else np.dtype(np.float64)
+        self.parameters = np.zeros(0, dtype) if parameters is None else parameters
         self.compile_seconds = 0.0
+
+    def bind(self, values: np.ndarray) -> Kernel:
+        """This kernel's compiled code with parameter values ``values`` (flat, in order)."""
+        values = np.ascontiguousarray(values, dtype=self.parameters.dtype).reshape(-1)
+        if values.shape != self.parameters.shape:
+            raise ValueError(
+                f"values must hold {self.parameters.size} parameters; got {values.size}"
+            )
+        return Kernel(self._function, self.source, self.inputs, self.outputs, values)
+
+    def _built(self, seconds: float) -> Kernel:
+        self.compile_seconds = seconds
+        return self
 
     def __call__(
         self, *arrays: Any, out: Sequence[np.ndarray] | None = None
@@ -580,7 +652,8 @@ class Kernel:
                         f"{p.dtype}; got shape {o.shape}, dtype {o.dtype}"
                     )
         widths = [p.width for p in (*self.inputs, *self.outputs)]
-        _run_parallel(self._function, [*flat, *(o.reshape(-1) for o in outs)], widths, n)
+        arrays_flat = [*flat, *(o.reshape(-1) for o in outs)]
+        _run_parallel(self._function, self.parameters, arrays_flat, widths, n)
         return tuple(outs)
 
 
@@ -600,6 +673,19 @@ def compile_function(
         When an output does not follow the batch (a parameter varying over the batch), or
         ``fn`` uses a JAX primitive the scalariser does not know.
     """
+    return _compile(fn, widths, dtype, ())
+
+
+def _compile(
+    fn: Callable[..., Any],
+    widths: Sequence[int],
+    dtype: Any,
+    parameter_shapes: Sequence[tuple[int, ...]],
+) -> Kernel:
+    """:func:`compile_function` of ``fn(*parameters, *inputs)``, whose leading arguments are
+    parameters of the given shapes (not batched): the kernel reads their values, flattened in
+    order, from its parameter array at each call (:meth:`Kernel.bind`), and computes what
+    depends on them alone once per call, before its loop."""
     import time
 
     import jax
@@ -613,7 +699,8 @@ def compile_function(
         return tuple(out) if isinstance(out, tuple | list) else (out,)
 
     def example(batch: int) -> list[Any]:
-        return [jax.ShapeDtypeStruct((batch, w) if w else (batch,), dtype) for w in widths]
+        params = [jax.ShapeDtypeStruct(tuple(s), dtype) for s in parameter_shapes]
+        return params + [jax.ShapeDtypeStruct((batch, w) if w else (batch,), dtype) for w in widths]
 
     with jax.enable_x64(dtype == np.float64):
         try:
@@ -632,8 +719,17 @@ def compile_function(
                 f"and does not follow the batch; {_BATCH_ONLY}"
             )
     em = _Emitter()
-    ins = [_Port(w, dtype) for w in widths]
     args = []
+    uniform_loads = []
+    for shape in parameter_shapes:
+        syms = np.empty(tuple(shape), dtype=object)
+        for c in range(syms.size):
+            name = f"p{len(uniform_loads)}"
+            syms.flat[c] = _Sym(name, dtype)
+            em.uniform.add(name)
+            uniform_loads.append((name, f"prm[{len(uniform_loads)}]"))
+        args.append(syms)
+    ins = [_Port(w, dtype) for w in widths]
     loads = []
     for j, port in enumerate(ins):
         count = max(port.width, 1)
@@ -650,10 +746,10 @@ def compile_function(
         _Port(r.shape[1] if r.ndim == 2 else 0, np.dtype(a.dtype))
         for r, a in zip(results, outs_avals, strict=True)
     ]
-    source = _source(em, loads, results, outs, len(ins))
+    source = _source(em, uniform_loads, loads, results, outs, len(ins))
     start = time.perf_counter()
     function = _numba_kernel(source, em.constants)
-    kernel = Kernel(function, source, ins, outs)
+    kernel = Kernel(function, source, ins, outs, np.zeros(len(uniform_loads), dtype))
     warm = [np.zeros((1, w) if w else (1,), dtype) for w in widths]
     kernel(*warm)  # compile now (numba compiles on first call), not in the user's timing
     kernel.compile_seconds = time.perf_counter() - start
@@ -662,12 +758,14 @@ def compile_function(
 
 def _source(
     em: _Emitter,
+    uniform_loads: list[tuple[str, str]],
     loads: list[tuple[str, str]],
     results: list[np.ndarray],
     outs: list[_Port],
     n_inputs: int,
 ) -> str:
-    """The kernel's Python source: loads, the live straight-line body, stores."""
+    """The kernel's Python source: the parameters and what depends on them alone, then the
+    loop of loads, the live straight-line body and stores."""
     stores = []
     for j, (r, port) in enumerate(zip(results, outs, strict=True)):
         for c, value in enumerate(r.reshape(-1)):
@@ -680,14 +778,13 @@ def _source(
             body.append((target, code))
             live.update(uses)
     body.reverse()
-    params = [f"in{j}" for j in range(n_inputs)] + [f"out{j}" for j in range(len(outs))]
-    lines = [
-        f"def kernel({', '.join(params)}, n):",
-        "    _prefer_vector_width()",
-        "    for i in range(n):",
-    ]
+    params = ["prm"] + [f"in{j}" for j in range(n_inputs)] + [f"out{j}" for j in range(len(outs))]
+    lines = [f"def kernel({', '.join(params)}, n):", "    _prefer_vector_width()"]
+    lines += [f"    {name} = {code}" for name, code in uniform_loads if name in live]
+    lines += [f"    {target} = {code}" for target, code in body if target in em.uniform]
+    lines.append("    for i in range(n):")
     lines += [f"        {name} = {code}" for name, code in loads if name in live]
-    lines += [f"        {target} = {code}" for target, code in body]
+    lines += [f"        {target} = {code}" for target, code in body if target not in em.uniform]
     lines += [f"        {target} = {ref}" for target, ref in stores]
     return "\n".join(lines) + "\n"
 
@@ -979,12 +1076,47 @@ def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[...
 
 
 # --------------------------------------------------------------------------- compiled BRDFs
+_STRUCTURAL: dict[tuple[Any, ...], Any] = {}
+"""Kernels by model structure, dtype, method and vector width (the values are inputs), or
+:data:`_BAKED` for structures whose constructor needs concrete values."""
+_BAKED = object()
+
+
+def _method(model: BRDF, method: str) -> Callable[..., Any]:
+    """The array function of ``model`` that the kernel of ``method`` computes."""
+    if method == "eval":
+        return model.eval
+    if method == "pdf":
+        return model.pdf
+    if method == "sample":
+
+        def sample(wo: Array, u: Array) -> tuple[Array, Array, Array, Array]:
+            s = model.sample(wo, u)
+            return s.wi, s.weight, s.pdf, s.delta
+
+        return sample
+    if method == "albedo":  # the albedo's terms: only the weights of samples above the surface
+
+        def albedo_term(wo: Array, u: Array) -> tuple[Array]:
+            xp = namespace(wo, u)
+            s = model.sample(wo, u)
+            return (xp.where(s.wi[..., 2:3] > 0, s.weight, xp.zeros_like(s.weight)),)
+
+        return albedo_term
+    raise ValueError(f"method must be eval, pdf, sample or albedo; got {method!r}")
+
+
 class CompiledBRDF:
     """A BRDF whose ``eval``/``pdf``/``sample`` run as compiled kernels (see :func:`compile`).
 
     The methods take and return NumPy arrays with the protocol's shapes; inputs are converted
     to the compiled ``dtype``. Each method's kernel is built on its first call (its build time
-    is in :attr:`compile_seconds`).
+    is in :attr:`compile_seconds`) and kept for the model's *structure*
+    (``brdfkit._structure``: its spec tree with the parameter values left out), which reads
+    the values from :attr:`parameters` at each call: a model of the same structure with other
+    values reuses it without tracing or compiling. Where a model's constructor cannot take
+    abstract values (it reads a parameter's value in Python), its kernels bake the values in,
+    one build per parameter set.
     """
 
     def __init__(self, model: BRDF, dtype: Any = np.float32) -> None:
@@ -995,6 +1127,16 @@ class CompiledBRDF:
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self._kernels: dict[tuple[str, int], Kernel] = {}
+        try:
+            structure, values = _structure.split(model)
+        except TypeError:
+            structure, values = None, []
+        self._structure = structure
+        self._shapes = [v.shape for v in values]
+        self.parameters = np.concatenate(
+            [np.asarray(v, dtype=self.dtype).reshape(-1) for v in values] or [np.zeros(0)]
+        ).astype(self.dtype)
+        """The model's parameter values, flat, in ``brdfkit._structure.split``'s order."""
 
     @property
     def channels(self) -> int:
@@ -1003,33 +1145,57 @@ class CompiledBRDF:
 
     @property
     def compile_seconds(self) -> float:
-        """Total time spent tracing and compiling this model's kernels so far."""
+        """Total time spent tracing and compiling this model's kernels so far (0 for kernels
+        another model of the same structure built)."""
         return sum(k.compile_seconds for k in self._kernels.values())
+
+    def built(self, method: str, u_width: int = 0) -> bool:
+        """Whether the kernel of ``method`` exists for this model, building nothing."""
+        if (method, u_width) in self._kernels:
+            return True
+        with _KERNELS_LOCK:
+            return isinstance(_STRUCTURAL.get(self._structural_key(method, u_width)), Kernel)
+
+    def _structural_key(self, method: str, u_width: int) -> tuple[Any, ...] | None:
+        if self._structure is None:
+            return None
+        return (self._structure, self.dtype.str, method, u_width, vector_bits())
 
     def _kernel(self, method: str, u_width: int = 0) -> Kernel:
         key = (method, u_width)
         if key not in self._kernels:
-            model = self.model
-            if method == "eval":
-                self._kernels[key] = compile_function(model.eval, (3, 3), self.dtype)
-            elif method == "pdf":
-                self._kernels[key] = compile_function(model.pdf, (3, 3), self.dtype)
-            elif method == "sample":
-
-                def sample(wo: Array, u: Array) -> tuple[Array, Array, Array, Array]:
-                    s = model.sample(wo, u)
-                    return s.wi, s.weight, s.pdf, s.delta
-
-                self._kernels[key] = compile_function(sample, (3, u_width), self.dtype)
-            else:  # the albedo's terms: only the weights of samples above the surface
-
-                def albedo_term(wo: Array, u: Array) -> tuple[Array]:
-                    xp = namespace(wo, u)
-                    s = model.sample(wo, u)
-                    return (xp.where(s.wi[..., 2:3] > 0, s.weight, xp.zeros_like(s.weight)),)
-
-                self._kernels[key] = compile_function(albedo_term, (3, u_width), self.dtype)
+            self._kernels[key] = self._build(method, u_width)
         return self._kernels[key]
+
+    def _build(self, method: str, u_width: int) -> Kernel:
+        """The kernel of ``method``: the structure's (built once, bound to this model's
+        values), else one with this model's values baked in."""
+        widths = (3, u_width) if method in ("sample", "albedo") else (3, 3)
+        key = self._structural_key(method, u_width)
+        if key is not None:
+            with _KERNELS_LOCK:
+                shared = _STRUCTURAL.get(key)
+            if shared is None:
+                model, count = self.model, len(self._shapes)
+
+                def traced(*args: Any) -> Any:
+                    rebuilt = _structure.rebuild(model, iter(args[:count]))
+                    return _method(rebuilt, method)(*args[count:])
+
+                try:
+                    built = _compile(traced, widths, self.dtype, self._shapes)
+                except (ValueError, TypeError):
+                    shared = _BAKED  # the constructor needs concrete values
+                else:
+                    with _KERNELS_LOCK:
+                        shared = _STRUCTURAL.setdefault(key, built)
+                    if shared is built:
+                        return built.bind(self.parameters)._built(built.compile_seconds)
+            with _KERNELS_LOCK:
+                _STRUCTURAL.setdefault(key, shared)
+            if isinstance(shared, Kernel):
+                return shared.bind(self.parameters)
+        return compile_function(_method(self.model, method), widths, self.dtype)
 
     def eval(self, wi: Any, wo: Any, *, out: np.ndarray | None = None) -> np.ndarray:
         """f_r(wi, wo), ``(..., C)``, as the model's :meth:`~brdfkit.brdf.BRDF.eval`;

@@ -49,7 +49,6 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -79,8 +78,10 @@ _BRDF_KERNELS: weakref.WeakKeyDictionary[
 
 def _compiled(model: BRDF, dtype: np.dtype) -> tuple[accel.CompiledBRDF, tuple[Any, ...]]:
     """``model`` compiled (:func:`brdfkit.accel.compile`) and the numba functions of its
-    ``sample`` (3 uniforms), ``eval`` and ``pdf`` kernels, kept per model object: tracing a
-    model with JAX takes ~0.1 s, longer than shading a 256² tile at 16 spp."""
+    ``sample`` (3 uniforms), ``eval`` and ``pdf`` kernels, kept per model object. The
+    functions are those of the model's structure (they read the parameter values,
+    ``compiled.parameters``, at each call), so a model that differs in values only reuses
+    them and the tile kernel built on them."""
     per_dtype = _BRDF_KERNELS.setdefault(model, {})
     if dtype not in per_dtype:
         compiled = accel.compile(model, dtype)
@@ -246,6 +247,7 @@ def _new_tile_kernel(
 
     @jit
     def shade(
+        params: np.ndarray,
         pixels: np.ndarray,
         wo: np.ndarray,
         frame: np.ndarray,
@@ -307,7 +309,7 @@ def _new_tile_kernel(
                     q = p if per_pixel_b else 0
                     for k in range(3):
                         u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
-                sample_fn(wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb)
+                sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
                 # after: short loops whose independent cache misses overlap.
                 for j in range(nb):
@@ -348,8 +350,8 @@ def _new_tile_kernel(
                             lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
                         )
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
-                eval_fn(wil_buf, wo_buf, f_buf, nb)
-                pdf_fn(wil_buf, wo_buf, pbl_buf, nb)
+                eval_fn(params, wil_buf, wo_buf, f_buf, nb)
+                pdf_fn(params, wil_buf, wo_buf, pbl_buf, nb)
                 for j in range(nb):
                     p = pixels[start + j]
                     x, y, theta = coords[j, 0], coords[j, 1], coords[j, 2]
@@ -470,7 +472,9 @@ class EnvironmentShader:
         """Reflected radiance towards ``wo`` (arguments as
         :func:`~brdfkit.integrate.reflected_radiance`); ``mask`` (the batch's shape) skips
         the Monte Carlo of pixels it marks False (their value is then the Lambertian part
-        alone) without changing the others. Returns float64 ``value`` and ``stderr``."""
+        alone) without changing the others (beyond their last bit: a pixel's place in a
+        vectorised block of the BRDF kernels can change its rounding). Returns float64
+        ``value`` and ``stderr``."""
         if samples < 1:
             raise ValueError(f"samples must be >= 1; got {samples}")
         if sequence not in ("random", "sobol"):
@@ -541,18 +545,12 @@ class EnvironmentShader:
         def run(lo: int) -> None:
             hi = min(lo + _CHUNK, pixels.size)
             kernel(
-                pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b, points_l, shift_l,
+                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b,
+                points_l, shift_l,
                 *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi],
             )  # fmt: skip
 
-        starts = range(0, pixels.size, _CHUNK)
-        workers = min(accel.threads(), len(starts))
-        if workers <= 1:
-            for lo in starts:
-                run(lo)
-        else:
-            with ThreadPoolExecutor(workers) as pool:
-                list(pool.map(run, starts))
+        accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
         mean[pixels], m2[pixels] = found_mean, found_m2
         shape = (*batch, self.channels)
         return mean.reshape(shape), m2.reshape(shape)
@@ -582,9 +580,10 @@ def _uniforms(
 AUTO_COMPILE_WORK = 4_000_000
 """Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
 trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes 5–10 s
-per model on a 2-core machine, about what the NumPy path takes for this many MIS
+per model structure on a 2-core machine, about what the NumPy path takes for this many MIS
 pixel-samples of a GGX conductor (~1.7 µs each). Below it, the NumPy path unless the kernels
-are built already."""
+are built already — for any model of the same structure (:func:`kernels_built`): once one
+parameter set is built, every other set of that structure shades compiled at no build cost."""
 
 
 def compiled_shader(
@@ -621,12 +620,18 @@ def compiled_shader(
 
 
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
-    """Whether this model object's compiled shading kernels exist (compiled) in this process."""
+    """Whether compiled shading kernels for this model exist in this process: for its
+    structure (any model that differs from it in parameter values only), or for the object."""
     dtype = np.dtype(dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
-    if entry is None:
-        return False
-    kernels = entry[1]
+    if entry is not None:
+        kernels = entry[1]
+    else:
+        compiled = accel.compile(model, dtype)
+        methods = (("sample", 3), ("eval", 0), ("pdf", 0))
+        if not all(compiled.built(method, width) for method, width in methods):
+            return False
+        kernels = tuple(compiled._kernel(method, width)._function for method, width in methods)
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
     return any(t.signatures for t in tiles)
 

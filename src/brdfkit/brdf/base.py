@@ -235,7 +235,7 @@ def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
     """
     count, owner = 1, None
     for i, value in enumerate(values):
-        shape = np.shape(to_numpy(value))
+        shape = tuple(value.shape) if hasattr(value, "shape") else np.shape(value)
         c = shape[-1] if shape else 1
         if c == 1:
             continue
