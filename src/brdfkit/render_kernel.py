@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import accel
+from brdfkit import accel, render_table_kernel
 from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.integrate import (
     FLOOR_DIRECTIONS,
@@ -265,6 +265,7 @@ def _new_tile_kernel(
         control: np.ndarray,
         mean: np.ndarray,
         m2: np.ndarray,
+        data: tuple,
     ) -> None:
         height, width = image.shape[0], image.shape[1]
         samples = points_b.shape[1]
@@ -307,7 +308,7 @@ def _new_tile_kernel(
                     q = p if per_pixel_b else 0
                     for k in range(3):
                         u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
-                sample_fn(wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb)
+                sample_fn(wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb, *data)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
                 # after: short loops whose independent cache misses overlap.
                 for j in range(nb):
@@ -348,8 +349,8 @@ def _new_tile_kernel(
                             lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
                         )
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
-                eval_fn(wil_buf, wo_buf, f_buf, nb)
-                pdf_fn(wil_buf, wo_buf, pbl_buf, nb)
+                eval_fn(wil_buf, wo_buf, f_buf, nb, *data)
+                pdf_fn(wil_buf, wo_buf, pbl_buf, nb, *data)
                 for j in range(nb):
                     p = pixels[start + j]
                     x, y, theta = coords[j, 0], coords[j, 1], coords[j, 2]
@@ -433,8 +434,14 @@ class EnvironmentShader:
         self._kernel: Callable[..., None] | None = None
         # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
         self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
+        # the BRDF's kernels' trailing arguments (a table's arrays, render_table_kernel)
+        self._data: tuple[Any, ...] = ()
         if self.rest is not None:
-            self._rest, functions = _compiled(self.rest, self.dtype)
+            table = render_table_kernel.table_kernels(self.rest, self.dtype)
+            if table is not None:
+                self._rest, functions, self._data = table, table.functions, table.data
+            else:
+                self._rest, functions = _compiled(self.rest, self.dtype)
             self._kernel = _tile_kernel(
                 *functions,
                 self.dtype.type,
@@ -542,7 +549,7 @@ class EnvironmentShader:
             hi = min(lo + _CHUNK, pixels.size)
             kernel(
                 pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b, points_l, shift_l,
-                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi],
+                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi], self._data,
             )  # fmt: skip
 
         starts = range(0, pixels.size, _CHUNK)
@@ -623,10 +630,11 @@ def compiled_shader(
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
     dtype = np.dtype(dtype)
+    table = render_table_kernel.table_kernels(model, dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
-    if entry is None:
+    if table is None and entry is None:
         return False
-    kernels = entry[1]
+    kernels = table.functions if table is not None else entry[1]
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
     return any(t.signatures for t in tiles)
 
