@@ -431,7 +431,7 @@ class TableKernels:
         batch = wi.shape[:-1]
         n = math.prod(batch)
         out = np.empty(n * self.channels, self.dtype)
-        flat = [np.ascontiguousarray(v.reshape(-1)) for v in (wi, wo)]
+        flat = [v.reshape(-1).copy() for v in (wi, wo)]
         self.functions[1](*flat, out, n, *self.data)
         return out.reshape(*batch, self.channels)
 
