@@ -295,38 +295,40 @@ def _new_table_functions(
         total = select(share > zero, total + share * term, total)
         return select((i2 > zero) & (o2 > zero), total, zero)
 
-    @jit
-    def find_interval(cdf: np.ndarray, base: int, u: float, count: int) -> int:
-        """``sampling._find_interval`` for one variate."""
-        lo, hi = 0, count
+    @vector_jit
+    def find_intervals(cdf: np.ndarray, base: np.ndarray, u: np.ndarray, count: int, n: int,
+                       out: np.ndarray) -> None:  # fmt: skip
+        """``sampling._find_interval`` for n variates in lock step (the same bisection
+        steps, each over all of them: a vectorisable inner loop); into ``out``."""
+        hi = np.empty(n, np.int64)
+        for j in range(n):
+            out[j], hi[j] = 0, count
         for _ in range(max(1, math.ceil(math.log2(count))) + 1):
-            mid = (lo + hi) >> 1
-            if cdf[base + mid] <= u:
-                lo = mid
-            else:
-                hi = mid
-        return lo
+            prefer_vector_width()
+            for j in range(n):
+                mid = (out[j] + hi[j]) >> 1
+                right = cdf[base[j] + mid] <= u[j]
+                out[j], hi[j] = select(right, mid, out[j]), select(right, hi[j], mid)
 
     @jit
-    def half_sample(a: Any, b: Any, marginal: np.ndarray, conditional: np.ndarray,
-                    one_minus_cos: np.ndarray, n_theta: int,
-                    n_phi: int) -> tuple[Any, Any, Any]:  # fmt: skip
-        """``HalfVectorSampling.sample`` for uniforms (a, b): φh by a, θh by b."""
-        u0 = min(np.float64(a), below_one_64)
-        u1 = min(np.float64(b), below_one_64)
-        row = find_interval(marginal, 0, u1, n_theta)
-        base = row * (n_phi + 1)
-        col = find_interval(conditional, base, u0, n_phi)
+    def half_vector(u0: float, u1: float, row: int, base: int, col: int,
+                    marginal: np.ndarray, conditional: np.ndarray, one_minus_cos: np.ndarray,
+                    n_theta: int, n_phi: int) -> tuple[Any, Any, Any]:  # fmt: skip
+        """``HalfVectorSampling.sample`` for float64 uniforms (u0: φh, u1: θh, clamped below
+        1) whose row and column the CDF searches found."""
         m0, m1 = marginal[row], marginal[row + 1]
         c0, c1 = conditional[base + col], conditional[base + col + 1]
-        x = min(T((col + (u0 - c0) / (c1 - c0)) / n_phi), below_one)
-        y = min(T((row + (u1 - m0) / (m1 - m0)) / n_theta), below_one)
+        x = T((col + (u0 - c0) / (c1 - c0)) / n_phi)
+        x = select(x < below_one, x, below_one)
+        y = T((row + (u1 - m0) / (m1 - m0)) / n_theta)
+        y = select(y < below_one, y, below_one)
         scaled = y * T(n_theta)
-        cell = min(max(np.floor(scaled), zero), T(n_theta - 1))
+        cell = np.floor(scaled)
+        cell = select(cell < T(n_theta - 1), clamp0(cell), T(n_theta - 1))
         i = integer(cell)
         lo, hi = one_minus_cos[i], one_minus_cos[i + 1]
         omc = lo + (scaled - cell) * (hi - lo)
-        sin_theta = np.sqrt(max(omc * (two - omc), zero))
+        sin_theta = np.sqrt(clamp0(omc * (two - omc)))
         phi = x * two_pi
         return sin_theta * cos(phi), sin_theta * sin(phi), one - omc
 
@@ -367,20 +369,36 @@ def _new_table_functions(
                   n_theta: int, n_phi: int) -> None:  # fmt: skip
         """``MixtureSampled.sample`` (mixture_choices on the first two uniforms)."""
         cosine_share = one - share
-        for j in range(n):
-            o0, o1, o2 = wo[3 * j], wo[3 * j + 1], wo[3 * j + 2]
+        span = select(cosine_share > zero, cosine_share, one)
+        half_span = select(share > zero, share, one)
+        half = np.empty(n, np.bool_)
+        a, b = np.empty(n, np.float64), np.empty(n, np.float64)
+        rows, cols, base = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
+        prefer_vector_width()
+        for j in range(n):  # the cosine lobe where chosen, the half vector's variates
             u0, u1 = u[3 * j], u[3 * j + 1]
-            if share == zero or u0 < cosine_share:  # the cosine lobe, first component
-                span = cosine_share if cosine_share > zero else one
-                x, y, z = cosine_sample(min(max(u0 / span, zero), stretch_max), u1)
-            else:
-                stretched = min(max((u0 - cosine_share) / share, zero), stretch_max)
-                hx, hy, hz = half_sample(stretched, u1, marginal, conditional, one_minus_cos,
-                                         n_theta, n_phi)  # fmt: skip
-                d = two * (o0 * hx + o1 * hy + o2 * hz)
-                x, y, z = d * hx - o0, d * hy - o1, d * hz - o2
+            half[j] = (share != zero) & (u0 >= cosine_share)
+            x, y, z = cosine_sample(min(max(u0 / span, zero), stretch_max), u1)
             wi[3 * j], wi[3 * j + 1], wi[3 * j + 2] = x, y, z
+            stretched = min(max((u0 - cosine_share) / half_span, zero), stretch_max)
+            a[j] = min(np.float64(stretched), below_one_64)
+            b[j] = min(np.float64(u1), below_one_64)
+            base[j] = 0
             delta[j] = False
+        find_intervals(marginal, base, b, n_theta, n, rows)
+        for j in range(n):
+            base[j] = rows[j] * (n_phi + 1)
+        find_intervals(conditional, base, a, n_phi, n, cols)
+        prefer_vector_width()
+        for j in range(n):  # the half-vector lobe's directions where chosen
+            o0, o1, o2 = wo[3 * j], wo[3 * j + 1], wo[3 * j + 2]
+            hx, hy, hz = half_vector(a[j], b[j], rows[j], base[j], cols[j], marginal,
+                                     conditional, one_minus_cos, n_theta, n_phi)  # fmt: skip
+            d = two * (o0 * hx + o1 * hy + o2 * hz)
+            pick = half[j]
+            wi[3 * j] = select(pick, d * hx - o0, wi[3 * j])
+            wi[3 * j + 1] = select(pick, d * hy - o1, wi[3 * j + 1])
+            wi[3 * j + 2] = select(pick, d * hz - o2, wi[3 * j + 2])
         pdf_fn(wi, wo, pdf, n, table, sizes, k, share, density, marginal, conditional,
                one_minus_cos, n_theta, n_phi)  # fmt: skip
         evaluate(wi, wo, n, table, sizes, k, weight)
