@@ -389,8 +389,9 @@ class EnvironmentShader:
     Calling it equals :func:`brdfkit.integrate.reflected_radiance` with ``method`` ``"auto"``
     or ``"mis"`` and ``heuristic`` ``"power"`` or ``"balance"``, same uniforms (module
     docstring), at compiled speed. The BRDF's non-Lambertian part must be compilable by
-    :func:`brdfkit.accel.compile`: its parameters may not vary per pixel; the albedo of its
-    Lambertian lobes (``method="auto"``) neither.
+    :func:`brdfkit.accel.compile` (its parameters may not vary per pixel; the albedo of its
+    Lambertian lobes, ``method="auto"``, neither) or be a tabulated BRDF, alone or scaled by
+    a constant (:mod:`brdfkit.render_table_kernel`, the table an input of the kernel).
 
     Parameters
     ----------
@@ -608,9 +609,10 @@ def compiled_shader(
     It applies to exactly one :class:`~brdfkit.lights.EnvironmentMap` plus any delta lights
     (directional, point: evaluated exactly, no samples, by the NumPy path), ``method``
     ``"auto"`` or ``"mis"``, a BRDF whose non-Lambertian part :func:`brdfkit.accel.compile`
-    compiles (no per-pixel parameters), with numba and JAX installed. With ``build=False`` it
-    is returned only when it costs no compilation: the model's kernels are built already, or
-    the BRDF is Lambertian (no Monte Carlo).
+    compiles (no per-pixel parameters), with numba and JAX installed, or whose non-Lambertian
+    part is a (constant-scaled) tabulated BRDF (:mod:`brdfkit.render_table_kernel`, numba).
+    With ``build=False`` it is returned only when it costs no compilation: the model's
+    kernels are built already, or the BRDF is Lambertian (no Monte Carlo).
     """
     maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
     others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
