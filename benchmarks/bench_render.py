@@ -65,7 +65,7 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
     }
     compile_seconds = None
     plan = compiled_shader(scene.brdf, [env], method="auto")
-    if plan is not None:  # where brdfkit.accel compiles the BRDF (not the tabulated one)
+    if plan is not None:  # where brdfkit.accel or render_table_kernel compiles the BRDF
         start = time.perf_counter()
         plan[0].build()
         compile_seconds = time.perf_counter() - start

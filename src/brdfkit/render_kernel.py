@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import accel
+from brdfkit import accel, render_table_kernel
 from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.integrate import (
     FLOOR_DIRECTIONS,
@@ -267,6 +267,7 @@ def _new_tile_kernel(
         control: np.ndarray,
         mean: np.ndarray,
         m2: np.ndarray,
+        data: tuple,
     ) -> None:
         height, width = image.shape[0], image.shape[1]
         samples = points_b.shape[1]
@@ -309,7 +310,7 @@ def _new_tile_kernel(
                     q = p if per_pixel_b else 0
                     for k in range(3):
                         u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
-                sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb)
+                sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb, *data)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
                 # after: short loops whose independent cache misses overlap.
                 for j in range(nb):
@@ -350,8 +351,8 @@ def _new_tile_kernel(
                             lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
                         )
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
-                eval_fn(params, wil_buf, wo_buf, f_buf, nb)
-                pdf_fn(params, wil_buf, wo_buf, pbl_buf, nb)
+                eval_fn(params, wil_buf, wo_buf, f_buf, nb, *data)
+                pdf_fn(params, wil_buf, wo_buf, pbl_buf, nb, *data)
                 for j in range(nb):
                     p = pixels[start + j]
                     x, y, theta = coords[j, 0], coords[j, 1], coords[j, 2]
@@ -390,8 +391,9 @@ class EnvironmentShader:
     Calling it equals :func:`brdfkit.integrate.reflected_radiance` with ``method`` ``"auto"``
     or ``"mis"`` and ``heuristic`` ``"power"`` or ``"balance"``, same uniforms (module
     docstring), at compiled speed. The BRDF's non-Lambertian part must be compilable by
-    :func:`brdfkit.accel.compile`: its parameters may not vary per pixel; the albedo of its
-    Lambertian lobes (``method="auto"``) neither.
+    :func:`brdfkit.accel.compile` (its parameters may not vary per pixel; the albedo of its
+    Lambertian lobes, ``method="auto"``, neither) or be a tabulated BRDF, alone or scaled by
+    a constant (:mod:`brdfkit.render_table_kernel`, the table an input of the kernel).
 
     Parameters
     ----------
@@ -435,8 +437,14 @@ class EnvironmentShader:
         self._kernel: Callable[..., None] | None = None
         # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
         self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
+        # the BRDF's kernels' trailing arguments (a table's arrays, render_table_kernel)
+        self._data: tuple[Any, ...] = ()
         if self.rest is not None:
-            self._rest, functions = _compiled(self.rest, self.dtype)
+            table = render_table_kernel.table_kernels(self.rest, self.dtype)
+            if table is not None:
+                self._rest, functions, self._data = table, table.functions, table.data
+            else:
+                self._rest, functions = _compiled(self.rest, self.dtype)
             self._kernel = _tile_kernel(
                 *functions,
                 self.dtype.type,
@@ -547,7 +555,7 @@ class EnvironmentShader:
             kernel(
                 self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b,
                 points_l, shift_l,
-                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi],
+                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi], self._data,
             )  # fmt: skip
 
         accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
@@ -600,9 +608,10 @@ def compiled_shader(
     It applies to exactly one :class:`~brdfkit.lights.EnvironmentMap` plus any delta lights
     (directional, point: evaluated exactly, no samples, by the NumPy path), ``method``
     ``"auto"`` or ``"mis"``, a BRDF whose non-Lambertian part :func:`brdfkit.accel.compile`
-    compiles (no per-pixel parameters), with numba and JAX installed. With ``build=False`` it
-    is returned only when it costs no compilation: the model's kernels are built already, or
-    the BRDF is Lambertian (no Monte Carlo).
+    compiles (no per-pixel parameters), with numba and JAX installed, or whose non-Lambertian
+    part is a (constant-scaled) tabulated BRDF (:mod:`brdfkit.render_table_kernel`, numba).
+    With ``build=False`` it is returned only when it costs no compilation: the model's
+    kernels are built already, or the BRDF is Lambertian (no Monte Carlo).
     """
     maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
     others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
@@ -623,8 +632,11 @@ def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether compiled shading kernels for this model exist in this process: for its
     structure (any model that differs from it in parameter values only), or for the object."""
     dtype = np.dtype(dtype)
+    table = render_table_kernel.table_kernels(model, dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
-    if entry is not None:
+    if table is not None:
+        kernels = table.functions
+    elif entry is not None:
         kernels = entry[1]
     else:
         compiled = accel.compile(model, dtype)
