@@ -263,6 +263,10 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
     return Guard(app, token, port)
 
 
+WARM_UP_TIMEOUT = 300.0
+"""Seconds :meth:`ExplorerServer.stop` waits for the warm-up's kernel builds to finish."""
+
+
 class ExplorerServer:
     """The explorer served on ``127.0.0.1:port`` (0: any free port) in a background thread.
 
@@ -278,7 +282,8 @@ class ExplorerServer:
         self.port = self._socket.getsockname()[1]
         self.app = build_app(session, self.token, self.port, initial)
         specs = [item for item in initial if item not in session.files]
-        threading.Thread(target=session.warm_up, args=(specs,), daemon=True).start()
+        self._warm_up = threading.Thread(target=session.warm_up, args=(specs,), daemon=True)
+        self._warm_up.start()
         self._server: Any = None
         self._thread: threading.Thread | None = None
 
@@ -318,11 +323,13 @@ class ExplorerServer:
         return self
 
     def stop(self) -> None:
-        """Stop serving and remove the session's uploads."""
+        """Stop serving, let the warm-up finish (it uses the session), and remove the session's
+        uploads. A stopped server leaves no thread of its own running."""
         if self._server is not None:
             self._server.should_exit = True
         if self._thread is not None:
             self._thread.join(timeout=5)
+        self._warm_up.join(timeout=WARM_UP_TIMEOUT)
         self._socket.close()
         self.session.close()
 
