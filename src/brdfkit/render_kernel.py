@@ -56,6 +56,7 @@ import numpy as np
 
 from brdfkit import accel
 from brdfkit.brdf.base import BRDF, check_choice
+from brdfkit.brdf.one_sided import one_sided
 from brdfkit.integrate import (
     FLOOR_DIRECTIONS,
     Estimate,
@@ -434,7 +435,8 @@ class EnvironmentShader:
         # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
         self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
         if self.rest is not None:
-            self._rest, functions = _compiled(self.rest, self.dtype)
+            # the NumPy path's one-sided sampling of transmitting lobes (integrate._monte_carlo)
+            self._rest, functions = _compiled(one_sided(self.rest), self.dtype)
             self._kernel = _tile_kernel(
                 *functions,
                 self.dtype.type,
@@ -623,7 +625,7 @@ def compiled_shader(
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
     dtype = np.dtype(dtype)
-    entry = _BRDF_KERNELS.get(model, {}).get(dtype)
+    entry = _BRDF_KERNELS.get(one_sided(model), {}).get(dtype)
     if entry is None:
         return False
     kernels = entry[1]
