@@ -56,7 +56,7 @@ import numpy as np
 
 from brdfkit import accel
 from brdfkit.brdf.base import BRDF, check_choice
-from brdfkit.brdf.one_sided import one_sided
+from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.integrate import (
     FLOOR_DIRECTIONS,
     Estimate,
@@ -436,7 +436,7 @@ class EnvironmentShader:
         self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
         if self.rest is not None:
             # the NumPy path's one-sided sampling of transmitting lobes (integrate._monte_carlo)
-            self._rest, functions = _compiled(one_sided(self.rest), self.dtype)
+            self._rest, functions = _compiled(one_sided_view(self.rest), self.dtype)
             self._kernel = _tile_kernel(
                 *functions,
                 self.dtype.type,
@@ -625,7 +625,7 @@ def compiled_shader(
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
     dtype = np.dtype(dtype)
-    entry = _BRDF_KERNELS.get(one_sided(model), {}).get(dtype)
+    entry = _BRDF_KERNELS.get(one_sided_view(model), {}).get(dtype)
     if entry is None:
         return False
     kernels = entry[1]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import MODELS, Lambertian, RoughDielectric, SmoothDielectric
-from brdfkit.brdf.one_sided import OneSided, one_sided
+from brdfkit.brdf.one_sided import OneSided, one_sided_view
 from brdfkit.fresnel import fresnel_dielectric
 from brdfkit.integrate import reflected_radiance
 from brdfkit.lights import EnvironmentMap, UniformSky
@@ -30,7 +30,7 @@ def test_rough_density_matches_sampler_and_weight(model, side):
     """χ² of sample_one_sided against pdf_one_sided (upper hemisphere only: all of the
     density), and weight = f·cos θi / pdf."""
     wo = _direction(0.8) * np.array([1.0, 1.0, side])
-    view = one_sided(model)
+    view = one_sided_view(model)
     result = chi2_test(
         *brdf_sampler(view, wo), sample_dim=3, n_samples=40_000, test_count=2 * len(ROUGH)
     )
@@ -56,7 +56,7 @@ def test_rough_unbiased_and_less_noisy(model):
     wo_n = np.broadcast_to(wo[:, None], (4, 8192, 3))
     old = model.sample(wo_n, u)
     old_w = np.where(old.wi[..., 2:3] > 0, old.weight, 0.0)
-    new_w = one_sided(model).sample(wo_n, u).weight
+    new_w = one_sided_view(model).sample(wo_n, u).weight
     # same mean (both unbiased for the same integral), and less variance
     np.testing.assert_allclose(new_w.mean(1), old_w.mean(1), rtol=0.05, atol=2e-3)
     assert np.all(new_w.var(1) < old_w.var(1))
@@ -81,11 +81,12 @@ def test_views():
     """Non-transmitting models pass through; a view is made once per model; sums and scales
     wrap only their transmitting lobes."""
     ggx = MODELS["ggx"]()
-    assert one_sided(ggx) is ggx
+    assert one_sided_view(ggx) is ggx
     glass = RoughDielectric()
-    assert isinstance(one_sided(glass), OneSided) and one_sided(glass) is one_sided(glass)
+    view = one_sided_view(glass)
+    assert isinstance(view, OneSided) and one_sided_view(glass) is view
     mix = Lambertian(0.2) + 0.5 * glass
-    view = one_sided(mix)
+    view = one_sided_view(mix)
     assert view.lobes[0] is mix.lobes[0] and isinstance(view.lobes[1].inner, OneSided)
     assert not view.transmits
     with pytest.raises(TypeError, match="sample_one_sided"):

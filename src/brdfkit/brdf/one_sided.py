@@ -8,7 +8,7 @@ the surface, so only :math:`\omega_i` with :math:`\cos\theta_i > 0` contribute,
 
 A BSDF's own sampler (a dielectric's: reflect with probability F, else refract) sends a
 fraction of its samples below the surface, where they contribute nothing: from outside a glass
-surface 1 − F ≈ 96 % of them. :func:`one_sided` wraps each transmitting lobe in
+surface 1 − F ≈ 96 % of them. :func:`one_sided_view` wraps each transmitting lobe in
 :class:`OneSided`, whose ``sample`` and ``pdf`` are the lobe's ``sample_one_sided`` and
 ``pdf_one_sided``: the lobe into the upper hemisphere chosen with probability 1 (reflection
 from outside, refraction from inside), its probability moved into the sample weight
@@ -80,7 +80,7 @@ class OneSided(BRDF):
 _VIEWS: weakref.WeakKeyDictionary[BRDF, BRDF] = weakref.WeakKeyDictionary()
 
 
-def one_sided(brdf: BRDF) -> BRDF:
+def one_sided_view(brdf: BRDF) -> BRDF:
     """``brdf`` with every transmitting lobe (alone, in a sum, scaled) wrapped in
     :class:`OneSided`; ``brdf`` itself where none transmits. The same view object is returned
     for the same ``brdf`` (compiled kernels are cached per model object)."""
@@ -89,9 +89,9 @@ def one_sided(brdf: BRDF) -> BRDF:
     view = _VIEWS.get(brdf)
     if view is None:
         if isinstance(brdf, Sum):
-            view = Sum(tuple(one_sided(lobe) for lobe in brdf.lobes))
+            view = Sum(tuple(one_sided_view(lobe) for lobe in brdf.lobes))
         elif isinstance(brdf, Scaled):
-            view = Scaled(brdf.k, one_sided(brdf.inner))
+            view = Scaled(brdf.k, one_sided_view(brdf.inner))
         elif hasattr(brdf, "sample_one_sided"):
             view = OneSided(brdf)
         else:
@@ -100,4 +100,4 @@ def one_sided(brdf: BRDF) -> BRDF:
     return view
 
 
-__all__ = ["OneSided", "one_sided"]
+__all__ = ["OneSided", "one_sided_view"]
