@@ -428,6 +428,8 @@ class EnvironmentShader:
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self.heuristic = heuristic
         self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+        if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
+            self.rest = one_sided_view(self.rest)
         if self.rho is not None and np.ndim(self.rho) > 1:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
@@ -435,8 +437,7 @@ class EnvironmentShader:
         # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
         self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
         if self.rest is not None:
-            # the NumPy path's one-sided sampling of transmitting lobes (integrate._monte_carlo)
-            self._rest, functions = _compiled(one_sided_view(self.rest), self.dtype)
+            self._rest, functions = _compiled(self.rest, self.dtype)
             self._kernel = _tile_kernel(
                 *functions,
                 self.dtype.type,
@@ -624,8 +625,9 @@ def compiled_shader(
 
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
+    model = one_sided_view(model)  # what EnvironmentShader compiles
     dtype = np.dtype(dtype)
-    entry = _BRDF_KERNELS.get(one_sided_view(model), {}).get(dtype)
+    entry = _BRDF_KERNELS.get(model, {}).get(dtype)
     if entry is None:
         return False
     kernels = entry[1]
