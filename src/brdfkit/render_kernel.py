@@ -615,7 +615,7 @@ def compiled_shader(
     dtype = np.dtype(dtype)
     if not build:
         _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-        if rest is not None and not kernels_built(rest, dtype):
+        if rest is not None and not kernels_built(one_sided_view(rest), dtype):
             return None
     try:
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
@@ -625,7 +625,6 @@ def compiled_shader(
 
 def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     """Whether this model object's compiled shading kernels exist (compiled) in this process."""
-    model = one_sided_view(model)  # what EnvironmentShader compiles
     dtype = np.dtype(dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
     if entry is None:
