@@ -30,6 +30,7 @@ import numpy as np
 from brdfkit._array import Array, asarray, asarrays, check_vectors, namespace, normalize, safe_div
 from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
 from brdfkit.brdf.lambertian import Lambertian
+from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
 from brdfkit.lights import EnvironmentMap, Light, LightSample, UniformSky
 
@@ -98,7 +99,9 @@ def reflected_radiance(
         optional tangent (for anisotropic BRDFs).
     method : ``"quadrature"`` (θ×φ Gauss–Legendre × midpoint grid of ``theta_steps`` ×
         ``phi_steps`` over the hemisphere), ``"brdf"`` / ``"light"`` (Monte Carlo sampling the
-        BRDF / the light), ``"mis"`` (both, combined by ``heuristic``), or ``"auto"`` (MIS,
+        BRDF / the light; a BSDF samples only its lobe into the lights' hemisphere,
+        :func:`~brdfkit.brdf.one_sided.one_sided_view`), ``"mis"`` (both, combined by
+        ``heuristic``), or ``"auto"`` (MIS,
         except that Lambertian lobes under an environment map need no samples: see
         :func:`split_diffuse`) and the other lobes sample f − k with the control variate
         k·E(n) exact, :func:`diffuse_floor`). Delta lights are always evaluated exactly.
@@ -310,6 +313,8 @@ def _monte_carlo(
     brdf, light, point, frame, wo_local, samples, strategy, heuristic, rng, control=None
 ):
     xp = namespace(wo_local)
+    # only wi above the surface count: a BSDF samples its lobe into that hemisphere alone
+    brdf = one_sided_view(brdf)
     batch = wo_local.shape[:-1]
     wo_n = xp.broadcast_to(wo_local[..., None, :], (*batch, samples, 3))
     point_n = xp.broadcast_to(point[..., None, :], (*batch, samples, 3))

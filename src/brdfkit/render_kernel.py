@@ -55,6 +55,7 @@ import numpy as np
 
 from brdfkit import accel, render_table_kernel
 from brdfkit.brdf.base import BRDF, check_choice
+from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.integrate import (
     FLOOR_DIRECTIONS,
     Estimate,
@@ -431,6 +432,8 @@ class EnvironmentShader:
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self.heuristic = heuristic
         self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+        if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
+            self.rest = one_sided_view(self.rest)
         if self.rho is not None and np.ndim(self.rho) > 1:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
@@ -620,7 +623,7 @@ def compiled_shader(
     dtype = np.dtype(dtype)
     if not build:
         _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-        if rest is not None and not kernels_built(rest, dtype):
+        if rest is not None and not kernels_built(one_sided_view(rest), dtype):
             return None
     try:
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others

@@ -30,6 +30,9 @@ visible from ωo, reflect with probability F(ωo·ωh) else refract; the density
 :math:`p(\omega_h)\,F/(4|\omega_i\cdot\omega_h|)` or
 :math:`p(\omega_h)(1-F)\,\eta_i^2|\omega_i\cdot\omega_h| /
 (\eta_o\,\omega_o\cdot\omega_h + \eta_i\,\omega_i\cdot\omega_h)^2`. Three uniforms are needed.
+A one-sided render (lights above the surface only) uses :meth:`RoughDielectric.sample_one_sided`
+instead (:mod:`brdfkit.brdf.one_sided`): the lobe into the upper hemisphere with probability 1,
+its density without the factor F (or 1 − F), which moves into the weight.
 
 References
 ----------
@@ -188,14 +191,28 @@ class RoughDielectric(BRDF):
         return xp.where(valid, value, xp.zeros_like(value))
 
     def pdf(self, wi: Array, wo: Array) -> Array:
+        return self._pdf(wi, wo, one_sided=False)
+
+    def pdf_one_sided(self, wi: Array, wo: Array) -> Array:
+        """The density of :meth:`sample_one_sided`: the chosen lobe's without its probability
+        (F or 1 − F), 0 below the surface."""
+        return self._pdf(wi, wo, one_sided=True)
+
+    def _pdf(self, wi: Array, wo: Array, one_sided: bool) -> Array:
         xp = namespace(wi, wo)
         h, reflect, eta_rel, valid = self._geometry(wi, wo)
         wo_h, wi_h = dot(wo, h, keepdims=True), dot(wi, h, keepdims=True)
         p_h = normal_pdf(self.ndf, self.sample_visible, wo, h)[..., None]
         f = fresnel(wo_h, param(self.eta, wi))[0]
-        jacobian_r = safe_div(f, 4 * xp.abs(wi_h))
-        jacobian_t = safe_div((1 - f) * eta_rel**2 * xp.abs(wi_h), (wo_h + eta_rel * wi_h) ** 2)
+        # one-sided: reflection from outside, refraction from inside, each with probability 1
+        # (refraction only where the microfacet does not reflect totally)
+        p_r = xp.ones_like(f) if one_sided else f
+        p_t = xp.astype(f < 1, f.dtype) if one_sided else 1 - f
+        jacobian_r = safe_div(p_r, 4 * xp.abs(wi_h))
+        jacobian_t = safe_div(p_t * eta_rel**2 * xp.abs(wi_h), (wo_h + eta_rel * wi_h) ** 2)
         value = p_h * xp.where(reflect, jacobian_r, jacobian_t)
+        if one_sided:
+            valid = valid & (wi[..., 2:3] > 0)
         return xp.where(valid, value, xp.zeros_like(value))[..., 0]
 
     def sample(self, wo: Array, u: Array) -> Sample:
@@ -204,19 +221,31 @@ class RoughDielectric(BRDF):
                 "u must have 3 uniforms per sample for rough_dielectric (2 for the normal, 1 "
                 f"to choose reflection or refraction); got shape {tuple(u.shape)}"
             )
+        return self._sample(wo, u, one_sided=False)
+
+    def sample_one_sided(self, wo: Array, u: Array) -> Sample:
+        """:meth:`sample` restricted to the upper hemisphere (``wi.z > 0``, where the lights of
+        a one-sided render are): from outside reflect with probability 1 (not F), from inside
+        refract with probability 1 where the microfacet does not reflect totally; the weight
+        f·|cos θi|/p then carries F (or 1 − F) and no sample is wasted below the surface. Two
+        uniforms suffice (a third is ignored)."""
+        return self._sample(wo, u, one_sided=True)
+
+    def _sample(self, wo: Array, u: Array, one_sided: bool) -> Sample:
         xp = namespace(wo, u)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo = xp.broadcast_to(wo, (*batch, 3))
         h = sample_normal(self.ndf, self.sample_visible, wo, u)
         wo_h = dot(wo, h, keepdims=True)
         f, cos_t, _, eta_ti = fresnel(wo_h, param(self.eta, wo))
-        reflect = (u[..., 2:3] < f) | (f >= 1)  # total internal reflection whatever u
+        choice = wo[..., 2:3] > 0 if one_sided else u[..., 2:3] < f
+        reflect = choice | (f >= 1)  # total internal reflection whatever u
         reflected = 2 * wo_h * h - wo
         refracted = h * (wo_h * eta_ti + cos_t) - wo * eta_ti
         wi = xp.where(reflect, reflected, refracted)
         side = wi[..., 2:3] * wo[..., 2:3]
         ok = xp.where(reflect, side > 0, side < 0)
-        pdf = self.pdf(wi, wo)
+        pdf = self._pdf(wi, wo, one_sided)
         ok = ok & (pdf > 0)[..., None]
         value = self.eval(wi, wo)
         weight = safe_div(value * xp.abs(wi[..., 2:3]), pdf[..., None])

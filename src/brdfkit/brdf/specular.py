@@ -329,6 +329,29 @@ class SmoothDielectric(BRDF):
         weight = xp.where(cos_o != 0, weight, xp.zeros_like(weight))
         return Sample(wi, weight, xp.zeros(batch, dtype=wi.dtype), xp.ones(batch, dtype=xp.bool))
 
+    def sample_one_sided(self, wo: Array, u: Array) -> Sample:
+        r""":meth:`sample` restricted to the upper hemisphere (``wi.z > 0``, where the lights
+        of a one-sided render are): from outside the mirror direction with probability 1 and
+        weight F (instead of probability F and weight 1), from inside the refracted direction
+        with weight :math:`(1 - F)\,s` (0 under total internal reflection). The same
+        expectation over the upper hemisphere, with no sample wasted below it: exact.
+        """
+        xp = namespace(wo, u)
+        batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
+        wo = xp.broadcast_to(wo, (*batch, 3))
+        cos_o = wo[..., 2:3]
+        f, cos_t, _, eta_ti = fresnel(cos_o, param(self.eta, wo))
+        reflect = cos_o > 0
+        refracted = xp.concat([-eta_ti * wo[..., 0:1], -eta_ti * wo[..., 1:2], cos_t], axis=-1)
+        wi = xp.where(reflect, _mirror(wo), refracted)
+        weight = xp.where(reflect, f, (1 - f) * self._transmission_scale(eta_ti))
+        weight = xp.where(wi[..., 2:3] > 0, weight, xp.zeros_like(weight))
+        return Sample(wi, weight, xp.zeros(batch, dtype=wi.dtype), xp.ones(batch, dtype=xp.bool))
+
+    def pdf_one_sided(self, wi: Array, wo: Array) -> Array:
+        """The density of :meth:`sample_one_sided`: 0 (a delta)."""
+        return self.pdf(wi, wo)
+
     def _transmission_scale(self, eta_ti: Array) -> Array:
         """Weight of a refracted sample: η_ti² in radiance mode (solid angle compressed), or 1."""
         return eta_ti * eta_ti if self.mode == "radiance" else namespace(eta_ti).ones_like(eta_ti)
