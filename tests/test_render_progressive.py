@@ -30,7 +30,7 @@ def test_passes_double_and_the_first_is_a_one_sample_render():
     assert all(isinstance(p, Pass) for p in passes)
     assert [p.samples for p in passes] == [1, 2, 4, 8, 16, 20]
     assert all(b.seconds >= a.seconds for a, b in itertools.pairwise(passes))
-    np.testing.assert_array_equal(passes[0].image, shade(g, BRDF, env, samples=1, seed=3))
+    np.testing.assert_array_equal(passes[0].image, shade(g, BRDF, env, samples=1, seed=3, **NUMPY))
     assert passes[-1].image.shape == (12, 12, 3) == passes[-1].stderr.shape
     assert np.all(passes[-1].image[~g.mask] == 0) and np.all(passes[-1].stderr[~g.mask] == 0)
 
@@ -39,7 +39,7 @@ def test_accumulated_image_equals_a_one_shot_render_within_monte_carlo_error():
     g = gbuffer(Sphere(), None, 24)
     env = _map()
     *_, last = progressive(g, GOLD, env, max_samples=64, seed=1, sequence="random", **NUMPY)
-    one_shot = shade(g, GOLD, env, samples=64, seed=99, sequence="random")
+    one_shot = shade(g, GOLD, env, samples=64, seed=99, sequence="random", **NUMPY)
     # the one-shot render's own standard error, from the same estimator
     (reference,) = progressive(g, GOLD, env, max_samples=64, first_samples=64, seed=99,
                                sequence="random", **NUMPY)  # fmt: skip
