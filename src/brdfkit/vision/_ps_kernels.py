@@ -77,7 +77,7 @@ def admm_chunk(gray, error, dual, pinv, lights, betas, b_out, gap2_out):  # prag
 # Variable projection with bivariate reflectance bases (vision.bivariate)
 
 
-@_jit
+@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, inline="always")
 def _design(kind, ints, fa, fb, cos_i, cos_h, cos_d, row):  # pragma: no cover
     """One observation's basis values into ``row`` ``(K,)``, cosine factor included."""
     if kind == BIPOLYNOMIAL:
@@ -238,13 +238,13 @@ def _fit_pixel(
     gram[:, :] = 0.0
     rhs[:] = 0.0
     for n in range(n_lights):
+        weight = w[n]
+        if weight == 0.0:  # a zero weight adds nothing and its residual is 0
+            continue
         row = design[n]
         cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
         cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
         _design(kind, ints, fa, fb, cos_i, cos_h, cos_d[n], row)
-        weight = w[n]
-        if weight == 0.0:
-            continue
         for a in range(k):
             wa = weight * row[a]
             if wa == 0.0:
@@ -258,6 +258,9 @@ def _fit_pixel(
     _weights(gram, rhs, nonnegative, coef, work, work_b, free)
     cost = 0.0
     for n in range(n_lights):
+        if w[n] == 0.0:
+            residual[n] = 0.0
+            continue
         model = 0.0
         for a in range(k):
             model += design[n, a] * coef[a]
