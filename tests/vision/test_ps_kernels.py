@@ -275,7 +275,7 @@ def test_consensus_rings_match_numpy(glossy):
     assert np.abs(normals - reference).max() < 1e-9
 
 
-@pytest.mark.parametrize("max_iterations", [5, 200])
+@pytest.mark.parametrize("max_iterations", [5, pytest.param(200, marks=pytest.mark.slow)])
 def test_robust_pca_matches_numpy(glossy, max_iterations):
     gray, lights, _, _ = glossy
     image = gray[:, None, :]
