@@ -22,8 +22,9 @@ and the normal is the minimiser of the remaining residual (variable projection):
   alternating with the normals.
 
 The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
-the normal, the residual's Jacobian by forward differences, all pixels in lock step (batched
-small solves, no Python loop over pixels), started from trimmed least squares. Observations
+the normal, the residual's Jacobian by forward differences, every pixel on its own (a compiled
+per-pixel kernel, :mod:`brdfkit.vision._ps_kernels`, the pixels split over the cores), started
+from trimmed least squares. Observations
 darker than ``shadow_threshold`` times a pixel's 90th-percentile observation are shadows and
 excluded; this selection does not depend on the candidate normal, so costs stay comparable.
 
@@ -44,6 +45,7 @@ References
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -63,8 +65,19 @@ from brdfkit.vision.photometric_stereo import (
 MAX_ITERATIONS = 200
 """Largest ``iterations`` of the normal search."""
 
-Basis = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-"""``basis(cos_theta_i, cos_theta_h, cos_theta_d)`` → ``(P, N, K)`` design, cosine included."""
+
+@dataclass(frozen=True)
+class Basis:
+    """A reflectance basis of ``size`` functions of ``(cos θ_i, cos θ_h, cos θ_d)``, cosine
+    included, as the compiled kernels take it: ``kind`` (``_ps_kernels.BIPOLYNOMIAL``, ``RAMPS``
+    or ``TABLE``), integer parameters ``ints`` and float parameters ``fa``, ``fb``."""
+
+    kind: int
+    ints: np.ndarray
+    fa: np.ndarray
+    fb: np.ndarray
+    size: int
+
 
 _VIEW = np.array([0.0, 0.0, 1.0])
 
@@ -84,42 +97,10 @@ def _tangent_frame(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t_1, np.cross(normals, t_1)
 
 
-def _solve_weights(gram: np.ndarray, rhs: np.ndarray, nonnegative: bool) -> np.ndarray:
-    """Per-pixel ``argmin_c c^T G c / 2 - r^T c`` (``c >= 0`` if ``nonnegative``), ``(P, K)``.
-
-    Unconstrained: the normal equations with a tiny ridge. Non-negative: an active-set
-    iteration in lock step over the pixels (Lawson & Hanson 1974, ch. 23): solve on the free
-    variables, then free the clamped ones whose gradient points inside and clamp the free
-    ones that went negative, until no pixel changes (at most ``2 K`` rounds).
-    """
-    k = gram.shape[-1]
-    ridge = 1e-9 * np.trace(gram, axis1=1, axis2=2)[:, None, None] / k + 1e-300
-    gram = gram + ridge * np.eye(k)
-    if not nonnegative:
-        return np.linalg.solve(gram, rhs[..., None])[..., 0]
-    free = np.ones(rhs.shape, dtype=bool)
-    identity = np.eye(k, dtype=bool)
-    weights = np.zeros_like(rhs)
-    for _ in range(2 * k):
-        both = free[:, :, None] & free[:, None, :]
-        reduced = np.where(both, gram, identity)
-        weights = np.linalg.solve(reduced, np.where(free, rhs, 0.0)[..., None])[..., 0]
-        weights = np.where(free, weights, 0.0)
-        negative = free & (weights < 0)
-        gradient = np.einsum("pkl,pl->pk", gram, np.maximum(weights, 0.0)) - rhs
-        release = ~free & (gradient < -1e-12 * np.abs(rhs).max(axis=1, keepdims=True))
-        if not negative.any() and not release.any():
-            break
-        # Clamp only the most negative variable of a pixel per round (stable), or free the one
-        # with the steepest descent when none is negative.
-        worst = np.argmin(np.where(negative, weights, np.inf), axis=1)
-        steepest = np.argmin(np.where(release, gradient, np.inf), axis=1)
-        rows = np.arange(len(free))
-        has_negative = negative.any(axis=1)
-        free[rows[has_negative], worst[has_negative]] = False
-        freeing = ~has_negative & release.any(axis=1)
-        free[rows[freeing], steepest[freeing]] = True
-    return np.maximum(weights, 0.0)
+def _kernel_inputs(lights: np.ndarray, basis: Basis) -> tuple:
+    """The light-side arguments of the :mod:`~brdfkit.vision._ps_kernels` fits."""
+    half, cos_theta_d = _half_vectors(lights)
+    return lights, half, cos_theta_d, basis.kind, basis.ints, basis.fa, basis.fb
 
 
 def _residuals(
@@ -131,17 +112,29 @@ def _residuals(
     nonnegative: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Weighted residuals ``(P, N)`` of the best reflectance for ``normals`` ``(P, 3)``, and the
-    reflectance weights ``(P, K)``."""
-    half, cos_theta_d = _half_vectors(lights)
-    cos_theta_i = normals @ lights.T
-    cos_theta_h = normals @ half.T
-    design = basis(cos_theta_i, cos_theta_h, np.broadcast_to(cos_theta_d, cos_theta_i.shape))
-    weighted = design * weights[..., None]
-    gram = np.matmul(weighted.transpose(0, 2, 1), design)
-    rhs = np.einsum("pnk,pn->pk", weighted, gray)
-    coefficients = _solve_weights(gram, rhs, nonnegative)
-    model = np.einsum("pnk,pk->pn", design, coefficients)
-    return np.sqrt(weights) * (gray - model), coefficients
+    reflectance weights ``(P, K)``.
+
+    Per pixel, the weights ``c`` minimise ``|sqrt(w) (I - D c)|^2`` (``D`` the ``(N, K)`` design
+    of the basis, with a relative ridge of ``1e-9``); with ``nonnegative``, subject to
+    ``c >= 0`` by an active-set iteration (Lawson & Hanson 1974, ch. 23): solve on the free
+    variables, then clamp the most negative free one, or free the clamped one of steepest
+    descent, until none changes (at most ``2 K`` rounds).
+    """
+    from brdfkit.vision import _ps_kernels
+
+    gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
+    residual = np.empty(gray.shape)
+    coefficients = np.empty((len(gray), basis.size))
+    _ps_kernels.fit_pixels(
+        np.ascontiguousarray(normals, dtype=np.float64),
+        gray,
+        weights,
+        *_kernel_inputs(lights, basis),
+        nonnegative,
+        residual,
+        coefficients,
+    )
+    return residual, coefficients
 
 
 def _refine_normals(
@@ -160,38 +153,24 @@ def _refine_normals(
     ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts for :func:`_best_start`.
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
-    residual comes from forward differences of ``1e-4`` rad; a step is kept for the pixels
-    whose cost falls, and their damping shrinks (grows otherwise).
+    residual comes from forward differences of ``1e-4`` rad; a step (clipped to 0.2 per
+    coordinate) is kept for the pixels whose cost falls, and their damping shrinks by 3 (grows
+    by 4 otherwise; within [1e-7, 1e7], starting at 1e-3).
     """
+    from brdfkit.vision import _ps_kernels
+
+    gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     if normals.ndim == 3:
         normals = _best_start(normals, gray, weights, lights, basis, nonnegative)
-    epsilon = 1e-4
+    normals = np.array(normals, dtype=np.float64, order="C")
     damping = np.full(len(normals), 1e-3)
     residual, _ = _residuals(normals, gray, weights, lights, basis, nonnegative)
     cost = np.sum(residual**2, axis=1)
+    inputs = _kernel_inputs(lights, basis)
     for iteration in range(iterations):
-        t_1, t_2 = _tangent_frame(normals)
-        columns = []
-        for tangent in (t_1, t_2):
-            moved = normals + epsilon * tangent
-            moved /= np.linalg.norm(moved, axis=1, keepdims=True)
-            shifted, _ = _residuals(moved, gray, weights, lights, basis, nonnegative)
-            columns.append((shifted - residual) / epsilon)
-        jacobian = np.stack(columns, axis=2)  # (P, N, 2)
-        jtj = np.matmul(jacobian.transpose(0, 2, 1), jacobian)
-        jtr = np.einsum("pnj,pn->pj", jacobian, residual)
-        scale = np.trace(jtj, axis1=1, axis2=2)[:, None, None] / 2 + 1e-300
-        step = -np.linalg.solve(jtj + damping[:, None, None] * scale * np.eye(2), jtr[..., None])
-        step = np.clip(step[..., 0], -0.2, 0.2)  # at most ~11° per iteration
-        trial = normals + step[:, :1] * t_1 + step[:, 1:] * t_2
-        trial /= np.linalg.norm(trial, axis=1, keepdims=True)
-        trial_residual, _ = _residuals(trial, gray, weights, lights, basis, nonnegative)
-        trial_cost = np.sum(trial_residual**2, axis=1)
-        better = trial_cost < cost
-        normals = np.where(better[:, None], trial, normals)
-        residual = np.where(better[:, None], trial_residual, residual)
-        cost = np.where(better, trial_cost, cost)
-        damping = np.clip(np.where(better, damping / 3, damping * 4), 1e-7, 1e7)
+        _ps_kernels.lm_step(
+            normals, damping, residual, cost, gray, weights, *inputs, nonnegative, basis.size
+        )
         if callback is not None:
             callback(iteration + 1, iterations)
     return normals
@@ -285,17 +264,13 @@ def _check_iterations(iterations: int) -> int:
 
 
 def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
-    """``cos θ_i cos^a θ_h cos^b θ_d`` for ``a <= degree_h``, ``b <= degree_d``."""
+    """``max(0, cos θ_i) max(0, cos θ_h)^a cos^b θ_d`` for ``a <= degree_h``, ``b <= degree_d``
+    (index ``a (degree_d + 1) + b``)."""
+    from brdfkit.vision import _ps_kernels
 
-    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
-        shading = np.clip(cos_i, 0.0, None)
-        cos_h = np.clip(cos_h, 0.0, None)
-        terms = [
-            shading * cos_h**a * cos_d**b for a in range(degree_h + 1) for b in range(degree_d + 1)
-        ]
-        return np.stack(terms, axis=2)
-
-    return basis
+    size = (degree_h + 1) * (degree_d + 1)
+    empty = np.zeros(1)
+    return Basis(_ps_kernels.BIPOLYNOMIAL, np.array([degree_h, degree_d]), empty, empty, size)
 
 
 def bipolynomial(
@@ -376,22 +351,17 @@ def bipolynomial(
 # Ikehata & Aizawa 2014: constrained bivariate regression
 
 
-def _ramps(x: np.ndarray, knots: np.ndarray) -> np.ndarray:
-    """Saturating ramps ``clip((x - t_m) / (t_{m+1} - t_m), 0, 1)``, ``x.shape + (M - 1,)``:
+def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
+    """``(ramps(n·l), [n·l > 0] ramps(n·h))``: ``g(n·l) + s(n·h)`` with monotone ``g, s``.
+
+    The ramps on knots ``t`` are ``clip((x - t_m) / (t_{m+1} - t_m), 0, 1)``, ``m < M - 1``:
     with non-negative weights their sums are the monotone non-decreasing piecewise-linear
     functions on the knots that vanish below the first."""
-    lower, upper = knots[:-1], knots[1:]
-    return np.clip((x[..., None] - lower) / (upper - lower), 0.0, 1.0)
+    from brdfkit.vision import _ps_kernels
 
-
-def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
-    """``[n·l > 0] (ramps(n·l), ramps(n·h))``: ``g(n·l) + s(n·h)`` with monotone ``g, s``."""
-
-    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
-        front = (cos_i > 0)[..., None]
-        return np.concatenate([_ramps(cos_i, knots_i), _ramps(cos_h, knots_h) * front], axis=2)
-
-    return basis
+    size = len(knots_i) - 1 + len(knots_h) - 1
+    knots_i, knots_h = (np.asarray(k, dtype=np.float64) for k in (knots_i, knots_h))
+    return Basis(_ps_kernels.RAMPS, np.zeros(2, dtype=np.int64), knots_i, knots_h, size)
 
 
 def constrained_bivariate(
@@ -496,19 +466,14 @@ class _Table:
         weight = [(1 - fu) * (1 - fw), fu * (1 - fw), (1 - fu) * fw, fu * fw]
         return index, weight
 
-    def __call__(self, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
-        index, weight = self.weights(cos_h, cos_d)
-        return sum(self.values[k] * w for k, w in zip(index, weight, strict=True))
-
 
 def _shared_basis(table: _Table) -> Basis:
-    """``max(0, n·l) (1, T(θ_h, θ_d))``: per-pixel diffuse and specular weights."""
+    """``max(0, n·l) (1, T(θ_h, θ_d))``: per-pixel diffuse and specular weights (the table's
+    current values)."""
+    from brdfkit.vision import _ps_kernels
 
-    def basis(cos_i: np.ndarray, cos_h: np.ndarray, cos_d: np.ndarray) -> np.ndarray:
-        shading = np.clip(cos_i, 0.0, None)
-        return np.stack([shading, shading * table(cos_h, cos_d)], axis=2)
-
-    return basis
+    ints = np.array([table.n_h, table.n_d])
+    return Basis(_ps_kernels.TABLE, ints, np.asarray(table.values, np.float64), np.zeros(1), 2)
 
 
 def _fit_table(
@@ -630,16 +595,15 @@ def shared_bivariate(
     table = _Table(n_h, n_d)
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
     table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
-    basis = _shared_basis(table)
     for round_ in range(rounds):
-        _, coefficients = _residuals(normals, gray.T, lit, lights, basis, True)
+        _, coefficients = _residuals(normals, gray.T, lit, lights, _shared_basis(table), True)
         _fit_table(table, normals, gray.T, lit, lights, coefficients, smoothness)
         normals = _refine_normals(
             starts if round_ == 0 else normals,
             gray.T,
             lit,
             lights,
-            basis,
+            _shared_basis(table),
             nonnegative=True,
             iterations=iterations,
         )

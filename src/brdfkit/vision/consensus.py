@@ -12,7 +12,9 @@ normal (*monotonicity*), and a point is dark exactly where the light is behind i
 fraction of observations whose visibility disagrees. The search is global: every pixel is
 scored against a Fibonacci set of ``candidates`` directions on the front hemisphere (rank
 correlations against shared candidates are matrix products), then refined by hill climbing on
-rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°).
+rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°; six trial normals a ring,
+each kept if its cost is lower), pixel by pixel in a compiled kernel
+(:mod:`brdfkit.vision._ps_kernels`; a trial's ranks insertion-sort the previous order).
 
 Higo et al. also use an isotropy constraint and a Markov random field over the image to
 smooth the per-pixel choices; both are omitted here (each pixel is solved alone), so this is
@@ -35,7 +37,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
-from brdfkit.vision.bivariate import _finish, _reference, _tangent_frame
+from brdfkit.vision.bivariate import _finish, _reference
 from brdfkit.vision.photometric_stereo import (
     Callback,
     PhotometricStereoResult,
@@ -93,21 +95,6 @@ def _global_search(
     return best
 
 
-def _cost(normals: np.ndarray, ranks: np.ndarray, lit: np.ndarray, lights: np.ndarray):
-    """Consensus cost ``(P,)`` of per-pixel ``normals`` ``(P, 3)``."""
-    cosines = normals @ lights.T
-    r_c = _ranks(cosines)
-    count = np.maximum(lit.sum(axis=1), 1.0)
-
-    def moment(a: np.ndarray, b: np.ndarray | float) -> np.ndarray:
-        return (lit * a * b).sum(axis=1) / count
-
-    mean_i, mean_c = moment(ranks, 1.0), moment(r_c, 1.0)
-    variance = (moment(ranks, ranks) - mean_i**2) * (moment(r_c, r_c) - mean_c**2)
-    rho = (moment(ranks, r_c) - mean_i * mean_c) / np.sqrt(np.maximum(variance, 1e-300))
-    return (1 - rho) / 2 + np.abs(lit - (cosines > 0)).mean(axis=1)
-
-
 def consensus(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -155,16 +142,11 @@ def consensus(
     normals = _global_search(ranks, lit, lights, _hemisphere(count))
     if callback is not None:
         callback(1, steps)
-    cost = _cost(normals, ranks, lit, lights)
-    for step, radius in enumerate(_RINGS):
-        t_1, t_2 = _tangent_frame(normals)
-        for azimuth in np.arange(6) * np.pi / 3:
-            direction = np.cos(azimuth) * t_1 + np.sin(azimuth) * t_2
-            trial = normals * np.cos(radius) + np.sin(radius) * direction
-            trial_cost = _cost(trial, ranks, lit, lights)
-            better = trial_cost < cost
-            normals = np.where(better[:, None], trial, normals)
-            cost = np.where(better, trial_cost, cost)
+    from brdfkit.vision import _ps_kernels
+
+    lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
+    for step in range(len(_RINGS)):
+        _ps_kernels.consensus_rings(normals, ranks, lit, lights, _RINGS[step : step + 1])
         if callback is not None:
             callback(step + 2, steps)
     return _finish(normals, gray, lit, lights, observations, mask)

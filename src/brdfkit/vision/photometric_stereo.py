@@ -39,6 +39,9 @@ from brdfkit.errors import ParameterError, ResourceError
 MAX_ITERATIONS = 100_000
 """Largest ``max_iterations`` of the iterative solvers."""
 
+ADMM_BLOCK = 16
+"""Iterations :func:`sparse_regression` runs per pass over the pixels."""
+
 MAX_PIXELS = 2**28
 """Most pixels :func:`sphere_normals` makes (a 16384 × 16384 image)."""
 
@@ -240,11 +243,6 @@ def trimmed_least_squares(
     return _result(_weighted_least_squares(gray, lights, weights), observations, mask, weights)
 
 
-def _soft_threshold(x: np.ndarray, tau: float) -> np.ndarray:
-    """Shrinkage ``sign(x) max(|x| - tau, 0)``, the proximal operator of ``tau ||.||_1``."""
-    return np.sign(x) * np.maximum(np.abs(x) - tau, 0.0)
-
-
 def sparse_regression(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -260,9 +258,12 @@ def sparse_regression(
 
         min_{b, e} ||e||_1   subject to   I = L b + e,
 
-    solved for all pixels together by the augmented Lagrangian method (ADMM) with increasing
-    penalty ``beta``: ``b = L^+ (I - e + y / beta)``, ``e = shrink(I - L b + y / beta, 1 / beta)``,
-    ``y += beta (I - L b - e)``. Every step is a matrix product shared by all pixels.
+    solved by the augmented Lagrangian method (ADMM) with a penalty ``beta`` growing by 5 % per
+    iteration: ``b = L^+ (I - e + y / beta)``, ``e = shrink(I - L b + y / beta, 1 / beta)``,
+    ``y += beta (I - L b - e)``. The pixels share only ``beta``'s schedule and the stopping test,
+    so a compiled kernel (:mod:`brdfkit.vision._ps_kernels`) runs blocks of
+    :data:`ADMM_BLOCK` iterations pixel by pixel (each pixel's rows in cache), keeping every
+    iteration's ``b`` and gap of the block, and the first iteration that passes the test ends it.
 
     Parameters
     ----------
@@ -285,43 +286,50 @@ def sparse_regression(
     max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     check_param("tol", tol, 0.0)
     observations, lights, mask = _prepare(images, light_directions, mask)
+    from brdfkit.vision import _ps_kernels
+
     gray = _gray(observations)
     pseudo_inverse = np.linalg.pinv(lights)
     scale = np.linalg.norm(gray)
     beta = gray.size / (4.0 * np.abs(gray).sum()) if scale > 0 else 1.0
-    error = np.zeros_like(gray)
-    dual = np.zeros_like(gray)
-    b = pseudo_inverse @ gray
-    for iteration in range(max_iterations):
-        b = pseudo_inverse @ (gray - error + dual / beta)
-        residual = gray - lights @ b
-        error = _soft_threshold(residual + dual / beta, 1.0 / beta)
-        gap = residual - error
-        dual += beta * gap
-        beta = min(beta * 1.05, 1e8)
+    betas = np.minimum(beta * 1.05 ** np.arange(max_iterations), 1e8)
+    pixels = np.ascontiguousarray(gray.T)  # (P, N): each pixel's observations contiguous
+    error, dual = np.zeros_like(pixels), np.zeros_like(pixels)
+    for start in range(0, max_iterations, ADMM_BLOCK):
+        block = betas[start : start + ADMM_BLOCK]
+        bs = np.empty((len(block), 3, len(pixels)))
+        gap2 = np.empty((len(block), len(pixels)))
+        _ps_kernels.admm_chunk(pixels, error, dual, pseudo_inverse, lights, block, bs, gap2)
+        done = np.flatnonzero(np.sqrt(gap2.sum(axis=1)) <= tol * scale)
+        last = done[0] if len(done) else len(block) - 1
+        b = bs[last]
         if callback is not None:
-            callback(iteration + 1, max_iterations)
-        if np.linalg.norm(gap) <= tol * scale:
+            for iteration in range(start, start + last + 1):
+                callback(iteration + 1, max_iterations)
+        if len(done):
             break
     weights = _trim_weights(gray, 0.25, 0.1)
     return _result(b, observations, mask, weights)
 
 
-def _singular_value_threshold(
+def _shrinkage_factors(
     matrix: np.ndarray, tau: float, rank: int | None = None
-) -> np.ndarray:
-    """``U max(S - tau, 0) V^T`` for a short-and-wide ``(N, P)`` matrix, via its ``N x N`` Gram;
-    with ``rank``, only the ``rank`` largest singular values are kept (the rest set to 0).
+) -> tuple[np.ndarray, np.ndarray]:
+    """Singular-value shrinkage ``U max(S - tau, 0) V^T = left @ right.T @ M`` of the
+    short-and-wide ``M``, given as its transpose ``matrix`` ``(P, N)``; with ``rank``, only the
+    ``rank`` largest singular values are kept (the rest set to 0).
 
-    With ``M M^T = U S^2 U^T`` the shrunk matrix is ``U diag(max(s - tau, 0) / s) U^T M``, which
-    costs two ``N^2 P`` products and one ``N x N`` eigendecomposition instead of a full SVD.
+    With ``M M^T = U S^2 U^T`` the shrunk matrix is ``U diag(max(s - tau, 0) / s) U^T M``: one
+    ``N^2 P`` product and one ``N x N`` eigendecomposition instead of a full SVD. Returns
+    ``left = U_k diag(f_k)`` and ``right = U_k`` ``(N, k)`` for the ``k`` non-zero factors.
     """
-    eigenvalues, u = np.linalg.eigh(matrix @ matrix.T)  # ascending
+    eigenvalues, u = np.linalg.eigh(matrix.T @ matrix)  # ascending
     s = np.sqrt(np.maximum(eigenvalues, 0.0))
     factor = np.where(s > tau, (s - tau) / np.where(s > 0, s, 1.0), 0.0)
     if rank is not None:
         factor[: max(len(s) - rank, 0)] = 0.0
-    return (u * factor) @ (u.T @ matrix)
+    kept = np.flatnonzero(factor)
+    return np.ascontiguousarray(u[:, kept] * factor[kept]), np.ascontiguousarray(u[:, kept])
 
 
 def robust_pca(
@@ -401,23 +409,28 @@ def robust_pca(
     norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
     if norm_two == 0:
         raise ParameterError("images are all zero inside the mask")
-    dual = data / max(norm_two, np.abs(data).max() / lam)
+    from brdfkit.vision import _ps_kernels
+
+    pixels = np.ascontiguousarray(data.T)  # (P, N): the per-pixel updates run on rows
+    observed = np.ascontiguousarray(observed.T)
+    dual = pixels / max(norm_two, np.abs(data).max() / lam)
     mu = 1.25 / norm_two
     mu_max = mu * 1e7
-    sparse = np.zeros_like(data)
-    low_rank = data
+    sparse = np.zeros_like(pixels)
+    matrix, matrix_next = pixels + dual / mu, np.empty_like(pixels)
     for iteration in range(max_iterations):
-        low_rank = _singular_value_threshold(data - sparse + dual / mu, 1.0 / mu, rank)
-        target = data - low_rank + dual / mu
-        sparse = np.where(observed, _soft_threshold(target, lam / mu), target)
-        gap = data - low_rank - sparse
-        dual += mu * gap
-        mu = min(mu * 1.5, mu_max)
+        left, right = _shrinkage_factors(matrix, 1.0 / mu, rank)
+        mu_next = min(mu * 1.5, mu_max)
+        gap2 = _ps_kernels.rpca_step(
+            pixels, sparse, dual, observed, matrix, left, right, mu, mu_next, lam, matrix_next
+        )
+        mu, shrunk = mu_next, matrix
         if callback is not None:
             callback(iteration + 1, max_iterations)
-        if np.linalg.norm(gap) <= tol * data_norm:
+        if np.sqrt(gap2.sum()) <= tol * data_norm:
             break
-    b = np.linalg.pinv(lights) @ low_rank
+        matrix, matrix_next = matrix_next, matrix
+    b = (np.linalg.pinv(lights) @ left) @ (right.T @ shrunk.T)  # L^+ A, A = U f U^T M
     return _result(b, observations, mask, _trim_weights(data, 0.25, 0.1))
 
 
