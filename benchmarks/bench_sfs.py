@@ -5,7 +5,8 @@ times :func:`brdfkit.vision.shape_from_shading.shape_from_shading` (cascadic mul
 4096 mask pixels); the peer is the single-level trust-region solver the library used before
 (``_solve_small`` on the whole image, from the tent start), run only up to ``--peer-max``
 pixels across because its cost grows much faster. Prints one JSON line per (size, solver):
-seconds, residual evaluations and mean / median normal error (°).
+wall-clock seconds, CPU seconds of the process (all its threads: on a shared machine the wall
+clock mostly measures the other users), residual evaluations and mean / median normal error (°).
 
     python benchmarks/bench_sfs.py [--sizes 128 256 512] [--peer-max 96]
 """
@@ -51,7 +52,7 @@ def main() -> None:
         if size <= args.peer_max:
             runs.append(("single-level trf", sfs._solve_small))
         for name, solver in runs:
-            start = time.perf_counter()
+            start, cpu = time.perf_counter(), time.process_time()
             if solver is None:
                 result = sfs.shape_from_shading(image, light, mask, albedo=1.0)
                 found, evaluations = result.normals, result.iterations
@@ -63,13 +64,14 @@ def main() -> None:
                 depth = np.full(mask.shape, np.nan)
                 depth[mask] = z
                 found = sfs._normals_from_depth(depth, mask)
-            seconds = time.perf_counter() - start
+            seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
             errors = angular_error(found, normals, mask)
             record = {
                 "size": size,
                 "solver": name,
                 "pixels": int(mask.sum()),
                 "seconds": round(seconds, 2),
+                "cpu_seconds": round(cpu, 2),
                 "evaluations": int(evaluations),
                 "mean_deg": round(errors["mean"], 3),
                 "median_deg": round(errors["median"], 3),

@@ -10,6 +10,7 @@ import typer
 
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
+from brdfkit.cli._ps_data import load_with_lights
 
 if TYPE_CHECKING:
     import numpy as np
@@ -114,7 +115,7 @@ def ps_command(
 
     from brdfkit.cli import _ps_tiled
     from brdfkit.io import write_image
-    from brdfkit.vision import datasets, photometric_stereo
+    from brdfkit.vision import datasets
     from brdfkit.vision import integration as integrate
     from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
     from brdfkit.vision.uncalibrated import CUES
@@ -141,17 +142,7 @@ def ps_command(
         def advance(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        lights = None
-        if chrome is not None:
-            sphere = datasets.load_psm(chrome, step=step, callback=advance)
-            lights = photometric_stereo.calibrate_lights_chrome_sphere(sphere.images, sphere.mask)
-        data = datasets.load_dataset(dataset, step=step, callback=advance)
-        if lights is not None:
-            if lights.shape != data.light_directions.shape:
-                fail(f"--chrome gave {len(lights)} lights, {dataset} has {len(data.images)}")
-            data = datasets.PhotometricStereoData(
-                data.images, lights, data.mask, data.normals, data.light_intensities, data.name
-            )
+        data = load_with_lights(dataset, chrome, step, advance)
         bar.update(task, description=f"{method}", completed=0, total=None)
         solver = _solvers()[method]
         extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}

@@ -11,6 +11,7 @@ import typer
 
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
+from brdfkit.cli._ps_data import load_with_lights
 
 _OUTPUTS = (
     "normals.npy", "normals.png", "albedo.npy", "albedo.png", "weights.npy", "basis.json",
@@ -97,15 +98,8 @@ def svbrdf_command(
         def advance(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        lights = None
-        if chrome is not None:
-            sphere = datasets.load_psm(chrome, step=step, callback=advance)
-            lights = photometric_stereo.calibrate_lights_chrome_sphere(sphere.images, sphere.mask)
-        data = datasets.load_dataset(dataset, step=step, callback=advance)
-        if lights is None:
-            lights = data.light_directions
-        elif lights.shape != data.light_directions.shape:
-            fail(f"--chrome gave {len(lights)} lights, {dataset} has {len(data.images)}")
+        data = load_with_lights(dataset, chrome, step, advance)
+        lights = data.light_directions
         images = data.images.astype(np.float64)
         held = [] if hold_out is None else _indices(hold_out, len(images))
         train = [k for k in range(len(images)) if k not in held]

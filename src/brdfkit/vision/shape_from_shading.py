@@ -20,10 +20,12 @@ least-squares problem (trust-region Gauss–Newton with the exact Jacobian, ``sc
 least_squares``), which converges in tens of iterations where Horn's own relaxation needs
 thousands. Above 4096 mask pixels the start comes from the solution at half the resolution
 (recursively, cascadic multigrid), and the finer levels take a few Levenberg–Marquardt steps
-solved by preconditioned conjugate gradients, so the cost grows about linearly with the pixels
-(see ``benchmarks/bench_sfs.py``). Like every variational SfS method it needs a start on the right
-side of the convex/concave ambiguity: by default a tent ``z₀ ∝`` the distance to the mask's boundary
-(objects bulge towards the viewer inside their occluding contour, Ikeuchi & Horn 1981).
+on the assembled sparse normal matrix, solved by Jacobi-preconditioned conjugate gradients with
+NumPy reductions (BLAS's threaded dot products spin on shared cores), so the cost grows about
+linearly with the pixels (see ``benchmarks/bench_sfs.py``). Like every variational SfS method
+it needs a start on the right side of the convex/concave ambiguity: by default a tent ``z₀ ∝``
+the distance to the mask's boundary (objects bulge towards the viewer inside their occluding
+contour, Ikeuchi & Horn 1981).
 
 Accuracy (48-pixel renders, λ = 1e-4; mean / median normal error, depth RMSE over its range):
 a sphere under a frontal light 0.65° / 0.22° / 0.09 %, under a light 17° off the view 3.8° /
@@ -282,6 +284,42 @@ def _upsample(depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return 2 * map_coordinates(filled, coordinates, order=1, mode="nearest")
 
 
+class _Energy:
+    """Horn's energy on the mask pixels' depths ``z``: the brightness residuals
+    ``max(0, u)/s − I`` per cell (``u = −p l_x − q l_y + l_z``, ``s = √(1 + p² + q²)``), the
+    smoothness residuals ``√λ Δz`` and the Jacobian of the former, ``diag(r_p) D_x +
+    diag(r_q) D_y`` — the one source of both solvers."""
+
+    def __init__(self, image, mask, operators, light, smoothness):
+        self.d_x, self.d_y, average, laplacian = operators
+        self.brightness = average @ image[mask]
+        self.smooth = np.sqrt(smoothness) * laplacian
+        self.light = light
+
+    def residuals(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Brightness and smoothness residuals."""
+        p, q = self.d_x @ z, self.d_y @ z
+        u = -p * self.light[0] - q * self.light[1] + self.light[2]
+        return np.maximum(u, 0) / np.sqrt(1 + p * p + q * q) - self.brightness, self.smooth @ z
+
+    def slopes_derivatives(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``r_p = ∂R/∂p`` and ``r_q = ∂R/∂q`` per cell (zero where the cell is in shadow)."""
+        p, q = self.d_x @ z, self.d_y @ z
+        s = np.sqrt(1 + p * p + q * q)
+        u = -p * self.light[0] - q * self.light[1] + self.light[2]
+        lit = u > 0
+        r_p = np.where(lit, -self.light[0] / s - u * p / s**3, 0.0)
+        r_q = np.where(lit, -self.light[1] / s - u * q / s**3, 0.0)
+        return r_p, r_q
+
+    def jacobian(self, z: np.ndarray):
+        """Sparse Jacobian of the brightness residuals."""
+        from scipy import sparse
+
+        r_p, r_q = self.slopes_derivatives(z)
+        return (sparse.diags(r_p) @ self.d_x + sparse.diags(r_q) @ self.d_y).tocsr()
+
+
 def _solve_small(
     image: np.ndarray,
     mask: np.ndarray,
@@ -297,39 +335,52 @@ def _solve_small(
     from scipy import sparse
     from scipy.optimize import least_squares
 
-    d_x, d_y, average, laplacian = operators
-    brightness = average @ image[mask]
-    weight = np.sqrt(smoothness)
-
-    def shading(z: np.ndarray) -> tuple[np.ndarray, ...]:
-        p, q = d_x @ z, d_y @ z
-        s = np.sqrt(1 + p * p + q * q)
-        u = -p * light[0] - q * light[1] + light[2]
-        return p, q, s, u
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        _, _, s, u = shading(z)
-        return np.concatenate([np.maximum(u, 0) / s - brightness, weight * (laplacian @ z)])
-
-    def jacobian(z: np.ndarray) -> sparse.csr_matrix:
-        p, q, s, u = shading(z)
-        lit = u > 0
-        r_p = np.where(lit, -light[0] / s - u * p / s**3, 0.0)
-        r_q = np.where(lit, -light[1] / s - u * q / s**3, 0.0)
-        brightness_rows = sparse.diags(r_p) @ d_x + sparse.diags(r_q) @ d_y
-        return sparse.vstack([brightness_rows, weight * laplacian]).tocsr()
-
+    energy = _Energy(image, mask, operators, light, smoothness)
     result = least_squares(
-        residuals,
+        lambda z: np.concatenate(energy.residuals(z)),
         initial_depth[mask],
-        jac=jacobian,
+        jac=lambda z: sparse.vstack([energy.jacobian(z), energy.smooth]).tocsr(),
         method="trf",
         tr_solver="lsmr",
         x_scale="jac",
         max_nfev=max_iterations,
     )
-    rms = float(np.sqrt(np.mean(result.fun[: brightness.size] ** 2)))
+    rms = float(np.sqrt(np.mean(result.fun[: energy.brightness.size] ** 2)))
     return result.x, int(result.nfev), rms
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """``a · b`` as a NumPy reduction: BLAS's threaded ``ddot`` on long vectors spins badly when
+    the cores are shared (measured: the whole solve several times slower)."""
+    return float(np.multiply(a, b).sum())
+
+
+def _conjugate_gradients(
+    matrix, rhs: np.ndarray, inverse_diagonal: np.ndarray, rtol: float = 1e-4
+) -> np.ndarray:
+    """At most :data:`_CG_ITERATIONS` iterations of conjugate gradients on ``matrix x = rhs``
+    from ``x = 0``, preconditioned by the inverse diagonal (Jacobi), until the residual falls
+    below ``rtol`` times ``|rhs|`` (Hestenes & Stiefel 1952)."""
+    x = np.zeros_like(rhs)
+    residual = rhs.copy()
+    z = inverse_diagonal * residual
+    direction = z.copy()
+    rz = _dot(residual, z)
+    stop = rtol**2 * _dot(rhs, rhs)
+    for _ in range(_CG_ITERATIONS):
+        product = matrix @ direction
+        curvature = _dot(direction, product)
+        if not curvature > 0:
+            break
+        alpha = rz / curvature
+        x += alpha * direction
+        residual -= alpha * product
+        if _dot(residual, residual) <= stop:
+            break
+        z = inverse_diagonal * residual
+        rz, previous = _dot(residual, z), rz
+        direction = z + (rz / previous) * direction
+    return x
 
 
 def _solve_large(
@@ -344,86 +395,51 @@ def _solve_large(
     """Minimise Horn's energy with the :func:`_operators` of ``mask`` from a near start:
     depths of the mask pixels, iterations, RMS.
 
-    Levenberg–Marquardt: each step solves ``(J^T J + mu diag(J^T J)) d = -J^T r`` by at most
-    :data:`_CG_ITERATIONS` conjugate-gradient iterations with the diagonal as preconditioner
-    (the start comes from the coarser level of :func:`_cascade`, so only short wavelengths
-    remain to be corrected, which CG resolves quickly). A step is kept when the energy falls
-    (``mu`` shrinks), otherwise ``mu`` grows; it stops when the energy's relative decrease
-    falls below ``1e-8`` twice in a row or after ``max_iterations`` residual evaluations.
+    Levenberg–Marquardt: each step solves ``(JᵀJ + λ LᵀL + μ D) δ = −Jᵀr − λ LᵀL z`` with ``D``
+    the diagonal of the normal matrix (Marquardt's scaling), assembled as one sparse matrix, by
+    :func:`_conjugate_gradients` (the start comes from the coarser level of :func:`_cascade`,
+    so only short wavelengths remain to be corrected, which CG resolves quickly). A step is kept
+    when the energy falls (``μ`` shrinks), otherwise ``μ`` grows; it stops when the energy's
+    relative decrease falls below ``1e-8`` twice in a row or after ``max_iterations`` residual
+    evaluations.
     """
     from scipy import sparse
-    from scipy.sparse.linalg import LinearOperator, cg
 
-    d_x, d_y, average, laplacian = operators
-    brightness = average @ image[mask]
-    weight = np.sqrt(smoothness)
-    smooth = weight * laplacian
-    smooth_t = smooth.T.tocsr()
-    d_x_t, d_y_t = d_x.T.tocsr(), d_y.T.tocsr()
+    energy = _Energy(image, mask, operators, light, smoothness)
+    smooth_normal = (energy.smooth.T @ energy.smooth).tocsr()
 
-    def shading(z: np.ndarray) -> tuple[np.ndarray, ...]:
-        p, q = d_x @ z, d_y @ z
-        s = np.sqrt(1 + p * p + q * q)
-        u = -p * light[0] - q * light[1] + light[2]
-        return p, q, s, u
-
-    def residuals(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        _, _, s, u = shading(z)
-        return np.maximum(u, 0) / s - brightness, smooth @ z
-
-    def energy(parts: tuple[np.ndarray, np.ndarray]) -> float:
-        return float(parts[0] @ parts[0] + parts[1] @ parts[1])
+    def cost(parts: tuple[np.ndarray, np.ndarray]) -> float:
+        return _dot(parts[0], parts[0]) + _dot(parts[1], parts[1])
 
     z = initial_depth[mask].astype(np.float64)
-    parts = residuals(z)
-    cost = energy(parts)
-    mu = 1e-3
-    evaluations = 1
-    small = 0
-    n = z.size
-    smooth_diagonal = np.asarray(smooth.multiply(smooth).sum(axis=0)).ravel()
+    parts = energy.residuals(z)
+    current = cost(parts)
+    mu, evaluations, small = 1e-3, 1, 0
     while evaluations < max_iterations:
-        p, q, s, u = shading(z)
-        lit = u > 0
-        r_p = np.where(lit, -light[0] / s - u * p / s**3, 0.0)
-        r_q = np.where(lit, -light[1] / s - u * q / s**3, 0.0)
-        gradient = d_x_t @ (r_p * parts[0]) + d_y_t @ (r_q * parts[0]) + smooth_t @ parts[1]
-
-        def apply(v: np.ndarray, r_p=r_p, r_q=r_q) -> np.ndarray:
-            jv = r_p * (d_x @ v) + r_q * (d_y @ v)
-            return d_x_t @ (r_p * jv) + d_y_t @ (r_q * jv) + smooth_t @ (smooth @ v)
-
-        jacobian = sparse.diags(r_p) @ d_x + sparse.diags(r_q) @ d_y
-        diagonal = np.asarray(jacobian.power(2).sum(axis=0)).ravel() + smooth_diagonal
+        jacobian = energy.jacobian(z)
+        normal = (jacobian.T @ jacobian + smooth_normal).tocsr()
+        gradient = jacobian.T @ parts[0] + energy.smooth.T @ parts[1]
+        diagonal = normal.diagonal()
         diagonal = np.maximum(diagonal, 1e-12 * max(diagonal.max(), 1e-300))
-        while evaluations < max_iterations:
-            damped = diagonal * (1 + mu)
-            operator = LinearOperator(
-                (n, n), matvec=lambda v, mu=mu, d=diagonal: apply(v) + mu * d * v
-            )
-            step, _ = cg(
-                operator, -gradient, rtol=1e-4, maxiter=_CG_ITERATIONS, M=sparse.diags(1.0 / damped)
-            )
-            trial = z + step
-            trial_parts = residuals(trial)
+        decrease = 0.0
+        while evaluations < max_iterations and mu <= 1e12:
+            damped = normal + sparse.diags(mu * diagonal)
+            trial = z + _conjugate_gradients(damped, -gradient, 1.0 / (diagonal * (1 + mu)))
+            trial_parts = energy.residuals(trial)
+            trial_cost = cost(trial_parts)
             evaluations += 1
-            trial_cost = energy(trial_parts)
-            if trial_cost < cost:
-                decrease = (cost - trial_cost) / max(cost, 1e-300)
-                z, parts, cost = trial, trial_parts, trial_cost
+            if trial_cost < current:
+                decrease = (current - trial_cost) / max(current, 1e-300)
+                z, parts, current = trial, trial_parts, trial_cost
                 mu = max(mu / 3, 1e-9)
                 break
             mu *= 4
-            if mu > 1e12:
-                decrease = 0.0
-                break
         else:
             break
         small = small + 1 if decrease < 1e-8 else 0  # scipy's default ftol, twice in a row
         if small == 2:
             break
-    rms = float(np.sqrt(np.mean(parts[0] ** 2)))
-    return z, evaluations, rms
+    return z, evaluations, float(np.sqrt(np.mean(parts[0] ** 2)))
 
 
 def _solve(
