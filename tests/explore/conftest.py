@@ -58,3 +58,21 @@ def browser():
         b = p.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
         yield b
         b.close()
+
+
+@pytest.fixture(scope="module")
+def page(server, browser):
+    """The explorer's page, loaded and settled; ``page.errors`` collects page-side errors."""
+    from _page import settled
+
+    context = browser.new_context(
+        viewport={"width": 1500, "height": 1100}, bypass_csp=True, accept_downloads=True
+    )
+    p = context.new_page()
+    errors: list[str] = []
+    p.on("pageerror", lambda e: errors.append(str(e)))
+    p.goto(server.url)
+    settled(p)
+    p.errors = errors
+    yield p
+    context.close()

@@ -31,21 +31,6 @@ pytestmark = pytest.mark.slow
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
-@pytest.fixture(scope="module")
-def page(server, browser):
-    context = browser.new_context(
-        viewport={"width": 1500, "height": 1100}, bypass_csp=True, accept_downloads=True
-    )
-    p = context.new_page()
-    errors: list[str] = []
-    p.on("pageerror", lambda e: errors.append(str(e)))
-    p.goto(server.url)
-    settled(p)
-    p.errors = errors
-    yield p
-    context.close()
-
-
 def entry(page, index: int) -> dict:
     return page.evaluate(
         "(i) => { const e = window.explorer.state.entries[i];"

@@ -16,19 +16,6 @@ from brdfkit.render import render_sphere
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture
-def page(server, browser):
-    context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
-    p = context.new_page()
-    errors: list[str] = []
-    p.on("pageerror", lambda e: errors.append(str(e)))
-    p.goto(server.url)
-    settled(p)
-    p.errors = errors
-    yield p
-    context.close()
-
-
 def test_choosing_a_preset_adds_it_as_an_entry(page):
     records = catalogue()
     options = page.locator(".bx-add-material option")
