@@ -6,6 +6,9 @@ limit.
    :func:`brdfkit.distributed.batch.run` on a LocalCluster of 1 worker process and of 2, each
    cluster started before its clock starts; the two are **interleaved** ``--repeats`` times
    (1, 2, 1, 2, …) and the minimum of each is kept. Speed-up = t(1 worker) / t(2 workers).
+   Every repeat runs the same fits (the same seeds), so the two minima time the same work; with
+   seeds differing per repeat (as before 2026-12-02), fits' iteration counts differ and the
+   minima compared different batches (one worker: 29–36 s at the same CPU share).
    The workers are brdfkit's (:func:`brdfkit.distributed.cluster.local_cluster`: glibc's
    adaptive mmap threshold kept, see ``WORKER_CONFIG``).
    Each worker first runs one fit outside the clock (imports and JIT compilation, seconds per
@@ -74,7 +77,7 @@ def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
                     t.file,
                     t.file_sha256,
                     t.model,
-                    {**t.options, "seed": 1000 * repeat + s},  # the same fits on 1 and 2 workers
+                    {**t.options, "seed": s},  # the same fits on 1 and 2 workers, every repeat
                 )
                 for s in range(fits // len(base) + 1)
                 for t in base
