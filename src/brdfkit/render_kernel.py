@@ -621,11 +621,11 @@ def compiled_shader(
     if method not in METHODS or len(maps) != 1 or not all(lt.delta for lt in others):
         return None
     dtype = np.dtype(dtype)
-    if not build:
-        _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-        if rest is not None and not kernels_built(one_sided_view(rest), dtype):
-            return None
-    try:
+    try:  # without numba, a table's kernels_built raises ImportError as the shader does
+        if not build:
+            _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+            if rest is not None and not kernels_built(one_sided_view(rest), dtype):
+                return None
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
     except (ValueError, ImportError):
         return None
