@@ -53,6 +53,7 @@ DEFAULT_MODELS = (
     "minnaert",
     "hapke",
     "kulla_conty",
+    "kulla_conty_dielectric",
     "thin_film",
     "ashikhmin_shirley",
 )

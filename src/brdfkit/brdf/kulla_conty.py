@@ -101,6 +101,25 @@ def table_coordinates_from_conductor(eta: Any, k: Any) -> tuple[np.ndarray, np.n
     return r, np.clip(h, 0.0, 1.0)
 
 
+def visible_normal_quadrature(
+    nodes: tuple[int, int] = QUADRATURE_NODES,
+) -> tuple[np.ndarray, np.ndarray]:
+    r"""Nodes ``(n, 2)`` and weights ``(n,)`` on the unit square of Heitz's (2018) visible-normal
+    map (:meth:`~brdfkit.brdf.microfacet.GGX.sample_visible`): its radius as r = sin t (which
+    resolves the steep facets at the disk's rim), Gauss–Legendre in t, the trapezoid rule in
+    the (periodic) azimuth; ``nodes`` = (radial, azimuthal). A sum over them of g(ωm(u)) is
+    the mean of g over the normals visible from ω."""
+    n_r, n_phi = nodes
+    x, w = np.polynomial.legendre.leggauss(n_r)
+    t = 0.25 * math.pi * (x + 1)
+    r = np.sin(t)
+    w_r = 0.25 * math.pi * w * 2 * r * np.cos(t)  # du0 = 2 r dr, u0 = r²
+    u_phi = (np.arange(n_phi) + 0.5) / n_phi
+    u0, u1 = np.meshgrid(r * r, u_phi, indexing="ij")
+    u = np.stack([u0.ravel(), u1.ravel()], axis=-1)
+    return u, np.outer(w_r, np.full(n_phi, 1 / n_phi)).ravel()
+
+
 def ggx_albedo(
     alpha: float,
     mu: Any,
@@ -112,9 +131,7 @@ def ggx_albedo(
     D_{\omega_o}(\omega_m)\,d\omega_m` over the visible normals.
 
     The integral runs over the unit square of Heitz's (2018) visible-normal map
-    (:meth:`~brdfkit.brdf.microfacet.GGX.sample_visible`), its radius as r = sin t (which
-    resolves the steep facets at the disk's rim) with Gauss–Legendre nodes in t and the
-    trapezoid rule in the (periodic) azimuth.
+    (:func:`visible_normal_quadrature`).
 
     Parameters
     ----------
@@ -129,15 +146,7 @@ def ggx_albedo(
         ``mu.shape + (C,)``, C the Fresnel term's channels (1 for F = 1).
     """
     mu = np.asarray(mu, dtype=np.float64)
-    n_r, n_phi = nodes
-    x, w = np.polynomial.legendre.leggauss(n_r)
-    t = 0.25 * math.pi * (x + 1)
-    r = np.sin(t)
-    w_r = 0.25 * math.pi * w * 2 * r * np.cos(t)  # du0 = 2 r dr, u0 = r²
-    u_phi = (np.arange(n_phi) + 0.5) / n_phi
-    u0, u1 = np.meshgrid(r * r, u_phi, indexing="ij")
-    u = np.stack([u0.ravel(), u1.ravel()], axis=-1)
-    weights = np.outer(w_r, np.full(n_phi, 1 / n_phi)).ravel()
+    u, weights = visible_normal_quadrature(nodes)
     flat = mu.reshape(-1)
     wo = spherical_to_cartesian(np.arccos(np.clip(flat, 0, 1)), np.zeros_like(flat))[:, None, :]
     wo = np.broadcast_to(wo, (flat.size, u.shape[0], 3))
@@ -426,4 +435,5 @@ __all__ = [
     "fresnel_ratio_table",
     "ggx_albedo",
     "table_coordinates_from_conductor",
+    "visible_normal_quadrature",
 ]

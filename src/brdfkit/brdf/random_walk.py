@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from brdfkit.brdf.microfacet import GGX, FresnelTerm
+from brdfkit.fresnel import fresnel as fresnel_dielectric_term
 
 
 @dataclass(frozen=True)
@@ -126,4 +127,114 @@ def random_walk_albedo(
     return WalkResult(albedo, stderr, single, lost, later / paths)
 
 
-__all__ = ["WalkResult", "random_walk_albedo", "sample_visible_any"]
+@dataclass(frozen=True)
+class DielectricWalkResult:
+    """The directional albedo of a dielectric random walk, split by the side it leaves on.
+
+    Attributes
+    ----------
+    reflected, transmitted : fraction of the paths that leave on the side of ``wo``, and on
+        the other side (every scattering order).
+    reflected_single, transmitted_single : the fractions that leave after exactly one event.
+    stderr : the Monte Carlo standard error of ``reflected`` (and of ``transmitted``: the
+        paths are Bernoulli draws, ``reflected + transmitted + lost = 1``).
+    lost : the fraction still inside after the last order allowed (a bias, ≤ this).
+    """
+
+    reflected: float
+    transmitted: float
+    reflected_single: float
+    transmitted_single: float
+    stderr: float
+    lost: float
+
+
+def _lambda_signed(ggx: GGX, w: np.ndarray) -> np.ndarray:
+    """Smith's Λ of a ray direction, upwards or downwards: Λ(−ω) = −1 − Λ(ω) (Heitz 2016)."""
+    lam = ggx.smith_lambda(w)[:, 0]  # even in w.z
+    return np.where(w[:, 2] > 0, lam, -1 - lam)
+
+
+def dielectric_random_walk_albedo(
+    alpha: float,
+    eta: float,
+    wo: np.ndarray,
+    paths: int = 1 << 16,
+    seed: int = 0,
+    max_order: int = 100,
+) -> DielectricWalkResult:
+    r"""The directional albedo, reflected and transmitted, of the GGX dielectric microsurface
+    of relative index ``eta`` = n_inside / n_outside seen from ``wo`` (unit; ``wo.z > 0``
+    outside, ``< 0`` inside), by ``paths`` random walks of at most ``max_order`` events
+    (Heitz et al. 2016 §5 and their supplemental ``MicrosurfaceDielectric``).
+
+    A ray inside the dielectric sees the microsurface mirrored (heights and directions
+    negated), so the walk below the interface is the walk above it with
+    :math:`C_1 	o 1 - C_1` (uniform heights) and ω → −ω. At each event a normal is drawn
+    from those visible to the ray on its side; the ray reflects with probability
+    F(ωi·ωm) (:func:`brdfkit.fresnel.fresnel`, 1 under total internal reflection) and
+    otherwise refracts to the other side. Energy is never weighted: without absorption
+    every path carries 1, and the albedo is the fraction that leaves on each side, i.e.
+    the flux (importance-mode) albedo.
+    """
+    rng = np.random.default_rng(seed)
+    ggx = GGX(alpha)
+    wo = np.asarray(wo, dtype=np.float64)
+    start_outside = bool(wo[2] > 0)
+    wr = np.broadcast_to(-wo, (paths, 3)).copy()
+    outside = np.full(paths, start_outside)
+    c1 = np.full(paths, 1.0 if start_outside else 0.0)  # C1 of the height, outside's frame
+    left_outside = left_inside = 0
+    single = [0, 0]
+    for order in range(max_order + 1):
+        sign = np.where(outside, 1.0, -1.0)[:, None]
+        w, c = wr * sign, np.where(outside, c1, 1 - c1)  # the ray in its own side's frame
+        up = w[:, 2] > 0
+        lam = _lambda_signed(ggx, w)
+        u = rng.random(wr.shape[0])
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            g1 = np.where(up, c**lam, 0.0)
+        leaves = up & (u > 1 - g1)
+        n_out, n_in = int(np.sum(leaves & outside)), int(np.sum(leaves & ~outside))
+        left_outside, left_inside = left_outside + n_out, left_inside + n_in
+        if order == 1:
+            single = [n_out, n_in]
+        stay = ~leaves
+        wr, w, c, u, lam, outside = wr[stay], w[stay], c[stay], u[stay], lam[stay], outside[stay]
+        if order == max_order or wr.shape[0] == 0:
+            break
+        with np.errstate(divide="ignore", over="ignore"):
+            c = np.clip(c / (1 - u) ** (1 / lam), 0.0, 1.0)
+        c1 = np.where(outside, c, 1 - c)
+        sign = np.where(outside, 1.0, -1.0)[:, None]
+        wm = sign * sample_visible_any(alpha, -w, rng.random((wr.shape[0], 2)))
+        wi = -wr  # towards where the ray came from
+        cos_i = np.clip(np.sum(wi * wm, axis=-1, keepdims=True), 0.0, 1.0)
+        eta_side = np.where(outside, eta, 1 / eta)[:, None]  # n_other / n_this side
+        f, cos_t, _, eta_ti = fresnel_dielectric_term(cos_i, eta_side)
+        reflect = rng.random((wr.shape[0], 1)) < f
+        reflected = 2 * cos_i * wm - wi
+        refracted = wm * (cos_i * eta_ti + cos_t) - wi * eta_ti
+        wr = np.where(reflect, reflected, refracted)
+        wr /= np.linalg.norm(wr, axis=-1, keepdims=True)
+        outside = np.where(reflect[:, 0], outside, ~outside)
+    same, other = (left_outside, left_inside) if start_outside else (left_inside, left_outside)
+    s_same, s_other = single if start_outside else single[::-1]
+    reflected = same / paths
+    return DielectricWalkResult(
+        reflected=reflected,
+        transmitted=other / paths,
+        reflected_single=s_same / paths,
+        transmitted_single=s_other / paths,
+        stderr=math.sqrt(max(reflected * (1 - reflected), 0.0) / paths),
+        lost=wr.shape[0] / paths,
+    )
+
+
+__all__ = [
+    "DielectricWalkResult",
+    "WalkResult",
+    "dielectric_random_walk_albedo",
+    "random_walk_albedo",
+    "sample_visible_any",
+]
