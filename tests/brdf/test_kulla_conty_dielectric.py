@@ -21,7 +21,7 @@ from brdfkit.errors import ParameterError
 
 ALPHAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.7, 0.85, 1.0)
 THETAS = (0.0, 30.0, 55.0, 70.0, 80.0, 84.9)
-ETAS = (1.1, 1.33, 1.5, 2.0, 2.5, 1 / 1.5)
+ETAS = (1.1, 1.5, 2.5, 1 / 1.5)
 
 
 def _direction(degrees: float, side: float) -> np.ndarray:
@@ -58,7 +58,7 @@ def _furnace_worst(etas, alphas, thetas) -> float:
             for degrees in thetas:
                 for side in (1.0, -1.0):
                     wo = _direction(degrees, side)
-                    total = _compensated(model, wo, nodes=(192, 128)).sum()
+                    total = _compensated(model, wo, nodes=(144, 96)).sum()
                     worst = max(worst, abs(total - 1))
     return worst
 
@@ -69,10 +69,10 @@ def test_white_furnace_one_interface():
     assert worst < 0.005, worst
 
 
-@pytest.mark.slow  # 6 η × 8 α × 6 θ × 2 sides: ~60 s on two busy cores
+@pytest.mark.slow  # 4 η × 8 α × 6 θ × 2 sides: ~1 min CPU (8 min on 2 cores shared by 8)
 def test_white_furnace_compensated_albedo_is_one():
-    """R + T = 1 within 0.5 % for α ∈ [0.05, 1], θ < 85°, both sides, η ∈ [1.1, 2.5] and
-    1/1.5; single scattering by a finer quadrature than the model's, the added lobes
+    """R + T = 1 within 0.5 % for α ∈ [0.05, 1], θ < 85°, both sides, η ∈ {1.1, 1.5, 2.5,
+    1/1.5}; single scattering by a finer quadrature than the model's, the added lobes
     integrated from eval (so the reciprocity-corrected normalisation is checked too)."""
     worst = _furnace_worst(ETAS, ALPHAS, THETAS)
     assert worst < 0.005, worst  # measured 3.1e-3 (η = 1.1, α = 1, θ = 0 inside)
@@ -117,7 +117,7 @@ def test_glass_agrees_with_the_random_walk():
     np.testing.assert_allclose(ours, walk, rtol=0.02)
 
 
-@pytest.mark.slow  # 4 η × 6 α × 5 θ × 2 sides, 2^17 paths each: ~60 s
+@pytest.mark.slow  # 4 η × 6 α × 5 θ × 2 sides, 2^17 paths each: ~40 s CPU
 def test_compensated_albedo_agrees_with_the_random_walk_everywhere():
     """R and T each within 2 % of the walk (seeds independent of the table's) wherever the
     walk resolves 2 % (its standard error below 0.5 % of the value), and otherwise within
@@ -210,3 +210,21 @@ def test_the_shipped_split_table_is_what_its_recipe_computes():
     node = split_node(6, 3, 9)
     np.testing.assert_allclose(split_table()[6, 3, 9], node, atol=5e-5)
     assert np.all(node >= 0) and np.sum(node) < 1
+
+
+@pytest.mark.slow  # numba compiles eval, pdf and sample: ~1-3 min on two busy cores
+def test_compiled_path_matches_numpy():
+    from brdfkit import accel
+    from brdfkit.geometry import spherical_to_cartesian
+
+    model = KullaContyDielectric(alpha=0.4, eta=1.5)
+    rng = np.random.default_rng(4)
+    wi = spherical_to_cartesian(rng.random(500) * 3.1, rng.random(500) * 6)
+    wo = spherical_to_cartesian(rng.random(500) * 3.1, rng.random(500) * 6)
+    compiled = accel.compile(model, dtype=np.float64)
+    np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-9, atol=1e-12)
+    u = rng.random((500, 3))
+    ours, theirs = compiled.sample(wo, u), model.sample(wo, u)
+    np.testing.assert_allclose(ours.wi, theirs.wi, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(ours.weight, theirs.weight, rtol=1e-9, atol=1e-12)
