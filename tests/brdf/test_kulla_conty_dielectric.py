@@ -120,9 +120,10 @@ def test_glass_agrees_with_the_random_walk():
 @pytest.mark.slow  # 4 η × 6 α × 5 θ × 2 sides, 2^17 paths each: ~40 s CPU
 def test_compensated_albedo_agrees_with_the_random_walk_everywhere():
     """R and T each within 2 % of the walk (seeds independent of the table's) wherever the
-    walk resolves 2 % (its standard error below 0.5 % of the value), and otherwise within
-    4 standard errors; see ``benchmarks/kulla_conty_dielectric_accuracy.py``."""
-    worst_relative, worst_sigma = 0.0, 0.0
+    walk resolves 2 % (its standard error σ below 0.5 % of the value); where R or T is too
+    small for 2¹⁷ paths to resolve 2 % (σ ≥ 0.5 %), within 2 % + 3σ. See
+    ``benchmarks/kulla_conty_dielectric_accuracy.py`` for the measured worst cases."""
+    worst_relative, worst_excess = 0.0, -1.0
     for e, eta in enumerate((1.33, 1.5, 2.2, 1 / 1.5)):
         for a, alpha in enumerate((0.05, 0.2, 0.4, 0.6, 0.8, 1.0)):
             for t, degrees in enumerate((0.0, 40.0, 60.0, 75.0, 84.0)):
@@ -133,9 +134,10 @@ def test_compensated_albedo_agrees_with_the_random_walk_everywhere():
                         if sigma < 0.005 * reference:
                             worst_relative = max(worst_relative, abs(value / reference - 1))
                         else:
-                            worst_sigma = max(worst_sigma, abs(value - reference) / sigma)
+                            excess = abs(value - reference) - (0.02 * reference + 3 * sigma)
+                            worst_excess = max(worst_excess, excess)
     assert worst_relative < 0.02, worst_relative
-    assert worst_sigma < 4, worst_sigma
+    assert worst_excess < 0, worst_excess
 
 
 def test_generalised_reciprocity_with_the_added_lobes():
