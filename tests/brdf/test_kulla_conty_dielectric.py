@@ -230,3 +230,21 @@ def test_compiled_path_matches_numpy():
     ours, theirs = compiled.sample(wo, u), model.sample(wo, u)
     np.testing.assert_allclose(ours.wi, theirs.wi, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(ours.weight, theirs.weight, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0], ids=["outside", "inside"])
+def test_one_sided_sampling_matches_its_density(side):
+    """A one-sided render's view (:func:`~brdfkit.brdf.one_sided.one_sided_view`): χ² of
+    sample_one_sided against pdf_one_sided on the upper hemisphere, weight = f·cos θi/pdf."""
+    from brdfkit.brdf.one_sided import one_sided_view
+    from brdfkit.testing import brdf_sampler, chi2_test
+
+    model = KullaContyDielectric(alpha=0.7, eta=1.5)
+    wo = _direction(50.0, side)
+    view = one_sided_view(model)
+    chi2_test(*brdf_sampler(view, wo), sample_dim=3, n_samples=40_000).assert_passed()
+    s = view.sample(np.broadcast_to(wo, (2000, 3)), np.random.default_rng(1).random((2000, 3)))
+    ok = s.pdf > 0
+    assert np.all(s.wi[ok, 2] > 0) and np.all(s.weight[~ok] == 0)
+    expected = model.eval(s.wi[ok], wo) * s.wi[ok, 2:3] / s.pdf[ok, None]
+    np.testing.assert_allclose(s.weight[ok], expected, rtol=1e-10)
