@@ -8,10 +8,16 @@ it, its energy multiplied by the facet's Fresnel reflectance. The mean energy of
 rays is the microsurface's directional albedo with every order of scattering; the first order
 alone is the classical GGX conductor with height-correlated Smith masking–shadowing.
 
+:func:`dielectric_random_walk_albedo` is the same walk on a dielectric interface (Heitz et
+al. §5): a ray reflects with probability F or refracts through the microsurface, which it
+then sees mirrored from below.
+
 This is a NumPy Monte Carlo reference, not a model: the walk is stochastic per ray.
-:class:`KullaConty`'s Fresnel table is generated from it (``benchmarks/kulla_conty_table.py``)
-and the model is checked against it with independent seeds and directions. Only the paths
-still inside are carried from one order to the next, so the cost is the paths' total length.
+:class:`KullaConty`'s Fresnel table is generated from it (``benchmarks/kulla_conty_table.py``),
+and :class:`KullaContyDielectric`'s split of R and T
+(``benchmarks/kulla_conty_dielectric_table.py``); both models are checked against it with
+independent seeds and directions. Only the paths still inside are carried from one order to
+the next, so the cost is the paths' total length.
 
 References
 ----------
