@@ -21,16 +21,18 @@ lost energy, :math:`A_s = 2\int_0^1 a_s\,\mu\,d\mu` (and :math:`B_s` likewise). 
 albedo from side s is then :math:`a_s(\mu_o) + b_s(\mu_o) = 1 - E_s(\mu_o)` exactly, provided
 :math:`\eta^2 B_{in} = B_{out}`: the transmitted flux, averaged over the hemisphere, obeys
 the same reciprocity as a smooth interface's :math:`1 - \bar F(1/\eta) = (1 - \bar F(\eta))/
-\eta^2`. That is Kulla & Conty's reciprocity correction: the outside's transmitted share
-:math:`b_{out} = (1 - x_{out})(1 - E_{out})` is kept, the inside's is scaled,
-:math:`b_{in} = \kappa(1 - x_{in})(1 - E_{in})` with :math:`\kappa = B_{out}/(\eta^2 B_{in})`,
-and the inside's reflected share is the rest, :math:`a_{in} = 1 - E_{in} - b_{in}`.
+\eta^2`. This is the reciprocity correction of the transmission term (the role it plays in
+Kulla & Conty's dielectrics): the rarer side's transmitted share (for η > 1 the outside's,
+:math:`b_{out} = (1 - x_{out})(1 - E_{out})`) is kept and the denser side's scaled to match,
+:math:`b_{in} = \kappa(1 - x_{in})(1 - E_{in})` with :math:`\kappa = B_{out}/(\eta^2 B_{in})`
+(≤ 1 − E_in), its reflected share the rest, :math:`a_{in} = 1 - E_{in} - b_{in}`.
 
 The split :math:`x_s` (``split=``):
 
-- ``"fresnel_average"``: Kulla & Conty's, :math:`x_{out} = \bar F(\eta)` (the hemispherical
-  average Fresnel reflectance, :func:`brdfkit.brdf.plastic.diffuse_fresnel_reflectance`) and
-  the inside's transmission :math:`\propto 1 - E_{in}`, fixed by the correction above. The
+- ``"fresnel_average"``: Kulla & Conty's, :math:`x = \bar F(\max(\eta, 1/\eta))` on the
+  rarer side (the hemispherical average Fresnel reflectance,
+  :func:`brdfkit.brdf.plastic.diffuse_fresnel_reflectance`) and the denser side's
+  transmission :math:`\propto 1 - E`, fixed by the correction above. The
   random walk shows that multiply scattered light from outside is transmitted far more often
   than :math:`1 - \bar F`: at α = 1, η = 1.5, θo = 0 the reflected albedo is then 0.0225
   against the walk's 0.0156 (+44 %), and from inside R is up to 20 % high and T up to 15 %
