@@ -66,8 +66,10 @@ def _table_functions(
 
 
 PREFETCH_DISTANCE = 16
-"""Pairs ahead whose table rows :func:`_new_table_functions`' ``eval`` prefetches (measured
-on the 90 × 90 × 180 benchmark table; 8–32 do about as well)."""
+"""Pairs ahead whose table rows :func:`_new_table_functions`' ``eval`` prefetches. Measured
+on the 90 × 90 × 180 RGB benchmark table, random pairs in blocks of 256 (the render's), CPU
+per pair on a loaded 2-core machine: 110 ns without, 61 / 47 / 40 / 37.5 / 40.5 ns at 4 / 8 /
+16 / 32 / 64 pairs ahead."""
 
 
 @functools.cache
@@ -148,9 +150,13 @@ def _new_table_functions(
     """The numba ``sample``, ``eval`` and ``pdf`` of a table of ``rank`` (3: isotropic, 4:
     anisotropic) with ``table_channels`` value channels, scaled to ``channels``.
 
-    ``eval`` runs in two loops over the batch: the half/difference angles and the cells'
+    ``eval`` runs in three loops over the batch: the half/difference angles and the cells'
     indices and weights branch-free (LLVM vectorises it; float32 with :func:`_atan2_32` and
-    :func:`brdfkit.accel`'s float32 sine and cosine), then the gathers from the table.
+    :func:`brdfkit.accel`'s float32 sine and cosine), the corners' table rows and weights,
+    then the gathers from the table, each pair's rows prefetched :data:`PREFETCH_DISTANCE`
+    pairs ahead. A 90 × 90 × 180 RGB table (its value channels and the measured flag: 23 MB
+    in float32) does not stay in the caches of a render, so its 2^D corners are cache
+    misses; with the prefetches they overlap (measured: 10⁶ random pairs, 0.11 → 0.06 s).
     """
     import numba
 
