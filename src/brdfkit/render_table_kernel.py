@@ -163,7 +163,7 @@ def _new_table_functions(
     jit = numba.njit(nogil=True, error_model="numpy")
     # the vectorised loop: accel's kernels' fast-math flags and vector width
     vector_jit = numba.njit(nogil=True, error_model="numpy", fastmath=set(accel._FASTMATH))
-    # exact arithmetic (lookup's products in its order), vectorised over the pairs
+    # no fast-math flags: lookup's corner weights, products in its order
     corner_jit = numba.njit(nogil=True, error_model="numpy")
     prefer_vector_width = accel._vector_width_hint(accel.vector_bits())
     prefetch = _prefetch()
