@@ -15,7 +15,7 @@ from brdfkit.lights import EnvironmentMap
 from brdfkit.measured import TabulatedBRDF
 from brdfkit.render import Sphere, gbuffer, shade
 from brdfkit.render_kernel import compiled_shader, kernels_built
-from brdfkit.render_table_kernel import _atan2_32, table_kernels
+from brdfkit.render_table_kernel import _atan2_32, _prefetch, table_kernels
 from brdfkit.sampling import square_to_uniform_sphere
 
 COPPER = RoughConductor(alpha=0.3, material="Cu", masking="smith_separable")
@@ -124,6 +124,28 @@ def test_float32_atan2_within_a_few_ulp():
     exact = np.arctan2(y.astype(np.float64), x.astype(np.float64))
     ulp = np.spacing(np.abs(exact).astype(np.float32)).astype(np.float64)
     assert np.max(np.abs(found - exact) / np.maximum(ulp, 1e-45)) < 4
+
+
+def test_prefetch_is_llvm_prefetch_and_leaves_values_alone():
+    import numba
+
+    prefetch = _prefetch()
+
+    @numba.njit
+    def total(values, rows):
+        s = 0.0
+        for j in range(rows.size):
+            if j + 2 < rows.size:
+                prefetch(values, rows[j + 2])
+            s += values[rows[j]]
+        return s
+
+    values = np.arange(1000, dtype=np.float32).reshape(250, 4).reshape(-1)
+    rows = np.array([3, 999, 0, 512, 7])
+    assert total(values, rows) == float(values[rows].sum())
+    assert "llvm.prefetch" in total.inspect_llvm(total.signatures[0])
+    with pytest.raises(numba.TypingError):  # a strided view: no element pointer arithmetic
+        total(values[::2], rows)
 
 
 def test_sampler_is_unbiased(table):
