@@ -27,6 +27,10 @@ assumption that values are finite."""
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH)
 _pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, parallel=True)
 
+_BLOCKS = 16
+"""Contiguous pixel blocks the robust-PCA kernel splits its sums over (the parallel tasks; a
+fixed count, so the rounding of the sum does not depend on the number of threads)."""
+
 BIPOLYNOMIAL, RAMPS, TABLE = 0, 1, 2
 """Basis kinds of :func:`fit_pixels` (see :mod:`brdfkit.vision.bivariate`)."""
 
@@ -450,40 +454,44 @@ def consensus_rings(normals, ranks, lit, lights, radii):  # pragma: no cover
 
 @_pjit
 def rpca_step(
-    data, sparse, dual, observed, matrix, left, right, mu, mu_next, lam, matrix_next
+    data, sparse, dual, observed, left, right, mu, mu_next, lam, z, matrix_next
 ):  # pragma: no cover
     """The updates of one :func:`~brdfkit.vision.photometric_stereo.robust_pca` iteration
     after its singular-value shrinkage, per pixel (rows of the ``(P, N)`` arrays), in place on
-    ``sparse`` and ``dual``; returns ``|D - A - E|^2`` per pixel.
+    ``sparse`` and ``dual``; returns ``|D - A - E|^2`` summed over the pixels.
 
-    ``A = matrix @ right.T @ left.T`` (the shrinkage ``U f U^T`` of the Gram's kept
-    eigenvectors); ``E = shrink(D - A + Y/mu, lam/mu)`` where observed, ``D - A + Y/mu``
-    elsewhere; ``Y += mu (D - A - E)``; ``matrix_next = D - E + Y / mu_next``, the next
-    shrinkage's input.
+    The shrinkage's input is ``M = D - E + Y / mu`` (recomputed here, not stored), and
+    ``A = M right left^T`` (the shrinkage ``V f V^T`` of the Gram's kept eigenvectors), with
+    ``z = M right`` written to ``z`` ``(P, k)``; ``E = shrink(D - A + Y/mu, lam/mu)`` where
+    observed, ``D - A + Y/mu`` elsewhere; ``Y += mu (D - A - E)``; ``matrix_next = D - E +
+    Y / mu_next``, the next shrinkage's input. The pixels' sums are added in :data:`_BLOCKS`
+    contiguous blocks (the same rounding on any number of threads).
     """
     n_pixels, n_lights = data.shape
     rank = left.shape[1]
-    gap2 = np.empty(n_pixels)
+    gap2 = np.zeros(_BLOCKS)
     tau = lam / mu
-    for p in numba.prange(n_pixels):
-        m, d, e, y = matrix[p], data[p], sparse[p], dual[p]
-        z = np.zeros(rank)
-        for k in range(n_lights):
-            for j in range(rank):
-                z[j] += right[k, j] * m[k]
+    for block in numba.prange(_BLOCKS):
         total = 0.0
-        for k in range(n_lights):
-            low = 0.0
-            for j in range(rank):
-                low += left[k, j] * z[j]
-            target = d[k] - low + y[k] / mu
-            if observed[p, k]:
-                e[k] = target - min(max(target, -tau), tau)
-            else:
-                e[k] = target
-            gap = d[k] - low - e[k]
-            y[k] += mu * gap
-            total += gap * gap
-            matrix_next[p, k] = d[k] - e[k] + y[k] / mu_next
-        gap2[p] = total
-    return gap2
+        for p in range(block * n_pixels // _BLOCKS, (block + 1) * n_pixels // _BLOCKS):
+            d, e, y, zp, row = data[p], sparse[p], dual[p], z[p], matrix_next[p]
+            zp[:] = 0.0
+            for k in range(n_lights):
+                m = d[k] - e[k] + y[k] / mu
+                for j in range(rank):
+                    zp[j] += right[k, j] * m
+            for k in range(n_lights):
+                low = 0.0
+                for j in range(rank):
+                    low += left[k, j] * zp[j]
+                target = d[k] - low + y[k] / mu
+                if observed[p, k]:
+                    e[k] = target - min(max(target, -tau), tau)
+                else:
+                    e[k] = target
+                gap = d[k] - low - e[k]
+                y[k] += mu * gap
+                total += gap * gap
+                row[k] = d[k] - e[k] + y[k] / mu_next
+        gap2[block] = total
+    return gap2.sum()
