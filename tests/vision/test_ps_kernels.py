@@ -271,8 +271,44 @@ def test_consensus_rings_match_numpy(glossy):
             cost = np.where(better, trial_cost, cost)
     from brdfkit.vision import _ps_kernels
 
-    _ps_kernels.consensus_rings(normals, ranks, lit, lights, consensus._RINGS)
+    order = np.argsort(normals @ lights.T, axis=1, kind="stable")
+    found = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
+    np.testing.assert_allclose(found, _ref_consensus_cost(normals, ranks, lit, lights), atol=1e-12)
+    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, consensus._RINGS)
     assert np.abs(normals - reference).max() < 1e-9
+    np.testing.assert_allclose(found, cost, atol=1e-12)  # the kept costs are the normals'
+
+
+def _ref_global_search(ranks, lit, lights, candidates):
+    """The consensus global search in NumPy (three matrix products a block of pixels)."""
+    cosines = candidates @ lights.T
+    candidate_ranks = consensus._ranks(cosines)
+    front = (cosines > 0).astype(np.float64)
+    count = np.maximum(lit.sum(axis=1, keepdims=True), 1.0)
+    mean_i = (lit * ranks).sum(axis=1, keepdims=True) / count
+    var_i = (lit * ranks * ranks).sum(axis=1, keepdims=True) / count - mean_i**2
+    mean_c = (lit @ candidate_ranks.T) / count
+    var_c = (lit @ (candidate_ranks**2).T) / count - mean_c**2
+    covariance = ((lit * ranks) @ candidate_ranks.T) / count - mean_i * mean_c
+    rho = covariance / np.sqrt(np.maximum(var_i * var_c, 1e-300))
+    disagree = (lit.sum(axis=1, keepdims=True) + front.sum(axis=1) - 2 * lit @ front.T) / len(
+        lights
+    )
+    return candidates[np.argmin((1 - rho) / 2 + disagree, axis=1)]
+
+
+def test_consensus_global_search_matches_numpy(glossy):
+    gray, lights, _, _ = glossy
+    intensities = gray.T
+    lit = (intensities > 0.05 * bivariate._reference(intensities)[:, None]).astype(float)
+    lit[:40] = 1.0  # all lit: the kernel sums over the (empty) unlit list
+    lit[40:60, : len(lights) // 2 + 10] = 0.0  # mostly unlit: it sums over the lit list
+    ranks = consensus._ranks(intensities)
+    candidates = consensus._hemisphere(300)
+    found = consensus._global_search(ranks, lit, lights, candidates)
+    reference = _ref_global_search(ranks, lit, lights, candidates)
+    np.testing.assert_array_equal(found, reference)  # integer sums: the same choice exactly
+    assert len(np.unique(found, axis=0)) > 50  # the pixels did choose different candidates
 
 
 @pytest.mark.parametrize("max_iterations", [5, pytest.param(200, marks=pytest.mark.slow)])

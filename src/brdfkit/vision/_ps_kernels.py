@@ -31,6 +31,9 @@ _BLOCKS = 16
 """Contiguous pixel blocks the robust-PCA kernel splits its sums over (the parallel tasks; a
 fixed count, so the rounding of the sum does not depend on the number of threads)."""
 
+_CHUNK = 256
+"""Pixels a parallel task of the consensus kernels takes (its scratch arrays made once)."""
+
 BIPOLYNOMIAL, RAMPS, TABLE = 0, 1, 2
 """Basis kinds of :func:`fit_pixels` (see :mod:`brdfkit.vision.bivariate`)."""
 
@@ -385,11 +388,89 @@ def lm_step(
 # Consensus (Higo et al. 2010)
 
 
+@numba.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def consensus_best(lit, ranks, products, tables, totals):  # pragma: no cover
+    """The global search of :func:`~brdfkit.vision.consensus._global_search` for a block of
+    pixels: the index ``(B,)`` of each pixel's lowest-cost candidate.
+
+    ``lit`` and ``ranks`` ``(B, N)`` (``lit`` 0 or 1); ``products`` ``(B, M)`` the sums
+    ``sum_k lit_k ranks_k R_ck`` (``R`` the candidates' cosine ranks, a matrix product done by
+    the caller); ``tables`` ``(3, N, M)`` the transposes of ``R``, ``R^2`` and the candidates'
+    front indicator, ``totals`` ``(3, M)`` their sums over all lights. The other sums over the
+    lit lights are added here from whichever list is shorter, the lit or the unlit lights
+    (totals minus the unlit ones): all are sums of integers, exact in any order, and the cost
+    is evaluated with NumPy's operations in NumPy's order (no fast-math), so the choice is the
+    one of the NumPy formulation.
+    """
+    n_pixels, n_lights = lit.shape
+    n_candidates = products.shape[1]
+    best = np.empty(n_pixels, np.int64)
+    for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
+        sums = np.empty((3, n_candidates))
+        cost = np.empty(n_candidates)
+        chosen = np.empty(n_lights, np.int64)
+        for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
+            w, r = lit[p], ranks[p]
+            n_lit = 0
+            s_w = s_i = s_ii = 0.0
+            for k in range(n_lights):
+                s_w += w[k]
+                s_i += w[k] * r[k]
+                s_ii += w[k] * r[k] * r[k]
+                n_lit += w[k] != 0.0
+            complement = n_lights - n_lit < n_lit
+            n_chosen = 0
+            for k in range(n_lights):
+                if (w[k] != 0.0) != complement:
+                    chosen[n_chosen] = k
+                    n_chosen += 1
+            sums[:, :] = 0.0
+            for t in range(3):
+                row = sums[t]
+                for a in range(n_chosen):
+                    column = tables[t, chosen[a]]
+                    for c in range(n_candidates):
+                        row[c] += column[c]
+                if complement:
+                    for c in range(n_candidates):
+                        row[c] = totals[t, c] - row[c]
+            count = max(s_w, 1.0)
+            mean_i = s_i / count
+            var_i = s_ii / count - mean_i * mean_i
+            for c in range(n_candidates):
+                mean_c = sums[0, c] / count
+                var_c = sums[1, c] / count - mean_c * mean_c
+                covariance = products[p, c] / count - mean_i * mean_c
+                rho = covariance / np.sqrt(max(var_i * var_c, 1e-300))
+                disagree = (s_w + totals[2, c] - 2 * sums[2, c]) / n_lights
+                cost[c] = (1 - rho) / 2 + disagree
+            index = 0
+            for c in range(1, n_candidates):
+                if cost[c] < cost[index]:
+                    index = c
+            best[p] = index
+    return best
+
+
 @_jit
-def _consensus_cost(nx, ny, nz, ranks, lit, lights, order, cosines):  # pragma: no cover
-    """:func:`~brdfkit.vision.consensus._cost` of one pixel's normal; ``order`` holds a
-    permutation of the lights (any: it is insertion-sorted by ``(n·l_k, k)`` in place, which is
-    fast from the previous normal's order), ``cosines`` is scratch ``(N,)``."""
+def _lit_moments(ranks, lit):  # pragma: no cover
+    """Count (at least 1), mean and variance of one pixel's lit observations' ranks."""
+    count = s_i = s_ii = 0.0
+    for k in range(len(ranks)):
+        count += lit[k]
+        s_i += lit[k] * ranks[k]
+        s_ii += lit[k] * ranks[k] * ranks[k]
+    count = max(count, 1.0)
+    mean_i = s_i / count
+    return count, mean_i, s_ii / count - mean_i * mean_i
+
+
+@_jit
+def _consensus_cost(nx, ny, nz, ranks, lit, moments, lights, order, cosines):  # pragma: no cover
+    """The consensus cost (:mod:`brdfkit.vision.consensus`) of one pixel's normal; ``moments`` are
+    :func:`_lit_moments` of the pixel, ``order`` holds a permutation of the lights (any: it is
+    insertion-sorted by ``(n·l_k, k)`` in place, which is fast from a nearby normal's order),
+    ``cosines`` is scratch ``(N,)``."""
     n_lights = len(ranks)
     for k in range(n_lights):
         cosines[k] = nx * lights[k, 0] + ny * lights[k, 1] + nz * lights[k, 2]
@@ -403,49 +484,65 @@ def _consensus_cost(nx, ny, nz, ranks, lit, lights, order, cosines):  # pragma: 
             order[j + 1] = order[j]
             j -= 1
         order[j + 1] = key
-    count = 0.0
-    s_i = s_c = s_ii = s_cc = s_ic = disagree = 0.0
+    s_c = s_cc = s_ic = disagree = 0.0
     for position in range(n_lights):
         k = order[position]
         rank_c = float(position)
         w = lit[k]
-        count += w
-        s_i += w * ranks[k]
         s_c += w * rank_c
-        s_ii += w * ranks[k] * ranks[k]
         s_cc += w * rank_c * rank_c
         s_ic += w * ranks[k] * rank_c
         disagree += abs(w - (1.0 if cosines[k] > 0 else 0.0))
-    count = max(count, 1.0)
-    mean_i, mean_c = s_i / count, s_c / count
-    variance = (s_ii / count - mean_i * mean_i) * (s_cc / count - mean_c * mean_c)
+    count, mean_i, var_i = moments
+    mean_c = s_c / count
+    variance = var_i * (s_cc / count - mean_c * mean_c)
     rho = (s_ic / count - mean_i * mean_c) / np.sqrt(max(variance, 1e-300))
     return (1 - rho) / 2 + disagree / n_lights
 
 
 @_pjit
-def consensus_rings(normals, ranks, lit, lights, radii):  # pragma: no cover
+def consensus_costs(normals, ranks, lit, lights, order):  # pragma: no cover
+    """The consensus cost ``(P,)`` of each pixel's normal ``(P, 3)``, ``order`` ``(P, N)``
+    sorted in place by the pixel's cosines (see :func:`_consensus_cost`)."""
+    n_pixels, n_lights = ranks.shape
+    cost = np.empty(n_pixels)
+    for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
+        cosines = np.empty(n_lights)
+        for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
+            n, moments = normals[p], _lit_moments(ranks[p], lit[p])
+            cost[p] = _consensus_cost(
+                n[0], n[1], n[2], ranks[p], lit[p], moments, lights, order[p], cosines
+            )
+    return cost
+
+
+@_pjit
+def consensus_rings(normals, cost, order, ranks, lit, lights, radii):  # pragma: no cover
     """The hill climbing of :func:`~brdfkit.vision.consensus.consensus` on every pixel, in place
-    on ``normals`` ``(P, 3)``: for each radius, 6 trial normals around the current one, each
-    kept if its cost is lower."""
-    for p in numba.prange(len(ranks)):
-        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
-        cosines = nx * lights[:, 0] + ny * lights[:, 1] + nz * lights[:, 2]
-        order = np.argsort(cosines, kind="mergesort")
-        cost = _consensus_cost(nx, ny, nz, ranks[p], lit[p], lights, order, cosines)
-        for radius in radii:
-            t = _tangents(nx, ny, nz)
-            for step in range(6):
-                azimuth = step * np.pi / 3
-                ca, sa = np.cos(azimuth), np.sin(azimuth)
+    on ``normals`` ``(P, 3)`` and their costs ``cost`` ``(P,)`` (:func:`consensus_costs`): for
+    each radius, 6 trial normals around the current one, each kept if its cost is lower.
+    ``order`` ``(P, N)`` is each pixel's last sort of the lights (any permutation is valid)."""
+    n_pixels, n_lights = ranks.shape
+    for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
+        cosines = np.empty(n_lights)
+        for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
+            nx, ny, nz, best = normals[p, 0], normals[p, 1], normals[p, 2], cost[p]
+            moments = _lit_moments(ranks[p], lit[p])
+            for radius in radii:
+                t = _tangents(nx, ny, nz)
                 cr, sr = np.cos(radius), np.sin(radius)
-                tx = nx * cr + sr * (ca * t[0] + sa * t[3])
-                ty = ny * cr + sr * (ca * t[1] + sa * t[4])
-                tz = nz * cr + sr * (ca * t[2] + sa * t[5])
-                trial = _consensus_cost(tx, ty, tz, ranks[p], lit[p], lights, order, cosines)
-                if trial < cost:
-                    nx, ny, nz, cost = tx, ty, tz, trial
-        normals[p, 0], normals[p, 1], normals[p, 2] = nx, ny, nz
+                for step in range(6):
+                    azimuth = step * np.pi / 3
+                    ca, sa = np.cos(azimuth), np.sin(azimuth)
+                    tx = nx * cr + sr * (ca * t[0] + sa * t[3])
+                    ty = ny * cr + sr * (ca * t[1] + sa * t[4])
+                    tz = nz * cr + sr * (ca * t[2] + sa * t[5])
+                    trial = _consensus_cost(
+                        tx, ty, tz, ranks[p], lit[p], moments, lights, order[p], cosines
+                    )
+                    if trial < best:
+                        nx, ny, nz, best = tx, ty, tz, trial
+            normals[p, 0], normals[p, 1], normals[p, 2], cost[p] = nx, ny, nz, best
 
 
 # ----------------------------------------------------------------------------------------------

@@ -39,6 +39,7 @@ from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
 from brdfkit.vision.bivariate import _finish, _reference
 from brdfkit.vision.photometric_stereo import (
+    BLAS_THREADS,
     Callback,
     PhotometricStereoResult,
     _gray,
@@ -75,24 +76,35 @@ def _global_search(
     ranks: np.ndarray, lit: np.ndarray, lights: np.ndarray, candidates: np.ndarray
 ) -> np.ndarray:
     """Best candidate per pixel by the consensus cost, with ranks of the candidates' cosines
-    over all lights (the weighted Pearson correlation of ranks, three matrix products)."""
+    over all lights (the weighted Pearson correlation of ranks).
+
+    The sums over the lit lights ``sum_k lit_k ranks_k R_ck`` are a matrix product (BLAS, one
+    thread: see :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS`; in single precision
+    when every partial sum is an integer below ``2^24``, so exactly), the rest and the cost
+    are :func:`brdfkit.vision._ps_kernels.consensus_best`, pixels over the cores.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from brdfkit.vision import _ps_kernels
+
     cosines = candidates @ lights.T  # (M, N)
     candidate_ranks = _ranks(cosines)
     front = (cosines > 0).astype(np.float64)
+    tables = np.ascontiguousarray(np.stack([candidate_ranks.T, candidate_ranks.T**2, front.T]))
+    totals = tables.sum(axis=1)
     n_lights = lights.shape[0]
-    best = np.empty((len(ranks), 3))
-    for start in range(0, len(ranks), _BLOCK):
-        r, w = ranks[start : start + _BLOCK], lit[start : start + _BLOCK]
-        count = np.maximum(w.sum(axis=1, keepdims=True), 1.0)
-        mean_i = (w * r).sum(axis=1, keepdims=True) / count
-        var_i = (w * r * r).sum(axis=1, keepdims=True) / count - mean_i**2
-        mean_c = (w @ candidate_ranks.T) / count
-        var_c = (w @ (candidate_ranks**2).T) / count - mean_c**2
-        covariance = ((w * r) @ candidate_ranks.T) / count - mean_i * mean_c
-        rho = covariance / np.sqrt(np.maximum(var_i * var_c, 1e-300))
-        disagree = (w.sum(axis=1, keepdims=True) + front.sum(axis=1) - 2 * w @ front.T) / n_lights
-        best[start : start + _BLOCK] = candidates[np.argmin((1 - rho) / 2 + disagree, axis=1)]
-    return best
+    exact32 = n_lights * (n_lights - 1) ** 2 < 2**24  # the largest sum of rank products
+    dtype = np.float32 if exact32 else np.float64
+    ranks_t = np.ascontiguousarray(candidate_ranks.T, dtype=dtype)
+    best = np.empty(len(ranks), np.int64)
+    with threadpool_limits(BLAS_THREADS, user_api="blas"):
+        for start in range(0, len(ranks), _BLOCK):
+            r, w = ranks[start : start + _BLOCK], lit[start : start + _BLOCK]
+            products = (w * r).astype(dtype) @ ranks_t
+            best[start : start + _BLOCK] = _ps_kernels.consensus_best(
+                w, r, products, tables, totals
+            )
+    return candidates[best]
 
 
 def consensus(
@@ -139,14 +151,17 @@ def consensus(
     lit = (intensities > shadow_threshold * _reference(intensities)[:, None]).astype(float)
     ranks = _ranks(intensities)
     steps = 1 + len(_RINGS)
+    lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
     normals = _global_search(ranks, lit, lights, _hemisphere(count))
     if callback is not None:
         callback(1, steps)
     from brdfkit.vision import _ps_kernels
 
-    lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
+    order = np.argsort(normals @ lights.T, axis=1, kind="stable")  # by (n·l_k, k)
+    cost = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
     for step in range(len(_RINGS)):
-        _ps_kernels.consensus_rings(normals, ranks, lit, lights, _RINGS[step : step + 1])
+        radius = _RINGS[step : step + 1]
+        _ps_kernels.consensus_rings(normals, cost, order, ranks, lit, lights, radius)
         if callback is not None:
             callback(step + 2, steps)
     return _finish(normals, gray, lit, lights, observations, mask)
