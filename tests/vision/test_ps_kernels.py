@@ -256,7 +256,7 @@ def test_consensus_rings_match_numpy(glossy):
     intensities = gray.T
     lit = (intensities > 0.05 * bivariate._reference(intensities)[:, None]).astype(float)
     ranks = consensus._ranks(intensities)
-    normals = consensus._global_search(ranks, lit, lights, consensus._hemisphere(200))
+    normals, order = consensus._global_search(ranks, lit, lights, consensus._hemisphere(200))
     reference = normals.copy()
     cost = _ref_consensus_cost(reference, ranks, lit, lights)
     for radius in consensus._RINGS:
@@ -271,7 +271,6 @@ def test_consensus_rings_match_numpy(glossy):
             cost = np.where(better, trial_cost, cost)
     from brdfkit.vision import _ps_kernels
 
-    order = np.argsort(normals @ lights.T, axis=1, kind="stable")
     found = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
     np.testing.assert_allclose(found, _ref_consensus_cost(normals, ranks, lit, lights), atol=1e-12)
     _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, consensus._RINGS)
@@ -305,7 +304,9 @@ def test_consensus_global_search_matches_numpy(glossy):
     lit[40:60, : len(lights) // 2 + 10] = 0.0  # mostly unlit: it sums over the lit list
     ranks = consensus._ranks(intensities)
     candidates = consensus._hemisphere(300)
-    found = consensus._global_search(ranks, lit, lights, candidates)
+    found, order = consensus._global_search(ranks, lit, lights, candidates)
+    cosines = np.take_along_axis(found @ lights.T, order, axis=1)
+    assert np.all(np.diff(cosines, axis=1) >= 0)  # each pixel's lights sorted by cosine
     reference = _ref_global_search(ranks, lit, lights, candidates)
     np.testing.assert_array_equal(found, reference)  # integer sums: the same choice exactly
     assert len(np.unique(found, axis=0)) > 50  # the pixels did choose different candidates

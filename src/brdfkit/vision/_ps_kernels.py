@@ -466,24 +466,25 @@ def _lit_moments(ranks, lit):  # pragma: no cover
 
 
 @_jit
-def _consensus_cost(nx, ny, nz, ranks, lit, moments, lights, order, cosines):  # pragma: no cover
+def _consensus_cost(
+    nx, ny, nz, ranks, lit, moments, lights, order, cosines, ordered
+):  # pragma: no cover
     """The consensus cost (:mod:`brdfkit.vision.consensus`) of one pixel's normal; ``moments`` are
     :func:`_lit_moments` of the pixel, ``order`` holds a permutation of the lights (any: it is
     insertion-sorted by ``(n·l_k, k)`` in place, which is fast from a nearby normal's order),
-    ``cosines`` is scratch ``(N,)``."""
+    ``cosines`` and ``ordered`` are scratch ``(N,)``."""
     n_lights = len(ranks)
     for k in range(n_lights):
         cosines[k] = nx * lights[k, 0] + ny * lights[k, 1] + nz * lights[k, 2]
-    for i in range(1, n_lights):
-        key = order[i]
-        value = cosines[key]
+    for i in range(n_lights):
+        ordered[i] = cosines[order[i]]
+    for i in range(1, n_lights):  # the sort moves the values along, compared in place
+        key, value = order[i], ordered[i]
         j = i - 1
-        while j >= 0 and (
-            cosines[order[j]] > value or (cosines[order[j]] == value and order[j] > key)
-        ):
-            order[j + 1] = order[j]
+        while j >= 0 and (ordered[j] > value or (ordered[j] == value and order[j] > key)):
+            order[j + 1], ordered[j + 1] = order[j], ordered[j]
             j -= 1
-        order[j + 1] = key
+        order[j + 1], ordered[j + 1] = key, value
     s_c = s_cc = s_ic = disagree = 0.0
     for position in range(n_lights):
         k = order[position]
@@ -492,7 +493,7 @@ def _consensus_cost(nx, ny, nz, ranks, lit, moments, lights, order, cosines):  #
         s_c += w * rank_c
         s_cc += w * rank_c * rank_c
         s_ic += w * ranks[k] * rank_c
-        disagree += abs(w - (1.0 if cosines[k] > 0 else 0.0))
+        disagree += abs(w - (1.0 if ordered[position] > 0 else 0.0))
     count, mean_i, var_i = moments
     mean_c = s_c / count
     variance = var_i * (s_cc / count - mean_c * mean_c)
@@ -507,11 +508,11 @@ def consensus_costs(normals, ranks, lit, lights, order):  # pragma: no cover
     n_pixels, n_lights = ranks.shape
     cost = np.empty(n_pixels)
     for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
-        cosines = np.empty(n_lights)
+        cosines, ordered = np.empty(n_lights), np.empty(n_lights)
         for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
             n, moments = normals[p], _lit_moments(ranks[p], lit[p])
             cost[p] = _consensus_cost(
-                n[0], n[1], n[2], ranks[p], lit[p], moments, lights, order[p], cosines
+                n[0], n[1], n[2], ranks[p], lit[p], moments, lights, order[p], cosines, ordered
             )
     return cost
 
@@ -524,7 +525,7 @@ def consensus_rings(normals, cost, order, ranks, lit, lights, radii):  # pragma:
     ``order`` ``(P, N)`` is each pixel's last sort of the lights (any permutation is valid)."""
     n_pixels, n_lights = ranks.shape
     for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
-        cosines = np.empty(n_lights)
+        cosines, ordered = np.empty(n_lights), np.empty(n_lights)
         for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
             nx, ny, nz, best = normals[p, 0], normals[p, 1], normals[p, 2], cost[p]
             moments = _lit_moments(ranks[p], lit[p])
@@ -538,7 +539,7 @@ def consensus_rings(normals, cost, order, ranks, lit, lights, radii):  # pragma:
                     ty = ny * cr + sr * (ca * t[1] + sa * t[4])
                     tz = nz * cr + sr * (ca * t[2] + sa * t[5])
                     trial = _consensus_cost(
-                        tx, ty, tz, ranks[p], lit[p], moments, lights, order[p], cosines
+                        tx, ty, tz, ranks[p], lit[p], moments, lights, order[p], cosines, ordered
                     )
                     if trial < best:
                         nx, ny, nz, best = tx, ty, tz, trial

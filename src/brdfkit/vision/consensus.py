@@ -74,9 +74,10 @@ def _hemisphere(count: int) -> np.ndarray:
 
 def _global_search(
     ranks: np.ndarray, lit: np.ndarray, lights: np.ndarray, candidates: np.ndarray
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Best candidate per pixel by the consensus cost, with ranks of the candidates' cosines
-    over all lights (the weighted Pearson correlation of ranks).
+    over all lights (the weighted Pearson correlation of ranks); returns the normals ``(P, 3)``
+    and their lights sorted by cosine ``(P, N)`` (the start of the rings' sorts).
 
     The sums over the lit lights ``sum_k lit_k ranks_k R_ck`` are a matrix product (BLAS, one
     thread: see :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS`; in single precision
@@ -104,7 +105,7 @@ def _global_search(
             best[start : start + _BLOCK] = _ps_kernels.consensus_best(
                 w, r, products, tables, totals
             )
-    return candidates[best]
+    return candidates[best], np.argsort(cosines, axis=1)[best]
 
 
 def consensus(
@@ -152,12 +153,11 @@ def consensus(
     ranks = _ranks(intensities)
     steps = 1 + len(_RINGS)
     lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
-    normals = _global_search(ranks, lit, lights, _hemisphere(count))
+    normals, order = _global_search(ranks, lit, lights, _hemisphere(count))
     if callback is not None:
         callback(1, steps)
     from brdfkit.vision import _ps_kernels
 
-    order = np.argsort(normals @ lights.T, axis=1, kind="stable")  # by (n·l_k, k)
     cost = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
     for step in range(len(_RINGS)):
         radius = _RINGS[step : step + 1]
