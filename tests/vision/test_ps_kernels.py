@@ -271,9 +271,10 @@ def test_consensus_rings_match_numpy(glossy):
             cost = np.where(better, trial_cost, cost)
     from brdfkit.vision import _ps_kernels
 
-    found = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
+    found = np.empty(len(normals))
+    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, np.empty(0), True)
     np.testing.assert_allclose(found, _ref_consensus_cost(normals, ranks, lit, lights), atol=1e-12)
-    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, consensus._RINGS)
+    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, consensus._RINGS, False)
     assert np.abs(normals - reference).max() < 1e-9
     np.testing.assert_allclose(found, cost, atol=1e-12)  # the kept costs are the normals'
 

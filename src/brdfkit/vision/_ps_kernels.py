@@ -502,33 +502,23 @@ def _consensus_cost(
 
 
 @_pjit
-def consensus_costs(normals, ranks, lit, lights, order):  # pragma: no cover
-    """The consensus cost ``(P,)`` of each pixel's normal ``(P, 3)``, ``order`` ``(P, N)``
-    sorted in place by the pixel's cosines (see :func:`_consensus_cost`)."""
-    n_pixels, n_lights = ranks.shape
-    cost = np.empty(n_pixels)
-    for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
-        cosines, ordered = np.empty(n_lights), np.empty(n_lights)
-        for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
-            n, moments = normals[p], _lit_moments(ranks[p], lit[p])
-            cost[p] = _consensus_cost(
-                n[0], n[1], n[2], ranks[p], lit[p], moments, lights, order[p], cosines, ordered
-            )
-    return cost
-
-
-@_pjit
-def consensus_rings(normals, cost, order, ranks, lit, lights, radii):  # pragma: no cover
+def consensus_rings(normals, cost, order, ranks, lit, lights, radii, start):  # pragma: no cover
     """The hill climbing of :func:`~brdfkit.vision.consensus.consensus` on every pixel, in place
-    on ``normals`` ``(P, 3)`` and their costs ``cost`` ``(P,)`` (:func:`consensus_costs`): for
-    each radius, 6 trial normals around the current one, each kept if its cost is lower.
-    ``order`` ``(P, N)`` is each pixel's last sort of the lights (any permutation is valid)."""
+    on ``normals`` ``(P, 3)`` and their costs ``cost`` ``(P,)``: for each radius, 6 trial
+    normals around the current one, each kept if its cost is lower. With ``start`` the costs
+    of the given normals are computed first (with no ``radii``: the costs alone). ``order``
+    ``(P, N)`` is each pixel's last sort of the lights (any permutation is valid)."""
     n_pixels, n_lights = ranks.shape
     for chunk in numba.prange((n_pixels + _CHUNK - 1) // _CHUNK):
         cosines, ordered = np.empty(n_lights), np.empty(n_lights)
         for p in range(chunk * _CHUNK, min((chunk + 1) * _CHUNK, n_pixels)):
-            nx, ny, nz, best = normals[p, 0], normals[p, 1], normals[p, 2], cost[p]
+            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
             moments = _lit_moments(ranks[p], lit[p])
+            if start:
+                cost[p] = _consensus_cost(
+                    nx, ny, nz, ranks[p], lit[p], moments, lights, order[p], cosines, ordered
+                )
+            best = cost[p]
             for radius in radii:
                 t = _tangents(nx, ny, nz)
                 cr, sr = np.cos(radius), np.sin(radius)

@@ -158,10 +158,10 @@ def consensus(
         callback(1, steps)
     from brdfkit.vision import _ps_kernels
 
-    cost = _ps_kernels.consensus_costs(normals, ranks, lit, lights, order)
+    cost = np.empty(len(normals))
     for step in range(len(_RINGS)):
         radius = _RINGS[step : step + 1]
-        _ps_kernels.consensus_rings(normals, cost, order, ranks, lit, lights, radius)
+        _ps_kernels.consensus_rings(normals, cost, order, ranks, lit, lights, radius, step == 0)
         if callback is not None:
             callback(step + 2, steps)
     return _finish(normals, gray, lit, lights, observations, mask)
