@@ -328,3 +328,21 @@ def test_robust_pca_matches_numpy(glossy, max_iterations):
         assert iterations < 200  # converged, not cut off
     normals = (b / np.linalg.norm(b, axis=0)).T
     np.testing.assert_allclose(result.normals[0], normals, atol=1e-8)
+
+
+@pytest.mark.slow  # compiles the double-precision specialisation of the kernel
+def test_consensus_global_search_many_lights_matches_numpy():
+    """Above 256 lights a rank product can pass 2^24: the search multiplies in double."""
+    rng = np.random.default_rng(3)
+    lights = rng.standard_normal((300, 3))
+    lights[:, 2] = np.abs(lights[:, 2]) + 0.2
+    lights /= np.linalg.norm(lights, axis=1, keepdims=True)
+    normals = rng.standard_normal((40, 3))
+    normals[:, 2] = np.abs(normals[:, 2]) + 0.5
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    intensities = np.clip(normals @ lights.T, 0.0, None) ** 2 + 1e-3 * rng.random((40, 300))
+    lit = (intensities > 0.05).astype(float)
+    ranks = consensus._ranks(intensities)
+    candidates = consensus._hemisphere(100)
+    found, _ = consensus._global_search(ranks, lit, lights, candidates)
+    np.testing.assert_array_equal(found, _ref_global_search(ranks, lit, lights, candidates))
