@@ -11,7 +11,8 @@ normal (*monotonicity*), and a point is dark exactly where the light is behind i
 ``shadow_threshold`` times the pixel's 90th-percentile observation) and the second term the
 fraction of observations whose visibility disagrees. The search is global: every pixel is
 scored against a Fibonacci set of ``candidates`` directions on the front hemisphere (rank
-correlations against shared candidates are matrix products), then refined by hill climbing on
+correlations against shared candidates: one matrix product, the other sums over the lit
+lights in a compiled kernel, all exact sums of integers), then refined by hill climbing on
 rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°; six trial normals a ring,
 each kept if its cost is lower), pixel by pixel in a compiled kernel
 (:mod:`brdfkit.vision._ps_kernels`; a trial's ranks insertion-sort the previous order).
