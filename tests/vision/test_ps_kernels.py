@@ -256,7 +256,7 @@ def test_consensus_rings_match_numpy(glossy):
     intensities = gray.T
     lit = (intensities > 0.05 * bivariate._reference(intensities)[:, None]).astype(float)
     ranks = consensus._ranks(intensities)
-    normals = consensus._global_search(ranks, lit, lights, consensus._hemisphere(200))
+    normals, order = consensus._global_search(ranks, lit, lights, consensus._hemisphere(200))
     reference = normals.copy()
     cost = _ref_consensus_cost(reference, ranks, lit, lights)
     for radius in consensus._RINGS:
@@ -271,8 +271,46 @@ def test_consensus_rings_match_numpy(glossy):
             cost = np.where(better, trial_cost, cost)
     from brdfkit.vision import _ps_kernels
 
-    _ps_kernels.consensus_rings(normals, ranks, lit, lights, consensus._RINGS)
+    found = np.empty(len(normals))
+    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, np.empty(0), True)
+    np.testing.assert_allclose(found, _ref_consensus_cost(normals, ranks, lit, lights), atol=1e-12)
+    _ps_kernels.consensus_rings(normals, found, order, ranks, lit, lights, consensus._RINGS, False)
     assert np.abs(normals - reference).max() < 1e-9
+    np.testing.assert_allclose(found, cost, atol=1e-12)  # the kept costs are the normals'
+
+
+def _ref_global_search(ranks, lit, lights, candidates):
+    """The consensus global search in NumPy (three matrix products a block of pixels)."""
+    cosines = candidates @ lights.T
+    candidate_ranks = consensus._ranks(cosines)
+    front = (cosines > 0).astype(np.float64)
+    count = np.maximum(lit.sum(axis=1, keepdims=True), 1.0)
+    mean_i = (lit * ranks).sum(axis=1, keepdims=True) / count
+    var_i = (lit * ranks * ranks).sum(axis=1, keepdims=True) / count - mean_i**2
+    mean_c = (lit @ candidate_ranks.T) / count
+    var_c = (lit @ (candidate_ranks**2).T) / count - mean_c**2
+    covariance = ((lit * ranks) @ candidate_ranks.T) / count - mean_i * mean_c
+    rho = covariance / np.sqrt(np.maximum(var_i * var_c, 1e-300))
+    disagree = (lit.sum(axis=1, keepdims=True) + front.sum(axis=1) - 2 * lit @ front.T) / len(
+        lights
+    )
+    return candidates[np.argmin((1 - rho) / 2 + disagree, axis=1)]
+
+
+def test_consensus_global_search_matches_numpy(glossy):
+    gray, lights, _, _ = glossy
+    intensities = gray.T
+    lit = (intensities > 0.05 * bivariate._reference(intensities)[:, None]).astype(float)
+    lit[:40] = 1.0  # all lit: the kernel sums over the (empty) unlit list
+    lit[40:60, : len(lights) // 2 + 10] = 0.0  # mostly unlit: it sums over the lit list
+    ranks = consensus._ranks(intensities)
+    candidates = consensus._hemisphere(300)
+    found, order = consensus._global_search(ranks, lit, lights, candidates)
+    cosines = np.take_along_axis(found @ lights.T, order, axis=1)
+    assert np.all(np.diff(cosines, axis=1) >= 0)  # each pixel's lights sorted by cosine
+    reference = _ref_global_search(ranks, lit, lights, candidates)
+    np.testing.assert_array_equal(found, reference)  # integer sums: the same choice exactly
+    assert len(np.unique(found, axis=0)) > 50  # the pixels did choose different candidates
 
 
 @pytest.mark.parametrize("max_iterations", [5, pytest.param(200, marks=pytest.mark.slow)])
@@ -290,3 +328,21 @@ def test_robust_pca_matches_numpy(glossy, max_iterations):
         assert iterations < 200  # converged, not cut off
     normals = (b / np.linalg.norm(b, axis=0)).T
     np.testing.assert_allclose(result.normals[0], normals, atol=1e-8)
+
+
+@pytest.mark.slow  # compiles the double-precision specialisation of the kernel
+def test_consensus_global_search_many_lights_matches_numpy():
+    """Above 256 lights a rank product can pass 2^24: the search multiplies in double."""
+    rng = np.random.default_rng(3)
+    lights = rng.standard_normal((300, 3))
+    lights[:, 2] = np.abs(lights[:, 2]) + 0.2
+    lights /= np.linalg.norm(lights, axis=1, keepdims=True)
+    normals = rng.standard_normal((40, 3))
+    normals[:, 2] = np.abs(normals[:, 2]) + 0.5
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    intensities = np.clip(normals @ lights.T, 0.0, None) ** 2 + 1e-3 * rng.random((40, 300))
+    lit = (intensities > 0.05).astype(float)
+    ranks = consensus._ranks(intensities)
+    candidates = consensus._hemisphere(100)
+    found, _ = consensus._global_search(ranks, lit, lights, candidates)
+    np.testing.assert_array_equal(found, _ref_global_search(ranks, lit, lights, candidates))

@@ -11,7 +11,8 @@ normal (*monotonicity*), and a point is dark exactly where the light is behind i
 ``shadow_threshold`` times the pixel's 90th-percentile observation) and the second term the
 fraction of observations whose visibility disagrees. The search is global: every pixel is
 scored against a Fibonacci set of ``candidates`` directions on the front hemisphere (rank
-correlations against shared candidates are matrix products), then refined by hill climbing on
+correlations against shared candidates: one matrix product, the other sums over the lit
+lights in a compiled kernel, all exact sums of integers), then refined by hill climbing on
 rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°; six trial normals a ring,
 each kept if its cost is lower), pixel by pixel in a compiled kernel
 (:mod:`brdfkit.vision._ps_kernels`; a trial's ranks insertion-sort the previous order).
@@ -39,6 +40,7 @@ from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
 from brdfkit.vision.bivariate import _finish, _reference
 from brdfkit.vision.photometric_stereo import (
+    BLAS_THREADS,
     Callback,
     PhotometricStereoResult,
     _gray,
@@ -73,26 +75,38 @@ def _hemisphere(count: int) -> np.ndarray:
 
 def _global_search(
     ranks: np.ndarray, lit: np.ndarray, lights: np.ndarray, candidates: np.ndarray
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Best candidate per pixel by the consensus cost, with ranks of the candidates' cosines
-    over all lights (the weighted Pearson correlation of ranks, three matrix products)."""
+    over all lights (the weighted Pearson correlation of ranks); returns the normals ``(P, 3)``
+    and their lights sorted by cosine ``(P, N)`` (the start of the rings' sorts).
+
+    The sums over the lit lights ``sum_k lit_k ranks_k R_ck`` are a matrix product (BLAS, one
+    thread: see :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS`; in single precision
+    when every partial sum is an integer below ``2^24``, so exactly), the rest and the cost
+    are :func:`brdfkit.vision._ps_kernels.consensus_best`, pixels over the cores.
+    """
+    from threadpoolctl import threadpool_limits
+
+    from brdfkit.vision import _ps_kernels
+
     cosines = candidates @ lights.T  # (M, N)
     candidate_ranks = _ranks(cosines)
     front = (cosines > 0).astype(np.float64)
+    tables = np.ascontiguousarray(np.stack([candidate_ranks.T, candidate_ranks.T**2, front.T]))
+    totals = tables.sum(axis=1)
     n_lights = lights.shape[0]
-    best = np.empty((len(ranks), 3))
-    for start in range(0, len(ranks), _BLOCK):
-        r, w = ranks[start : start + _BLOCK], lit[start : start + _BLOCK]
-        count = np.maximum(w.sum(axis=1, keepdims=True), 1.0)
-        mean_i = (w * r).sum(axis=1, keepdims=True) / count
-        var_i = (w * r * r).sum(axis=1, keepdims=True) / count - mean_i**2
-        mean_c = (w @ candidate_ranks.T) / count
-        var_c = (w @ (candidate_ranks**2).T) / count - mean_c**2
-        covariance = ((w * r) @ candidate_ranks.T) / count - mean_i * mean_c
-        rho = covariance / np.sqrt(np.maximum(var_i * var_c, 1e-300))
-        disagree = (w.sum(axis=1, keepdims=True) + front.sum(axis=1) - 2 * w @ front.T) / n_lights
-        best[start : start + _BLOCK] = candidates[np.argmin((1 - rho) / 2 + disagree, axis=1)]
-    return best
+    exact32 = n_lights * (n_lights - 1) ** 2 < 2**24  # the largest sum of rank products
+    dtype = np.float32 if exact32 else np.float64
+    ranks_t = np.ascontiguousarray(candidate_ranks.T, dtype=dtype)
+    best = np.empty(len(ranks), np.int64)
+    with threadpool_limits(BLAS_THREADS, user_api="blas"):
+        for start in range(0, len(ranks), _BLOCK):
+            r, w = ranks[start : start + _BLOCK], lit[start : start + _BLOCK]
+            products = (w * r).astype(dtype) @ ranks_t
+            best[start : start + _BLOCK] = _ps_kernels.consensus_best(
+                w, r, products, tables, totals
+            )
+    return candidates[best], np.argsort(cosines, axis=1)[best]
 
 
 def consensus(
@@ -139,14 +153,16 @@ def consensus(
     lit = (intensities > shadow_threshold * _reference(intensities)[:, None]).astype(float)
     ranks = _ranks(intensities)
     steps = 1 + len(_RINGS)
-    normals = _global_search(ranks, lit, lights, _hemisphere(count))
+    lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
+    normals, order = _global_search(ranks, lit, lights, _hemisphere(count))
     if callback is not None:
         callback(1, steps)
     from brdfkit.vision import _ps_kernels
 
-    lit, ranks = np.ascontiguousarray(lit), np.ascontiguousarray(ranks)
+    cost = np.empty(len(normals))
     for step in range(len(_RINGS)):
-        _ps_kernels.consensus_rings(normals, ranks, lit, lights, _RINGS[step : step + 1])
+        radius = _RINGS[step : step + 1]
+        _ps_kernels.consensus_rings(normals, cost, order, ranks, lit, lights, radius, step == 0)
         if callback is not None:
             callback(step + 2, steps)
     return _finish(normals, gray, lit, lights, observations, mask)

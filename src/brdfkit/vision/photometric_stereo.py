@@ -42,6 +42,13 @@ MAX_ITERATIONS = 100_000
 ADMM_BLOCK = 16
 """Iterations :func:`sparse_regression` runs per pass over the pixels."""
 
+BLAS_THREADS: int | None = 1
+"""BLAS threads of :func:`robust_pca`'s iterations (``None``: the process's own). Its products
+are ``N x N`` Grams and eigendecompositions (``N`` the lights), which threads barely speed up; on
+a busy machine a threaded OpenBLAS spins and makes them tens of times slower (96 x 40 670 Gram:
+10 ms of CPU on one thread, 780 ms on two with the 2 cores loaded). The pixels are split over
+the cores by the compiled kernels instead."""
+
 MAX_PIXELS = 2**28
 """Most pixels :func:`sphere_normals` makes (a 16384 × 16384 image)."""
 
@@ -313,17 +320,17 @@ def sparse_regression(
 
 
 def _shrinkage_factors(
-    matrix: np.ndarray, tau: float, rank: int | None = None
+    gram: np.ndarray, tau: float, rank: int | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Singular-value shrinkage ``U max(S - tau, 0) V^T = left @ right.T @ M`` of the
-    short-and-wide ``M``, given as its transpose ``matrix`` ``(P, N)``; with ``rank``, only the
+    """Singular-value shrinkage ``U max(S - tau, 0) V^T = M @ right @ left.T`` of the tall
+    ``M`` ``(P, N)`` from its Gram ``gram = M^T M`` ``(N, N)``; with ``rank``, only the
     ``rank`` largest singular values are kept (the rest set to 0).
 
-    With ``M M^T = U S^2 U^T`` the shrunk matrix is ``U diag(max(s - tau, 0) / s) U^T M``: one
-    ``N^2 P`` product and one ``N x N`` eigendecomposition instead of a full SVD. Returns
-    ``left = U_k diag(f_k)`` and ``right = U_k`` ``(N, k)`` for the ``k`` non-zero factors.
+    With ``M^T M = V S^2 V^T`` the shrunk matrix is ``M V diag(max(s - tau, 0) / s) V^T``: one
+    ``N x N`` eigendecomposition instead of a full SVD. Returns ``left = V_k diag(f_k)`` and
+    ``right = V_k`` ``(N, k)`` for the ``k`` non-zero factors.
     """
-    eigenvalues, u = np.linalg.eigh(matrix.T @ matrix)  # ascending
+    eigenvalues, u = np.linalg.eigh(gram)  # ascending
     s = np.sqrt(np.maximum(eigenvalues, 0.0))
     factor = np.where(s > tau, (s - tau) / np.where(s > 0, s, 1.0), 0.0)
     if rank is not None:
@@ -406,31 +413,34 @@ def robust_pca(
     check_param("lam", lam, 0.0, lo_open=True)
     observed = data > shadow_threshold * data.max(axis=0, keepdims=True)
     data_norm = np.linalg.norm(data)
-    norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
-    if norm_two == 0:
-        raise ParameterError("images are all zero inside the mask")
+    from threadpoolctl import threadpool_limits
+
     from brdfkit.vision import _ps_kernels
 
-    pixels = np.ascontiguousarray(data.T)  # (P, N): the per-pixel updates run on rows
-    observed = np.ascontiguousarray(observed.T)
-    dual = pixels / max(norm_two, np.abs(data).max() / lam)
-    mu = 1.25 / norm_two
-    mu_max = mu * 1e7
-    sparse = np.zeros_like(pixels)
-    matrix, matrix_next = pixels + dual / mu, np.empty_like(pixels)
-    for iteration in range(max_iterations):
-        left, right = _shrinkage_factors(matrix, 1.0 / mu, rank)
-        mu_next = min(mu * 1.5, mu_max)
-        gap2 = _ps_kernels.rpca_step(
-            pixels, sparse, dual, observed, matrix, left, right, mu, mu_next, lam, matrix_next
-        )
-        mu, shrunk = mu_next, matrix
-        if callback is not None:
-            callback(iteration + 1, max_iterations)
-        if np.sqrt(gap2.sum()) <= tol * data_norm:
-            break
-        matrix, matrix_next = matrix_next, matrix
-    b = (np.linalg.pinv(lights) @ left) @ (right.T @ shrunk.T)  # L^+ A, A = U f U^T M
+    with threadpool_limits(BLAS_THREADS, user_api="blas"):
+        norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
+        if norm_two == 0:
+            raise ParameterError("images are all zero inside the mask")
+        pixels = np.ascontiguousarray(data.T)  # (P, N): the per-pixel updates run on rows
+        observed = np.ascontiguousarray(observed.T)
+        dual = pixels / max(norm_two, np.abs(data).max() / lam)
+        mu = 1.25 / norm_two
+        mu_max = mu * 1e7
+        sparse = np.zeros_like(pixels)
+        matrix = pixels + dual / mu
+        for iteration in range(max_iterations):
+            left, right = _shrinkage_factors(matrix.T @ matrix, 1.0 / mu, rank)
+            mu_next = min(mu * 1.5, mu_max)
+            z = np.empty((len(pixels), left.shape[1]))  # M V_k, so A = z left^T
+            gap2 = _ps_kernels.rpca_step(
+                pixels, sparse, dual, observed, left, right, mu, mu_next, lam, z, matrix
+            )
+            mu = mu_next
+            if callback is not None:
+                callback(iteration + 1, max_iterations)
+            if np.sqrt(gap2) <= tol * data_norm:
+                break
+        b = (np.linalg.pinv(lights) @ left) @ z.T  # L^+ A
     return _result(b, observations, mask, _trim_weights(data, 0.25, 0.1))
 
 
