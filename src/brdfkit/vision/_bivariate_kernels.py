@@ -254,6 +254,8 @@ def _fit(
         row = design[j]
         for a in range(k):
             wa = w_kept[j] * row[a]
+            if wa == 0.0:  # adds nothing (IA14: the ramps beyond a cosine)
+                continue
             rhs[a] += wa * g_kept[j]
             for b in range(k):  # the full row (vectorised); the lower half is replaced below
                 gram[a, b] += wa * row[b]
