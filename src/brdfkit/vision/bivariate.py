@@ -22,9 +22,10 @@ and the normal is the minimiser of the remaining residual (variable projection):
   alternating with the normals.
 
 The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
-the normal, the residual's Jacobian by forward differences, every pixel on its own (a compiled
-per-pixel kernel, :mod:`brdfkit.vision._ps_kernels`, the pixels split over the cores), started
-from trimmed least squares. Observations
+the normal, the residual's Jacobian by forward differences, every pixel on its own until its
+step falls below :data:`STEP_TOLERANCE` (a compiled per-pixel kernel,
+:mod:`brdfkit.vision._bivariate_kernels`, the pixels split over the cores), started from trimmed
+least squares. Observations
 darker than ``shadow_threshold`` times a pixel's 90th-percentile observation are shadows and
 excluded; this selection does not depend on the candidate normal, so costs stay comparable.
 
@@ -58,19 +59,22 @@ from brdfkit.vision.photometric_stereo import (
     _gray,
     _prepare,
     _result,
-    _trim_weights,
     _weighted_least_squares,
 )
 
 MAX_ITERATIONS = 200
 """Largest ``iterations`` of the normal search."""
 
+STEP_TOLERANCE = 1e-6
+"""A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
+per tangent coordinate (2e-4°: far below any error the methods reach)."""
+
 
 @dataclass(frozen=True)
 class Basis:
     """A reflectance basis of ``size`` functions of ``(cos θ_i, cos θ_h, cos θ_d)``, cosine
-    included, as the compiled kernels take it: ``kind`` (``_ps_kernels.BIPOLYNOMIAL``, ``RAMPS``
-    or ``TABLE``), integer parameters ``ints`` and float parameters ``fa``, ``fb``."""
+    included, as the compiled kernels take it: ``kind`` (``_bivariate_kernels.BIPOLYNOMIAL``,
+    ``RAMPS`` or ``TABLE``), integer parameters ``ints`` and float parameters ``fa``, ``fb``."""
 
     kind: int
     ints: np.ndarray
@@ -98,9 +102,24 @@ def _tangent_frame(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _kernel_inputs(lights: np.ndarray, basis: Basis) -> tuple:
-    """The light-side arguments of the :mod:`~brdfkit.vision._ps_kernels` fits."""
+    """The light-side arguments of the :mod:`~brdfkit.vision._bivariate_kernels` fits: lights,
+    half vectors, ``cos θ_d``, the table's ``θ_d`` node and fraction per light (zeros for the
+    other bases), the basis, and whether the non-negative fits start from the pixel's previous
+    active set (the ramps' 14 weights: fewer rounds; the table's 2 gain nothing, and cold starts
+    keep the reference's answer also where ``ρ_s`` sits within the clamping tolerance of 0)."""
+    from brdfkit.vision import _bivariate_kernels
+
+    lights = np.ascontiguousarray(lights, dtype=np.float64)
     half, cos_theta_d = _half_vectors(lights)
-    return lights, half, cos_theta_d, basis.kind, basis.ints, basis.fa, basis.fb
+    if basis.kind == _bivariate_kernels.TABLE:
+        column, fraction = _bivariate_kernels.table_columns(cos_theta_d, int(basis.ints[1]))
+    else:
+        column, fraction = np.zeros(len(lights), np.int64), np.zeros(len(lights))
+    warm = basis.kind == _bivariate_kernels.RAMPS
+    return (
+        lights, half, cos_theta_d, column, fraction, basis.kind, basis.ints, basis.fa, basis.fb,
+        warm,
+    )  # fmt: skip
 
 
 def _residuals(
@@ -120,12 +139,29 @@ def _residuals(
     variables, then clamp the most negative free one, or free the clamped one of steepest
     descent, until none changes (at most ``2 K`` rounds).
     """
-    from brdfkit.vision import _ps_kernels
+    residual, coefficients, _ = _fit(normals, gray, weights, lights, basis, nonnegative)
+    return residual, coefficients
 
+
+def _fit(
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    basis: Basis,
+    nonnegative: bool,
+    free: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_residuals` and the costs ``|residual|^2`` ``(P,)``; ``free`` ``(P, K)`` holds the
+    active sets the non-negative fits start from, updated in place (by default all free)."""
+    from brdfkit.vision import _bivariate_kernels
+
+    if free is None:
+        free = np.ones((len(gray), basis.size), dtype=bool)
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     residual = np.empty(gray.shape)
     coefficients = np.empty((len(gray), basis.size))
-    _ps_kernels.fit_pixels(
+    cost = _bivariate_kernels.fit_pixels(
         np.ascontiguousarray(normals, dtype=np.float64),
         gray,
         weights,
@@ -133,8 +169,9 @@ def _residuals(
         nonnegative,
         residual,
         coefficients,
+        free,
     )
-    return residual, coefficients
+    return residual, coefficients, cost
 
 
 def _refine_normals(
@@ -155,24 +192,33 @@ def _refine_normals(
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
     residual comes from forward differences of ``1e-4`` rad; a step (clipped to 0.2 per
     coordinate) is kept for the pixels whose cost falls, and their damping shrinks by 3 (grows
-    by 4 otherwise; within [1e-7, 1e7], starting at 1e-3).
+    by 4 otherwise; within [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
+    :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
+    (``callback`` is called after each iteration run).
     """
-    from brdfkit.vision import _ps_kernels
+    import numba
+
+    from brdfkit.vision import _bivariate_kernels
 
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
+    free = np.ones((len(gray), basis.size), dtype=bool)  # each pixel's last active set
     if normals.ndim == 3:
-        normals = _best_start(normals, gray, weights, lights, basis, nonnegative)
+        normals = _best_start(normals, gray, weights, lights, basis, nonnegative, free)
     normals = np.array(normals, dtype=np.float64, order="C")
     damping = np.full(len(normals), 1e-3)
-    residual, _ = _residuals(normals, gray, weights, lights, basis, nonnegative)
-    cost = np.sum(residual**2, axis=1)
+    residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
+    active = np.ones(len(normals), dtype=bool)
     inputs = _kernel_inputs(lights, basis)
     for iteration in range(iterations):
-        _ps_kernels.lm_step(
-            normals, damping, residual, cost, gray, weights, *inputs, nonnegative, basis.size
-        )
+        with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
+            _bivariate_kernels.lm_step(
+                normals, damping, residual, cost, active, free, gray, weights, *inputs,
+                nonnegative, STEP_TOLERANCE,
+            )  # fmt: skip
         if callback is not None:
             callback(iteration + 1, iterations)
+        if not active.any():
+            break
     return normals
 
 
@@ -183,22 +229,46 @@ def _reference(intensities: np.ndarray) -> np.ndarray:
     return np.percentile(intensities, 90, axis=1)
 
 
+def _ranks(gray: np.ndarray) -> np.ndarray:
+    """Each observation's rank in its pixel ``(P, N)`` from ``gray`` ``(N, P)``, in the order
+    :func:`~brdfkit.vision.photometric_stereo._trim_weights` sorts them (one sort for every
+    trim of :func:`_trimmed`)."""
+    order = np.argsort(gray.T, axis=1)
+    ranks = np.empty_like(order)
+    np.put_along_axis(ranks, order, np.arange(order.shape[1]), axis=1)
+    return ranks
+
+
+def _trimmed(ranks: np.ndarray, dark_fraction: float, bright_fraction: float) -> np.ndarray:
+    """:func:`~brdfkit.vision.photometric_stereo._trim_weights` ``(N, P)`` from the
+    :func:`_ranks` (the same weights; fractions already checked)."""
+    n_lights = ranks.shape[1]
+    n_dark = int(np.floor(dark_fraction * n_lights))
+    n_bright = int(np.floor(bright_fraction * n_lights))
+    return ((ranks >= n_dark) & (ranks < n_lights - n_bright)).T.astype(np.float64)
+
+
 def _start(
-    gray: np.ndarray, lights: np.ndarray, shadow_threshold: float
+    gray: np.ndarray,
+    lights: np.ndarray,
+    shadow_threshold: float,
+    ranks: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
     pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
     squares dropping (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the
-    observations (a broad lobe needs the last, a sharp one the first)."""
+    observations (a broad lobe needs the last, a sharp one the first). ``ranks``: the
+    :func:`_ranks` of ``gray``, if already known."""
     if not 0 <= shadow_threshold < 1:
         raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
     lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
+    ranks = _ranks(gray) if ranks is None else ranks
     starts = []
     n_lights = len(lights)
     for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)):
         if n_lights - int(dark * n_lights) - int(bright * n_lights) < 3:
             continue
-        b = _weighted_least_squares(gray, lights, _trim_weights(gray, dark, bright)).T
+        b = _weighted_least_squares(gray, lights, _trimmed(ranks, dark, bright)).T
         length = np.linalg.norm(b, axis=1, keepdims=True)
         starts.append(np.where(length > 0, b / np.where(length > 0, length, 1.0), _VIEW))
     return lit, np.stack(starts)
@@ -211,15 +281,16 @@ def _best_start(
     lights: np.ndarray,
     basis: Basis,
     nonnegative: bool,
+    free: np.ndarray,
     ring: float = np.radians(12.0),
 ) -> np.ndarray:
     """Per pixel, the candidate of least model cost among ``starts`` ``(S, P, 3)`` and a ring of
     6 normals ``ring`` radians around the best of them: a coarse global step against the
-    local minima a highlight puts near a biased least-squares start."""
+    local minima a highlight puts near a biased least-squares start. ``free``: as
+    :func:`_fit`."""
 
     def cost(normals: np.ndarray) -> np.ndarray:
-        residual, _ = _residuals(normals, gray, weights, lights, basis, nonnegative)
-        return np.sum(residual**2, axis=1)
+        return _fit(normals, gray, weights, lights, basis, nonnegative, free)[2]
 
     def pick(candidates: list[np.ndarray]) -> np.ndarray:
         costs = np.stack([cost(c) for c in candidates])
@@ -242,12 +313,15 @@ def _finish(
     lights: np.ndarray,
     observations: np.ndarray,
     mask: np.ndarray,
+    ranks: np.ndarray | None = None,
 ) -> PhotometricStereoResult:
     """Result with the diffuse albedo ``ρ_d`` (the Lambertian fit of the darker half of the lit
-    observations along the found normals) times the pixel's chromaticity."""
+    observations along the found normals) times the pixel's chromaticity; ``ranks``: the
+    :func:`_ranks` of ``gray``, if already known."""
     cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
     lit = weights * (cos_theta_i > 0.1)
-    trim = _trim_weights(gray, 0.25, 0.25).T * lit
+    ranks = _ranks(gray) if ranks is None else ranks
+    trim = _trimmed(ranks, 0.25, 0.25).T * lit
     use = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit)
     rho = np.sum(use * cos_theta_i * gray.T, axis=1) / np.maximum(
         np.sum(use * cos_theta_i**2, axis=1), 1e-300
@@ -266,11 +340,13 @@ def _check_iterations(iterations: int) -> int:
 def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
     """``max(0, cos θ_i) max(0, cos θ_h)^a cos^b θ_d`` for ``a <= degree_h``, ``b <= degree_d``
     (index ``a (degree_d + 1) + b``)."""
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _bivariate_kernels
 
     size = (degree_h + 1) * (degree_d + 1)
     empty = np.zeros(1)
-    return Basis(_ps_kernels.BIPOLYNOMIAL, np.array([degree_h, degree_d]), empty, empty, size)
+    return Basis(
+        _bivariate_kernels.BIPOLYNOMIAL, np.array([degree_h, degree_d]), empty, empty, size
+    )
 
 
 def bipolynomial(
@@ -338,13 +414,14 @@ def bipolynomial(
             f"{bright_fraction} keeps {kept} of {n_lights} observations; need at least "
             f"{n_terms + 2}: lower the degree"
         )
-    lit, normals = _start(gray, lights, shadow_threshold)
-    low_frequency = lit * _trim_weights(gray, 0.0, bright_fraction).T
+    ranks = _ranks(gray)
+    lit, normals = _start(gray, lights, shadow_threshold, ranks)
+    low_frequency = lit * _trimmed(ranks, 0.0, bright_fraction).T
     basis = _bipolynomial_basis(int(degree[0]), int(degree[1]))
     normals = _refine_normals(
         normals, gray.T, low_frequency, lights, basis, iterations=iterations, callback=callback
     )
-    return _finish(normals, gray, low_frequency, lights, observations, mask)
+    return _finish(normals, gray, low_frequency, lights, observations, mask, ranks)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -357,11 +434,11 @@ def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
     The ramps on knots ``t`` are ``clip((x - t_m) / (t_{m+1} - t_m), 0, 1)``, ``m < M - 1``:
     with non-negative weights their sums are the monotone non-decreasing piecewise-linear
     functions on the knots that vanish below the first."""
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _bivariate_kernels
 
     size = len(knots_i) - 1 + len(knots_h) - 1
     knots_i, knots_h = (np.asarray(k, dtype=np.float64) for k in (knots_i, knots_h))
-    return Basis(_ps_kernels.RAMPS, np.zeros(2, dtype=np.int64), knots_i, knots_h, size)
+    return Basis(_bivariate_kernels.RAMPS, np.zeros(2, dtype=np.int64), knots_i, knots_h, size)
 
 
 def constrained_bivariate(
@@ -423,7 +500,8 @@ def constrained_bivariate(
             f"{len(lights)} lights; use knots <= {max((len(lights) - 2) // 2 + 1, 1)}"
         )
     gray = _gray(observations)
-    lit, normals = _start(gray, lights, shadow_threshold)
+    ranks = _ranks(gray)
+    lit, normals = _start(gray, lights, shadow_threshold, ranks)
     knots_i = np.linspace(0.0, 1.0, knots)
     knots_h = np.cos(np.linspace(np.pi / 2, 0.0, knots))
     basis = _sum_of_lobes_basis(knots_i, knots_h)
@@ -437,7 +515,7 @@ def constrained_bivariate(
         iterations=iterations,
         callback=callback,
     )
-    return _finish(normals, gray, lit, lights, observations, mask)
+    return _finish(normals, gray, lit, lights, observations, mask, ranks)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -470,10 +548,12 @@ class _Table:
 def _shared_basis(table: _Table) -> Basis:
     """``max(0, n·l) (1, T(θ_h, θ_d))``: per-pixel diffuse and specular weights (the table's
     current values)."""
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _bivariate_kernels
 
     ints = np.array([table.n_h, table.n_d])
-    return Basis(_ps_kernels.TABLE, ints, np.asarray(table.values, np.float64), np.zeros(1), 2)
+    return Basis(
+        _bivariate_kernels.TABLE, ints, np.asarray(table.values, np.float64), np.zeros(1), 2
+    )
 
 
 def _fit_table(
@@ -488,27 +568,42 @@ def _fit_table(
     """Least-squares table given normals and per-pixel ``(ρ_d, ρ_s)``, with a second-difference
     smoothness penalty ``smoothness`` (relative to the data term's scale); clipped at 0 and
     scaled to a maximum of 1 (the scale is the pixels' ``ρ_s``)."""
+    import numba
     from scipy import sparse
     from scipy.sparse.linalg import spsolve
 
+    from brdfkit.vision import _bivariate_kernels
+
+    lights = np.ascontiguousarray(lights, dtype=np.float64)
     half, cos_theta_d = _half_vectors(lights)
-    shading = np.clip(normals @ lights.T, 0.0, None)
-    index, weight = table.weights(normals @ half.T, np.broadcast_to(cos_theta_d, shading.shape))
-    scale = shading * coefficients[:, 1:2]  # (P, N): d model / d T
-    target = gray - shading * coefficients[:, :1]
+    column, fraction = _bivariate_kernels.table_columns(cos_theta_d, table.n_d)
+    bands, rhs = _bivariate_kernels.table_normal_equations(
+        np.ascontiguousarray(normals, dtype=np.float64),
+        np.ascontiguousarray(gray),
+        np.ascontiguousarray(weights),
+        lights,
+        half,
+        column,
+        fraction,
+        table.n_h,
+        table.n_d,
+        np.ascontiguousarray(coefficients, dtype=np.float64),
+        max(1, min(4 * numba.get_num_threads(), len(normals))),  # parallel partial sums
+    )
+    bands, rhs = bands.sum(axis=0), rhs.sum(axis=0)
     size = table.n_h * table.n_d
-    rows, cols, values, rhs = [], [], [], np.zeros(size)
-    for a in range(4):
-        wa = weights * scale * weight[a]
-        rhs += np.bincount(index[a].ravel(), (wa * target).ravel(), size)
-        for b in range(4):
-            rows.append(index[a].ravel())
-            cols.append(index[b].ravel())
-            values.append((wa * scale * weight[b]).ravel())
+    grid = np.arange(size).reshape(table.n_h, table.n_d)
+    i, j = np.divmod(np.arange(size), table.n_d)
+    rows, cols, values = [], [], []
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            inside = (0 <= i + di) & (i + di < table.n_h) & (0 <= j + dj) & (j + dj < table.n_d)
+            rows.append(np.flatnonzero(inside))
+            cols.append(rows[-1] + di * table.n_d + dj)
+            values.append(bands[inside, 1 + di, 1 + dj])
     normal_matrix = sparse.coo_matrix(
         (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
     ).tocsr()
-    grid = np.arange(size).reshape(table.n_h, table.n_d)
     differences = []
     for axis in (0, 1):
         a, b, c = (
@@ -590,7 +685,8 @@ def shared_bivariate(
         raise ParameterError(f"smoothness must be finite and >= 0, got {smoothness}")
     observations, lights, mask = _prepare(images, light_directions, mask)
     gray = _gray(observations)
-    lit, starts = _start(gray, lights, shadow_threshold)
+    ranks = _ranks(gray)
+    lit, starts = _start(gray, lights, shadow_threshold, ranks)
     normals = starts[-1]
     table = _Table(n_h, n_d)
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
@@ -609,7 +705,7 @@ def shared_bivariate(
         )
         if callback is not None:
             callback(round_ + 1, rounds)
-    return _finish(normals, gray, lit, lights, observations, mask)
+    return _finish(normals, gray, lit, lights, observations, mask, ranks)
 
 
 METHODS: dict[str, Callable[..., PhotometricStereoResult]] = {

@@ -1,0 +1,443 @@
+"""Compiled per-pixel kernels of :mod:`brdfkit.vision.bivariate` (ST14, IA14, AZ08).
+
+Variable projection: for a candidate normal, a pixel's reflectance weights are the
+(non-negative) least-squares fit of its lit observations to a ``K``-function basis, and the
+normal is found by Levenberg–Marquardt on the remaining residual. Each kernel does for one
+pixel what the NumPy formulation did for all at once (the tests keep that formulation as the
+reference), with the pixels split over the cores (``numba.prange``); per pixel:
+
+- only the observations of non-zero weight are visited (a shadowed or trimmed one adds nothing
+  to the fit and its residual is 0);
+- the Gram is accumulated an observation at a time as full rows (SIMD over the basis; each
+  entry summed in the observations' order, as before, so that the ill-conditioned Grams of the
+  bi-polynomial round as they did);
+- the non-negative fit starts its active set from the pixel's previous fit (the optimum of a
+  strictly convex quadratic is unique, so only the number of rounds changes);
+- a pixel stops when its Levenberg–Marquardt step is below a tolerance.
+
+Kernels are compiled on first use and cached on disk (``cache=True``).
+
+References
+----------
+.. [1] G. H. Golub, V. Pereyra, "The differentiation of pseudo-inverses and nonlinear least
+   squares problems whose variables separate", SIAM J. Numer. Anal. 10(2), 1973 (variable
+   projection).
+.. [2] C. L. Lawson, R. J. Hanson, "Solving Least Squares Problems", Prentice-Hall 1974,
+   ch. 23 (the active-set non-negative least squares).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from brdfkit.vision._ps_kernels import _FASTMATH, _tangents
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH)
+_inline = numba.njit(
+    cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, inline="always"
+)
+_pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, parallel=True)
+
+BIPOLYNOMIAL, RAMPS, TABLE = 0, 1, 2
+"""Basis kinds (see :class:`brdfkit.vision.bivariate.Basis`)."""
+
+EPSILON = 1e-4
+"""Forward-difference step of the Jacobian, radians."""
+
+BLOCK = 32
+"""Pixels per parallel task (they share one set of work arrays)."""
+
+
+@_jit
+def table_columns(cos_d, n_d):  # pragma: no cover
+    """Per light, the lower ``θ_d`` node ``j`` ``(N,)`` of the table and the fraction ``f_w``
+    ``(N,)`` above it (``θ_d`` uniform on [0, π/2] over ``n_d`` nodes)."""
+    n_lights = len(cos_d)
+    column = np.empty(n_lights, np.int64)
+    fraction = np.empty(n_lights)
+    for n in range(n_lights):
+        w = np.arccos(min(max(cos_d[n], 0.0), 1.0)) / (np.pi / 2) * (n_d - 1)
+        column[n] = min(int(np.floor(w)), n_d - 2)
+        fraction[n] = w - column[n]
+    return column, fraction
+
+
+@_inline
+def _table_row(cos_h, n_h):  # pragma: no cover
+    """The lower ``θ_h`` node ``i`` and fraction ``f_u`` (``sqrt(θ_h)`` uniform)."""
+    u = np.sqrt(np.arccos(min(max(cos_h, 0.0), 1.0)) / (np.pi / 2)) * (n_h - 1)
+    i = min(int(np.floor(u)), n_h - 2)
+    return i, u - i
+
+
+@_inline
+def _design(
+    kind, ints, fa, fb, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, design
+):  # pragma: no cover
+    """The basis values, cosine factor included, of the observations ``kept[:m]`` into
+    ``design[:m]`` ``(M, K)``."""
+    if kind == BIPOLYNOMIAL:
+        for j in range(m):
+            n = kept[j]
+            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+            shading = max(cos_i, 0.0)
+            ch = max(cos_h, 0.0)
+            power_h = 1.0
+            k = 0
+            for _a in range(ints[0] + 1):
+                power_d = 1.0
+                for _b in range(ints[1] + 1):
+                    design[j, k] = shading * power_h * power_d
+                    power_d *= cos_d[n]
+                    k += 1
+                power_h *= ch
+    elif kind == RAMPS:
+        steps = len(fa) - 1
+        for j in range(m):
+            n = kept[j]
+            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+            front = 1.0 if cos_i > 0 else 0.0
+            for k in range(steps):
+                design[j, k] = min(max((cos_i - fa[k]) / (fa[k + 1] - fa[k]), 0.0), 1.0)
+                ramp = min(max((cos_h - fb[k]) / (fb[k + 1] - fb[k]), 0.0), 1.0)
+                design[j, steps + k] = ramp * front
+    else:
+        n_h, n_d = ints[0], ints[1]
+        for j in range(m):
+            n = kept[j]
+            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+            shading = max(cos_i, 0.0)
+            i, fu = _table_row(cos_h, n_h)
+            c, fw = column[n], fraction[n]
+            value = (
+                fa[i * n_d + c] * ((1 - fu) * (1 - fw))
+                + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
+                + fa[i * n_d + c + 1] * ((1 - fu) * fw)
+                + fa[(i + 1) * n_d + c + 1] * (fu * fw)
+            )
+            design[j, 0] = shading
+            design[j, 1] = shading * value
+
+
+@_jit
+def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
+    """``coef`` = the solution of ``gram x = rhs`` on the ``free`` unknowns, 0 on the others:
+    Gaussian elimination with partial pivoting (LAPACK's ``gesv``) of the free block; a zero
+    pivot leaves that unknown 0."""
+    k = len(rhs)
+    f = 0
+    for i in range(k):
+        if free[i]:
+            g = 0
+            for j in range(k):
+                if free[j]:
+                    work[f, g] = gram[i, j]
+                    g += 1
+            work_b[f] = rhs[i]
+            f += 1
+    for c in range(f):
+        pivot = c
+        for r in range(c + 1, f):
+            if abs(work[r, c]) > abs(work[pivot, c]):
+                pivot = r
+        if pivot != c:
+            for q in range(f):
+                work[c, q], work[pivot, q] = work[pivot, q], work[c, q]
+            work_b[c], work_b[pivot] = work_b[pivot], work_b[c]
+        if work[c, c] == 0.0:
+            continue
+        for r in range(c + 1, f):
+            factor = work[r, c] / work[c, c]
+            if factor != 0.0:
+                for q in range(c, f):
+                    work[r, q] -= factor * work[c, q]
+                work_b[r] -= factor * work_b[c]
+    for c in range(f - 1, -1, -1):
+        total = work_b[c]
+        for q in range(c + 1, f):
+            total -= work[c, q] * work_b[q]
+        work_b[c] = total / work[c, c] if work[c, c] != 0.0 else 0.0
+    f = 0
+    for i in range(k):
+        if free[i]:
+            coef[i] = work_b[f]
+            f += 1
+        else:
+            coef[i] = 0.0
+
+
+@_jit
+def _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free):  # pragma: no cover
+    """One pixel's ``argmin_c c^T G c / 2 - r^T c`` (``c >= 0`` if ``nonnegative``) into
+    ``coef``, with a relative ridge of ``1e-9`` on ``G``. Non-negative: active-set rounds from
+    the free set ``free`` (in and out; all free unless ``warm``): solve on the free variables,
+    then clamp the most negative, or free the clamped one of steepest descent, until none
+    changes (at most ``2 K`` rounds)."""
+    k = len(rhs)
+    trace = 0.0
+    for i in range(k):
+        trace += gram[i, i]
+    ridge = 1e-9 * trace / k + 1e-300
+    for i in range(k):
+        gram[i, i] += ridge
+    if not nonnegative:
+        free[:] = True
+        _solve_free(gram, rhs, free, work, work_b, coef)
+        return
+    if not warm:
+        free[:] = True
+    scale = 0.0
+    for i in range(k):
+        scale = max(scale, abs(rhs[i]))
+    threshold = -1e-12 * scale
+    for _ in range(2 * k):
+        _solve_free(gram, rhs, free, work, work_b, coef)
+        worst, worst_value = -1, np.inf
+        steepest, steepest_value = -1, np.inf
+        for i in range(k):
+            if free[i] and coef[i] < 0 and coef[i] < worst_value:
+                worst, worst_value = i, coef[i]
+            if not free[i]:
+                gradient = -rhs[i]
+                for j in range(k):
+                    gradient += gram[i, j] * max(coef[j], 0.0)
+                if gradient < threshold and gradient < steepest_value:
+                    steepest, steepest_value = i, gradient
+        if worst >= 0:
+            free[worst] = False
+        elif steepest >= 0:
+            free[steepest] = True
+        else:
+            break
+    for i in range(k):
+        coef[i] = max(coef[i], 0.0)
+
+
+@_inline
+def _scratch(n_lights, k):  # pragma: no cover
+    """Work arrays of :func:`_fit`: design ``(N, K)``, Gram, right-hand side, solver rows."""
+    return np.empty((n_lights, k)), np.empty((k, k)), np.empty(k), np.empty((k, k)), np.empty(k)
+
+
+@_jit
+def _kept(w, g, kept, g_kept, w_kept):  # pragma: no cover
+    """The observations of non-zero weight: indices into ``kept``, their intensities and
+    weights; returns their number."""
+    m = 0
+    for n in range(len(w)):
+        if w[n] != 0.0:
+            kept[m] = n
+            g_kept[m] = g[n]
+            w_kept[m] = w[n]
+            m += 1
+    return m
+
+
+@_jit
+def _fit(
+    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints, fa,
+    fb, warm, nonnegative, residual, coef, free, scratch,
+):  # pragma: no cover  # fmt: skip
+    """Residual ``sqrt(w) (I - D c)`` ``(N,)`` (0 where ``w = 0``) of the best weights ``c``
+    ``(K,)`` for the normal ``(nx, ny, nz)``, given the pixel's kept observations; returns the
+    cost ``|residual|^2``."""
+    design, gram, rhs, work, work_b = scratch
+    k = len(coef)
+    _design(kind, ints, fa, fb, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, design)
+    gram[:, :] = 0.0
+    rhs[:] = 0.0
+    for j in range(m):
+        row = design[j]
+        for a in range(k):
+            wa = w_kept[j] * row[a]
+            if wa == 0.0:  # adds nothing (IA14: the ramps beyond a cosine)
+                continue
+            rhs[a] += wa * g_kept[j]
+            for b in range(k):  # the full row (vectorised); the lower half is replaced below
+                gram[a, b] += wa * row[b]
+    for a in range(k):
+        for b in range(a):
+            gram[a, b] = gram[b, a]
+    _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free)
+    residual[:] = 0.0
+    cost = 0.0
+    for j in range(m):
+        model = 0.0
+        for a in range(k):
+            model += design[j, a] * coef[a]
+        value = np.sqrt(w_kept[j]) * (g_kept[j] - model)
+        residual[kept[j]] = value
+        cost += value * value
+    return cost
+
+
+@_pjit
+def fit_pixels(
+    normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
+    warm, nonnegative, residual, coef, free,
+):  # pragma: no cover  # fmt: skip
+    """:func:`_fit` on every pixel (normals ``(P, 3)``, intensities and weights ``(P, N)``):
+    residuals ``(P, N)`` and weights ``(P, K)`` into the output arrays, the active sets
+    ``(P, K)`` updated in place (the start of the next fit); returns the costs ``(P,)``."""
+    n_pixels, n_lights = gray.shape
+    k = coef.shape[1]
+    cost = np.empty(n_pixels)
+    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+        kept = np.empty(n_lights, np.int64)
+        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
+        scratch = _scratch(n_lights, k)
+        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
+            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+            cost[p] = _fit(
+                normals[p, 0], normals[p, 1], normals[p, 2], kept, g_kept, w_kept, m, lights,
+                half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, residual[p],
+                coef[p], free[p], scratch,
+            )  # fmt: skip
+    return cost
+
+
+@_pjit
+def lm_step(
+    normals, damping, residual, cost, active, free, gray, weights, lights, half, cos_d, column,
+    fraction, kind, ints, fa, fb, warm, nonnegative, tolerance,
+):  # pragma: no cover  # fmt: skip
+    """One Levenberg–Marquardt iteration of :func:`~brdfkit.vision.bivariate._refine_normals`
+    on every ``active`` pixel, in place on ``normals`` ``(P, 3)``, ``damping`` ``(P,)``,
+    ``residual`` ``(P, N)``, ``cost`` ``(P,)``, ``active`` ``(P,)`` and the active sets ``free``
+    ``(P, K)``.
+
+    ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian by forward differences of
+    :data:`EPSILON`; the step ``-(J^T J + λ tr(J^T J)/2 I)^{-1} J^T r`` clipped to 0.2 per
+    coordinate is kept if the cost falls (``λ`` / 3, else ``λ`` × 4, within [1e-7, 1e7]). A
+    pixel whose step is below ``tolerance`` (both coordinates) stops: it is made inactive
+    without trying the step. (Pixels stop at different iterations: call it with a small
+    ``numba.parallel_chunksize`` so that the threads share the work.)
+    """
+    n_pixels, n_lights = gray.shape
+    k = free.shape[1]
+    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+        kept = np.empty(n_lights, np.int64)
+        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
+        jacobian = np.empty((2, n_lights))
+        shifted = np.empty(n_lights)
+        coef = np.empty(k)
+        scratch = _scratch(n_lights, k)
+        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
+            if not active[p]:
+                continue
+            r = residual[p]
+            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+            t = _tangents(nx, ny, nz)
+            for c in range(2):
+                mx, my, mz = (
+                    nx + EPSILON * t[3 * c],
+                    ny + EPSILON * t[3 * c + 1],
+                    nz + EPSILON * t[3 * c + 2],
+                )
+                length = np.sqrt(mx * mx + my * my + mz * mz)
+                _fit(
+                    mx / length, my / length, mz / length, kept, g_kept, w_kept, m, lights, half,
+                    cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, shifted, coef,
+                    free[p], scratch,
+                )  # fmt: skip
+                for n in range(n_lights):
+                    jacobian[c, n] = (shifted[n] - r[n]) / EPSILON
+            j00 = j01 = j11 = g0 = g1 = 0.0
+            for n in range(n_lights):
+                j00 += jacobian[0, n] * jacobian[0, n]
+                j01 += jacobian[0, n] * jacobian[1, n]
+                j11 += jacobian[1, n] * jacobian[1, n]
+                g0 += jacobian[0, n] * r[n]
+                g1 += jacobian[1, n] * r[n]
+            shift = damping[p] * ((j00 + j11) / 2 + 1e-300)
+            a00, a11 = j00 + shift, j11 + shift
+            determinant = a00 * a11 - j01 * j01
+            if determinant != 0.0:
+                s0 = -(a11 * g0 - j01 * g1) / determinant
+                s1 = -(a00 * g1 - j01 * g0) / determinant
+            else:
+                s0 = s1 = 0.0
+            if abs(s0) < tolerance and abs(s1) < tolerance:
+                active[p] = False
+                continue
+            s0, s1 = min(max(s0, -0.2), 0.2), min(max(s1, -0.2), 0.2)  # at most ~11° per iteration
+            tx = nx + s0 * t[0] + s1 * t[3]
+            ty = ny + s0 * t[1] + s1 * t[4]
+            tz = nz + s0 * t[2] + s1 * t[5]
+            length = np.sqrt(tx * tx + ty * ty + tz * tz)
+            tx, ty, tz = tx / length, ty / length, tz / length
+            trial_cost = _fit(
+                tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+                ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+            )  # fmt: skip
+            if trial_cost < cost[p]:
+                normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
+                r[:] = shifted
+                cost[p] = trial_cost
+                damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
+            else:
+                damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
+
+
+@_jit
+def _table_sums(
+    normals, gray, weights, lights, half, column, fraction, n_h, n_d, coefficients, bands, rhs
+):  # pragma: no cover
+    """:func:`table_normal_equations` of the pixels given, added to ``bands`` and ``rhs``."""
+    corner = np.empty(4, np.int64)
+    weight = np.empty(4)
+    for p in range(len(normals)):
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+        rho_d, rho_s = coefficients[p, 0], coefficients[p, 1]
+        for n in range(gray.shape[1]):
+            w = weights[p, n]
+            if w == 0.0:
+                continue
+            shading = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+            scale = shading * rho_s  # d model / d T
+            if scale == 0.0:
+                continue
+            target = gray[p, n] - shading * rho_d
+            i, fu = _table_row(nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2], n_h)
+            c, fw = column[n], fraction[n]
+            weight[0], weight[1] = (1 - fu) * (1 - fw), fu * (1 - fw)
+            weight[2], weight[3] = (1 - fu) * fw, fu * fw
+            for a in range(4):  # corner a is node (i + a % 2, c + a // 2)
+                corner[a] = (i + a % 2) * n_d + c + a // 2
+            for a in range(4):
+                wa = w * scale * weight[a]
+                rhs[corner[a]] += wa * target
+                for b in range(4):
+                    di, dj = b % 2 - a % 2, b // 2 - a // 2
+                    bands[corner[a], 1 + di, 1 + dj] += wa * scale * weight[b]
+
+
+@_pjit
+def table_normal_equations(
+    normals, gray, weights, lights, half, column, fraction, n_h, n_d, coefficients, n_chunks
+):  # pragma: no cover
+    """The least-squares system of the shared table ``T`` given the normals and the per-pixel
+    ``(ρ_d, ρ_s)`` ``coefficients`` ``(P, 2)``: ``I_k ≈ max(0, n·l_k) (ρ_d + ρ_s T(θ_h, θ_d))``
+    with ``T`` bilinear on ``n_h × n_d`` nodes (flat index ``i n_d + j``).
+
+    Returns the normal matrix as bands ``(n_chunks, n_h n_d, 3, 3)`` (entry ``[., q, 1 + di,
+    1 + dj]`` couples node ``q`` with node ``q + di n_d + dj``) and the right-hand side
+    ``(n_chunks, n_h n_d)``, summed over ``n_chunks`` parts of the pixels (in parallel; the
+    caller adds the parts).
+    """
+    size = n_h * n_d
+    n_pixels = len(normals)
+    bands = np.zeros((n_chunks, size, 3, 3))
+    rhs = np.zeros((n_chunks, size))
+    for chunk in numba.prange(n_chunks):
+        lo, hi = chunk * n_pixels // n_chunks, (chunk + 1) * n_pixels // n_chunks
+        _table_sums(
+            normals[lo:hi], gray[lo:hi], weights[lo:hi], lights, half, column, fraction, n_h,
+            n_d, coefficients[lo:hi], bands[chunk], rhs[chunk],
+        )  # fmt: skip
+    return bands, rhs

@@ -1,0 +1,157 @@
+"""The compiled kernels of :mod:`brdfkit.vision.bivariate` against the NumPy code they replaced
+(copied here as references): the shared table's least-squares system, the trims from one sort,
+the warm-started non-negative fits and the per-pixel stopping of the normal search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
+
+from brdfkit.vision import _bivariate_kernels, bivariate, datasets, photometric_stereo
+from brdfkit.vision.bivariate import _half_vectors
+from brdfkit.vision.photometric_stereo import _trim_weights
+
+# ----------------------------------------------------------------------------------------------
+# The NumPy reference: the table fit before the kernel (sparse COO assembly of every
+# observation's 4 x 4 bilinear couplings)
+
+
+def _ref_fit_table(table, normals, gray, weights, lights, coefficients, smoothness):
+    half, cos_theta_d = _half_vectors(lights)
+    shading = np.clip(normals @ lights.T, 0.0, None)
+    index, weight = table.weights(normals @ half.T, np.broadcast_to(cos_theta_d, shading.shape))
+    scale = shading * coefficients[:, 1:2]
+    target = gray - shading * coefficients[:, :1]
+    size = table.n_h * table.n_d
+    rows, cols, values, rhs = [], [], [], np.zeros(size)
+    for a in range(4):
+        wa = weights * scale * weight[a]
+        rhs += np.bincount(index[a].ravel(), (wa * target).ravel(), size)
+        for b in range(4):
+            rows.append(index[a].ravel())
+            cols.append(index[b].ravel())
+            values.append((wa * scale * weight[b]).ravel())
+    normal_matrix = sparse.coo_matrix(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
+    ).tocsr()
+    grid = np.arange(size).reshape(table.n_h, table.n_d)
+    differences = []
+    for axis in (0, 1):
+        a, b, c = (
+            np.take(grid, range(k, grid.shape[axis] - 2 + k), axis).ravel() for k in (0, 1, 2)
+        )
+        m = len(a)
+        differences.append(
+            sparse.coo_matrix(
+                (
+                    np.tile([1.0, -2.0, 1.0], m),
+                    (np.repeat(np.arange(m), 3), np.stack([a, b, c], 1).ravel()),
+                ),
+                (m, size),
+            )
+        )
+    penalty = sparse.vstack(differences).tocsr()
+    level = normal_matrix.diagonal().mean() + 1e-300
+    system = (
+        normal_matrix + smoothness * level * (penalty.T @ penalty) + 1e-9 * level * sparse.eye(size)
+    )
+    values = np.clip(spsolve(system.tocsc(), rhs), 0.0, None)
+    peak = values.max()
+    return values / peak if peak > 0 else values
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def glossy():
+    """A 24-pixel glossy sphere under 96 DiLiGenT-like lights: gray ``(N, P)``, lights, shadow
+    weights ``(P, N)``, start normals ``(S, P, 3)``, true normals ``(P, 3)``."""
+    normals, mask = photometric_stereo.sphere_normals((24, 24), (11.5, 11.5), 11.0)
+    lights = datasets.diligent_like_lights()
+    data = datasets.render_synthetic(
+        normals, mask, lights, albedo=[0.6, 0.4, 0.3], specular=1.0, shininess=30.0,
+        noise=0.002, rng=np.random.default_rng(1),
+    )  # fmt: skip
+    gray = data.images.mean(axis=3)[:, mask]
+    lit, starts = bivariate._start(gray, data.light_directions, 0.05)
+    return gray, data.light_directions, lit, starts, normals[mask]
+
+
+def _table(n_h=12, n_d=4):
+    table = bivariate._Table(n_h, n_d)
+    theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
+    table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
+    return table
+
+
+@pytest.mark.parametrize("bins", [(12, 4), (24, 6), (5, 2)])
+def test_table_fit_matches_numpy(glossy, bins):
+    gray, lights, lit, _, truth = glossy
+    table = _table(*bins)
+    rng = np.random.default_rng(3)
+    normals = truth + 0.05 * rng.standard_normal(truth.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    _, coefficients = bivariate._residuals(
+        normals, gray.T, lit, lights, bivariate._shared_basis(table), True
+    )
+    assert (coefficients[:, 1] > 0).mean() > 0.5  # a specular weight on most pixels
+    reference = _ref_fit_table(table, normals, gray.T, lit, lights, coefficients, 1e-2)
+    bivariate._fit_table(table, normals, gray.T, lit, lights, coefficients, 1e-2)
+    assert table.values.max() == 1.0 and np.ptp(table.values) > 0.5
+    np.testing.assert_allclose(table.values, reference, rtol=1e-8, atol=1e-10)
+
+
+def test_trims_from_one_sort_equal_the_trimmed_weights(glossy):
+    gray = glossy[0]
+    ranks = bivariate._ranks(gray)
+    for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6), (0.0, 0.3), (0.25, 0.25)):
+        np.testing.assert_array_equal(
+            bivariate._trimmed(ranks, dark, bright), _trim_weights(gray, dark, bright)
+        )
+
+
+def test_warm_started_nonnegative_fit_equals_a_cold_one(glossy):
+    gray, lights, lit, starts, _ = glossy
+    knots = np.linspace(0.0, 1.0, 8), np.cos(np.linspace(np.pi / 2, 0.0, 8))
+    basis = bivariate._sum_of_lobes_basis(*knots)
+    assert bivariate._kernel_inputs(lights, basis)[-1]  # the ramps start warm
+    normals = starts[0]
+    cold_residual, cold, _ = bivariate._fit(normals, gray.T, lit, lights, basis, True)
+    # Start every pixel from an arbitrary active set, then from the previous fit's.
+    free = np.random.default_rng(4).random((len(normals), basis.size)) < 0.5
+    for _ in range(2):
+        residual, warm, _ = bivariate._fit(normals, gray.T, lit, lights, basis, True, free)
+        np.testing.assert_allclose(warm, cold, atol=1e-9 * np.abs(cold).max())
+        np.testing.assert_allclose(residual, cold_residual, atol=1e-12 * np.abs(gray).max())
+    assert (cold == 0).any() and not free.all()  # the constraint is active somewhere
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps"])
+def test_normal_search_stops_where_its_steps_vanish(glossy, name):
+    gray, lights, lit, starts, _ = glossy
+    if name == "bipolynomial":
+        basis, nonnegative = bivariate._bipolynomial_basis(3, 1), False
+    else:
+        knots = np.linspace(0.0, 1.0, 8), np.cos(np.linspace(np.pi / 2, 0.0, 8))
+        basis, nonnegative = bivariate._sum_of_lobes_basis(*knots), True
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    runs = {}
+    for tolerance in (0.0, bivariate.STEP_TOLERANCE):
+        normals = np.array(starts[0], order="C")
+        free = np.ones((len(normals), basis.size), dtype=bool)
+        residual, _, cost = bivariate._fit(normals, g, w, lights, basis, nonnegative, free)
+        damping, active = np.full(len(normals), 1e-3), np.ones(len(normals), dtype=bool)
+        for _ in range(20):
+            _bivariate_kernels.lm_step(
+                normals, damping, residual, cost, active, free, g, w, *inputs, nonnegative,
+                tolerance,
+            )  # fmt: skip
+        runs[tolerance] = normals, active
+    (full, never), (stopped, active) = runs[0.0], runs[bivariate.STEP_TOLERANCE]
+    assert never.all() and (~active).mean() > 0.5  # most pixels stopped within 20 iterations
+    angle = np.degrees(np.arccos(np.clip(np.sum(full * stopped, axis=1), -1.0, 1.0)))
+    assert np.median(angle) < 1e-4 and angle.max() < 0.01, (np.median(angle), angle.max())
