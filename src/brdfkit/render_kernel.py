@@ -25,9 +25,10 @@ pixels, the BRDF kernels that :func:`brdfkit.accel.compile` builds from the mode
 - the BRDF's ``eval`` and ``pdf`` kernels at the map's directions, then the MIS sum.
 
 Nothing of size pixels × samples is stored: the scratch memory is a few buffers per block.
-The uniforms are those of the NumPy path (the same generator calls in the same order: one
-scrambled Sobol point set per strategy, Cranley–Patterson-shifted per pixel, or i.i.d.
-uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
+The uniforms are those of the NumPy path (the same generator calls in the same order: per
+pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
+:func:`brdfkit.sampling.scrambled_sobol`, whose hash the kernel evaluates from the same code,
+or i.i.d. uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
 rounding, and with float32 to float32 precision away from the rare samples whose texel flips.
 Lambertian lobes are taken out as :math:`\rho E(n)/\pi` as in ``method="auto"``
 (:func:`~brdfkit.integrate.split_diffuse`), and so is the control variate :math:`k\,E(n)` of
@@ -53,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import accel, render_table_kernel
+from brdfkit import accel, render_table_kernel, sampling
 from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.integrate import (
@@ -62,7 +63,9 @@ from brdfkit.integrate import (
     _diffuse_envmap,
     _floor_directions,
     _setup,
+    _Uniforms,
     split_diffuse,
+    uniform_keys,
 )
 from brdfkit.lights import EnvironmentMap, Light
 
@@ -233,10 +236,19 @@ def _new_tile_kernel(
             base[j] = rows[j] * (width + 1)
         find_intervals(conditional, base, a, width, col_steps, nb, cols)
 
+    reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
+    unit_interval = 2.0**-sampling.SOBOL_BITS
+
     @jit
-    def fraction(x: float) -> float:
-        """np.remainder(x, 1) for x ∈ [0, 2) (a point plus a shift, both in [0, 1))."""
-        return x - 1.0 if x >= 1.0 else x
+    def variate(points: np.ndarray, digits: np.ndarray, keys: np.ndarray, p: int, s: int,
+                k: int) -> float:  # fmt: skip
+        """Variate k of pixel p's sample s: ``sampling.scrambled_sobol`` (``digits``, the
+        sequence's bit-reversed digits ``(N, d)``, scrambled by ``keys[p]``), or the i.i.d.
+        ``points[p, s, k]`` where ``digits`` is empty."""
+        if digits.shape[0] == 0:
+            return points[p, s, k]
+        x = reverse_bits(laine_karras(np.uint64(digits[s, k]), np.uint64(keys[p, 0, k])))
+        return np.float64(x ^ np.uint64(keys[p, 1, k])) * unit_interval
 
     @jit
     def weight(p: Any, q: Any, power: bool) -> Any:
@@ -253,9 +265,11 @@ def _new_tile_kernel(
         wo: np.ndarray,
         frame: np.ndarray,
         points_b: np.ndarray,
-        shift_b: np.ndarray,
+        digits_b: np.ndarray,
+        keys_b: np.ndarray,
         points_l: np.ndarray,
-        shift_l: np.ndarray,
+        digits_l: np.ndarray,
+        keys_l: np.ndarray,
         image: np.ndarray,
         rot: np.ndarray,
         scale: Any,
@@ -271,9 +285,7 @@ def _new_tile_kernel(
         data: tuple,
     ) -> None:
         height, width = image.shape[0], image.shape[1]
-        samples = points_b.shape[1]
-        per_pixel_b = points_b.shape[0] > 1
-        per_pixel_l = points_l.shape[0] > 1
+        samples = max(points_b.shape[1], digits_b.shape[0])
         wo_buf = np.empty(BLOCK * 3, T)
         u_buf = np.empty(BLOCK * 3, T)
         wi_buf = np.empty(BLOCK * 3, T)
@@ -308,9 +320,8 @@ def _new_tile_kernel(
                 # BRDF sampling, vectorised over the block
                 for j in range(nb):
                     p = pixels[start + j]
-                    q = p if per_pixel_b else 0
                     for k in range(3):
-                        u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
+                        u_buf[j * 3 + k] = T(variate(points_b, digits_b, keys_b, p, s, k))
                 sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb, *data)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
                 # after: short loops whose independent cache misses overlap.
@@ -322,9 +333,8 @@ def _new_tile_kernel(
                     wz = v0 * frame[p, 0, 2] + v1 * frame[p, 1, 2] + v2 * frame[p, 2, 2]
                     ux, uy, uz = unit(wx, wy, wz)
                     coords[j, 0], coords[j, 1], coords[j, 2] = map_coordinates(ux, uy, uz, rot)
-                    q = p if per_pixel_l else 0
-                    a = T(fraction(points_l[q, s, 0] + shift_l[p, 0]))
-                    b = T(fraction(points_l[q, s, 1] + shift_l[p, 1]))
+                    a = T(variate(points_l, digits_l, keys_l, p, s, 0))
+                    b = T(variate(points_l, digits_l, keys_l, p, s, 1))
                     a_buf[j] = min(np.float64(a), below_one_64)
                     b_buf[j] = min(np.float64(b), below_one_64)
                 map_samples(
@@ -476,12 +486,13 @@ class EnvironmentShader:
         tangent: Any | None = None,
         *,
         samples: int = 256,
-        seed: int | None = 0,
+        seed: Any = 0,
         sequence: str = "random",
+        first_sample: int = 0,
         mask: np.ndarray | None = None,
     ) -> Estimate:
         """Reflected radiance towards ``wo`` (arguments as
-        :func:`~brdfkit.integrate.reflected_radiance`); ``mask`` (the batch's shape) skips
+        :func:`~brdfkit.integrate.reflected_radiance`, ``first_sample`` included); ``mask`` (the batch's shape) skips
         the Monte Carlo of pixels it marks False (their value is then the Lambertian part
         alone) without changing the others (beyond their last bit: a pixel's place in a
         vectorised block of the BRDF kernels can change its rounding). Returns float64
@@ -504,7 +515,7 @@ class EnvironmentShader:
                 k = control.reshape(*batch, self.rest.channels).astype(np.float64)
                 value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
             mean, m2 = self._monte_carlo(
-                frame, wo_local, batch, samples, seed, sequence, keep, control
+                frame, wo_local, batch, samples, seed, sequence, first_sample, keep, control
             )
             value = value + mean
             stderr2 = m2 / samples / samples
@@ -529,16 +540,15 @@ class EnvironmentShader:
         wo_local: np.ndarray,
         batch: tuple[int, ...],
         samples: int,
-        seed: int | None,
+        seed: Any,
         sequence: str,
+        first_sample: int,
         keep: np.ndarray,
         control: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
         t = self.dtype
-        rng = np.random.default_rng(seed)
-        uniforms = [_uniforms(rng, sequence, batch, samples, dim) for dim in (3, 2)]
-        (points_b, shift_b), (points_l, shift_l) = uniforms
+        uniforms = _uniforms(seed, sequence, batch, samples, first_sample)
         n = math.prod(batch)
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
         frame_flat = np.ascontiguousarray(
@@ -556,9 +566,9 @@ class EnvironmentShader:
         def run(lo: int) -> None:
             hi = min(lo + _CHUNK, pixels.size)
             kernel(
-                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b,
-                points_l, shift_l,
-                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi], self._data,
+                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *uniforms[0],
+                *uniforms[1], *self._tables, power, control, found_mean[lo:hi],
+                found_m2[lo:hi], self._data,
             )  # fmt: skip
 
         accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
@@ -572,20 +582,27 @@ _CHUNK = 4 * BLOCK
 
 
 def _uniforms(
-    rng: np.random.Generator, sequence: str, batch: tuple[int, ...], samples: int, dim: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The NumPy path's uniforms (``integrate._Uniforms.draw``, same generator calls) without
-    their pixels × samples array for Sobol: ``(points, shifts)`` with ``points`` ``(1, N, d)``
-    and per-pixel ``shifts`` ``(n, d)`` whose sum modulo 1 is the variate; for ``"random"``
-    ``(n, N, d)`` i.i.d. points and zero shifts."""
+    seed: Any, sequence: str, batch: tuple[int, ...], samples: int, first_sample: int
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The NumPy path's uniforms (``integrate._Uniforms``, the same generator calls and keys)
+    of the BRDF's (3-D) and the map's (2-D) samples, without their pixels × samples array for
+    Sobol: per strategy ``(points, digits, keys)``, for ``"random"`` the i.i.d. ``points``
+    ``(n, N, d)`` (the others empty), for ``"sobol"`` the sequence's bit-reversed digits
+    ``(N, d)`` and the per-pixel keys ``(n, 2, d)`` that the kernel scrambles them with."""
     n = math.prod(batch)
-    if sequence == "random":
-        return rng.random((*batch, samples, dim)).reshape(n, samples, dim), np.zeros((n, dim))
-    from scipy.stats import qmc
-
-    points = qmc.Sobol(d=dim, scramble=True, seed=rng).random(samples)
-    shifts = rng.random((*batch, 1, dim)).reshape(n, dim)
-    return np.ascontiguousarray(points[None]), shifts
+    uniforms = _Uniforms(seed, sequence, first_sample)
+    result = []
+    for stream, dim in enumerate((3, 2)):
+        if sequence == "random":
+            points = uniforms.draw(batch, samples, dim).reshape(n, samples, dim)
+            digits, keys = np.empty((0, dim), np.uint32), np.empty((0, 2, dim), np.uint32)
+        else:
+            points = np.empty((0, 0, dim))
+            integers = sampling.sobol_integers(first_sample, samples, dim)
+            digits = np.ascontiguousarray(sampling.reverse_bits(integers))
+            keys = np.ascontiguousarray(uniform_keys(seed, batch, stream, dim).reshape(n, 2, dim))
+        result.append((points, digits, keys))
+    return result
 
 
 AUTO_COMPILE_WORK = 4_000_000
@@ -662,14 +679,18 @@ def reflected_radiance(
     method: str = "auto",
     samples: int = 256,
     heuristic: str = "power",
-    seed: int | None = 0,
+    seed: Any = 0,
     sequence: str = "random",
+    first_sample: int = 0,
     dtype: Any = np.float32,
 ) -> Estimate:
     """:func:`brdfkit.integrate.reflected_radiance` under one environment map, compiled (see
     :class:`EnvironmentShader`, which builds the kernel once for many calls)."""
     shader = EnvironmentShader(brdf, light, method=method, heuristic=heuristic, dtype=dtype)
-    return shader(wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence)
+    return shader(
+        wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence,
+        first_sample=first_sample,
+    )  # fmt: skip
 
 
 __all__ = [
