@@ -492,11 +492,11 @@ class EnvironmentShader:
         mask: np.ndarray | None = None,
     ) -> Estimate:
         """Reflected radiance towards ``wo`` (arguments as
-        :func:`~brdfkit.integrate.reflected_radiance`, ``first_sample`` included); ``mask`` (the batch's shape) skips
-        the Monte Carlo of pixels it marks False (their value is then the Lambertian part
-        alone) without changing the others (beyond their last bit: a pixel's place in a
-        vectorised block of the BRDF kernels can change its rounding). Returns float64
-        ``value`` and ``stderr``."""
+        :func:`~brdfkit.integrate.reflected_radiance`, ``first_sample`` included); ``mask``
+        (the batch's shape) skips the Monte Carlo of pixels it marks False (their value is
+        then the Lambertian part alone) without changing the others (beyond their last bit:
+        a pixel's place in a vectorised block of the BRDF kernels can change its rounding).
+        Returns float64 ``value`` and ``stderr``."""
         if samples < 1:
             raise ValueError(f"samples must be >= 1; got {samples}")
         if sequence not in ("random", "sobol"):
