@@ -335,6 +335,7 @@ def _shade(
     work: int | None = None,
     first_row: int = 0,
     first_sample: int = 0,
+    cache: dict[Any, Any] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`shade`'s image and its per-pixel standard error (0 outside the mask; ``None``
     unless ``stderr``); ``work`` (pixel-samples) decides ``compiled="auto"`` when given.
@@ -343,17 +344,29 @@ def _shade(
     With ``sequence="sobol"`` each pixel's seed is a hash of ``seed`` and its index in the
     image (:func:`~brdfkit.sampling.query_seeds`), whatever the tiles, and its samples are
     points ``first_sample`` … of its sequence; with ``"random"`` a tile's seed is ``seed``
-    plus its first row in the image."""
+    plus its first row in the image. ``cache`` (a dict kept across calls on the same
+    G-buffer, BRDF and lights: :func:`progressive`'s passes) keeps the compiled plan and each
+    tile's sample-independent work (:meth:`~brdfkit.render_kernel.EnvironmentShader.prepare`,
+    the delta lights)."""
     want_stderr = stderr
     height, width = g.shape
-    rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels)) if want_stderr else None
     if work is None:
         work = np.count_nonzero(g.mask) * samples
-    plan = _compiled_plan(brdf, light_list, method, compiled, work)
+    if cache is not None and ("plan", compiled) in cache:
+        plan = cache["plan", compiled]
+    else:
+        plan = _compiled_plan(brdf, light_list, method, compiled, work)
+        if cache is not None:
+            cache["plan", compiled] = plan
+    rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
+    if plan is not None and sequence == "sobol":
+        # the kernel's memory does not grow with the samples, nor do a pixel's samples
+        # depend on the tiles: the same tiles whatever the samples (cache keys of passes)
+        rows_per_tile = _rows_per_tile(COMPILED_TILE_SAMPLES, method, width, max_evaluations)
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
@@ -366,23 +379,31 @@ def _shade(
                 tile_seed = seed + first_row + r0
             if plan is not None:
                 shader, others = plan
-                estimate = shader(
-                    g.wo[rows],
-                    g.normals[rows],
-                    g.points[rows],
-                    g.tangents[rows],
+                key = ("tile", compiled, first_row + rows.start, first_row + rows.stop)
+                if cache is not None and key in cache:
+                    prepared, exact = cache[key]
+                else:
+                    prepared = shader.prepare(
+                        g.wo[rows], g.normals[rows], g.points[rows], g.tangents[rows], mask=m
+                    )
+                    exact = None
+                    if others:  # delta lights: exact, no samples
+                        exact = reflected_radiance(
+                            slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
+                            normal=g.normals[rows], point=g.points[rows],
+                            tangent=g.tangents[rows],
+                        ).value  # fmt: skip
+                    if cache is not None:
+                        cache[key] = prepared, exact
+                estimate = shader.shade(
+                    prepared,
                     samples=samples,
                     seed=tile_seed,
                     sequence=sequence,
                     first_sample=first_sample,
-                    mask=m,
                 )
-                if others:  # delta lights: exact, no samples
-                    exact = reflected_radiance(
-                        slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
-                        normal=g.normals[rows], point=g.points[rows], tangent=g.tangents[rows],
-                    )  # fmt: skip
-                    estimate = Estimate(estimate.value + to_numpy(exact.value), estimate.stderr)
+                if exact is not None:
+                    estimate = Estimate(estimate.value + to_numpy(exact), estimate.stderr)
             else:
                 estimate = reflected_radiance(
                     slice_brdf(brdf, (height, width), rows),
@@ -413,6 +434,11 @@ def _rows_per_tile(samples: int, method: str, width: int, max_evaluations: int) 
         per_pixel += FLOOR_DIRECTIONS
     return max(1, max_evaluations // (per_pixel * width))
 
+
+COMPILED_TILE_SAMPLES = 16
+"""Samples per pixel that size the compiled path's tiles with Sobol' sequences (its memory
+does not grow with the samples): tiles of a few tens of ms at most, so that a cancel or a
+progress report comes soon."""
 
 COMPILED = (True, False, "auto", "float64")
 """Values of :func:`shade`'s ``compiled``."""
@@ -562,6 +588,8 @@ def progressive(
     kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
     builder = _background_build(brdf, lights, kwargs) if kwargs["compiled"] == "auto" else None
 
+    cache: dict[Any, Any] = {}  # the plan and each tile's sample-independent work
+
     def shade_pass(samples: int, pass_seed: int, first_sample: int) -> tuple[Any, Any]:
         nonlocal builder
         if builder is not None and not builder.is_alive():
@@ -569,7 +597,7 @@ def progressive(
             kwargs["compiled"], builder = builder.built, None  # type: ignore[attr-defined]
         return _shade(
             g, brdf, lights, **kwargs, samples=samples, seed=pass_seed,
-            progress=between_tiles, first_sample=first_sample,
+            progress=between_tiles, first_sample=first_sample, cache=cache,
         )  # fmt: skip
 
     start = time.perf_counter()

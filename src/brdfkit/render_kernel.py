@@ -50,6 +50,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -396,6 +397,21 @@ def _new_tile_kernel(
     return shade
 
 
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """Queries made ready by :meth:`EnvironmentShader.prepare`: their batch shape, the exact
+    part of their value ``batch + (C,)``, and for the kernel the indices of the pixels it
+    shades, the flat ``wo`` ``(n, 3)`` and frames ``(n, 3, 3)`` in its dtype and the control
+    variate's k ``(n, C)``."""
+
+    batch: tuple[int, ...]
+    value: np.ndarray
+    pixels: np.ndarray | None = None
+    wo: np.ndarray | None = None
+    frame: np.ndarray | None = None
+    control: np.ndarray | None = None
+
+
 class EnvironmentShader:
     r"""A compiled MIS shader for one BRDF under one :class:`~brdfkit.lights.EnvironmentMap`.
 
@@ -496,27 +512,64 @@ class EnvironmentShader:
         (the batch's shape) skips the Monte Carlo of pixels it marks False (their value is
         then the Lambertian part alone) without changing the others (beyond their last bit:
         a pixel's place in a vectorised block of the BRDF kernels can change its rounding).
-        Returns float64 ``value`` and ``stderr``."""
+        Returns float64 ``value`` and ``stderr``. The same as :meth:`shade` of
+        :meth:`prepare`."""
+        prepared = self.prepare(wo, normal, point, tangent, mask=mask)
+        return self.shade(
+            prepared, samples=samples, seed=seed, sequence=sequence, first_sample=first_sample
+        )
+
+    def prepare(
+        self,
+        wo: Any,
+        normal: Any | None = None,
+        point: Any | None = None,
+        tangent: Any | None = None,
+        *,
+        mask: np.ndarray | None = None,
+    ) -> Prepared:
+        """What does not depend on the samples, for any number of :meth:`shade` calls on
+        these queries (progressive passes): the local frames, and the exact terms (the
+        Lambertian lobes' ρE(n)/π and the control variate's k·E(n))."""
+        _, point, frame, wo_local, batch = _setup(np.asarray(wo), normal, point, tangent)
+        value = np.zeros((*batch, self.channels))
+        if self.rho is not None:
+            value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
+        if self._kernel is None:
+            return Prepared(batch, value)
+        n = math.prod(batch)
+        keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
+        control = np.zeros((n, self.rest.channels), self.dtype)
+        if self.control:
+            control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
+            k = control.reshape(*batch, self.rest.channels).astype(np.float64)
+            value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
+        t = self.dtype
+        wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
+        frame_flat = np.ascontiguousarray(
+            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
+            dtype=t,
+        )
+        return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control)
+
+    def shade(
+        self,
+        prepared: Prepared,
+        *,
+        samples: int = 256,
+        seed: Any = 0,
+        sequence: str = "random",
+        first_sample: int = 0,
+    ) -> Estimate:
+        """:meth:`__call__` on queries made ready by :meth:`prepare`."""
         if samples < 1:
             raise ValueError(f"samples must be >= 1; got {samples}")
         if sequence not in ("random", "sobol"):
             raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
-        _, point, frame, wo_local, batch = _setup(np.asarray(wo), normal, point, tangent)
-        value = np.zeros((*batch, self.channels))
+        batch, value = prepared.batch, prepared.value
         stderr2 = np.zeros((*batch, self.channels))
-        if self.rho is not None:
-            value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
         if self._kernel is not None:
-            n = math.prod(batch)
-            keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
-            control = np.zeros((n, self.rest.channels), self.dtype)
-            if self.control:
-                control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
-                k = control.reshape(*batch, self.rest.channels).astype(np.float64)
-                value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
-            mean, m2 = self._monte_carlo(
-                frame, wo_local, batch, samples, seed, sequence, first_sample, keep, control
-            )
+            mean, m2 = self._monte_carlo(prepared, samples, seed, sequence, first_sample)
             value = value + mean
             stderr2 = m2 / samples / samples
         return Estimate(value, np.sqrt(stderr2))
@@ -535,27 +588,13 @@ class EnvironmentShader:
         return np.maximum(median, 0)
 
     def _monte_carlo(
-        self,
-        frame: tuple[np.ndarray, np.ndarray, np.ndarray],
-        wo_local: np.ndarray,
-        batch: tuple[int, ...],
-        samples: int,
-        seed: Any,
-        sequence: str,
-        first_sample: int,
-        keep: np.ndarray,
-        control: np.ndarray,
+        self, prepared: Prepared, samples: int, seed: Any, sequence: str, first_sample: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
-        t = self.dtype
+        batch, pixels = prepared.batch, prepared.pixels
+        wo_flat, frame_flat, control = prepared.wo, prepared.frame, prepared.control
         uniforms = _uniforms(seed, sequence, batch, samples, first_sample)
         n = math.prod(batch)
-        wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
-        frame_flat = np.ascontiguousarray(
-            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
-            dtype=t,
-        )
-        pixels = np.flatnonzero(keep)
         mean = np.zeros((n, self.channels))
         m2 = np.zeros((n, self.channels))
         found_mean = np.empty((pixels.size, self.channels))
