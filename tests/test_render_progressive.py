@@ -59,6 +59,8 @@ def test_sobol_passes_continue_two_replicate_sequences():
         np.testing.assert_allclose(p.image, (a + b) / 2, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose(p.error, np.abs(a - b) / 2, rtol=1e-9, atol=1e-15)
     assert np.all(passes[-1].stderr[g.mask] > 0)
+    counts = [p.samples for p in progressive(g, GOLD, env, max_samples=256, **NUMPY)]
+    assert counts == [2, 4, 8, 16, 32, 64, 96, 128, 192, 256]  # by half from 64 on
 
 
 def test_accumulated_image_equals_a_one_shot_render_within_monte_carlo_error():

@@ -540,7 +540,9 @@ def progressive(
 
     The first pass shades ``first_samples`` samples per pixel (an image in a fraction of a
     full render's time); each later pass shades as many samples as all passes before it, so
-    the total doubles until ``max_samples``. Each pass is :func:`shade` work
+    the total doubles until ``max_samples`` (with Sobol' replicates, from
+    :data:`HALF_STEPS_FROM` samples of each on, half as many: totals 64, 96, 128, 192, …,
+    a finer choice of when to stop). Each pass is :func:`shade` work
     (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …). With ``compiled="auto"``
     (default) the compiled kernels are built on a background thread while the first passes
     run on NumPy, and used from the next pass once they are ready. Setting ``cancel`` stops
@@ -645,6 +647,11 @@ def _pooled_passes(
         yield mean.copy(), np.sqrt(m2) / count, count, None
 
 
+HALF_STEPS_FROM = 32
+"""Samples of each Sobol' replicate from which :func:`progressive`'s passes grow by half
+(totals 64, 96, 128, 192, 256, …: each pass still an aligned block of the sequences)."""
+
+
 def _replicate_passes(
     shade_pass: Callable[..., tuple[Any, Any]],
     seed: int,
@@ -662,8 +669,11 @@ def _replicate_passes(
             return
         if count == 0:
             n = max(1, first_samples // 2)
-        else:
-            n = min(count, -(-(max_samples - 2 * count) // 2))
+        elif count < HALF_STEPS_FROM:
+            n = count
+        else:  # half the largest power of two in count: an aligned block of the sequence
+            n = 1 << (count.bit_length() - 2)
+        n = min(n, -(-(max_samples - 2 * count) // 2))
         for r, replicate_seed in enumerate(seeds):
             value, stderr = shade_pass(n, replicate_seed, count)
             previous = means[r]
