@@ -293,11 +293,12 @@ def shade(
     Pixels are shaded in tiles of rows holding at most ``max_evaluations`` BRDF evaluations
     (pixels × samples, and the control variate's :data:`~brdfkit.integrate.FLOOR_DIRECTIONS`),
     which bounds memory (measured ~400 B per evaluation on the NumPy path: ~200 MB per tile;
-    the compiled path keeps a few buffers per block). Pixels use shifted
-    scrambled Sobol samples by default (``sequence``, see
-    :func:`~brdfkit.integrate.reflected_radiance`); with ``method="auto"`` Lambertian lobes under
-    an environment map come noise-free from the map's irradiance
-    (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are sampled.
+    the compiled path keeps a few buffers per block). By default each pixel has its own
+    scrambled Sobol' sequence, keyed by its index in the image, so the tiles do not change
+    the image (``sequence``, see :func:`~brdfkit.integrate.reflected_radiance`); with
+    ``method="auto"`` Lambertian lobes under an environment map come noise-free from the
+    map's irradiance (:func:`~brdfkit.integrate.split_diffuse`) and only the other lobes are
+    sampled.
     ``progress(done, total)`` is called after each tile.
 
     ``compiled`` chooses the compiled path: each tile shaded by the numba kernel of

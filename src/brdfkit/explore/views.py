@@ -125,7 +125,8 @@ def environment_passes(
     max_samples: int = ENV_MAX_SAMPLES,
 ) -> Iterator[Pass]:
     """The sphere under ``envmap`` refined progressively (:func:`brdfkit.render.progressive`:
-    1, 2, 4, … samples per pixel), stopping when ``cancel`` is set."""
+    2, 4, …, 64, 96, 128, 192, … samples per pixel in two Sobol' replicates), stopping when
+    ``cancel`` is set."""
     return progressive(
         sphere_gbuffer(resolution), brdf, envmap, max_samples=max_samples, cancel=cancel
     )
