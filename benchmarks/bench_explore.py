@@ -12,8 +12,9 @@ drawing add. Workloads: Lambertian + GGX, and a MERL-layout table (written by
 
 Under the environment map (the bundled one), the time from switching the view on to the first
 image (the exact diffuse term, :func:`brdfkit.explore.views.diffuse_term`), to the first pass
-(1 spp of the whole estimator) and to 1 % relative noise (the RMS error / mean over the sphere,
-estimated from successive passes: :func:`brdfkit.explore.views.relative_noise`) is reported,
+(1 spp of each of the estimator's two Sobol' replicates) and to 1 % relative noise (the RMS
+error / mean over the sphere, estimated without bias from the two replicates:
+:func:`brdfkit.explore.views.relative_noise`) is reported,
 after the server's warm-up (which builds the compiled kernels of the shown BRDF).
 
 The sphere's latency is from the slider's ``input`` event until the page has drawn the reply
@@ -22,6 +23,14 @@ Python time of those views, ``page draw ms`` the page's drawing of them.
 
 Run ``python benchmarks/bench_explore.py`` (needs the ``explore`` and ``explore-test``
 extras); results go to ``benchmarks/results/explore.json`` and a Markdown table on stdout.
+
+``--session`` measures the environment-map figures without a browser: the server's own
+:meth:`~brdfkit.explore.session.Session.environment` replies, each encoded as the WebSocket
+frame it would send (:func:`~brdfkit.explore.protocol.encode_frame`), after the same
+warm-up; per repeat the wall and CPU seconds (``time.process_time``, both cores) to the first
+image, the first pass and 1 % noise, and the samples per pixel then. It leaves out the page's
+decoding and drawing (a few ms per pass) and needs no browser; results go to
+``benchmarks/results/explore_session.json``.
 """
 
 from __future__ import annotations
@@ -31,14 +40,15 @@ import json
 import platform
 import statistics
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from playwright.sync_api import sync_playwright
 
 from brdfkit.brdf import parse
+from brdfkit.explore.protocol import Entry, Message, encode_frame
 from brdfkit.explore.server import ExplorerServer
 from brdfkit.explore.session import Session
 from brdfkit.explore.views import ViewState
@@ -113,13 +123,67 @@ def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
     }
 
 
+def environment_session(session: Session, spec: str, limit: float) -> dict[str, Any]:
+    """The environment-lit sphere's replies in-process (``--session``): seconds (wall and
+    CPU) to the first image, the first pass and 1 % noise, as the page's ENV script times
+    them, each reply encoded as its WebSocket frame."""
+    message = Message("render", 1, (Entry("b1", True, "spec", spec),), ViewState(envmap=True))
+    cancel = threading.Event()
+    record: dict[str, Any] = {"first": None, "first_pass": None, "noise1": None}
+    start, cpu = time.perf_counter(), time.process_time()
+    for header, arrays in session.environment(message, cancel):
+        encode_frame(header, [a.tobytes() for a in arrays])
+        wall, used = time.perf_counter() - start, time.process_time() - cpu
+        if record["first"] is None:
+            record["first"] = wall
+        if record["first_pass"] is None and header["samples"] >= 1:
+            record["first_pass"] = wall
+        record.update(samples=header["samples"], noise=header["noise"], seconds=wall, cpu=used)
+        noise = header["noise"]
+        if noise is not None and 0 < noise <= 0.01:
+            record["noise1"], record["noise1_cpu"] = wall, used
+            break
+        if wall > limit:
+            break
+    cancel.set()
+    return record
+
+
+def session_main(args: argparse.Namespace) -> None:
+    """``--session``: the environment-map figures without a browser, ``--repeats`` times."""
+    session = Session()
+    start = time.perf_counter()
+    session.warm_up([ANALYTIC])
+    warm_up = time.perf_counter() - start
+    runs = [environment_session(session, ANALYTIC, args.env_limit) for _ in range(args.repeats)]
+    results = {"platform": platform.platform(), "warm_up_s": warm_up, "runs": runs}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(results, indent=2))
+    print("| run | first image ms | first pass ms | 1 % noise s | CPU s | spp | noise % |")
+    print("|---|---|---|---|---|---|---|")
+    for i, r in enumerate(runs):
+        noise1 = "not reached" if r["noise1"] is None else f"{r['noise1']:.2f}"
+        cpu = r.get("noise1_cpu", r["cpu"])
+        print(
+            f"| {i} | {1e3 * r['first']:.0f} | {1e3 * r['first_pass']:.0f} | {noise1} | "
+            f"{cpu:.2f} | {r['samples']} | {100 * r['noise']:.2f} |"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--moves", type=int, default=40)
     parser.add_argument("--chromium", default="/usr/bin/chromium")
     parser.add_argument("--env-limit", type=float, default=20.0, help="seconds")
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results/explore.json")
+    parser.add_argument("--session", action="store_true", help="env map figures, no browser")
+    parser.add_argument("--repeats", type=int, default=3, help="--session runs")
+    parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
+    if args.session:
+        args.out = args.out or Path(__file__).parent / "results/explore_session.json"
+        return session_main(args)
+    args.out = args.out or Path(__file__).parent / "results/explore.json"
+    from playwright.sync_api import sync_playwright
 
     results: dict[str, Any] = {"platform": platform.platform(), "workloads": {}}
     with tempfile.TemporaryDirectory() as folder, sync_playwright() as p:

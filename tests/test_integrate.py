@@ -336,3 +336,28 @@ def test_auto_control_variate_is_unbiased_and_cuts_the_variance_of_rough_diffuse
     controlled = reflected_radiance(rough, env, wo, method="auto", samples=4096, seed=1)
     ratio = controlled.stderr / plain.stderr
     assert np.all(ratio < 0.5) and np.median(ratio) < 0.2, ratio
+
+
+def test_sobol_blocks_continue_one_sequence_and_seeds_may_be_per_query():
+    """Calls with first_sample 0 and N draw the two halves of one 2N-point sequence per query;
+    an array of per-query seeds gives what the integer seed derives for each query."""
+    from brdfkit.brdf import RoughConductor
+    from brdfkit.sampling import query_seeds
+
+    env = EnvironmentMap(np.random.default_rng(2).random((8, 16, 3)) ** 3 * 4)
+    brdf = RoughConductor(alpha=0.3, material="Au", masking="smith_separable")
+    wo = _directions(5, seed=3)
+
+    def radiance(**kwargs):
+        kwargs = {"samples": 8, "seed": 4, "sequence": "sobol", **kwargs}
+        return reflected_radiance(brdf, env, wo, **kwargs).value
+
+    whole = radiance(samples=16)
+    halves = (radiance() + radiance(first_sample=8)) / 2
+    np.testing.assert_allclose(halves, whole, rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(radiance(seed=query_seeds(4, 5)), radiance())
+    assert not np.allclose(radiance(first_sample=8), radiance())
+    with pytest.raises(ValueError, match="sobol"):
+        radiance(seed=query_seeds(4, 5), sequence="random")
+    with pytest.raises(ValueError, match=r"shape \(5,\)"):
+        radiance(seed=query_seeds(4, 3))

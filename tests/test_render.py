@@ -47,6 +47,29 @@ def test_tiles_do_not_change_the_image_and_svbrdf_parameters_are_sliced():
     np.testing.assert_allclose(whole, np.where(g.mask[..., None], expected, 0), atol=1e-12)
 
 
+def test_sobol_pixels_keep_their_sequences_whatever_the_tiles():
+    """A pixel's Sobol' seed hashes its index in the image: tiles and first_sample blocks do
+    not change its samples (so progressive passes can continue them)."""
+    from brdfkit.brdf import RoughConductor
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.render import _shade
+
+    g = gbuffer(Sphere(), None, 12)
+    env = EnvironmentMap(np.random.default_rng(1).random((8, 16, 3)) ** 3 * 4)
+    gold = RoughConductor(alpha=0.3, material="Au", masking="smith_separable")
+    kwargs = {"seed": 3, "compiled": False}
+    whole = shade(g, gold, env, samples=8, **kwargs)
+    tiled = shade(g, gold, env, samples=8, max_evaluations=(16 + 16) * 12 * 2, **kwargs)
+    np.testing.assert_allclose(tiled, whole, rtol=1e-12, atol=1e-15)
+    options = {"method": "auto", "sequence": "sobol", "max_evaluations": 500_000,
+               "background": 0.0, "progress": None}  # fmt: skip
+    halves = [
+        _shade(g, gold, env, samples=4, first_sample=first, **options, **kwargs)[0]
+        for first in (0, 4)
+    ]
+    np.testing.assert_allclose((halves[0] + halves[1]) / 2, whole, rtol=1e-12, atol=1e-15)
+
+
 def test_point_light_on_a_plane_falls_off_with_inverse_square():
     cam = Camera.look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0), extent=4.0)
     g = gbuffer(Plane(point=(0, 0, 0), normal=(0, 0, 1), tangent=(1, 0, 0)), cam, 33)

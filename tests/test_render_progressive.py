@@ -11,7 +11,15 @@ import pytest
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.integrate import FLOOR_DIRECTIONS
 from brdfkit.lights import EnvironmentMap
-from brdfkit.render import Pass, Sphere, gbuffer, progressive, progressive_sphere, shade
+from brdfkit.render import (
+    Pass,
+    Sphere,
+    _pass_seed,
+    gbuffer,
+    progressive,
+    progressive_sphere,
+    shade,
+)
 from brdfkit.render_kernel import kernels_built
 
 GOLD = RoughConductor(alpha=0.3, material="Au", masking="smith_separable")
@@ -26,13 +34,33 @@ def _map() -> EnvironmentMap:
 def test_passes_double_and_the_first_is_a_one_sample_render():
     g = gbuffer(Sphere(), None, 12)
     env = _map()
-    passes = list(progressive(g, BRDF, env, max_samples=20, seed=3, **NUMPY))
+    random = {"sequence": "random", **NUMPY}
+    passes = list(progressive(g, BRDF, env, max_samples=20, seed=3, **random))
     assert all(isinstance(p, Pass) for p in passes)
     assert [p.samples for p in passes] == [1, 2, 4, 8, 16, 20]
     assert all(b.seconds >= a.seconds for a, b in itertools.pairwise(passes))
-    np.testing.assert_array_equal(passes[0].image, shade(g, BRDF, env, samples=1, seed=3, **NUMPY))
+    first = shade(g, BRDF, env, samples=1, seed=3, **random)
+    np.testing.assert_array_equal(passes[0].image, first)
     assert passes[-1].image.shape == (12, 12, 3) == passes[-1].stderr.shape
     assert np.all(passes[-1].image[~g.mask] == 0) and np.all(passes[-1].stderr[~g.mask] == 0)
+    assert passes[-1].error is None
+
+
+def test_sobol_passes_continue_two_replicate_sequences():
+    """After each pass each replicate is the first N points of its pixels' sequences: the
+    image is the mean of two one-shot renders of N samples, ``error`` half their difference."""
+    g = gbuffer(Sphere(), None, 12)
+    env = _map()
+    passes = list(progressive(g, GOLD, env, max_samples=32, seed=3, **NUMPY))
+    assert [p.samples for p in passes] == [2, 4, 8, 16, 32]
+    for p in (passes[0], passes[-1]):
+        a = shade(g, GOLD, env, samples=p.samples // 2, seed=3, **NUMPY)
+        b = shade(g, GOLD, env, samples=p.samples // 2, seed=_pass_seed(3, 1), **NUMPY)
+        np.testing.assert_allclose(p.image, (a + b) / 2, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(p.error, np.abs(a - b) / 2, rtol=1e-9, atol=1e-15)
+    assert np.all(passes[-1].stderr[g.mask] > 0)
+    counts = [p.samples for p in progressive(g, GOLD, env, max_samples=256, **NUMPY)]
+    assert counts == [2, 4, 8, 16, 32, 64, 96, 128, 192, 256]  # by half from 64 on
 
 
 def test_accumulated_image_equals_a_one_shot_render_within_monte_carlo_error():
@@ -78,7 +106,7 @@ def test_cancel_before_during_and_between_passes():
     cancel = threading.Event()
     iterator = progressive(g, GOLD, env, max_samples=1024, cancel=cancel, **NUMPY)
     first = next(iterator)
-    assert first.samples == 1
+    assert first.samples == 2  # one sample of each Sobol' replicate
     cancel.set()
     assert list(iterator) == []
 
@@ -100,6 +128,7 @@ def test_cancel_before_during_and_between_passes():
             cancel=cancel,
             progress=progress,
             max_evaluations=(2 + FLOOR_DIRECTIONS) * 16 * 6,  # 1 spp: tiles of 6 rows
+            sequence="random",
             **NUMPY,
         )
     )
@@ -132,5 +161,6 @@ def test_auto_builds_the_kernels_in_the_background_and_switches_to_them():
             break
     assert kernels_built(model)
     *_, last = progressive(g, model, _map(), max_samples=32, first_samples=32)
-    compiled = shade(g, model, _map(), samples=32, seed=0, compiled=True)
-    np.testing.assert_array_equal(last.image, compiled)  # built: used from the first pass
+    a = shade(g, model, _map(), samples=16, seed=0, compiled=True)
+    b = shade(g, model, _map(), samples=16, seed=_pass_seed(0, 1), compiled=True)
+    np.testing.assert_array_equal(last.image, (a + b) / 2)  # built: used from the first pass

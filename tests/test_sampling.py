@@ -11,9 +11,17 @@ from scipy.stats import binomtest
 
 from brdfkit import sampling
 from brdfkit.sampling import (
+    SOBOL_DIMENSIONS,
     Distribution2D,
     hemisphere_pairs,
+    laine_karras,
+    nested_scramble,
+    query_seeds,
+    reverse_bits,
+    scramble_keys,
+    scrambled_sobol,
     sobol,
+    sobol_integers,
     square_to_cosine_hemisphere,
     square_to_cosine_hemisphere_pdf,
     square_to_spherical_triangle,
@@ -429,6 +437,79 @@ def test_sobol_rejects_bad_arguments():
         sobol(0, 2)
     with pytest.raises(ValueError, match=r"dim must be an integer in \[1, 21201\]; got 0"):
         sobol(4, 0)
+
+
+def test_sobol_integers_are_scipys_sequence():
+    from scipy.stats import qmc
+
+    for m in (1, 4, 9):
+        ours = sobol_integers(0, 2**m, SOBOL_DIMENSIONS)
+        theirs = qmc.Sobol(SOBOL_DIMENSIONS, scramble=False, bits=32).random(2**m) * 2.0**32
+        # SciPy runs in Gray-code order: the same set of points
+        np.testing.assert_array_equal(
+            np.unique(ours, axis=0), np.unique(theirs.astype(np.uint32), axis=0)
+        )
+    with pytest.raises(ValueError, match="dim"):
+        sobol_integers(0, 4, SOBOL_DIMENSIONS + 1)
+
+
+def _is_net(points: np.ndarray) -> bool:
+    """One point in each interval of 1/n per coordinate, and in each of the 2^m elementary
+    intervals of 2^a × 2^(m−a) of the first two coordinates (Sobol's first two dimensions
+    form a (0, 2)-sequence)."""
+    n = points.shape[0]
+    m = n.bit_length() - 1
+    cells = np.floor(points * n).astype(int)
+    if not all(np.array_equal(np.sort(cells[:, d]), np.arange(n)) for d in range(points.shape[1])):
+        return False
+    for a in range(m + 1):
+        x = np.floor(points[:, 0] * 2**a).astype(int)
+        y = np.floor(points[:, 1] * 2 ** (m - a)).astype(int)
+        if np.unique(x * 2 ** (m - a) + y).size != n:
+            return False
+    return True
+
+
+def test_scrambled_sobol_blocks_and_their_unions_are_nets_per_query():
+    keys = scramble_keys(query_seeds(7, 6), 0, 3)
+    first = scrambled_sobol(0, 16, keys)
+    second = scrambled_sobol(16, 16, keys)
+    assert first.shape == (6, 16, 3) and np.all((first >= 0) & (first < 1))
+    for q in range(6):
+        assert _is_net(first[q]) and _is_net(second[q])
+        assert _is_net(np.concatenate([first[q], second[q]]))
+    np.testing.assert_array_equal(np.concatenate([first, second], axis=1),
+                                  scrambled_sobol(0, 32, keys))  # fmt: skip
+    assert not np.array_equal(first[0], first[1])  # each query its own scramble
+    # the streams of one seed are independent draws, the seeds depend on the index alone
+    assert not np.array_equal(scramble_keys(query_seeds(7, 1), 1, 3), keys[:1])
+    np.testing.assert_array_equal(query_seeds(7, 3, first=2), query_seeds(7, 5)[2:])
+
+
+def test_scrambled_sobol_points_are_uniform():
+    """Each point, over random keys, is uniform (the estimates unbiased): the mean of a
+    smooth function and the occupancy of fine cells match U[0, 1) within sampling error."""
+    keys = scramble_keys(query_seeds(11, 20_000), 0, 2)
+    u = scrambled_sobol(5, 3, keys)  # points 5, 6, 7 of each query's sequence
+    for k in range(3):
+        for d in range(2):
+            x = u[:, k, d]
+            assert abs(np.mean(x) - 0.5) < 4 * np.sqrt(1 / 12 / x.size)
+            assert abs(np.mean(np.cos(2 * np.pi * x))) < 4 * np.sqrt(0.5 / x.size)
+            counts = np.bincount(np.floor(x * 64).astype(int), minlength=64)
+            chi2 = np.sum((counts - x.size / 64) ** 2 / (x.size / 64))
+            assert chi2 < 120, chi2  # 63 degrees of freedom: p < 1e-5
+
+
+def test_nested_scramble_in_numba_equals_numpy():
+    numba = pytest.importorskip("numba")
+    reverse, hash_ = numba.njit(reverse_bits), numba.njit(laine_karras)
+    scramble = numba.njit(lambda x, seed: reverse(hash_(reverse(x), seed)))
+    rng = np.random.default_rng(3)
+    x, seed = (rng.integers(0, 2**32, 200, dtype=np.uint32) for _ in range(2))
+    expected = nested_scramble(x, seed)
+    found = [scramble(np.uint64(a), np.uint64(b)) for a, b in zip(x, seed, strict=True)]
+    np.testing.assert_array_equal(np.array(found, np.uint64), expected.astype(np.uint64))
 
 
 def test_hemisphere_pairs_are_reproducible_unit_upper_directions():

@@ -27,12 +27,22 @@ from typing import Literal
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, asarrays, check_vectors, namespace, normalize, safe_div
+from brdfkit._array import (
+    Array,
+    asarray,
+    asarrays,
+    check_vectors,
+    namespace,
+    normalize,
+    safe_div,
+    to_numpy,
+)
 from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
 from brdfkit.lights import EnvironmentMap, Light, LightSample, UniformSky
+from brdfkit.sampling import query_seeds, scramble_keys, scrambled_sobol
 
 Method = Literal["auto", "quadrature", "brdf", "light", "mis"]
 METHODS = ("auto", "quadrature", "brdf", "light", "mis")
@@ -85,8 +95,9 @@ def reflected_radiance(
     heuristic: Literal["balance", "power", "optimal"] = "power",
     theta_steps: int = 64,
     phi_steps: int = 128,
-    seed: int | None = 0,
+    seed: int | Array | None = 0,
     sequence: Literal["random", "sobol"] = "random",
+    first_sample: int = 0,
 ) -> Estimate:
     """Reflected radiance L_o towards ``wo`` from a surface at ``point`` with ``normal``.
 
@@ -112,11 +123,17 @@ def reflected_radiance(
         strategy alone by more than the fit's noise, and far better where one strategy is
         nearly ideal; BRDFs without delta lobes only). Its standard error treats the fitted
         coefficients as fixed.
-    seed : seed of the pseudo-random generator.
+    seed : seed of the pseudo-random generator; with ``"sobol"`` also an integer array of
+        the batch's shape, one seed per query.
     sequence : ``"random"`` (independent uniforms: the standard error is honest) or ``"sobol"``
-        (one scrambled Sobol point set, Cranley–Patterson-shifted per query: much lower error
-        for the same ``samples``, e.g. for images; the reported standard error is then a
-        conservative over-estimate).
+        (per query and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
+        :func:`~brdfkit.sampling.scrambled_sobol`, keyed by a hash of the query's seed — the
+        hash of (``seed``, the query's flat index) for an integer ``seed``: unbiased, much
+        lower error for the same ``samples``, e.g. for images; the reported standard error is
+        then a conservative over-estimate: estimate it from independent seeds instead).
+    first_sample : with ``"sobol"``, the index in each query's sequence of its first sample:
+        calls with the same seeds and ``first_sample`` 0, N, 2N, … (N a power of two) draw
+        successive blocks of one sequence, whose union is again a scrambled net.
 
     Returns
     -------
@@ -134,7 +151,7 @@ def reflected_radiance(
             f"got {type(brdf).__name__} with one: use 'power' or 'balance'"
         )
     xp, point, frame, wo_local, _ = _setup(wo, normal, point, tangent)
-    rng = _Uniforms(np.random.default_rng(seed), sequence)
+    rng = _Uniforms(seed, sequence, first_sample)
     rho, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
     value = stderr2 = None
     for lt in _as_lights(light):
@@ -208,19 +225,46 @@ def _diffuse_envmap(rho: Array, env: EnvironmentMap, frame, wo_local: Array) -> 
 
 
 class _Uniforms:
-    """Uniform variates of shape ``batch + (samples, 2)``: i.i.d., or shifted scrambled Sobol."""
+    """Uniform variates of shape ``batch + (samples, dim)``, one draw per strategy: i.i.d.
+    (``"random"``), or points ``first_sample`` … of per-query scrambled Sobol' sequences
+    (``"sobol"``, :func:`uniform_keys`), each draw its own stream."""
 
-    def __init__(self, rng: np.random.Generator, sequence: str) -> None:
-        self.rng, self.sequence = rng, sequence
+    def __init__(self, seed: int | Array | None, sequence: str, first_sample: int = 0) -> None:
+        if sequence == "random" and np.ndim(seed) > 0:
+            raise ValueError("an array of seeds needs sequence='sobol'")
+        if first_sample < 0:
+            raise ValueError(f"first_sample must be >= 0; got {first_sample}")
+        self.seed, self.sequence, self.first = seed, sequence, first_sample
+        self.rng = np.random.default_rng(seed) if sequence == "random" else None
+        self.stream = 0
 
     def draw(self, batch: tuple[int, ...], samples: int, dim: int) -> np.ndarray:
-        if self.sequence == "random":
+        if self.rng is not None:
             return self.rng.random((*batch, samples, dim))
-        from scipy.stats import qmc
+        keys = uniform_keys(self.seed, batch, self.stream, dim)
+        self.stream += 1
+        return scrambled_sobol(self.first, samples, keys)
 
-        points = qmc.Sobol(d=dim, scramble=True, seed=self.rng).random(samples)
-        shift = self.rng.random((*batch, 1, dim))
-        return np.remainder(points + shift, 1.0)
+
+def uniform_keys(
+    seed: int | Array | None, batch: tuple[int, ...], stream: int, dim: int
+) -> np.ndarray:
+    """The :func:`~brdfkit.sampling.scrambled_sobol` keys ``batch + (2, dim)`` of a batch of
+    queries for their ``stream``-th point set: from one seed per query (an integer array of
+    shape ``batch``), or from an integer ``seed`` by :func:`~brdfkit.sampling.query_seeds`
+    (``None``: a fresh random one)."""
+    if seed is None:
+        seed = int(np.random.default_rng().integers(2**63))
+    if np.ndim(seed) == 0:
+        seeds = query_seeds(int(seed), math.prod(batch)).reshape(batch)
+    else:
+        seeds = np.asarray(to_numpy(seed))
+        if seeds.shape != tuple(batch) or not np.issubdtype(seeds.dtype, np.integer):
+            raise ValueError(
+                f"seed must be an integer or an integer array of shape {tuple(batch)}; "
+                f"got {seeds.dtype} {seeds.shape}"
+            )
+    return scramble_keys(seeds, stream, dim)
 
 
 def _light_term(

@@ -25,9 +25,10 @@ pixels, the BRDF kernels that :func:`brdfkit.accel.compile` builds from the mode
 - the BRDF's ``eval`` and ``pdf`` kernels at the map's directions, then the MIS sum.
 
 Nothing of size pixels × samples is stored: the scratch memory is a few buffers per block.
-The uniforms are those of the NumPy path (the same generator calls in the same order: one
-scrambled Sobol point set per strategy, Cranley–Patterson-shifted per pixel, or i.i.d.
-uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
+The uniforms are those of the NumPy path (the same generator calls in the same order: per
+pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
+:func:`brdfkit.sampling.scrambled_sobol`, whose hash the kernel evaluates from the same code,
+or i.i.d. uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
 rounding, and with float32 to float32 precision away from the rare samples whose texel flips.
 Lambertian lobes are taken out as :math:`\rho E(n)/\pi` as in ``method="auto"``
 (:func:`~brdfkit.integrate.split_diffuse`), and so is the control variate :math:`k\,E(n)` of
@@ -49,11 +50,12 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from brdfkit import accel, render_table_kernel
+from brdfkit import accel, render_table_kernel, sampling
 from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.integrate import (
@@ -62,7 +64,9 @@ from brdfkit.integrate import (
     _diffuse_envmap,
     _floor_directions,
     _setup,
+    _Uniforms,
     split_diffuse,
+    uniform_keys,
 )
 from brdfkit.lights import EnvironmentMap, Light
 
@@ -233,10 +237,19 @@ def _new_tile_kernel(
             base[j] = rows[j] * (width + 1)
         find_intervals(conditional, base, a, width, col_steps, nb, cols)
 
+    reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
+    unit_interval = 2.0**-sampling.SOBOL_BITS
+
     @jit
-    def fraction(x: float) -> float:
-        """np.remainder(x, 1) for x ∈ [0, 2) (a point plus a shift, both in [0, 1))."""
-        return x - 1.0 if x >= 1.0 else x
+    def variate(points: np.ndarray, digits: np.ndarray, keys: np.ndarray, p: int, s: int,
+                k: int) -> float:  # fmt: skip
+        """Variate k of pixel p's sample s: ``sampling.scrambled_sobol`` (``digits``, the
+        sequence's bit-reversed digits ``(N, d)``, scrambled by ``keys[p]``), or the i.i.d.
+        ``points[p, s, k]`` where ``digits`` is empty."""
+        if digits.shape[0] == 0:
+            return points[p, s, k]
+        x = reverse_bits(laine_karras(np.uint64(digits[s, k]), np.uint64(keys[p, 0, k])))
+        return np.float64(x ^ np.uint64(keys[p, 1, k])) * unit_interval
 
     @jit
     def weight(p: Any, q: Any, power: bool) -> Any:
@@ -253,9 +266,11 @@ def _new_tile_kernel(
         wo: np.ndarray,
         frame: np.ndarray,
         points_b: np.ndarray,
-        shift_b: np.ndarray,
+        digits_b: np.ndarray,
+        keys_b: np.ndarray,
         points_l: np.ndarray,
-        shift_l: np.ndarray,
+        digits_l: np.ndarray,
+        keys_l: np.ndarray,
         image: np.ndarray,
         rot: np.ndarray,
         scale: Any,
@@ -271,9 +286,7 @@ def _new_tile_kernel(
         data: tuple,
     ) -> None:
         height, width = image.shape[0], image.shape[1]
-        samples = points_b.shape[1]
-        per_pixel_b = points_b.shape[0] > 1
-        per_pixel_l = points_l.shape[0] > 1
+        samples = max(points_b.shape[1], digits_b.shape[0])
         wo_buf = np.empty(BLOCK * 3, T)
         u_buf = np.empty(BLOCK * 3, T)
         wi_buf = np.empty(BLOCK * 3, T)
@@ -308,9 +321,8 @@ def _new_tile_kernel(
                 # BRDF sampling, vectorised over the block
                 for j in range(nb):
                     p = pixels[start + j]
-                    q = p if per_pixel_b else 0
                     for k in range(3):
-                        u_buf[j * 3 + k] = T(fraction(points_b[q, s, k] + shift_b[p, k]))
+                        u_buf[j * 3 + k] = T(variate(points_b, digits_b, keys_b, p, s, k))
                 sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb, *data)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
                 # after: short loops whose independent cache misses overlap.
@@ -322,9 +334,8 @@ def _new_tile_kernel(
                     wz = v0 * frame[p, 0, 2] + v1 * frame[p, 1, 2] + v2 * frame[p, 2, 2]
                     ux, uy, uz = unit(wx, wy, wz)
                     coords[j, 0], coords[j, 1], coords[j, 2] = map_coordinates(ux, uy, uz, rot)
-                    q = p if per_pixel_l else 0
-                    a = T(fraction(points_l[q, s, 0] + shift_l[p, 0]))
-                    b = T(fraction(points_l[q, s, 1] + shift_l[p, 1]))
+                    a = T(variate(points_l, digits_l, keys_l, p, s, 0))
+                    b = T(variate(points_l, digits_l, keys_l, p, s, 1))
                     a_buf[j] = min(np.float64(a), below_one_64)
                     b_buf[j] = min(np.float64(b), below_one_64)
                 map_samples(
@@ -384,6 +395,21 @@ def _new_tile_kernel(
                         m2[start + j, c] += (x64 - previous) * (x64 - current)
 
     return shade
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """Queries made ready by :meth:`EnvironmentShader.prepare`: their batch shape, the exact
+    part of their value ``batch + (C,)``, and for the kernel the indices of the pixels it
+    shades, the flat ``wo`` ``(n, 3)`` and frames ``(n, 3, 3)`` in its dtype and the control
+    variate's k ``(n, C)``."""
+
+    batch: tuple[int, ...]
+    value: np.ndarray
+    pixels: np.ndarray | None = None
+    wo: np.ndarray | None = None
+    frame: np.ndarray | None = None
+    control: np.ndarray | None = None
 
 
 class EnvironmentShader:
@@ -476,36 +502,74 @@ class EnvironmentShader:
         tangent: Any | None = None,
         *,
         samples: int = 256,
-        seed: int | None = 0,
+        seed: Any = 0,
         sequence: str = "random",
+        first_sample: int = 0,
         mask: np.ndarray | None = None,
     ) -> Estimate:
         """Reflected radiance towards ``wo`` (arguments as
-        :func:`~brdfkit.integrate.reflected_radiance`); ``mask`` (the batch's shape) skips
-        the Monte Carlo of pixels it marks False (their value is then the Lambertian part
-        alone) without changing the others (beyond their last bit: a pixel's place in a
-        vectorised block of the BRDF kernels can change its rounding). Returns float64
-        ``value`` and ``stderr``."""
+        :func:`~brdfkit.integrate.reflected_radiance`, ``first_sample`` included); ``mask``
+        (the batch's shape) skips the Monte Carlo of pixels it marks False (their value is
+        then the Lambertian part alone) without changing the others (beyond their last bit:
+        a pixel's place in a vectorised block of the BRDF kernels can change its rounding).
+        Returns float64 ``value`` and ``stderr``. The same as :meth:`shade` of
+        :meth:`prepare`."""
+        prepared = self.prepare(wo, normal, point, tangent, mask=mask)
+        return self.shade(
+            prepared, samples=samples, seed=seed, sequence=sequence, first_sample=first_sample
+        )
+
+    def prepare(
+        self,
+        wo: Any,
+        normal: Any | None = None,
+        point: Any | None = None,
+        tangent: Any | None = None,
+        *,
+        mask: np.ndarray | None = None,
+    ) -> Prepared:
+        """What does not depend on the samples, for any number of :meth:`shade` calls on
+        these queries (progressive passes): the local frames, and the exact terms (the
+        Lambertian lobes' ρE(n)/π and the control variate's k·E(n))."""
+        _, point, frame, wo_local, batch = _setup(np.asarray(wo), normal, point, tangent)
+        value = np.zeros((*batch, self.channels))
+        if self.rho is not None:
+            value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
+        if self._kernel is None:
+            return Prepared(batch, value)
+        n = math.prod(batch)
+        keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
+        control = np.zeros((n, self.rest.channels), self.dtype)
+        if self.control:
+            control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
+            k = control.reshape(*batch, self.rest.channels).astype(np.float64)
+            value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
+        t = self.dtype
+        wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
+        frame_flat = np.ascontiguousarray(
+            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
+            dtype=t,
+        )
+        return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control)
+
+    def shade(
+        self,
+        prepared: Prepared,
+        *,
+        samples: int = 256,
+        seed: Any = 0,
+        sequence: str = "random",
+        first_sample: int = 0,
+    ) -> Estimate:
+        """:meth:`__call__` on queries made ready by :meth:`prepare`."""
         if samples < 1:
             raise ValueError(f"samples must be >= 1; got {samples}")
         if sequence not in ("random", "sobol"):
             raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
-        _, point, frame, wo_local, batch = _setup(np.asarray(wo), normal, point, tangent)
-        value = np.zeros((*batch, self.channels))
+        batch, value = prepared.batch, prepared.value
         stderr2 = np.zeros((*batch, self.channels))
-        if self.rho is not None:
-            value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
         if self._kernel is not None:
-            n = math.prod(batch)
-            keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
-            control = np.zeros((n, self.rest.channels), self.dtype)
-            if self.control:
-                control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
-                k = control.reshape(*batch, self.rest.channels).astype(np.float64)
-                value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
-            mean, m2 = self._monte_carlo(
-                frame, wo_local, batch, samples, seed, sequence, keep, control
-            )
+            mean, m2 = self._monte_carlo(prepared, samples, seed, sequence, first_sample)
             value = value + mean
             stderr2 = m2 / samples / samples
         return Estimate(value, np.sqrt(stderr2))
@@ -524,28 +588,13 @@ class EnvironmentShader:
         return np.maximum(median, 0)
 
     def _monte_carlo(
-        self,
-        frame: tuple[np.ndarray, np.ndarray, np.ndarray],
-        wo_local: np.ndarray,
-        batch: tuple[int, ...],
-        samples: int,
-        seed: int | None,
-        sequence: str,
-        keep: np.ndarray,
-        control: np.ndarray,
+        self, prepared: Prepared, samples: int, seed: Any, sequence: str, first_sample: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
-        t = self.dtype
-        rng = np.random.default_rng(seed)
-        uniforms = [_uniforms(rng, sequence, batch, samples, dim) for dim in (3, 2)]
-        (points_b, shift_b), (points_l, shift_l) = uniforms
+        batch, pixels = prepared.batch, prepared.pixels
+        wo_flat, frame_flat, control = prepared.wo, prepared.frame, prepared.control
+        uniforms = _uniforms(seed, sequence, batch, samples, first_sample)
         n = math.prod(batch)
-        wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
-        frame_flat = np.ascontiguousarray(
-            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
-            dtype=t,
-        )
-        pixels = np.flatnonzero(keep)
         mean = np.zeros((n, self.channels))
         m2 = np.zeros((n, self.channels))
         found_mean = np.empty((pixels.size, self.channels))
@@ -556,9 +605,9 @@ class EnvironmentShader:
         def run(lo: int) -> None:
             hi = min(lo + _CHUNK, pixels.size)
             kernel(
-                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, points_b, shift_b,
-                points_l, shift_l,
-                *self._tables, power, control, found_mean[lo:hi], found_m2[lo:hi], self._data,
+                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *uniforms[0],
+                *uniforms[1], *self._tables, power, control, found_mean[lo:hi],
+                found_m2[lo:hi], self._data,
             )  # fmt: skip
 
         accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
@@ -572,20 +621,27 @@ _CHUNK = 4 * BLOCK
 
 
 def _uniforms(
-    rng: np.random.Generator, sequence: str, batch: tuple[int, ...], samples: int, dim: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The NumPy path's uniforms (``integrate._Uniforms.draw``, same generator calls) without
-    their pixels × samples array for Sobol: ``(points, shifts)`` with ``points`` ``(1, N, d)``
-    and per-pixel ``shifts`` ``(n, d)`` whose sum modulo 1 is the variate; for ``"random"``
-    ``(n, N, d)`` i.i.d. points and zero shifts."""
+    seed: Any, sequence: str, batch: tuple[int, ...], samples: int, first_sample: int
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The NumPy path's uniforms (``integrate._Uniforms``, the same generator calls and keys)
+    of the BRDF's (3-D) and the map's (2-D) samples, without their pixels × samples array for
+    Sobol: per strategy ``(points, digits, keys)``, for ``"random"`` the i.i.d. ``points``
+    ``(n, N, d)`` (the others empty), for ``"sobol"`` the sequence's bit-reversed digits
+    ``(N, d)`` and the per-pixel keys ``(n, 2, d)`` that the kernel scrambles them with."""
     n = math.prod(batch)
-    if sequence == "random":
-        return rng.random((*batch, samples, dim)).reshape(n, samples, dim), np.zeros((n, dim))
-    from scipy.stats import qmc
-
-    points = qmc.Sobol(d=dim, scramble=True, seed=rng).random(samples)
-    shifts = rng.random((*batch, 1, dim)).reshape(n, dim)
-    return np.ascontiguousarray(points[None]), shifts
+    uniforms = _Uniforms(seed, sequence, first_sample)
+    result = []
+    for stream, dim in enumerate((3, 2)):
+        if sequence == "random":
+            points = uniforms.draw(batch, samples, dim).reshape(n, samples, dim)
+            digits, keys = np.empty((0, dim), np.uint32), np.empty((0, 2, dim), np.uint32)
+        else:
+            points = np.empty((0, 0, dim))
+            integers = sampling.sobol_integers(first_sample, samples, dim)
+            digits = np.ascontiguousarray(sampling.reverse_bits(integers))
+            keys = np.ascontiguousarray(uniform_keys(seed, batch, stream, dim).reshape(n, 2, dim))
+        result.append((points, digits, keys))
+    return result
 
 
 AUTO_COMPILE_WORK = 4_000_000
@@ -662,14 +718,18 @@ def reflected_radiance(
     method: str = "auto",
     samples: int = 256,
     heuristic: str = "power",
-    seed: int | None = 0,
+    seed: Any = 0,
     sequence: str = "random",
+    first_sample: int = 0,
     dtype: Any = np.float32,
 ) -> Estimate:
     """:func:`brdfkit.integrate.reflected_radiance` under one environment map, compiled (see
     :class:`EnvironmentShader`, which builds the kernel once for many calls)."""
     shader = EnvironmentShader(brdf, light, method=method, heuristic=heuristic, dtype=dtype)
-    return shader(wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence)
+    return shader(
+        wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence,
+        first_sample=first_sample,
+    )  # fmt: skip
 
 
 __all__ = [

@@ -746,3 +746,144 @@ def sobol(n: int, dim: int, seed: int | None = None, scramble: bool = True) -> n
     if isinstance(dim, bool) or not isinstance(dim, int | np.integer) or not 1 <= dim <= 21201:
         raise ValueError(f"dim must be an integer in [1, 21201]; got {dim!r}")
     return qmc.Sobol(int(dim), scramble=scramble, seed=seed).random(int(n))
+
+
+# Sobol' generator matrices, one column per bit of the index (column j: the point of index
+# 2^j), as 32-bit integers whose most significant bit is the first binary digit. Dimension 1
+# is van der Corput's; the others follow Joe and Kuo's ``new-joe-kuo-6.21201`` primitive
+# polynomials (degree s, coefficients a) and initial direction numbers m.
+_JOE_KUO = ((1, 0, (1,)), (2, 1, (1, 3)), (3, 1, (1, 3, 1)), (3, 2, (1, 1, 1)))
+SOBOL_BITS = 32
+
+
+def _sobol_matrices() -> np.ndarray:
+    """``(1 + len(_JOE_KUO), 32)`` uint32 generator columns (Bratley–Fox recurrence)."""
+    columns = [[1 << (SOBOL_BITS - 1 - j) for j in range(SOBOL_BITS)]]
+    for s, a, m in _JOE_KUO:
+        v = [m[k] << (SOBOL_BITS - 1 - k) for k in range(s)]
+        for k in range(s, SOBOL_BITS):
+            value = v[k - s] ^ (v[k - s] >> s)
+            for i in range(1, s):
+                if (a >> (s - 1 - i)) & 1:
+                    value ^= v[k - i]
+            v.append(value)
+        columns.append(v)
+    return np.array(columns, dtype=np.uint32)
+
+
+SOBOL_MATRICES = _sobol_matrices()
+"""Generator columns of the first :data:`SOBOL_DIMENSIONS` Sobol' dimensions, ``(d, 32)``."""
+SOBOL_DIMENSIONS = SOBOL_MATRICES.shape[0]
+
+
+def sobol_integers(first: int, n: int, dim: int) -> np.ndarray:
+    r"""Points ``first`` … ``first + n − 1`` of the unscrambled Sobol' sequence (natural, not
+    Gray-code, order) as 32-bit integers :math:`x = 2^{32} u`, ``(n, dim)`` uint32: the XOR of
+    the generator columns of the index's set bits. Every aligned block of :math:`2^m` indices
+    (the first :math:`2^m`, the next :math:`2^m`, …) is a (t, m, s)-net in base 2."""
+    if not 1 <= dim <= SOBOL_DIMENSIONS:
+        raise ValueError(f"dim must be in [1, {SOBOL_DIMENSIONS}]; got {dim}")
+    if first < 0 or n < 0 or first + n > 1 << SOBOL_BITS:
+        raise ValueError(f"indices must lie in [0, 2^32); got first={first}, n={n}")
+    index = np.arange(first, first + n, dtype=np.uint64)
+    bits = ((index[:, None] >> np.arange(SOBOL_BITS, dtype=np.uint64)) & 1).astype(bool)
+    terms = np.where(bits[:, None, :], SOBOL_MATRICES[None, :dim, :], np.uint32(0))
+    return np.bitwise_xor.reduce(terms, axis=-1)
+
+
+_U32 = np.uint32
+_MASK = _U32(0xFFFFFFFF)
+_ONE, _TWO, _FOUR, _EIGHT, _SIXTEEN = _U32(1), _U32(2), _U32(4), _U32(8), _U32(16)
+_M1, _M2, _M4, _M8 = _U32(0x55555555), _U32(0x33333333), _U32(0x0F0F0F0F), _U32(0x00FF00FF)
+_LK = _U32(0x3D20ADEA), _U32(0x05526C56), _U32(0x53A22864)
+# The bit operations below run on NumPy uint32 arrays and, unchanged, on numba uint64 scalars
+# (render_kernel): every constant is a uint32 (never a Python int, which numba types as int64
+# and would mix into float64) and every product is masked to 32 bits.
+
+
+def reverse_bits(x: Any) -> Any:
+    """The 32 bits of ``x`` in reverse order (NumPy uint32 arrays, or uint64 scalars in numba:
+    the same code, results below 2^32)."""
+    x = ((x >> _ONE) & _M1) | ((x & _M1) << _ONE)
+    x = ((x >> _TWO) & _M2) | ((x & _M2) << _TWO)
+    x = ((x >> _FOUR) & _M4) | ((x & _M4) << _FOUR)
+    x = ((x >> _EIGHT) & _M8) | ((x & _M8) << _EIGHT)
+    return ((x >> _SIXTEEN) | (x << _SIXTEEN)) & _MASK
+
+
+def nested_scramble(x: Any, seed: Any) -> Any:
+    r"""A hash-based nested uniform (Owen) scramble of the 32-bit digits ``x`` with ``seed``.
+
+    In bit-reversed order every step (adding the seed, multiplying by an odd number, XOR with
+    a multiple by an even number) changes each bit by a function of the bits below it only,
+    so in natural order each binary digit of ``x`` is flipped by a function of the digits
+    before it: a nested scramble, which maps every (t, m, s)-net to a (t, m, s)-net. The
+    hash is Vegdahl's improvement of Laine and Karras's. NumPy uint32 arrays, or uint64
+    scalars in numba (the same code: every product is masked to 32 bits).
+
+    References
+    ----------
+    .. [1] S. Laine, T. Karras, "Stratified sampling for stochastic transparency", EGSR 2011.
+    .. [2] B. Burley, "Practical hash-based Owen scrambling", JCGT 9(4), 2020.
+    .. [3] N. Vegdahl, "Building a better LK hash", psychopath.io, 2021.
+    """
+    return reverse_bits(laine_karras(reverse_bits(x), seed))
+
+
+def laine_karras(x: Any, seed: Any) -> Any:
+    """The hash of :func:`nested_scramble` on bit-reversed digits: each output bit depends on
+    the input bits at and below it only."""
+    x = x ^ ((x * _LK[0]) & _MASK)
+    x = (x + seed) & _MASK
+    x = (x * ((seed >> _SIXTEEN) | _ONE)) & _MASK
+    x = x ^ ((x * _LK[1]) & _MASK)
+    return x ^ ((x * _LK[2]) & _MASK)
+
+
+def scrambled_sobol(first: int, n: int, keys: np.ndarray) -> np.ndarray:
+    r"""Points ``first`` … ``first + n − 1`` of the Sobol' sequence, independently scrambled per
+    query: ``keys`` ``(..., 2, dim)`` uint32 (per dimension a scramble seed, then a digital
+    shift) give ``(..., n, dim)`` float64 variates
+
+    .. math:: u = 2^{-32}\bigl(\mathrm{scramble}(x_i, s) \oplus t\bigr),
+
+    :func:`nested_scramble` of the sequence's digits :math:`x_i` (:func:`sobol_integers`)
+    followed by the random digital shift t. With uniform random t each point is uniform on
+    the grid of :math:`2^{-32}` (estimates unbiased), and each aligned block of :math:`2^m`
+    indices of each query stays a (t, m, s)-net, so successive blocks (``first`` 0, then n,
+    2n, … with the same keys) refine one net.
+
+    References
+    ----------
+    .. [1] A. B. Owen, "Randomly permuted (t, m, s)-nets and (t, s)-sequences", 1995.
+    .. [2] B. Burley, "Practical hash-based Owen scrambling", JCGT 9(4), 2020.
+    """
+    keys = np.asarray(keys, dtype=np.uint32)
+    points = sobol_integers(first, n, keys.shape[-1])
+    x = nested_scramble(points, keys[..., None, 0, :]) ^ keys[..., None, 1, :]
+    return x * 2.0**-SOBOL_BITS
+
+
+def _mix64(x: np.ndarray) -> np.ndarray:
+    """SplitMix64's finaliser: a bijective 64-bit hash (uint64 arrays, wrapping)."""
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+def query_seeds(seed: int, count: int, first: int = 0) -> np.ndarray:
+    """Per-query 64-bit seeds ``(count,)`` uint64 of queries ``first`` … ``first + count − 1``
+    under ``seed``: a hash of (seed, index), so that a query's seed depends on its index
+    alone, not on how the queries are batched."""
+    root = _mix64(np.array([seed & 0xFFFFFFFFFFFFFFFF], dtype=np.uint64) + np.uint64(1))
+    index = np.arange(first, first + count, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+    return _mix64(index ^ root)
+
+
+def scramble_keys(seeds: np.ndarray, stream: int, dim: int) -> np.ndarray:
+    """The :func:`scrambled_sobol` keys ``(..., 2, dim)`` uint32 of each query's 64-bit seed
+    ``(...,)`` for its ``stream``-th independent point set: hashes of (seed, stream, slot)."""
+    seeds = np.asarray(seeds, dtype=np.uint64)
+    slots = np.arange(2 * dim, dtype=np.uint64) + np.uint64(2 * SOBOL_DIMENSIONS * stream + 1)
+    mixed = _mix64(seeds[..., None] + slots * np.uint64(0xD1B54A32D192ED03))
+    return (mixed >> np.uint64(32)).astype(np.uint32).reshape(*seeds.shape, 2, dim)

@@ -308,8 +308,8 @@ class Session:
         """The environment-lit sphere of each visible entry: first the exact diffuse term
         (:func:`~brdfkit.explore.views.diffuse_term`, ``samples`` 0), then refined pass by pass
         (the entries' passes interleaved), until ``cancel`` is set or every sphere has its
-        samples. ``noise`` is :func:`~brdfkit.explore.views.relative_noise` against the
-        previous pass (``None`` before there is one)."""
+        samples. ``noise`` is :func:`~brdfkit.explore.views.relative_noise` (``None`` for
+        the diffuse term)."""
         if not message.view.envmap:
             return
         start = time.perf_counter()
@@ -323,19 +323,18 @@ class Session:
                 except (BrdfkitError, ValueError):
                     continue
                 passes = views.environment_passes(brdf, self.envmap, resolution, cancel)
-                runs.append([entry.id, passes, None])
+                runs.append((entry.id, passes))
                 diffuse = views.diffuse_term(brdf, self.envmap, resolution)
                 if diffuse is not None and not cancel.is_set():
                     yield self._env_reply(message, entry.id, diffuse, 0, start, None)
         while runs and not cancel.is_set():
             for run in list(runs):
-                entry_id, passes, previous = run
+                entry_id, passes = run
                 p = next(passes, None)
                 if p is None or cancel.is_set():
                     runs.remove(run)
                     continue
-                noise = views.relative_noise(p, mask, previous) if previous else None
-                run[2] = p
+                noise = views.relative_noise(p, mask)
                 yield self._env_reply(message, entry_id, p.image, p.samples, start, noise)
 
     def _env_reply(

@@ -125,7 +125,8 @@ def environment_passes(
     max_samples: int = ENV_MAX_SAMPLES,
 ) -> Iterator[Pass]:
     """The sphere under ``envmap`` refined progressively (:func:`brdfkit.render.progressive`:
-    1, 2, 4, … samples per pixel), stopping when ``cancel`` is set."""
+    2, 4, …, 64, 96, 128, 192, … samples per pixel in two Sobol' replicates), stopping when
+    ``cancel`` is set."""
     return progressive(
         sphere_gbuffer(resolution), brdf, envmap, max_samples=max_samples, cancel=cancel
     )
@@ -146,29 +147,18 @@ def diffuse_term(brdf: BRDF, envmap: EnvironmentMap, resolution: int) -> np.ndar
     return image
 
 
-def relative_noise(p: Pass, mask: np.ndarray, previous: Pass | None = None) -> float:
-    r"""The image's Monte Carlo noise relative to its mean value over the sphere.
-
-    With the ``previous`` pass of :func:`~brdfkit.render.progressive`, where pass ``p`` drew
-    as many samples as all before it (its running mean :math:`\bar x = (a + b)/2` of the
-    earlier mean ``a`` and the new pass ``b``, independently seeded): the unbiased estimate of
-    the mean squared error :math:`\operatorname{Var}\bar x = E[(a - b)^2]/4 = E[(\bar x - a)^2]`
-    per pixel, whatever the two variances (scrambled Sobol points converge faster than their
-    per-sample spread says). Otherwise the RMS of ``p.stderr`` (conservative with Sobol).
-
-    References
-    ----------
-    .. [1] A. B. Owen, *Monte Carlo theory, methods and examples*, 2013, §17.2 (independent
-           replicates of randomized quasi-Monte Carlo estimate its variance).
-    """
+def relative_noise(p: Pass, mask: np.ndarray) -> float:
+    r"""The image's Monte Carlo noise relative to its mean value over the sphere: the RMS over
+    the sphere of ``p.error`` divided by the mean. With :func:`~brdfkit.render.progressive`'s
+    default Sobol' replicates the squared ``error`` is an unbiased estimate of each pixel's
+    variance, so the square of this is an unbiased estimate of the relative mean squared
+    error, from the first pass on. Without replicates, the RMS of ``p.stderr`` (conservative
+    with Sobol' points)."""
     mean = float(np.mean(p.image[mask]))
     if mean <= 0:
         return 0.0
-    if previous is not None and p.samples == 2 * previous.samples:
-        error2 = (p.image[mask] - previous.image[mask]) ** 2
-    else:
-        error2 = p.stderr[mask] ** 2
-    return float(np.sqrt(np.mean(error2)) / mean)
+    error = p.stderr if p.error is None else p.error
+    return float(np.sqrt(np.mean(error[mask] ** 2)) / mean)
 
 
 def _eval(brdf: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
