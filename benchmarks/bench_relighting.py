@@ -31,29 +31,63 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import time
 from pathlib import Path
 
 import numpy as np
 
 from brdfkit.vision import datasets
-from brdfkit.vision.photometric_stereo import calibrate_lights_chrome_sphere, least_squares
-from brdfkit.vision.svbrdf import fit_svbrdf, lambertian_relight, select_lobes
+from brdfkit.vision.integration import least_squares_integration
+from brdfkit.vision.photometric_stereo import (
+    calibrate_lights_chrome_sphere,
+    fit_circle,
+    least_squares,
+)
+from brdfkit.vision.svbrdf import (
+    fit_svbrdf,
+    lambertian_relight,
+    select_lobes,
+    select_shadow_bias,
+    shadow_visibility,
+)
 
 OBJECTS = ("buddha", "cat", "gray", "horse", "owl", "rock")
 MODELS = ("lambertian", "svbrdf_1", "svbrdf_2", "svbrdf_cv")
+SHADOWS = ("off", "chosen", "bias0")
+"""No cast shadows; those of the bias chosen on the training images; those of bias 0."""
 
 
 def errors(predicted: np.ndarray, real: np.ndarray, mask: np.ndarray) -> dict[str, float]:
-    """RMS of ``predicted - real`` (N, H, W, C) over the mask, and over its lit pixels."""
+    """RMS of ``predicted - real`` (N, H, W, C) over the mask, its lit and its dark pixels."""
     truth = real[:, mask]
     gray = truth.mean(axis=-1)
     lit = gray > 0.05 * np.percentile(gray, 99, axis=1, keepdims=True)
     squared = (predicted[:, mask] - truth) ** 2
-    return {"rms": float(np.sqrt(squared.mean())), "rms_lit": float(np.sqrt(squared[lit].mean()))}
+    return {
+        "rms": float(np.sqrt(squared.mean())),
+        "rms_lit": float(np.sqrt(squared[lit].mean())),
+        "rms_dark": float(np.sqrt(squared[~lit].mean())),
+    }
+
+
+def sphere_depth_scale(normals: np.ndarray, mask: np.ndarray) -> dict[str, float]:
+    """Least-squares slope of the depth integrated from ``normals`` against the depth of the
+    sphere of the mask's fitted radius (1: the scale is right), inside 0.9 of the radius."""
+    c_x, c_y, radius = fit_circle(mask)
+    rows, columns = np.indices(mask.shape)
+    rho2 = (columns - c_x) ** 2 + (rows - c_y) ** 2
+    inner = mask & (rho2 < (0.9 * radius) ** 2)
+    sphere = -np.sqrt(radius**2 - rho2[inner])
+    depth = least_squares_integration(normals, mask)[inner]
+    design = np.stack([sphere, np.ones_like(sphere)], axis=1)
+    (scale, offset), *_ = np.linalg.lstsq(design, depth, rcond=None)
+    residual = depth - design @ (scale, offset)
+    return {"radius_px": float(radius), "scale": float(scale),
+            "rms_px": float(np.sqrt(np.mean(residual**2)))}  # fmt: skip
 
 
 def main() -> None:
-    """Every object, fold and model: JSON lines, then the table."""
+    """Every object, fold and model, without and with cast shadows: JSON lines, then tables."""
     default = os.environ.get(
         "BRDFKIT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
     )
@@ -65,44 +99,69 @@ def main() -> None:
     psm = args.data / "photometric_stereo" / "psm"
     chrome = datasets.load_psm(psm / "chrome")
     lights = calibrate_lights_chrome_sphere(chrome.images, chrome.mask)
-    table: dict[tuple[str, str], list[dict[str, float]]] = {}
+    table: dict[tuple[str, str, str], list[dict[str, float]]] = {}
     for name in args.objects:
         data = datasets.load_psm(psm / name, light_directions=lights, step=args.step)
         images = data.images.astype(np.float64)
         for fold in range(4):
+            start = time.process_time()
             held = [fold, fold + 4, fold + 8]
             train = [k for k in range(12) if k not in held]
             real = images[held]
             ls = least_squares(images[train], lights[train], data.mask)
-            predictions = {
-                "lambertian": lambertian_relight(ls.albedo, ls.normals, data.mask, lights[held])
-            }
-            fits = {}
-            for lobes in (1, 2):
-                fits[lobes] = fit_svbrdf(images[train], lights[train], data.mask, lobes=lobes)
-                predictions[f"svbrdf_{lobes}"] = fits[lobes].relight(lights[held])
+            fits = {lobes: fit_svbrdf(images[train], lights[train], data.mask, lobes=lobes)
+                    for lobes in (1, 2)}  # fmt: skip
             chosen, _ = select_lobes(images[train], lights[train], data.mask)
             if chosen not in fits:
                 fits[chosen] = fit_svbrdf(images[train], lights[train], data.mask, lobes=chosen)
-            predictions["svbrdf_cv"] = fits[chosen].relight(lights[held])
-            for model, predicted in predictions.items():
-                record = {"object": name, "held_out": held, "model": model}
-                record |= {"lobes": chosen} if model == "svbrdf_cv" else {}
-                record |= errors(predicted, real, data.mask)
-                table.setdefault((name, model), []).append(record)
-                print(json.dumps(record), flush=True)
-    print("\n| object | " + " | ".join(f"{m} RMS (lit)" for m in MODELS) + " |")
-    print("|---|" + "---|" * len(MODELS))
-    for name in (*args.objects, "mean"):
-        cells = []
-        for model in MODELS:
-            rows = [r for (o, m), rs in table.items() if m == model and name in (o, "mean")
-                    for r in rs]  # fmt: skip
-            cells.append(
-                f"{np.mean([r['rms'] for r in rows]):.4f} "
-                f"({np.mean([r['rms_lit'] for r in rows]):.4f})"
-            )
-        print(f"| {name} | " + " | ".join(cells) + " |")
+            # The same shadows for every model: the depth of the cross-validated fit's normals
+            # (fitted without the shadowed observations), with the bias chosen on the 9
+            # training images only, or with none.
+            shape = fits[chosen]
+            bias, _ = select_shadow_bias(shape, images[train], lights[train])
+            if data.normals is not None and fold == 0:
+                scales = {"gt": sphere_depth_scale(data.normals, data.mask),
+                          "least_squares": sphere_depth_scale(ls.normals, data.mask),
+                          "svbrdf_cv": sphere_depth_scale(shape.normals, data.mask)}  # fmt: skip
+                print(json.dumps({"object": name, "depth_scale": scales}), flush=True)
+            for shadows, b in zip(SHADOWS, (None, bias, 0.0), strict=True):
+                v = None if b is None else shadow_visibility(shape.normals, data.mask,
+                                                             lights[held], bias=b)  # fmt: skip
+                predictions = {
+                    "lambertian": lambertian_relight(
+                        ls.albedo, ls.normals, data.mask, lights[held], visibility=v
+                    ),
+                    "svbrdf_1": fits[1].relight(lights[held], visibility=v),
+                    "svbrdf_2": fits[2].relight(lights[held], visibility=v),
+                    "svbrdf_cv": fits[chosen].relight(lights[held], visibility=v),
+                }
+                for model, predicted in predictions.items():
+                    record = {"object": name, "held_out": held, "model": model,
+                              "shadows": shadows}  # fmt: skip
+                    record |= {"lobes": chosen} if model == "svbrdf_cv" else {}
+                    if v is not None:  # an infinite bias (no shadows) is written as null
+                        record["bias"] = b if np.isfinite(b) else None
+                        record["shadowed"] = float(1 - v[:, data.mask].mean())
+                    record |= errors(predicted, real, data.mask)
+                    table.setdefault((name, model, shadows), []).append(record)
+                    print(json.dumps(record), flush=True)
+            print(json.dumps({"object": name, "fold": fold,
+                              "cpu_s": time.process_time() - start}), flush=True)  # fmt: skip
+    for key, title in (("rms", "all pixels"), ("rms_lit", "lit pixels"), ("rms_dark", "dark")):
+        print(f"\nRMS, {title}, mean over the folds; cast shadows " + " / ".join(SHADOWS))
+        print("\n| object | " + " | ".join(MODELS) + " |")
+        print("|---|" + "---|" * len(MODELS))
+        for name in (*args.objects, "mean"):
+            cells = []
+            for model in MODELS:
+                pair = []
+                for shadows in SHADOWS:
+                    rows = [r for (o, m, s), rs in table.items()
+                            if m == model and s == shadows and name in (o, "mean")
+                            for r in rs]  # fmt: skip
+                    pair.append(f"{np.mean([r[key] for r in rows]):.4f}")
+                cells.append(" / ".join(pair))
+            print(f"| {name} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

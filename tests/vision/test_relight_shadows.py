@@ -99,6 +99,9 @@ def test_visibility_from_integrated_normals_matches_the_true_heights():
     recovered = shadow_visibility(normals, mask, lights)
     assert (~truth).sum() > 3 * 60  # real shadows, tens of pixels per light
     assert np.mean(recovered == truth) > 0.99
+    assert shadow_visibility(normals, mask, lights, bias=np.inf).all()  # no cast shadows
+    fewer = shadow_visibility(normals, mask, lights, bias=2.0)
+    assert not np.any(fewer < recovered) and fewer.sum() > recovered.sum()
 
 
 def test_bad_visibility_and_bias_are_named():

@@ -4,6 +4,7 @@ relighting, and the held-out relighting error against the Lambertian model."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -137,7 +138,7 @@ def svbrdf_command(
 
     if cast_shadows:
         bias, _ = svbrdf.select_shadow_bias(fit, images[train], lights[train])
-        summary["shadow_bias"] = bias
+        summary["shadow_bias"] = bias if math.isfinite(bias) else None  # None: no shadows
     writes = {
         "normals.npy": lambda path: np.save(path, fit.normals),
         "normals.png": lambda path: datasets.write_normal_map(path, fit.normals),
@@ -181,7 +182,7 @@ def svbrdf_command(
     table.add_column("value", justify="right")
     table.add_row("Ward roughness", ", ".join(f"{a:.3f}" for a in fit.alphas) or "-")
     if cast_shadows:
-        table.add_row("cast-shadow bias (px)", f"{summary['shadow_bias']:g}")
+        table.add_row("cast-shadow bias (px)", f"{bias:g}")
     if "relighting_rms" in summary:
         for model, value in summary["relighting_rms"].items():
             table.add_row(f"held-out RMS, {model}", f"{value:.4f}")

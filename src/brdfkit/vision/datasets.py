@@ -863,7 +863,8 @@ def cast_shadows(
         is no surface (never occludes).
     light_directions : (N, 3) directions towards the lights.
     pixel_size : footprint of a pixel on the surface (orthographic approximation).
-    bias : height an occluder must rise above the ray to block it, >= 0 (units of ``height``).
+    bias : height an occluder must rise above the ray to block it, >= 0 (units of ``height``;
+        infinity: nothing is shadowed).
 
     Returns
     -------
@@ -889,8 +890,8 @@ def cast_shadows(
         )
     if not pixel_size > 0:
         raise ParameterError(f"pixel_size must be positive, got {pixel_size}")
-    if not 0 <= bias < np.inf:
-        raise ParameterError(f"bias must be finite and >= 0, got {bias}")
+    if not bias >= 0:
+        raise ParameterError(f"bias must be >= 0, got {bias}")
     surface = np.isfinite(height)
     if not surface.any():
         raise ParameterError("height has no finite value")
@@ -900,7 +901,7 @@ def cast_shadows(
     lit = np.ones((len(lights), *height.shape), dtype=bool)
     for k, (l_x, l_y, l_z) in enumerate(lights):
         planar = np.hypot(l_x, l_y)
-        if planar < 1e-12 or l_z <= 0:
+        if planar < 1e-12 or l_z <= 0 or bias == np.inf:
             continue
         rise = pixel_size * l_z / planar
         d_col, d_row = l_x / planar, -l_y / planar

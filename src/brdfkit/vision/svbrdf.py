@@ -67,8 +67,9 @@ MAX_LOBES = 4
 VIEW = np.array([0.0, 0.0, 1.0])
 """The orthographic view direction of photometric stereo (towards the camera)."""
 
-SHADOW_BIASES = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
-"""Candidate cast-shadow biases (pixels of depth) of :func:`select_shadow_bias`."""
+SHADOW_BIASES = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, math.inf)
+"""Candidate cast-shadow biases (pixels of depth) of :func:`select_shadow_bias`; infinity: no
+cast shadows."""
 
 
 @dataclass(frozen=True)
@@ -512,7 +513,8 @@ def select_shadow_bias(
     integrable: creases, occlusion boundaries, noise) that would block grazing light one pixel
     away. Each candidate bias is scored by the RMS error, over the mask and the channels, of
     ``fit.relight(lights, visibility)`` against the images ``fit`` was fitted to (shadows
-    included), so the choice never sees a held-out image.
+    included), so the choice never sees a held-out image; an infinite bias (no cast shadows)
+    wins where every shadowing makes the prediction worse.
 
     Returns
     -------
