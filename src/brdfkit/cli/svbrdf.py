@@ -4,6 +4,7 @@ relighting, and the held-out relighting error against the Lambertian model."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +57,12 @@ def svbrdf_command(
     relight: Path | None = typer.Option(
         None, "--relight", metavar="FILE", help="Light directions (N rows 'x y z') to render."
     ),
+    cast_shadows: bool = typer.Option(
+        False,
+        "--cast-shadows",
+        help="Render cast shadows: the fitted normals integrated to depth, its bias chosen on "
+        "the fitted images (both models of --hold-out get the same shadows).",
+    ),
     step: int = typer.Option(
         1, "--step", metavar="N", min=1, max=64, help="Keep every step-th row and column."
     ),
@@ -70,7 +77,8 @@ def svbrdf_command(
     (H, W, K: weights of the Ward lobes) and basis.json (the basis spec strings); with
     --relight, relit.npy (N, H, W, C) under unit-irradiance lights; with --hold-out,
     held_out.npy (the renders of the held-out images) and their RMS error next to the
-    Lambertian model's.
+    Lambertian model's. --cast-shadows renders both with the cast shadows of the recovered
+    shape (svbrdf.shadow_visibility).
     """
     import numpy as np
 
@@ -121,6 +129,16 @@ def svbrdf_command(
     }
     if scores is not None:
         summary["cross_validated_rms"] = {str(k): v for k, v in scores.items()}
+
+    def visibility(directions: Any) -> Any:
+        """The cast shadows of the fitted shape under ``directions``, or None."""
+        if not cast_shadows:
+            return None
+        return svbrdf.shadow_visibility(fit.normals, data.mask, directions, bias=bias)
+
+    if cast_shadows:
+        bias, _ = svbrdf.select_shadow_bias(fit, images[train], lights[train])
+        summary["shadow_bias"] = bias if math.isfinite(bias) else None  # None: no shadows
     writes = {
         "normals.npy": lambda path: np.save(path, fit.normals),
         "normals.png": lambda path: datasets.write_normal_map(path, fit.normals),
@@ -133,11 +151,16 @@ def svbrdf_command(
         ),
     }
     if new_lights is not None:
-        writes["relit.npy"] = lambda path: np.save(path, fit.relight(new_lights))
+        writes["relit.npy"] = lambda path: np.save(
+            path, fit.relight(new_lights, visibility=visibility(new_lights))
+        )
     if held:
-        rendered = fit.relight(lights[held])
+        shadows = visibility(lights[held])
+        rendered = fit.relight(lights[held], visibility=shadows)
         ls = photometric_stereo.least_squares(images[train], lights[train], data.mask)
-        lambert = svbrdf.lambertian_relight(ls.albedo, ls.normals, data.mask, lights[held])
+        lambert = svbrdf.lambertian_relight(
+            ls.albedo, ls.normals, data.mask, lights[held], visibility=shadows
+        )
         real = images[held][:, data.mask]
         summary["held_out"] = held
         summary["relighting_rms"] = {
@@ -158,6 +181,8 @@ def svbrdf_command(
     table.add_column("measure")
     table.add_column("value", justify="right")
     table.add_row("Ward roughness", ", ".join(f"{a:.3f}" for a in fit.alphas) or "-")
+    if cast_shadows:
+        table.add_row("cast-shadow bias (px)", f"{bias:g}")
     if "relighting_rms" in summary:
         for model, value in summary["relighting_rms"].items():
             table.add_row(f"held-out RMS, {model}", f"{value:.4f}")

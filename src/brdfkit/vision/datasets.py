@@ -844,14 +844,18 @@ def diligent_like_lights(
 
 
 def cast_shadows(
-    height: ArrayLike, light_directions: ArrayLike, pixel_size: float = 1.0
+    height: ArrayLike, light_directions: ArrayLike, pixel_size: float = 1.0, *, bias: float = 0.0
 ) -> np.ndarray:
     """Which pixels of a height field each distant light reaches (cast shadows only).
 
-    A pixel is shadowed when, marching from it towards the light across the image one pixel at
-    a time, the height field rises above the ray: ``h(p + t d) > h(p) + t s tan(elevation)``
-    with ``d`` the light's image-plane direction (rows go down: ``d = (l_x, -l_y) / |..|``) and
-    ``s = pixel_size``. Vectorised over pixels; loops over lights and march steps only.
+    A pixel ``p`` is shadowed when, marching from it towards the light across the image one
+    pixel at a time, the height field rises above the ray: ``h(q) > h(p) + b + |q - p| s
+    tan(elevation)`` at the pixel ``q`` nearest ``p + t d``, ``t = 1, 2, ...``, with ``d`` the
+    light's image-plane direction (rows go down: ``d = (l_x, -l_y) / |..|``), ``|q - p|`` the
+    distance to that pixel (a diagonal step is longer than 1), ``s = pixel_size`` and
+    ``b = bias`` (0: exact heights; > 0 the shadow-mapping bias of a height field known only so
+    well, e.g. one integrated from measured normals). Vectorised over pixels; loops over lights
+    and march steps only.
 
     Parameters
     ----------
@@ -859,6 +863,8 @@ def cast_shadows(
         is no surface (never occludes).
     light_directions : (N, 3) directions towards the lights.
     pixel_size : footprint of a pixel on the surface (orthographic approximation).
+    bias : height an occluder must rise above the ray to block it, >= 0 (units of ``height``;
+        infinity: nothing is shadowed).
 
     Returns
     -------
@@ -884,6 +890,8 @@ def cast_shadows(
         )
     if not pixel_size > 0:
         raise ParameterError(f"pixel_size must be positive, got {pixel_size}")
+    if not bias >= 0:
+        raise ParameterError(f"bias must be >= 0, got {bias}")
     surface = np.isfinite(height)
     if not surface.any():
         raise ParameterError("height has no finite value")
@@ -893,19 +901,20 @@ def cast_shadows(
     lit = np.ones((len(lights), *height.shape), dtype=bool)
     for k, (l_x, l_y, l_z) in enumerate(lights):
         planar = np.hypot(l_x, l_y)
-        if planar < 1e-12 or l_z <= 0:
+        if planar < 1e-12 or l_z <= 0 or bias == np.inf:
             continue
         rise = pixel_size * l_z / planar
         d_col, d_row = l_x / planar, -l_y / planar
         # No occluder lies beyond the image: its extent bounds the march as well.
-        for t in range(1, int(min(span / rise, sum(height.shape))) + 2):
+        for t in range(1, int(min(max(span - bias, 0.0) / rise, sum(height.shape))) + 3):
             r = np.rint(rows + t * d_row).astype(int)
             c = np.rint(columns + t * d_col).astype(int)
             inside = (r >= 0) & (r < height.shape[0]) & (c >= 0) & (c < height.shape[1])
             occluder = np.where(
                 inside, h[r.clip(0, height.shape[0] - 1), c.clip(0, height.shape[1] - 1)], -np.inf
             )
-            lit[k] &= ~(occluder > h + t * rise)
+            distance = np.hypot(r - rows, c - columns)
+            lit[k] &= ~(occluder > h + bias + distance * rise)
     return lit
 
 
