@@ -117,6 +117,7 @@ import numpy as np
 from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF, SCALE, Scaled, Sum, check_choice
 from brdfkit.errors import ParameterError, SpecError
+from brdfkit.geometry import from_half_diff
 from brdfkit.measured.tabulated import MeasuredSamples, TabulatedBRDF
 
 OBJECTIVES = ("cosine", "log", "cube_root")
@@ -171,6 +172,13 @@ _JACOBIAN = "lobes"
 re-evaluated per column, factors free) or ``"2-point"`` (scipy's own differences, P + 1 full
 evaluations; the peer in ``benchmarks/bench_fit.py``)."""
 
+_BLOCK = 8192
+"""Measurements per block in the passes over all of them (a table's nodes in :func:`fit_data`,
+:func:`fit_errors`). A MERL table has 1.46 M nodes: each of their direction arrays is 35 MB,
+and every step of a model's evaluation on them reads and writes memory, which two processes
+share; on blocks of 8192 (196 KB per direction array) the temporaries stay in the cores'
+caches."""
+
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
 _INTERVAL = re.compile(r"must be in ([\[(])(\S+), (\S+?)([\])])")
@@ -196,13 +204,7 @@ def fit_data(
     if isinstance(measured, MeasuredSamples):
         data = measured
     elif isinstance(measured, TabulatedBRDF):
-        wi, wo = measured.node_directions()
-        data = MeasuredSamples(
-            wi.reshape(-1, 3),
-            wo.reshape(-1, 3),
-            measured.scaled_values().reshape(-1, measured.channels),
-            name=measured.name,
-        )
+        return _node_samples(measured)
     elif isinstance(measured, BRDF):
         from brdfkit.sampling import hemisphere_pairs
 
@@ -221,6 +223,28 @@ def fit_data(
         values=data.values[valid],
         spectral=None if data.spectral is None else data.spectral[valid],
     )
+
+
+def _node_samples(table: TabulatedBRDF) -> MeasuredSamples:
+    """The measured (valid) grid nodes of ``table``, their directions computed
+    :data:`_BLOCK` nodes at a time (:meth:`TabulatedBRDF.node_directions` on all at once
+    writes 35 MB arrays for a MERL table)."""
+    angles = [np.ravel(a) for a in table.node_angles()]
+    values = table.scaled_values().reshape(-1, table.channels)
+    parts = []
+    for start in range(0, values.shape[0], _BLOCK):
+        block = slice(start, start + _BLOCK)
+        wi, wo = from_half_diff(*(a[block] for a in angles))
+        nodes = MeasuredSamples(wi, wo, values[block])
+        valid = nodes.valid
+        parts.append((wi[valid], wo[valid], nodes.values[valid]))
+    wi, wo, values = (np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+    return MeasuredSamples(wi, wo, values, name=table.name)
+
+
+def _rows(data: MeasuredSamples, rows: slice | np.ndarray) -> MeasuredSamples:
+    """The measurements ``rows`` of ``data`` (directions and values)."""
+    return MeasuredSamples(data.wi[rows], data.wo[rows], data.values[rows], name=data.name)
 
 
 def residuals(model: BRDF, data: MeasuredSamples, objective: str = "cosine") -> np.ndarray:
@@ -246,11 +270,16 @@ def _predicted(model: BRDF, data: MeasuredSamples) -> np.ndarray:
 def _residuals(predicted: np.ndarray, data: MeasuredSamples, objective: str) -> np.ndarray:
     """The residuals of :func:`residuals`, from the model's values."""
     cos_theta_i = data.wi[:, 2:3]
-    if objective == "log":  # the model may undershoot to negative values; its log must exist
-        predicted = np.maximum(predicted, 0)
-    return _compressed(predicted, cos_theta_i, objective) - _compressed(
+    return _compressed_model(predicted, cos_theta_i, objective) - _compressed(
         data.values, cos_theta_i, objective
     )
+
+
+def _compressed_model(predicted: np.ndarray, cos_theta_i: np.ndarray, objective: str) -> np.ndarray:
+    """A model's values on the scale of ``objective``'s residuals (:func:`_compressed`)."""
+    if objective == "log":  # the model may undershoot to negative values; its log must exist
+        predicted = np.maximum(predicted, 0)
+    return _compressed(predicted, cos_theta_i, objective)
 
 
 def _compressed(f: np.ndarray, cos_theta_i: np.ndarray, objective: str) -> np.ndarray:
@@ -275,18 +304,23 @@ def fit_errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005.
     """
-    predicted = _predicted(model, data)
-    diff = predicted - data.values
-
-    def rms(r: np.ndarray) -> float:
-        return float(np.sqrt(np.mean(r**2)))
-
+    squares = dict.fromkeys(("rmse", "cosine_rmse", "log_rmse", "cube_root_rmse", "data"), 0.0)
+    for start in range(0, data.wi.shape[0], _BLOCK):  # cache-sized blocks (see _BLOCK)
+        block = _rows(data, slice(start, start + _BLOCK))
+        predicted = _predicted(model, block)
+        diff = predicted - block.values
+        squares["rmse"] += float(np.sum(diff * diff))
+        squares["data"] += float(np.sum(block.values * block.values))
+        for objective in OBJECTIVES:
+            r = _residuals(predicted, block, objective)
+            squares[f"{objective}_rmse"] += float(np.sum(r * r))
+    count = data.values.size
     return {
-        "rmse": rms(diff),
-        "cosine_rmse": rms(_residuals(predicted, data, "cosine")),
-        "relative_l2": float(np.linalg.norm(diff) / max(np.linalg.norm(data.values), 1e-300)),
-        "log_rmse": rms(_residuals(predicted, data, "log")),
-        "cube_root_rmse": rms(_residuals(predicted, data, "cube_root")),
+        "rmse": math.sqrt(squares["rmse"] / count),
+        "cosine_rmse": math.sqrt(squares["cosine_rmse"] / count),
+        "relative_l2": math.sqrt(squares["rmse"]) / max(math.sqrt(squares["data"]), 1e-300),
+        "log_rmse": math.sqrt(squares["log_rmse"] / count),
+        "cube_root_rmse": math.sqrt(squares["cube_root_rmse"] / count),
     }
 
 
@@ -620,8 +654,7 @@ def _typical_size(data: MeasuredSamples, objective: str) -> float:
 def _subset(data: MeasuredSamples, count: int, rng: np.random.Generator) -> MeasuredSamples:
     if data.wi.shape[0] <= count:
         return data
-    index = np.sort(rng.choice(data.wi.shape[0], count, replace=False))
-    return MeasuredSamples(data.wi[index], data.wo[index], data.values[index], name=data.name)
+    return _rows(data, np.sort(rng.choice(data.wi.shape[0], count, replace=False)))
 
 
 # --------------------------------------------------------------------------- results
@@ -684,7 +717,9 @@ class _LobeValues:
     cached values; a factor's column needs no evaluation (:math:`k_j + h e` times the cached
     :math:`g_j`). The columns are scipy's ``"2-point"`` differences (its step
     :math:`h = \sqrt{\epsilon}\max(1, |x|)`, turned back where it would cross a bound), at a
-    fraction of the (P + 1) full evaluations.
+    fraction of the (P + 1) full evaluations. The measurements' side of the residuals is
+    computed once; a column's residuals are recomputed only in the channels whose model values
+    the step changed (one, for a colour or a factor; the others' differences are exactly 0).
     """
 
     def __init__(self, lobes: list[_Lobe], free: list[_Free], data: MeasuredSamples):
@@ -692,6 +727,22 @@ class _LobeValues:
         self.owner = [(p, j) for p in free for j in range(p.size)]
         self._key: bytes | None = None
         self._values: list[tuple[np.ndarray, np.ndarray]] = []
+        self.cos_theta_i = np.ascontiguousarray(data.wi[:, 2:3])
+        self._measured: dict[tuple[Any, ...], np.ndarray] = {}
+
+    def measured(self, objective: str, channels: slice) -> np.ndarray:
+        """The measurements' side of the residuals in ``channels`` (computed once)."""
+        key = (objective, channels.start, channels.stop, channels.step)
+        if key not in self._measured:
+            values = self.data.values[:, channels]
+            self._measured[key] = _compressed(values, self.cos_theta_i, objective)
+        return self._measured[key]
+
+    def residuals(self, predicted: np.ndarray, objective: str, channels: slice) -> np.ndarray:
+        """The residuals ``(N, C)`` of the model values ``predicted`` in ``channels``
+        (:func:`_residuals`)."""
+        model = _compressed_model(predicted[:, channels], self.cos_theta_i, objective)
+        return model - self.measured(objective, channels)
 
     def _term_values(self, inner: BRDF, scale: Any) -> tuple[np.ndarray, np.ndarray]:
         g = np.broadcast_to(
@@ -724,11 +775,14 @@ class _LobeValues:
         robust: _Robust,
         channels: slice,
     ) -> np.ndarray:
-        """The forward-difference Jacobian of the residuals over the entries ``columns``."""
+        """The forward-difference Jacobian of the raveled residuals in ``channels`` over the
+        entries ``columns``."""
+        objective = robust.objective
         values = self.values(x)
         total = self.total(values)
-        r0 = _residuals(total, self.data, robust.objective)[:, channels].ravel()
-        jacobian = np.empty((r0.size, columns.size))
+        r0 = self.residuals(total, objective, channels)
+        measured = self.measured(objective, channels)
+        jacobian = np.empty((r0.shape[0], r0.shape[1], columns.size))
         for c, i in enumerate(columns):
             p, j = self.owner[i]
             h = math.sqrt(np.finfo(np.float64).eps) * max(1.0, abs(x[i])) * (1 if x[i] >= 0 else -1)
@@ -746,9 +800,14 @@ class _LobeValues:
                 ((inner, scale),) = _terms(self.lobes, self.free, x_step, relax=True, only=p.lobe)
                 g_step, k_step = self._term_values(inner, scale)
                 changed = total - k * g + k_step * g_step
-            r = _residuals(changed, self.data, robust.objective)[:, channels].ravel()
-            jacobian[:, c] = (r - r0) / h
-        return jacobian
+            moved = np.any(changed[:, channels] != total[:, channels], axis=0)
+            if moved.all():
+                jacobian[:, :, c] = (self.residuals(changed, objective, channels) - r0) / h
+            else:  # (r - r0) / h with r = r0 in the channels not moved
+                jacobian[:, :, c] = 0.0 / h
+                r = _compressed_model(changed[:, channels][:, moved], self.cos_theta_i, objective)
+                jacobian[:, moved, c] = (r - measured[:, moved] - r0[:, moved]) / h
+        return jacobian.reshape(-1, columns.size)
 
 
 def _least_squares(
@@ -781,7 +840,7 @@ def _least_squares(
         calls[0] += 1
         report(calls[0])
         total = model.total(model.values(full(x_active)))
-        return _residuals(total, data, robust.objective)[:, channels].ravel()
+        return model.residuals(total, robust.objective, channels).ravel()
 
     def jac(x_active: np.ndarray) -> np.ndarray:
         calls[0] += 1
