@@ -366,8 +366,9 @@ def _bounds(lobe: BRDF, name: str) -> tuple[float, float]:
     return ends[0], ends[1]
 
 
-def _field_names(cls: type[BRDF]) -> list[str]:
-    return [f.name for f in dataclasses.fields(cls) if f.init]  # type: ignore[arg-type]
+@functools.cache
+def _field_names(cls: type[BRDF]) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls) if f.init)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True, eq=False)
@@ -559,6 +560,21 @@ def _terms(
 ) -> list[tuple[BRDF, Any]]:
     """Each lobe as ``(inner model, factor or None)`` with the free parameters set from ``x``
     (only lobe ``only`` if given: a one-element list)."""
+    changes, scales = _settings(lobes, free, x)
+    terms = []
+    for k, (lobe, change, scale) in enumerate(zip(lobes, changes, scales, strict=True)):
+        if only is not None and k != only:
+            continue
+        if relax and "allow_unphysical" in _field_names(type(lobe.inner)):
+            change["allow_unphysical"] = True
+        terms.append((dataclasses.replace(lobe.inner, **change) if change else lobe.inner, scale))
+    return terms
+
+
+def _settings(
+    lobes: list[_Lobe], free: list[_Free], x: np.ndarray
+) -> tuple[list[dict[str, Any]], list[Any]]:
+    """Each lobe's parameters set from ``x`` (by name) and its factor (``None``: none)."""
     changes: list[dict[str, Any]] = [{} for _ in lobes]
     scales = [lobe.scale for lobe in lobes]
     i = 0
@@ -570,14 +586,7 @@ def _terms(
             scales[p.lobe] = value
         else:
             changes[p.lobe][p.name] = value
-    terms = []
-    for k, (lobe, change, scale) in enumerate(zip(lobes, changes, scales, strict=True)):
-        if only is not None and k != only:
-            continue
-        if relax and "allow_unphysical" in _field_names(type(lobe.inner)):
-            change["allow_unphysical"] = True
-        terms.append((dataclasses.replace(lobe.inner, **change) if change else lobe.inner, scale))
-    return terms
+    return changes, scales
 
 
 def _physical(model: BRDF) -> BRDF:
@@ -719,7 +728,9 @@ class _LobeValues:
     :math:`h = \sqrt{\epsilon}\max(1, |x|)`, turned back where it would cross a bound), at a
     fraction of the (P + 1) full evaluations. The measurements' side of the residuals is
     computed once; a column's residuals are recomputed only in the channels whose model values
-    the step changed (one, for a colour or a factor; the others' differences are exactly 0).
+    the step changed (one, for a colour or a factor; the others' differences are exactly 0);
+    a lobe whose own parameters (its factor aside) did not change since its last evaluation
+    keeps its values (while only colours are fitted, the lobes without one are evaluated once).
     """
 
     def __init__(self, lobes: list[_Lobe], free: list[_Free], data: MeasuredSamples):
@@ -729,6 +740,11 @@ class _LobeValues:
         self._values: list[tuple[np.ndarray, np.ndarray]] = []
         self.cos_theta_i = np.ascontiguousarray(data.wi[:, 2:3])
         self._measured: dict[tuple[Any, ...], np.ndarray] = {}
+        self.shape_entries = [
+            [i for i, (p, _) in enumerate(self.owner) if p.lobe == k and p.name != "scale"]
+            for k in range(len(lobes))
+        ]
+        self._shapes: dict[int, tuple[bytes, np.ndarray]] = {}
 
     def measured(self, objective: str, channels: slice) -> np.ndarray:
         """The measurements' side of the residuals in ``channels`` (computed once)."""
@@ -751,11 +767,19 @@ class _LobeValues:
         return g, np.asarray(1.0 if scale is None else scale, dtype=np.float64)
 
     def values(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """``(g_j, k_j)`` of every lobe at ``x`` (cached for the last ``x``)."""
+        """``(g_j, k_j)`` of every lobe at ``x`` (cached for the last ``x``; each ``g_j`` for
+        the last values of lobe j's own parameters)."""
         key = x.tobytes()
         if key != self._key:
-            terms = _terms(self.lobes, self.free, x, relax=True)
-            self._values = [self._term_values(inner, scale) for inner, scale in terms]
+            _, scales = _settings(self.lobes, self.free, x)
+            self._values = []
+            for k, scale in enumerate(scales):
+                shape = x[self.shape_entries[k]].tobytes()
+                if k not in self._shapes or self._shapes[k][0] != shape:
+                    ((inner, _),) = _terms(self.lobes, self.free, x, relax=True, only=k)
+                    self._shapes[k] = (shape, self._term_values(inner, scale)[0])
+                g = self._shapes[k][1]
+                self._values.append((g, np.asarray(1.0 if scale is None else scale, dtype=float)))
             self._key = key
         return self._values
 
