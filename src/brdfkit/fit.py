@@ -173,11 +173,10 @@ re-evaluated per column, factors free) or ``"2-point"`` (scipy's own differences
 evaluations; the peer in ``benchmarks/bench_fit.py``)."""
 
 _BLOCK = 8192
-"""Measurements per block in the passes over all of them (a table's nodes in :func:`fit_data`,
-:func:`fit_errors`). A MERL table has 1.46 M nodes: each of their direction arrays is 35 MB,
-and every step of a model's evaluation on them reads and writes memory, which two processes
-share; on blocks of 8192 (196 KB per direction array) the temporaries stay in the cores'
-caches."""
+"""Measurements per block in :func:`fit_errors`, which passes over all of them. A MERL table
+has 1.11 M measured nodes: each of their direction arrays is 27 MB, and every step of a
+model's evaluation on them reads and writes memory, which two processes share; on blocks of
+8192 (196 KB per direction array) the temporaries stay in the cores' caches."""
 
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
@@ -226,18 +225,24 @@ def fit_data(
 
 
 def _node_samples(table: TabulatedBRDF) -> MeasuredSamples:
-    """The measured (valid) grid nodes of ``table``, their directions computed
-    :data:`_BLOCK` nodes at a time (:meth:`TabulatedBRDF.node_directions` on all at once
-    writes 35 MB arrays for a MERL table)."""
-    angles = [np.ravel(a) for a in table.node_angles()]
-    values = table.scaled_values().reshape(-1, table.channels)
+    """The measured (valid) grid nodes of ``table``, their directions computed one row of θh
+    at a time (:meth:`TabulatedBRDF.node_directions` on all at once writes 35 MB arrays for a
+    MERL table); for an isotropic table from the grid's axes
+    (:meth:`TabulatedBRDF.node_axes`), whose sines and cosines are then taken once per axis
+    value, not per node."""
+    axes = table.node_axes()
+    if not table.isotropic:  # the rotations by φh would not broadcast the other angles
+        axes = np.broadcast_arrays(*axes)
+    values = table.scaled_values()
     parts = []
-    for start in range(0, values.shape[0], _BLOCK):
-        block = slice(start, start + _BLOCK)
-        wi, wo = from_half_diff(*(a[block] for a in angles))
-        nodes = MeasuredSamples(wi, wo, values[block])
+    for row in range(table.shape[0]):
+        block = slice(row, row + 1)
+        wi, wo = from_half_diff(*(a if a.shape[0] == 1 else a[block] for a in axes))
+        nodes = MeasuredSamples(
+            wi.reshape(-1, 3), wo.reshape(-1, 3), values[block].reshape(-1, table.channels)
+        )
         valid = nodes.valid
-        parts.append((wi[valid], wo[valid], nodes.values[valid]))
+        parts.append((nodes.wi[valid], nodes.wo[valid], nodes.values[valid]))
     wi, wo, values = (np.concatenate(arrays) for arrays in zip(*parts, strict=True))
     return MeasuredSamples(wi, wo, values, name=table.name)
 
