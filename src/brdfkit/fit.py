@@ -252,17 +252,21 @@ def _node_samples(table: TabulatedBRDF) -> MeasuredSamples:
     if not table.isotropic:  # the rotations by φh would not broadcast the other angles
         axes = np.broadcast_arrays(*axes)
     values = table.scaled_values()
-    parts = []
+    nodes = math.prod(table.shape)
+    out = (np.empty((nodes, 3)), np.empty((nodes, 3)), np.empty((nodes, table.channels)))
+    count = 0  # the measured nodes written so far, row after row
     for row in range(table.shape[0]):
         block = slice(row, row + 1)
         wi, wo = from_half_diff(*(a if a.shape[0] == 1 else a[block] for a in axes))
-        nodes = MeasuredSamples(
+        found = MeasuredSamples(
             wi.reshape(-1, 3), wo.reshape(-1, 3), values[block].reshape(-1, table.channels)
         )
-        valid = nodes.valid
-        parts.append((nodes.wi[valid], nodes.wo[valid], nodes.values[valid]))
-    wi, wo, values = (np.concatenate(arrays) for arrays in zip(*parts, strict=True))
-    return MeasuredSamples(wi, wo, values, name=table.name)
+        valid = found.valid
+        stop = count + int(np.count_nonzero(valid))
+        for whole, part in zip(out, (found.wi, found.wo, found.values), strict=True):
+            np.compress(valid, part, axis=0, out=whole[count:stop])
+        count = stop
+    return MeasuredSamples(*(whole[:count] for whole in out), name=table.name)
 
 
 def _rows(data: MeasuredSamples, rows: slice | np.ndarray) -> MeasuredSamples:
