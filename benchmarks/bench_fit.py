@@ -10,20 +10,34 @@ run measures, on all the table's samples, one NumPy evaluation of the 3-lobe mod
 torch forward + backward pass (the cost of an autograd gradient), the comparison behind the
 choice of finite-difference least squares on NumPy.
 
-Prints one JSON object: wall time, samples, recovered parameters, errors, and the timings.
+Prints one JSON object: wall time (and this process's CPU seconds, the fairer figure on a
+machine busy with other work), samples, recovered parameters, errors, and the timings.
 Run with two threads to reproduce the 2-core figure: ``OMP_NUM_THREADS=2 python
 benchmarks/bench_fit.py``.
+
+``--contention``: instead, the CPU seconds per fit (``time.process_time``) of one process
+fitting alone against two processes fitting at once, ``--fits`` fits each, the two set-ups
+interleaved ``--repeats`` times (``--model``, ``--starts``: which fit; ``--model "lambertian +
+ggx" --starts 1`` are the model and starts of ``benchmarks/bench_dask.py``'s batch, here on
+this benchmark's table). On two free cores a fit that is not held back by a shared resource
+takes the same CPU time either way; the ratio of the two (two processes over one) is what a
+shared memory bus costs each fit, and bounds the scaling of batch fitting on two workers by
+2 / ratio. On a machine busy with other work (load above the core count) the ratio is noise;
+the CPU per fit still compares two versions of the code run one after the other.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
+import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import brdfkit.fit as fitting
 from brdfkit.brdf import MODELS, parse
@@ -58,22 +72,78 @@ def torch_timing(data) -> dict[str, float]:
     return {"numpy_eval_s": numpy_forward, "torch_forward_backward_s": time.perf_counter() - began}
 
 
+def _fits_cpu(path: str, model: str, starts: int, fits: int, barrier: Any) -> list[float]:
+    """CPU seconds of each of ``fits`` fits of ``model`` to the MERL file ``path``, after one
+    fit outside the clock (imports, first-use caches) and ``barrier`` (the processes start
+    together)."""
+    table = read_merl(path)
+    fit(table, model, starts=starts)
+    barrier.wait()
+    seconds = []
+    for _ in range(fits):
+        began = time.process_time()
+        fit(table, model, starts=starts)
+        seconds.append(time.process_time() - began)
+    return seconds
+
+
+def contention(model: str, starts: int, fits: int, repeats: int) -> dict[str, Any]:
+    """CPU seconds per fit, one process alone against two at once (interleaved)."""
+    context = multiprocessing.get_context("spawn")
+    cpu: dict[int, list[float]] = {1: [], 2: []}
+    with tempfile.TemporaryDirectory() as folder:
+        path = str(write_merl(Path(folder) / "three_lobes.binary", parse(TRUTH)))
+        for _ in range(repeats):
+            for processes in (1, 2):
+                manager_barrier = context.Manager().Barrier(processes)
+                with context.Pool(processes) as pool:
+                    runs = pool.starmap(
+                        _fits_cpu, [(path, model, starts, fits, manager_barrier)] * processes
+                    )
+                cpu[processes] += [s for run in runs for s in run]
+                print(f"  {processes} process(es): CPU per fit "
+                      f"{statistics.median(cpu[processes][-fits * processes:]):.3f} s",
+                      file=sys.stderr)  # fmt: skip
+    median = {p: statistics.median(s) for p, s in cpu.items()}
+    return {
+        "model": model,
+        "starts": starts,
+        "fits_per_process": fits,
+        "repeats": repeats,
+        "load_average": os.getloadavg(),
+        "cpu_per_fit": cpu,
+        "median_cpu_per_fit": median,
+        "min_cpu_per_fit": {p: min(s) for p, s in cpu.items()},
+        "ratio_2_over_1": median[2] / median[1],
+    }
+
+
 def main() -> None:
     from rich.console import Console
     from rich.progress import Progress
 
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--contention", action="store_true")
+    parser.add_argument("--model", default=MODEL)
+    parser.add_argument("--starts", type=int, default=4)
+    parser.add_argument("--fits", type=int, default=3)
+    args = parser.parse_args()
+    repeats = args.repeats
+    if args.contention:
+        json.dump(contention(args.model, args.starts, args.fits, repeats), sys.stdout, indent=2)
+        print()
+        return
     with tempfile.TemporaryDirectory() as folder:
         path = write_merl(Path(folder) / "three_lobes.binary", parse(TRUTH))
         table = read_merl(path)
     data = fit_data(table)
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--repeats", type=int, default=2)
-    repeats = parser.parse_args().repeats
     paths = {"default": ("lobes", 1), "peer_2point": ("2-point", None)}
     runs: dict[str, list[dict]] = {name: [] for name in paths}
     for _ in range(repeats):
         for name, (jacobian, threads) in paths.items():
             fitting._JACOBIAN, fitting._BLAS_THREADS = jacobian, threads
+            cpu = time.process_time()
             with Progress(console=Console(stderr=True), transient=True) as bar:
                 task = bar.add_task(name, total=1)
                 result = fit(
@@ -87,6 +157,7 @@ def main() -> None:
             runs[name].append(
                 {
                     "seconds": round(result.seconds, 2),
+                    "cpu_seconds": round(time.process_time() - cpu, 2),  # the progress bar's too
                     "nfev": result.nfev,
                     "alpha_relative_errors": [abs(alphas[0] / 0.05 - 1), abs(alphas[1] / 0.3 - 1)],
                     "cube_root_rmse": result.errors["cube_root_rmse"],

@@ -420,6 +420,18 @@ def check_param(
         infinity). :mod:`brdfkit.fit` reads the model bounds back from this message for finite
         probes, so its ``must be in <interval>`` form is a contract.
     """
+    low = -math.inf if lo is None else lo - slack
+    high = math.inf if hi is None else hi + slack
+    # Python floats (alone or in a list), the common case: checked without array calls
+    floats = [value] if type(value) is float else value if type(value) in (list, tuple) else ()
+    if floats and all(
+        type(v) is float
+        and math.isfinite(v)
+        and (v > low if lo_open else v >= low)
+        and (v < high if hi_open else v <= high)
+        for v in floats
+    ):
+        return value
     if is_abstract(value):
         return value
     xp = namespace(value)
@@ -427,8 +439,6 @@ def check_param(
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
-    low = -math.inf if lo is None else lo - slack
-    high = math.inf if hi is None else hi + slack
     finite = xp.isfinite(values)
     below = values <= low if lo_open else values < low
     above = values >= high if hi_open else values > high

@@ -256,6 +256,8 @@ def param(value: Any, like: Array) -> Array:
     the directions' floating dtype, so float32 inputs compute in float32 end to end (a float64
     parameter is rounded; a torch parameter keeps its autograd graph through the cast).
     """
+    if type(value) is float and type(like) is np.ndarray and like.dtype.kind == "f":
+        return np.array([value], dtype=like.dtype)  # the common case, before the general rules
     xp = namespace(like, value)
     floating = hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating")
     arr = asarray(value, xp, like=like, dtype=like.dtype if floating else None)

@@ -681,7 +681,12 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
 
 # --------------------------------------------------------------------------- masking
 def masking_shadowing(
-    distribution: MicrofacetDistribution, wi: Array, wo: Array, wm: Array, kind: str
+    distribution: MicrofacetDistribution,
+    wi: Array,
+    wo: Array,
+    wm: Array,
+    kind: str,
+    transmission: bool = True,
 ) -> Array:
     r"""Joint masking–shadowing :math:`G_2(\omega_i,\omega_o,\omega_m)`, ``(..., C)``.
 
@@ -697,6 +702,11 @@ def masking_shadowing(
       :math:`\chi^+\chi^+/(1+\Lambda(\omega_i)+\Lambda(\omega_o))` for reflection and
       :math:`\chi^+\chi^+ B(1+\Lambda(\omega_i), 1+\Lambda(\omega_o))` (Beta function, Heitz
       2014 §6.2) when ωi and ωo lie on opposite sides (transmission).
+
+    ``transmission=False`` is for a reflection model, whose value is 0 for pairs on opposite
+    sides: ``"smith_correlated"`` then gives every pair the reflection form and skips the Beta
+    function (a fixed choice of formula, not a test of the values, so that array-API tracing
+    sees one expression).
 
     Raises
     ------
@@ -732,6 +742,8 @@ def masking_shadowing(
         lambda_i = distribution.smith_lambda(wi)
         lambda_o = distribution.smith_lambda(wo)
         reflection = 1 / (1 + lambda_i + lambda_o)
+        if not transmission:
+            return xp.where(visible, reflection, xp.zeros_like(reflection))
         big = constant(1e6, lambda_i)
         li, lo = xp.minimum(lambda_i, big), xp.minimum(lambda_o, big)
         log_beta = log_gamma(1 + li) + log_gamma(1 + lo) - log_gamma(2 + li + lo)

@@ -182,7 +182,7 @@ class MicrofacetReflection(BRDF):
         cos_i, cos_o = wi[..., 2:3], wo[..., 2:3]
         h = normalize(wi + wo)
         d = self.ndf.D(h)
-        g = masking_shadowing(self.ndf, wi, wo, h, self.masking)
+        g = masking_shadowing(self.ndf, wi, wo, h, self.masking, transmission=False)
         f = self.fresnel_term(dot(wi, h, keepdims=True))
         # D G / (4 cos θi cos θo) and the hemisphere test first: per pair, unless the
         # roughness is per channel; F (finite, in [0, 1]) multiplies once at the end.

@@ -534,15 +534,23 @@ class TabulatedBRDF(MixtureSampled):
 
         For an isotropic table φh = 0.
         """
+        th, ph, td, pd = (np.array(a) for a in np.broadcast_arrays(*self.node_axes()))
+        return th, ph, td, pd
+
+    def node_axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The angles of :meth:`node_angles` as an open grid: each array has the grid's number
+        of axes, of length 1 but along its own (φh of an isotropic table: a single 0), and
+        they broadcast to the grid (functions of the angles computed on the axes, not on
+        every node)."""
         n = self.shape
         theta_h = _theta_h_edges(n[0])[:-1]
         theta_d = np.arange(n[-2]) / n[-2] * (math.pi / 2)
         phi_d = np.arange(n[-1]) / n[-1] * math.pi
         if self.isotropic:
-            th, td, pd = np.meshgrid(theta_h, theta_d, phi_d, indexing="ij")
-            return th, np.zeros_like(th), td, pd
+            th, td, pd = np.ix_(theta_h, theta_d, phi_d)
+            return th, np.zeros((1, 1, 1)), td, pd
         phi_h = np.arange(n[1]) / n[1] * (2 * math.pi)
-        th, ph, td, pd = np.meshgrid(theta_h, phi_h, theta_d, phi_d, indexing="ij")
+        th, ph, td, pd = np.ix_(theta_h, phi_h, theta_d, phi_d)
         return th, ph, td, pd
 
     def node_directions(self) -> tuple[np.ndarray, np.ndarray]:
