@@ -7,7 +7,7 @@ import pytest
 
 from brdfkit.brdf import parse
 from brdfkit.errors import ParameterError, SpecError
-from brdfkit.fit import fit, fit_data, fit_errors, residuals
+from brdfkit.fit import fit, fit_data, fit_errors, log_scale, residuals
 from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, read_merl, write_merl
 from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
 
@@ -140,6 +140,27 @@ def test_the_loss_scale_follows_the_data():
     )
 
 
+def test_the_log_objective_follows_the_data_level():
+    """The log objective's level is the data's own (``log_scale``), so a dark and a bright copy
+    of one material fit the same lobe shape; at Löw et al.'s fixed 1 sr⁻¹ they did not (the
+    dark copy's log is nearly linear: its highlight decides the fit)."""
+    data = _samples(BODY_AND_PEAK, 2000, seed=1)
+    fits = [
+        fit(MeasuredSamples(data.wi, data.wo, k * data.values), "lambertian + ggx", objective="log")
+        for k in (0.02, 1.0, 50.0)
+    ]
+    alphas = [f.params["1.ggx.alpha"] for f in fits]
+    np.testing.assert_allclose(alphas, alphas[1], rtol=1e-3)
+    for k, f in zip((0.02, 1.0, 50.0), fits, strict=True):
+        np.testing.assert_allclose(
+            f.params["0.lambertian.rho"],
+            k * np.array(fits[1].params["0.lambertian.rho"]),
+            rtol=1e-3,
+        )
+    brighter = MeasuredSamples(data.wi, data.wo, 4 * data.values)
+    assert log_scale(brighter) == pytest.approx(4 * log_scale(data))
+
+
 def test_residuals_and_errors_closed_forms():
     data = _samples("lambertian(rho=0.5)", 200)
     model = parse("lambertian(rho=0.25)")
@@ -264,7 +285,7 @@ def test_lobe_jacobian_equals_scipys_differences(objective):
     x = np.concatenate([p.initial for p in free])
     lower = np.concatenate([np.full(p.size, p.lower) for p in free])
     upper = np.concatenate([np.full(p.size, p.upper) for p in free])
-    robust = fitting._Robust(objective, "linear", 1.0)
+    robust = fitting._Robust(objective, "linear", 1.0, fitting.log_scale(data))
     ours = fitting._LobeValues(lobes, free, data).jacobian(
         x, np.arange(x.size), lower, upper, robust, slice(None)
     )

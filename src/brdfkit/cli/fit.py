@@ -36,7 +36,8 @@ def fit_command(
         "cube_root",
         "--objective",
         metavar="cube_root|log|cosine",
-        help="cube_root (Forés et al. 2012), log (Löw et al. 2012) or cosine (Ngan et al. 2005).",
+        help="cube_root (Forés et al. 2012), log (Löw et al. 2012, at the data's own level) or "
+        "cosine (Ngan et al. 2005).",
     ),
     loss: str = typer.Option(
         "soft_l1",
