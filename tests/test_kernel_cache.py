@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from brdfkit import kernel_cache  # noqa: E402
+from brdfkit import kernel_cache
 
 
 def _fresh_kernel(cache_key: str):
