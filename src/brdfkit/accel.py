@@ -1122,6 +1122,13 @@ def _record_key(structural_key: tuple[Any, ...]) -> str:
     return kernel_cache.key("structure", repr(structural_key))
 
 
+def _known_baked(structural_key: tuple[Any, ...]) -> bool:
+    """Whether the disk cache records that this structure's constructor needs concrete values
+    (its trace with abstract ones failed in an earlier process)."""
+    stored = kernel_cache.load_record("accel", _record_key(structural_key))
+    return stored is not None and bool(stored.get("baked"))
+
+
 def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[..., None]:
     """Compile (or fetch from the in-process or the disk cache) the generated kernel source."""
     import numba
@@ -1208,6 +1215,8 @@ class CompiledBRDF:
         except TypeError:
             structure, values = None, []
         self._structure = structure
+        # what a kernel with the values baked in depends on: the structure and exact values
+        self._baked = repr((structure, [(v.dtype.str, v.shape, v.tobytes()) for v in values]))
         self._shapes = [v.shape for v in values]
         self.parameters = np.concatenate(
             [np.asarray(v, dtype=self.dtype).reshape(-1) for v in values] or [np.zeros(0)]
@@ -1240,6 +1249,8 @@ class CompiledBRDF:
             return True
         key = self._structural_key(method, u_width)
         stored = None if key is None else kernel_cache.load_record("accel", _record_key(key))
+        if stored is not None and stored.get("baked"):
+            stored = kernel_cache.load_record("accel", self._baked_key(key))
         if stored is None:
             return False
         try:
@@ -1267,6 +1278,8 @@ class CompiledBRDF:
         if key is not None:
             with _KERNELS_LOCK:
                 shared = _STRUCTURAL.get(key)
+            if shared is None and _known_baked(key):
+                shared = _BAKED
             if shared is None:
                 model, count = self.model, len(self._shapes)
 
@@ -1278,6 +1291,7 @@ class CompiledBRDF:
                     built = _compile(traced, widths, self.dtype, self._shapes, _record_key(key))
                 except (ValueError, TypeError):
                     shared = _BAKED  # the constructor needs concrete values
+                    kernel_cache.store_record("accel", _record_key(key), {"baked": True})
                 else:
                     with _KERNELS_LOCK:
                         shared = _STRUCTURAL.setdefault(key, built)
@@ -1287,7 +1301,11 @@ class CompiledBRDF:
                 _STRUCTURAL.setdefault(key, shared)
             if isinstance(shared, Kernel):
                 return shared.bind(self.parameters)
-        return compile_function(_method(self.model, method), widths, self.dtype)
+        return _compile(_method(self.model, method), widths, self.dtype, (), self._baked_key(key))
+
+    def _baked_key(self, key: tuple[Any, ...] | None) -> str | None:
+        """The record key of this model's kernel with its values baked in."""
+        return None if key is None else kernel_cache.key("baked", self._baked, key[1:])
 
     def eval(self, wi: Any, wo: Any, *, out: np.ndarray | None = None) -> np.ndarray:
         """f_r(wi, wo), ``(..., C)``, as the model's :meth:`~brdfkit.brdf.BRDF.eval`;

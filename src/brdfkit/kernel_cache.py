@@ -58,18 +58,28 @@ _USABLE: dict[Path, bool] = {}
 _KEYS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
 
 
+_APPLICATION = frozenset(
+    {"cli", "explore", "vision", "distributed", "report.py", "plot.py", "fit.py", "fit_select.py"}
+)
+"""brdfkit's application layers (first path component in the package): code no kernel's
+trace or template reaches, left out of :func:`version` so that editing them keeps the cache."""
+
+
 @functools.cache
 def version() -> str:
     """A hash of everything the cached kernels depend on besides their key: the source of
-    every module of brdfkit (the models, the tracer, the kernels' templates), numba, llvmlite
-    and Python."""
+    every module of brdfkit but its application layers (the models, the tracer, the kernels'
+    templates: :data:`_APPLICATION`), numba, llvmlite and Python."""
     import llvmlite
     import numba
 
     digest = hashlib.sha256(f"{numba.__version__}|{llvmlite.__version__}|{sys.version}".encode())
     package = Path(__file__).parent
     for path in sorted(package.rglob("*.py")):
-        digest.update(str(path.relative_to(package)).encode())
+        relative = path.relative_to(package)
+        if relative.parts[0] in _APPLICATION:
+            continue
+        digest.update(str(relative).encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()[:20]
 
