@@ -117,12 +117,12 @@ _PROCESS = textwrap.dedent(
 )
 
 
-def _run(cache: Path) -> dict:
+def _run(cache: Path, code: str = _PROCESS) -> dict:
     env = {**os.environ, kernel_cache.ENV: str(cache)}
     src = str(Path(kernel_cache.__file__).parents[1])
     env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
     out = subprocess.run(
-        [sys.executable, "-c", _PROCESS], env=env, capture_output=True, text=True, check=True
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -138,3 +138,30 @@ def test_a_second_process_neither_traces_nor_compiles(tmp_path):
     assert warm["stats"].get("record_hits", 0) >= 1 and not warm["stats"].get("record_misses")
     assert warm["stats"].get("errors", 0) == 0
     np.testing.assert_array_equal(warm["f"], cold["f"])  # the same machine code
+
+
+_RENDER = textwrap.dedent(
+    """
+    import json
+    import numpy as np
+    from brdfkit import kernel_cache
+    from brdfkit.brdf import MODELS
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.render import render_sphere
+    env = EnvironmentMap(np.random.default_rng(0).random((8, 16, 3)) + 0.1)
+    ggx = MODELS["ggx"](alpha=0.3, material="Au")
+    image = render_sphere(ggx, env, 12, samples=4, compiled=True)
+    print(json.dumps({"stats": dict(kernel_cache.STATS), "f": image.tolist()}))
+    """
+)
+
+
+@pytest.mark.slow
+def test_a_second_process_loads_the_tile_kernel_and_renders_the_same_image(tmp_path):
+    pytest.importorskip("jax")
+    cold = _run(tmp_path / "cache", _RENDER)
+    assert cold["stats"].get("misses", 0) >= 4  # sample, eval, pdf and the tile kernel
+    warm = _run(tmp_path / "cache", _RENDER)
+    assert warm["stats"].get("misses", 0) == 0 and warm["stats"].get("hits", 0) >= 4
+    assert warm["stats"].get("errors", 0) == 0
+    np.testing.assert_array_equal(warm["f"], cold["f"])

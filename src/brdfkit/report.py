@@ -217,14 +217,19 @@ def env_sphere(
 ) -> tuple[np.ndarray, int]:
     r"""A sphere rendered progressively (:func:`brdfkit.render.progressive_sphere`) from
     ``samples`` spp, doubling, until its estimated relative RMSE against a 16×-spp render of
-    itself,
+    itself is at most ``noise`` (``None``: ``samples`` spp, one pass), or ``max_samples``.
 
-    .. math:: \hat e = \sqrt{(1 + 1/16)\,\overline{s^2} / \overline{L^2}}
-
-    over the sphere's interior (``s`` the per-pixel standard error: conservative for Sobol
-    samples), is at most ``noise`` (``None``: ``samples`` spp, one pass), or ``max_samples``.
-    The compiled kernels render it where they apply and the most work it may take is worth
-    their build (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
+    Each pass after the first has as many samples as all before it, with its own seeds, so
+    the new pass B and the mean A of the earlier ones are independent unbiased estimates and
+    the running mean :math:`M_k = (A + B)/2` has variance :math:`(\operatorname{Var}A +
+    \operatorname{Var}B)/4 = E[(B - A)^2]/4 = E[(M_k - M_{k-1})^2]`, whatever the sequence
+    (the per-sample spread, ``Pass.stderr``, over-estimates Sobol's error several times).
+    Over the sphere's interior (:func:`~brdfkit.mitsuba_scenes.interior_mask`) the estimate
+    is :math:`\hat e = \sqrt{(1 + 1/16)\,\overline{(M_k - M_{k-1})^2} / \overline{M_k^2}}`,
+    the 1/16 for the reference's own noise. A sphere without Monte Carlo (Lambertian lobes:
+    zero ``stderr``) stops after its first pass. The compiled kernels render it where they
+    apply and the most work it may take is worth their build
+    (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
     :mod:`brdfkit.kernel_cache` keeps them). Returns the linear image and the samples per
     pixel spent."""
     from brdfkit.mitsuba_scenes import interior_mask
@@ -234,14 +239,19 @@ def env_sphere(
     mask = interior_mask(resolution)
     limit = samples if noise is None else max(samples, max_samples)
     compiled = math.pi / 4 * resolution**2 * limit >= AUTO_COMPILE_WORK
+    previous = None
     for shaded in progressive_sphere(
         model, light, resolution, first_samples=samples, max_samples=limit, seed=seed,
         compiled=compiled,
     ):  # fmt: skip
-        signal = np.mean(shaded.image[mask] ** 2)
-        variance = np.mean(shaded.stderr[mask] ** 2) * (1 + 1 / 16)
-        if noise is None or variance <= noise * noise * signal:
+        image = shaded.image[mask]
+        if noise is None or not np.any(shaded.stderr[mask]):
             break
+        if previous is not None:
+            error2 = np.mean((image - previous) ** 2) * (1 + 1 / 16)
+            if error2 <= noise * noise * np.mean(image**2):
+                break
+        previous = image
     return shaded.image, shaded.samples
 
 
