@@ -203,6 +203,9 @@ ENV_NOISE = 0.01
 against a 16×-spp render of itself (:func:`env_sphere`)."""
 ENV_MAX_SAMPLES = 2048
 """The most samples per pixel :func:`env_sphere` spends on one sphere by default."""
+_MARGIN = 0.8
+""":func:`env_sphere` stops once its noise estimate is this fraction of the goal: room for
+the estimate's own error (its mean over the pixels of one pass difference)."""
 
 
 def env_sphere(
@@ -226,7 +229,8 @@ def env_sphere(
     (the per-sample spread, ``Pass.stderr``, over-estimates Sobol's error several times).
     Over the sphere's interior (:func:`~brdfkit.mitsuba_scenes.interior_mask`) the estimate
     is :math:`\hat e = \sqrt{(1 + 1/16)\,\overline{(M_k - M_{k-1})^2} / \overline{M_k^2}}`,
-    the 1/16 for the reference's own noise. A sphere without Monte Carlo (Lambertian lobes:
+    the 1/16 for the reference's own noise; it stops once :math:`\hat e` is at most
+    :data:`_MARGIN` × ``noise``. A sphere without Monte Carlo (Lambertian lobes:
     zero ``stderr``) stops after its first pass. The compiled kernels render it where they
     apply and the most work it may take is worth their build
     (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
@@ -249,7 +253,7 @@ def env_sphere(
             break
         if previous is not None:
             error2 = np.mean((image - previous) ** 2) * (1 + 1 / 16)
-            if error2 <= noise * noise * np.mean(image**2):
+            if error2 <= (_MARGIN * noise) ** 2 * np.mean(image**2):
                 break
         previous = image
     return shaded.image, shaded.samples
