@@ -79,3 +79,18 @@ def browser_dom(tmp_path) -> Callable[..., str]:
         return done.stdout
 
     return dom
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _kernel_cache(tmp_path_factory):
+    """A kernel cache of this session's own (:mod:`brdfkit.kernel_cache`), so that tests
+    about building kernels do not depend on what earlier sessions left in the user's."""
+    import os
+
+    saved = os.environ.get("BRDFKIT_CACHE_DIR")
+    os.environ["BRDFKIT_CACHE_DIR"] = str(tmp_path_factory.mktemp("kernels"))
+    yield
+    if saved is None:
+        os.environ.pop("BRDFKIT_CACHE_DIR", None)
+    else:
+        os.environ["BRDFKIT_CACHE_DIR"] = saved

@@ -103,3 +103,21 @@ def test_atlas_command_reports_a_bad_spec_without_writing(tmp_path):
     result = CliRunner().invoke(app, ["atlas", "-o", str(tmp_path / "out"), "-m", "nope(x=1)"])
     assert result.exit_code == 2 and "unknown model 'nope'" in result.output
     assert not (tmp_path / "out" / "index.html").exists()
+
+
+def test_env_sphere_refines_until_its_noise_goal_and_meets_it():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
+    from brdfkit.render import render_sphere
+    from brdfkit.report import env_sphere
+
+    env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
+    ggx = MODELS["ggx"](alpha=0.3, material="Au")
+    image, spp = env_sphere(ggx, env, 12, samples=4, noise=None)
+    assert spp == 4 and image.shape == (12, 12, 3)
+    image, spp = env_sphere(ggx, env, 12, samples=4, noise=0.05, max_samples=1024, seed=1)
+    assert 4 < spp < 1024  # it refined, and stopped before the cap
+    reference = render_sphere(ggx, env, 12, samples=16 * spp, seed=2)
+    assert relative_rmse(image, reference, interior_mask(12)) <= 0.05

@@ -65,7 +65,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import _structure
+from brdfkit import _structure, kernel_cache
 from brdfkit._array import Array, namespace, to_numpy
 from brdfkit.brdf.base import BRDF, Sample
 
@@ -681,18 +681,82 @@ def _compile(
     widths: Sequence[int],
     dtype: Any,
     parameter_shapes: Sequence[tuple[int, ...]],
+    record: str | None = None,
 ) -> Kernel:
     """:func:`compile_function` of ``fn(*parameters, *inputs)``, whose leading arguments are
     parameters of the given shapes (not batched): the kernel reads their values, flattened in
     order, from its parameter array at each call (:meth:`Kernel.bind`), and computes what
-    depends on them alone once per call, before its loop."""
-    import time
-
-    import jax
-
+    depends on them alone once per call, before its loop. With ``record`` (a key naming
+    everything ``fn``'s trace depends on), the generated source is kept on disk
+    (:mod:`brdfkit.kernel_cache`) and a later process skips the trace."""
     dtype = np.dtype(dtype)
     if dtype not in (np.float32, np.float64):
         raise ValueError(f"dtype must be float32 or float64; got {dtype}")
+    stored = None if record is None else kernel_cache.load_record("accel", record)
+    if stored is not None:
+        with contextlib.suppress(KeyError, TypeError, ValueError):  # a record of another form
+            return _warm(*_from_record(stored), dtype)
+    source, constants, ins, outs, count = _trace(fn, widths, dtype, parameter_shapes)
+    if record is not None:
+        kernel_cache.store_record("accel", record, _to_record(source, constants, ins, outs, count))
+    return _warm(source, constants, ins, outs, count, dtype)
+
+
+def _warm(
+    source: str,
+    constants: dict[str, np.generic],
+    ins: list[_Port],
+    outs: list[_Port],
+    count: int,
+    dtype: np.dtype,
+) -> Kernel:
+    """The kernel of the generated ``source``, compiled now (numba compiles on first call)
+    rather than in the user's timing, or loaded from the disk cache."""
+    import time
+
+    start = time.perf_counter()
+    function = _numba_kernel(source, constants)
+    kernel = Kernel(function, source, ins, outs, np.zeros(count, dtype))
+    kernel(*[np.zeros((1, p.width) if p.width else (1,), p.dtype) for p in ins])
+    kernel.compile_seconds = time.perf_counter() - start
+    return kernel
+
+
+def _to_record(
+    source: str, constants: dict[str, np.generic], ins: list[_Port], outs: list[_Port], count: int
+) -> dict[str, Any]:
+    """A generated kernel as JSON (constants as their exact bytes)."""
+    return {
+        "source": source,
+        "constants": [[k, v.dtype.str, v.tobytes().hex()] for k, v in constants.items()],
+        "ins": [[p.width, p.dtype.str] for p in ins],
+        "outs": [[p.width, p.dtype.str] for p in outs],
+        "parameters": count,
+    }
+
+
+def _from_record(
+    record: dict[str, Any],
+) -> tuple[str, dict[str, np.generic], list[_Port], list[_Port], int]:
+    """:func:`_to_record`'s inverse."""
+    constants = {
+        name: np.frombuffer(bytes.fromhex(data), dtype=np.dtype(code))[0]
+        for name, code, data in record["constants"]
+    }
+    ins = [_Port(int(w), np.dtype(d)) for w, d in record["ins"]]
+    outs = [_Port(int(w), np.dtype(d)) for w, d in record["outs"]]
+    return str(record["source"]), constants, ins, outs, int(record["parameters"])
+
+
+def _trace(
+    fn: Callable[..., Any],
+    widths: Sequence[int],
+    dtype: np.dtype,
+    parameter_shapes: Sequence[tuple[int, ...]],
+) -> tuple[str, dict[str, np.generic], list[_Port], list[_Port], int]:
+    """``fn`` traced and scalarised: its generated source, constants, ports and parameter
+    count."""
+    import jax
 
     def flat_fn(*args: Any) -> tuple[Any, ...]:
         out = fn(*args)
@@ -747,13 +811,7 @@ def _compile(
         for r, a in zip(results, outs_avals, strict=True)
     ]
     source = _source(em, uniform_loads, loads, results, outs, len(ins))
-    start = time.perf_counter()
-    function = _numba_kernel(source, em.constants)
-    kernel = Kernel(function, source, ins, outs, np.zeros(len(uniform_loads), dtype))
-    warm = [np.zeros((1, w) if w else (1,), dtype) for w in widths]
-    kernel(*warm)  # compile now (numba compiles on first call), not in the user's timing
-    kernel.compile_seconds = time.perf_counter() - start
-    return kernel
+    return source, em.constants, ins, outs, len(uniform_loads)
 
 
 def _source(
@@ -1046,18 +1104,42 @@ def _vector_width_hint(bits: int) -> Any:
     return prefer_vector_width
 
 
+def _kernel_key(source: str, constants: dict[str, np.generic]) -> str:
+    """What a generated kernel's machine code depends on: source, constants, vector width."""
+    return f"{vector_bits()}|{source}" + repr(
+        sorted((k, v.dtype.str, v.tobytes()) for k, v in constants.items())
+    )
+
+
+def _disk_key(source: str, constants: dict[str, np.generic]) -> str:
+    """The :mod:`brdfkit.kernel_cache` key of a generated kernel's machine code."""
+    return kernel_cache.key("accel", _kernel_key(source, constants))
+
+
+def _record_key(structural_key: tuple[Any, ...]) -> str:
+    """The :mod:`brdfkit.kernel_cache` key of a model structure's generated kernel (its repr
+    holds classes, options and shapes only: the same in every process)."""
+    return kernel_cache.key("structure", repr(structural_key))
+
+
+def _known_baked(structural_key: tuple[Any, ...]) -> bool:
+    """Whether the disk cache records that this structure's constructor needs concrete values
+    (its trace with abstract ones failed in an earlier process)."""
+    stored = kernel_cache.load_record("accel", _record_key(structural_key))
+    return stored is not None and bool(stored.get("baked"))
+
+
 def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[..., None]:
-    """Compile (or fetch from the cache) the generated kernel source."""
+    """Compile (or fetch from the in-process or the disk cache) the generated kernel source."""
     import numba
 
     bits = vector_bits()
-    key = f"{bits}|{source}" + repr(
-        sorted((k, v.dtype.str, v.tobytes()) for k, v in constants.items())
-    )
+    key = _kernel_key(source, constants)
     with _KERNELS_LOCK:
         if key in _KERNELS:
             return _KERNELS[key]
         namespace: dict[str, Any] = {
+            "__name__": __name__,  # the module numba's cache re-imports for the globals
             "np": np,
             "math": math,
             **_intrinsics(),
@@ -1071,6 +1153,7 @@ def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[...
         function = numba.njit(fastmath=set(_FASTMATH), error_model="numpy", nogil=True)(
             namespace["kernel"]
         )
+        kernel_cache.enable(function, _disk_key(source, constants))  # machine code on disk
         _KERNELS[key] = function
         return function
 
@@ -1132,6 +1215,8 @@ class CompiledBRDF:
         except TypeError:
             structure, values = None, []
         self._structure = structure
+        # what a kernel with the values baked in depends on: the structure and exact values
+        self._baked = repr((structure, [(v.dtype.str, v.shape, v.tobytes()) for v in values]))
         self._shapes = [v.shape for v in values]
         self.parameters = np.concatenate(
             [np.asarray(v, dtype=self.dtype).reshape(-1) for v in values] or [np.zeros(0)]
@@ -1156,6 +1241,24 @@ class CompiledBRDF:
         with _KERNELS_LOCK:
             return isinstance(_STRUCTURAL.get(self._structural_key(method, u_width)), Kernel)
 
+    def cached(self, method: str, u_width: int = 0) -> bool:
+        """Whether the kernel of ``method`` is built, or can be loaded from the disk cache
+        (:mod:`brdfkit.kernel_cache`: its source and machine code), tracing and compiling
+        nothing."""
+        if self.built(method, u_width):
+            return True
+        key = self._structural_key(method, u_width)
+        stored = None if key is None else kernel_cache.load_record("accel", _record_key(key))
+        if stored is not None and stored.get("baked"):
+            stored = kernel_cache.load_record("accel", self._baked_key(key))
+        if stored is None:
+            return False
+        try:
+            source, constants, *_ = _from_record(stored)
+        except (KeyError, TypeError, ValueError):
+            return False
+        return kernel_cache.has(_disk_key(source, constants))
+
     def _structural_key(self, method: str, u_width: int) -> tuple[Any, ...] | None:
         if self._structure is None:
             return None
@@ -1175,6 +1278,8 @@ class CompiledBRDF:
         if key is not None:
             with _KERNELS_LOCK:
                 shared = _STRUCTURAL.get(key)
+            if shared is None and _known_baked(key):
+                shared = _BAKED
             if shared is None:
                 model, count = self.model, len(self._shapes)
 
@@ -1183,9 +1288,10 @@ class CompiledBRDF:
                     return _method(rebuilt, method)(*args[count:])
 
                 try:
-                    built = _compile(traced, widths, self.dtype, self._shapes)
+                    built = _compile(traced, widths, self.dtype, self._shapes, _record_key(key))
                 except (ValueError, TypeError):
                     shared = _BAKED  # the constructor needs concrete values
+                    kernel_cache.store_record("accel", _record_key(key), {"baked": True})
                 else:
                     with _KERNELS_LOCK:
                         shared = _STRUCTURAL.setdefault(key, built)
@@ -1195,7 +1301,11 @@ class CompiledBRDF:
                 _STRUCTURAL.setdefault(key, shared)
             if isinstance(shared, Kernel):
                 return shared.bind(self.parameters)
-        return compile_function(_method(self.model, method), widths, self.dtype)
+        return _compile(_method(self.model, method), widths, self.dtype, (), self._baked_key(key))
+
+    def _baked_key(self, key: tuple[Any, ...] | None) -> str | None:
+        """The record key of this model's kernel with its values baked in."""
+        return None if key is None else kernel_cache.key("baked", self._baked, key[1:])
 
     def eval(self, wi: Any, wo: Any, *, out: np.ndarray | None = None) -> np.ndarray:
         """f_r(wi, wo), ``(..., C)``, as the model's :meth:`~brdfkit.brdf.BRDF.eval`;

@@ -230,13 +230,20 @@ def sphere_images(
     the 99th percentile of luminance over all spheres maps to white; otherwise ``exposure`` is
     in stops.
     """
-    from brdfkit.io import luminance, srgb_encode, tonemap
     from brdfkit.render import render_sphere
 
-    images = []
-    for model in brdfs:
-        image = render_sphere(model, lights, resolution=resolution, samples=samples)
-        images.append(np.repeat(image, 3, axis=-1) if image.shape[-1] == 1 else image[..., :3])
+    images = [
+        render_sphere(model, lights, resolution=resolution, samples=samples) for model in brdfs
+    ]
+    return encode_spheres(images, exposure)
+
+
+def encode_spheres(images: Sequence[np.ndarray], exposure: float | None = None) -> list[np.ndarray]:
+    """Linear sphere images ``(R, R, C)`` as 8-bit sRGB ``(R, R, 3)``, one exposure for the
+    row as in :func:`sphere_images`."""
+    from brdfkit.io import luminance, srgb_encode, tonemap
+
+    images = [np.repeat(im, 3, axis=-1) if im.shape[-1] == 1 else im[..., :3] for im in images]
     if exposure is None:
         lum = np.concatenate([np.asarray(luminance(im)).ravel() for im in images])
         lum = lum[lum > 0]
@@ -282,6 +289,7 @@ def save(fig: Figure, path, dpi: int = 110) -> None:
 __all__ = [
     "albedo_data",
     "albedo_plot",
+    "encode_spheres",
     "half_diff_data",
     "half_diff_plot",
     "lobe_3d",

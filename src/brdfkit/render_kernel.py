@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import accel, render_table_kernel, sampling
+from brdfkit import accel, kernel_cache, render_table_kernel, sampling
 from brdfkit.brdf.base import BRDF, check_choice
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.integrate import (
@@ -111,11 +111,32 @@ def _tile_kernel(
     brdf_channels: int,
     map_channels: int,
 ) -> Callable[..., None]:
-    """:func:`_new_tile_kernel`, built once per set of arguments."""
+    """:func:`_new_tile_kernel`, built once per set of arguments, its machine code kept on
+    disk (:mod:`brdfkit.kernel_cache`) where the BRDF's kernels are."""
     key = (sample_fn, eval_fn, pdf_fn, dtype, brdf_channels, map_channels)
     if key not in _TILE_KERNELS:
-        _TILE_KERNELS[key] = _new_tile_kernel(*key)
+        kernel = _new_tile_kernel(*key)
+        disk_key = _tile_disk_key(*key)
+        if disk_key is not None:
+            kernel_cache.enable(kernel, disk_key)
+        _TILE_KERNELS[key] = kernel
     return _TILE_KERNELS[key]
+
+
+def _tile_disk_key(
+    sample_fn: Callable[..., None],
+    eval_fn: Callable[..., None],
+    pdf_fn: Callable[..., None],
+    dtype: type,
+    brdf_channels: int,
+    map_channels: int,
+) -> str | None:
+    """The disk-cache key of a tile kernel: its BRDF kernels' keys (their machine code is
+    inlined into it) and its options, or ``None`` where one of them has none."""
+    keys = [kernel_cache.key_of(fn) for fn in (sample_fn, eval_fn, pdf_fn)]
+    if None in keys:
+        return None
+    return kernel_cache.key("tile", *keys, np.dtype(dtype).str, brdf_channels, map_channels, BLOCK)
 
 
 def _new_tile_kernel(
@@ -680,16 +701,19 @@ def compiled_shader(
     try:  # without numba, a table's kernels_built raises ImportError as the shader does
         if not build:
             _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-            if rest is not None and not kernels_built(one_sided_view(rest), dtype):
+            view = None if rest is None else one_sided_view(rest)
+            if view is not None and not kernels_built(view, dtype, maps[0].channels):
                 return None
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
     except (ValueError, ImportError):
         return None
 
 
-def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
-    """Whether compiled shading kernels for this model exist in this process: for its
-    structure (any model that differs from it in parameter values only), or for the object."""
+def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None = None) -> bool:
+    """Whether compiled shading kernels for this model exist in this process (for its
+    structure: any model that differs from it in parameter values only, or for the object)
+    or in the disk cache (:mod:`brdfkit.kernel_cache`: loading them compiles nothing), for a
+    map of ``map_channels`` channels (``None``: 1 or 3)."""
     dtype = np.dtype(dtype)
     table = render_table_kernel.table_kernels(model, dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
@@ -700,11 +724,18 @@ def kernels_built(model: BRDF, dtype: Any = np.float32) -> bool:
     else:
         compiled = accel.compile(model, dtype)
         methods = (("sample", 3), ("eval", 0), ("pdf", 0))
-        if not all(compiled.built(method, width) for method, width in methods):
+        if not all(compiled.cached(method, width) for method, width in methods):
             return False
+        # built, or their source and machine code on disk: making them now costs a load
         kernels = tuple(compiled._kernel(method, width)._function for method, width in methods)
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
-    return any(t.signatures for t in tiles)
+    if any(t.signatures for t in tiles):
+        return True
+    for channels in (map_channels,) if map_channels is not None else (1, 3):
+        disk_key = _tile_disk_key(*kernels, dtype.type, model.channels, channels)
+        if disk_key is not None and kernel_cache.has(disk_key):
+            return True
+    return False
 
 
 def reflected_radiance(

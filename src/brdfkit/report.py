@@ -71,6 +71,7 @@ class Card:
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
+    env_samples: list[int] = field(default_factory=list)  # spp of each environment-lit sphere
 
 
 def _png(fig, **savefig_kwargs) -> str:
@@ -198,12 +199,72 @@ def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> st
     return parts["body"]
 
 
-def _sphere_row(models: Sequence[BRDF], lights, resolution: int, samples: int) -> np.ndarray:
-    from brdfkit.plot import sphere_images
+ENV_NOISE = None
+"""The default goal for a sphere under the environment map, its estimated relative RMSE
+against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp. A goal of 1 %
+(``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes on 2 cores
+(``benchmarks/bench_atlas.py``)."""
+ENV_MAX_SAMPLES = 2048
+"""The most samples per pixel :func:`env_sphere` spends on one sphere by default."""
+_MARGIN = 0.8
+""":func:`env_sphere` stops once its noise estimate is this fraction of the goal: room for
+the estimate's own error (a mean over the pixels of one replicate difference)."""
+
+
+def env_sphere(
+    model: BRDF,
+    light,
+    resolution: int = 96,
+    *,
+    samples: int = 32,
+    noise: float | None = ENV_NOISE,
+    max_samples: int = ENV_MAX_SAMPLES,
+    seed: int = 0,
+) -> tuple[np.ndarray, int]:
+    r"""A sphere rendered progressively (:func:`brdfkit.render.progressive_sphere`) from
+    ``samples`` spp, doubling, until its estimated relative RMSE against a 16×-spp render of
+    itself is at most ``noise`` (``None``: ``samples`` spp, one pass), or ``max_samples``.
+
+    With Sobol' points each pass carries two independent replicates A and B of every pixel's
+    sequence, and ``Pass.error`` :math:`|A - B|/2` squared estimates the variance of the running
+    mean :math:`M = (A + B)/2` without bias (:math:`E[(A - B)^2]/4 = (\operatorname{Var}A +
+    \operatorname{Var}B)/4`); the per-sample spread, ``Pass.stderr``, over-estimates Sobol's
+    error several times and is used only without replicates. Over the sphere's interior
+    (:func:`~brdfkit.mitsuba_scenes.interior_mask`) the estimate is
+    :math:`\hat e = \sqrt{(1 + 1/16)\,\overline{e^2} / \overline{M^2}}`, the 1/16 for the
+    reference's own noise; it stops once :math:`\hat e` is at most
+    :data:`_MARGIN` × ``noise``. A sphere without Monte Carlo (Lambertian lobes:
+    zero ``stderr``) stops after its first pass. The compiled kernels render it where they
+    apply and the most work it may take is worth their build
+    (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
+    :mod:`brdfkit.kernel_cache` keeps them). Returns the linear image and the samples per
+    pixel spent."""
+    from brdfkit.mitsuba_scenes import interior_mask
+    from brdfkit.render import progressive_sphere
+    from brdfkit.render_kernel import AUTO_COMPILE_WORK
+
+    mask = interior_mask(resolution)
+    limit = samples if noise is None else max(samples, max_samples)
+    compiled = math.pi / 4 * resolution**2 * limit >= AUTO_COMPILE_WORK
+    for shaded in progressive_sphere(
+        model, light, resolution, first_samples=samples, max_samples=limit, seed=seed,
+        compiled=compiled,
+    ):  # fmt: skip
+        if noise is None or not np.any(shaded.stderr[mask]):
+            break
+        error = shaded.stderr if shaded.error is None else shaded.error
+        error2 = np.mean(error[mask] ** 2) * (1 + 1 / 16)
+        if error2 <= (_MARGIN * noise) ** 2 * np.mean(shaded.image[mask] ** 2):
+            break
+    return shaded.image, shaded.samples
+
+
+def _sphere_row(images: Sequence[np.ndarray], resolution: int) -> np.ndarray:
+    from brdfkit.plot import encode_spheres
 
     gap = np.zeros((resolution, 4, 3), np.uint8)
     tiles = []
-    for image in sphere_images(models, lights, resolution, samples):
+    for image in encode_spheres(images):
         tiles += [image, gap]
     return np.concatenate(tiles[:-1], axis=1)
 
@@ -216,22 +277,31 @@ def build_card(
     labels: Sequence[str] | None = None,
     resolution: int = 96,
     samples: int = 32,
+    noise: float | None = ENV_NOISE,
+    max_samples: int = ENV_MAX_SAMPLES,
     run_checks: bool = True,
 ) -> Card:
-    """Render and measure one model family (its example instances) into a :class:`Card`."""
+    """Render and measure one model family (its example instances) into a :class:`Card`:
+    spheres under a directional light at ``samples`` spp, under ``envmap`` by
+    :func:`env_sphere` (``samples``, ``noise``, ``max_samples``)."""
     from brdfkit.lights import DirectionalLight
     from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
+    from brdfkit.render import render_sphere
 
     models = list(models)
     labels = list(labels) if labels is not None else [model_label(m) for m in models]
     card = Card(title, models, labels, docs=_docs_of(models[0]))
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
-    card.images["spheres under a directional light"] = _image_png(
-        _sphere_row(models, sun, resolution, samples)
-    )
+    lit = [render_sphere(m, sun, resolution, samples=samples) for m in models]
+    card.images["spheres under a directional light"] = _image_png(_sphere_row(lit, resolution))
+    spheres = [
+        env_sphere(m, envmap, resolution, samples=samples, noise=noise, max_samples=max_samples)
+        for m in models
+    ]
+    card.env_samples = [spp for _, spp in spheres]
     card.images["spheres under the environment map"] = _image_png(
-        _sphere_row(models, envmap, resolution, samples)
+        _sphere_row([image for image, _ in spheres], resolution)
     )
     representative = models[len(models) // 2]
     card.images["lobe (plane of incidence)"] = _png(
@@ -336,6 +406,9 @@ def card_html(card: Card) -> str:
     parts.append("<p><b>Examples</b> (left to right)</p><ol>")
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
+    if card.env_samples:
+        spp = ", ".join(map(str, card.env_samples))
+        parts.append(f"<p class='claim'>Samples per pixel under the environment map: {spp}</p>")
     parts.append('<div class="row">')
     parts.extend(_img(data, caption) for caption, data in card.images.items())
     parts.append("</div>")
@@ -430,10 +503,13 @@ def build_atlas(
     *,
     resolution: int = 96,
     samples: int = 32,
+    noise: float | None = ENV_NOISE,
+    max_samples: int = ENV_MAX_SAMPLES,
     run_checks: bool = True,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> Path:
-    """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path."""
+    """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path
+    (options as :func:`build_card`)."""
     from brdfkit.data import default_envmap_path
     from brdfkit.io import atomic_write
     from brdfkit.lights import EnvironmentMap
@@ -441,7 +517,13 @@ def build_atlas(
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
     entries = default_cards(models)
-    options = {"envmap": light, "resolution": resolution, "samples": samples}
+    options = {
+        "envmap": light,
+        "resolution": resolution,
+        "samples": samples,
+        "noise": noise,
+        "max_samples": max_samples,
+    }
     cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
     page = atlas_html(cards, envmap_path.name)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
@@ -449,10 +531,13 @@ def build_atlas(
 
 __all__ = [
     "DEFAULT_MODELS",
+    "ENV_MAX_SAMPLES",
+    "ENV_NOISE",
     "Card",
     "atlas_html",
     "build_atlas",
     "build_card",
     "card_html",
     "default_cards",
+    "env_sphere",
 ]

@@ -8,6 +8,7 @@ import typer
 
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
+from brdfkit.report import ENV_MAX_SAMPLES, ENV_NOISE
 
 
 @app.command("atlas")
@@ -29,7 +30,26 @@ def atlas_command(
         help="Lat-long .hdr/.exr map; default: the bundled Poly Haven map.",
     ),
     resolution: int = typer.Option(96, "--resolution", "-r", metavar="PIXELS", min=16, max=1024),
-    samples: int = typer.Option(32, "--samples", "-s", metavar="N", min=1, max=4096),
+    samples: int = typer.Option(
+        32, "--samples", "-s", metavar="N", min=1, max=4096, help="Samples per pixel (first pass)."
+    ),
+    noise: float = typer.Option(
+        ENV_NOISE or 0.0,
+        "--noise",
+        metavar="REL_RMSE",
+        min=0.0,
+        max=1.0,
+        help="Refine each environment-lit sphere until its estimated relative RMSE against a "
+        "16×-spp render is below this, e.g. 0.01 (minutes); 0: every sphere at --samples.",
+    ),
+    max_samples: int = typer.Option(
+        ENV_MAX_SAMPLES,
+        "--max-samples",
+        metavar="N",
+        min=1,
+        max=65536,
+        help="Most samples per pixel of one environment-lit sphere.",
+    ),
     checks: bool = typer.Option(True, "--checks/--no-checks", help="Run the physics checks."),
 ) -> None:
     """Write an HTML atlas: every model's formula, spheres, lobes, albedo and physics checks."""
@@ -62,6 +82,8 @@ def atlas_command(
                 envmap,
                 resolution=resolution,
                 samples=samples,
+                noise=noise or None,
+                max_samples=max_samples,
                 run_checks=checks,
                 progress=step,
             ),
