@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.brdf import KullaContyDielectric
-from brdfkit.brdf.kulla_conty_dielectric import SPLITS, dielectric_albedo
+from brdfkit.brdf.kulla_conty_dielectric import SPLITS, added_albedo, dielectric_albedo
 from brdfkit.brdf.random_walk import dielectric_random_walk_albedo
 from brdfkit.io import atomic_write
 
@@ -32,19 +32,6 @@ ETAS = (1.33, 1.5, 2.2, 1 / 1.5)
 ALPHAS = (0.05, 0.2, 0.4, 0.6, 0.8, 1.0)
 THETAS = (0.0, 40.0, 60.0, 75.0, 84.0)
 PATHS = 1 << 17
-
-
-def added_albedo(model: KullaContyDielectric, wo: np.ndarray, n: int = 128) -> np.ndarray:
-    """∫ (f − f_ss)|cos θi| dωi on the side of ωo and on the other, by Gauss–Legendre in √μi."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    s, w = (x + 1) / 2, w / 2
-    mu = s * s
-    out = []
-    for side in (np.sign(wo[2]), -np.sign(wo[2])):
-        wi = np.stack([np.sqrt(1 - mu**2), 0 * mu, side * mu], axis=-1)
-        added = (model.eval(wi, wo) - model._single.eval(wi, wo))[:, 0]
-        out.append(2 * math.pi * np.sum(w * 2 * s * mu * added))
-    return np.array(out)
 
 
 def main() -> None:

@@ -11,6 +11,7 @@ import pytest
 
 from brdfkit.brdf import KullaContyDielectric, RoughDielectric
 from brdfkit.brdf.kulla_conty_dielectric import (
+    added_albedo,
     albedo_series,
     dielectric_albedo,
     split_node,
@@ -29,25 +30,11 @@ def _direction(degrees: float, side: float) -> np.ndarray:
     return np.array([math.sin(theta), 0.0, side * math.cos(theta)])
 
 
-def _added_albedo(model: KullaContyDielectric, wo: np.ndarray, n: int = 128) -> np.ndarray:
-    """∫ (f − f_ss)|cos θi| dωi over the side of ωo and over the other, ``(2,)``, by
-    Gauss–Legendre in √μi (the added lobes are isotropic in φi)."""
-    x, w = np.polynomial.legendre.leggauss(n)
-    s, w = (x + 1) / 2, w / 2
-    mu = s * s
-    out = []
-    for side in (np.sign(wo[2]), -np.sign(wo[2])):
-        wi = np.stack([np.sqrt(1 - mu**2), 0 * mu, side * mu], axis=-1)
-        added = (model.eval(wi, wo) - model._single.eval(wi, wo))[:, 0]
-        out.append(2 * math.pi * np.sum(w * 2 * s * mu * added))  # dμ = 2s ds
-    return np.array(out)
-
-
 def _compensated(model: KullaContyDielectric, wo: np.ndarray, nodes=(96, 64)) -> np.ndarray:
     """The model's flux albedo (R, T) from ``wo``: single scattering by quadrature plus the
     added lobes integrated from ``eval`` (importance mode)."""
     single = dielectric_albedo(model.alpha, model.eta, np.array([wo[2]]), nodes=nodes)[0]
-    return single + _added_albedo(model, wo)
+    return single + added_albedo(model, wo)
 
 
 def _furnace_worst(etas, alphas, thetas) -> float:
@@ -162,7 +149,7 @@ def test_the_added_lobes_carry_their_shares(split, eta):
     for degrees, side in ((10.0, 1.0), (50.0, -1.0), (80.0, 1.0), (80.0, -1.0)):
         wo = _direction(degrees, side)
         a, b = (float(v[0, 0]) for v in model.shares(wo[None]))
-        np.testing.assert_allclose(_added_albedo(model, wo), [a, b], rtol=1e-3, atol=1e-7)
+        np.testing.assert_allclose(added_albedo(model, wo), [a, b], rtol=1e-3, atol=1e-7)
         assert a + b == pytest.approx(1 - float(model.E(wo[None])[0, 0]), abs=1e-12)
         assert a >= 0 and b >= 0
 

@@ -484,6 +484,22 @@ class KullaContyDielectric(BRDF):
         return interface_sampling_weight(wo)
 
 
+def added_albedo(model: KullaContyDielectric, wo: np.ndarray, n: int = 128) -> np.ndarray:
+    r"""The albedo the compensation adds at ``wo`` ``(3,)``: :math:`\int (f - f_{ss})
+    |\cos\theta_i|\, d\omega_i` over the side of ``wo`` and over the other, ``(2,)``, by
+    ``n``-node Gauss–Legendre in :math:`\sqrt{\mu_i}` (the added lobes are isotropic in
+    :math:`\phi_i`)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    s, w = (x + 1) / 2, w / 2
+    mu = s * s
+    out = []
+    for side in (np.sign(wo[2]), -np.sign(wo[2])):
+        wi = np.stack([np.sqrt(1 - mu**2), 0 * mu, side * mu], axis=-1)
+        added = (model.eval(wi, wo) - model._single.eval(wi, wo))[:, 0]
+        out.append(2 * math.pi * np.sum(w * 2 * s * mu * added))  # dμ = 2s ds
+    return np.array(out)
+
+
 __all__ = [
     "COMPENSATED_IOR",
     "ETA_RANGE",
@@ -491,6 +507,7 @@ __all__ = [
     "SPLIT_TABLE_AXES",
     "SPLIT_TABLE_PATHS",
     "KullaContyDielectric",
+    "added_albedo",
     "albedo_series",
     "dielectric_albedo",
     "single_scattering",
