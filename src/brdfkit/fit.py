@@ -81,9 +81,10 @@ spins and makes them tens of times slower). Lambertian + 2 GGX lobes fitted to a
 steps), both α recovered to 10⁻¹⁵, 1.2–2.5 s against 2.2–2.9 s by scipy's differences, on 2 quiet
 cores (2026-12-02; 6.2–7.2 s against 63–73 s under a load average of 16 before the work below,
 where threaded BLAS spun); ``benchmarks/bench_fit.py``. Torch autograd would not make it
-cheaper: a forward and backward pass of that model on all the nodes takes about as long as one NumPy evaluation (0.56–0.74 s against
-0.46–0.56 s, quiet), and it gives a gradient, whereas the trust-region least squares needs the
-whole Jacobian (one backward pass per residual, or one forward-mode pass per parameter).
+cheaper: a forward and backward pass of that model on all the nodes takes about as long as one
+NumPy evaluation (0.56–0.74 s against 0.46–0.56 s, quiet), and it gives a gradient, whereas the
+trust-region least squares needs the whole Jacobian (one backward pass per residual, or one
+forward-mode pass per parameter).
 
 **Memory and repeated work.** A pass over all of a MERL table's 1.11 M measured nodes is bound
 by memory traffic (each direction array is 27 MB, each step of a model's evaluation reads and
