@@ -805,7 +805,7 @@ class _LobeValues:
         level: float | None = None,
     ):
         self.lobes, self.free, self.data = lobes, free, data
-        self.level = log_scale(data) if level is None else level  # the log objective's
+        self.level = log_scale(data) if level is None else level  # the log objective's s
         self.owner = [(p, j) for p in free for j in range(p.size)]
         self._key: bytes | None = None
         self._values: list[tuple[np.ndarray, np.ndarray]] = []
