@@ -1,20 +1,27 @@
 """Dask: batch-fitting scaling 1 → 2 workers, and out-of-core photometric stereo under a memory
 limit.
 
-1. **Batch scaling.** ``--fits`` fits (MERL files written from Lambertian + GGX, each fitted
-   with ``lambertian + ggx``, one start, seeds differing) run by
+1. **Batch scaling.** ``--fits`` fits in the pattern of Ngan et al.'s study, every file ×
+   every model: ``--fits / --models-per-file`` distinct MERL files (written from Lambertian +
+   GGX, each with its own albedo and roughness), each fitted with the first
+   ``--models-per-file`` of :data:`MODELS` (one start), run by
    :func:`brdfkit.distributed.batch.run` on a LocalCluster of 1 worker process and of 2, each
    cluster started before its clock starts; the two are **interleaved** ``--repeats`` times
    (1, 2, 1, 2, …) and the minimum of each is kept. Speed-up = t(1 worker) / t(2 workers).
-   Every repeat runs the same fits (the same seeds), so the two minima time the same work; with
-   seeds differing per repeat (as before 2026-12-02), fits' iteration counts differ and the
-   minima compared different batches (one worker: 29–36 s at the same CPU share).
-   The workers are brdfkit's (:func:`brdfkit.distributed.cluster.local_cluster`: glibc's
-   adaptive mmap threshold kept, see ``WORKER_CONFIG``).
-   Each worker first runs one fit outside the clock (imports and JIT compilation, seconds per
-   process: the steady state is measured, as compile time is kept apart elsewhere).
+   Every repeat runs the same fits, so the two minima time the same work.
+   A worker prepares a file once for all its fits of that file (``batch.CACHED_FILES``): with
+   several models per file each worker reads, hashes and prepares each file at most about
+   once (the scheduler hands a file's fits to whichever worker is free, so both workers may
+   prepare it); ``--models-per-file 1`` is the case where every fit has a file of its own.
+   The workers are ``brdfkit fit``'s (:func:`brdfkit.distributed.cluster.local_cluster` with
+   ``keep_memory``: freed memory kept for the next fit, see ``KEEP_MEMORY_CONFIG``).
+   Each worker first runs one fit of a file outside the batch, outside the clock (imports and
+   JIT compilation, seconds per process: the steady state is measured, as compile time is kept
+   apart elsewhere).
    "Cores busy" = the workers' CPU seconds per wall second: near 1 and 2 on a quiet machine;
    when the 2-worker run gets no more than the 1-worker one, the machine had no core to give.
+   "CPU per fit" = the workers' CPU seconds over the fits: equal for 1 and 2 workers when the
+   two processes do not slow each other down (through shared memory bandwidth and caches).
 2. **Out of core.** A Lambertian sphere stack ``(N, H, W, 3)`` float32 is written straight to a
    Zarr store (one band at a time), several times larger than the memory limit given to the
    workers (LocalCluster ``memory_limit``; Dask pauses a worker at 80 % of it and restarts one
@@ -26,7 +33,8 @@ limit.
 Prints a summary and one JSON object; ``--json-out FILE`` keeps it. The machine may be shared:
 timings are noisy, the interleaving is there to spread bursts of load over both sides.
 
-    python benchmarks/bench_dask.py   # --fits 8 --repeats 2 --size 2304 --limit 256MiB
+    python benchmarks/bench_dask.py  # --fits 8 --models-per-file 4 --repeats 2 --size 2304
+    # --limit 256MiB
 """
 
 from __future__ import annotations
@@ -52,40 +60,37 @@ def _peak_rss() -> int:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
-def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
+MODELS = ("lambertian + ggx", "lambertian + beckmann", "lambertian + ward",
+          "lambertian + cook_torrance", "lambertian + blinn_phong")  # fmt: skip
+"""The models of a file's fits, in this order (Ngan et al. fit seven to each material)."""
+
+
+def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -> dict:
     from brdfkit.brdf import parse
     from brdfkit.distributed import batch
     from brdfkit.distributed.cluster import local_cluster
     from brdfkit.measured import write_merl
     from distributed import Client
 
+    count = -(-fits // models_per_file)
     files = []
-    for k in range(2):
+    for k in range(count + 1):  # the last one only warms the workers up
         files.append(folder / f"m{k}.binary")
-        write_merl(
-            files[-1], parse(f"lambertian(rho={0.3 + 0.2 * k}) + ggx(alpha={0.15 + 0.1 * k})")
-        )
+        rho, alpha = 0.2 + 0.5 * k / count, 0.08 + 0.3 * ((k * 5) % count) / count
+        write_merl(files[-1], parse(f"lambertian(rho={rho:.3f}) + ggx(alpha={alpha:.3f})"))
     options = {"objective": "cube_root", "loss": "soft_l1", "loss_scale": 0.5, "mode": "shared",
                "starts": 1, "fixed": [], "seed": 0}  # fmt: skip
-    base = batch.tasks(files, ["lambertian + ggx"], **options)
+    tasks = batch.tasks(files[:-1], MODELS[:models_per_file], **options)[:fits]
+    warm = batch.tasks(files[-1:], MODELS[:1], **options)[0]
     times: dict[int, list[float]] = {1: [], 2: []}
     cores: dict[int, list[float]] = {1: [], 2: []}  # worker CPU seconds per wall second
+    cpu_per_fit: dict[int, list[float]] = {1: [], 2: []}
     for repeat in range(repeats):
         for workers in (1, 2):
-            tasks = [
-                batch.FitTask(
-                    t.file,
-                    t.file_sha256,
-                    t.model,
-                    {**t.options, "seed": s},  # the same fits on 1 and 2 workers, every repeat
-                )
-                for s in range(fits // len(base) + 1)
-                for t in base
-            ][:fits]
-            with local_cluster(workers) as cluster, Client(cluster) as client:
+            with local_cluster(workers, keep_memory=True) as cluster, Client(cluster) as client:
                 # imports and each worker's first fit (its JIT compilation, seconds) outside
                 # the clock, as compile time is kept apart in the other benchmarks
-                client.run(batch.fit_one, base[0])
+                client.run(batch.fit_one, warm)
                 cpu = sum(client.run(time.process_time).values())
                 began = time.perf_counter()
                 done: list[str] = []
@@ -95,12 +100,15 @@ def batch_scaling(fits: int, repeats: int, folder: Path) -> dict:
                 times[workers].append(time.perf_counter() - began)
                 cpu = sum(client.run(time.process_time).values()) - cpu
                 cores[workers].append(cpu / times[workers][-1])
-            assert done.count("ok") == fits, done
+                cpu_per_fit[workers].append(cpu / len(tasks))
+            assert done.count("ok") == len(tasks), done
             print(f"  batch repeat {repeat + 1}: {workers} worker(s) {times[workers][-1]:.1f} s, "
-                  f"{cores[workers][-1]:.2f} cores busy", file=sys.stderr)  # fmt: skip
+                  f"{cores[workers][-1]:.2f} cores busy, "
+                  f"{cpu_per_fit[workers][-1]:.3f} CPU s per fit", file=sys.stderr)  # fmt: skip
     best = {w: min(t) for w, t in times.items()}
-    return {"fits": fits, "repeats": repeats, "seconds": times, "best_seconds": best,
-            "cores_busy": cores,
+    return {"fits": len(tasks), "distinct_files": count, "models": list(MODELS[:models_per_file]),
+            "repeats": repeats, "seconds": times, "best_seconds": best, "cores_busy": cores,
+            "cpu_seconds_per_fit": cpu_per_fit,
             "speedup_1_to_2": best[1] / best[2]}  # fmt: skip
 
 
@@ -164,6 +172,8 @@ def out_of_core(size: int, lights: int, limit: str, tile: int, folder: Path) -> 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fits", type=int, default=8)
+    parser.add_argument("--models-per-file", type=int, default=4, choices=range(1, 6),
+                        help="fits per file (each with another model)")  # fmt: skip
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--size", type=int, default=2304, help="stack image side (pixels)")
     parser.add_argument("--lights", type=int, default=32)
@@ -176,18 +186,23 @@ def main() -> None:
     report = {"cpus": os.cpu_count(), "load_average": os.getloadavg()}
     with tempfile.TemporaryDirectory(prefix="bench-dask-") as scratch:
         if not args.skip_batch:
-            report["batch"] = batch_scaling(args.fits, args.repeats, Path(scratch))
+            report["batch"] = batch_scaling(
+                args.fits, args.models_per_file, args.repeats, Path(scratch)
+            )
         if not args.skip_ooc:
             report["out_of_core"] = out_of_core(args.size, args.lights, args.limit, args.tile,
                                                 Path(scratch))  # fmt: skip
     report["load_average_after"] = os.getloadavg()
     if "batch" in report:
         b = report["batch"]
-        print(f"batch fitting: {b['fits']} fits, best of {b['repeats']}: 1 worker "
+        print(f"batch fitting: {b['fits']} fits ({b['distinct_files']} distinct files x "
+              f"{len(b['models'])} models), best of {b['repeats']}: 1 worker "
               f"{b['best_seconds'][1]:.1f} s, 2 workers {b['best_seconds'][2]:.1f} s -> speed-up "
               f"{b['speedup_1_to_2']:.2f}x (target >= 1.8x); cores busy "
               f"{[round(c, 2) for c in b['cores_busy'][1]]} and "
-              f"{[round(c, 2) for c in b['cores_busy'][2]]}")  # fmt: skip
+              f"{[round(c, 2) for c in b['cores_busy'][2]]}; CPU s per fit "
+              f"{[round(c, 3) for c in b['cpu_seconds_per_fit'][1]]} and "
+              f"{[round(c, 3) for c in b['cpu_seconds_per_fit'][2]]}")  # fmt: skip
     if "out_of_core" in report:
         o = report["out_of_core"]
         mib = 2**20

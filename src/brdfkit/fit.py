@@ -240,6 +240,8 @@ def fit_data(
             f"measured must be a BRDF or MeasuredSamples; got {type(measured).__name__}"
         )
     valid = data.valid
+    if valid.all():  # as fit_data returns them (a batch reuses them): no copies
+        return data
     return dataclasses.replace(
         data,
         wi=data.wi[valid],
@@ -365,7 +367,11 @@ def fit_errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005.
     """
-    scale = log_scale(data)
+    return _errors(model, data, log_scale(data))
+
+
+def _errors(model: BRDF, data: MeasuredSamples, scale: float) -> dict[str, float]:
+    """:func:`fit_errors` with the log objective's level ``scale`` (:func:`log_scale`) given."""
     squares = dict.fromkeys(("rmse", "cosine_rmse", "log_rmse", "cube_root_rmse", "data"), 0.0)
     for start in range(0, data.wi.shape[0], _BLOCK):  # cache-sized blocks (see _BLOCK)
         block = _rows(data, slice(start, start + _BLOCK))
@@ -717,8 +723,12 @@ def _is_colour(p: _Free) -> bool:
 def _typical_size(data: MeasuredSamples, objective: str, scale: float) -> float:
     """The median over the measurements of their mean channel on ``objective``'s scale (1 if
     that is 0: most measurements black; ``scale``: the log objective's level)."""
-    compressed = _compressed(data.values, data.wi[:, 2:3], objective, scale)
-    size = float(np.median(np.abs(compressed).mean(axis=1)))
+    means = np.empty(data.wi.shape[0])
+    for start in range(0, means.size, _BLOCK):  # cache-sized blocks (see _BLOCK)
+        rows = slice(start, start + _BLOCK)
+        compressed = _compressed(data.values[rows], data.wi[rows, 2:3], objective, scale)
+        np.abs(compressed).mean(axis=1, out=means[rows])
+    size = float(np.median(means, overwrite_input=True))
     return size if size > 0 else 1.0
 
 
@@ -1122,7 +1132,7 @@ def fit(
         model=result_model,
         spec=result_model.to_spec(),
         params=params,
-        errors=fit_errors(result_model, data),
+        errors=_errors(result_model, data, level),
         objective=objective,
         loss=loss,
         loss_scale=robust.f_scale,

@@ -114,3 +114,56 @@ def test_a_worker_killed_mid_batch_still_yields_every_result_once(files):
     keys = [key for key, _ in results]
     assert sorted(keys) == sorted(t.key for t in planned)  # every fit, exactly once
     assert all(record["status"] == "ok" for _, record in results)
+
+
+@pytest.mark.slow
+def test_a_batch_prepares_each_file_once_for_all_its_models(files, monkeypatch):
+    import brdfkit.measured as measured_io
+    from distributed import Client, LocalCluster
+
+    reads: list[str] = []
+
+    def counted(path, *args, **kwargs):
+        reads.append(str(path))
+        return read_merl(path, *args, **kwargs)
+
+    monkeypatch.setattr(measured_io, "read_merl", counted)  # workers are threads here
+    planned = batch.tasks(files, MODELS, **OPTIONS)
+    records = {}
+    with (
+        LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=False,
+            dashboard_address=None,
+            silence_logs=50,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        batch.run(client, planned, lambda task, record: records.setdefault(task.key, record))
+    assert sorted(reads) == sorted(map(str, files))  # once per file, not once per fit
+    for task in planned:
+        alone = fit(read_merl(task.file), task.model, **OPTIONS).to_dict()
+        record = records[task.key]
+        assert {k: record[k] for k in DETERMINED} == {k: alone[k] for k in DETERMINED}
+        assert record["errors"] == pytest.approx(alone["errors"], rel=1e-12, abs=1e-300)
+
+
+def test_a_changed_file_or_a_bad_seed_is_reported_by_each_fit(files, tmp_path):
+    copy = tmp_path / "copy.binary"
+    copy.write_bytes(files[0].read_bytes())
+    (task,) = batch.tasks([copy], MODELS[:1], **OPTIONS)
+    copy.write_bytes(files[1].read_bytes())
+    message = f"{copy}: changed since the batch was planned"
+    assert batch.prepare(task) == message
+    for model in MODELS:
+        other = batch.FitTask(task.file, task.file_sha256, model, OPTIONS)
+        record = batch.fit_prepared(other, message)
+        assert (record["status"], record["message"], record["key"]) == ("error", message, other.key)
+    (replanned,) = batch.tasks([copy], MODELS[:1], **OPTIONS)
+    record = batch.fit_one(replanned)
+    assert record["params"] == fit(read_merl(files[1]), MODELS[0], **OPTIONS).params
+    bad = batch.FitTask(task.file, replanned.file_sha256, task.model, {**OPTIONS, "seed": "0"})
+    record = batch.fit_one(bad)
+    assert record["status"] == "error"
+    assert record["message"] == f"seed must be an integer in [0, {2**63 - 1}]; got '0'"

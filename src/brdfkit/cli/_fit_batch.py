@@ -44,7 +44,10 @@ def run_batch(
         status.print(f"{skipped} of {len(planned)} fits are done in {shown(output)}; skipping them")
     fits = {t.key: OutputFolder(output / t.folder, ("fit.json",), inputs=files) for t in todo}
     if todo:
-        with cluster.client(workers, scheduler) as dask_client, progress() as bar:
+        with (
+            cluster.client(workers, scheduler, keep_memory=True) as dask_client,
+            progress() as bar,
+        ):
             task = bar.add_task(f"fitting on {_workers(dask_client)} workers", total=len(todo))
 
             def record(fit_task: batch.FitTask, result: dict[str, Any]) -> None:

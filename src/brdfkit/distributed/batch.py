@@ -7,6 +7,14 @@ renaming or moving a file keeps its results, and changing a byte or an option ma
 Tasks return their record to the client, which alone writes files: a task that Dask runs again
 (its worker died) cannot write twice, and workers need no access to the output folder.
 
+A file is read, checked against its planned hash and made into the samples a fit uses
+(:func:`prepare`) once per batch, by one task that all its fits depend on: a user fits each file
+with several models, and for a MERL table this preparation passes over the 1.46 M-entry table
+several times, which costs as much as a two-lobe fit and is bound by the memory bandwidth that
+the workers share. Dask runs the fits where their file's samples are (it moves them, 80 MB for
+MERL, only when that pays), keeps the samples while fits of them wait and prepares them again
+if their worker dies.
+
 References
 ----------
 .. [1] A. Ngan, F. Durand, W. Matusik, "Experimental analysis of BRDF models", EGSR 2005 (the
@@ -25,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from brdfkit.errors import BrdfkitError, FormatError
+from brdfkit.errors import BrdfkitError, FormatError, ParameterError
 
 READERS = {".binary": "read_merl", ".bsdf": "read_rgl", ".brdf": "read_cornell"}
 """The reader of each measured format, by file suffix."""
@@ -91,11 +99,31 @@ def tasks(files: Iterable[str | Path], models: Iterable[str], **options: Any) ->
     return result
 
 
-def fit_one(task: FitTask) -> dict[str, Any]:
-    """Run one fit (on a worker); return its record: the task's identity and
-    :meth:`brdfkit.fit.FitResult.to_dict`, ``status`` ``"ok"``; or ``status`` ``"error"`` and
-    the error's message when the file or the options are refused (or the fit fails)."""
+def prepare(task: FitTask) -> Any:
+    """The measurements :func:`brdfkit.fit.fit` fits for ``task`` (a worker's task): its file
+    read and checked against the planned hash, then :func:`brdfkit.fit.fit_data` at the task's
+    seed (which draws the samples of a BRDF that is no table); or, when the file or the seed is
+    refused, the error's message (a ``str``), which each fit of it reports."""
     import brdfkit.measured as measured_io
+    from brdfkit.fit import fit_data
+
+    try:
+        seed = task.options.get("seed", 0)
+        if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2**63:
+            raise ParameterError(f"seed must be an integer in [0, {2**63 - 1}]; got {seed!r:.40}")
+        if file_sha256(task.file) != task.file_sha256:
+            raise FormatError(task.file, "changed since the batch was planned")
+        reader = getattr(measured_io, READERS[Path(task.file).suffix.lower()])
+        return fit_data(reader(task.file), seed=seed)
+    except Exception as error:
+        return _message(error)
+
+
+def fit_prepared(task: FitTask, measurements: Any) -> dict[str, Any]:
+    """Run one fit on the ``measurements`` of :func:`prepare` (a worker's task); return its
+    record: the task's identity and :meth:`brdfkit.fit.FitResult.to_dict`, ``status``
+    ``"ok"``; or ``status`` ``"error"`` and the error's message when the file or the options
+    are refused (or the fit fails)."""
     from brdfkit.fit import fit
 
     record: dict[str, Any] = {
@@ -105,21 +133,27 @@ def fit_one(task: FitTask) -> dict[str, Any]:
         "model": task.model,
         "options": task.options,
     }
+    if isinstance(measurements, str):
+        return {**record, "status": "error", "message": measurements}
     try:
-        if file_sha256(task.file) != task.file_sha256:
-            raise FormatError(task.file, "changed since the batch was planned")
-        reader = getattr(measured_io, READERS[Path(task.file).suffix.lower()])
-        result = fit(reader(task.file), task.model, **task.options)
-    except (BrdfkitError, ValueError, OSError) as error:
-        return {**record, "status": "error", "message": str(error) or type(error).__name__}
-    except Exception as error:  # a bug: keep the batch going, and say where
-        where = traceback.format_exc(limit=-1).strip().splitlines()[-2].strip()
-        return {
-            **record,
-            "status": "error",
-            "message": f"{type(error).__name__}: {error} ({where})",
-        }
+        result = fit(measurements, task.model, **task.options)
+    except Exception as error:
+        return {**record, "status": "error", "message": _message(error)}
     return {**record, "status": "ok", **result.to_dict()}
+
+
+def fit_one(task: FitTask) -> dict[str, Any]:
+    """:func:`fit_prepared` on :func:`prepare` of ``task``: one fit in this process."""
+    return fit_prepared(task, prepare(task))
+
+
+def _message(error: Exception) -> str:
+    """A refused input's message; for any other exception (a bug, which must not stop the
+    batch) its type, message and where it was raised. Call it in the ``except`` block."""
+    if isinstance(error, BrdfkitError | ValueError | OSError):
+        return str(error) or type(error).__name__
+    where = traceback.format_exc(limit=-1).strip().splitlines()[-2].strip()
+    return f"{type(error).__name__}: {error} ({where})"
 
 
 def run(
@@ -128,13 +162,31 @@ def run(
     on_result: Callable[[FitTask, dict[str, Any]], None],
 ) -> None:
     """Fit every task of ``batch`` on ``dask_client``; call ``on_result(task, record)`` as each
-    finishes (once per task, in the order they finish)."""
-    from brdfkit.distributed.cluster import completed
+    finishes (once per task, in the order they finish).
+
+    Each file is prepared by one task per seed (:func:`prepare`), which its fits
+    (:func:`fit_prepared`) depend on. Tasks are named by their keys (``prepare-<key of the
+    first fit>``, ``fit-<key>``), so a fit that Dask runs again after its worker died still
+    yields one result.
+    """
+    from distributed import as_completed
 
     by_key = {task.key: task for task in batch}
-    arguments = {key: (task,) for key, task in by_key.items()}
-    for key, record in completed(dask_client, fit_one, arguments, prefix="fit"):
-        on_result(by_key[key], record)
+    prepared: dict[tuple[str, str], Any] = {}  # by (file hash, seed)
+    futures = {}
+    for key, task in by_key.items():
+        content = (task.file_sha256, json.dumps(task.options.get("seed", 0), default=repr))
+        if content not in prepared:
+            prepared[content] = dask_client.submit(
+                prepare, task, key=f"prepare-{key}", pure=False, retries=0
+            )
+        future = dask_client.submit(
+            fit_prepared, task, prepared[content], key=f"fit-{key}", pure=False, retries=0
+        )
+        futures[future] = key
+    del prepared  # the samples are kept only while fits of them wait
+    for future, record in as_completed(futures, with_results=True):
+        on_result(by_key[futures[future]], record)
 
 
 def read_records(text: str) -> dict[str, dict[str, Any]]:
