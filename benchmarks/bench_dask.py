@@ -9,10 +9,10 @@ limit.
    cluster started before its clock starts; the two are **interleaved** ``--repeats`` times
    (1, 2, 1, 2, …) and the minimum of each is kept. Speed-up = t(1 worker) / t(2 workers).
    Every repeat runs the same fits, so the two minima time the same work.
-   A worker prepares a file once for all its fits of that file (``batch.CACHED_FILES``): with
-   several models per file each worker reads, hashes and prepares each file at most about
-   once (the scheduler hands a file's fits to whichever worker is free, so both workers may
-   prepare it); ``--models-per-file 1`` is the case where every fit has a file of its own.
+   A file is prepared (read, hashed, made into samples) once per batch by a task that its
+   fits depend on, and Dask runs the fits where the samples are: "moved" counts the prepared
+   files a worker received from the other (80 MB each); ``--models-per-file 1`` is the case
+   where every fit has a file of its own.
    The workers are ``brdfkit fit``'s (:func:`brdfkit.distributed.cluster.local_cluster` with
    ``keep_memory``: freed memory kept for the next fit, see ``KEEP_MEMORY_CONFIG``).
    Each worker first runs one fit of a file outside the batch, outside the clock (imports and
@@ -65,6 +65,11 @@ MODELS = ("lambertian + ggx", "lambertian + beckmann", "lambertian + ward",
 """The models of a file's fits, in this order (Ngan et al. fit seven to each material)."""
 
 
+def _transfers(dask_worker) -> int:
+    """Data a worker received from another (a file's samples prepared elsewhere)."""
+    return dask_worker.transfer_incoming_count_total
+
+
 def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -> dict:
     from brdfkit.brdf import parse
     from brdfkit.distributed import batch
@@ -85,6 +90,7 @@ def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -
     times: dict[int, list[float]] = {1: [], 2: []}
     cores: dict[int, list[float]] = {1: [], 2: []}  # worker CPU seconds per wall second
     cpu_per_fit: dict[int, list[float]] = {1: [], 2: []}
+    moved: dict[int, list[int]] = {1: [], 2: []}  # prepared files sent between workers
     for repeat in range(repeats):
         for workers in (1, 2):
             with local_cluster(workers, keep_memory=True) as cluster, Client(cluster) as client:
@@ -100,15 +106,17 @@ def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -
                 times[workers].append(time.perf_counter() - began)
                 cpu = sum(client.run(time.process_time).values()) - cpu
                 cores[workers].append(cpu / times[workers][-1])
+                moved[workers].append(sum(client.run(_transfers).values()))
                 cpu_per_fit[workers].append(cpu / len(tasks))
             assert done.count("ok") == len(tasks), done
             print(f"  batch repeat {repeat + 1}: {workers} worker(s) {times[workers][-1]:.1f} s, "
                   f"{cores[workers][-1]:.2f} cores busy, "
-                  f"{cpu_per_fit[workers][-1]:.3f} CPU s per fit", file=sys.stderr)  # fmt: skip
+                  f"{cpu_per_fit[workers][-1]:.3f} CPU s per fit, {moved[workers][-1]} "
+                  f"prepared files moved", file=sys.stderr)  # fmt: skip
     best = {w: min(t) for w, t in times.items()}
     return {"fits": len(tasks), "distinct_files": count, "models": list(MODELS[:models_per_file]),
             "repeats": repeats, "seconds": times, "best_seconds": best, "cores_busy": cores,
-            "cpu_seconds_per_fit": cpu_per_fit,
+            "cpu_seconds_per_fit": cpu_per_fit, "prepared_files_moved": moved,
             "speedup_1_to_2": best[1] / best[2]}  # fmt: skip
 
 
