@@ -67,7 +67,7 @@ MODELS = ("lambertian + ggx", "lambertian + beckmann", "lambertian + ward",
 
 def _transfers(dask_worker) -> int:
     """Data a worker received from another (a file's samples prepared elsewhere)."""
-    return dask_worker.transfer_incoming_count_total
+    return dask_worker.state.transfer_incoming_count_total
 
 
 def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -> dict:
