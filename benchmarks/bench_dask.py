@@ -22,6 +22,12 @@ limit.
    when the 2-worker run gets no more than the 1-worker one, the machine had no core to give.
    "CPU per fit" = the workers' CPU seconds over the fits: equal for 1 and 2 workers when the
    two processes do not slow each other down (through shared memory bandwidth and caches).
+   Measured 2026-12-02 on the 2-core VM **under load** (load average 6–15 from other jobs; the
+   workers got 0.3–0.4 cores, so the wall-clock ratios say nothing), CPU s per fit, 1 → 2
+   workers, ``--fits 32``: 8 files × 4 models, the code before (each fit re-reads and
+   re-prepares its file; glibc's default heap) 1.04–1.32 → 1.80–1.86 (+60 %); now 0.63–0.73 →
+   0.72–0.75 (+8 %, with 3–4 of the 8 prepared files moved between workers); 32 files × 1
+   model 0.60–0.62 → 0.63–0.64 (+4 %).
 2. **Out of core.** A Lambertian sphere stack ``(N, H, W, 3)`` float32 is written straight to a
    Zarr store (one band at a time), several times larger than the memory limit given to the
    workers (LocalCluster ``memory_limit``; Dask pauses a worker at 80 % of it and restarts one
