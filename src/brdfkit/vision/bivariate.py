@@ -65,6 +65,9 @@ from brdfkit.vision.photometric_stereo import (
 MAX_ITERATIONS = 200
 """Largest ``iterations`` of the normal search."""
 
+BEST_START_RING = np.radians(12.0)
+"""Radius of the ring of 6 normals tried around the best start (:func:`_refine_normals`)."""
+
 STEP_TOLERANCE = 1e-6
 """A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
@@ -187,12 +190,16 @@ def _refine_normals(
 ) -> np.ndarray:
     """Levenberg–Marquardt on the tangent coordinates of every pixel's normal, ``(P, 3)``.
 
-    ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts for :func:`_best_start`.
+    ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts: then each pixel starts from
+    the candidate of least model cost, or from the best of it and a ring of 6 normals
+    :data:`BEST_START_RING` around it (a coarse global step against the local minima a
+    highlight puts near a biased least-squares start).
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
-    residual comes from forward differences of ``1e-4`` rad; a step (clipped to 0.2 per
-    coordinate) is kept for the pixels whose cost falls, and their damping shrinks by 3 (grows
-    by 4 otherwise; within [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
+    residual comes from forward differences of ``1e-4`` rad (kept through a rejected step: the
+    normal and residual did not change); a step (clipped to 0.2 per coordinate) is kept for the
+    pixels whose cost falls, and their damping shrinks by 3 (grows by 4 otherwise; within
+    [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
     (``callback`` is called after each iteration run).
     """
@@ -202,18 +209,29 @@ def _refine_normals(
 
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     free = np.ones((len(gray), basis.size), dtype=bool)  # each pixel's last active set
-    if normals.ndim == 3:
-        normals = _best_start(normals, gray, weights, lights, basis, nonnegative, free)
-    normals = np.array(normals, dtype=np.float64, order="C")
-    damping = np.full(len(normals), 1e-3)
-    residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
-    active = np.ones(len(normals), dtype=bool)
     inputs = _kernel_inputs(lights, basis)
+    if normals.ndim == 3:
+        starts = np.ascontiguousarray(normals, dtype=np.float64)
+        normals, residual, cost = (
+            np.empty((len(gray), 3)),
+            np.empty(gray.shape),
+            np.empty(len(gray)),
+        )
+        _bivariate_kernels.best_start(
+            starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
+            cost, free,
+        )  # fmt: skip
+    else:
+        normals = np.array(normals, dtype=np.float64, order="C")
+        residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
+    damping = np.full(len(normals), 1e-3)
+    active = np.ones(len(normals), dtype=bool)
+    products = np.zeros((len(normals), 6))  # J^T J, J^T r kept through rejected steps
     for iteration in range(iterations):
         with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
             _bivariate_kernels.lm_step(
                 normals, damping, residual, cost, active, free, gray, weights, *inputs,
-                nonnegative, STEP_TOLERANCE,
+                nonnegative, STEP_TOLERANCE, products,
             )  # fmt: skip
         if callback is not None:
             callback(iteration + 1, iterations)
@@ -272,38 +290,6 @@ def _start(
         length = np.linalg.norm(b, axis=1, keepdims=True)
         starts.append(np.where(length > 0, b / np.where(length > 0, length, 1.0), _VIEW))
     return lit, np.stack(starts)
-
-
-def _best_start(
-    starts: np.ndarray,
-    gray: np.ndarray,
-    weights: np.ndarray,
-    lights: np.ndarray,
-    basis: Basis,
-    nonnegative: bool,
-    free: np.ndarray,
-    ring: float = np.radians(12.0),
-) -> np.ndarray:
-    """Per pixel, the candidate of least model cost among ``starts`` ``(S, P, 3)`` and a ring of
-    6 normals ``ring`` radians around the best of them: a coarse global step against the
-    local minima a highlight puts near a biased least-squares start. ``free``: as
-    :func:`_fit`."""
-
-    def cost(normals: np.ndarray) -> np.ndarray:
-        return _fit(normals, gray, weights, lights, basis, nonnegative, free)[2]
-
-    def pick(candidates: list[np.ndarray]) -> np.ndarray:
-        costs = np.stack([cost(c) for c in candidates])
-        best = np.argmin(costs, axis=0)
-        return np.stack(candidates)[best, np.arange(len(best))]
-
-    normals = pick(list(starts))
-    t_1, t_2 = _tangent_frame(normals)
-    ring_normals = [normals]
-    for angle in np.arange(6) * np.pi / 3:
-        tilted = normals * np.cos(ring) + np.sin(ring) * (np.cos(angle) * t_1 + np.sin(angle) * t_2)
-        ring_normals.append(tilted)
-    return pick(ring_normals)
 
 
 def _finish(
