@@ -193,14 +193,6 @@ def test_ramps_system_equals_the_dense_gram(glossy):
         reference = (design.T * w) @ design
         np.testing.assert_allclose(gram[upper], reference[upper], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(rhs, (design.T * w) @ g, rtol=1e-12, atol=1e-12)
-        bins, fractions = scratch[0][: len(kept)], scratch[1][: len(kept)]
-        coef = rng.random(2 * steps)
-        prefix = np.concatenate([[0.0], np.cumsum(coef[:steps]), [0.0], np.cumsum(coef[steps:])])
-        model = [
-            _bivariate_kernels._ramps_model(j, bins, fractions, prefix, coef)
-            for j in range(len(kept))
-        ]
-        np.testing.assert_allclose(model, design @ coef, rtol=1e-12, atol=1e-12)
 
 
 def _ref_best_start(starts, gray, weights, lights, basis, nonnegative, ring=np.radians(12.0)):

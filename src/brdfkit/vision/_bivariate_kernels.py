@@ -240,12 +240,12 @@ def _ramps_system(
     nx, ny, nz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins, fractions,
     pairs, singles,
 ):  # pragma: no cover  # fmt: skip
-    """The weighted Gram and right-hand side of the ramps basis (:func:`_design`, ``RAMPS``)
-    from each observation's ramp indices: a row is ``(1, …, 1, f, 0, …, 0)`` in each lobe, so
+    """The weighted Gram and right-hand side of the ramps basis from each observation's
+    :func:`_ramp` indices: a row is ``(1, …, 1, f, 0, …, 0)`` in each lobe, so
     ``G_ab = sum_j w_j D_ja D_jb`` is a sum of the weights (and fractions) over the
     observations whose indices lie above ``a`` and ``b`` — sums by index, then suffix sums:
     ``O(M + K^2)`` instead of ``O(M K^2)``. The indices and fractions go to ``bins``,
-    ``fractions`` ``(M, 2)`` (the residual's model, :func:`_ramps_model`)."""
+    ``fractions`` ``(M, 2)`` (for the residual's model)."""
     steps = len(fa) - 1
     pairs[:, :, :] = 0.0  # [0] w, [1] w f_d, [2] w f_s, [3] w f_d f_s by (q_d, q_s)
     singles[:, :] = 0.0  # [0] w f_d^2, [1] w I, [2] w I f_d by q_d; [3-5] the same by q_s
@@ -299,21 +299,6 @@ def _ramps_system(
             gram[a, steps + b] = (
                 pairs[0, a + 1, b + 1] + pairs[1, a, b + 1] + pairs[2, a + 1, b] + pairs[3, a, b]
             )
-
-
-@_inline
-def _ramps_model(j, bins, fractions, prefix, coef):  # pragma: no cover
-    """The model ``sum_a D_ja c_a`` of observation ``j`` of :func:`_ramps_system` from the
-    prefix sums ``prefix`` ``(K + 2,)`` of each lobe's weights (``[0, c_0, c_0 + c_1, …]``
-    per lobe)."""
-    steps = len(coef) // 2
-    qd, qs = bins[j, 0], bins[j, 1]
-    model = prefix[qd] + prefix[steps + 1 + qs]
-    if qd < steps:
-        model += fractions[j, 0] * coef[qd]
-    if qs < steps:
-        model += fractions[j, 1] * coef[steps + qs]
-    return model
 
 
 @_jit
@@ -373,8 +358,15 @@ def _fit(
     residual[:] = 0.0
     cost = 0.0
     for j in range(m):
-        if kind == RAMPS:
-            model = _ramps_model(j, bins, fractions, prefix, coef)
+        if kind == RAMPS:  # sum_a D_ja c_a from the prefix sums (written here: a call per
+            # observation costs more than the sum)
+            steps = k // 2
+            qd, qs = bins[j, 0], bins[j, 1]
+            model = prefix[qd] + prefix[steps + 1 + qs]
+            if qd < steps:
+                model += fractions[j, 0] * coef[qd]
+            if qs < steps:
+                model += fractions[j, 1] * coef[steps + qs]
         else:
             model = 0.0
             for a in range(k):
