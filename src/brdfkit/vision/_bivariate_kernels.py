@@ -72,45 +72,61 @@ def _table_row(cos_h, n_h):  # pragma: no cover
 
 
 @_inline
-def _design(
-    kind, ints, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, fa, design
-):  # pragma: no cover
-    """The basis values, cosine factor included, of the observations ``kept[:m]`` into
-    ``design[:m]`` ``(M, K)`` (``BIPOLYNOMIAL`` or ``TABLE``; the ramps need no design matrix:
-    :func:`_ramps_system`)."""
-    if kind == BIPOLYNOMIAL:
-        for j in range(m):
-            n = kept[j]
-            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-            shading = max(cos_i, 0.0)
-            ch = max(cos_h, 0.0)
-            power_h = 1.0
-            k = 0
-            for _a in range(ints[0] + 1):
-                power_d = 1.0
-                for _b in range(ints[1] + 1):
-                    design[j, k] = shading * power_h * power_d
-                    power_d *= cos_d[n]
-                    k += 1
-                power_h *= ch
-    else:
-        n_h, n_d = ints[0], ints[1]
-        for j in range(m):
-            n = kept[j]
-            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-            shading = max(cos_i, 0.0)
-            i, fu = _table_row(cos_h, n_h)
-            c, fw = column[n], fraction[n]
-            value = (
-                fa[i * n_d + c] * ((1 - fu) * (1 - fw))
-                + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
-                + fa[i * n_d + c + 1] * ((1 - fu) * fw)
-                + fa[(i + 1) * n_d + c + 1] * (fu * fw)
-            )
-            design[j, 0] = shading
-            design[j, 1] = shading * value
+def _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design):  # pragma: no cover
+    """The bi-polynomial basis values, cosine factor included, of the observations ``kept[:m]``
+    into ``design[:m]`` ``(M, K)`` (the other bases: :func:`_ramps_system`,
+    :func:`_table_system`)."""
+    for j in range(m):
+        n = kept[j]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        shading = max(cos_i, 0.0)
+        ch = max(cos_h, 0.0)
+        power_h = 1.0
+        k = 0
+        for _a in range(ints[0] + 1):
+            power_d = 1.0
+            for _b in range(ints[1] + 1):
+                design[j, k] = shading * power_h * power_d
+                power_d *= cos_d[n]
+                k += 1
+            power_h *= ch
+
+
+@_jit
+def _table_system(
+    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design, gram,
+    rhs,
+):  # pragma: no cover  # fmt: skip
+    """The design ``max(0, n·l) (1, T(θ_h, θ_d))`` of the shared table (``T`` bilinear on the
+    ``ints = (n_h, n_d)`` nodes ``fa``) into ``design[:m]`` ``(M, 2)``, and its weighted Gram and
+    right-hand side summed in the same pass (each entry as the general loop of :func:`_fit`
+    sums it)."""
+    n_h, n_d = ints[0], ints[1]
+    g00 = g01 = g11 = r0 = r1 = 0.0
+    for j in range(m):
+        n = kept[j]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        shading = max(cos_i, 0.0)
+        i, fu = _table_row(cos_h, n_h)
+        c, fw = column[n], fraction[n]
+        value = (
+            fa[i * n_d + c] * ((1 - fu) * (1 - fw))
+            + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
+            + fa[i * n_d + c + 1] * ((1 - fu) * fw)
+            + fa[(i + 1) * n_d + c + 1] * (fu * fw)
+        )
+        d0, d1 = shading, shading * value
+        design[j, 0], design[j, 1] = d0, d1
+        w0, w1 = w_kept[j] * d0, w_kept[j] * d1
+        r0 += w0 * g_kept[j]
+        r1 += w1 * g_kept[j]
+        g00 += w0 * d0
+        g01 += w0 * d1
+        g11 += w1 * d1
+    gram[0, 0], gram[0, 1], gram[1, 1] = g00, g01, g11
+    rhs[0], rhs[1] = r0, r1
 
 
 @_jit
@@ -330,8 +346,13 @@ def _fit(
             nx, ny, nz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins,
             fractions, pairs, singles,
         )  # fmt: skip
+    elif kind == TABLE:
+        _table_system(
+            nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design,
+            gram, rhs,
+        )  # fmt: skip
     else:
-        _design(kind, ints, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, fa, design)
+        _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design)
         gram[:, :] = 0.0
         rhs[:] = 0.0
         for j in range(m):
