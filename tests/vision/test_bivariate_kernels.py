@@ -273,3 +273,28 @@ def test_kept_products_through_rejected_steps_change_nothing(glossy, name):
     np.testing.assert_allclose(n_1, n_0, atol=1e-12)
     np.testing.assert_array_equal(d_1, d_0)
     np.testing.assert_array_equal(a_1, a_0)
+
+
+def test_diffuse_albedo_kernel_equals_numpy(glossy):
+    """The albedo pass of ``_finish`` against the NumPy code it replaced, with pixels whose
+    trimmed set is empty (all their lit observations then)."""
+    gray, lights, lit, starts, _ = glossy
+    normals = starts[0]
+    weights = lit.copy()
+    weights[:3, :60] = 0.0  # few lit observations left: none of middle rank on these pixels
+    ranks = bivariate._ranks(gray)
+    cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
+    lit_ref = weights * (cos_theta_i > 0.1)
+    trim = bivariate._trimmed(ranks, 0.25, 0.25).T * lit_ref
+    use_ref = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit_ref)
+    rho_ref = np.sum(use_ref * cos_theta_i * gray.T, axis=1) / np.maximum(
+        np.sum(use_ref * cos_theta_i**2, axis=1), 1e-300
+    )
+    use = np.empty(ranks.shape)
+    n_trim = int(np.floor(0.25 * len(lights)))
+    rho = _bivariate_kernels.diffuse_albedo(
+        normals, gray, np.ascontiguousarray(weights), lights, ranks, n_trim, n_trim, use
+    )
+    assert (trim.sum(axis=1) == 0).any()  # the fallback to all lit observations was taken
+    np.testing.assert_array_equal(use, use_ref)
+    np.testing.assert_allclose(rho, rho_ref, rtol=1e-12)

@@ -621,3 +621,36 @@ def table_normal_equations(
             n_d, coefficients[lo:hi], bands[chunk], rhs[chunk],
         )  # fmt: skip
     return bands, rhs
+
+
+@_pjit
+def diffuse_albedo(
+    normals, gray, weights, lights, ranks, n_dark, n_bright, use
+):  # pragma: no cover
+    """``ρ_d`` ``(P,)`` of :func:`~brdfkit.vision.bivariate._finish`: per pixel, the Lambertian
+    fit ``sum u I cos θ_i / sum u cos^2 θ_i`` over the observations ``u`` ``(P, N)`` (into
+    ``use``) that are lit (``weights`` ``(P, N)``, ``cos θ_i > 0.1``) and of rank (``ranks``
+    ``(P, N)``) in ``[n_dark, N - n_bright)``, or over all the lit ones if none is; ``gray``
+    ``(N, P)``."""
+    n_lights, n_pixels = gray.shape
+    rho = np.empty(n_pixels)
+    for p in numba.prange(n_pixels):
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+        count = numerator = denominator = lit_numerator = lit_denominator = 0.0
+        for n in range(n_lights):
+            c = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+            lit = weights[p, n] if c > 0.1 else 0.0
+            trim = lit if n_dark <= ranks[p, n] < n_lights - n_bright else 0.0
+            use[p, n] = trim
+            count += trim
+            numerator += trim * c * gray[n, p]
+            denominator += trim * (c * c)
+            lit_numerator += lit * c * gray[n, p]
+            lit_denominator += lit * (c * c)
+        if count == 0.0:  # no trimmed observation: all the lit ones
+            numerator, denominator = lit_numerator, lit_denominator
+            for n in range(n_lights):
+                c = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+                use[p, n] = weights[p, n] if c > 0.1 else 0.0
+        rho[p] = numerator / max(denominator, 1e-300)
+    return rho

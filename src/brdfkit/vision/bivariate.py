@@ -304,14 +304,16 @@ def _finish(
     """Result with the diffuse albedo ``ρ_d`` (the Lambertian fit of the darker half of the lit
     observations along the found normals) times the pixel's chromaticity; ``ranks``: the
     :func:`_ranks` of ``gray``, if already known."""
-    cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
-    lit = weights * (cos_theta_i > 0.1)
+    from brdfkit.vision import _bivariate_kernels
+
     ranks = _ranks(gray) if ranks is None else ranks
-    trim = _trimmed(ranks, 0.25, 0.25).T * lit
-    use = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit)
-    rho = np.sum(use * cos_theta_i * gray.T, axis=1) / np.maximum(
-        np.sum(use * cos_theta_i**2, axis=1), 1e-300
-    )
+    n_trim = int(np.floor(0.25 * len(lights)))  # ranks in [N/4, 3N/4): as _trimmed
+    use = np.empty(ranks.shape)
+    rho = _bivariate_kernels.diffuse_albedo(
+        np.ascontiguousarray(normals, dtype=np.float64), np.ascontiguousarray(gray),
+        np.ascontiguousarray(weights), np.ascontiguousarray(lights, dtype=np.float64), ranks,
+        n_trim, n_trim, use,
+    )  # fmt: skip
     return _result((normals * rho[:, None]).T, observations, mask, use.T)
 
 
@@ -677,12 +679,13 @@ def shared_bivariate(
     table = _Table(n_h, n_d)
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
     table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
+    by_pixel = np.ascontiguousarray(gray.T)  # (P, N), as the kernels take it: one copy
     for round_ in range(rounds):
-        _, coefficients = _residuals(normals, gray.T, lit, lights, _shared_basis(table), True)
-        _fit_table(table, normals, gray.T, lit, lights, coefficients, smoothness)
+        _, coefficients = _residuals(normals, by_pixel, lit, lights, _shared_basis(table), True)
+        _fit_table(table, normals, by_pixel, lit, lights, coefficients, smoothness)
         normals = _refine_normals(
             starts if round_ == 0 else normals,
-            gray.T,
+            by_pixel,
             lit,
             lights,
             _shared_basis(table),
