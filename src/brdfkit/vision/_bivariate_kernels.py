@@ -8,12 +8,15 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
 
 - only the observations of non-zero weight are visited (a shadowed or trimmed one adds nothing
   to the fit and its residual is 0);
-- the Gram is accumulated an observation at a time as full rows (SIMD over the basis; each
-  entry summed in the observations' order, as before, so that the ill-conditioned Grams of the
-  bi-polynomial round as they did);
+- the bi-polynomial Gram is accumulated an observation at a time as full rows (SIMD over the
+  basis; each entry summed in the observations' order, as before, so that its ill-conditioned
+  Grams round as they did); the ramps' (IA14) from sums by ramp index (:func:`_ramps_system`,
+  ``O(M + K^2)``); the table's (AZ08) 2 × 2 in the pass that evaluates the table;
 - the non-negative fit starts its active set from the pixel's previous fit (the optimum of a
   strictly convex quadratic is unique, so only the number of rounds changes);
-- a pixel stops when its Levenberg–Marquardt step is below a tolerance.
+- the start selection (:func:`best_start`) keeps the winner's residual for the search;
+- a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
+  normal did not move), and a pixel stops when its step is below a tolerance.
 
 Kernels are compiled on first use and cached on disk (``cache=True``).
 
