@@ -155,3 +155,146 @@ def test_normal_search_stops_where_its_steps_vanish(glossy, name):
     assert never.all() and (~active).mean() > 0.5  # most pixels stopped within 20 iterations
     angle = np.degrees(np.arccos(np.clip(np.sum(full * stopped, axis=1), -1.0, 1.0)))
     assert np.median(angle) < 1e-4 and angle.max() < 0.01, (np.median(angle), angle.max())
+
+
+def _ramps_knots(n=8):
+    return np.linspace(0.0, 1.0, n), np.cos(np.linspace(np.pi / 2, 0.0, n))
+
+
+def test_ramps_system_equals_the_dense_gram(glossy):
+    """The ramps' Gram and right-hand side from sums by ramp index equal ``D^T W D`` and
+    ``D^T W I`` of the dense design (IA14's ``g(n·l) + s(n·h)``), also for normals far off."""
+    gray, lights, lit, starts, _ = glossy
+    knots_i, knots_h = _ramps_knots()
+    half, _ = _half_vectors(lights)
+    rng = np.random.default_rng(5)
+    normals = starts[0] + 0.5 * rng.standard_normal(starts[0].shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    steps = len(knots_i) - 1
+    scratch = [np.empty((len(lights), 2), np.int64), np.empty((len(lights), 2))]
+    scratch += [np.empty((4, steps + 1, steps + 1)), np.empty((6, steps + 1))]
+    for p, n in enumerate(normals):
+        kept = np.flatnonzero(lit[p])
+        cos_i, cos_h = lights[kept] @ n, half[kept] @ n
+        design = np.concatenate(
+            [
+                np.clip((cos_i[:, None] - knots_i[:-1]) / np.diff(knots_i), 0, 1),
+                np.clip((cos_h[:, None] - knots_h[:-1]) / np.diff(knots_h), 0, 1)
+                * (cos_i > 0)[:, None],
+            ],
+            axis=1,
+        )
+        w, g = lit[p, kept], gray[kept, p]
+        gram, rhs = np.full((2 * steps, 2 * steps), np.nan), np.empty(2 * steps)
+        _bivariate_kernels._ramps_system(
+            *n, kept, g, w, len(kept), lights, half, knots_i, knots_h, gram, rhs, *scratch
+        )
+        upper = np.triu_indices(2 * steps)
+        reference = (design.T * w) @ design
+        np.testing.assert_allclose(gram[upper], reference[upper], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(rhs, (design.T * w) @ g, rtol=1e-12, atol=1e-12)
+
+
+def _ref_best_start(starts, gray, weights, lights, basis, nonnegative, ring=np.radians(12.0)):
+    """The NumPy start selection the kernel replaced: all pixels one candidate at a time."""
+
+    def cost(normals):
+        return bivariate._fit(normals, gray, weights, lights, basis, nonnegative)[2]
+
+    def pick(candidates):
+        costs = np.stack([cost(c) for c in candidates])
+        best = np.argmin(costs, axis=0)
+        return np.stack(candidates)[best, np.arange(len(best))]
+
+    normals = pick(list(starts))
+    t_1, t_2 = bivariate._tangent_frame(normals)
+    ring_normals = [normals]
+    for angle in np.arange(6) * np.pi / 3:
+        tilted = normals * np.cos(ring) + np.sin(ring) * (np.cos(angle) * t_1 + np.sin(angle) * t_2)
+        ring_normals.append(tilted)
+    return pick(ring_normals)
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_best_start_kernel_equals_numpy(glossy, name):
+    gray, lights, lit, starts, _ = glossy
+    basis, nonnegative = {
+        "bipolynomial": (bivariate._bipolynomial_basis(3, 1), False),
+        "ramps": (bivariate._sum_of_lobes_basis(*_ramps_knots()), True),
+        "table": (bivariate._shared_basis(_table()), True),
+    }[name]
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    reference = _ref_best_start(starts, g, w, lights, basis, nonnegative)
+    normals, residual, cost = np.empty((len(g), 3)), np.empty(g.shape), np.empty(len(g))
+    free = np.ones((len(g), basis.size), dtype=bool)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    _bivariate_kernels.best_start(
+        starts, bivariate.BEST_START_RING, g, w, *inputs, nonnegative, normals, residual, cost,
+        free,
+    )  # fmt: skip
+    assert (np.abs(reference - starts[0]).max(axis=1) > 0).any()  # another candidate won
+    np.testing.assert_allclose(normals, reference, atol=1e-12)
+    ref_residual, _, ref_cost = bivariate._fit(reference, g, w, lights, basis, nonnegative)
+    np.testing.assert_allclose(residual, ref_residual, atol=1e-9 * np.abs(gray).max())
+    np.testing.assert_allclose(cost, ref_cost, rtol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_kept_products_through_rejected_steps_change_nothing(glossy, name):
+    """The normal search that reuses ``J^T J`` and ``J^T r`` after a rejected step follows the
+    one that refits the shifted normals (same normals, damping and stopping)."""
+    gray, lights, lit, starts, _ = glossy
+    basis, nonnegative = {
+        "bipolynomial": (bivariate._bipolynomial_basis(3, 1), False),
+        "ramps": (bivariate._sum_of_lobes_basis(*_ramps_knots()), True),
+        "table": (bivariate._shared_basis(_table()), True),
+    }[name]
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    runs = []
+    for keep in (False, True):
+        normals = np.array(starts[0], order="C")
+        free = np.ones((len(normals), basis.size), dtype=bool)
+        residual, _, cost = bivariate._fit(normals, g, w, lights, basis, nonnegative, free)
+        damping, active = np.full(len(normals), 1e-3), np.ones(len(normals), dtype=bool)
+        products = np.zeros((len(normals), 6)) if keep else None
+        rejected = 0
+        for _ in range(12):
+            before = damping.copy()
+            args = (normals, damping, residual, cost, active, free, g, w, *inputs, nonnegative)
+            if keep:
+                _bivariate_kernels.lm_step(*args, bivariate.STEP_TOLERANCE, products)
+            else:
+                _bivariate_kernels.lm_step(*args, bivariate.STEP_TOLERANCE)
+            rejected += int((damping > before).sum())
+        runs.append((normals, damping, active, rejected))
+    (n_0, d_0, a_0, rejected), (n_1, d_1, a_1, _) = runs
+    assert rejected > 0  # steps were rejected, so the kept products were used
+    np.testing.assert_allclose(n_1, n_0, atol=1e-12)
+    np.testing.assert_array_equal(d_1, d_0)
+    np.testing.assert_array_equal(a_1, a_0)
+
+
+def test_diffuse_albedo_kernel_equals_numpy(glossy):
+    """The albedo pass of ``_finish`` against the NumPy code it replaced, with pixels whose
+    trimmed set is empty (all their lit observations then)."""
+    gray, lights, lit, starts, _ = glossy
+    normals = starts[0]
+    weights = lit.copy()
+    weights[:3, :60] = 0.0  # few lit observations left: none of middle rank on these pixels
+    ranks = bivariate._ranks(gray)
+    cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
+    lit_ref = weights * (cos_theta_i > 0.1)
+    trim = bivariate._trimmed(ranks, 0.25, 0.25).T * lit_ref
+    use_ref = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit_ref)
+    rho_ref = np.sum(use_ref * cos_theta_i * gray.T, axis=1) / np.maximum(
+        np.sum(use_ref * cos_theta_i**2, axis=1), 1e-300
+    )
+    use = np.empty(ranks.shape)
+    n_trim = int(np.floor(0.25 * len(lights)))
+    rho = _bivariate_kernels.diffuse_albedo(
+        normals, gray, np.ascontiguousarray(weights), lights, ranks, n_trim, n_trim, use
+    )
+    assert (trim.sum(axis=1) == 0).any()  # the fallback to all lit observations was taken
+    np.testing.assert_array_equal(use, use_ref)
+    np.testing.assert_allclose(rho, rho_ref, rtol=1e-12)

@@ -8,12 +8,15 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
 
 - only the observations of non-zero weight are visited (a shadowed or trimmed one adds nothing
   to the fit and its residual is 0);
-- the Gram is accumulated an observation at a time as full rows (SIMD over the basis; each
-  entry summed in the observations' order, as before, so that the ill-conditioned Grams of the
-  bi-polynomial round as they did);
+- the bi-polynomial Gram is accumulated an observation at a time as full rows (SIMD over the
+  basis; each entry summed in the observations' order, as before, so that its ill-conditioned
+  Grams round as they did); the ramps' (IA14) from sums by ramp index (:func:`_ramps_system`,
+  ``O(M + K^2)``); the table's (AZ08) 2 × 2 in the pass that evaluates the table;
 - the non-negative fit starts its active set from the pixel's previous fit (the optimum of a
   strictly convex quadratic is unique, so only the number of rounds changes);
-- a pixel stops when its Levenberg–Marquardt step is below a tolerance.
+- the start selection (:func:`best_start`) keeps the winner's residual for the search;
+- a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
+  normal did not move), and a pixel stops when its step is below a tolerance.
 
 Kernels are compiled on first use and cached on disk (``cache=True``).
 
@@ -72,55 +75,61 @@ def _table_row(cos_h, n_h):  # pragma: no cover
 
 
 @_inline
-def _design(
-    kind, ints, fa, fb, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, design
-):  # pragma: no cover
-    """The basis values, cosine factor included, of the observations ``kept[:m]`` into
-    ``design[:m]`` ``(M, K)``."""
-    if kind == BIPOLYNOMIAL:
-        for j in range(m):
-            n = kept[j]
-            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-            shading = max(cos_i, 0.0)
-            ch = max(cos_h, 0.0)
-            power_h = 1.0
-            k = 0
-            for _a in range(ints[0] + 1):
-                power_d = 1.0
-                for _b in range(ints[1] + 1):
-                    design[j, k] = shading * power_h * power_d
-                    power_d *= cos_d[n]
-                    k += 1
-                power_h *= ch
-    elif kind == RAMPS:
-        steps = len(fa) - 1
-        for j in range(m):
-            n = kept[j]
-            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-            front = 1.0 if cos_i > 0 else 0.0
-            for k in range(steps):
-                design[j, k] = min(max((cos_i - fa[k]) / (fa[k + 1] - fa[k]), 0.0), 1.0)
-                ramp = min(max((cos_h - fb[k]) / (fb[k + 1] - fb[k]), 0.0), 1.0)
-                design[j, steps + k] = ramp * front
-    else:
-        n_h, n_d = ints[0], ints[1]
-        for j in range(m):
-            n = kept[j]
-            cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-            cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-            shading = max(cos_i, 0.0)
-            i, fu = _table_row(cos_h, n_h)
-            c, fw = column[n], fraction[n]
-            value = (
-                fa[i * n_d + c] * ((1 - fu) * (1 - fw))
-                + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
-                + fa[i * n_d + c + 1] * ((1 - fu) * fw)
-                + fa[(i + 1) * n_d + c + 1] * (fu * fw)
-            )
-            design[j, 0] = shading
-            design[j, 1] = shading * value
+def _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design):  # pragma: no cover
+    """The bi-polynomial basis values, cosine factor included, of the observations ``kept[:m]``
+    into ``design[:m]`` ``(M, K)`` (the other bases: :func:`_ramps_system`,
+    :func:`_table_system`)."""
+    for j in range(m):
+        n = kept[j]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        shading = max(cos_i, 0.0)
+        ch = max(cos_h, 0.0)
+        power_h = 1.0
+        k = 0
+        for _a in range(ints[0] + 1):
+            power_d = 1.0
+            for _b in range(ints[1] + 1):
+                design[j, k] = shading * power_h * power_d
+                power_d *= cos_d[n]
+                k += 1
+            power_h *= ch
+
+
+@_jit
+def _table_system(
+    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design, gram,
+    rhs,
+):  # pragma: no cover  # fmt: skip
+    """The design ``max(0, n·l) (1, T(θ_h, θ_d))`` of the shared table (``T`` bilinear on the
+    ``ints = (n_h, n_d)`` nodes ``fa``) into ``design[:m]`` ``(M, 2)``, and its weighted Gram and
+    right-hand side summed in the same pass (each entry as the general loop of :func:`_fit`
+    sums it)."""
+    n_h, n_d = ints[0], ints[1]
+    g00 = g01 = g11 = r0 = r1 = 0.0
+    for j in range(m):
+        n = kept[j]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        shading = max(cos_i, 0.0)
+        i, fu = _table_row(cos_h, n_h)
+        c, fw = column[n], fraction[n]
+        value = (
+            fa[i * n_d + c] * ((1 - fu) * (1 - fw))
+            + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
+            + fa[i * n_d + c + 1] * ((1 - fu) * fw)
+            + fa[(i + 1) * n_d + c + 1] * (fu * fw)
+        )
+        d0, d1 = shading, shading * value
+        design[j, 0], design[j, 1] = d0, d1
+        w0, w1 = w_kept[j] * d0, w_kept[j] * d1
+        r0 += w0 * g_kept[j]
+        r1 += w1 * g_kept[j]
+        g00 += w0 * d0
+        g01 += w0 * d1
+        g11 += w1 * d1
+    gram[0, 0], gram[0, 1], gram[1, 1] = g00, g01, g11
+    rhs[0], rhs[1] = r0, r1
 
 
 @_jit
@@ -219,8 +228,96 @@ def _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free):  # pragma:
 
 @_inline
 def _scratch(n_lights, k):  # pragma: no cover
-    """Work arrays of :func:`_fit`: design ``(N, K)``, Gram, right-hand side, solver rows."""
-    return np.empty((n_lights, k)), np.empty((k, k)), np.empty(k), np.empty((k, k)), np.empty(k)
+    """Work arrays of :func:`_fit`: design ``(N, K)``, Gram, right-hand side, solver rows, and
+    those of :func:`_ramps_system`: each observation's two ramp indices and fractions, the
+    sums by index pair ``(4, K/2 + 1, K/2 + 1)`` and by index ``(6, K/2 + 1)``, the weights'
+    prefix sums ``(K + 2,)``."""
+    bins = k // 2 + 1
+    return (
+        np.empty((n_lights, k)), np.empty((k, k)), np.empty(k), np.empty((k, k)), np.empty(k),
+        np.empty((n_lights, 2), np.int64), np.empty((n_lights, 2)), np.empty((4, bins, bins)),
+        np.empty((6, bins)), np.empty(k + 2),
+    )  # fmt: skip
+
+
+@_inline
+def _ramp(x, knots):  # pragma: no cover
+    """The ramps ``clip((x - t_k) / (t_{k+1} - t_k), 0, 1)`` of increasing ``knots`` at ``x``
+    as ``(q, f)``: 1 below index ``q``, ``f`` at ``q``, 0 above (``q`` = the number of ramps
+    when all are 1)."""
+    steps = len(knots) - 1
+    q = 0
+    while q < steps and x >= knots[q + 1]:  # then the ramp's ratio is >= 1: clipped to 1
+        q += 1
+    if q == steps:
+        return q, 1.0
+    return q, min(max((x - knots[q]) / (knots[q + 1] - knots[q]), 0.0), 1.0)
+
+
+@_jit
+def _ramps_system(
+    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins, fractions,
+    pairs, singles,
+):  # pragma: no cover  # fmt: skip
+    """The weighted Gram and right-hand side of the ramps basis from each observation's
+    :func:`_ramp` indices: a row is ``(1, …, 1, f, 0, …, 0)`` in each lobe, so
+    ``G_ab = sum_j w_j D_ja D_jb`` is a sum of the weights (and fractions) over the
+    observations whose indices lie above ``a`` and ``b`` — sums by index, then suffix sums:
+    ``O(M + K^2)`` instead of ``O(M K^2)``. The indices and fractions go to ``bins``,
+    ``fractions`` ``(M, 2)`` (for the residual's model)."""
+    steps = len(fa) - 1
+    pairs[:, :, :] = 0.0  # [0] w, [1] w f_d, [2] w f_s, [3] w f_d f_s by (q_d, q_s)
+    singles[:, :] = 0.0  # [0] w f_d^2, [1] w I, [2] w I f_d by q_d; [3-5] the same by q_s
+    for j in range(m):
+        n = kept[j]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        qd, fd = _ramp(cos_i, fa)
+        if cos_i > 0:
+            qs, fs = _ramp(cos_h, fb)
+        else:
+            qs, fs = 0, 0.0  # the specular lobe's row is 0 behind the surface
+        bins[j, 0], bins[j, 1], fractions[j, 0], fractions[j, 1] = qd, qs, fd, fs
+        w, wi = w_kept[j], w_kept[j] * g_kept[j]
+        pairs[0, qd, qs] += w
+        pairs[1, qd, qs] += w * fd
+        pairs[2, qd, qs] += w * fs
+        pairs[3, qd, qs] += w * fd * fs
+        singles[0, qd] += w * fd * fd
+        singles[1, qd] += wi
+        singles[2, qd] += wi * fd
+        singles[3, qs] += w * fs * fs
+        singles[4, qs] += wi
+        singles[5, qs] += wi * fs
+    # suffix sums: pairs[0] over both indices, pairs[1] over q_s, pairs[2] over q_d, and the
+    # right-hand side's singles[1], singles[4]
+    for x in range(steps, -1, -1):
+        for y in range(steps, -1, -1):
+            if y < steps:
+                pairs[0, x, y] += pairs[0, x, y + 1]
+                pairs[1, x, y] += pairs[1, x, y + 1]
+            if x < steps:
+                pairs[2, x, y] += pairs[2, x + 1, y]
+        if x < steps:
+            singles[1, x] += singles[1, x + 1]
+            singles[4, x] += singles[4, x + 1]
+    for x in range(steps - 1, -1, -1):
+        for y in range(steps + 1):
+            pairs[0, x, y] += pairs[0, x + 1, y]
+    # D_ja D_jb (a <= b, one lobe): 1 where q > b; at q == b, f (a < b) or f^2 (a == b)
+    for a in range(steps):
+        rhs[a] = singles[1, a + 1] + singles[2, a]
+        rhs[steps + a] = singles[4, a + 1] + singles[5, a]
+        for b in range(a, steps):
+            gram[a, b] = pairs[0, b + 1, 0] + (pairs[1, b, 0] if a < b else singles[0, b])
+            gram[steps + a, steps + b] = pairs[0, 0, b + 1] + (
+                pairs[2, 0, b] if a < b else singles[3, b]
+            )
+        # across the lobes: (1 if q_d > a, f_d if q_d == a) (1 if q_s > b, f_s if q_s == b)
+        for b in range(steps):
+            gram[a, steps + b] = (
+                pairs[0, a + 1, b + 1] + pairs[1, a, b + 1] + pairs[2, a + 1, b] + pairs[3, a, b]
+            )
 
 
 @_jit
@@ -245,30 +342,59 @@ def _fit(
     """Residual ``sqrt(w) (I - D c)`` ``(N,)`` (0 where ``w = 0``) of the best weights ``c``
     ``(K,)`` for the normal ``(nx, ny, nz)``, given the pixel's kept observations; returns the
     cost ``|residual|^2``."""
-    design, gram, rhs, work, work_b = scratch
+    design, gram, rhs, work, work_b, bins, fractions, pairs, singles, prefix = scratch
     k = len(coef)
-    _design(kind, ints, fa, fb, nx, ny, nz, kept, m, lights, half, cos_d, column, fraction, design)
-    gram[:, :] = 0.0
-    rhs[:] = 0.0
-    for j in range(m):
-        row = design[j]
-        for a in range(k):
-            wa = w_kept[j] * row[a]
-            if wa == 0.0:  # adds nothing (IA14: the ramps beyond a cosine)
-                continue
-            rhs[a] += wa * g_kept[j]
-            for b in range(k):  # the full row (vectorised); the lower half is replaced below
-                gram[a, b] += wa * row[b]
+    if kind == RAMPS:
+        _ramps_system(
+            nx, ny, nz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins,
+            fractions, pairs, singles,
+        )  # fmt: skip
+    elif kind == TABLE:
+        _table_system(
+            nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design,
+            gram, rhs,
+        )  # fmt: skip
+    else:
+        _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design)
+        gram[:, :] = 0.0
+        rhs[:] = 0.0
+        for j in range(m):
+            row = design[j]
+            for a in range(k):
+                wa = w_kept[j] * row[a]
+                if wa == 0.0:  # adds nothing
+                    continue
+                rhs[a] += wa * g_kept[j]
+                for b in range(k):  # the full row (vectorised); the lower half is replaced below
+                    gram[a, b] += wa * row[b]
     for a in range(k):
         for b in range(a):
             gram[a, b] = gram[b, a]
     _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free)
+    if kind == RAMPS:  # each lobe's prefix sums [0, c_0, c_0 + c_1, ...]
+        steps = k // 2
+        for lobe in range(2):
+            total = 0.0
+            prefix[lobe * (steps + 1)] = 0.0
+            for a in range(steps):
+                total += coef[lobe * steps + a]
+                prefix[lobe * (steps + 1) + a + 1] = total
     residual[:] = 0.0
     cost = 0.0
     for j in range(m):
-        model = 0.0
-        for a in range(k):
-            model += design[j, a] * coef[a]
+        if kind == RAMPS:  # sum_a D_ja c_a from the prefix sums (written here: a call per
+            # observation costs more than the sum)
+            steps = k // 2
+            qd, qs = bins[j, 0], bins[j, 1]
+            model = prefix[qd] + prefix[steps + 1 + qs]
+            if qd < steps:
+                model += fractions[j, 0] * coef[qd]
+            if qs < steps:
+                model += fractions[j, 1] * coef[steps + qs]
+        else:
+            model = 0.0
+            for a in range(k):
+                model += design[j, a] * coef[a]
         value = np.sqrt(w_kept[j]) * (g_kept[j] - model)
         residual[kept[j]] = value
         cost += value * value
@@ -301,9 +427,52 @@ def fit_pixels(
 
 
 @_pjit
+def best_start(
+    starts, ring, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
+    warm, nonnegative, normals, residual, cost, free,
+):  # pragma: no cover  # fmt: skip
+    """:func:`~brdfkit.vision.bivariate._best_start` per pixel: the candidate of least cost
+    among ``starts`` ``(S, P, 3)`` (the first of equal costs), then among it and the 6 normals
+    ``ring`` radians around it, into ``normals`` ``(P, 3)``, with its residual ``(P, N)`` and
+    cost ``(P,)`` (the start of the normal search: no refit); ``free`` as :func:`fit_pixels`."""
+    n_starts, n_pixels = starts.shape[0], starts.shape[1]
+    n_lights = gray.shape[1]
+    k = free.shape[1]
+    cos_ring, sin_ring = np.cos(ring), np.sin(ring)
+    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+        kept = np.empty(n_lights, np.int64)
+        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
+        shifted = np.empty(n_lights)
+        coef = np.empty(k)
+        scratch = _scratch(n_lights, k)
+        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
+            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+            for s in range(n_starts + 6):
+                if s < n_starts:
+                    tx, ty, tz = starts[s, p, 0], starts[s, p, 1], starts[s, p, 2]
+                else:
+                    if s == n_starts:  # the ring around the best start
+                        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+                        t = _tangents(nx, ny, nz)
+                    angle = (s - n_starts) * np.pi / 3
+                    ca, sa = np.cos(angle), np.sin(angle)
+                    tx = nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3])
+                    ty = ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4])
+                    tz = nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5])
+                trial = _fit(
+                    tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction,
+                    kind, ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+                )  # fmt: skip
+                if s == 0 or trial < cost[p]:
+                    normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
+                    residual[p, :] = shifted
+                    cost[p] = trial
+
+
+@_pjit
 def lm_step(
     normals, damping, residual, cost, active, free, gray, weights, lights, half, cos_d, column,
-    fraction, kind, ints, fa, fb, warm, nonnegative, tolerance,
+    fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products=None,
 ):  # pragma: no cover  # fmt: skip
     """One Levenberg–Marquardt iteration of :func:`~brdfkit.vision.bivariate._refine_normals`
     on every ``active`` pixel, in place on ``normals`` ``(P, 3)``, ``damping`` ``(P,)``,
@@ -316,6 +485,11 @@ def lm_step(
     pixel whose step is below ``tolerance`` (both coordinates) stops: it is made inactive
     without trying the step. (Pixels stop at different iterations: call it with a small
     ``numba.parallel_chunksize`` so that the threads share the work.)
+
+    ``products`` ``(P, 6)``, if given (zeros at the start), keeps each pixel's ``J^T J``,
+    ``J^T r`` and whether they hold: a rejected step leaves the normal and its residual as they
+    were, so the next iteration reuses them instead of refitting the two shifted normals (the
+    same numbers: only the damping changed).
     """
     n_pixels, n_lights = gray.shape
     k = free.shape[1]
@@ -333,27 +507,31 @@ def lm_step(
             m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
             nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
             t = _tangents(nx, ny, nz)
-            for c in range(2):
-                mx, my, mz = (
-                    nx + EPSILON * t[3 * c],
-                    ny + EPSILON * t[3 * c + 1],
-                    nz + EPSILON * t[3 * c + 2],
-                )
-                length = np.sqrt(mx * mx + my * my + mz * mz)
-                _fit(
-                    mx / length, my / length, mz / length, kept, g_kept, w_kept, m, lights, half,
-                    cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, shifted, coef,
-                    free[p], scratch,
-                )  # fmt: skip
+            if products is not None and products[p, 5] != 0.0:  # the last step was rejected
+                j00, j01, j11 = products[p, 0], products[p, 1], products[p, 2]
+                g0, g1 = products[p, 3], products[p, 4]
+            else:
+                for c in range(2):
+                    mx, my, mz = (
+                        nx + EPSILON * t[3 * c],
+                        ny + EPSILON * t[3 * c + 1],
+                        nz + EPSILON * t[3 * c + 2],
+                    )
+                    length = np.sqrt(mx * mx + my * my + mz * mz)
+                    _fit(
+                        mx / length, my / length, mz / length, kept, g_kept, w_kept, m, lights,
+                        half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative,
+                        shifted, coef, free[p], scratch,
+                    )  # fmt: skip
+                    for n in range(n_lights):
+                        jacobian[c, n] = (shifted[n] - r[n]) / EPSILON
+                j00 = j01 = j11 = g0 = g1 = 0.0
                 for n in range(n_lights):
-                    jacobian[c, n] = (shifted[n] - r[n]) / EPSILON
-            j00 = j01 = j11 = g0 = g1 = 0.0
-            for n in range(n_lights):
-                j00 += jacobian[0, n] * jacobian[0, n]
-                j01 += jacobian[0, n] * jacobian[1, n]
-                j11 += jacobian[1, n] * jacobian[1, n]
-                g0 += jacobian[0, n] * r[n]
-                g1 += jacobian[1, n] * r[n]
+                    j00 += jacobian[0, n] * jacobian[0, n]
+                    j01 += jacobian[0, n] * jacobian[1, n]
+                    j11 += jacobian[1, n] * jacobian[1, n]
+                    g0 += jacobian[0, n] * r[n]
+                    g1 += jacobian[1, n] * r[n]
             shift = damping[p] * ((j00 + j11) / 2 + 1e-300)
             a00, a11 = j00 + shift, j11 + shift
             determinant = a00 * a11 - j01 * j01
@@ -380,8 +558,13 @@ def lm_step(
                 r[:] = shifted
                 cost[p] = trial_cost
                 damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
+                if products is not None:
+                    products[p, 5] = 0.0
             else:
                 damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
+                if products is not None:
+                    products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
+                    products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
 
 
 @_jit
@@ -441,3 +624,36 @@ def table_normal_equations(
             n_d, coefficients[lo:hi], bands[chunk], rhs[chunk],
         )  # fmt: skip
     return bands, rhs
+
+
+@_pjit
+def diffuse_albedo(
+    normals, gray, weights, lights, ranks, n_dark, n_bright, use
+):  # pragma: no cover
+    """``ρ_d`` ``(P,)`` of :func:`~brdfkit.vision.bivariate._finish`: per pixel, the Lambertian
+    fit ``sum u I cos θ_i / sum u cos^2 θ_i`` over the observations ``u`` ``(P, N)`` (into
+    ``use``) that are lit (``weights`` ``(P, N)``, ``cos θ_i > 0.1``) and of rank (``ranks``
+    ``(P, N)``) in ``[n_dark, N - n_bright)``, or over all the lit ones if none is; ``gray``
+    ``(N, P)``."""
+    n_lights, n_pixels = gray.shape
+    rho = np.empty(n_pixels)
+    for p in numba.prange(n_pixels):
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+        count = numerator = denominator = lit_numerator = lit_denominator = 0.0
+        for n in range(n_lights):
+            c = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+            lit = weights[p, n] if c > 0.1 else 0.0
+            trim = lit if n_dark <= ranks[p, n] < n_lights - n_bright else 0.0
+            use[p, n] = trim
+            count += trim
+            numerator += trim * c * gray[n, p]
+            denominator += trim * (c * c)
+            lit_numerator += lit * c * gray[n, p]
+            lit_denominator += lit * (c * c)
+        if count == 0.0:  # no trimmed observation: all the lit ones
+            numerator, denominator = lit_numerator, lit_denominator
+            for n in range(n_lights):
+                c = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+                use[p, n] = weights[p, n] if c > 0.1 else 0.0
+        rho[p] = numerator / max(denominator, 1e-300)
+    return rho

@@ -65,6 +65,9 @@ from brdfkit.vision.photometric_stereo import (
 MAX_ITERATIONS = 200
 """Largest ``iterations`` of the normal search."""
 
+BEST_START_RING = np.radians(12.0)
+"""Radius of the ring of 6 normals tried around the best start (:func:`_refine_normals`)."""
+
 STEP_TOLERANCE = 1e-6
 """A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
@@ -187,12 +190,16 @@ def _refine_normals(
 ) -> np.ndarray:
     """Levenberg–Marquardt on the tangent coordinates of every pixel's normal, ``(P, 3)``.
 
-    ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts for :func:`_best_start`.
+    ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts: then each pixel starts from
+    the candidate of least model cost, or from the best of it and a ring of 6 normals
+    :data:`BEST_START_RING` around it (a coarse global step against the local minima a
+    highlight puts near a biased least-squares start).
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
-    residual comes from forward differences of ``1e-4`` rad; a step (clipped to 0.2 per
-    coordinate) is kept for the pixels whose cost falls, and their damping shrinks by 3 (grows
-    by 4 otherwise; within [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
+    residual comes from forward differences of ``1e-4`` rad (kept through a rejected step: the
+    normal and residual did not change); a step (clipped to 0.2 per coordinate) is kept for the
+    pixels whose cost falls, and their damping shrinks by 3 (grows by 4 otherwise; within
+    [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
     (``callback`` is called after each iteration run).
     """
@@ -202,18 +209,29 @@ def _refine_normals(
 
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     free = np.ones((len(gray), basis.size), dtype=bool)  # each pixel's last active set
-    if normals.ndim == 3:
-        normals = _best_start(normals, gray, weights, lights, basis, nonnegative, free)
-    normals = np.array(normals, dtype=np.float64, order="C")
-    damping = np.full(len(normals), 1e-3)
-    residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
-    active = np.ones(len(normals), dtype=bool)
     inputs = _kernel_inputs(lights, basis)
+    if normals.ndim == 3:
+        starts = np.ascontiguousarray(normals, dtype=np.float64)
+        normals, residual, cost = (
+            np.empty((len(gray), 3)),
+            np.empty(gray.shape),
+            np.empty(len(gray)),
+        )
+        _bivariate_kernels.best_start(
+            starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
+            cost, free,
+        )  # fmt: skip
+    else:
+        normals = np.array(normals, dtype=np.float64, order="C")
+        residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
+    damping = np.full(len(normals), 1e-3)
+    active = np.ones(len(normals), dtype=bool)
+    products = np.zeros((len(normals), 6))  # J^T J, J^T r kept through rejected steps
     for iteration in range(iterations):
         with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
             _bivariate_kernels.lm_step(
                 normals, damping, residual, cost, active, free, gray, weights, *inputs,
-                nonnegative, STEP_TOLERANCE,
+                nonnegative, STEP_TOLERANCE, products,
             )  # fmt: skip
         if callback is not None:
             callback(iteration + 1, iterations)
@@ -274,38 +292,6 @@ def _start(
     return lit, np.stack(starts)
 
 
-def _best_start(
-    starts: np.ndarray,
-    gray: np.ndarray,
-    weights: np.ndarray,
-    lights: np.ndarray,
-    basis: Basis,
-    nonnegative: bool,
-    free: np.ndarray,
-    ring: float = np.radians(12.0),
-) -> np.ndarray:
-    """Per pixel, the candidate of least model cost among ``starts`` ``(S, P, 3)`` and a ring of
-    6 normals ``ring`` radians around the best of them: a coarse global step against the
-    local minima a highlight puts near a biased least-squares start. ``free``: as
-    :func:`_fit`."""
-
-    def cost(normals: np.ndarray) -> np.ndarray:
-        return _fit(normals, gray, weights, lights, basis, nonnegative, free)[2]
-
-    def pick(candidates: list[np.ndarray]) -> np.ndarray:
-        costs = np.stack([cost(c) for c in candidates])
-        best = np.argmin(costs, axis=0)
-        return np.stack(candidates)[best, np.arange(len(best))]
-
-    normals = pick(list(starts))
-    t_1, t_2 = _tangent_frame(normals)
-    ring_normals = [normals]
-    for angle in np.arange(6) * np.pi / 3:
-        tilted = normals * np.cos(ring) + np.sin(ring) * (np.cos(angle) * t_1 + np.sin(angle) * t_2)
-        ring_normals.append(tilted)
-    return pick(ring_normals)
-
-
 def _finish(
     normals: np.ndarray,
     gray: np.ndarray,
@@ -318,14 +304,16 @@ def _finish(
     """Result with the diffuse albedo ``ρ_d`` (the Lambertian fit of the darker half of the lit
     observations along the found normals) times the pixel's chromaticity; ``ranks``: the
     :func:`_ranks` of ``gray``, if already known."""
-    cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
-    lit = weights * (cos_theta_i > 0.1)
+    from brdfkit.vision import _bivariate_kernels
+
     ranks = _ranks(gray) if ranks is None else ranks
-    trim = _trimmed(ranks, 0.25, 0.25).T * lit
-    use = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit)
-    rho = np.sum(use * cos_theta_i * gray.T, axis=1) / np.maximum(
-        np.sum(use * cos_theta_i**2, axis=1), 1e-300
-    )
+    n_trim = int(np.floor(0.25 * len(lights)))  # ranks in [N/4, 3N/4): as _trimmed
+    use = np.empty(ranks.shape)
+    rho = _bivariate_kernels.diffuse_albedo(
+        np.ascontiguousarray(normals, dtype=np.float64), np.ascontiguousarray(gray),
+        np.ascontiguousarray(weights), np.ascontiguousarray(lights, dtype=np.float64), ranks,
+        n_trim, n_trim, use,
+    )  # fmt: skip
     return _result((normals * rho[:, None]).T, observations, mask, use.T)
 
 
@@ -691,12 +679,13 @@ def shared_bivariate(
     table = _Table(n_h, n_d)
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
     table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
+    by_pixel = np.ascontiguousarray(gray.T)  # (P, N), as the kernels take it: one copy
     for round_ in range(rounds):
-        _, coefficients = _residuals(normals, gray.T, lit, lights, _shared_basis(table), True)
-        _fit_table(table, normals, gray.T, lit, lights, coefficients, smoothness)
+        _, coefficients = _residuals(normals, by_pixel, lit, lights, _shared_basis(table), True)
+        _fit_table(table, normals, by_pixel, lit, lights, coefficients, smoothness)
         normals = _refine_normals(
             starts if round_ == 0 else normals,
-            gray.T,
+            by_pixel,
             lit,
             lights,
             _shared_basis(table),
