@@ -3,6 +3,7 @@ NumPy path is the model's eval with bounded memory. No timing here: see benchmar
 
 from __future__ import annotations
 
+import itertools
 import tracemalloc
 from pathlib import Path
 
@@ -160,6 +161,43 @@ def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
     assert "_sin32(" in kernel.source and "_cos32(" in kernel.source
     assembly = kernel._function.inspect_asm(kernel._function.signatures[0])
     assert "sinf" not in assembly and "cosf" not in assembly  # no scalar libm calls
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_max_and_min_propagate_nan_as_numpy_does(dtype) -> None:
+    """Float max/min compile to LLVM's NaN-propagating ``maximum``/``minimum``: the same values
+    as ``np.maximum``/``np.minimum`` for NaN, ±inf and ordinary values, elementwise, in a clamp
+    and in a reduction over a small axis; an integer max keeps numba's own."""
+    special_values = [np.nan, np.inf, -np.inf, 0.0, 1.0, -2.5, 3e-39, 7.0]
+    pairs = np.array(list(itertools.product(special_values, repeat=2)), dtype=dtype)
+    a, b = pairs[:, 0], pairs[:, 1]
+
+    def ops(x):
+        xp = namespace(x)
+        u, v = x[..., 0], x[..., 1]
+        clamped = xp.clip(u, -1.0, 1.0)
+        return xp.maximum(u, v), xp.minimum(u, v), clamped, xp.max(x, axis=-1)
+
+    kernel = accel.compile_function(ops, (2,), dtype)
+    high, low, clamped, reduced = kernel(pairs)
+    np.testing.assert_array_equal(high, np.maximum(a, b))
+    np.testing.assert_array_equal(low, np.minimum(a, b))
+    np.testing.assert_array_equal(clamped, np.minimum(np.maximum(a, -1.0), 1.0))
+    np.testing.assert_array_equal(reduced, np.maximum(a, b))
+    assert "_max(" in kernel.source and "_min(" in kernel.source
+    assert "np.maximum" not in kernel.source and "np.minimum" not in kernel.source
+
+
+def test_integer_max_keeps_numbas_maximum() -> None:
+    def ops(x):
+        xp = namespace(x)
+        i = xp.astype(x, xp.int32)
+        return xp.astype(xp.maximum(i[..., 0], i[..., 1]), x.dtype)
+
+    kernel = accel.compile_function(ops, (2,), np.float32)
+    (high,) = kernel(np.array([[3.0, -4.0], [-1, 2]]))
+    np.testing.assert_array_equal(high, [3.0, 2.0])
+    assert "np.maximum(" in kernel.source and "_max(" not in kernel.source
 
 
 @pytest.mark.parametrize("dtype, ulps", [(np.float32, 4), (np.float64, 3)])

@@ -139,6 +139,12 @@ _BINARY: dict[str, tuple[Callable[..., Any], str]] = {
     "or": (np.logical_or, "_or({0}, {1})"),
     "xor": (np.logical_xor, "_xor({0}, {1})"),
 }
+_FLOAT_BINARY = {"max": "_max({0}, {1})", "min": "_min({0}, {1})"}
+"""Templates of the float ``max``/``min``: LLVM's ``maximum``/``minimum``, NaN-propagating as
+``np.maximum``/``np.minimum`` (and JAX's), one vector instruction and a NaN fix-up. numba's
+own ``np.maximum`` of scalars is a compare-and-select chain that LLVM lowered, after the
+kernels' fast-math flags, to integer compares and mask logic: measured on the GGX conductor
+kernel (one thread, 3·10⁴ pairs in cache) 2.50 → 2.00 ns per pair."""
 _SPECIAL = {"erf": "erf", "lgamma": "gammaln"}  # scipy.special names; math.* in the kernel
 _REDUCERS = {
     "reduce_sum": "add",
@@ -225,8 +231,16 @@ def _select(em: _Emitter, predicate: Any, cases: list[Any], dtype: np.dtype) -> 
     return em.emit("_select({0}, {2}, {1})", [predicate, cases[0], cases[1]], dtype)
 
 
-def _reduce(em: _Emitter, x: np.ndarray, axes: tuple[int, ...], op: str, dtype: Any) -> np.ndarray:
+def _binary(op: str, dtype: np.dtype) -> tuple[Callable[..., Any], str]:
+    """The constant fold and code template of the binary primitive ``op`` on ``dtype``."""
     fold, template = _BINARY[op]
+    if op in _FLOAT_BINARY and np.dtype(dtype).kind == "f":
+        template = _FLOAT_BINARY[op]
+    return fold, template
+
+
+def _reduce(em: _Emitter, x: np.ndarray, axes: tuple[int, ...], op: str, dtype: Any) -> np.ndarray:
+    fold, template = _binary(op, dtype)
     keep = [a for a in range(x.ndim) if a not in axes]
     moved = np.transpose(x, keep + list(axes))
     flat = moved.reshape(*moved.shape[: len(keep)], -1)
@@ -305,7 +319,7 @@ def _apply(em: _Emitter, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
     if name in _UNARY:
         return [_elementwise(em, *_UNARY[name], ins, dtype)]
     if name in _BINARY:
-        return [_elementwise(em, *_BINARY[name], ins, dtype)]
+        return [_elementwise(em, *_binary(name, dtype), ins, dtype)]
     if name in _SPECIAL:
         from scipy import special
 
@@ -337,8 +351,8 @@ def _apply(em: _Emitter, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
         return [out]
     if name == "clamp":
         lo, x, hi = ins
-        x = _elementwise(em, *_BINARY["max"], [x, lo], dtype)
-        return [_elementwise(em, *_BINARY["min"], [x, hi], dtype)]
+        x = _elementwise(em, *_binary("max", dtype), [x, lo], dtype)
+        return [_elementwise(em, *_binary("min", dtype), [x, hi], dtype)]
     if name in _REDUCERS:
         return [_reduce(em, ins[0], tuple(p["axes"]), _REDUCERS[name], dtype)]
     if name == "broadcast_in_dim":
@@ -849,8 +863,8 @@ def _source(
 
 @functools.cache
 def _intrinsics() -> dict[str, Any]:
-    """Branch-free ``select`` and boolean operators as numba intrinsics (LLVM ``select``,
-    ``and``, ``or``, ``xor``).
+    """Branch-free ``select``, boolean operators and float ``max``/``min`` as numba intrinsics
+    (LLVM ``select``, ``and``, ``or``, ``xor``, ``maximum``, ``minimum``).
 
     Python's conditional expression and ``and``/``or`` compile to branches; LLVM then sinks
     the guarded division of a ``safe_div`` into the branch and the loop no longer vectorises
@@ -879,6 +893,29 @@ def _intrinsics() -> dict[str, Any]:
 
         return a(condition, a, b), codegen
 
+    def float_binary(llvm_name: str) -> Any:
+        """The LLVM intrinsic ``llvm_name`` of two floats of one type (``maximum``,
+        ``minimum``: llvmlite declares only some intrinsics itself)."""
+        from llvmlite import ir
+        from numba.core import types
+
+        @intrinsic
+        def op(typingctx: Any, a: Any, b: Any) -> Any:
+            if a != b or not isinstance(a, types.Float):
+                return None
+
+            def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+                t = args[0].type
+                name = f"{llvm_name}.{t.intrinsic_name}"
+                fn = builder.module.globals.get(name)
+                if fn is None:
+                    fn = ir.Function(builder.module, ir.FunctionType(t, [t, t]), name)
+                return builder.call(fn, args)
+
+            return a(a, b), codegen
+
+        return op
+
     @intrinsic
     def not_(typingctx: Any, a: Any) -> Any:
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
@@ -892,6 +929,8 @@ def _intrinsics() -> dict[str, Any]:
         "_or": binary(lambda b, x, y: b.or_(x, y)),
         "_xor": binary(lambda b, x, y: b.xor(x, y)),
         "_not": not_,
+        "_max": float_binary("llvm.maximum"),
+        "_min": float_binary("llvm.minimum"),
     }
 
 
