@@ -263,6 +263,7 @@ def test_results_reuse_memory_only_once_nothing_refers_to_it() -> None:
     kept = first.copy()
     second = compiled.eval(wi2, wo)
     assert not np.shares_memory(first, second)
+    assert address(first) % 64 == 0 and address(second) % 64 == 0  # whole cache lines
     np.testing.assert_array_equal(first, kept)
     held_elsewhere = [first[:, 1], memoryview(second)]
     where = address(first), address(second)

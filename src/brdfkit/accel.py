@@ -567,20 +567,33 @@ class _OutputPool:
         with self._lock:
             for k in range(len(self._buffers)):
                 if (
-                    self._buffers[k].nbytes == nbytes
+                    self._buffers[k].nbytes == nbytes + _ALIGNMENT
                     and self._references(self._buffers, k) == self._idle
                 ):
                     buffer = self._buffers.pop(k)
                     self._buffers.append(buffer)  # most recently used last
-                    return buffer.view(dtype).reshape(shape)
-            buffer = np.empty(nbytes, np.uint8)
+                    return _aligned(buffer, nbytes).view(dtype).reshape(shape)
+            buffer = np.empty(nbytes + _ALIGNMENT, np.uint8)
             self._buffers.append(buffer)
             while (
                 len(self._buffers) > _POOL_BUFFERS
                 or sum(b.nbytes for b in self._buffers) > _POOL_BYTES
             ):
                 self._buffers.pop(0)  # dropped from the pool; freed when no array uses it
-            return buffer.view(dtype).reshape(shape)
+            return _aligned(buffer, nbytes).view(dtype).reshape(shape)
+
+
+def _aligned(buffer: np.ndarray, nbytes: int) -> np.ndarray:
+    """The first ``nbytes`` of ``buffer`` from its first :data:`_ALIGNMENT`-aligned byte (a
+    view, whose base is ``buffer`` itself: the pool's reference count sees it)."""
+    start = -buffer.ctypes.data % _ALIGNMENT
+    return buffer[start : start + nbytes]
+
+
+_ALIGNMENT = 64
+"""Byte alignment of the pooled outputs: one cache line, so that each 512-bit store of the
+kernels writes one line (a 16-byte-aligned array, malloc's, splits every store over two;
+measured on the GGX kernel, one thread, in cache: 2.04 → 2.00 ns per pair)."""
 
 
 _POOL_BUFFERS = 8
