@@ -16,7 +16,7 @@ pytest.importorskip("numba")
 from scipy import special
 
 import brdfkit.accel as accel
-from brdfkit._array import erfinv, namespace
+from brdfkit._array import erfinv, namespace, normalize
 from brdfkit.brdf import (
     BeckmannConductor,
     CookTorrance,
@@ -198,6 +198,26 @@ def test_integer_max_keeps_numbas_maximum() -> None:
     (high,) = kernel(np.array([[3.0, -4.0], [-1, 2]]))
     np.testing.assert_array_equal(high, [3.0, 2.0])
     assert "np.maximum(" in kernel.source and "_max(" not in kernel.source
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_normalize_divides_by_a_reciprocal_square_root_in_float32_only(dtype) -> None:
+    """float32 kernels multiply by a reciprocal-square-root estimate refined by Newton (within
+    3 ulp of the exact unit vector, zero vectors stay zero); float64 ones keep the exact root."""
+    rng = np.random.default_rng(21)
+    scales = 10.0 ** rng.uniform(-15, 15, (20_003, 1))
+    v = np.concatenate([rng.normal(size=(20_003, 3)) * scales, np.zeros((5, 3))]).astype(dtype)
+    kernel = accel.compile_function(normalize, (3,), dtype)
+    (ours,) = kernel(v)
+    exact = (
+        v.astype(np.float64)
+        / np.maximum(np.linalg.norm(v.astype(np.float64), axis=-1), 1e-300)[:, None]
+    )
+    ulps = np.abs(ours - exact) / np.spacing(np.maximum(np.abs(exact), 1e-3).astype(dtype))
+    assert np.max(ulps) <= (3 if dtype == np.float32 else 4)  # float64: the sum's rounding
+    assert np.all(ours[-5:] == 0)
+    assert ("_rsqrt32(" in kernel.source) == (dtype == np.float32)
+    assert ("np.sqrt(" in kernel.source) == (dtype == np.float64)
 
 
 @pytest.mark.parametrize("dtype, ulps", [(np.float32, 4), (np.float64, 3)])

@@ -165,6 +165,7 @@ class _Emitter:
         self.constants: dict[str, np.generic] = {}
         self._const_names: dict[tuple[str, bytes], str] = {}
         self._memo: dict[tuple[str, tuple[str, ...]], _Sym] = {}
+        self.definitions: dict[str, tuple[str, tuple[Any, ...]]] = {}  # name: (template, args)
         self.uniform: set[str] = set()  # symbols of the parameters alone: computed once per call
 
     def ref(self, x: Any) -> str:
@@ -192,6 +193,7 @@ class _Emitter:
                 code = f"{_cast_name(dtype)}({code})"
             self.lines.append((name, code, refs))
             self._memo[key] = _Sym(name, dtype)
+            self.definitions[name] = (template, tuple(args))
             if all(not isinstance(a, _Sym) or a.name in self.uniform for a in args):
                 self.uniform.add(name)
         return self._memo[key]
@@ -410,12 +412,42 @@ def _divide(em: _Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.n
     for index in np.ndindex(out.shape):
         a, b = x[index], y[index]
         per_call = isinstance(b, _Sym) and b.name in em.uniform
+        floored = None if per_call else _floored_square(em, b)
         if per_call and not (_is_const(a) or a.name in em.uniform):
             reciprocal = em.emit(template, [one, b], dtype)
             out[index] = em.emit(_BINARY["mul"][1], [a, reciprocal], dtype)
+        elif floored is not None:
+            reciprocal = em.emit("_rsqrt32({0})", [floored], dtype)
+            mul = _BINARY["mul"]
+            out[index] = _elementwise(em, *mul, [np.array(a), np.array(reciprocal)], dtype)[()]
         else:
             out[index] = _elementwise(em, fold, template, [np.array(a), np.array(b)], dtype)[()]
     return out
+
+
+def _floored_square(em: _Emitter, b: Any) -> _Sym | None:
+    """``m`` where the float32 divisor ``b`` is ``sqrt(m)`` with ``m = max(z, c)`` for a
+    constant ``c`` at least float32's smallest normal number (as :func:`brdfkit._array.normalize`
+    has it), else ``None``.
+
+    A division by such a root becomes a multiplication by ``_rsqrt32(m)``, which LLVM computes
+    as a reciprocal-square-root estimate and one Newton step (``rsqrt14`` on AVX-512: what
+    Mitsuba 3 does for its normalisations) instead of a square root and a division; ``m`` is
+    positive and normal, so the estimate's exceptional cases (0, subnormals) never arise.
+    Within 2 ulp of the exact quotient; the last bit may depend on the width of the vector
+    code that computes an element (main loop or remainder). float64 keeps the exact root."""
+    if not isinstance(b, _Sym) or b.dtype != np.float32:
+        return None
+    template, args = em.definitions.get(b.name, ("", ()))
+    if template != _UNARY["sqrt"][1] or not isinstance(args[0], _Sym):
+        return None
+    template, args = em.definitions.get(args[0].name, ("", ()))
+    if template != _FLOAT_BINARY["max"]:
+        return None
+    floors = [float(v) for v in args if _is_const(v)]
+    if len(floors) != 1 or not np.finfo(np.float32).tiny <= floors[0] < np.inf:
+        return None
+    return em.emit(_FLOAT_BINARY["max"], list(args), np.dtype(np.float32))
 
 
 def _integer_pow(em: _Emitter, x: np.ndarray, y: int, dtype: np.dtype) -> np.ndarray:
@@ -930,6 +962,27 @@ def _intrinsics() -> dict[str, Any]:
         return op
 
     @intrinsic
+    def rsqrt32(typingctx: Any, a: Any) -> Any:
+        """``1/sqrt(a)`` for a positive normal float32 ``a``, with the approximate-function
+        and no-infinity flags on these two instructions alone (see :func:`_floored_square`)."""
+        from llvmlite import ir
+        from numba.core import types
+
+        if a != types.float32:
+            return None
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            t = args[0].type
+            flags = ("afn", "ninf", "arcp", "contract")
+            sqrt = builder.module.globals.get("llvm.sqrt.f32")
+            if sqrt is None:
+                sqrt = ir.Function(builder.module, ir.FunctionType(t, [t]), "llvm.sqrt.f32")
+            root = builder.call(sqrt, args, fastmath=flags)
+            return builder.fdiv(ir.Constant(t, 1.0), root, flags=flags)
+
+        return a(a), codegen
+
+    @intrinsic
     def not_(typingctx: Any, a: Any) -> Any:
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
             return builder.not_(args[0])
@@ -944,6 +997,7 @@ def _intrinsics() -> dict[str, Any]:
         "_not": not_,
         "_max": float_binary("llvm.maximum"),
         "_min": float_binary("llvm.minimum"),
+        "_rsqrt32": rsqrt32,
     }
 
 
