@@ -12,8 +12,10 @@ Every timing is the minimum over ``--repeats`` runs after a warm-up call; the fi
 time (tracing + JIT compilation) is reported separately. The ``eval`` head-to-head also records
 the minimum CPU seconds of the process per call (``cpu_seconds``, every thread's; the table's
 "CPU-time ratio"): on a machine shared with other work, wall time also counts the waits for a
-core. Mitsuba's ``eval`` includes the cosine factor (f·cos θ); brdfkit's is f alone, so the
-cross-check divides it out.
+core. It is approximate too: Dr.Jit's workers spin on after a call (:data:`PAUSE`), into the next
+timed call when the rest is short, and a thread still running when the clock is read has its
+last scheduler tick uncounted. Mitsuba's ``eval`` includes the cosine factor (f·cos θ);
+brdfkit's is f alone, so the cross-check divides it out.
 
 Run ``benchmarks/setup.sh`` once, then ``python benchmarks/bench_brdf.py``; results go to
 ``benchmarks/results/brdf.json`` and a Markdown table on stdout.
