@@ -9,8 +9,13 @@ Workloads (the same inputs for every implementation, generated once per size):
 - ``albedo``: the directional albedo of the GGX conductor at 90 angles × 10⁵ samples.
 
 Every timing is the minimum over ``--repeats`` runs after a warm-up call; the first call's extra
-time (tracing + JIT compilation) is reported separately. Mitsuba's ``eval`` includes the cosine
-factor (f·cos θ); brdfkit's is f alone, so the cross-check divides it out.
+time (tracing + JIT compilation) is reported separately. The ``eval`` head-to-head also records
+the minimum CPU seconds of the process per call (``cpu_seconds``, every thread's; the table's
+"CPU-time ratio"): on a machine shared with other work, wall time also counts the waits for a
+core. It is approximate too: Dr.Jit's workers spin on after a call (:data:`PAUSE`), into the next
+timed call when the rest is short, and a thread still running when the clock is read has its
+last scheduler tick uncounted. Mitsuba's ``eval`` includes the cosine factor (f·cos θ);
+brdfkit's is f alone, so the cross-check divides it out.
 
 Run ``benchmarks/setup.sh`` once, then ``python benchmarks/bench_brdf.py``; results go to
 ``benchmarks/results/brdf.json`` and a Markdown table on stdout.
@@ -67,22 +72,28 @@ def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float]:
     return first, best
 
 
-def timed_interleaved(fns: list[Callable[[], Any]], repeats: int) -> list[tuple[float, float]]:
+def timed_interleaved(
+    fns: list[Callable[[], Any]], repeats: int
+) -> list[tuple[float, float, float]]:
     """:func:`timed` for several functions, alternating them in every repeat, so that a burst
-    of load from other processes on a busy machine hits all of them alike."""
+    of load from other processes on a busy machine hits all of them alike; also the minimum
+    CPU seconds of the process (every thread's) per call, which waiting for a core that other
+    processes hold does not inflate as it does wall time."""
     first = []
     for fn in fns:
         start = time.perf_counter()
         fn()
         first.append(time.perf_counter() - start)
     best = [float("inf")] * len(fns)
+    cpu = [float("inf")] * len(fns)
     for _ in range(repeats):
         for k, fn in enumerate(fns):
             time.sleep(PAUSE)
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             fn()
+            cpu[k] = min(cpu[k], time.process_time() - start_cpu)
             best[k] = min(best[k], time.perf_counter() - start)
-    return list(zip(first, best, strict=True))
+    return list(zip(first, best, cpu, strict=True))
 
 
 def directions(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -274,8 +285,8 @@ class Runner:
             value = np.asarray(mitsuba_fn()).T  # Color3f converts as (3, n)
             check["max_rel_diff_mitsuba_f_cos"] = _rel(reference * wi[:, 2:3], value)
         timings = timed_interleaved([fn for fn, _ in fns.values()], r)
-        for (impl, (_, extra)), timing in zip(fns.items(), timings, strict=True):
-            self.add("eval", n, impl, timing, **extra)
+        for (impl, (_, extra)), (first, best, cpu) in zip(fns.items(), timings, strict=True):
+            self.add("eval", n, impl, (first, best), cpu_seconds=cpu, **extra)
         if n <= 1_000_000:  # one call allocates ~200 bytes per pair: 2 GB at 1e7
             # Another parameter set of the same structure: no trace, no compile (its first
             # call's extra time is the binding of its values only).
@@ -426,15 +437,26 @@ def table(result: dict[str, Any]) -> str:
     peer = {
         (r["workload"], r["n"]): r["per_second"] for r in rows if r["impl"].startswith("Mitsuba")
     }
+    peer_cpu = {
+        (r["workload"], r["n"]): r["cpu_seconds"]
+        for r in rows
+        if r["impl"].startswith("Mitsuba") and "cpu_seconds" in r
+    }
     lines = [
-        "| workload | n | implementation | evals/s | ratio to Mitsuba | first call extra (s) |",
-        "|---|---:|---|---:|---:|---:|",
+        "| workload | n | implementation | evals/s | ratio to Mitsuba | CPU-time ratio "
+        "| first call extra (s) |",
+        "|---|---:|---|---:|---:|---:|---:|",
     ]
     for r in rows:
-        ratio = r["per_second"] / peer[(r["workload"], r["n"])] if peer else float("nan")
+        key = (r["workload"], r["n"])
+        ratio = r["per_second"] / peer[key] if peer else float("nan")
+        cpu_ratio = (
+            peer_cpu[key] / r["cpu_seconds"] if key in peer_cpu and "cpu_seconds" in r else None
+        )
+        cpu_text = "" if cpu_ratio is None else f"{cpu_ratio:.3g}"
         lines.append(
             f"| {r['workload']} | {r['n']:.0e} | {r['impl']} | {r['per_second']:.3g} | "
-            f"{ratio:.3g} | {r['first_call_extra_seconds']:.3f} |"
+            f"{ratio:.3g} | {cpu_text} | {r['first_call_extra_seconds']:.3f} |"
         )
     return "\n".join(lines)
 

@@ -3,6 +3,7 @@ NumPy path is the model's eval with bounded memory. No timing here: see benchmar
 
 from __future__ import annotations
 
+import itertools
 import tracemalloc
 from pathlib import Path
 
@@ -15,7 +16,7 @@ pytest.importorskip("numba")
 from scipy import special
 
 import brdfkit.accel as accel
-from brdfkit._array import erfinv, namespace
+from brdfkit._array import erfinv, namespace, normalize
 from brdfkit.brdf import (
     BeckmannConductor,
     CookTorrance,
@@ -162,6 +163,63 @@ def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
     assert "sinf" not in assembly and "cosf" not in assembly  # no scalar libm calls
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_max_and_min_propagate_nan_as_numpy_does(dtype) -> None:
+    """Float max/min compile to LLVM's NaN-propagating ``maximum``/``minimum``: the same values
+    as ``np.maximum``/``np.minimum`` for NaN, ±inf and ordinary values, elementwise, in a clamp
+    and in a reduction over a small axis; an integer max keeps numba's own."""
+    special_values = [np.nan, np.inf, -np.inf, 0.0, 1.0, -2.5, 3e-39, 7.0]
+    pairs = np.array(list(itertools.product(special_values, repeat=2)), dtype=dtype)
+    a, b = pairs[:, 0], pairs[:, 1]
+
+    def ops(x):
+        xp = namespace(x)
+        u, v = x[..., 0], x[..., 1]
+        clamped = xp.clip(u, -1.0, 1.0)
+        return xp.maximum(u, v), xp.minimum(u, v), clamped, xp.max(x, axis=-1)
+
+    kernel = accel.compile_function(ops, (2,), dtype)
+    high, low, clamped, reduced = kernel(pairs)
+    np.testing.assert_array_equal(high, np.maximum(a, b))
+    np.testing.assert_array_equal(low, np.minimum(a, b))
+    np.testing.assert_array_equal(clamped, np.minimum(np.maximum(a, -1.0), 1.0))
+    np.testing.assert_array_equal(reduced, np.maximum(a, b))
+    assert "_max(" in kernel.source and "_min(" in kernel.source
+    assert "np.maximum" not in kernel.source and "np.minimum" not in kernel.source
+
+
+def test_integer_max_keeps_numbas_maximum() -> None:
+    def ops(x):
+        xp = namespace(x)
+        i = xp.astype(x, xp.int32)
+        return xp.astype(xp.maximum(i[..., 0], i[..., 1]), x.dtype)
+
+    kernel = accel.compile_function(ops, (2,), np.float32)
+    (high,) = kernel(np.array([[3.0, -4.0], [-1, 2]]))
+    np.testing.assert_array_equal(high, [3.0, 2.0])
+    assert "np.maximum(" in kernel.source and "_max(" not in kernel.source
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_normalize_divides_by_a_reciprocal_square_root_in_float32_only(dtype) -> None:
+    """float32 kernels multiply by a reciprocal-square-root estimate refined by Newton (within
+    3 ulp of the exact unit vector, zero vectors stay zero); float64 ones keep the exact root."""
+    rng = np.random.default_rng(21)
+    scales = 10.0 ** rng.uniform(-15, 15, (20_003, 1))
+    v = np.concatenate([rng.normal(size=(20_003, 3)) * scales, np.zeros((5, 3))]).astype(dtype)
+    kernel = accel.compile_function(normalize, (3,), dtype)
+    (ours,) = kernel(v)
+    exact = (
+        v.astype(np.float64)
+        / np.maximum(np.linalg.norm(v.astype(np.float64), axis=-1), 1e-300)[:, None]
+    )
+    ulps = np.abs(ours - exact) / np.spacing(np.maximum(np.abs(exact), 1e-3).astype(dtype))
+    assert np.max(ulps) <= (3 if dtype == np.float32 else 4)  # float64: the sum's rounding
+    assert np.all(ours[-5:] == 0)
+    assert ("_rsqrt32(" in kernel.source) == (dtype == np.float32)
+    assert ("np.sqrt(" in kernel.source) == (dtype == np.float64)
+
+
 @pytest.mark.parametrize("dtype, ulps", [(np.float32, 4), (np.float64, 3)])
 def test_inverse_error_function_is_within_a_few_ulp(dtype, ulps) -> None:
     """erfinv, which numba lacks, against scipy: into both tails, and its edges."""
@@ -225,6 +283,7 @@ def test_results_reuse_memory_only_once_nothing_refers_to_it() -> None:
     kept = first.copy()
     second = compiled.eval(wi2, wo)
     assert not np.shares_memory(first, second)
+    assert address(first) % 64 == 0 and address(second) % 64 == 0  # whole cache lines
     np.testing.assert_array_equal(first, kept)
     held_elsewhere = [first[:, 1], memoryview(second)]
     where = address(first), address(second)

@@ -174,11 +174,16 @@ def norm(a: Array, *, keepdims: bool = False) -> Array:
 
 
 def normalize(a: Array) -> Array:
-    """``a`` divided by its norm over the last axis (zero vectors stay zero, without NaN)."""
+    """``a`` divided by its norm over the last axis (zero vectors stay zero, without NaN).
+
+    The squared norm is floored at float32's smallest normal number before its square root
+    (so vectors shorter than 1.1e-19 come out shorter than unit, never NaN): a division by a
+    square root, which the compiled path (:mod:`brdfkit.accel`) turns into a multiplication by
+    a reciprocal square root."""
     xp = namespace(a)
-    length = norm(a, keepdims=True)
-    tiny = constant(np.finfo(np.float32).tiny, length)
-    return a / xp.maximum(length, tiny)
+    squared = dot(a, a, keepdims=True)
+    tiny = constant(np.finfo(np.float32).tiny, squared)
+    return a / xp.sqrt(xp.maximum(squared, tiny))
 
 
 def channels_first(x: Array, ndim: int) -> Array:
