@@ -50,7 +50,9 @@ def _cpu_seconds() -> float:
     return t.user + t.system + t.children_user + t.children_system
 
 
-def time_atlas(repeats: int, cold: bool) -> tuple[list[float], list[float], list[str]]:
+def time_atlas(
+    repeats: int, cold: bool, goal: dict | None = None
+) -> tuple[list[float], list[float], list[str]]:
     """Wall and CPU seconds of each atlas build and whether it ran on a cold or warm cache."""
     from brdfkit import kernel_cache
     from brdfkit.report import build_atlas
@@ -62,7 +64,7 @@ def time_atlas(repeats: int, cold: bool) -> tuple[list[float], list[float], list
             os.environ[kernel_cache.ENV] = str(Path(folder) / "kernels")
         for k in range(repeats + cold):
             start, start_cpu = time.perf_counter(), _cpu_seconds()
-            build_atlas(Path(folder) / "index.html")
+            build_atlas(Path(folder) / "index.html", **(goal or {}))
             seconds.append(time.perf_counter() - start)
             cpu.append(_cpu_seconds() - start_cpu)
             cache.append("cold" if cold and k == 0 else "warm" if cold else "user")
@@ -111,7 +113,9 @@ def profile_atlas(only: list[str] | None = None) -> dict:
     return {"parts": parts, "cards": cards}
 
 
-def sphere_noise(resolution: int, only: list[str] | None = None) -> list[dict]:
+def sphere_noise(
+    resolution: int, only: list[str] | None = None, goal: dict | None = None
+) -> list[dict]:
     from brdfkit.data import default_envmap_path
     from brdfkit.lights import EnvironmentMap
     from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
@@ -126,7 +130,7 @@ def sphere_noise(resolution: int, only: list[str] | None = None) -> list[dict]:
             continue
         for k, model in enumerate(models):
             start = time.process_time()
-            image, spp = env_sphere(model, env, RESOLUTION, samples=SAMPLES, seed=1)
+            image, spp = env_sphere(model, env, RESOLUTION, samples=SAMPLES, seed=1, **(goal or {}))
             cpu = time.process_time() - start
             if resolution != RESOLUTION:  # the same passes, N spp in all, smaller
                 image, _ = env_sphere(
@@ -157,7 +161,18 @@ def main() -> None:
     )
     parser.add_argument("--json", action="store_true", help="print the record as JSON")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "atlas.json"))
+    parser.add_argument(
+        "--noise-goal", type=float, help="not the default: the atlas's --noise (e.g. 0.01)"
+    )
+    parser.add_argument(
+        "--max-samples", type=int, help="not the default: the atlas's --max-samples with a goal"
+    )
     args = parser.parse_args()
+    goal = {}
+    if args.noise_goal is not None:
+        goal["noise"] = args.noise_goal
+    if args.max_samples is not None:
+        goal["max_samples"] = args.max_samples
     import matplotlib
 
     matplotlib.use("Agg")
@@ -169,15 +184,16 @@ def main() -> None:
         "machine": f"{platform.machine()}, {len(os.sched_getaffinity(0))} cores usable, "
         f"{platform.python_version()}",
         "import_seconds": import_seconds,
+        "options": goal or "defaults",
     }
     if args.profile:
         print("CPU seconds of each part, cards one after another in this process:")
         record["profile"] = profile_atlas(args.only)
     if not args.skip_noise:
         print(f"noise at the atlas's spp N against 16 N spp, {args.noise_resolution}²:")
-        rows = sphere_noise(args.noise_resolution, args.only)
+        rows = sphere_noise(args.noise_resolution, args.only, goal)
         record["noise"] = {"resolution": args.noise_resolution, "spheres": rows}
-    seconds, cpu, cache = time_atlas(args.repeats, args.cold)
+    seconds, cpu, cache = time_atlas(args.repeats, args.cold, goal)
     record["atlas_seconds"] = seconds
     record["atlas_cpu_seconds"] = cpu
     record["atlas_cache"] = cache
