@@ -15,8 +15,12 @@ depend on the resolution; the default is the atlas's own) and compared with a re
 spp with another seed, inside the silhouette (:func:`~brdfkit.mitsuba_scenes.relative_rmse`;
 the goal: every sphere under 1 %).
 
+Profile (``--profile``): the CPU seconds of each part of each card (directional spheres,
+environment spheres, plots, checks), cards built one after another, and of each
+environment-lit sphere, marked "(NumPy)" where its compiled kernels were not there (cold).
+
     python benchmarks/bench_atlas.py [--repeats 1] [--cold] [--noise-resolution 96]
-        [--skip-noise] [--only CARD ...] [--json]
+        [--skip-noise] [--profile] [--only CARD ...] [--json]
 
 Results go to ``benchmarks/results/atlas.json`` and a summary on stdout.
 """
@@ -46,7 +50,9 @@ def _cpu_seconds() -> float:
     return t.user + t.system + t.children_user + t.children_system
 
 
-def time_atlas(repeats: int, cold: bool) -> tuple[list[float], list[float], list[str]]:
+def time_atlas(
+    repeats: int, cold: bool, goal: dict | None = None
+) -> tuple[list[float], list[float], list[str]]:
     """Wall and CPU seconds of each atlas build and whether it ran on a cold or warm cache."""
     from brdfkit import kernel_cache
     from brdfkit.report import build_atlas
@@ -58,7 +64,7 @@ def time_atlas(repeats: int, cold: bool) -> tuple[list[float], list[float], list
             os.environ[kernel_cache.ENV] = str(Path(folder) / "kernels")
         for k in range(repeats + cold):
             start, start_cpu = time.perf_counter(), _cpu_seconds()
-            build_atlas(Path(folder) / "index.html")
+            build_atlas(Path(folder) / "index.html", **(goal or {}))
             seconds.append(time.perf_counter() - start)
             cpu.append(_cpu_seconds() - start_cpu)
             cache.append("cold" if cold and k == 0 else "warm" if cold else "user")
@@ -70,7 +76,46 @@ def time_atlas(repeats: int, cold: bool) -> tuple[list[float], list[float], list
     return seconds, cpu, cache
 
 
-def sphere_noise(resolution: int, only: list[str] | None = None) -> list[dict]:
+def profile_atlas(only: list[str] | None = None) -> dict:
+    """CPU seconds of each part of every default card (:attr:`brdfkit.report.Card.cpu_seconds`),
+    built one after another in this process, and of each environment-lit sphere, with whether
+    compiled kernels were there for it (built, or in the kernel cache: the warm path) or not
+    (NumPy: a cold cache; the default atlas never builds them, its spheres are too small)."""
+    from brdfkit.data import default_envmap_path
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.render_kernel import compiled_shader
+    from brdfkit.report import build_card, default_cards
+
+    env = EnvironmentMap.from_file(default_envmap_path())
+    start = time.process_time()
+    _ = env.irradiance_table
+    parts: dict[str, float] = {"irradiance table": time.process_time() - start}
+    cards = []
+    for title, models in default_cards():
+        if only and title not in only:
+            continue
+        warm = [compiled_shader(m, [env], method="auto", build=False) is not None for m in models]
+        card = build_card(title, models, envmap=env, resolution=RESOLUTION, samples=SAMPLES)
+        for part, seconds in card.cpu_seconds.items():
+            parts[part] = parts.get(part, 0.0) + seconds
+        spheres = [
+            f"{s:.2f}{'' if w else ' (NumPy)'}"
+            for s, w in zip(card.env_cpu_seconds, warm, strict=True)
+        ]
+        print(f"  {title}: " + ", ".join(f"{k} {v:.2f}" for k, v in card.cpu_seconds.items())
+              + f"; env spheres {', '.join(spheres)} CPU s")  # fmt: skip
+        cards.append(
+            {"card": title, "cpu_seconds": card.cpu_seconds, "env_cpu_seconds":
+             card.env_cpu_seconds, "env_compiled": warm}
+        )  # fmt: skip
+    print("  CPU s per part: " + ", ".join(f"{k} {v:.1f}" for k, v in parts.items())
+          + f"; total {sum(parts.values()):.1f}")  # fmt: skip
+    return {"parts": parts, "cards": cards}
+
+
+def sphere_noise(
+    resolution: int, only: list[str] | None = None, goal: dict | None = None
+) -> list[dict]:
     from brdfkit.data import default_envmap_path
     from brdfkit.lights import EnvironmentMap
     from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
@@ -85,7 +130,7 @@ def sphere_noise(resolution: int, only: list[str] | None = None) -> list[dict]:
             continue
         for k, model in enumerate(models):
             start = time.process_time()
-            image, spp = env_sphere(model, env, RESOLUTION, samples=SAMPLES, seed=1)
+            image, spp = env_sphere(model, env, RESOLUTION, samples=SAMPLES, seed=1, **(goal or {}))
             cpu = time.process_time() - start
             if resolution != RESOLUTION:  # the same passes, N spp in all, smaller
                 image, _ = env_sphere(
@@ -108,10 +153,26 @@ def main() -> None:
     parser.add_argument("--cold", action="store_true", help="first build on an empty cache")
     parser.add_argument("--noise-resolution", type=int, default=RESOLUTION)
     parser.add_argument("--skip-noise", action="store_true")
-    parser.add_argument("--only", nargs="+", help="noise of these cards only (e.g. ggx)")
+    parser.add_argument(
+        "--profile", action="store_true", help="first the CPU seconds of each card's parts"
+    )
+    parser.add_argument(
+        "--only", nargs="+", help="noise and profile of these cards only (e.g. ggx)"
+    )
     parser.add_argument("--json", action="store_true", help="print the record as JSON")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "atlas.json"))
+    parser.add_argument(
+        "--noise-goal", type=float, help="not the default: the atlas's --noise (e.g. 0.01)"
+    )
+    parser.add_argument(
+        "--max-samples", type=int, help="not the default: the atlas's --max-samples with a goal"
+    )
     args = parser.parse_args()
+    goal = {}
+    if args.noise_goal is not None:
+        goal["noise"] = args.noise_goal
+    if args.max_samples is not None:
+        goal["max_samples"] = args.max_samples
     import matplotlib
 
     matplotlib.use("Agg")
@@ -123,12 +184,16 @@ def main() -> None:
         "machine": f"{platform.machine()}, {len(os.sched_getaffinity(0))} cores usable, "
         f"{platform.python_version()}",
         "import_seconds": import_seconds,
+        "options": goal or "defaults",
     }
+    if args.profile:
+        print("CPU seconds of each part, cards one after another in this process:")
+        record["profile"] = profile_atlas(args.only)
     if not args.skip_noise:
         print(f"noise at the atlas's spp N against 16 N spp, {args.noise_resolution}²:")
-        rows = sphere_noise(args.noise_resolution, args.only)
+        rows = sphere_noise(args.noise_resolution, args.only, goal)
         record["noise"] = {"resolution": args.noise_resolution, "spheres": rows}
-    seconds, cpu, cache = time_atlas(args.repeats, args.cold)
+    seconds, cpu, cache = time_atlas(args.repeats, args.cold, goal)
     record["atlas_seconds"] = seconds
     record["atlas_cpu_seconds"] = cpu
     record["atlas_cache"] = cache

@@ -121,3 +121,18 @@ def test_env_sphere_refines_until_its_noise_goal_and_meets_it():
     assert 4 < spp < 1024  # it refined, and stopped before the cap
     reference = render_sphere(ggx, env, 12, samples=16 * spp, seed=2)
     assert relative_rmse(image, reference, interior_mask(12)) <= 0.05
+
+
+def test_build_card_records_the_cpu_seconds_of_its_parts():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.report import build_card
+
+    env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
+    models = [MODELS["lambertian"](), MODELS["phong"]()]
+    card = build_card("t", models, envmap=env, resolution=8, samples=4, run_checks=False)
+    parts = ["directional spheres", "environment spheres", "lobe plot", "albedo plot"]
+    assert list(card.cpu_seconds) == parts and all(s >= 0 for s in card.cpu_seconds.values())
+    assert len(card.env_cpu_seconds) == 2 and card.env_samples == [4, 4]
+    assert sum(card.env_cpu_seconds) <= card.cpu_seconds["environment spheres"] + 1e-6

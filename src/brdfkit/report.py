@@ -22,6 +22,7 @@ import io
 import math
 import re
 import textwrap
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,6 +73,8 @@ class Card:
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
     env_samples: list[int] = field(default_factory=list)  # spp of each environment-lit sphere
+    cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU s of each part's making
+    env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
 
 
 def _png(fig, **savefig_kwargs) -> str:
@@ -235,17 +238,20 @@ def env_sphere(
     reference's own noise; it stops once :math:`\hat e` is at most
     :data:`_MARGIN` × ``noise``. A sphere without Monte Carlo (Lambertian lobes:
     zero ``stderr``) stops after its first pass. The compiled kernels render it where they
-    apply and the most work it may take is worth their build
+    apply and are built already (in this process or in :mod:`brdfkit.kernel_cache`), or
+    where the most work it may take is worth their build
     (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
     :mod:`brdfkit.kernel_cache` keeps them). Returns the linear image and the samples per
     pixel spent."""
     from brdfkit.mitsuba_scenes import interior_mask
     from brdfkit.render import progressive_sphere
-    from brdfkit.render_kernel import AUTO_COMPILE_WORK
+    from brdfkit.render_kernel import AUTO_COMPILE_WORK, compiled_shader
 
     mask = interior_mask(resolution)
     limit = samples if noise is None else max(samples, max_samples)
-    compiled = math.pi / 4 * resolution**2 * limit >= AUTO_COMPILE_WORK
+    # built (in this process or on disk) kernels serve any sphere; building them, only a big one
+    built = compiled_shader(model, [light], method="auto", build=False) is not None
+    compiled = built or math.pi / 4 * resolution**2 * limit >= AUTO_COMPILE_WORK
     for shaded in progressive_sphere(
         model, light, resolution, first_samples=samples, max_samples=limit, seed=seed,
         compiled=compiled,
@@ -283,7 +289,8 @@ def build_card(
 ) -> Card:
     """Render and measure one model family (its example instances) into a :class:`Card`:
     spheres under a directional light at ``samples`` spp, under ``envmap`` by
-    :func:`env_sphere` (``samples``, ``noise``, ``max_samples``)."""
+    :func:`env_sphere` (``samples``, ``noise``, ``max_samples``); the CPU seconds of each part
+    go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``)."""
     from brdfkit.lights import DirectionalLight
     from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
@@ -292,30 +299,45 @@ def build_card(
     models = list(models)
     labels = list(labels) if labels is not None else [model_label(m) for m in models]
     card = Card(title, models, labels, docs=_docs_of(models[0]))
+    clock = time.process_time()
+
+    def lap(part: str) -> None:
+        nonlocal clock
+        card.cpu_seconds[part] = time.process_time() - clock
+        clock += card.cpu_seconds[part]
+
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
     lit = [render_sphere(m, sun, resolution, samples=samples) for m in models]
     card.images["spheres under a directional light"] = _image_png(_sphere_row(lit, resolution))
-    spheres = [
-        env_sphere(m, envmap, resolution, samples=samples, noise=noise, max_samples=max_samples)
-        for m in models
-    ]
+    lap("directional spheres")
+    spheres = []
+    for m in models:
+        start = time.process_time()
+        spheres.append(
+            env_sphere(m, envmap, resolution, samples=samples, noise=noise, max_samples=max_samples)
+        )
+        card.env_cpu_seconds.append(time.process_time() - start)
     card.env_samples = [spp for _, spp in spheres]
     card.images["spheres under the environment map"] = _image_png(
         _sphere_row([image for image, _ in spheres], resolution)
     )
+    lap("environment spheres")
     representative = models[len(models) // 2]
     card.images["lobe (plane of incidence)"] = _png(
         lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)])
     )
+    lap("lobe plot")
     card.images["directional albedo"] = _png(
         albedo_plot(
             models, labels=[f"#{i + 1}" for i in range(len(models))], samples=1024, angles=16
         )
     )
+    lap("albedo plot")
     if run_checks:
         report = check(representative)
         card.checks = [r.to_dict() for r in report.results]
         card.consistent = report.consistent
+        lap("checks")
     return card
 
 
