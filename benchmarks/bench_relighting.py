@@ -58,6 +58,7 @@ import argparse
 import json
 import os
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -76,11 +77,15 @@ from brdfkit.vision.svbrdf import (
     select_shadow_bias,
     shadow_visibility,
 )
+from brdfkit.vision.visibility import relit_visibility
 
 OBJECTS = ("buddha", "cat", "gray", "horse", "owl", "rock")
 MODELS = ("lambertian", "svbrdf_1", "svbrdf_2", "svbrdf_cv")
-SHADOWS = ("off", "chosen", "bias0")
-"""No cast shadows; those of the bias chosen on the training images; those of bias 0."""
+SHADOWS = ("off", "chosen", "bias0", "observed")
+"""No cast shadows; those of the bias chosen on the training images; those of bias 0; the
+shadows each model sees in its own 9 training images, interpolated to the held-out lights
+(:func:`brdfkit.vision.visibility.relit_visibility`, width and ratio chosen on the training
+images)."""
 
 
 def errors(predicted: np.ndarray, real: np.ndarray, mask: np.ndarray) -> dict[str, float]:
@@ -150,22 +155,33 @@ def main() -> None:
                           "least_squares": sphere_depth_scale(ls.normals, data.mask),
                           "svbrdf_cv": sphere_depth_scale(shape.normals, data.mask)}  # fmt: skip
                 print(json.dumps({"object": name, "depth_scale": scales}), flush=True)
-            for shadows, b in zip(SHADOWS, (None, bias, 0.0), strict=True):
+            renders = {
+                "lambertian": partial(lambertian_relight, ls.albedo, ls.normals, data.mask),
+                "svbrdf_1": fits[1].relight,
+                "svbrdf_2": fits[2].relight,
+                "svbrdf_cv": fits[chosen].relight,
+            }
+            for shadows, b in zip(SHADOWS, (None, bias, 0.0, None), strict=True):
                 v = None if b is None else shadow_visibility(shape.normals, data.mask,
                                                              lights[held], bias=b)  # fmt: skip
-                predictions = {
-                    "lambertian": lambertian_relight(
-                        ls.albedo, ls.normals, data.mask, lights[held], visibility=v
-                    ),
-                    "svbrdf_1": fits[1].relight(lights[held], visibility=v),
-                    "svbrdf_2": fits[2].relight(lights[held], visibility=v),
-                    "svbrdf_cv": fits[chosen].relight(lights[held], visibility=v),
-                }
+                predictions, choices = {}, {}
+                for model, render in renders.items():
+                    if shadows == "observed":  # each model's own, from its training renders
+                        v, choices[model] = relit_visibility(
+                            render(lights[train]),
+                            images[train],
+                            lights[train],
+                            data.mask,
+                            lights[held],
+                        )
+                    predictions[model] = render(lights[held]) * (1 if v is None else v[..., None])
                 for model, predicted in predictions.items():
                     record = {"object": name, "held_out": held, "model": model,
                               "shadows": shadows}  # fmt: skip
                     record |= {"lobes": chosen} if model == "svbrdf_cv" else {}
-                    if v is not None:  # an infinite bias (no shadows) is written as null
+                    if shadows == "observed":  # (width, ratio) chosen, null: none
+                        record["visibility"] = choices[model]
+                    elif v is not None:  # an infinite bias (no shadows) is written as null
                         record["bias"] = b if np.isfinite(b) else None
                         record["shadowed"] = float(1 - v[:, data.mask].mean())
                     record |= errors(predicted, real, data.mask)
