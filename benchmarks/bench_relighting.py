@@ -81,11 +81,12 @@ from brdfkit.vision.visibility import relit_visibility
 
 OBJECTS = ("buddha", "cat", "gray", "horse", "owl", "rock")
 MODELS = ("lambertian", "svbrdf_1", "svbrdf_2", "svbrdf_cv")
-SHADOWS = ("off", "chosen", "bias0", "observed")
+SHADOWS = ("off", "chosen", "bias0", "observed", "both")
 """No cast shadows; those of the bias chosen on the training images; those of bias 0; the
 shadows each model sees in its own 9 training images, interpolated to the held-out lights
 (:func:`brdfkit.vision.visibility.relit_visibility`, width and ratio chosen on the training
-images)."""
+images); "both": the chosen cast shadows times the shadows each model still sees in its
+training images rendered with those cast shadows (what the depth misses)."""
 
 
 def errors(predicted: np.ndarray, real: np.ndarray, mask: np.ndarray) -> dict[str, float]:
@@ -126,6 +127,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=Path(default))
     parser.add_argument("--step", type=int, default=2)
     parser.add_argument("--objects", nargs="+", default=list(OBJECTS), choices=OBJECTS)
+    parser.add_argument("--shadows", nargs="+", default=list(SHADOWS), choices=SHADOWS)
     args = parser.parse_args()
     psm = args.data / "photometric_stereo" / "psm"
     chrome = datasets.load_psm(psm / "chrome")
@@ -161,43 +163,48 @@ def main() -> None:
                 "svbrdf_2": fits[2].relight,
                 "svbrdf_cv": fits[chosen].relight,
             }
-            for shadows, b in zip(SHADOWS, (None, bias, 0.0, None), strict=True):
-                v = None if b is None else shadow_visibility(shape.normals, data.mask,
-                                                             lights[held], bias=b)  # fmt: skip
+            settings = zip(SHADOWS, (None, bias, 0.0, None, bias), strict=True)
+            for shadows, b in [(s, b) for s, b in settings if s in args.shadows]:
+                geometric = None
+                if b is not None:
+                    geometric = shadow_visibility(shape.normals, data.mask, lights[held], bias=b)
+                v = geometric
                 predictions, choices = {}, {}
                 for model, render in renders.items():
-                    if shadows == "observed":  # each model's own, from its training renders
+                    if shadows in ("observed", "both"):  # each model's own, on its training
+                        trained = render(lights[train])  # renders (with the cast shadows)
+                        if shadows == "both":
+                            mask = data.mask
+                            cast = shadow_visibility(shape.normals, mask, lights[train], bias=b)
+                            trained = trained * cast[..., None]
                         v, choices[model] = relit_visibility(
-                            render(lights[train]),
-                            images[train],
-                            lights[train],
-                            data.mask,
-                            lights[held],
+                            trained, images[train], lights[train], data.mask, lights[held]
                         )
+                        v = v if geometric is None else v * geometric
                     predictions[model] = render(lights[held]) * (1 if v is None else v[..., None])
                 for model, predicted in predictions.items():
                     record = {"object": name, "held_out": held, "model": model,
                               "shadows": shadows}  # fmt: skip
                     record |= {"lobes": chosen} if model == "svbrdf_cv" else {}
-                    if shadows == "observed":  # (width, ratio) chosen, null: none
+                    if shadows in ("observed", "both"):  # (width, ratio) chosen, null: none
                         record["visibility"] = choices[model]
-                    elif v is not None:  # an infinite bias (no shadows) is written as null
+                    if geometric is not None:  # an infinite bias (no shadows) is written null
                         record["bias"] = b if np.isfinite(b) else None
-                        record["shadowed"] = float(1 - v[:, data.mask].mean())
+                        record["shadowed"] = float(1 - geometric[:, data.mask].mean())
                     record |= errors(predicted, real, data.mask)
                     table.setdefault((name, model, shadows), []).append(record)
                     print(json.dumps(record), flush=True)
             print(json.dumps({"object": name, "fold": fold,
                               "cpu_s": time.process_time() - start}), flush=True)  # fmt: skip
     for key, title in (("rms", "all pixels"), ("rms_lit", "lit pixels"), ("rms_dark", "dark")):
-        print(f"\nRMS, {title}, mean over the folds; cast shadows " + " / ".join(SHADOWS))
+        print(f"\nRMS, {title}, mean over the folds; cast shadows " + " / ".join(args.shadows))
         print("\n| object | " + " | ".join(MODELS) + " |")
         print("|---|" + "---|" * len(MODELS))
         for name in (*args.objects, "mean"):
             cells = []
             for model in MODELS:
                 pair = []
-                for shadows in SHADOWS:
+                for shadows in args.shadows:
                     rows = [r for (o, m, s), rs in table.items()
                             if m == model and s == shadows and name in (o, "mean")
                             for r in rs]  # fmt: skip
