@@ -204,3 +204,23 @@ def test_render_converges_to_the_numpy_reference(table):
     m = g.mask
     error = np.sqrt(np.mean((image - reference)[m] ** 2)) / np.sqrt(np.mean(reference[m] ** 2))
     assert error < 0.03
+
+
+def test_broadcast_eval_in_chunks_equals_one_kernel_call(table):
+    """``TableKernels.eval`` (the control variate's floor) runs in chunks of EVAL_CHUNK pairs:
+    over several chunks and a partial one, bit-identical to one call over all pairs."""
+    from brdfkit.render_table_kernel import EVAL_CHUNK
+
+    kernels = table_kernels(table, np.float64)
+    wi, wo = _pairs(EVAL_CHUNK // 8 + 37)
+    directions = wi[:16]  # (16, 3) against every wo: broadcast as in the floor
+    f = kernels.eval(directions, wo[:, None, :])
+    assert f.shape == (wo.shape[0], 16, 3) and wo.shape[0] * 16 > 2 * EVAL_CHUNK
+    a, b = np.broadcast_arrays(directions, wo[:, None, :])
+    n = a.shape[0] * a.shape[1]
+    expected = np.empty(n * 3)
+    kernels.functions[1](
+        kernels.parameters, a.reshape(-1).copy(), b.reshape(-1).copy(), expected, n,
+        *kernels.data,
+    )  # fmt: skip
+    assert np.array_equal(f.reshape(-1), expected)

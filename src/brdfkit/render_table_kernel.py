@@ -90,7 +90,8 @@ def _prefetch() -> Callable[[np.ndarray, int], None]:
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
             data = context.make_array(signature.args[0])(context, builder, args[0]).data
             offset = context.cast(builder, args[1], signature.args[1], types.intp)
-            pointer = builder.gep(data, [offset])
+            # as i8*: one declaration serves arrays of any dtype in a module
+            pointer = builder.bitcast(builder.gep(data, [offset]), ir.IntType(8).as_pointer())
             i32 = ir.IntType(32)
             function = cgutils.get_or_insert_function(
                 builder.module,
@@ -144,6 +145,31 @@ def _atan2_32() -> Callable[[Any, Any], Any]:
     return atan2
 
 
+@functools.cache
+def trigonometry(dtype: type) -> tuple[Callable[..., Any], Callable[..., Any], Callable[..., Any]]:
+    """numba ``(atan2, sin, cos)`` for the kernels in ``dtype``: float32 the branch-free ones
+    that LLVM vectorises (:func:`_atan2_32`, :func:`brdfkit.accel`'s float32 sine and cosine;
+    a few ulp), float64 libm's (the NumPy path's values)."""
+    if dtype is np.float32:
+        trig = accel._trig32()
+        return _atan2_32(), trig["_sin32"], trig["_cos32"]
+    jit = accel._exact_jit()
+
+    @jit
+    def atan2(y: Any, x: Any) -> Any:
+        return np.arctan2(y, x)
+
+    @jit
+    def sin(x: Any) -> Any:
+        return np.sin(x)
+
+    @jit
+    def cos(x: Any) -> Any:
+        return np.cos(x)
+
+    return atan2, sin, cos
+
+
 def _new_table_functions(
     dtype: type, rank: int, table_channels: int, channels: int, interpolation: str
 ) -> tuple[Callable[..., None], Callable[..., None], Callable[..., None]]:
@@ -169,24 +195,7 @@ def _new_table_functions(
     prefetch = _prefetch()
     select = accel._intrinsics()["_select"]
     T = dtype
-    if T is np.float32:
-        atan2 = _atan2_32()
-        trig = accel._trig32()
-        sin, cos = trig["_sin32"], trig["_cos32"]
-    else:
-
-        @jit
-        def atan2(y: Any, x: Any) -> Any:
-            return np.arctan2(y, x)
-
-        @jit
-        def sin(x: Any) -> Any:
-            return np.sin(x)
-
-        @jit
-        def cos(x: Any) -> Any:
-            return np.cos(x)
-
+    atan2, sin, cos = trigonometry(T)
     zero, one, two, four = T(0), T(1), T(2), T(4)
     pi, half_pi, two_pi = T(math.pi), T(math.pi / 2), T(2 * math.pi)
     quarter_pi = T(math.pi / 4)
@@ -496,6 +505,12 @@ def _new_table_functions(
     return sample_fn, eval_fn, pdf_fn
 
 
+EVAL_CHUNK = 4096
+"""Pairs per call of the ``eval`` kernel in :meth:`TableKernels.eval` (elementwise: the
+values do not depend on it). One call over a whole image's control-variate pairs (~10⁶)
+streams its per-pair scratch arrays through memory; measured ~2× slower."""
+
+
 class TableKernels:
     """A (scaled) table's numba ``sample``/``eval``/``pdf`` and their array arguments.
 
@@ -535,8 +550,14 @@ class TableKernels:
         batch = wi.shape[:-1]
         n = math.prod(batch)
         out = np.empty(n * self.channels, self.dtype)
-        flat = [v.reshape(-1).copy() for v in (wi, wo)]
-        self.functions[1](self.parameters, *flat, out, n, *self.data)
+        wi_flat, wo_flat = (v.reshape(-1).copy() for v in (wi, wo))
+        c = self.channels
+        for lo in range(0, n, EVAL_CHUNK):  # chunks: the kernel's scratch stays in cache
+            hi = min(lo + EVAL_CHUNK, n)
+            self.functions[1](
+                self.parameters, wi_flat[3 * lo : 3 * hi], wo_flat[3 * lo : 3 * hi],
+                out[c * lo : c * hi], hi - lo, *self.data,
+            )  # fmt: skip
         return out.reshape(*batch, self.channels)
 
     def built(self) -> bool:
