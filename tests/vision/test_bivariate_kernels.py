@@ -215,14 +215,19 @@ def _ref_best_start(starts, gray, weights, lights, basis, nonnegative, ring=np.r
     return pick(ring_normals)
 
 
+def _basis(name: str) -> tuple[bivariate.Basis, bool]:
+    """The basis of each of the three methods, and whether its weights are non-negative."""
+    if name == "bipolynomial":
+        return bivariate._bipolynomial_basis(3, 1), False
+    if name == "ramps":
+        return bivariate._sum_of_lobes_basis(*_ramps_knots()), True
+    return bivariate._shared_basis(_table()), True
+
+
 @pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
 def test_best_start_kernel_equals_numpy(glossy, name):
     gray, lights, lit, starts, _ = glossy
-    basis, nonnegative = {
-        "bipolynomial": (bivariate._bipolynomial_basis(3, 1), False),
-        "ramps": (bivariate._sum_of_lobes_basis(*_ramps_knots()), True),
-        "table": (bivariate._shared_basis(_table()), True),
-    }[name]
+    basis, nonnegative = _basis(name)
     g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
     reference = _ref_best_start(starts, g, w, lights, basis, nonnegative)
     normals, residual, cost = np.empty((len(g), 3)), np.empty(g.shape), np.empty(len(g))
@@ -244,11 +249,7 @@ def test_kept_products_through_rejected_steps_change_nothing(glossy, name):
     """The normal search that reuses ``J^T J`` and ``J^T r`` after a rejected step follows the
     one that refits the shifted normals (same normals, damping and stopping)."""
     gray, lights, lit, starts, _ = glossy
-    basis, nonnegative = {
-        "bipolynomial": (bivariate._bipolynomial_basis(3, 1), False),
-        "ramps": (bivariate._sum_of_lobes_basis(*_ramps_knots()), True),
-        "table": (bivariate._shared_basis(_table()), True),
-    }[name]
+    basis, nonnegative = _basis(name)
     g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
     inputs = bivariate._kernel_inputs(lights, basis)
     runs = []
