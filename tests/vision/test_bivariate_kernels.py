@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import sparse
-from scipy.sparse.linalg import spsolve
 
 from brdfkit.vision import _bivariate_kernels, bivariate, datasets, photometric_stereo
 from brdfkit.vision.bivariate import _half_vectors
@@ -36,30 +35,7 @@ def _ref_fit_table(table, normals, gray, weights, lights, coefficients, smoothne
     normal_matrix = sparse.coo_matrix(
         (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
     ).tocsr()
-    grid = np.arange(size).reshape(table.n_h, table.n_d)
-    differences = []
-    for axis in (0, 1):
-        a, b, c = (
-            np.take(grid, range(k, grid.shape[axis] - 2 + k), axis).ravel() for k in (0, 1, 2)
-        )
-        m = len(a)
-        differences.append(
-            sparse.coo_matrix(
-                (
-                    np.tile([1.0, -2.0, 1.0], m),
-                    (np.repeat(np.arange(m), 3), np.stack([a, b, c], 1).ravel()),
-                ),
-                (m, size),
-            )
-        )
-    penalty = sparse.vstack(differences).tocsr()
-    level = normal_matrix.diagonal().mean() + 1e-300
-    system = (
-        normal_matrix + smoothness * level * (penalty.T @ penalty) + 1e-9 * level * sparse.eye(size)
-    )
-    values = np.clip(spsolve(system.tocsc(), rhs), 0.0, None)
-    peak = values.max()
-    return values / peak if peak > 0 else values
+    return bivariate._smoothed_solution(normal_matrix, rhs, table.n_h, table.n_d, smoothness)
 
 
 # ----------------------------------------------------------------------------------------------

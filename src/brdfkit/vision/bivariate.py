@@ -544,54 +544,18 @@ def _shared_basis(table: _Table) -> Basis:
     )
 
 
-def _fit_table(
-    table: _Table,
-    normals: np.ndarray,
-    gray: np.ndarray,
-    weights: np.ndarray,
-    lights: np.ndarray,
-    coefficients: np.ndarray,
-    smoothness: float,
-) -> None:
-    """Least-squares table given normals and per-pixel ``(ρ_d, ρ_s)``, with a second-difference
-    smoothness penalty ``smoothness`` (relative to the data term's scale); clipped at 0 and
-    scaled to a maximum of 1 (the scale is the pixels' ``ρ_s``)."""
-    import numba
+def _smoothed_solution(
+    normal_matrix, rhs: np.ndarray, n_h: int, n_d: int, smoothness: float
+) -> np.ndarray:
+    """The ``(n_h n_d,)`` table values solving the normal equations ``normal_matrix`` (sparse)
+    and ``rhs`` plus a second-difference penalty along both axes of the ``(n_h, n_d)`` grid,
+    weighted by ``smoothness`` times the data term's mean diagonal (and a ``1e-9`` ridge);
+    clipped at 0 and scaled to a maximum of 1."""
     from scipy import sparse
     from scipy.sparse.linalg import spsolve
 
-    from brdfkit.vision import _bivariate_kernels
-
-    lights = np.ascontiguousarray(lights, dtype=np.float64)
-    half, cos_theta_d = _half_vectors(lights)
-    column, fraction = _bivariate_kernels.table_columns(cos_theta_d, table.n_d)
-    bands, rhs = _bivariate_kernels.table_normal_equations(
-        np.ascontiguousarray(normals, dtype=np.float64),
-        np.ascontiguousarray(gray),
-        np.ascontiguousarray(weights),
-        lights,
-        half,
-        column,
-        fraction,
-        table.n_h,
-        table.n_d,
-        np.ascontiguousarray(coefficients, dtype=np.float64),
-        max(1, min(4 * numba.get_num_threads(), len(normals))),  # parallel partial sums
-    )
-    bands, rhs = bands.sum(axis=0), rhs.sum(axis=0)
-    size = table.n_h * table.n_d
-    grid = np.arange(size).reshape(table.n_h, table.n_d)
-    i, j = np.divmod(np.arange(size), table.n_d)
-    rows, cols, values = [], [], []
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            inside = (0 <= i + di) & (i + di < table.n_h) & (0 <= j + dj) & (j + dj < table.n_d)
-            rows.append(np.flatnonzero(inside))
-            cols.append(rows[-1] + di * table.n_d + dj)
-            values.append(bands[inside, 1 + di, 1 + dj])
-    normal_matrix = sparse.coo_matrix(
-        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
-    ).tocsr()
+    size = n_h * n_d
+    grid = np.arange(size).reshape(n_h, n_d)
     differences = []
     for axis in (0, 1):
         a, b, c = (
@@ -614,7 +578,56 @@ def _fit_table(
     )
     values = np.clip(spsolve(system.tocsc(), rhs), 0.0, None)
     peak = values.max()
-    table.values = values / peak if peak > 0 else values
+    return values / peak if peak > 0 else values
+
+
+def _fit_table(
+    table: _Table,
+    normals: np.ndarray,
+    gray: np.ndarray,
+    weights: np.ndarray,
+    lights: np.ndarray,
+    coefficients: np.ndarray,
+    smoothness: float,
+) -> None:
+    """Least-squares table given normals and per-pixel ``(ρ_d, ρ_s)``, with a second-difference
+    smoothness penalty ``smoothness`` (relative to the data term's scale); clipped at 0 and
+    scaled to a maximum of 1 (the scale is the pixels' ``ρ_s``)."""
+    import numba
+    from scipy import sparse
+
+    from brdfkit.vision import _bivariate_kernels
+
+    lights = np.ascontiguousarray(lights, dtype=np.float64)
+    half, cos_theta_d = _half_vectors(lights)
+    column, fraction = _bivariate_kernels.table_columns(cos_theta_d, table.n_d)
+    bands, rhs = _bivariate_kernels.table_normal_equations(
+        np.ascontiguousarray(normals, dtype=np.float64),
+        np.ascontiguousarray(gray),
+        np.ascontiguousarray(weights),
+        lights,
+        half,
+        column,
+        fraction,
+        table.n_h,
+        table.n_d,
+        np.ascontiguousarray(coefficients, dtype=np.float64),
+        max(1, min(4 * numba.get_num_threads(), len(normals))),  # parallel partial sums
+    )
+    bands, rhs = bands.sum(axis=0), rhs.sum(axis=0)
+    size = table.n_h * table.n_d
+    i, j = np.divmod(np.arange(size), table.n_d)
+    rows, cols, values = [], [], []
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            inside = (0 <= i + di) & (i + di < table.n_h) & (0 <= j + dj) & (j + dj < table.n_d)
+            rows.append(np.flatnonzero(inside))
+            cols.append(rows[-1] + di * table.n_d + dj)
+            values.append(bands[inside, 1 + di, 1 + dj])
+    normal_matrix = sparse.coo_matrix(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
+    ).tocsr()
+    table.values = _smoothed_solution(normal_matrix, rhs, table.n_h, table.n_d, smoothness)
 
 
 def shared_bivariate(
