@@ -85,17 +85,32 @@ def observed_visibility(
     if not 0 < ratio <= 1:
         raise ParameterError(f"ratio must be in (0, 1], got {ratio}")
     observations, _, mask = _prepare(images, light_directions, mask)
+    r, known = _ratios(_predicted_at(predicted, observations, mask), observations)
+    return _thresholded(r, known, ratio), known
+
+
+def _predicted_at(predicted: ArrayLike, observations: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The predictions ``(N, P, C)`` at the mask's pixels, checked against the images' shape."""
     predicted = np.asarray(predicted, dtype=np.float64)
     if predicted.shape[:3] != (len(observations), *mask.shape):
         raise ParameterError(
             f"predicted must have shape ({len(observations)}, {mask.shape[0]}, {mask.shape[1]}, C)"
             f" like the images; got {predicted.shape}"
         )
-    p = predicted[:, mask].mean(axis=-1)
+    return predicted[:, mask]
+
+
+def _ratios(shading: np.ndarray, observations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``r`` (N, P) of the module formula, and where it is known (the prediction is lit)."""
+    p = shading.mean(axis=-1)
     o = observations.mean(axis=-1)
     known = p > LIT * np.percentile(p, 99, axis=1, keepdims=True)
-    r = np.clip(o / np.where(known, p, 1.0), 0.0, 1.0)
-    return np.where(known & (r < ratio), r, 1.0), known
+    return np.clip(o / np.where(known, p, 1.0), 0.0, 1.0), known
+
+
+def _thresholded(r: np.ndarray, known: np.ndarray, ratio: float) -> np.ndarray:
+    """``v``: the ratio where it is known and below ``ratio`` (shadowed), else 1."""
+    return np.where(known & (r < ratio), r, 1.0)
 
 
 def interpolate_visibility(
@@ -141,15 +156,24 @@ def select_visibility(
     (best (width, ratio) or None, {candidate: RMS})
     """
     observations, lights, mask = _prepare(images, light_directions, mask)
-    shading = np.asarray(predicted, dtype=np.float64)[:, mask]  # (N, P, C)
+    shading = _predicted_at(predicted, observations, mask)  # (N, P, C)
+    return _select(shading, observations, lights, widths, ratios)
+
+
+def _select(
+    shading: np.ndarray, observations: np.ndarray, lights: np.ndarray,
+    widths: tuple[float, ...], ratios: tuple[float, ...],
+) -> tuple[tuple[float, float] | None, dict[tuple[float, float] | None, float]]:  # fmt: skip
+    """:func:`select_visibility` on the mask's predictions and observations ``(N, P, C)``."""
     n = len(lights)
     if n < 2:
         raise ParameterError(f"select_visibility needs at least 2 lights, got {n}")
     scores: dict[tuple[float, float] | None, float] = {
         None: float(np.sqrt(np.mean((shading - observations) ** 2)))
     }
+    r, known = _ratios(shading, observations)
     for ratio in ratios:
-        v, known = observed_visibility(predicted, images, lights, mask, ratio=ratio)
+        v = _thresholded(r, known, ratio)
         for width in widths:
             squared = 0.0
             for k in range(n):
@@ -169,13 +193,15 @@ def relit_visibility(
     """Visibility ``(M, H, W)`` of ``new_directions`` from the shadows seen in ``images``, with
     the width and ratio :func:`select_visibility` picks on those images (all 1 where it picks
     none), for ``relight(..., visibility=)``; returns it and the choice."""
-    choice, _ = select_visibility(predicted, images, light_directions, mask,
-                                  widths=widths, ratios=ratios)  # fmt: skip
-    _, lights, mask = _prepare(images, light_directions, mask)
+    observations, lights, mask = _prepare(images, light_directions, mask)
+    shading = _predicted_at(predicted, observations, mask)
+    choice, _ = _select(shading, observations, lights, widths, ratios)
     new = np.atleast_2d(np.asarray(new_directions, dtype=np.float64))
     out = np.ones((len(new), *mask.shape))
     if choice is not None:
         width, ratio = choice
-        v, known = observed_visibility(predicted, images, lights, mask, ratio=ratio)
-        out[:, mask] = interpolate_visibility(v, known, lights, new, width=width)
+        r, known = _ratios(shading, observations)
+        out[:, mask] = interpolate_visibility(
+            _thresholded(r, known, ratio), known, lights, new, width=width
+        )
     return out, choice
