@@ -205,3 +205,35 @@ def test_a_second_parameter_set_reuses_the_shading_kernels(monkeypatch):
         expected = shade(g, model, env, samples=8, seed=5, compiled=False)
         image = shade(g, model, env, samples=8, seed=5, compiled="float64")
         np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+def test_render_sphere_keeps_the_set_up_of_the_most_recent_inputs(monkeypatch):
+    """A second render of the same inputs skips prepare (frames, floor, irradiance) and
+    equals an uncached render; other inputs replace the kept work."""
+    env, other = _map(), RoughConductor(alpha=0.45, material="Cu", masking="smith_separable")
+    calls = []
+    prepare = EnvironmentShader.prepare
+    monkeypatch.setattr(
+        EnvironmentShader,
+        "prepare",
+        lambda self, *a, **k: calls.append(1) or prepare(self, *a, **k),
+    )
+    kwargs = {"samples": 8, "compiled": True, "max_evaluations": 2_000}  # several tiles
+    first = render_sphere(GOLD, env, 16, seed=3, **kwargs)
+    tiles = len(calls)
+    assert tiles > 1
+    np.testing.assert_array_equal(render_sphere(GOLD, env, 16, seed=3, **kwargs), first)
+    again = render_sphere(GOLD, env, 16, seed=4, **kwargs)
+    assert len(calls) == tiles  # nothing prepared again
+    fresh = shade(gbuffer(Sphere(), None, 16), GOLD, env, seed=4, **kwargs)
+    np.testing.assert_array_equal(again, fresh)
+    assert len(calls) == 2 * tiles
+    calls.clear()
+    changed = render_sphere(other, env, 16, seed=4, **kwargs)
+    assert len(calls) == tiles and not np.array_equal(changed, again)
+    env2 = _map(2)
+    expected = shade(gbuffer(Sphere(), None, 16), GOLD, env2, seed=4, **kwargs)
+    np.testing.assert_array_equal(render_sphere(GOLD, env2, 16, seed=4, **kwargs), expected)
+    numpy_image = render_sphere(GOLD, env, 16, seed=4, **{**kwargs, "compiled": False})
+    assert not np.array_equal(numpy_image, again)
+    np.testing.assert_array_equal(render_sphere(GOLD, env, 16, seed=4, **kwargs), again)

@@ -473,7 +473,9 @@ def render_sphere(
 
     The G-buffer is traced band by band of :data:`BAND_PIXELS` pixels and each band shaded
     in turn (the same tiles and seeds as :func:`shade` on the whole G-buffer, so the same
-    image), so that memory holds the image and one band, not a whole-image G-buffer.
+    image), so that memory holds the image and one band, not a whole-image G-buffer. An
+    image of one band keeps its sample-independent work for the next call on the same
+    inputs (:func:`_recent_work`): rendering it again, with other seeds or samples, skips it.
     """
     height, width = (resolution, resolution) if isinstance(resolution, int) else resolution
     options = {**_SHADE_KEYWORDS, **kwargs}
@@ -482,7 +484,8 @@ def render_sphere(
     )
     band = rows_per_tile * max(1, BAND_PIXELS // (rows_per_tile * width))
     if band >= height:
-        return shade(gbuffer(Sphere(), camera, resolution), brdf, lights, **kwargs)
+        g, cache = _recent_work(brdf, lights, camera, (height, width), options)
+        return _shade(g, brdf, lights, **options, stderr=False, cache=cache)[0]
     progress, seed = options.pop("progress"), options.pop("seed")
     # the compiled path's choice made once, for the whole image's work
     work = int(math.pi / 4 * height * width) * options["samples"]
@@ -504,6 +507,39 @@ def render_sphere(
 
 BAND_PIXELS = 1 << 18
 """Pixels per band of :func:`render_sphere` (a 512² image in one band: ~60 MB of G-buffer)."""
+
+
+_RECENT: dict[str, tuple[tuple[Any, ...], tuple[Any, ...], GBuffer, dict[Any, Any]]] = {}
+"""The most recent :func:`_recent_work` entry (one: a 512² image's holds ~100 MB)."""
+
+
+def _recent_work(
+    brdf: BRDF,
+    lights: Light | Sequence[Light],
+    camera: Camera | None,
+    shape: tuple[int, int],
+    options: dict[str, Any],
+) -> tuple[GBuffer, dict[Any, Any]]:
+    """The unit sphere's G-buffer and :func:`_shade`'s ``cache`` of its sample-independent
+    work (each tile's :meth:`~brdfkit.render_kernel.EnvironmentShader.prepare` and delta
+    lights), kept for the most recent inputs: the same model, light and camera objects
+    (immutable, held by the entry so that their ids stay theirs), shape, ``method`` and
+    tiling options. Per call the compiled plan is decided afresh (kernels may have been
+    built since); the tiles' entries carry the plan's dtype (``compiled``) in their keys.
+    The per-render set-up it saves (G-buffer, frames, the control variate's floor, the
+    irradiance) was measured at ~45 ms of a 256² render's 140 ms (gold, 16 spp)."""
+    light_list = (lights,) if isinstance(lights, Light) else tuple(lights)
+    key = (
+        id(brdf), tuple(map(id, light_list)), id(camera), shape, options["method"],
+        options["sequence"], options["max_evaluations"],
+    )  # fmt: skip
+    entry = _RECENT.get("sphere")
+    if entry is None or entry[0] != key:
+        entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), {})
+        _RECENT["sphere"] = entry
+    cache = entry[3]
+    cache.pop(("plan", options["compiled"]), None)
+    return entry[2], cache
 
 
 # --------------------------------------------------------------------------- progressive
