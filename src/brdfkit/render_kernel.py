@@ -22,7 +22,8 @@ pixels, the BRDF kernels that :func:`brdfkit.accel.compile` builds from the mode
   as :class:`~brdfkit.sampling.Distribution2D`, run in lock step over the block), its radiance
   and the solid-angle pdf
   :math:`p_\omega = p_{uv}/(2\pi^2\sin\theta)`;
-- the BRDF's ``eval`` and ``pdf`` kernels at the map's directions, then the MIS sum.
+- the BRDF's ``eval`` and ``pdf`` kernels at the map's directions above the surface
+  (compacted: below it the term is 0), then the MIS sum.
 
 Nothing of size pixels × samples is stored: the scratch memory is a few buffers per block.
 The uniforms are those of the NumPy path (the same generator calls in the same order: per
@@ -363,6 +364,11 @@ def _new_tile_kernel(
         wil_buf = np.empty(BLOCK * 3, T)
         f_buf = np.empty(BLOCK * brdf_channels, T)
         pbl_buf = np.empty(BLOCK, T)
+        above = np.empty(BLOCK, np.int64)  # the map's samples above the surface, compacted:
+        wic_buf = np.empty(BLOCK * 3, T)  # their directions, the viewer's,
+        woc_buf = np.empty(BLOCK * 3, T)
+        fc_buf = np.empty(BLOCK * brdf_channels, T)  # f and p_b there
+        pbc_buf = np.empty(BLOCK, T)
         coords = np.empty((BLOCK, 5), T)  # (x, y, sin θ) of the BRDF's, (x, y) of the map's
         pdf_l = np.empty(BLOCK, T)
         cos_l = np.empty(BLOCK, T)
@@ -448,8 +454,27 @@ def _new_tile_kernel(
                             lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
                         )
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
-                eval_fn(params, wil_buf, wo_buf, f_buf, nb, *data)
-                pdf_fn(params, wil_buf, wo_buf, pbl_buf, nb, *data)
+                # the BRDF at the map's directions above the surface only (about half of
+                # them): below it f = 0 and p_b = 0 and the term, times cos θ = 0, is 0
+                live = 0
+                for j in range(nb):
+                    if cos_l[j] > zero:
+                        above[live] = j
+                        for k in range(3):
+                            wic_buf[live * 3 + k] = wil_buf[j * 3 + k]
+                            woc_buf[live * 3 + k] = wo_buf[j * 3 + k]
+                        live += 1
+                eval_fn(params, wic_buf, woc_buf, fc_buf, live, *data)
+                pdf_fn(params, wic_buf, woc_buf, pbc_buf, live, *data)
+                for j in range(nb):
+                    pbl_buf[j] = zero
+                    for c in range(brdf_channels):
+                        f_buf[j * brdf_channels + c] = zero
+                for i in range(live):
+                    j = above[i]
+                    pbl_buf[j] = pbc_buf[i]
+                    for c in range(brdf_channels):
+                        f_buf[j * brdf_channels + c] = fc_buf[i * brdf_channels + c]
                 for j in range(nb):
                     p = pixels[start + j]
                     x, y, sin_theta = coords[j, 0], coords[j, 1], coords[j, 2]
