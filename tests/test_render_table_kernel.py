@@ -207,8 +207,9 @@ def test_render_converges_to_the_numpy_reference(table):
 
 
 def test_broadcast_eval_in_chunks_equals_one_kernel_call(table):
-    """``TableKernels.eval`` (the control variate's floor) runs in chunks of EVAL_CHUNK pairs:
-    over several chunks and a partial one, bit-identical to one call over all pairs."""
+    """``TableKernels.eval`` (the control variate's floor) runs in chunks of EVAL_CHUNK pairs
+    on accel's threads: over several chunks and a partial one, bit-identical to one call
+    over all pairs."""
     from brdfkit.render_table_kernel import EVAL_CHUNK
 
     kernels = table_kernels(table, np.float64)
