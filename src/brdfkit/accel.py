@@ -223,14 +223,48 @@ def _elementwise(
     return out
 
 
+_SELECT = "_select({0}, {2}, {1})"
+"""Template of a select: its arguments are ``[predicate, case if false, case if true]``."""
+
+
 def _select(em: _Emitter, predicate: Any, cases: list[Any], dtype: np.dtype) -> Any:
-    """``cases[predicate]`` for a boolean predicate (JAX's ``select_n``)."""
+    """``cases[predicate]`` for a boolean predicate (JAX's ``select_n``); each case as
+    :func:`_given` the predicate's value that picks it."""
     if _is_const(predicate):
         return cases[int(bool(predicate))]
     if not isinstance(cases[0], _Sym) and not isinstance(cases[1], _Sym):
         if np.asarray(cases[0]).tobytes() == np.asarray(cases[1]).tobytes():
             return cases[0]
-    return em.emit("_select({0}, {2}, {1})", [predicate, cases[0], cases[1]], dtype)
+    cases = [_given(em, case, predicate, bool(k)) for k, case in enumerate(cases)]
+    return em.emit(_SELECT, [predicate, *cases], dtype)
+
+
+def _given(em: _Emitter, x: Any, predicate: _Sym, value: bool) -> Any:
+    """``x`` in the lanes where ``predicate`` is ``value``, with the selects on ``predicate``
+    that are ``x`` or its operands resolved to their case there.
+
+    The same values in those lanes, which are the only ones a select on ``predicate`` keeps of
+    ``x`` (the kernels' operations are pure and do not trap). It undoes the inner guard of the
+    models' double ``where`` (:func:`brdfkit._array.safe_div`, ``safe_sqrt``: a guarded
+    operand for the gradient, then the guarded result): ``where(b != 0, a / where(b != 0, b,
+    1), 0)`` compiles as ``where(b != 0, a / b, 0)``, one select instead of two.
+    """
+
+    def resolved(a: Any) -> Any:
+        template, args = em.definitions.get(a.name, ("", ())) if isinstance(a, _Sym) else ("", ())
+        if template == _SELECT and args[0].name == predicate.name:
+            return args[1 + value]
+        return a
+
+    if resolved(x) is not x:
+        return resolved(x)
+    if not isinstance(x, _Sym) or x.name not in em.definitions:
+        return x
+    template, args = em.definitions[x.name]
+    operands = [resolved(a) for a in args]
+    if all(a is b for a, b in zip(operands, args, strict=True)):
+        return x
+    return em.emit(template, operands, x.dtype)
 
 
 def _binary(op: str, dtype: np.dtype) -> tuple[Callable[..., Any], str]:
