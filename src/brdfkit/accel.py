@@ -20,7 +20,8 @@ formula:
    shared. What remains is straight-line, branch-free scalar code (``where`` becomes a select).
 3. **Compile.** That code is the body of a ``numba.njit(nogil=True)`` loop over a range of
    the batch; LLVM vectorises it across lanes (AVX2: 8 float32 lanes; AVX-512: 16, asked for
-   per kernel, see :func:`vector_bits`), and blocks of the batch run on a thread pool. Kernels
+   per kernel, see :func:`vector_bits`) with two vectors in flight (:data:`_INTERLEAVE`), and
+   blocks of the batch run on a thread pool. Kernels
    are cached per model structure and dtype (a new parameter set costs neither tracing nor
    compiling: its values are the kernel's parameter array, and what depends on them alone is
    computed once per call, before the loop); their outputs come from a
@@ -1293,9 +1294,43 @@ def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[...
         function = numba.njit(fastmath=set(_FASTMATH), error_model="numpy", nogil=True)(
             namespace["kernel"]
         )
+        _interleave(function)
         kernel_cache.enable(function, _disk_key(source, constants))  # machine code on disk
         _KERNELS[key] = function
         return function
+
+
+_INTERLEAVE = 2
+"""Vector iterations that LLVM's loop vectoriser interleaves in each kernel's loop (its own
+cost model picks 1 for these long bodies, whose registers it finds taken).
+
+The body is one long chain of dependent operations per element (square roots and divisions
+among them); two independent vectors in flight let the core overlap their latencies. Measured
+on the GGX conductor kernel, one thread, 16k pairs in cache, AVX2 (AMD EPYC, Zen 3): 6.5 → 5.3
+ns per pair (3: 5.1, 4: 5.3), the values bit for bit the same (each element is computed by the
+same operations; the batch's scalar remainder is at most ``2 × lanes − 1`` elements, none for
+the render tile kernels' blocks of 256)."""
+
+
+def _interleave(dispatcher: Any) -> None:
+    """Have numba compile ``dispatcher`` (each signature, also when a tile kernel calls it) with
+    LLVM's ``-force-vector-interleave`` at :data:`_INTERLEAVE`, set under numba's compiler
+    lock, which every compilation of the process holds, and reset to 0 (LLVM's own choice)
+    afterwards: other numba code keeps LLVM's default."""
+    import llvmlite.binding as llvm
+    from numba.core.compiler_lock import global_compiler_lock
+
+    compile_signature = dispatcher.compile
+
+    def compile_interleaved(signature: Any) -> Any:
+        with global_compiler_lock:
+            llvm.set_option("", f"-force-vector-interleave={_INTERLEAVE}")
+            try:
+                return compile_signature(signature)
+            finally:
+                llvm.set_option("", "-force-vector-interleave=0")
+
+    dispatcher.compile = compile_interleaved
 
 
 # --------------------------------------------------------------------------- compiled BRDFs
