@@ -16,7 +16,7 @@ pytest.importorskip("numba")
 from scipy import special
 
 import brdfkit.accel as accel
-from brdfkit._array import erfinv, namespace, normalize
+from brdfkit._array import erfinv, namespace, normalize, safe_div, safe_sqrt
 from brdfkit.brdf import (
     BeckmannConductor,
     CookTorrance,
@@ -186,6 +186,24 @@ def test_max_and_min_propagate_nan_as_numpy_does(dtype) -> None:
     np.testing.assert_array_equal(reduced, np.maximum(a, b))
     assert "_max(" in kernel.source and "_min(" in kernel.source
     assert "np.maximum" not in kernel.source and "np.minimum" not in kernel.source
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_guarded_division_and_root_compile_to_one_select_each(dtype) -> None:
+    """``safe_div``/``safe_sqrt`` (a guarded operand inside a guarded result, for the gradient)
+    keep NumPy's values for zeros, negatives, NaN and ±inf, with the inner guard taken given
+    the outer one's predicate: one select each, not two."""
+    special_values = [np.nan, np.inf, -np.inf, 0.0, -0.0, 1.0, -2.5, 3e-39, 7.0]
+    pairs = np.array(list(itertools.product(special_values, repeat=2)), dtype=dtype)
+    with np.errstate(all="ignore"):
+        for fn in (
+            lambda x: safe_div(x[..., 0], x[..., 1]),
+            lambda x: safe_sqrt(x[..., 0] * x[..., 1]),
+        ):
+            kernel = accel.compile_function(fn, (2,), dtype)
+            (ours,) = kernel(pairs)
+            np.testing.assert_array_equal(ours, fn(pairs))
+            assert kernel.source.count("_select(") == 1
 
 
 def test_integer_max_keeps_numbas_maximum() -> None:
