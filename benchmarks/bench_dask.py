@@ -15,9 +15,9 @@ limit.
    where every fit has a file of its own.
    The workers are ``brdfkit fit``'s (:func:`brdfkit.distributed.cluster.local_cluster` with
    ``keep_memory``: freed memory kept for the next fit, see ``KEEP_MEMORY_CONFIG``).
-   Each worker first runs one fit of a file outside the batch, outside the clock (imports and
-   JIT compilation, seconds per process: the steady state is measured, as compile time is kept
-   apart elsewhere).
+   Each worker first fits a file outside the batch with each model, outside the clock (imports
+   and JIT compilation or loading of the models' kernels, seconds per process: the steady state
+   is measured, as compile time is kept apart elsewhere).
    "Cores busy" = the workers' CPU seconds per wall second: near 1 and 2 on a quiet machine;
    when the 2-worker run gets no more than the 1-worker one, the machine had no core to give.
    "CPU per fit" = the workers' CPU seconds over the fits: equal for 1 and 2 workers when the
@@ -92,7 +92,7 @@ def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -
     options = {"objective": "cube_root", "loss": "soft_l1", "loss_scale": 0.5, "mode": "shared",
                "starts": 1, "fixed": [], "seed": 0}  # fmt: skip
     tasks = batch.tasks(files[:-1], MODELS[:models_per_file], **options)[:fits]
-    warm = batch.tasks(files[-1:], MODELS[:1], **options)[0]
+    warm = batch.tasks(files[-1:], MODELS[:models_per_file], **options)
     times: dict[int, list[float]] = {1: [], 2: []}
     cores: dict[int, list[float]] = {1: [], 2: []}  # worker CPU seconds per wall second
     cpu_per_fit: dict[int, list[float]] = {1: [], 2: []}
@@ -100,9 +100,11 @@ def batch_scaling(fits: int, models_per_file: int, repeats: int, folder: Path) -
     for repeat in range(repeats):
         for workers in (1, 2):
             with local_cluster(workers, keep_memory=True) as cluster, Client(cluster) as client:
-                # imports and each worker's first fit (its JIT compilation, seconds) outside
-                # the clock, as compile time is kept apart in the other benchmarks
-                client.run(batch.fit_one, warm)
+                # imports and each worker's first fit of each model (the JIT compilation or
+                # disk-cache loading of its kernels, seconds) outside the clock, as compile
+                # time is kept apart in the other benchmarks
+                for task in warm:
+                    client.run(batch.fit_one, task)
                 cpu = sum(client.run(time.process_time).values())
                 began = time.perf_counter()
                 done: list[str] = []

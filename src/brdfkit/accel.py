@@ -1370,13 +1370,23 @@ class CompiledBRDF:
         read at each call), not one with this model's values baked in (a build per parameter
         set). Builds the kernel unless this process or the disk cache already knows (a
         structure found to bake its values is recorded on disk, so that is paid once per
-        machine)."""
+        machine); a dictionary look-up after that.
+
+        Raises
+        ------
+        ValueError
+            When it builds a kernel that cannot be built (a primitive the kernels do not take);
+            the structure is then known to bake, and the next call answers ``False``.
+        """
         key = self._structural_key(method, u_width)
         if key is None:
             return False
         with _KERNELS_LOCK:
             shared = _STRUCTURAL.get(key)
-        if shared is None and not _known_baked(key):
+        if shared is None and _known_baked(key):
+            with _KERNELS_LOCK:
+                shared = _STRUCTURAL.setdefault(key, _BAKED)
+        if shared is None:
             self._kernel(method, u_width)
             with _KERNELS_LOCK:
                 shared = _STRUCTURAL.get(key)

@@ -373,7 +373,9 @@ def _predicted(model: BRDF, data: MeasuredSamples) -> np.ndarray:
 def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     """``model.eval(wi, wo)`` in float64 by its compiled kernel (:func:`brdfkit.accel.compile`:
     the model's own code traced, built once per structure and process, or loaded from the disk
-    cache); by NumPy for the structures :data:`_SHARED` rules out.
+    cache); by NumPy for a structure whose kernel would bake the parameter values in (one
+    build per step of the fit: :meth:`~brdfkit.accel.CompiledBRDF.shares`) or that the
+    kernels cannot compile.
 
     A fit evaluates its model hundreds of times, and its errors on all the measurements: NumPy
     runs a model one operation at a time, each writing a full-size temporary array. Compiled,
@@ -382,29 +384,15 @@ def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     differ by 10⁻¹⁵–10⁻¹³ relative (the kernels' fast-math contractions and
     reassociation, :data:`brdfkit.accel._FASTMATH`).
     """
-    from brdfkit import _structure, accel
+    from brdfkit import accel
 
     compiled = accel.compile(model, np.float64)
     try:
-        structure = _structure.split(model)[0]
-    except TypeError:  # no structure: nothing to key a kernel on
-        structure = None
-    if structure is not None and structure not in _SHARED:
-        try:
-            _SHARED[structure] = compiled.shares("eval")
-        except ValueError:  # a primitive or shape the kernels do not take
-            _SHARED[structure] = False
-    if structure is not None and _SHARED[structure]:
-        return compiled.eval(wi, wo)
+        if compiled.shares("eval"):
+            return compiled.eval(wi, wo)
+    except ValueError:  # a primitive the kernels do not take (not tried again: shares)
+        pass
     return to_numpy(model.eval(wi, wo))
-
-
-_SHARED: dict[Any, bool] = {}
-"""Whether :mod:`brdfkit.accel` compiles each model structure (``brdfkit._structure.split``)
-met in this process into one kernel for all its parameter values
-(:meth:`~brdfkit.accel.CompiledBRDF.shares`); :func:`_evaluated` takes NumPy for the others (a
-structure that cannot be compiled, or one whose constructor needs concrete values and would be
-compiled anew for every step of the fit)."""
 
 
 def _residuals(
@@ -459,12 +447,12 @@ def _errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
     squares = dict.fromkeys(("rmse", "cosine_rmse", "log_rmse", "cube_root_rmse", "data"), 0.0)
     for start in range(0, data.wi.shape[0], _BLOCK):  # cache-sized blocks (see _BLOCK)
         rows = slice(start, start + _BLOCK)
-        block = _rows(data, rows)
-        predicted = _predicted(model, block)
-        diff = predicted - block.values
+        wi, values = data.wi[rows], data.values[rows]
+        predicted = np.broadcast_to(_evaluated(model, wi, data.wo[rows]), values.shape)
+        diff = predicted - values
         squares["rmse"] += float(np.sum(diff * diff))
-        squares["data"] += float(np.sum(block.values * block.values))
-        cos_theta_i = block.wi[:, 2:3]
+        squares["data"] += float(np.sum(values * values))
+        cos_theta_i = wi[:, 2:3]
         for objective in OBJECTIVES:
             model_side = _compressed_model(predicted, cos_theta_i, objective, side.level)
             r = model_side - side.compressed[objective][rows]
