@@ -3,8 +3,10 @@ r"""Fitting analytic BRDF models to measured data.
 Any registered model, or a sum of them (``"lambertian + cook_torrance"``), is fitted to any
 measured BRDF (:mod:`brdfkit.measured`) or set of samples by nonlinear least squares
 (:func:`scipy.optimize.least_squares`, trust-region reflective with bounds, finite-difference
-Jacobian, NumPy float64). Objectives, with :math:`c_i = \cos\theta_i` and the measured/model
-values :math:`f, \hat f` per sample and channel:
+Jacobian, float64; the model evaluated by its :mod:`brdfkit.accel` kernel where one serves all
+its parameter values, by NumPy otherwise).
+Objectives, with :math:`c_i = \cos\theta_i` and the measured/model values :math:`f, \hat f`
+per sample and channel:
 
 - ``"cosine"`` — Ngan, Durand & Matusik (2005): :math:`r = (\hat f - f)\,c_i`, i.e. the
   cosine-weighted L2 error :math:`E = \sqrt{\tfrac1N\sum (\hat f c_i - f c_i)^2}`;
