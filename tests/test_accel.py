@@ -469,6 +469,7 @@ def test_a_second_parameter_set_of_one_structure_reuses_the_kernels(dtype, monke
     a.eval(wi, wo), a.pdf(wi, wo), a.sample(wo, u)
     b = accel.compile(second, dtype)
     assert all(b.built(m, w) for m, w in (("eval", 0), ("pdf", 0), ("sample", 2)))
+    assert b.shares("eval") and b.shares("sample", 2)
     monkeypatch.setattr(accel, "_compile", _no_second_build)
     monkeypatch.setattr(accel, "_numba_kernel", _no_second_build)
     assert b._kernel("eval")._function is a._kernel("eval")._function
@@ -493,3 +494,4 @@ def test_a_constructor_that_needs_values_bakes_them_in() -> None:
     compiled = accel.compile(model, dtype=np.float64)
     assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
     assert compiled._kernel("eval").parameters.size == 0  # values baked in
+    assert not compiled.shares("eval")

@@ -160,3 +160,19 @@ def test_reflection_only_masking_leaves_the_reflection_models_unchanged(monkeypa
     for model, value in zip(models, values, strict=True):
         assert np.any(value[same_side] > 0)
         np.testing.assert_array_equal(model.eval(wi, wo), value)
+
+
+@pytest.mark.parametrize("spec", [MODEL, "cook_torrance(m=0.3, diffuse=0)"])
+def test_the_fit_evaluates_compiled_where_one_kernel_serves_every_parameter_set(spec):
+    """Lambertian + GGX by its compiled kernel (the same values to rounding); Cook–Torrance,
+    whose constructor reads ``diffuse``'s value (a kernel per parameter set), by NumPy."""
+    from brdfkit import accel
+
+    wi, wo = hemisphere_pairs(3000, 3)
+    model = parse(spec)
+    ours, theirs = fitting._evaluated(model, wi, wo), np.asarray(model.eval(wi, wo))
+    if accel.compile(model, np.float64).shares("eval"):
+        assert spec == MODEL
+        np.testing.assert_allclose(ours, theirs, rtol=1e-13, atol=0)
+    else:
+        np.testing.assert_array_equal(ours, theirs)

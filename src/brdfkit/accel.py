@@ -1437,6 +1437,33 @@ class CompiledBRDF:
             return False
         return kernel_cache.has(_disk_key(source, constants))
 
+    def shares(self, method: str, u_width: int = 0) -> bool:
+        """Whether the kernel of ``method`` serves every model of this structure (the values
+        read at each call), not one with this model's values baked in (a build per parameter
+        set). Builds the kernel unless this process or the disk cache already knows (a
+        structure found to bake its values is recorded on disk, so that is paid once per
+        machine); a dictionary look-up after that.
+
+        Raises
+        ------
+        ValueError
+            When it builds a kernel that cannot be built (a primitive the kernels do not take);
+            the structure is then known to bake, and the next call answers ``False``.
+        """
+        key = self._structural_key(method, u_width)
+        if key is None:
+            return False
+        with _KERNELS_LOCK:
+            shared = _STRUCTURAL.get(key)
+        if shared is None and _known_baked(key):
+            with _KERNELS_LOCK:
+                shared = _STRUCTURAL.setdefault(key, _BAKED)
+        if shared is None:
+            self._kernel(method, u_width)
+            with _KERNELS_LOCK:
+                shared = _STRUCTURAL.get(key)
+        return isinstance(shared, Kernel)
+
     def _structural_key(self, method: str, u_width: int) -> tuple[Any, ...] | None:
         if self._structure is None:
             return None
