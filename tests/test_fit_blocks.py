@@ -164,12 +164,14 @@ def test_reflection_only_masking_leaves_the_reflection_models_unchanged(monkeypa
 
 @pytest.mark.parametrize("spec", [MODEL, "cook_torrance(m=0.3, diffuse=0)"])
 def test_the_fit_evaluates_compiled_where_one_kernel_serves_every_parameter_set(spec):
-    """Lambertian + GGX by its compiled kernel (the same values to rounding); Cook–Torrance,
-    whose constructor reads ``diffuse``'s value (a kernel per parameter set), by NumPy."""
+    """Once :func:`~brdfkit.fit.build_kernels` has run, Lambertian + GGX by its compiled kernel
+    (the same values to rounding); Cook–Torrance, whose constructor reads ``diffuse``'s value
+    (a kernel per parameter set), by NumPy."""
     from brdfkit import accel
 
     wi, wo = hemisphere_pairs(3000, 3)
     model = parse(spec)
+    fitting.build_kernels(model)
     ours, theirs = fitting._evaluated(model, wi, wo), np.asarray(model.eval(wi, wo))
     if accel.compile(model, np.float64).shares("eval"):
         assert spec == MODEL

@@ -373,11 +373,11 @@ def _predicted(model: BRDF, data: MeasuredSamples) -> np.ndarray:
 
 
 def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-    """``model.eval(wi, wo)`` in float64 by its compiled kernel (:func:`brdfkit.accel.compile`:
-    the model's own code traced, built once per structure and process, or loaded from the disk
-    cache); by NumPy for a structure whose kernel would bake the parameter values in (one
-    build per step of the fit: :meth:`~brdfkit.accel.CompiledBRDF.shares`) or that the
-    kernels cannot compile.
+    """``model.eval(wi, wo)`` in float64 by its compiled kernel where that kernel is already
+    built in this process or held by the disk cache (:func:`build_kernels`,
+    :meth:`~brdfkit.accel.CompiledBRDF.cached`) and serves every parameter value
+    (:meth:`~brdfkit.accel.CompiledBRDF.shares`); by NumPy otherwise. Nothing is built here:
+    building a model's kernels takes seconds, more than a small fit.
 
     A fit evaluates its model hundreds of times, and its errors on all the measurements: NumPy
     runs a model one operation at a time, each writing a full-size temporary array. Compiled,
@@ -390,11 +390,30 @@ def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
 
     compiled = accel.compile(model, np.float64)
     try:
-        if compiled.shares("eval"):
+        if compiled.cached("eval") and compiled.shares("eval"):
             return compiled.eval(wi, wo)
     except ValueError:  # a primitive the kernels do not take (not tried again: shares)
         pass
     return to_numpy(model.eval(wi, wo))
+
+
+def build_kernels(model: BRDF | str) -> None:
+    """Build (or load from the disk cache, :mod:`brdfkit.kernel_cache`) the float64 eval
+    kernels that fits of ``model`` use: the model's and each of its lobes'
+    (:func:`_evaluated`). Batches call it before their fits (:mod:`brdfkit.distributed.batch`):
+    a few seconds once per machine and structure, then every fit of that structure runs
+    compiled. A structure whose kernel would bake its parameter values in, or that the
+    kernels cannot compile, is recorded as such and stays on NumPy.
+    """
+    from brdfkit import accel
+    from brdfkit.brdf import parse
+
+    model = parse(model) if isinstance(model, str) else model
+    for candidate in (model, *(lobe.inner for lobe in _lobes(model))):
+        try:
+            accel.compile(candidate, np.float64).shares("eval")
+        except ValueError:  # a primitive the kernels do not take: NumPy
+            pass
 
 
 def _residuals(

@@ -124,7 +124,7 @@ def fit_prepared(task: FitTask, measurements: Any) -> dict[str, Any]:
     record: the task's identity and :meth:`brdfkit.fit.FitResult.to_dict`, ``status``
     ``"ok"``; or ``status`` ``"error"`` and the error's message when the file or the options
     are refused (or the fit fails)."""
-    from brdfkit.fit import fit
+    from brdfkit.fit import build_kernels, fit
 
     record: dict[str, Any] = {
         "key": task.key,
@@ -136,6 +136,7 @@ def fit_prepared(task: FitTask, measurements: Any) -> dict[str, Any]:
     if isinstance(measurements, str):
         return {**record, "status": "error", "message": measurements}
     try:
+        build_kernels(task.model)  # once per worker and structure (the disk cache after that)
         result = fit(measurements, task.model, **task.options)
     except Exception as error:
         return {**record, "status": "error", "message": _message(error)}
