@@ -14,7 +14,8 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
   ``O(M + K^2)``); the table's (AZ08) 2 × 2 in the pass that evaluates the table;
 - the non-negative fit starts its active set from the pixel's previous fit (the optimum of a
   strictly convex quadratic is unique, so only the number of rounds changes);
-- the start selection (:func:`best_start`) keeps the winner's residual for the search;
+- the start selection (:func:`best_start`) keeps the winner's residual for the search, and
+  it and the search keep the weights of their normals (AZ08's next table needs no refit);
 - a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
   normal did not move), and a pixel stops when its step is below a tolerance.
 
