@@ -14,7 +14,8 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
   ``O(M + K^2)``); the table's (AZ08) 2 × 2 in the pass that evaluates the table;
 - the non-negative fit starts its active set from the pixel's previous fit (the optimum of a
   strictly convex quadratic is unique, so only the number of rounds changes);
-- the start selection (:func:`best_start`) keeps the winner's residual for the search;
+- the start selection (:func:`best_start`) keeps the winner's residual for the search, and
+  it and the search keep the weights of their normals (AZ08's next table needs no refit);
 - a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
   normal did not move), and a pixel stops when its step is below a tolerance.
 
@@ -426,15 +427,35 @@ def fit_pixels(
     return cost
 
 
+@_jit
+def _try_start(
+    tx, ty, tz, first, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+    ints, fa, fb, warm, nonnegative, shifted, coef, free, scratch, p, normals, residual, cost,
+    coefficients,
+):  # pragma: no cover  # fmt: skip
+    """:func:`best_start`'s candidate ``(tx, ty, tz)`` for pixel ``p``: fitted, and kept (normal,
+    residual, cost, weights) if ``first`` or of less cost than the pixel's best so far."""
+    trial = _fit(
+        tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints,
+        fa, fb, warm, nonnegative, shifted, coef, free, scratch,
+    )  # fmt: skip
+    if first or trial < cost[p]:
+        normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
+        residual[p, :] = shifted
+        cost[p] = trial
+        coefficients[p, :] = coef
+
+
 @_pjit
 def best_start(
     starts, ring, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
-    warm, nonnegative, normals, residual, cost, free,
+    warm, nonnegative, normals, residual, cost, free, coefficients,
 ):  # pragma: no cover  # fmt: skip
     """:func:`~brdfkit.vision.bivariate._best_start` per pixel: the candidate of least cost
     among ``starts`` ``(S, P, 3)`` (the first of equal costs), then among it and the 6 normals
-    ``ring`` radians around it, into ``normals`` ``(P, 3)``, with its residual ``(P, N)`` and
-    cost ``(P,)`` (the start of the normal search: no refit); ``free`` as :func:`fit_pixels`."""
+    ``ring`` radians around it, into ``normals`` ``(P, 3)``, with its residual ``(P, N)``, cost
+    ``(P,)`` and weights ``coefficients`` ``(P, K)`` (the start of the normal search: no
+    refit); ``free`` as :func:`fit_pixels`."""
     n_starts, n_pixels = starts.shape[0], starts.shape[1]
     n_lights = gray.shape[1]
     k = free.shape[1]
@@ -447,37 +468,35 @@ def best_start(
         scratch = _scratch(n_lights, k)
         for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
             m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
-            for s in range(n_starts + 6):
-                if s < n_starts:
-                    tx, ty, tz = starts[s, p, 0], starts[s, p, 1], starts[s, p, 2]
-                else:
-                    if s == n_starts:  # the ring around the best start
-                        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
-                        t = _tangents(nx, ny, nz)
-                    angle = (s - n_starts) * np.pi / 3
-                    ca, sa = np.cos(angle), np.sin(angle)
-                    tx = nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3])
-                    ty = ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4])
-                    tz = nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5])
-                trial = _fit(
-                    tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction,
-                    kind, ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+            args = (
+                kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints, fa,
+                fb, warm, nonnegative, shifted, coef, free[p], scratch, p, normals, residual,
+                cost, coefficients,
+            )  # fmt: skip
+            for s in range(n_starts):
+                _try_start(starts[s, p, 0], starts[s, p, 1], starts[s, p, 2], s == 0, *args)
+            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]  # the ring around it
+            t = _tangents(nx, ny, nz)
+            for s in range(6):
+                ca, sa = np.cos(s * np.pi / 3), np.sin(s * np.pi / 3)
+                _try_start(
+                    nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3]),
+                    ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4]),
+                    nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5]),
+                    False, *args,
                 )  # fmt: skip
-                if s == 0 or trial < cost[p]:
-                    normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
-                    residual[p, :] = shifted
-                    cost[p] = trial
 
 
 @_pjit
 def lm_step(
     normals, damping, residual, cost, active, free, gray, weights, lights, half, cos_d, column,
-    fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products=None,
+    fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products=None, coefficients=None,
 ):  # pragma: no cover  # fmt: skip
     """One Levenberg–Marquardt iteration of :func:`~brdfkit.vision.bivariate._refine_normals`
     on every ``active`` pixel, in place on ``normals`` ``(P, 3)``, ``damping`` ``(P,)``,
-    ``residual`` ``(P, N)``, ``cost`` ``(P,)``, ``active`` ``(P,)`` and the active sets ``free``
-    ``(P, K)``.
+    ``residual`` ``(P, N)``, ``cost`` ``(P,)``, ``active`` ``(P,)``, the active sets ``free``
+    ``(P, K)`` and, if given, the reflectance weights ``coefficients`` ``(P, K)`` of the
+    normals.
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian by forward differences of
     :data:`EPSILON`; the step ``-(J^T J + λ tr(J^T J)/2 I)^{-1} J^T r`` clipped to 0.2 per
@@ -557,6 +576,8 @@ def lm_step(
                 normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
                 r[:] = shifted
                 cost[p] = trial_cost
+                if coefficients is not None:
+                    coefficients[p, :] = coef
                 damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
                 if products is not None:
                     products[p, 5] = 0.0

@@ -187,8 +187,9 @@ def _refine_normals(
     nonnegative: bool = False,
     iterations: int = 10,
     callback: Callback | None = None,
-) -> np.ndarray:
-    """Levenberg–Marquardt on the tangent coordinates of every pixel's normal, ``(P, 3)``.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Levenberg–Marquardt on the tangent coordinates of every pixel's normal: the normals
+    ``(P, 3)`` and their reflectance weights ``(P, K)`` (as :func:`_residuals` gives them).
 
     ``normals`` is ``(P, 3)``, or ``(S, P, 3)`` candidate starts: then each pixel starts from
     the candidate of least model cost, or from the best of it and a ring of 6 normals
@@ -212,18 +213,21 @@ def _refine_normals(
     inputs = _kernel_inputs(lights, basis)
     if normals.ndim == 3:
         starts = np.ascontiguousarray(normals, dtype=np.float64)
-        normals, residual, cost = (
+        normals, residual, cost, coefficients = (
             np.empty((len(gray), 3)),
             np.empty(gray.shape),
             np.empty(len(gray)),
+            np.empty((len(gray), basis.size)),
         )
         _bivariate_kernels.best_start(
             starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
-            cost, free,
+            cost, free, coefficients,
         )  # fmt: skip
     else:
         normals = np.array(normals, dtype=np.float64, order="C")
-        residual, _, cost = _fit(normals, gray, weights, lights, basis, nonnegative, free)
+        residual, coefficients, cost = _fit(
+            normals, gray, weights, lights, basis, nonnegative, free
+        )
     damping = np.full(len(normals), 1e-3)
     active = np.ones(len(normals), dtype=bool)
     products = np.zeros((len(normals), 6))  # J^T J, J^T r kept through rejected steps
@@ -231,13 +235,13 @@ def _refine_normals(
         with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
             _bivariate_kernels.lm_step(
                 normals, damping, residual, cost, active, free, gray, weights, *inputs,
-                nonnegative, STEP_TOLERANCE, products,
+                nonnegative, STEP_TOLERANCE, products, coefficients,
             )  # fmt: skip
         if callback is not None:
             callback(iteration + 1, iterations)
         if not active.any():
             break
-    return normals
+    return normals, coefficients
 
 
 def _reference(intensities: np.ndarray) -> np.ndarray:
@@ -406,7 +410,7 @@ def bipolynomial(
     lit, normals = _start(gray, lights, shadow_threshold, ranks)
     low_frequency = lit * _trimmed(ranks, 0.0, bright_fraction).T
     basis = _bipolynomial_basis(int(degree[0]), int(degree[1]))
-    normals = _refine_normals(
+    normals, _ = _refine_normals(
         normals, gray.T, low_frequency, lights, basis, iterations=iterations, callback=callback
     )
     return _finish(normals, gray, low_frequency, lights, observations, mask, ranks)
@@ -493,7 +497,7 @@ def constrained_bivariate(
     knots_i = np.linspace(0.0, 1.0, knots)
     knots_h = np.cos(np.linspace(np.pi / 2, 0.0, knots))
     basis = _sum_of_lobes_basis(knots_i, knots_h)
-    normals = _refine_normals(
+    normals, _ = _refine_normals(
         normals,
         gray.T,
         lit,
@@ -693,10 +697,12 @@ def shared_bivariate(
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
     table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
     by_pixel = np.ascontiguousarray(gray.T)  # (P, N), as the kernels take it: one copy
+    _, coefficients = _residuals(normals, by_pixel, lit, lights, _shared_basis(table), True)
     for round_ in range(rounds):
-        _, coefficients = _residuals(normals, by_pixel, lit, lights, _shared_basis(table), True)
         _fit_table(table, normals, by_pixel, lit, lights, coefficients, smoothness)
-        normals = _refine_normals(
+        # the search's weights are those of its normals under the table it used (cold-started
+        # fits: what a refit would give), the next round's input
+        normals, coefficients = _refine_normals(
             starts if round_ == 0 else normals,
             by_pixel,
             lit,
