@@ -257,8 +257,9 @@ def _given(em: _Emitter, x: Any, predicate: _Sym, value: bool) -> Any:
             return args[1 + value]
         return a
 
-    if resolved(x) is not x:
-        return resolved(x)
+    case = resolved(x)
+    if case is not x:
+        return case
     if not isinstance(x, _Sym) or x.name not in em.definitions:
         return x
     template, args = em.definitions[x.name]
