@@ -232,8 +232,9 @@ def _new_table_functions(
 
     @jit
     def integer(x: Any) -> Any:
-        """int64 of a float index (NaN, from degenerate input, reads index 0)."""
-        return np.int64(select(np.abs(x) < T(1e15), x, zero))
+        """int64 of a float index (NaN, from degenerate input, reads index 0), by way of
+        int32: AVX2 converts floats to int32 in vectors, to int64 only one by one."""
+        return np.int64(np.int32(select(np.abs(x) < T(1e9), x, zero)))
 
     @jit
     def wrap(index: Any, size: Any, periodic: bool) -> Any:
@@ -246,11 +247,12 @@ def _new_table_functions(
         return select(index < size - 1, index, size - 1)
 
     @jit
-    def axis(u: Any, size: Any, periodic: bool, a: int, j: int, low: np.ndarray,
+    def axis(u: Any, size: Any, periodic: bool, a: int, j: int, n: int, low: np.ndarray,
              high: np.ndarray, weight: np.ndarray) -> None:  # fmt: skip
         """One axis of ``lookup``: its lower and upper node (or the one node of "bin" and
-        "nearest" in ``low``) and the upper node's weight, at ``[j · rank + a]``."""
-        at = j * rank + a
+        "nearest" in ``low``) and the upper node's weight, at ``[a · n + j]`` (axis-major:
+        the loops over the pairs read and write them contiguously, so LLVM vectorises them)."""
+        at = a * n + j
         if linear:
             floor = np.floor(u)
             i = integer(floor)
@@ -288,30 +290,31 @@ def _new_table_functions(
             u_th = np.sqrt(clamp0(theta_h) / half_pi) * T(n0)
             u_td = clamp0(theta_d) / half_pi * T(n_td)
             u_pd = remainder(phi_d, pi) / pi * T(n_last)
-            axis(u_th, n0, False, 0, j, low, high, weight)
+            axis(u_th, n0, False, 0, j, n, low, high, weight)
             if not isotropic:
                 u_ph = remainder(atan2(hy, hx), two_pi) / two_pi * T(n_ph)
-                axis(u_ph, n_ph, True, 1, j, low, high, weight)
-            axis(u_td, n_td, False, rank - 2, j, low, high, weight)
-            axis(u_pd, n_last, True, rank - 1, j, low, high, weight)
+                axis(u_ph, n_ph, True, 1, j, n, low, high, weight)
+            axis(u_td, n_td, False, rank - 2, j, n, low, high, weight)
+            axis(u_pd, n_last, True, rank - 1, j, n, low, high, weight)
 
     @corner_jit
     def corner_cells(low: np.ndarray, high: np.ndarray, weight: np.ndarray, sizes: np.ndarray,
                      n: int, flat: np.ndarray, corner_weight: np.ndarray) -> None:  # fmt: skip
         """``lookup``'s corners per pair, in its order: their rows of the flattened table
-        and their multilinear weights (one corner of weight 1 for "bin" and "nearest")."""
-        prefer_vector_width()
-        for j in range(n):
-            at = j * rank
-            for corner in range(corners):
+        and their multilinear weights (one corner of weight 1 for "bin" and "nearest"), at
+        ``[corner · n + j]`` (corner-major: a vectorised loop over the pairs per corner)."""
+        for corner in range(corners):
+            prefer_vector_width()
+            for j in range(n):
                 index, w = np.int64(0), one
                 for a in range(rank):
                     upper_node = linear and ((corner >> (rank - 1 - a)) & 1) == 1
-                    index = index * sizes[a] + (high[at + a] if upper_node else low[at + a])
+                    at = a * n + j
+                    index = index * sizes[a] + (high[at] if upper_node else low[at])
                     if linear:
-                        w = w * (weight[at + a] if upper_node else one - weight[at + a])
-                flat[j * corners + corner] = index * width
-                corner_weight[j * corners + corner] = w
+                        w = w * (weight[at] if upper_node else one - weight[at])
+                flat[corner * n + j] = index * width
+                corner_weight[corner * n + j] = w
 
     @jit
     def evaluate(wi: np.ndarray, wo: np.ndarray, n: int, table: np.ndarray,
@@ -329,18 +332,19 @@ def _new_table_functions(
         cells(wi, wo, n, sizes, upper, low, high, weight)
         corner_cells(low, high, weight, sizes, n, flat, corner_weight)
         values = table.reshape(-1)
-        for j in range(min(n, PREFETCH_DISTANCE) * corners):
-            prefetch(values, flat[j])
+        for j in range(min(n, PREFETCH_DISTANCE)):
+            for corner in range(corners):
+                prefetch(values, flat[corner * n + j])
         found = np.empty(width, T)
         for j in range(n):
-            ahead = (j + PREFETCH_DISTANCE) * corners
-            if ahead < n * corners:
+            ahead = j + PREFETCH_DISTANCE
+            if ahead < n:
                 for corner in range(corners):
-                    prefetch(values, flat[ahead + corner])
+                    prefetch(values, flat[corner * n + ahead])
             for c in range(width):
                 found[c] = zero
             for corner in range(corners):  # lookup(): the 2^D corners in its order
-                at, w = flat[j * corners + corner], corner_weight[j * corners + corner]
+                at, w = flat[corner * n + j], corner_weight[corner * n + j]
                 for c in range(width):
                     found[c] += w * values[at + c]
             measured = found[table_channels]
