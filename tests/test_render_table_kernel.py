@@ -90,6 +90,23 @@ def test_kernels_equal_numpy_eval_pdf_sample(table, anisotropic, interpolation, 
         np.testing.assert_allclose(s_p, s.pdf, rtol=10 * rtol, atol=rtol)
 
 
+@pytest.mark.slow  # a numba compilation (~10 s)
+def test_sample_rows_with_empty_theta_h_cells(table):
+    """The guide-table search of the θh marginal finds bisection's rows where the CDF has
+    flat runs (cells without energy), including a first and a last empty cell."""
+    values = np.array(table.values)
+    values[[0, 3, 4, 5, 9, -1]] = 0.0
+    model = TabulatedBRDF(values, interpolation="bin")
+    assert np.any(np.diff(model.half_vector_sampling._distribution._marginal) == 0)
+    _, wo = _pairs(4000, seed=4)
+    u = np.random.default_rng(5).random((4000, 3))
+    u[:8, 1] = model.half_vector_sampling._distribution._marginal[:8]  # on CDF nodes
+    _, _, s_wi, _, s_p = _kernel_calls(model, np.float64, wo, wo, u)
+    s = model.sample(wo, u)
+    np.testing.assert_allclose(s_wi, s.wi, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(s_p, s.pdf, rtol=1e-10, atol=1e-11)
+
+
 def test_scaled_table_scales_values_and_weights(table):
     k = np.array([0.5, 1.0, 2.0])
     wi, wo = _pairs(500)
