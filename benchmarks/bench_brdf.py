@@ -3,7 +3,9 @@
 Workloads (the same inputs for every implementation, generated once per size):
 
 - ``eval``: a GGX rough conductor (α = 0.2, gold's RGB complex index, separable Smith masking:
-  Mitsuba's ``roughconductor``) evaluated on 10⁶ and 10⁷ direction pairs;
+  Mitsuba's ``roughconductor``) evaluated on 10⁶ and 10⁷ direction pairs; brdfkit on ``(n, 3)``
+  rows and, as Mitsuba reads and writes them, component by component (``np.asfortranarray``,
+  made before the timing as Mitsuba's ``Vector3f`` is);
 - ``sample+eval``: Lambertian + GGX (Mitsuba: ``blendbsdf`` of ``diffuse`` and
   ``roughconductor``) — importance-sample a direction, then evaluate the BRDF there, 10⁶ times;
 - ``albedo``: the directional albedo of the GGX conductor at 90 angles × 10⁵ samples.
@@ -261,7 +263,10 @@ class Runner:
             for v in (wi.astype(np.float64), wo.astype(np.float64))
         )
         ggx32, ggx64, compiled = self.ggx32, self.ggx64, self.compiled
+        check: dict[str, float] = {}
         reference = compiled.eval(wi, wo)  # the first call compiles
+        wi_c, wo_c = np.asfortranarray(wi), np.asfortranarray(wo)
+        check["max_rel_diff_component_major"] = _rel(compiled.eval(wi_c, wo_c), reference)
         out = np.empty_like(reference)
         r, slow = self.repeats, max(1, self.repeats // 2)
         workers = accel.threads()
@@ -272,12 +277,14 @@ class Runner:
                 {"compile_seconds": compiled.compile_seconds},
             ),
             "brdfkit accel f32, out= reused": (lambda: compiled.eval(wi, wo, out=out), {}),
+            # Mitsuba's layout: the directions component by component (its Vector3f is three
+            # arrays, filled before its timing), and so the result (its Color3f is three too)
+            "brdfkit accel f32, component-major": (lambda: compiled.eval(wi_c, wo_c), {}),
             f"brdfkit NumPy f32 chunked ×{workers}": (
                 lambda: accel.eval_chunked(ggx32, wi, wo, workers=workers),
                 {"chunk": accel.DEFAULT_CHUNK},
             ),
         }
-        check: dict[str, float] = {}
         if self.mitsuba is not None:
             mitsuba_fn = self.mitsuba.eval_fn(wi, wo)
             jit_s = self.mitsuba.jit_seconds(mitsuba_fn)
