@@ -475,13 +475,32 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
     )
 
 
+_CARD_CPU_SECONDS = {
+    "torrance_sparrow": 12.8, "thin_film": 5.8, "kulla_conty_dielectric": 4.7,
+    "kulla_conty": 4.3, "rough_plastic": 2.8, "hapke": 2.2, "ashikhmin_shirley": 2.0,
+    "rough_dielectric": 1.8, "cook_torrance": 1.7, "lommel_seeliger": 1.7, "lafortune": 1.5,
+}  # fmt: skip
+"""CPU seconds of the heaviest default cards, as measured
+(``benchmarks/results/atlas_profile_hatlas3.json``, ``bench_atlas.py --profile``); the others
+took 0.5–1.5 s. Only the order in which :func:`_build_cards` hands cards to its workers
+depends on it."""
+
+
+def _heaviest_first(entries: list[tuple[str, list[BRDF]]]) -> list[int]:
+    """Indices of ``entries`` in decreasing expected cost (:data:`_CARD_CPU_SECONDS`; a card
+    not listed, 1 s), ties in their order: the longest-processing-time-first schedule, so that
+    the last card a worker takes is a short one and the workers finish together."""
+    return sorted(range(len(entries)), key=lambda k: -_CARD_CPU_SECONDS.get(entries[k][0], 1.0))
+
+
 def _build_cards(
     entries: list[tuple[str, list[BRDF]]],
     options: dict,
     progress: Callable[[str, int, int], None] | None,
 ) -> list[Card]:
     """:func:`build_card` for every entry, on as many processes as this process has cores
-    (cards are independent; NumPy work runs on one core at a time), in their order."""
+    (cards are independent; NumPy work runs on one core at a time), handed out heaviest first
+    (:func:`_heaviest_first`); returned in their order."""
     import multiprocessing
     import os
     import threading
@@ -504,12 +523,10 @@ def _build_cards(
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(workers, mp_context=context) as pool:
-        futures = {
-            pool.submit(build_card, title, examples, **options): k
-            for k, (title, examples) in enumerate(entries)
-        }
+        order = _heaviest_first(entries)
+        futures = {pool.submit(build_card, *entries[k], **options): k for k in order}
         if progress is not None:
-            progress(entries[0][0], 0, len(entries))
+            progress(entries[order[0]][0], 0, len(entries))
         for future in as_completed(futures):
             k = futures[future]
             results[k] = future.result()

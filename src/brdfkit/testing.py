@@ -58,9 +58,12 @@ _EXCESS_TOLERANCE = 1e-3
 _ZERO_PROBABILITY = 1e-12
 """Cell probabilities at or below this are zero (the rounding of sums of quadrature terms)."""
 
-_MIN_DEPTH = 2
-"""Levels every histogram cell is subdivided before quadrature may stop (4×4 sub-cells), so that
-a small feature of the pdf (the corner of a spherical triangle) is seen by the nodes at all."""
+_MIN_DEPTH = 1
+"""Levels every histogram cell is subdivided before quadrature may stop (its 4×4 sub-cells
+against its 2×2 quarters at the earliest), so that a small feature of the pdf (the corner of a
+spherical triangle) is seen by the nodes at all. (At 2 the earliest stop compared 8×8 with 4×4
+sub-cells: 4× the evaluations of the floor, 85 against 21 rules per cell, for p-values equal to
+two digits on the atlas's models.)"""
 
 _EDGE_INSET = 1e-7
 """Relative distance of the outermost quadrature nodes from the edges of their rectangle."""
