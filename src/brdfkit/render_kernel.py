@@ -32,9 +32,10 @@ pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
 or i.i.d. uniforms), so with ``dtype=float64`` the image equals :func:`~brdfkit.render.shade`'s to
 rounding, and with float32 to float32 precision away from the rare samples whose texel flips.
 Lambertian lobes are taken out as :math:`\rho E(n)/\pi` as in ``method="auto"``
-(:func:`~brdfkit.integrate.split_diffuse`), and so is the control variate :math:`k\,E(n)` of
-the rest (:func:`~brdfkit.integrate.diffuse_floor`: k from the compiled ``eval``, the kernel
-samples f − k). Blocks run on :func:`brdfkit.accel.threads`
+(:func:`~brdfkit.integrate.split_diffuse`), a smooth plastic's mirror as
+:math:`sF(\theta_o)L(\omega_r)` (:func:`~brdfkit.integrate.split_mirror`), and so is the
+control variate :math:`k\,E(n)` of the rest (:func:`~brdfkit.integrate.diffuse_floor`: k
+from the compiled ``eval``, the kernel samples f − k). Blocks run on :func:`brdfkit.accel.threads`
 threads (the kernel releases the GIL).
 
 References
@@ -64,9 +65,11 @@ from brdfkit.integrate import (
     Estimate,
     _diffuse_envmap,
     _floor_directions,
+    _mirror_envmap,
     _setup,
     _Uniforms,
     split_diffuse,
+    split_mirror,
     uniform_keys,
 )
 from brdfkit.lights import EnvironmentMap, Light
@@ -568,6 +571,8 @@ class EnvironmentShader:
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self.heuristic = heuristic
         self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+        # a smooth plastic's mirror exactly, its base sampled (integrate.split_mirror)
+        self.mirror, self.rest = split_mirror(self.rest) if method == "auto" else (None, self.rest)
         if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
             self.rest = one_sided_view(self.rest)
         if self.rho is not None and np.ndim(self.rho) > 1:
@@ -575,7 +580,11 @@ class EnvironmentShader:
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
         # the control variate k(wo)·E(n) of method="auto" (integrate.diffuse_floor)
-        self.control = method == "auto" and self.rest is not None and not self.rest.has_delta
+        self.control = (
+            method == "auto"
+            and self.rest is not None
+            and (self.mirror is not None or not self.rest.has_delta)
+        )
         # the BRDF's kernels' trailing arguments (a table's arrays, render_table_kernel)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
@@ -620,8 +629,9 @@ class EnvironmentShader:
         """Reflected radiance towards ``wo`` (arguments as
         :func:`~brdfkit.integrate.reflected_radiance`, ``first_sample`` included); ``mask``
         (the batch's shape) skips the Monte Carlo of pixels it marks False (their value is
-        then the Lambertian part alone) without changing the others (beyond their last bit:
-        a pixel's place in a vectorised block of the BRDF kernels can change its rounding).
+        then the exact parts alone: Lambertian lobes, a plastic's mirror) without changing
+        the others (beyond their last bit: a pixel's place in a vectorised block of the BRDF
+        kernels can change its rounding).
         Returns float64 ``value`` and ``stderr``. The same as :meth:`shade` of
         :meth:`prepare`."""
         prepared = self.prepare(wo, normal, point, tangent, mask=mask)
@@ -645,6 +655,8 @@ class EnvironmentShader:
         value = np.zeros((*batch, self.channels))
         if self.rho is not None:
             value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
+        if self.mirror is not None:
+            value = value + _mirror_envmap(self.mirror, self.env, point, frame, wo_local)
         if self._kernel is None:
             return Prepared(batch, value)
         n = math.prod(batch)
@@ -790,6 +802,7 @@ def compiled_shader(
     try:  # without numba, a table's kernels_built raises ImportError as the shader does
         if not build:
             _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+            _, rest = split_mirror(rest) if method == "auto" else (None, rest)
             view = None if rest is None else one_sided_view(rest)
             if view is not None and not kernels_built(view, dtype, maps[0].channels):
                 return None
