@@ -281,3 +281,54 @@ def test_diffuse_albedo_kernel_equals_numpy(glossy):
     assert (trim.sum(axis=1) == 0).any()  # the fallback to all lit observations was taken
     np.testing.assert_array_equal(use, use_ref)
     np.testing.assert_allclose(rho, rho_ref, rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_analytic_jacobian_equals_central_differences(glossy, name):
+    """The search's ``J^T J`` and ``J^T r`` (the exact variable-projection Jacobian) equal those
+    of central differences of the refitted residual in the tangent coordinates, on normals near
+    and far from the truth (the designs are piecewise smooth: a few pixels may sit on a kink or
+    change active set within the difference step). The bi-polynomial's ill-conditioned fit
+    rounds its residual at ~1e-11 relative: a wider step, whose error is then O(step^2)."""
+    gray, lights, lit, _, truth = glossy
+    basis, nonnegative = _basis(name)
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    rng = np.random.default_rng(6)
+    normals = truth + 0.1 * rng.standard_normal(truth.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    residual, _, cost = bivariate._fit(normals, g, w, lights, basis, nonnegative)
+    products = np.zeros((len(normals), 6))
+    free = np.ones((len(normals), basis.size), dtype=bool)
+    active = np.ones(len(normals), dtype=bool)
+    _bivariate_kernels.lm_step(
+        np.array(normals), np.full(len(normals), 1e-3), residual.copy(), cost, active, free, g,
+        w, *bivariate._kernel_inputs(lights, basis), nonnegative, np.inf, products,
+    )  # fmt: skip
+    assert not active.any() and (products[:, 5] == 1).all()  # each pixel's products, no step
+    t_1, t_2 = bivariate._tangent_frame(normals)
+    step = 1e-4 if name == "bipolynomial" else 1e-6
+    columns = []
+    for t in (t_1, t_2):
+        shifted = []
+        for sign in (1, -1):
+            moved = normals + sign * step * t
+            moved /= np.linalg.norm(moved, axis=1, keepdims=True)
+            shifted.append(bivariate._fit(moved, g, w, lights, basis, nonnegative)[0])
+        columns.append((shifted[0] - shifted[1]) / (2 * step))
+    j_0, j_1 = columns
+    reference = np.stack(
+        [
+            np.sum(j_0 * j_0, 1),
+            np.sum(j_0 * j_1, 1),
+            np.sum(j_1 * j_1, 1),
+            np.sum(j_0 * residual, 1),
+            np.sum(j_1 * residual, 1),
+        ],
+        axis=1,
+    )
+    scale = np.maximum(reference[:, 0], reference[:, 2])  # |J|^2, and |J| |r| for J^T r
+    size = np.stack([scale] * 3 + [np.sqrt(scale * cost)] * 2, axis=1)
+    error = np.abs(products[:, :5] - reference) / size
+    close = (error < 1e-4).all(axis=1)
+    assert close.mean() > 0.9, (close.mean(), np.median(error, axis=0))
+    assert np.median(error) < 1e-6, np.median(error, axis=0)

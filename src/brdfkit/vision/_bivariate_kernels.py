@@ -46,9 +46,6 @@ _pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMA
 BIPOLYNOMIAL, RAMPS, TABLE = 0, 1, 2
 """Basis kinds (see :class:`brdfkit.vision.bivariate.Basis`)."""
 
-EPSILON = 1e-4
-"""Forward-difference step of the Jacobian, radians."""
-
 BLOCK = 32
 """Pixels per parallel task (they share one set of work arrays)."""
 
@@ -73,6 +70,17 @@ def _table_row(cos_h, n_h):  # pragma: no cover
     u = np.sqrt(np.arccos(min(max(cos_h, 0.0), 1.0)) / (np.pi / 2)) * (n_h - 1)
     i = min(int(np.floor(u)), n_h - 2)
     return i, u - i
+
+
+@_inline
+def _table_value(fa, i, fu, c, fw, n_d):  # pragma: no cover
+    """The bilinear table ``fa`` (``n_d`` columns) at row ``i + fu``, column ``c + fw``."""
+    return (
+        fa[i * n_d + c] * ((1 - fu) * (1 - fw))
+        + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
+        + fa[i * n_d + c + 1] * ((1 - fu) * fw)
+        + fa[(i + 1) * n_d + c + 1] * (fu * fw)
+    )
 
 
 @_inline
@@ -114,14 +122,7 @@ def _table_system(
         cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
         shading = max(cos_i, 0.0)
         i, fu = _table_row(cos_h, n_h)
-        c, fw = column[n], fraction[n]
-        value = (
-            fa[i * n_d + c] * ((1 - fu) * (1 - fw))
-            + fa[(i + 1) * n_d + c] * (fu * (1 - fw))
-            + fa[i * n_d + c + 1] * ((1 - fu) * fw)
-            + fa[(i + 1) * n_d + c + 1] * (fu * fw)
-        )
-        d0, d1 = shading, shading * value
+        d0, d1 = shading, shading * _table_value(fa, i, fu, column[n], fraction[n], n_d)
         design[j, 0], design[j, 1] = d0, d1
         w0, w1 = w_kept[j] * d0, w_kept[j] * d1
         r0 += w0 * g_kept[j]
@@ -402,6 +403,188 @@ def _fit(
     return cost
 
 
+@_inline
+def _products_scratch(n_lights, k):  # pragma: no cover
+    """Work arrays of :func:`_products`: per kept observation the model's change ``dD c``
+    ``(2, N)`` in the two tangent directions; per direction the weights' right-hand side and
+    change ``(2, K)``, the rows ``dD_j`` ``(2, K)``, the change's prefix sums ``(2, K + 2)`` and
+    sums by ramp index ``(2, 4, K/2 + 1)``."""
+    return (
+        np.empty((2, n_lights)), np.empty((2, k)), np.empty((2, k)), np.empty((2, k)),
+        np.empty((2, k + 2)), np.empty((2, 4, k // 2 + 1)),
+    )  # fmt: skip
+
+
+@_jit
+def _products(
+    nx, ny, nz, t, kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
+    residual, coef, free, scratch, work_products,
+):  # pragma: no cover  # fmt: skip
+    """``J^T J`` and ``J^T r`` ``(j00, j01, j11, g0, g1)`` of the residual ``r = sqrt(w) (I - D c)``
+    that :func:`_fit` just left for the normal ``(nx, ny, nz)`` (its system in ``scratch``), in
+    the tangent coordinates of ``n(u, v) = normalise(n + u t_1 + v t_2)`` (``t`` from
+    :func:`_tangents`).
+
+    The exact variable-projection Jacobian [1]_ with the fit's active set held: with
+    ``G = D_F^T W D_F + ρ I`` on the free weights ``F`` (``ρ`` the ridge of :func:`_weights`),
+    ``G dc = dD^T W (I - D c) - D^T W dD c - dρ c`` and ``dr = -sqrt(w) (dD c + D dc)``, where
+    ``dD`` is the derivative of the design along ``t_1`` or ``t_2`` (``d cos θ_i = t·l``,
+    ``d cos θ_h = t·h``; ``cos θ_d`` does not depend on the normal). Each design is piecewise
+    smooth in the cosines (ramps, bilinear table, ``max(0, ·)``); at a kink the derivative is
+    that of the piece the observation is in.
+    """
+    design, gram, _, work, work_b, bins, fractions, _, _, _ = scratch
+    change, source, delta, rows, prefix, sums = work_products
+    k = len(coef)
+    steps = k // 2
+    source[:, :] = 0.0
+    trace_0 = trace_1 = 0.0  # d tr(G) / 2 (the ridge follows the trace)
+    for j in range(m):  # dD c and dD^T sqrt(w) r
+        n = kept[j]
+        tl0 = t[0] * lights[n, 0] + t[1] * lights[n, 1] + t[2] * lights[n, 2]
+        tl1 = t[3] * lights[n, 0] + t[4] * lights[n, 1] + t[5] * lights[n, 2]
+        th0 = t[0] * half[n, 0] + t[1] * half[n, 1] + t[2] * half[n, 2]
+        th1 = t[3] * half[n, 0] + t[4] * half[n, 1] + t[5] * half[n, 2]
+        cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
+        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+        weighted = np.sqrt(w_kept[j]) * residual[n]
+        if kind == RAMPS:  # one fraction per lobe moves, at slope 1 / (knot spacing)
+            qd, qs = bins[j, 0], bins[j, 1]
+            slope_d = 1.0 / (fa[qd + 1] - fa[qd]) if qd < steps and cos_i >= fa[qd] else 0.0
+            slope_s = 0.0
+            if cos_i > 0 and qs < steps and cos_h >= fb[qs]:
+                slope_s = 1.0 / (fb[qs + 1] - fb[qs])
+            for c in range(2):
+                dd = slope_d * (tl0 if c == 0 else tl1)
+                ds = slope_s * (th0 if c == 0 else th1)
+                value = trace = 0.0
+                if qd < steps:
+                    value += coef[qd] * dd
+                    source[c, qd] += dd * weighted
+                    trace += fractions[j, 0] * dd
+                if qs < steps:
+                    value += coef[steps + qs] * ds
+                    source[c, steps + qs] += ds * weighted
+                    trace += fractions[j, 1] * ds
+                change[c, j] = value
+                if c == 0:
+                    trace_0 += w_kept[j] * trace
+                else:
+                    trace_1 += w_kept[j] * trace
+            continue
+        if kind == TABLE:
+            if cos_i > 0:
+                n_h, n_d = ints[0], ints[1]
+                i, fu = _table_row(cos_h, n_h)
+                col, fw = column[n], fraction[n]
+                value = _table_value(fa, i, fu, col, fw, n_d)
+                slope = 0.0  # d T / d cos θ_h (0 where the cosine is clipped)
+                if 0.0 < cos_h < 1.0:
+                    theta = np.arccos(cos_h)
+                    du = -(n_h - 1) / (
+                        np.pi * np.sqrt(theta / (np.pi / 2)) * np.sqrt(1.0 - cos_h * cos_h)
+                    )
+                    slope = du * (
+                        (1 - fw) * (fa[(i + 1) * n_d + col] - fa[i * n_d + col])
+                        + fw * (fa[(i + 1) * n_d + col + 1] - fa[i * n_d + col + 1])
+                    )
+                rows[0, 0], rows[1, 0] = tl0, tl1
+                rows[0, 1] = tl0 * value + cos_i * slope * th0
+                rows[1, 1] = tl1 * value + cos_i * slope * th1
+            else:
+                rows[:, :] = 0.0
+        else:  # the bi-polynomial s ch^a cd^b, s = max(cos θ_i, 0), ch = max(cos θ_h, 0)
+            shading, ch = max(cos_i, 0.0), max(cos_h, 0.0)
+            gate_i = 1.0 if cos_i > 0 else 0.0
+            gate_h = 1.0 if cos_h > 0 else 0.0
+            power_h, slope_h = 1.0, 0.0  # ch^a, a ch^(a - 1)
+            q = 0
+            for a in range(ints[0] + 1):
+                power_d = 1.0
+                for _b in range(ints[1] + 1):
+                    base, base_h = power_h * power_d, shading * gate_h * slope_h * power_d
+                    rows[0, q] = gate_i * tl0 * base + base_h * th0
+                    rows[1, q] = gate_i * tl1 * base + base_h * th1
+                    power_d *= cos_d[n]
+                    q += 1
+                slope_h = (a + 1) * power_h
+                power_h *= ch
+        for c in range(2):
+            value = trace = 0.0
+            for a in range(k):
+                value += rows[c, a] * coef[a]
+                source[c, a] += rows[c, a] * weighted
+                trace += rows[c, a] * design[j, a]
+            change[c, j] = value
+            if c == 0:
+                trace_0 += w_kept[j] * trace
+            else:
+                trace_1 += w_kept[j] * trace
+    # minus D^T W dD c
+    if kind == RAMPS:  # by ramp index, then suffix sums (as _ramps_system's right-hand side)
+        sums[:, :, :] = 0.0
+        for j in range(m):
+            qd, qs = bins[j, 0], bins[j, 1]
+            for c in range(2):
+                y = w_kept[j] * change[c, j]
+                sums[c, 0, qd] += y
+                sums[c, 1, qd] += y * fractions[j, 0]
+                sums[c, 2, qs] += y
+                sums[c, 3, qs] += y * fractions[j, 1]
+        for c in range(2):
+            tail_d = tail_s = 0.0
+            for a in range(steps - 1, -1, -1):
+                tail_d += sums[c, 0, a + 1]
+                tail_s += sums[c, 2, a + 1]
+                source[c, a] -= tail_d + sums[c, 1, a]
+                source[c, steps + a] -= tail_s + sums[c, 3, a]
+    else:
+        for j in range(m):
+            for c in range(2):
+                y = w_kept[j] * change[c, j]
+                for a in range(k):
+                    source[c, a] -= design[j, a] * y
+    for c in range(2):
+        ridge = 2e-9 * (trace_0 if c == 0 else trace_1) / k  # d of _weights' ridge: minus dρ c
+        for a in range(k):
+            source[c, a] -= ridge * coef[a]
+        _solve_free(gram, source[c], free, work, work_b, delta[c])
+        if kind == RAMPS:
+            for lobe in range(2):
+                total = 0.0
+                prefix[c, lobe * (steps + 1)] = 0.0
+                for a in range(steps):
+                    total += delta[c, lobe * steps + a]
+                    prefix[c, lobe * (steps + 1) + a + 1] = total
+    j00 = j01 = j11 = g0 = g1 = 0.0
+    for j in range(m):  # dr = -sqrt(w) (dD c + D dc)
+        r = residual[kept[j]]
+        root = np.sqrt(w_kept[j])
+        d0 = d1 = 0.0
+        for c in range(2):
+            if kind == RAMPS:
+                qd, qs = bins[j, 0], bins[j, 1]
+                value = prefix[c, qd] + prefix[c, steps + 1 + qs]
+                if qd < steps:
+                    value += fractions[j, 0] * delta[c, qd]
+                if qs < steps:
+                    value += fractions[j, 1] * delta[c, steps + qs]
+            else:
+                value = 0.0
+                for a in range(k):
+                    value += design[j, a] * delta[c, a]
+            if c == 0:
+                d0 = -root * (change[0, j] + value)
+            else:
+                d1 = -root * (change[1, j] + value)
+        j00 += d0 * d0
+        j01 += d0 * d1
+        j11 += d1 * d1
+        g0 += d0 * r
+        g1 += d1 * r
+    return j00, j01, j11, g0, g1
+
+
 @_pjit
 def fit_pixels(
     normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
@@ -498,27 +681,27 @@ def lm_step(
     ``(P, K)`` and, if given, the reflectance weights ``coefficients`` ``(P, K)`` of the
     normals.
 
-    ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian by forward differences of
-    :data:`EPSILON`; the step ``-(J^T J + λ tr(J^T J)/2 I)^{-1} J^T r`` clipped to 0.2 per
-    coordinate is kept if the cost falls (``λ`` / 3, else ``λ`` × 4, within [1e-7, 1e7]). A
-    pixel whose step is below ``tolerance`` (both coordinates) stops: it is made inactive
-    without trying the step. (Pixels stop at different iterations: call it with a small
-    ``numba.parallel_chunksize`` so that the threads share the work.)
+    ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian analytic (:func:`_products`); the
+    step ``-(J^T J + λ tr(J^T J)/2 I)^{-1} J^T r`` clipped to 0.2 per coordinate is kept if the
+    cost falls (``λ`` / 3, else ``λ`` × 4, within [1e-7, 1e7]). A pixel whose step is below
+    ``tolerance`` (both coordinates) stops: it is made inactive without trying the step.
+    (Pixels stop at different iterations: call it with a small ``numba.parallel_chunksize`` so
+    that the threads share the work.)
 
     ``products`` ``(P, 6)``, if given (zeros at the start), keeps each pixel's ``J^T J``,
-    ``J^T r`` and whether they hold: a rejected step leaves the normal and its residual as they
-    were, so the next iteration reuses them instead of refitting the two shifted normals (the
-    same numbers: only the damping changed).
+    ``J^T r`` of its current normal and whether they hold: they are computed from the fit that
+    accepted the normal (and kept through rejected steps), so that no iteration refits the
+    current normal (the same numbers as the refit).
     """
     n_pixels, n_lights = gray.shape
     k = free.shape[1]
     for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
         kept = np.empty(n_lights, np.int64)
         g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
-        jacobian = np.empty((2, n_lights))
         shifted = np.empty(n_lights)
         coef = np.empty(k)
         scratch = _scratch(n_lights, k)
+        work_products = _products_scratch(n_lights, k)
         for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
             if not active[p]:
                 continue
@@ -526,31 +709,21 @@ def lm_step(
             m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
             nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
             t = _tangents(nx, ny, nz)
-            if products is not None and products[p, 5] != 0.0:  # the last step was rejected
+            if products is not None and products[p, 5] != 0.0:  # held since the normal's fit
                 j00, j01, j11 = products[p, 0], products[p, 1], products[p, 2]
                 g0, g1 = products[p, 3], products[p, 4]
-            else:
-                for c in range(2):
-                    mx, my, mz = (
-                        nx + EPSILON * t[3 * c],
-                        ny + EPSILON * t[3 * c + 1],
-                        nz + EPSILON * t[3 * c + 2],
-                    )
-                    length = np.sqrt(mx * mx + my * my + mz * mz)
-                    _fit(
-                        mx / length, my / length, mz / length, kept, g_kept, w_kept, m, lights,
-                        half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative,
-                        shifted, coef, free[p], scratch,
-                    )  # fmt: skip
-                    for n in range(n_lights):
-                        jacobian[c, n] = (shifted[n] - r[n]) / EPSILON
-                j00 = j01 = j11 = g0 = g1 = 0.0
-                for n in range(n_lights):
-                    j00 += jacobian[0, n] * jacobian[0, n]
-                    j01 += jacobian[0, n] * jacobian[1, n]
-                    j11 += jacobian[1, n] * jacobian[1, n]
-                    g0 += jacobian[0, n] * r[n]
-                    g1 += jacobian[1, n] * r[n]
+            else:  # refit the normal for its system
+                _fit(
+                    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction,
+                    kind, ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+                )  # fmt: skip
+                j00, j01, j11, g0, g1 = _products(
+                    nx, ny, nz, t, kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+                    ints, fa, fb, shifted, coef, free[p], scratch, work_products,
+                )  # fmt: skip
+                if products is not None:
+                    products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
+                    products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
             shift = damping[p] * ((j00 + j11) / 2 + 1e-300)
             a00, a11 = j00 + shift, j11 + shift
             determinant = a00 * a11 - j01 * j01
@@ -579,13 +752,16 @@ def lm_step(
                 if coefficients is not None:
                     coefficients[p, :] = coef
                 damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
-                if products is not None:
-                    products[p, 5] = 0.0
-            else:
-                damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
-                if products is not None:
+                if products is not None:  # the new normal's, from the fit just done
+                    j00, j01, j11, g0, g1 = _products(
+                        tx, ty, tz, _tangents(tx, ty, tz), kept, w_kept, m, lights, half, cos_d,
+                        column, fraction, kind, ints, fa, fb, shifted, coef, free[p], scratch,
+                        work_products,
+                    )  # fmt: skip
                     products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
                     products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
+            else:
+                damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
 
 
 @_jit

@@ -22,12 +22,12 @@ and the normal is the minimiser of the remaining residual (variable projection):
   alternating with the normals.
 
 The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
-the normal, the residual's Jacobian by forward differences, every pixel on its own until its
-step falls below :data:`STEP_TOLERANCE` (a compiled per-pixel kernel,
+the normal, the residual's Jacobian analytic (variable projection [6]_), every pixel on its
+own until its step falls below :data:`STEP_TOLERANCE` (a compiled per-pixel kernel,
 :mod:`brdfkit.vision._bivariate_kernels`, the pixels split over the cores), started from trimmed
-least squares. Observations
-darker than ``shadow_threshold`` times a pixel's 90th-percentile observation are shadows and
-excluded; this selection does not depend on the candidate normal, so costs stay comparable.
+least squares. Observations darker than ``shadow_threshold`` times a pixel's 90th-percentile
+observation are shadows and excluded; this selection does not depend on the candidate normal, so
+costs stay comparable.
 
 References
 ----------
@@ -41,6 +41,8 @@ References
    approximation of isotropic BRDFs).
 .. [5] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
    for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019.
+.. [6] G. H. Golub, V. Pereyra, "The differentiation of pseudo-inverses and nonlinear least
+   squares problems whose variables separate", SIAM J. Numer. Anal. 10(2), 1973.
 """
 
 from __future__ import annotations
@@ -197,8 +199,9 @@ def _refine_normals(
     highlight puts near a biased least-squares start).
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
-    residual comes from forward differences of ``1e-4`` rad (kept through a rejected step: the
-    normal and residual did not change); a step (clipped to 0.2 per coordinate) is kept for the
+    residual is analytic (:func:`~brdfkit.vision._bivariate_kernels._products`), computed from
+    the fit that accepted a normal and kept through rejected steps (the normal and residual did
+    not change); a step (clipped to 0.2 per coordinate) is kept for the
     pixels whose cost falls, and their damping shrinks by 3 (grows by 4 otherwise; within
     [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
