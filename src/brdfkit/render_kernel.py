@@ -18,8 +18,9 @@ pixels, the BRDF kernels that :func:`brdfkit.accel.compile` builds from the mode
 
 - per sample k, the BRDF's ``sample`` kernel over the block's pixels (vectorised across them);
 - per pixel, the map's radiance and pdf at the BRDF's direction, a map sample (the marginal
-  CDF over rows, then the row's conditional CDF over columns, by the same fixed-step bisection
-  as :class:`~brdfkit.sampling.Distribution2D`, run in lock step over the block), its radiance
+  CDF over rows, then the row's conditional CDF over columns: the intervals of
+  :class:`~brdfkit.sampling.Distribution2D`'s bisection, found from guide tables built once
+  per map, :func:`map_guides`), its radiance
   and the solid-angle pdf
   :math:`p_\omega = p_{uv}/(2\pi^2\sin\theta)`;
 - the BRDF's ``eval`` and ``pdf`` kernels at the map's directions above the surface
@@ -49,6 +50,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from collections.abc import Callable, Sequence
@@ -143,6 +145,71 @@ def _tile_disk_key(
     return kernel_cache.key("tile", *keys, np.dtype(dtype).str, brdf_channels, map_channels, BLOCK)
 
 
+ROW_BUCKETS = 8
+"""Guide-table buckets per row of a map's marginal CDF (:func:`map_guides`)."""
+COLUMN_BUCKETS = 1
+"""Guide-table buckets per column of each row's conditional CDF (:func:`map_guides`).
+Measured (``benchmarks/bench_env_sampling.py``, royal_esplanade_1k, one thread, loaded
+machine), ns per sample for (row, column) buckets: (4, 1) 62, (8, 1) 56, (16, 1) 61,
+(4, 2) 66, (8, 2) 62, (16, 2) 55: within the noise past (8, 1), the smallest tables."""
+
+_GUIDES: weakref.WeakKeyDictionary[sampling.Distribution2D, tuple[np.ndarray, np.ndarray]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def map_guides(distribution: sampling.Distribution2D) -> tuple[np.ndarray, np.ndarray]:
+    """The guide tables (:func:`brdfkit.render_table_kernel.guide_table`) of a map's
+    :class:`~brdfkit.sampling.Distribution2D`: its marginal's (:data:`ROW_BUCKETS` per row)
+    and its rows' conditionals' (:data:`COLUMN_BUCKETS` per column, row after row), built
+    once per distribution (kept while it lives: one per map) for :func:`map_sampler`."""
+    if distribution not in _GUIDES:
+        height, width = distribution.shape
+        _GUIDES[distribution] = (
+            render_table_kernel.guide_table(distribution._marginal, height, ROW_BUCKETS * height),
+            render_table_kernel.guide_table(
+                distribution._conditional, width, COLUMN_BUCKETS * width, height
+            ),
+        )
+    return _GUIDES[distribution]
+
+
+@functools.cache
+def map_sampler() -> Callable[..., None]:
+    """The numba ``map_samples(a, b, marginal, conditional, row_guide, col_guide, height,
+    width, nb, rows, cols, base)``: ``Distribution2D.sample``'s texels for ``nb`` float64
+    variates ``a`` (column) and ``b`` (row) already clamped below 1, the marginal's row, then
+    the row's column (``base``: the row's offset in ``conditional``), each by the guide-table
+    search (:func:`brdfkit.render_table_kernel.guided_search`, :func:`map_guides`): the rows
+    and columns of ``sampling._find_interval``'s bisection, in a scan of a step or two instead
+    of its ~10 + ~11 steps (1k map). Loops split so that the guide reads of the block's
+    samples overlap, and each column search's CDF nodes are prefetched before the scans."""
+    import numba
+
+    jit = numba.njit(nogil=True, error_model="numpy")
+    guided_interval = render_table_kernel.guided_search()
+    prefetch = render_table_kernel._prefetch()
+
+    @jit
+    def map_samples(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
+                    conditional: np.ndarray, row_guide: np.ndarray, col_guide: np.ndarray,
+                    height: int, width: int, nb: int, rows: np.ndarray, cols: np.ndarray,
+                    base: np.ndarray) -> None:  # fmt: skip
+        row_buckets, col_buckets = row_guide.shape[0], col_guide.shape[0] // height
+        for j in range(nb):
+            row = guided_interval(marginal, 0, row_guide, 0, row_buckets, b[j], height)
+            rows[j], base[j] = row, row * (width + 1)
+        for j in range(nb):
+            start = rows[j] * col_buckets
+            cols[j] = col_guide[start + min(np.int64(a[j] * col_buckets), col_buckets - 1)]
+            prefetch(conditional, base[j] + cols[j])
+        for j in range(nb):
+            cols[j] = guided_interval(conditional, base[j], col_guide, rows[j] * col_buckets,
+                                      col_buckets, a[j], width)  # fmt: skip
+
+    return map_samples
+
+
 def _new_tile_kernel(
     sample_fn: Callable[..., None],
     eval_fn: Callable[..., None],
@@ -158,8 +225,8 @@ def _new_tile_kernel(
     does. One shortcut: a map sample's radiance is read at its map coordinates, where the
     NumPy path turns them into a direction and back (the same texel weights to rounding). Per
     block of :data:`BLOCK` pixels and per sample, loops are split so that the unpredictable
-    table reads (bisection steps in lock step over the block, then texel fetches) overlap:
-    measured 1.1–1.4× over one loop doing each pixel's work in turn (2k × 1k and 64 × 32 maps).
+    table reads (the CDF searches, :func:`map_sampler`, then texel fetches) overlap: measured
+    1.1–1.4× over one loop doing each pixel's work in turn (2k × 1k and 64 × 32 maps).
     The kernel is bound by those reads: as soon as a direction's map coordinates are known,
     its two texel rows and its pdf texel are prefetched, so that the reads of the last loop
     hit the cache (gold scene, 16 spp, one thread on a loaded machine: ~370 → ~260 ns CPU per
@@ -182,6 +249,7 @@ def _new_tile_kernel(
     select = accel._intrinsics()["_select"]
     atan2, sin, cos = render_table_kernel.trigonometry(T)
     prefetch = render_table_kernel._prefetch()
+    map_samples = map_sampler()
 
     @jit
     def unit(x: Any, y: Any, z: Any) -> tuple[Any, Any, Any]:
@@ -254,37 +322,6 @@ def _new_tile_kernel(
         row = min(max(np.floor(np.float64(y) * height), 0.0), height - 1.0)
         return solid_angle_pdf(T(density[int(row) * width + int(col)]), sin_theta)
 
-    @jit
-    def find_intervals(cdf: np.ndarray, base: np.ndarray, u: np.ndarray, count: int,
-                       steps: int, nb: int, out: np.ndarray) -> None:  # fmt: skip
-        """``sampling._find_interval`` for ``nb`` samples at once, in lock step: the same
-        fixed number of bisection steps, each over all samples, so that their independent
-        table reads overlap instead of waiting one after another; into ``out``."""
-        for j in range(nb):
-            out[j] = 0
-        hi = np.empty(nb, np.int64)
-        for j in range(nb):
-            hi[j] = count
-        for _ in range(steps):
-            for j in range(nb):
-                mid = (out[j] + hi[j]) >> 1
-                right = cdf[base[j] + mid] <= u[j]
-                out[j], hi[j] = select(right, mid, out[j]), select(right, hi[j], mid)
-
-    @jit
-    def map_samples(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
-                    conditional: np.ndarray, height: int, width: int, row_steps: int,
-                    col_steps: int, nb: int, rows: np.ndarray, cols: np.ndarray,
-                    base: np.ndarray) -> None:  # fmt: skip
-        """``Distribution2D.sample``'s texels for float64 variates ``a`` (column) and ``b``
-        (row) already clamped below 1: the marginal's row, then the row's column."""
-        for j in range(nb):
-            base[j] = 0
-        find_intervals(marginal, base, b, height, row_steps, nb, rows)
-        for j in range(nb):
-            base[j] = rows[j] * (width + 1)
-        find_intervals(conditional, base, a, width, col_steps, nb, cols)
-
     reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
     unit_interval = 2.0**-sampling.SOBOL_BITS
 
@@ -348,8 +385,8 @@ def _new_tile_kernel(
         marginal: np.ndarray,
         conditional: np.ndarray,
         density: np.ndarray,
-        row_steps: int,
-        col_steps: int,
+        row_guide: np.ndarray,
+        col_guide: np.ndarray,
         power: bool,
         control: np.ndarray,
         mean: np.ndarray,
@@ -432,7 +469,7 @@ def _new_tile_kernel(
                     a_buf[j] = min(np.float64(a), below_one_64)
                     b_buf[j] = min(np.float64(b), below_one_64)
                 map_samples(
-                    a_buf, b_buf, marginal, conditional, height, width, row_steps, col_steps,
+                    a_buf, b_buf, marginal, conditional, row_guide, col_guide, height, width,
                     nb, rows, cols, base,
                 )  # fmt: skip
                 for j in range(nb):
@@ -601,7 +638,6 @@ class EnvironmentShader:
             )
         env, t = self.env, self.dtype
         distribution = env._distribution
-        height, width = distribution.shape
         self._tables = (
             np.ascontiguousarray(env.image, dtype=t),
             np.ascontiguousarray(env.rotation, dtype=t),
@@ -609,8 +645,7 @@ class EnvironmentShader:
             distribution._marginal,
             distribution._conditional,
             np.ascontiguousarray(distribution.density.ravel()),
-            max(1, math.ceil(math.log2(height))) + 1,
-            max(1, math.ceil(math.log2(width))) + 1,
+            *map_guides(distribution),
         )
 
     def __call__(
