@@ -74,10 +74,12 @@ def table_columns(cos_d, n_d):  # pragma: no cover
 
 @_inline
 def _table_row(cos_h, n_h):  # pragma: no cover
-    """The lower ``θ_h`` node ``i`` and fraction ``f_u`` (``sqrt(θ_h)`` uniform)."""
-    u = np.sqrt(np.arccos(min(max(cos_h, 0.0), 1.0)) / (np.pi / 2)) * (n_h - 1)
+    """The lower ``θ_h`` node ``i`` and fraction ``f_u`` (``sqrt(θ_h)`` uniform), and
+    ``sqrt(θ_h / (π/2))``."""
+    root = np.sqrt(np.arccos(min(max(cos_h, 0.0), 1.0)) / (np.pi / 2))
+    u = root * (n_h - 1)
     i = min(int(np.floor(u)), n_h - 2)
-    return i, u - i
+    return i, u - i, root
 
 
 @_inline
@@ -116,12 +118,13 @@ def _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design):  # pragma: 
 @_jit
 def _table_system(
     nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design, gram,
-    rhs,
+    rhs, bins, fractions,
 ):  # pragma: no cover  # fmt: skip
     """The design ``max(0, n·l) (1, T(θ_h, θ_d))`` of the shared table (``T`` bilinear on the
     ``ints = (n_h, n_d)`` nodes ``fa``) into ``design[:m]`` ``(M, 2)``, and its weighted Gram and
     right-hand side summed in the same pass (each entry as the general loop of :func:`_fit`
-    sums it)."""
+    sums it). Each observation's :func:`_table_row` goes to ``bins[:m, 0]`` and ``fractions[:m]``
+    ``(f_u, sqrt(θ_h / (π/2)))``, for :func:`_products` (no second ``arccos``)."""
     n_h, n_d = ints[0], ints[1]
     g00 = g01 = g11 = r0 = r1 = 0.0
     for j in range(m):
@@ -129,7 +132,8 @@ def _table_system(
         cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
         cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
         shading = max(cos_i, 0.0)
-        i, fu = _table_row(cos_h, n_h)
+        i, fu, root = _table_row(cos_h, n_h)
+        bins[j, 0], fractions[j, 0], fractions[j, 1] = i, fu, root
         d0, d1 = shading, shading * _table_value(fa, i, fu, column[n], fraction[n], n_d)
         design[j, 0], design[j, 1] = d0, d1
         w0, w1 = w_kept[j] * d0, w_kept[j] * d1
@@ -239,9 +243,10 @@ def _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free):  # pragma:
 @_inline
 def _scratch(n_lights, k):  # pragma: no cover
     """Work arrays of :func:`_fit`: design ``(N, K)``, Gram, right-hand side, solver rows, and
-    those of :func:`_ramps_system`: each observation's two ramp indices and fractions, the
-    sums by index pair ``(4, K/2 + 1, K/2 + 1)`` and by index ``(6, K/2 + 1)``, the weights'
-    prefix sums ``(K + 2,)``."""
+    those of :func:`_ramps_system`: each observation's two ramp indices and fractions (the
+    table's row and fractions: :func:`_table_system`), the sums by index pair
+    ``(4, K/2 + 1, K/2 + 1)`` and by index ``(6, K/2 + 1)``, the weights' prefix sums
+    ``(K + 2,)``."""
     bins = k // 2 + 1
     return (
         np.empty((n_lights, k)), np.empty((k, k)), np.empty(k), np.empty((k, k)), np.empty(k),
@@ -362,7 +367,7 @@ def _fit(
     elif kind == TABLE:
         _table_system(
             nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design,
-            gram, rhs,
+            gram, rhs, bins, fractions,
         )  # fmt: skip
     else:
         _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design)
@@ -483,15 +488,12 @@ def _products(
         if kind == TABLE:
             if cos_i > 0:
                 n_h, n_d = ints[0], ints[1]
-                i, fu = _table_row(cos_h, n_h)
+                i, fu, root = bins[j, 0], fractions[j, 0], fractions[j, 1]  # the fit's
                 col, fw = column[n], fraction[n]
                 value = _table_value(fa, i, fu, col, fw, n_d)
                 slope = 0.0  # d T / d cos θ_h (0 where the cosine is clipped)
                 if 0.0 < cos_h < 1.0:
-                    theta = np.arccos(cos_h)
-                    du = -(n_h - 1) / (
-                        np.pi * np.sqrt(theta / (np.pi / 2)) * np.sqrt(1.0 - cos_h * cos_h)
-                    )
+                    du = -(n_h - 1) / (np.pi * root * np.sqrt(1.0 - cos_h * cos_h))
                     slope = du * (
                         (1 - fw) * (fa[(i + 1) * n_d + col] - fa[i * n_d + col])
                         + fw * (fa[(i + 1) * n_d + col + 1] - fa[i * n_d + col + 1])
@@ -837,7 +839,7 @@ def _table_sums(
             if scale == 0.0:
                 continue
             target = gray[p, n] - shading * rho_d
-            i, fu = _table_row(nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2], n_h)
+            i, fu, _ = _table_row(nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2], n_h)
             c, fw = column[n], fraction[n]
             weight[0], weight[1] = (1 - fu) * (1 - fw), fu * (1 - fw)
             weight[2], weight[3] = (1 - fu) * fw, fu * fw
