@@ -227,6 +227,65 @@ def test_best_start_kernel_equals_numpy(glossy, name):
 
 
 @pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_screened_start_selection_equals_the_full_one(glossy, name):
+    # the ring's normals fitted only where their lower bound is below the best cost: the same
+    # winners and costs as fitting all of them (the ramps' weights may differ where their
+    # warm-started active sets do, for the same residual)
+    gray, lights, lit, starts, _ = glossy
+    basis, nonnegative = _basis(name)
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    out = {}
+    for screen in (False, True):
+        normals, residual, cost = np.empty((len(g), 3)), np.empty(g.shape), np.empty(len(g))
+        free = np.ones((len(g), basis.size), dtype=bool)
+        _bivariate_kernels.best_start(
+            starts, bivariate.BEST_START_RING, g, w, *inputs, nonnegative, normals, residual,
+            cost, free, np.empty((len(g), basis.size)), screen,
+        )  # fmt: skip
+        out[screen] = normals, residual, cost
+    np.testing.assert_array_equal(out[True][0], out[False][0])
+    np.testing.assert_allclose(out[True][2], out[False][2], rtol=1e-12)
+    np.testing.assert_allclose(out[True][1], out[False][1], atol=1e-9 * np.abs(gray).max())
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_screening_bound_is_below_the_fit(glossy, name):
+    # _lower_bound <= _fit's cost (within the margin) at normals up to ~20° off the truth
+    gray, lights, lit, _, truth = glossy
+    basis, nonnegative = _basis(name)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    rng = np.random.default_rng(3)
+    normals = truth + rng.normal(scale=0.2, size=truth.shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    n_lights, k = len(lights), basis.size
+    kept, sub_kept = np.empty(n_lights, np.int64), np.empty(n_lights, np.int64)
+    g_kept, w_kept, sub_g, sub_w = (np.empty(n_lights) for _ in range(4))
+    scratch = _bivariate_kernels._scratch(n_lights, k)
+    below = 0
+    for p, (n, g, w) in enumerate(zip(normals, gray.T, lit, strict=True)):
+        m = _bivariate_kernels._kept(w, g, kept, g_kept, w_kept)
+        sub = np.arange(0, m, _bivariate_kernels.SCREEN_STRIDE)
+        sub_kept[: len(sub)], sub_g[: len(sub)], sub_w[: len(sub)] = (
+            kept[sub],
+            g_kept[sub],
+            w_kept[sub],
+        )
+        bound = _bivariate_kernels._lower_bound(
+            *n, kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, len(sub), *inputs[:-1],
+            nonnegative, np.empty(n_lights), np.empty(k), np.ones(k, dtype=bool), scratch,
+        )  # fmt: skip
+        cost = _bivariate_kernels._fit(
+            *n, kept, g_kept, w_kept, m, *inputs, nonnegative, np.empty(n_lights), np.empty(k),
+            np.ones(k, dtype=bool), scratch,
+        )  # fmt: skip
+        signal = np.sum(w_kept[:m] * g_kept[:m] ** 2)
+        assert bound <= cost + _bivariate_kernels.SCREEN_MARGIN * signal, p
+        below += bound < 0.5 * cost
+    assert below > 0  # a bound, not the cost
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
 def test_kept_products_through_rejected_steps_change_nothing(glossy, name):
     """The normal search that reuses ``J^T J`` and ``J^T r`` after a rejected step follows the
     one that refits the shifted normals (same normals, damping and stopping)."""
