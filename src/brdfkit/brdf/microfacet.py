@@ -113,7 +113,7 @@ _GAUSSIAN_LAMBDA_NODES = 32
 _GAUSSIAN_SUPPORT = 6.0  # exp(-(θ/m)²) < 3e-16 beyond θ = 6 m
 # The sampler's Newton steps (on the 12-point CDF, then on the 24-point one) by precision: the
 # fewest that reach rounding over m ∈ [10⁻⁴, 10], u ∈ [0, 1] (scanned in
-# tests/brdf/test_microfacet.py): float64 |ΔCDF| ≤ 6e-15 with (3, 2), 1.7e-13 with (2, 2);
+# tests/brdf/test_microfacet.py): float64 |ΔCDF| ≤ 6e-15 with (3, 2), 2.5e-13 with (2, 2);
 # float32 ≤ 4e-7 (3 ulp of u) with (2, 1).
 _GAUSSIAN_NEWTON_STEPS = {"float64": (3, 2), "float32": (2, 1)}
 
