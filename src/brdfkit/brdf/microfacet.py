@@ -108,10 +108,14 @@ _GAUSS_LEGENDRE_NODES = 64  # the default order of _quadrature
 # tests/brdf/test_microfacet.py): the CDF ∫_0^θ e^{-(s/m)²} sin 2s ds (max. relative error
 # 5e-15 at 24 nodes, 1.4e-13 at 20), and Λ (|ΔΛ|/(1+Λ) ≤ 7e-14 at 32 nodes, 3.5e-13 at 28).
 _GAUSSIAN_CDF_NODES = 24
-_GAUSSIAN_GUESS_NODES = 12  # the sampler's first Newton phase: relative error ≤ 2e-6
+_GAUSSIAN_GUESS_NODES = 12  # the sampler's first Newton steps: relative error ≤ 2e-6
 _GAUSSIAN_LAMBDA_NODES = 32
 _GAUSSIAN_SUPPORT = 6.0  # exp(-(θ/m)²) < 3e-16 beyond θ = 6 m
-_GAUSSIAN_NEWTON_MAX_STEPS = 60  # bisection fallback: 60 halvings reach float64 resolution
+# The sampler's Newton steps (on the 12-point CDF, then on the 24-point one) by precision: the
+# fewest that reach rounding over m ∈ [10⁻⁴, 10], u ∈ [0, 1] (scanned in
+# tests/brdf/test_microfacet.py): float64 |ΔCDF| ≤ 6e-15 with (3, 2), 2.5e-13 with (2, 2);
+# float32 ≤ 4e-7 (3 ulp of u) with (2, 1).
+_GAUSSIAN_NEWTON_STEPS = {"float64": (3, 2), "float32": (2, 1)}
 
 
 @functools.lru_cache(maxsize=8)
@@ -541,9 +545,12 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     partial visibility): :math:`|\Delta\Lambda|/(1+\Lambda) \le 7\cdot10^{-14}` against
     a 512/1024-point reference over m ∈ [10⁻⁴, 10] and θ up to 10⁻⁸ from grazing (the
     64-point rule of earlier versions: 3e-14, i.e. both at the rounding of the integrand).
-    :meth:`sample` draws :math:`D\cos\theta_m` by inverting the CDF in θm with safeguarded
-    Newton iterations: first on a 12-point CDF (relative error ≤ 2e-6) to ~1e-7, then on the
-    exact 24-point CDF to rounding (two or three steps). There is no visible-normal sampler.
+    :meth:`sample` draws :math:`D\cos\theta_m` by inverting the CDF in θm: a fixed number
+    of safeguarded Newton steps on :math:`\log(1-\mathrm{CDF})` in :math:`-\log\cos^2\theta`
+    (:meth:`_invert_cdf`), three on a 12-point CDF (relative error ≤ 2e-6), then two on the
+    exact 24-point one (one and one in float32); the CDF error is at rounding (≤ 6e-15 in
+    float64, ≤ 3e-7 in float32), and the sampler compiles (:mod:`brdfkit.accel`). There is no
+    visible-normal sampler.
 
     Parameters
     ----------
@@ -565,6 +572,17 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     def channel_mean(self) -> MicrofacetDistribution:
         return TorranceSparrowGaussian(_mean_over_channels(self.m))
 
+    def _integral(self, m: Array, lower: Array, upper: Array, order: int) -> Array:
+        r""":math:`\int_{ma}^{mb} e^{-(s/m)^2}\sin 2s\,ds = m\int_a^b e^{-t^2}\sin(2mt)\,dt`
+        between ``lower`` a and ``upper`` b (in :math:`t = s/m`) by ``order``-point
+        Gauss–Legendre quadrature."""
+        xp = namespace(m, lower, upper)
+        nodes, weights = _quadrature(m, order)
+        span = upper - lower
+        t = lower[..., None] + span[..., None] * nodes
+        integrand = xp.exp(-t * t) * xp.sin(2 * m[..., None] * t)
+        return m * span * xp.sum(weights * integrand, axis=-1)
+
     def _partial_integral(self, m: Array, theta: Array, order: int = _GAUSSIAN_CDF_NODES) -> Array:
         r""":math:`P(\theta) = \int_0^{\theta} e^{-(s/m)^2}\sin 2s\,ds` by ``order``-point
         Gauss–Legendre quadrature in :math:`t = s/m` over :math:`[0, \min(\theta/m, 6)]`.
@@ -575,11 +593,8 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         reference on a scan of m ∈ [10⁻⁴, 10], θ ∈ (0, π/2]; 1.4e-13 at 20 points).
         """
         xp = namespace(m, theta)
-        nodes, weights = _quadrature(m, order)
         upper = xp.minimum(theta / m, constant(_GAUSSIAN_SUPPORT, m))
-        t = upper[..., None] * nodes
-        integrand = xp.exp(-t * t) * xp.sin(2 * m[..., None] * t)
-        return m * upper * xp.sum(weights * integrand, axis=-1)
+        return self._integral(m, xp.zeros_like(upper), upper, order)
 
     def normalization(self, like: Array) -> Array:
         r"""The constant :math:`c(m)` making :math:`\int D\cos\theta_m\,d\omega_m = 1`."""
@@ -620,47 +635,68 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         grazing = cos_theta <= 0
         return xp.where(grazing, constant(math.inf, value) + 0 * value, value)
 
-    def _newton(
-        self, m: Array, theta: Array, target: Array, total: Array, order: int, tol: float
-    ) -> Array:
-        """Solve :math:`P(\\theta) =` ``target`` for θ ∈ [0, π/2] from ``theta``: Newton steps
-        safeguarded by bisection, P by ``order``-point quadrature, until every element is
-        within ``tol`` (16 ``tol`` relative to ``total`` in P, or ``tol`` relative to m in θ).
+    def _invert_cdf(self, m: Array, u: Array) -> Array:
+        r"""The θm ∈ [0, π/2) whose CDF is ``u`` ∈ [0, 1): a fixed number of safeguarded Newton
+        steps on the log-survival :math:`h = \log(1 - \mathrm{CDF})` in
+        :math:`w = -\log\cos^2\theta` (:math:`\theta = \arctan\sqrt{e^w - 1}`).
+
+        h is nearly linear in w at both ends: :math:`h \approx -w/m^2` for small θ and m, and
+        :math:`h \approx -w + \text{const}` as θ → π/2, where the CDF's :math:`\sin 2s`
+        vanishes. Two upper bounds on the root start the iteration and bound it: the CDF
+        exceeds the uniform one :math:`\sin^2\theta` (the Gaussian's likelihood ratio to it
+        decreases), and :math:`\log(1 - \mathrm{CDF})` is concave in :math:`(\theta/m)^2`
+        (its density is log-concave there: :math:`e^{-s}\,\mathrm{sinc}(2m\sqrt s)` with
+        :math:`\mathrm{sinc}` a product of factors linear in s), so that its tangent at 0 gives
+        :math:`\theta \le \sqrt{-\log(1-u)\,P(\pi/2)}`. A step leaving the bracket of the
+        root is replaced by bisection. Below the median h is computed from P, the partial
+        integral (which keeps θ's relative precision as u → 0), above it from the tail, so that
+        h is accurate to rounding where it matters. The steps (:data:`_GAUSSIAN_NEWTON_STEPS`)
+        run on the 12-point CDF first, then on the 24-point one; with no data-dependent exit,
+        the iteration traces to one branch-free expression for :mod:`brdfkit.accel`.
         """
-        xp = namespace(m, theta)
-        lo = xp.zeros_like(theta)
-        hi = lo + constant(math.pi / 2, theta)
-        for _ in range(_GAUSSIAN_NEWTON_MAX_STEPS):
-            value = self._partial_integral(m, theta, order) - target
-            lo = xp.where(value < 0, theta, lo)
-            hi = xp.where(value < 0, hi, theta)
-            slope = xp.exp(-((theta / m) ** 2)) * xp.sin(2 * theta)
-            newton = theta - safe_div(value, slope)
-            inside = (newton >= lo) & (newton <= hi) & (slope > 0)
-            updated = xp.where(inside, newton, 0.5 * (lo + hi))
-            converged = bool(
-                xp.all((xp.abs(value) <= 16 * tol * total) | (xp.abs(updated - theta) <= tol * m))
-            )
-            theta = updated
-            if converged:
-                break
+        xp = namespace(m, u)
+        eps = float(xp.finfo(u.dtype).eps)
+        zero = xp.zeros_like(u)
+        end = xp.minimum(constant(math.pi / 2, m) / m, constant(_GAUSSIAN_SUPPORT, m)) + zero
+        totals = {
+            n: self._integral(m, zero, end, n) for n in (_GAUSSIAN_GUESS_NODES, _GAUSSIAN_CDF_NODES)
+        }
+        log_survival = xp.log1p(-u)
+        below_median = u < 0.5
+        theta = xp.minimum(
+            xp.sqrt(-log_survival * totals[_GAUSSIAN_CDF_NODES]), xp.asin(xp.sqrt(u))
+        )
+        w = xp.log1p(xp.tan(theta) ** 2)
+        # The bracket's end: the bound, widened to hold the quadratures' roots, which lie within
+        # rounding of it where the bound is tight (small m; m → ∞) or 1e-6 relative (12 points)
+        bound = w * (1 + 1e-3)
+        guess, exact = _GAUSSIAN_NEWTON_STEPS["float32" if eps > 1e-10 else "float64"]
+        for order, steps in ((_GAUSSIAN_GUESS_NODES, guess), (_GAUSSIAN_CDF_NODES, exact)):
+            # the bracket of this quadrature's root (the 12-point root is not the exact one)
+            lo, hi = zero, bound
+            for _ in range(steps):
+                total = totals[order]
+                t = xp.minimum(theta / m, end)
+                part = self._integral(
+                    m, xp.where(below_median, zero, t), xp.where(below_median, t, end), order
+                )
+                tail = xp.maximum(xp.where(below_median, total - part, part), constant(_TINY, u))
+                log_tail = xp.where(below_median, xp.log1p(-part / total), xp.log(tail / total))
+                excess = log_tail - log_survival  # > 0: θ below the root
+                lo = xp.where(excess > 0, w, lo)
+                hi = xp.where(excess > 0, hi, w)
+                rate = xp.exp(-t * t) * xp.cos(theta) ** 2 / tail  # −dh/dw
+                newton = w + excess / rate
+                w = xp.where((newton >= lo) & (newton <= hi), newton, 0.5 * (lo + hi))
+                theta = xp.atan(xp.sqrt(xp.expm1(w)))
         return theta
 
     def sample(self, u: Array) -> Array:
         xp = namespace(u)
         m = param(self.channel_mean().m, u)
-        u1 = clamp(u[..., 0:1], 0.0, 1 - 1e-12)
-        norm = self.channel_mean().normalization(u)
-        target = u1 / (math.pi * norm)  # ∫_0^θ e^{-(s/m)²} sin 2s ds to reach
-        theta = clamp(m * xp.sqrt(-xp.log1p(-u1)), 0.0, math.pi / 2)  # small-angle solution
-        theta = theta + 0 * m
-        eps = float(xp.finfo(theta.dtype).eps)
-        total = 1 / (math.pi * norm)  # the full integral: the scale of rounding in `value`
-        # Newton first on the cheap 12-point CDF (error ≤ 2e-6 relative, so its root is the
-        # exact one to ~1e-6 relative), then on the exact 24-point CDF from there: about two
-        # quadratically convergent steps reach rounding instead of the whole iteration.
-        theta = self._newton(m, theta, target, total, _GAUSSIAN_GUESS_NODES, max(1e-7, 4 * eps))
-        theta = self._newton(m, theta, target, total, _GAUSSIAN_CDF_NODES, eps)
+        # u1 < 1 by a margin the dtype resolves (1 - 1e-12 is 1 in float32)
+        u_max = 1 - max(1e-12, float(xp.finfo(u.dtype).eps))
+        theta = self._invert_cdf(m, clamp(u[..., 0:1], 0.0, u_max) + 0 * m)
         phi = (2 * math.pi) * u[..., 1:2]
         sin_theta = xp.sin(theta)
         sin_theta, cos_phi, sin_phi = xp.broadcast_arrays(sin_theta, xp.cos(phi), xp.sin(phi))
