@@ -146,3 +146,10 @@ def test_overlap_check_sees_the_old_lobe_legend_over_the_minus_90_label():
     fig.axes[0].legend(loc="upper left", bbox_to_anchor=(-0.25, 0.35), fontsize="x-small")
     with pytest.raises(AssertionError, match="overlapping text"):
         _assert_text_is_clear(fig)
+
+
+def test_lobe_plot_default_angles_on_every_call():
+    # the default incidence angles were a generator, spent by the first call: later calls
+    # without ``thetas_i`` drew no curves
+    for _ in range(2):
+        assert len(plot.lobe_plot(Lambertian(0.5)).axes[0].get_lines()) == 3

@@ -76,7 +76,7 @@ def lobe_data(
 
 def lobe_plot(
     brdf: BRDF,
-    thetas_i: Sequence[float] = (math.radians(a) for a in (0, 30, 60)),
+    thetas_i: Sequence[float] = tuple(math.radians(a) for a in (0, 30, 60)),
     *,
     cosine: bool = True,
     log: bool = False,
