@@ -233,6 +233,18 @@ def test_original_phong_is_reported_not_reciprocal_as_it_claims():
     assert report.consistent
 
 
+@pytest.mark.parametrize("name", ["ggx", "torrance_sparrow", "rough_plastic"])
+def test_check_runs_the_microfacet_checks_on_the_models_distribution(name):
+    # the models keep their distribution in ``ndf``; check() once looked for ``distribution``
+    # (a string on some models) and skipped both checks on every microfacet model
+    from brdfkit.brdf import MODELS
+
+    report = check(MODELS[name]())
+    names = [r.name for r in report.results]
+    assert "normalization" in names and "white furnace" in names
+    assert report["normalization"].passed and report["white furnace"].passed
+
+
 # --------------------------------------------------------------------------- transmission
 def test_albedo_estimate_both_hemispheres_adds_the_transmittance():
     from brdfkit.brdf import RoughDielectric, SmoothDielectric

@@ -549,9 +549,9 @@ def check_white_furnace(
         wo = spherical_to_cartesian(np.array(theta), np.array(0.3))
 
         def integrand(m: np.ndarray, wo: np.ndarray = wo) -> np.ndarray:
-            w = np.broadcast_to(wo, m.shape)
             projected = np.maximum(m @ wo, 0.0)[:, None]
-            return _field(distribution.G1(w, m)) * _field(distribution.D(m)) * projected
+            # wo as (1, 3): a masking term that depends on wo alone is computed once
+            return _field(distribution.G1(wo[None, :], m)) * _field(distribution.D(m)) * projected
 
         integral = _hemisphere_integral(integrand)
         errors.append(np.max(np.abs(integral / math.cos(theta) - 1.0)))
@@ -583,7 +583,7 @@ def check(
 
     Runs :func:`check_nonnegativity`, :func:`check_reciprocity`, :func:`check_energy`,
     :func:`check_isotropy`, :func:`check_sampling`, and for a microfacet model (one whose
-    ``distribution`` attribute is a :class:`~brdfkit.brdf.microfacet.MicrofacetDistribution`)
+    ``ndf`` attribute is a :class:`~brdfkit.brdf.microfacet.MicrofacetDistribution`)
     :func:`check_normalization` and :func:`check_white_furnace`. ``progress`` is called with
     each check's name before it runs.
 
@@ -605,7 +605,7 @@ def check(
         ("isotropy", lambda: check_isotropy(brdf, seed=seed)),
         ("sampling", lambda: check_sampling(brdf, seed=seed)),
     ]
-    distribution = getattr(brdf, "distribution", None)
+    distribution = getattr(brdf, "ndf", None)
     if isinstance(distribution, MicrofacetDistribution):
         checks += [
             ("normalization", lambda: check_normalization(distribution)),
