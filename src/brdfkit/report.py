@@ -72,7 +72,8 @@ class Card:
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
-    env_samples: list[int] = field(default_factory=list)  # spp of each environment-lit sphere
+    # spp of each environment-lit sphere, or what its quadrature spent ("quadrature, N nodes")
+    env_samples: list[int | str] = field(default_factory=list)
     cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU s of each part's making
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
 
@@ -223,7 +224,8 @@ def env_sphere(
     noise: float | None = ENV_NOISE,
     max_samples: int = ENV_MAX_SAMPLES,
     seed: int = 0,
-) -> tuple[np.ndarray, int]:
+    quadrature: bool = True,
+) -> tuple[np.ndarray, int | str]:
     r"""A sphere rendered progressively (:func:`brdfkit.render.progressive_sphere`) from
     ``samples`` spp, doubling, until its estimated relative RMSE against a 16×-spp render of
     itself is at most ``noise`` (``None``: ``samples`` spp, one pass), or ``max_samples``.
@@ -241,12 +243,25 @@ def env_sphere(
     apply and are built already (in this process or in :mod:`brdfkit.kernel_cache`), or
     where the most work it may take is worth their build
     (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
-    :mod:`brdfkit.kernel_cache` keeps them). Returns the linear image and the samples per
-    pixel spent."""
+    :mod:`brdfkit.kernel_cache` keeps them). With ``quadrature`` (default), a model
+    :func:`~brdfkit.env_quadrature.quadrature_sphere` applies to is rendered by it instead,
+    noise-free, to an estimated relative RMSE of ``noise`` (``None``:
+    :data:`~brdfkit.env_quadrature.GOAL`). Returns the linear image and the samples per pixel
+    spent (the quadrature: ``"quadrature, N nodes"``, its BRDF evaluations)."""
+    from brdfkit.env_quadrature import GOAL, quadrature_sphere, split_quadrature
+    from brdfkit.lights import EnvironmentMap
     from brdfkit.mitsuba_scenes import interior_mask
     from brdfkit.render import progressive_sphere
     from brdfkit.render_kernel import AUTO_COMPILE_WORK, compiled_shader
 
+    if quadrature and isinstance(light, EnvironmentMap):
+        try:
+            split_quadrature(model)
+        except ValueError:
+            pass
+        else:
+            q = quadrature_sphere(model, light, resolution, goal=GOAL if noise is None else noise)
+            return q.image, f"quadrature, {q.nodes} nodes"
     mask = interior_mask(resolution)
     limit = samples if noise is None else max(samples, max_samples)
     # built (in this process or on disk) kernels serve any sphere; building them, only a big one
@@ -429,7 +444,7 @@ def card_html(card: Card) -> str:
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
     if card.env_samples:
-        spp = ", ".join(map(str, card.env_samples))
+        spp = "; ".join(map(str, card.env_samples))
         parts.append(f"<p class='claim'>Samples per pixel under the environment map: {spp}</p>")
     parts.append('<div class="row">')
     parts.extend(_img(data, caption) for caption, data in card.images.items())
