@@ -43,13 +43,15 @@ from brdfkit.lights import EnvironmentMap
 GOAL = 0.01
 """Default relative RMSE goal of :func:`quadrature_sphere`'s error estimate."""
 
-MARGIN = 0.5
-"""Two successive levels must differ by at most ``MARGIN`` × the goal: their difference
-estimates the coarser level's error, the finer one's (the image returned) is smaller."""
+MARGIN = 1.0
+"""Two successive levels must differ by at most ``MARGIN`` × the goal. Their difference
+estimates the coarser level's error; the finer one's (the image returned) is some 3× smaller,
+the quadrature being of second order (measured on rough dielectric α = 0.1 at 24² against
+4096-spp MC: 1.63, 0.37, 0.10 % at levels 0–2)."""
 
 BASE_GRID = (32, 64, 24)
-"""θ' rows, φ' columns and rings of refinement level 0; each level doubles all three, the
-rings up to one per half pixel of the image's radius (``resolution + 1``)."""
+"""θ' rows, φ' columns and rings (uniform in θo) of refinement level 0; each level doubles
+all three."""
 
 MAX_LEVEL = 4
 """The finest refinement level :func:`quadrature_sphere` tries."""
@@ -62,12 +64,14 @@ _LV_CACHE: dict[tuple, tuple[EnvironmentMap, np.ndarray]] = {}
 @dataclass(frozen=True)
 class QuadratureImage:
     """:func:`quadrature_sphere`'s result: the linear ``image`` ``(H, W, C)``, the BRDF
-    evaluations it spent (``nodes``), its estimated relative RMSE (``error``: against the
-    next finer grid, which is the image returned) and the grid ``(rows, cols, rings)``."""
+    evaluations it spent (``nodes``), its estimated relative RMSE (``error``: the difference
+    from the previous level's image), its refinement ``level`` and the grid
+    ``(rows, cols, rings)``."""
 
     image: np.ndarray
     nodes: int
     error: float
+    level: int
     grid: tuple[int, int, int]
 
 
@@ -84,7 +88,8 @@ def split_quadrature(model: BRDF) -> tuple[np.ndarray | None, BRDF | None, BRDF 
 
     rho, rest = split_diffuse(model)
     mirror, rest = split_mirror(rest)
-    if rest is not None and (not rest.isotropic or rest.has_delta):
+    # a smooth plastic's base (s = 0) keeps the class's has_delta but has no delta left
+    if rest is not None and (not rest.isotropic or (rest.has_delta and mirror is None)):
         why = "is anisotropic" if not rest.isotropic else "has delta lobes"
         raise ValueError(
             f"env_quadrature needs an isotropic model without delta lobes (after its exact "
@@ -167,11 +172,13 @@ def _ring_grid(
     return out, nodes
 
 
-def _interpolate(grid: np.ndarray, radii: np.ndarray, r: np.ndarray, psi: np.ndarray) -> np.ndarray:
-    """``grid`` (rings × ψ columns) bilinearly at pixel radii ``r`` and angles ``psi``."""
+def _interpolate(
+    grid: np.ndarray, angles: np.ndarray, theta: np.ndarray, psi: np.ndarray
+) -> np.ndarray:
+    """``grid`` (rings at θo ``angles`` × ψ columns) bilinearly at pixels' ``theta``, ``psi``."""
     cols = grid.shape[1]
-    x = np.interp(r, radii, np.arange(len(radii)))
-    i0 = np.minimum(np.floor(x).astype(int), len(radii) - 2)
+    x = np.interp(theta, angles, np.arange(len(angles)))
+    i0 = np.minimum(np.floor(x).astype(int), len(angles) - 2)
     fx = (x - i0)[:, None]
     y = np.remainder(psi, 2 * math.pi) * (cols / (2 * math.pi))
     j0 = np.floor(y).astype(int) % cols
@@ -187,10 +194,11 @@ def _render_level(
     grid: tuple[int, int, int], channels: int,
 ) -> tuple[np.ndarray, int]:  # fmt: skip
     rows, cols, rings = grid
-    radii = np.linspace(0.0, max(float(r.max()), 1e-6), rings)
+    theta = np.arcsin(np.minimum(r, 1.0))
+    angles = np.linspace(0.0, max(float(theta.max()), 1e-6), rings)
     cell = _cell_radiance(env, frame, rows, cols)
-    ring_values, nodes = _ring_grid(rest, cell, radii, channels)
-    return _interpolate(ring_values, radii, r, psi), nodes
+    ring_values, nodes = _ring_grid(rest, cell, np.sin(angles), channels)
+    return _interpolate(ring_values, angles, theta, psi), nodes
 
 
 def quadrature_sphere(
@@ -246,14 +254,13 @@ def quadrature_sphere(
         return image
 
     def grid_of(lv: int) -> tuple[int, int, int]:
-        rows, cols, rings = (n << lv for n in BASE_GRID)
-        return rows, cols, min(rings, resolution + 1)  # rings half a pixel apart at most
+        return tuple(n << lv for n in BASE_GRID)  # type: ignore[return-value]
 
     if rest is None:
-        return QuadratureImage(image_of(np.zeros_like(exact)), 0, 0.0, (0, 0, 0))
+        return QuadratureImage(image_of(np.zeros_like(exact)), 0, 0.0, 0, (0, 0, 0))
     if level is not None:
         values, nodes = _render_level(rest, env, frame, r, psi, grid_of(level), channels)
-        return QuadratureImage(image_of(values), nodes, math.nan, grid_of(level))
+        return QuadratureImage(image_of(values), nodes, math.nan, level, grid_of(level))
     interior = interior_mask(resolution)[g.mask]
     spent = 0
     coarse, nodes = _render_level(rest, env, frame, r, psi, grid_of(0), channels)
@@ -267,7 +274,7 @@ def quadrature_sphere(
         if error <= MARGIN * goal:
             break
         coarse = fine
-    return QuadratureImage(image_of(fine), spent, error, grid_of(lv))
+    return QuadratureImage(image_of(fine), spent, error, lv, grid_of(lv))
 
 
 __all__ = ["QuadratureImage", "quadrature_sphere", "split_quadrature"]
