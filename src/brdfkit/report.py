@@ -204,10 +204,11 @@ def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> st
 
 
 ENV_NOISE = None
-"""The default goal for a sphere under the environment map, its estimated relative RMSE
-against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp. A goal of 1 %
-(``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes on 2 cores
-(``benchmarks/bench_atlas.py``)."""
+"""The default goal for a Monte Carlo sphere under the environment map, its estimated
+relative RMSE against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp.
+A goal of 1 % (``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes
+on 2 cores (``benchmarks/bench_atlas.py``). Spheres the quadrature renders
+(:mod:`brdfkit.env_quadrature`) meet ``noise``, or else its own 1 % goal, without noise."""
 ENV_MAX_SAMPLES = 2048
 """The most samples per pixel :func:`env_sphere` spends on one sphere by default."""
 _MARGIN = 0.8
