@@ -13,7 +13,12 @@ samples N is made at its resolution (:func:`brdfkit.report.env_sphere`, seed 1);
 passes totalling N spp are then rendered at ``--noise-resolution`` (per-pixel noise does not
 depend on the resolution; the default is the atlas's own) and compared with a render at 16 N
 spp with another seed, inside the silhouette (:func:`~brdfkit.mitsuba_scenes.relative_rmse`;
-the goal: every sphere under 1 %).
+the goal: every sphere under 1 %). A sphere :func:`~brdfkit.env_quadrature.quadrature_sphere`
+renders (no noise) is compared instead with (a) the quadrature one level finer at the atlas's
+resolution (4× the nodes per ring, 2× the rings up to one per half pixel) and (b) Monte Carlo at
+``--noise-resolution`` from two seeds of ``--mc-samples``/2 spp each (their half difference
+estimates the reference's own noise, reported alongside), against the quadrature at the same
+level there.
 
 Profile (``--profile``): the CPU seconds of each part of each card (directional spheres,
 environment spheres, plots, checks), cards built one after another, and of each
@@ -113,8 +118,45 @@ def profile_atlas(only: list[str] | None = None) -> dict:
     return {"parts": parts, "cards": cards}
 
 
+def _quadrature_row(title, k, model, env, resolution, cpu, goal, mc_samples) -> dict:
+    """A quadrature sphere's errors against (a) the next level and (b) Monte Carlo."""
+    from brdfkit.env_quadrature import GOAL, quadrature_sphere
+    from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
+    from brdfkit.render import render_sphere
+
+    q = quadrature_sphere(model, env, RESOLUTION, goal=(goal or {}).get("noise") or GOAL)
+    finer = quadrature_sphere(model, env, RESOLUTION, level=q.level + 1)
+    mask = interior_mask(RESOLUTION)
+    ref = finer.image
+    error_a = relative_rmse(q.image, ref, mask) if np.any(ref[mask]) else 0.0
+    small = quadrature_sphere(model, env, resolution, level=q.level).image
+    a, b = (
+        render_sphere(model, env, resolution, samples=mc_samples // 2, seed=s, compiled=True)
+        for s in (2, 3)
+    )
+    mask = interior_mask(resolution)
+    mc = (a + b) / 2
+    nonzero = np.any(mc[mask])
+    error_b = relative_rmse(small, mc, mask) if nonzero else 0.0
+    noise_b = relative_rmse(a, b, mask) / 2 if nonzero else 0.0
+    print(
+        f"  {title} #{k + 1}: quadrature level {q.level}, {q.nodes} nodes ({cpu:.2f} CPU s); "
+        f"vs level {q.level + 1}: {error_a:.4f}; vs MC {mc_samples} spp at {resolution}²: "
+        f"{error_b:.4f} (MC noise {noise_b:.4f})"
+    )
+    return {
+        "card": title, "example": k, "rel_rmse": max(error_a, error_b), "spp": 0,
+        "quadrature_nodes": q.nodes, "quadrature_level": q.level, "cpu_seconds": cpu,
+        "rel_rmse_finer_quadrature": error_a, "rel_rmse_mc": error_b, "mc_noise": noise_b,
+        "mc_samples": mc_samples, "mc_resolution": resolution,
+    }  # fmt: skip
+
+
 def sphere_noise(
-    resolution: int, only: list[str] | None = None, goal: dict | None = None
+    resolution: int,
+    only: list[str] | None = None,
+    goal: dict | None = None,
+    mc_samples: int = 2048,
 ) -> list[dict]:
     from brdfkit.data import default_envmap_path
     from brdfkit.lights import EnvironmentMap
@@ -132,6 +174,11 @@ def sphere_noise(
             start = time.process_time()
             image, spp = env_sphere(model, env, RESOLUTION, samples=SAMPLES, seed=1, **(goal or {}))
             cpu = time.process_time() - start
+            if isinstance(spp, str):  # the quadrature: no noise; against (a) and (b)
+                rows.append(
+                    _quadrature_row(title, k, model, env, resolution, cpu, goal, mc_samples)
+                )
+                continue
             if resolution != RESOLUTION:  # the same passes, N spp in all, smaller
                 image, _ = env_sphere(
                     model, env, resolution, samples=SAMPLES, noise=0.0, max_samples=spp, seed=1
@@ -153,6 +200,9 @@ def main() -> None:
     parser.add_argument("--cold", action="store_true", help="first build on an empty cache")
     parser.add_argument("--noise-resolution", type=int, default=RESOLUTION)
     parser.add_argument("--skip-noise", action="store_true")
+    parser.add_argument(
+        "--mc-samples", type=int, default=2048, help="MC reference spp of quadrature spheres"
+    )
     parser.add_argument(
         "--profile", action="store_true", help="first the CPU seconds of each card's parts"
     )
@@ -191,7 +241,7 @@ def main() -> None:
         record["profile"] = profile_atlas(args.only)
     if not args.skip_noise:
         print(f"noise at the atlas's spp N against 16 N spp, {args.noise_resolution}²:")
-        rows = sphere_noise(args.noise_resolution, args.only, goal)
+        rows = sphere_noise(args.noise_resolution, args.only, goal, args.mc_samples)
         record["noise"] = {"resolution": args.noise_resolution, "spheres": rows}
     seconds, cpu, cache = time_atlas(args.repeats, args.cold, goal)
     record["atlas_seconds"] = seconds

@@ -115,12 +115,32 @@ def test_env_sphere_refines_until_its_noise_goal_and_meets_it():
 
     env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
     ggx = MODELS["ggx"](alpha=0.3, material="Au")
-    image, spp = env_sphere(ggx, env, 12, samples=4, noise=None)
+    image, spp = env_sphere(ggx, env, 12, samples=4, noise=None, quadrature=False)
     assert spp == 4 and image.shape == (12, 12, 3)
-    image, spp = env_sphere(ggx, env, 12, samples=4, noise=0.05, max_samples=1024, seed=1)
+    image, spp = env_sphere(
+        ggx, env, 12, samples=4, noise=0.05, max_samples=1024, seed=1, quadrature=False
+    )
     assert 4 < spp < 1024  # it refined, and stopped before the cap
     reference = render_sphere(ggx, env, 12, samples=16 * spp, seed=2)
     assert relative_rmse(image, reference, interior_mask(12)) <= 0.05
+
+
+def test_env_sphere_uses_the_quadrature_where_it_applies():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
+    from brdfkit.render import render_sphere
+    from brdfkit.report import env_sphere
+
+    env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
+    ggx = MODELS["ggx"](alpha=0.3, material="Au")
+    image, spent = env_sphere(ggx, env, 12, samples=4, noise=0.01)
+    assert spent.startswith("quadrature, ") and spent.endswith(" nodes")
+    reference = render_sphere(ggx, env, 12, samples=1024, seed=2)
+    assert relative_rmse(image, reference, interior_mask(12)) <= 0.02
+    aniso = MODELS["ggx"](alpha_u=0.05, alpha_v=0.3)
+    assert env_sphere(aniso, env, 12, samples=4, noise=None)[1] == 4  # Monte Carlo
 
 
 def test_build_card_records_the_cpu_seconds_of_its_parts():
@@ -134,5 +154,6 @@ def test_build_card_records_the_cpu_seconds_of_its_parts():
     card = build_card("t", models, envmap=env, resolution=8, samples=4, run_checks=False)
     parts = ["directional spheres", "environment spheres", "lobe plot", "albedo plot"]
     assert list(card.cpu_seconds) == parts and all(s >= 0 for s in card.cpu_seconds.values())
-    assert len(card.env_cpu_seconds) == 2 and card.env_samples == [4, 4]
+    assert len(card.env_cpu_seconds) == 2 and card.env_samples[0] == "quadrature, 0 nodes"
+    assert card.env_samples[1].startswith("quadrature, ")  # phong: isotropic, no delta
     assert sum(card.env_cpu_seconds) <= card.cpu_seconds["environment spheres"] + 1e-6

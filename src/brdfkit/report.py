@@ -72,7 +72,8 @@ class Card:
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
-    env_samples: list[int] = field(default_factory=list)  # spp of each environment-lit sphere
+    # spp of each environment-lit sphere, or what its quadrature spent ("quadrature, N nodes")
+    env_samples: list[int | str] = field(default_factory=list)
     cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU s of each part's making
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
 
@@ -203,10 +204,11 @@ def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> st
 
 
 ENV_NOISE = None
-"""The default goal for a sphere under the environment map, its estimated relative RMSE
-against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp. A goal of 1 %
-(``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes on 2 cores
-(``benchmarks/bench_atlas.py``)."""
+"""The default goal for a Monte Carlo sphere under the environment map, its estimated
+relative RMSE against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp.
+A goal of 1 % (``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes
+on 2 cores (``benchmarks/bench_atlas.py``). Spheres the quadrature renders
+(:mod:`brdfkit.env_quadrature`) meet ``noise``, or else its own 1 % goal, without noise."""
 ENV_MAX_SAMPLES = 2048
 """The most samples per pixel :func:`env_sphere` spends on one sphere by default."""
 _MARGIN = 0.8
@@ -223,7 +225,8 @@ def env_sphere(
     noise: float | None = ENV_NOISE,
     max_samples: int = ENV_MAX_SAMPLES,
     seed: int = 0,
-) -> tuple[np.ndarray, int]:
+    quadrature: bool = True,
+) -> tuple[np.ndarray, int | str]:
     r"""A sphere rendered progressively (:func:`brdfkit.render.progressive_sphere`) from
     ``samples`` spp, doubling, until its estimated relative RMSE against a 16×-spp render of
     itself is at most ``noise`` (``None``: ``samples`` spp, one pass), or ``max_samples``.
@@ -241,12 +244,25 @@ def env_sphere(
     apply and are built already (in this process or in :mod:`brdfkit.kernel_cache`), or
     where the most work it may take is worth their build
     (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
-    :mod:`brdfkit.kernel_cache` keeps them). Returns the linear image and the samples per
-    pixel spent."""
+    :mod:`brdfkit.kernel_cache` keeps them). With ``quadrature`` (default), a model
+    :func:`~brdfkit.env_quadrature.quadrature_sphere` applies to is rendered by it instead,
+    noise-free, to an estimated relative RMSE of ``noise`` (``None``:
+    :data:`~brdfkit.env_quadrature.GOAL`). Returns the linear image and the samples per pixel
+    spent (the quadrature: ``"quadrature, N nodes"``, its BRDF evaluations)."""
+    from brdfkit.env_quadrature import GOAL, quadrature_sphere, split_quadrature
+    from brdfkit.lights import EnvironmentMap
     from brdfkit.mitsuba_scenes import interior_mask
     from brdfkit.render import progressive_sphere
     from brdfkit.render_kernel import AUTO_COMPILE_WORK, compiled_shader
 
+    if quadrature and isinstance(light, EnvironmentMap):
+        try:
+            split_quadrature(model)
+        except ValueError:
+            pass
+        else:
+            q = quadrature_sphere(model, light, resolution, goal=GOAL if noise is None else noise)
+            return q.image, f"quadrature, {q.nodes} nodes"
     mask = interior_mask(resolution)
     limit = samples if noise is None else max(samples, max_samples)
     # built (in this process or on disk) kernels serve any sphere; building them, only a big one
@@ -429,7 +445,7 @@ def card_html(card: Card) -> str:
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
     if card.env_samples:
-        spp = ", ".join(map(str, card.env_samples))
+        spp = "; ".join(map(str, card.env_samples))
         parts.append(f"<p class='claim'>Samples per pixel under the environment map: {spp}</p>")
     parts.append('<div class="row">')
     parts.extend(_img(data, caption) for caption, data in card.images.items())
