@@ -492,13 +492,14 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "torrance_sparrow": 12.8, "thin_film": 5.8, "kulla_conty_dielectric": 4.7,
-    "kulla_conty": 4.3, "rough_plastic": 2.8, "hapke": 2.2, "ashikhmin_shirley": 2.0,
-    "rough_dielectric": 1.8, "cook_torrance": 1.7, "lommel_seeliger": 1.7, "lafortune": 1.5,
+    "thin_film": 15.8, "modified_phong": 4.4, "ashikhmin_shirley": 4.0, "torrance_sparrow": 3.6,
+    "kulla_conty_dielectric": 2.9, "rough_dielectric": 2.8, "blinn_phong": 2.6,
+    "principled": 2.3, "mirror": 2.1, "beckmann": 2.0, "kulla_conty": 2.0,
+    "cook_torrance": 1.9, "smooth_dielectric": 1.9, "ggx": 1.7, "ward": 1.6,
 }  # fmt: skip
-"""CPU seconds of the heaviest default cards, as measured
-(``benchmarks/results/atlas_profile_hatlas3.json``, ``bench_atlas.py --profile``); the others
-took 0.5–1.5 s. Only the order in which :func:`_build_cards` hands cards to its workers
+"""CPU seconds of the heaviest default cards, as measured with the quadrature spheres
+(``benchmarks/results/atlas_profile_session16.json``, ``bench_atlas.py --profile``); the
+others took 0.7–1.5 s. Only the order in which :func:`_build_cards` hands cards to its workers
 depends on it."""
 
 
