@@ -445,8 +445,10 @@ def card_html(card: Card) -> str:
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
     if card.env_samples:
-        spp = "; ".join(map(str, card.env_samples))
-        parts.append(f"<p class='claim'>Samples per pixel under the environment map: {spp}</p>")
+        spent = "; ".join(
+            f"Monte Carlo, {n} spp" if isinstance(n, int) else n for n in card.env_samples
+        )
+        parts.append(f"<p class='claim'>Spheres under the environment map: {spent}</p>")
     parts.append('<div class="row">')
     parts.extend(_img(data, caption) for caption, data in card.images.items())
     parts.append("</div>")
