@@ -494,14 +494,13 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "thin_film": 15.8, "modified_phong": 4.4, "ashikhmin_shirley": 4.0, "torrance_sparrow": 3.6,
-    "kulla_conty_dielectric": 2.9, "rough_dielectric": 2.8, "blinn_phong": 2.6,
-    "principled": 2.3, "mirror": 2.1, "beckmann": 2.0, "kulla_conty": 2.0,
-    "cook_torrance": 1.9, "smooth_dielectric": 1.9, "ggx": 1.7, "ward": 1.6,
+    "rough_dielectric": 6.4, "thin_film": 5.9, "torrance_sparrow": 3.7,
+    "kulla_conty_dielectric": 2.7, "principled": 2.0, "kulla_conty": 1.9, "beckmann": 1.8,
+    "cook_torrance": 1.7, "rough_plastic": 1.7, "ashikhmin_shirley": 1.5,
 }  # fmt: skip
 """CPU seconds of the heaviest default cards, as measured with the quadrature spheres
 (``benchmarks/results/atlas_profile_session16.json``, ``bench_atlas.py --profile``); the
-others took 0.7–1.5 s. Only the order in which :func:`_build_cards` hands cards to its workers
+others took 0.6–1.4 s. Only the order in which :func:`_build_cards` hands cards to its workers
 depends on it."""
 
 
