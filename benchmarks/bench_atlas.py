@@ -15,7 +15,7 @@ depend on the resolution; the default is the atlas's own) and compared with a re
 spp with another seed, inside the silhouette (:func:`~brdfkit.mitsuba_scenes.relative_rmse`;
 the goal: every sphere under 1 %). A sphere :func:`~brdfkit.env_quadrature.quadrature_sphere`
 renders (no noise) is compared instead with (a) the quadrature one level finer at the atlas's
-resolution (4× the nodes per ring, 2× the rings up to one per half pixel) and (b) Monte Carlo at
+resolution (2× the rows, columns and rings: 8× the kernel nodes) and (b) Monte Carlo at
 ``--noise-resolution`` from two seeds of ``--mc-samples``/2 spp each (their half difference
 estimates the reference's own noise, reported alongside), against the quadrature at the same
 level there.

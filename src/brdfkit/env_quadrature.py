@@ -118,11 +118,6 @@ def split_quadrature(model: BRDF) -> tuple[np.ndarray | None, BRDF | None, BRDF 
     return rho, mirror, rest
 
 
-def _v_frame(camera_rotation: np.ndarray) -> np.ndarray:
-    """Columns e1, e2, v: the camera's x, y, z axes in the world."""
-    return np.asarray(camera_rotation, dtype=float)
-
-
 def _cell_radiance(env: EnvironmentMap, frame: np.ndarray, rows: int, cols: int) -> np.ndarray:
     """The map averaged (solid-angle weighted, :data:`_SUPERSAMPLE`² points) over each cell of
     the (θ', φ') grid about v, ``(rows, cols, C)``; cached per map, frame and grid."""
@@ -256,7 +251,7 @@ def quadrature_sphere(
         raise ValueError("env_quadrature needs an orthographic camera (one view direction)")
     rho, mirror, rest = split_quadrature(model)
     g = gbuffer(Sphere(), camera, resolution)
-    frame = _v_frame(camera.rotation)
+    frame = np.asarray(camera.rotation, dtype=float)  # columns: the camera's x, y and v
     channels = max(model.channels, env.channels)
     normals = g.normals[g.mask]
     local = normals @ frame  # camera-frame normals
