@@ -309,8 +309,9 @@ def test_guide_table_map_sample_finds_the_bisection_texels():
 
 def test_map_guides_are_built_once_per_map():
     env = _map()
-    row_guide, col_guide = map_guides(env._distribution)
-    height, width = env._distribution.shape
+    distribution = env.compensated._distribution  # the shader's MIS samples the compensated map
+    row_guide, col_guide = map_guides(distribution)
+    height, width = distribution.shape
     assert row_guide.shape == (ROW_BUCKETS * height,)
     assert col_guide.shape == (COLUMN_BUCKETS * width * height,)
     shader = EnvironmentShader(GOLD, env)

@@ -394,6 +394,8 @@ def _monte_carlo(
     xp = namespace(wo_local)
     # only wi above the surface count: a BSDF samples its lobe into that hemisphere alone
     brdf = one_sided_view(brdf)
+    if strategy == "mis" and isinstance(light, EnvironmentMap):
+        light = light.compensated  # BRDF sampling covers the map's mean (MIS compensation)
     batch = wo_local.shape[:-1]
     wo_n = xp.broadcast_to(wo_local[..., None, :], (*batch, samples, 3))
     point_n = xp.broadcast_to(point[..., None, :], (*batch, samples, 3))

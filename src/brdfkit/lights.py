@@ -22,6 +22,7 @@ References
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from dataclasses import dataclass
@@ -445,6 +446,33 @@ class UniformSky(Light):
 
 
 # --------------------------------------------------------------------------- environment maps
+
+
+def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray:
+    """Texel weights (H, W) of an environment map's light sampling: luminance·sin θ.
+
+    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood, so the neighbourhood's
+    maximum is sampled (L/pdf stays bounded next to a bright sun), plus a floor of 10⁻³ of
+    its mean so that every direction the lookup can light has a positive density. With
+    ``compensate`` the map's sin θ-weighted mean luminance is subtracted first, clipped at
+    zero (:attr:`EnvironmentMap.compensated`).
+    """
+    from scipy.ndimage import maximum_filter
+
+    height = image.shape[0]
+    sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
+    if image.shape[2] == 3:
+        lum = image @ np.array([0.2126, 0.7152, 0.0722])
+    else:
+        lum = image.mean(axis=2)
+    peak = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
+    floor = 1e-3 * max(peak.mean(), 1e-12)
+    if compensate:
+        mean = float(np.sum(lum * sin_theta) / (np.sum(sin_theta) * lum.shape[1]))
+        peak = np.maximum(peak - mean, 0.0)
+    return (peak + floor) * sin_theta
+
+
 @dataclass(frozen=True, eq=False)
 class EnvironmentMap(Light):
     r"""Distant radiance from an equirectangular (lat-long) image, bilinearly interpolated.
@@ -474,8 +502,6 @@ class EnvironmentMap(Light):
     rotation: Any = None
 
     def __post_init__(self) -> None:
-        from scipy.ndimage import maximum_filter
-
         from brdfkit.sampling import Distribution2D
 
         img = to_numpy(check_number("image", self.image)) if self.image is not None else None
@@ -495,14 +521,33 @@ class EnvironmentMap(Light):
         object.__setattr__(self, "image", np.ascontiguousarray(img, dtype=np.float32))
         object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "channels", img.shape[2])
-        height = img.shape[0]
-        sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
-        lum = img.mean(axis=2) if img.shape[2] != 3 else img @ np.array([0.2126, 0.7152, 0.0722])
-        # A bilinear lookup inside a pixel mixes its 3×3 neighbourhood: sampling by the
-        # neighbourhood's maximum keeps L/pdf bounded (no fireflies next to a bright sun).
-        lum = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
-        weights = (lum + 1e-3 * max(lum.mean(), 1e-12)) * sin_theta
-        object.__setattr__(self, "_distribution", Distribution2D(weights))
+        object.__setattr__(self, "_distribution", Distribution2D(_sampling_weights(img)))
+
+    @functools.cached_property
+    def compensated(self) -> EnvironmentMap:
+        r"""The same map with the light-sampling distribution MIS should combine with BRDF
+        sampling: proportional to :math:`\max(L - \bar L, 0)\sin\theta` plus the floor,
+        with :math:`\bar L` the map's mean luminance over the sphere.
+
+        Multiple importance sampling with BRDF sampling covers the directions where the map is
+        near its mean well already; taking the mean out of the light's density spends its
+        samples on what is brighter (Karlík et al.'s MIS compensation), and the floor keeps the
+        density positive wherever the map lights, so either strategy alone stays unbiased. Same
+        radiance, rotation and scale; only :meth:`sample` and :meth:`pdf` differ.
+
+        References
+        ----------
+        .. [1] O. Karlík, M. Šik, P. Vévoda, T. Skřivan, J. Křivánek, "MIS compensation:
+           optimizing sampling techniques in multiple importance sampling", *ACM Trans.
+           Graph.* 38(6), 2019.
+        """
+        from brdfkit.sampling import Distribution2D
+
+        view = copy.copy(self)
+        weights = _sampling_weights(self.image, compensate=True)
+        object.__setattr__(view, "_distribution", Distribution2D(weights))
+        view.__dict__["compensated"] = view
+        return view
 
     @classmethod
     def from_file(

@@ -637,7 +637,7 @@ class EnvironmentShader:
                 self.env.channels,
             )
         env, t = self.env, self.dtype
-        distribution = env._distribution
+        distribution = env.compensated._distribution  # as integrate's MIS
         self._tables = (
             np.ascontiguousarray(env.image, dtype=t),
             np.ascontiguousarray(env.rotation, dtype=t),
