@@ -47,6 +47,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -56,6 +57,7 @@ from numpy.typing import ArrayLike
 from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
 from brdfkit.vision.photometric_stereo import (
+    BLAS_THREADS,
     Callback,
     PhotometricStereoResult,
     _gray,
@@ -328,6 +330,25 @@ def _check_iterations(iterations: int) -> int:
     return check_count("iterations", iterations, MAX_ITERATIONS)
 
 
+def _blas_threads(method: Callable[..., PhotometricStereoResult]) -> Callable:
+    """``method`` run with :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS` BLAS threads.
+
+    Its BLAS products (channel means, the trimmed least-squares starts, the chromaticities) are
+    ``(P, N)`` by ``(N, <= 9)``, which a second thread does not speed up; a threaded OpenBLAS
+    spins after each call and then competes with the compiled kernels' threads for the cores
+    (the starts of the DiLiGenT-size benchmark: 0.29-0.37 s on one thread, 0.45-0.50 s on two,
+    the same numbers)."""
+
+    @functools.wraps(method)
+    def run(*args, **kwargs) -> PhotometricStereoResult:
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(BLAS_THREADS, user_api="blas"):
+            return method(*args, **kwargs)
+
+    return run
+
+
 # ----------------------------------------------------------------------------------------------
 # Shi et al. 2014: bi-polynomial low-frequency reflectance
 
@@ -344,6 +365,7 @@ def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
     )
 
 
+@_blas_threads
 def bipolynomial(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -436,6 +458,7 @@ def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
     return Basis(_bivariate_kernels.RAMPS, np.zeros(2, dtype=np.int64), knots_i, knots_h, size)
 
 
+@_blas_threads
 def constrained_bivariate(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -637,6 +660,7 @@ def _fit_table(
     table.values = _smoothed_solution(normal_matrix, rhs, table.n_h, table.n_d, smoothness)
 
 
+@_blas_threads
 def shared_bivariate(
     images: ArrayLike,
     light_directions: ArrayLike,
