@@ -202,8 +202,8 @@ def _refine_normals(
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
     residual is analytic (:func:`~brdfkit.vision._bivariate_kernels._products`), computed from
-    the fit that accepted a normal and kept through rejected steps (the normal and residual did
-    not change); a step (clipped to 0.2 per coordinate) is kept for the
+    the fit that chose the start or accepted a normal and kept through rejected steps (the
+    normal and residual did not change); a step (clipped to 0.2 per coordinate) is kept for the
     pixels whose cost falls, and their damping shrinks by 3 (grows by 4 otherwise; within
     [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
@@ -216,6 +216,8 @@ def _refine_normals(
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     free = np.ones((len(gray), basis.size), dtype=bool)  # each pixel's last active set
     inputs = _kernel_inputs(lights, basis)
+    products = np.empty((len(gray), 6))  # J^T J, J^T r of the start's fit, then kept through
+    # rejected steps
     if normals.ndim == 3:
         starts = np.ascontiguousarray(normals, dtype=np.float64)
         normals, residual, cost, coefficients = (
@@ -226,16 +228,16 @@ def _refine_normals(
         )
         _bivariate_kernels.best_start(
             starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
-            cost, free, coefficients,
+            cost, free, coefficients, True, products,
         )  # fmt: skip
     else:
         normals = np.array(normals, dtype=np.float64, order="C")
-        residual, coefficients, cost = _fit(
-            normals, gray, weights, lights, basis, nonnegative, free
+        residual, coefficients = np.empty(gray.shape), np.empty((len(gray), basis.size))
+        cost = _bivariate_kernels.fit_pixels(
+            normals, gray, weights, *inputs, nonnegative, residual, coefficients, free, products
         )
     damping = np.full(len(normals), 1e-3)
     active = np.ones(len(normals), dtype=bool)
-    products = np.zeros((len(normals), 6))  # J^T J, J^T r kept through rejected steps
     for iteration in range(iterations):
         with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
             _bivariate_kernels.lm_step(
