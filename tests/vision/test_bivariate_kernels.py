@@ -89,6 +89,25 @@ def test_trims_from_one_sort_equal_the_trimmed_weights(glossy):
         )
 
 
+def test_start_kernel_equals_weighted_least_squares(glossy):
+    # the compiled trimmed starts against photometric_stereo._weighted_least_squares on the
+    # trimmed weights (normalised; the view where b = 0, here the all-dark pixel added)
+    gray, lights = glossy[0], glossy[1]
+    gray = np.concatenate([gray, np.zeros((len(gray), 1))], axis=1)
+    ranks = bivariate._ranks(gray)
+    _, starts = bivariate._start(gray, lights, 0.05, ranks)
+    assert starts.shape == (3, gray.shape[1], 3)
+    for start, (dark, bright) in zip(starts, ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)), strict=True):
+        b = photometric_stereo._weighted_least_squares(
+            gray, lights, bivariate._trimmed(ranks, dark, bright)
+        ).T
+        length = np.linalg.norm(b, axis=1, keepdims=True)
+        reference = np.where(length > 0, b / np.where(length > 0, length, 1.0), [0.0, 0.0, 1.0])
+        np.testing.assert_allclose(start, reference, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(starts[:, -1], [[0.0, 0.0, 1.0]] * 3)
+    assert (np.abs(starts[0] - starts[2]).max(axis=1) > 1e-3).any()  # the windows differ
+
+
 def test_warm_started_nonnegative_fit_equals_a_cold_one(glossy):
     gray, lights, lit, starts, _ = glossy
     knots = np.linspace(0.0, 1.0, 8), np.cos(np.linspace(np.pi / 2, 0.0, 8))
@@ -397,7 +416,8 @@ def test_analytic_jacobian_equals_central_differences(glossy, name):
 def test_start_fits_keep_the_products_a_refit_gives(glossy, name):
     """``J^T J`` and ``J^T r`` that :func:`best_start` keeps from the winner's fit and
     :func:`fit_pixels` from its fits equal those :func:`lm_step` computes by refitting the
-    normal (what its first iteration did before), and the active sets are the refit's: the same numbers."""
+    normal (what its first iteration did before), and the active sets are the refit's: the
+    same numbers."""
     gray, lights, lit, starts, _ = glossy
     basis, nonnegative = _basis(name)
     g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)

@@ -924,6 +924,43 @@ def table_normal_equations(
 
 
 @_pjit
+def trimmed_starts(gray, ranks, lights, windows, starts):  # pragma: no cover
+    """The trimmed least-squares start normals of :func:`~brdfkit.vision.bivariate._start` into
+    ``starts`` ``(S, P, 3)``: per pixel and window ``windows[s] = (lo, hi)``, the unit ``b`` of
+    ``(sum_n l_n l_n^T + 1e-12 I) b = sum_n I_n l_n`` over the observations of rank (``ranks``
+    ``(P, N)``) in ``[lo, hi)`` (``gray`` ``(N, P)``; :func:`_solve_free`, as
+    :func:`~brdfkit.vision.photometric_stereo._weighted_least_squares` solves it), or the view
+    ``(0, 0, 1)`` where ``b = 0``."""
+    n_lights, n_pixels = gray.shape
+    for p in numba.prange(n_pixels):
+        gram, rhs = np.empty((3, 3)), np.empty(3)
+        work, work_b, b = np.empty((3, 3)), np.empty(3), np.empty(3)
+        free = np.ones(3, dtype=np.bool_)
+        for s in range(len(windows)):
+            lo, hi = windows[s, 0], windows[s, 1]
+            gram[:, :] = 0.0
+            rhs[:] = 0.0
+            for n in range(n_lights):
+                if lo <= ranks[p, n] < hi:
+                    for a in range(3):
+                        rhs[a] += gray[n, p] * lights[n, a]
+                        for c in range(3):
+                            gram[a, c] += lights[n, a] * lights[n, c]
+            for a in range(3):
+                gram[a, a] += 1e-12
+            _solve_free(gram, rhs, free, work, work_b, b)
+            length = np.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+            if length > 0:
+                starts[s, p, 0], starts[s, p, 1], starts[s, p, 2] = (
+                    b[0] / length,
+                    b[1] / length,
+                    b[2] / length,
+                )
+            else:
+                starts[s, p, 0], starts[s, p, 1], starts[s, p, 2] = 0.0, 0.0, 1.0
+
+
+@_pjit
 def diffuse_albedo(
     normals, gray, weights, lights, ranks, n_dark, n_bright, use
 ):  # pragma: no cover

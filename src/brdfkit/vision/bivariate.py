@@ -63,7 +63,6 @@ from brdfkit.vision.photometric_stereo import (
     _gray,
     _prepare,
     _result,
-    _weighted_least_squares,
 )
 
 MAX_ITERATIONS = 200
@@ -285,22 +284,30 @@ def _start(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
     pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
-    squares dropping (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the
-    observations (a broad lobe needs the last, a sharp one the first). ``ranks``: the
-    :func:`_ranks` of ``gray``, if already known."""
+    squares (:func:`~brdfkit.vision.photometric_stereo._weighted_least_squares` on the
+    :func:`_trimmed` weights, by the compiled
+    :func:`~brdfkit.vision._bivariate_kernels.trimmed_starts`, pixels over the cores) dropping
+    (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the observations (a
+    broad lobe needs the last, a sharp one the first). ``ranks``: the :func:`_ranks` of
+    ``gray``, if already known."""
+    from brdfkit.vision import _bivariate_kernels
+
     if not 0 <= shadow_threshold < 1:
         raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
     lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
     ranks = _ranks(gray) if ranks is None else ranks
-    starts = []
     n_lights = len(lights)
+    windows = []  # the ranks _trimmed keeps: [n_dark, N - n_bright)
     for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)):
-        if n_lights - int(dark * n_lights) - int(bright * n_lights) < 3:
-            continue
-        b = _weighted_least_squares(gray, lights, _trimmed(ranks, dark, bright)).T
-        length = np.linalg.norm(b, axis=1, keepdims=True)
-        starts.append(np.where(length > 0, b / np.where(length > 0, length, 1.0), _VIEW))
-    return lit, np.stack(starts)
+        n_dark, n_bright = int(np.floor(dark * n_lights)), int(np.floor(bright * n_lights))
+        if n_lights - n_dark - n_bright >= 3:
+            windows.append((n_dark, n_lights - n_bright))
+    starts = np.empty((len(windows), gray.shape[1], 3))
+    _bivariate_kernels.trimmed_starts(
+        np.ascontiguousarray(gray), ranks, np.ascontiguousarray(lights, dtype=np.float64),
+        np.array(windows, dtype=np.int64), starts,
+    )  # fmt: skip
+    return lit, starts
 
 
 def _finish(
