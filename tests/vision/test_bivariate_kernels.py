@@ -89,6 +89,25 @@ def test_trims_from_one_sort_equal_the_trimmed_weights(glossy):
         )
 
 
+def test_start_kernel_equals_weighted_least_squares(glossy):
+    # the compiled trimmed starts against photometric_stereo._weighted_least_squares on the
+    # trimmed weights (normalised; the view where b = 0, here the all-dark pixel added)
+    gray, lights = glossy[0], glossy[1]
+    gray = np.concatenate([gray, np.zeros((len(gray), 1))], axis=1)
+    ranks = bivariate._ranks(gray)
+    _, starts = bivariate._start(gray, lights, 0.05, ranks)
+    assert starts.shape == (3, gray.shape[1], 3)
+    for start, (dark, bright) in zip(starts, ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)), strict=True):
+        b = photometric_stereo._weighted_least_squares(
+            gray, lights, bivariate._trimmed(ranks, dark, bright)
+        ).T
+        length = np.linalg.norm(b, axis=1, keepdims=True)
+        reference = np.where(length > 0, b / np.where(length > 0, length, 1.0), [0.0, 0.0, 1.0])
+        np.testing.assert_allclose(start, reference, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(starts[:, -1], [[0.0, 0.0, 1.0]] * 3)
+    assert (np.abs(starts[0] - starts[2]).max(axis=1) > 1e-3).any()  # the windows differ
+
+
 def test_warm_started_nonnegative_fit_equals_a_cold_one(glossy):
     gray, lights, lit, starts, _ = glossy
     knots = np.linspace(0.0, 1.0, 8), np.cos(np.linspace(np.pi / 2, 0.0, 8))
@@ -391,3 +410,47 @@ def test_analytic_jacobian_equals_central_differences(glossy, name):
     close = (error < 1e-4).all(axis=1)
     assert close.mean() > 0.9, (close.mean(), np.median(error, axis=0))
     assert np.median(error) < 1e-6, np.median(error, axis=0)
+
+
+@pytest.mark.parametrize("name", ["bipolynomial", "ramps", "table"])
+def test_start_fits_keep_the_products_a_refit_gives(glossy, name):
+    """``J^T J`` and ``J^T r`` that :func:`best_start` keeps from the winner's fit and
+    :func:`fit_pixels` from its fits equal those :func:`lm_step` computes by refitting the
+    normal (what its first iteration did before), and the active sets are the refit's: the
+    same numbers."""
+    gray, lights, lit, starts, _ = glossy
+    basis, nonnegative = _basis(name)
+    g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
+    inputs = bivariate._kernel_inputs(lights, basis)
+    n_pixels, k = len(g), basis.size
+
+    def refit_products(normals, free):
+        products = np.zeros((n_pixels, 6))
+        active = np.ones(n_pixels, dtype=bool)
+        _bivariate_kernels.lm_step(
+            np.array(normals), np.full(n_pixels, 1e-3), np.empty(g.shape), np.empty(n_pixels),
+            active, free, g, w, *inputs, nonnegative, np.inf, products,
+        )  # fmt: skip
+        assert not active.any()  # every pixel refitted, none stepped
+        return products
+
+    normals, residual, cost = np.empty((n_pixels, 3)), np.empty(g.shape), np.empty(n_pixels)
+    free, kept = np.ones((n_pixels, k), dtype=bool), np.zeros((n_pixels, 6))
+    _bivariate_kernels.best_start(
+        starts, bivariate.BEST_START_RING, g, w, *inputs, nonnegative, normals, residual, cost,
+        free, np.empty((n_pixels, k)), True, kept,
+    )  # fmt: skip
+    assert (kept[:, 5] == 1).all()
+    refit_free = free.copy()
+    reference = refit_products(normals, refit_free)
+    np.testing.assert_array_equal(kept, reference)
+    np.testing.assert_array_equal(free, refit_free)
+
+    moved = starts[1] + 0.05
+    moved /= np.linalg.norm(moved, axis=1, keepdims=True)
+    free, kept = np.ones((n_pixels, k), dtype=bool), np.zeros((n_pixels, 6))
+    _bivariate_kernels.fit_pixels(
+        moved, g, w, *inputs, nonnegative, np.empty(g.shape), np.empty((n_pixels, k)), free, kept
+    )
+    reference = refit_products(moved, free.copy())
+    np.testing.assert_array_equal(kept, reference)

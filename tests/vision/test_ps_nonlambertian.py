@@ -94,6 +94,29 @@ def test_lambertian_sphere_is_recovered_exactly_enough():
         np.testing.assert_allclose(result.albedo[lit], 0.5, rtol=2e-3)
 
 
+def test_bivariate_methods_run_on_the_blas_threads_they_are_given(glossy, monkeypatch):
+    # their NumPy products run on photometric_stereo.BLAS_THREADS threads (a threaded OpenBLAS
+    # spinning after them competes with the kernels' threads), and the limit is lifted after
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads():
+        return max(info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas")
+
+    seen = []
+    start = bivariate._start
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return start(*args, **kwargs)
+
+    monkeypatch.setattr(bivariate, "_start", spy)
+    with threadpool_limits(2, user_api="blas"):
+        for name in ("bipolynomial", "constrained_bivariate", "shared_bivariate"):
+            NONLAMBERTIAN[name](glossy.images[:, 15:23, 15:23], glossy.light_directions)
+        assert blas_threads() == 2
+    assert seen == [1, 1, 1]
+
+
 def test_bad_input_is_named():
     images = np.ones((12, 8, 8))
     lights = datasets.diligent_like_lights(4, 3, np.radians(30))

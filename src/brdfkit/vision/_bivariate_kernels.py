@@ -598,11 +598,13 @@ def _products(
 @_pjit
 def fit_pixels(
     normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
-    warm, nonnegative, residual, coef, free,
+    warm, nonnegative, residual, coef, free, products=None,
 ):  # pragma: no cover  # fmt: skip
     """:func:`_fit` on every pixel (normals ``(P, 3)``, intensities and weights ``(P, N)``):
     residuals ``(P, N)`` and weights ``(P, K)`` into the output arrays, the active sets
-    ``(P, K)`` updated in place (the start of the next fit); returns the costs ``(P,)``."""
+    ``(P, K)`` updated in place (the start of the next fit); returns the costs ``(P,)``.
+    ``products`` ``(P, 6)``, if given, receives each fit's ``J^T J`` and ``J^T r`` as
+    :func:`lm_step` keeps them (its first iteration then needs no refit)."""
     n_pixels, n_lights = gray.shape
     k = coef.shape[1]
     cost = np.empty(n_pixels)
@@ -610,14 +612,36 @@ def fit_pixels(
         kept = np.empty(n_lights, np.int64)
         g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
         scratch = _scratch(n_lights, k)
+        work_products = _products_scratch(n_lights, k)
         for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
             m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
             cost[p] = _fit(
-                normals[p, 0], normals[p, 1], normals[p, 2], kept, g_kept, w_kept, m, lights,
-                half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, residual[p],
-                coef[p], free[p], scratch,
+                nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+                ints, fa, fb, warm, nonnegative, residual[p], coef[p], free[p], scratch,
             )  # fmt: skip
+            if products is not None:
+                _store_products(
+                    products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column,
+                    fraction, kind, ints, fa, fb, residual[p], coef[p], free[p], scratch,
+                    work_products,
+                )  # fmt: skip
     return cost
+
+
+@_jit
+def _store_products(
+    products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints,
+    fa, fb, residual, coef, free, scratch, work_products,
+):  # pragma: no cover  # fmt: skip
+    """:func:`_products` of the fit in ``scratch`` (of the normal ``(nx, ny, nz)``) into
+    ``products[p]`` ``(6,)``, flagged as held (as :func:`lm_step` keeps them)."""
+    j00, j01, j11, g0, g1 = _products(
+        nx, ny, nz, _tangents(nx, ny, nz), kept, w_kept, m, lights, half, cos_d, column, fraction,
+        kind, ints, fa, fb, residual, coef, free, scratch, work_products,
+    )  # fmt: skip
+    products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
+    products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
 
 
 @_jit
@@ -643,9 +667,9 @@ def _try_start(
     free, all_free, scratch, p, normals, residual, cost, coefficients,
 ):  # pragma: no cover  # fmt: skip
     """:func:`best_start`'s candidate ``(tx, ty, tz)`` for pixel ``p``: fitted, and kept (normal,
-    residual, cost, weights) if ``first`` or of less cost than the pixel's best so far. With
-    ``screen``, it is fitted only if its :func:`_lower_bound` is below that cost plus ``margin``
-    (it cannot win otherwise)."""
+    residual, cost, weights) if ``first`` or of less cost than the pixel's best so far; returns
+    whether it was (its fit is then in ``scratch``). With ``screen``, it is fitted only if its
+    :func:`_lower_bound` is below that cost plus ``margin`` (it cannot win otherwise)."""
     if screen and not first:
         bound = _lower_bound(
             tx, ty, tz, kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, lights, half,
@@ -653,7 +677,7 @@ def _try_start(
             scratch,
         )  # fmt: skip
         if bound >= cost[p] + margin:
-            return
+            return False
     trial = _fit(
         tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints,
         fa, fb, warm, nonnegative, shifted, coef, free, scratch,
@@ -663,12 +687,14 @@ def _try_start(
         residual[p, :] = shifted
         cost[p] = trial
         coefficients[p, :] = coef
+        return True
+    return False
 
 
 @_pjit
 def best_start(
     starts, ring, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
-    warm, nonnegative, normals, residual, cost, free, coefficients, screen=True,
+    warm, nonnegative, normals, residual, cost, free, coefficients, screen=True, products=None,
 ):  # pragma: no cover  # fmt: skip
     """:func:`~brdfkit.vision.bivariate._best_start` per pixel: the candidate of least cost
     among ``starts`` ``(S, P, 3)`` (the first of equal costs), then among it and the 6 normals
@@ -683,6 +709,10 @@ def best_start(
     their bounds mostly exceed the best cost many times over. The margin covers the fits'
     ridge (the bounds hold for the ridge-free costs). The same candidates win as without
     screening (every pixel of that benchmark, for the three bases).
+
+    ``products`` ``(P, 6)``, if given, receives the winner's ``J^T J`` and ``J^T r`` as
+    :func:`lm_step` keeps them (from the winner's fit, kept aside: the search's first iteration
+    needs no refit), and ``free`` the winner's active set.
     """
     n_starts, n_pixels = starts.shape[0], starts.shape[1]
     n_lights = gray.shape[1]
@@ -696,7 +726,9 @@ def best_start(
         shifted = np.empty(n_lights)
         coef = np.empty(k)
         all_free = np.ones(k, dtype=np.bool_)
-        scratch = _scratch(n_lights, k)
+        scratch, best = _scratch(n_lights, k), _scratch(n_lights, k)  # a fit; the winner's
+        best_free = np.ones(k, dtype=np.bool_)
+        work_products = _products_scratch(n_lights, k)
         for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
             m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
             m_sub = 0
@@ -706,23 +738,37 @@ def best_start(
                 if j % SCREEN_STRIDE == 0:
                     sub_kept[m_sub], sub_g[m_sub], sub_w[m_sub] = kept[j], g_kept[j], w_kept[j]
                     m_sub += 1
-            args = (
+            before = (
                 kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, SCREEN_MARGIN * signal,
                 lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative,
-                shifted, coef, free[p], all_free, scratch, p, normals, residual, cost,
-                coefficients,
+                shifted, coef, free[p], all_free,
             )  # fmt: skip
+            after = (p, normals, residual, cost, coefficients)
             for s in range(n_starts):
-                _try_start(starts[s, p, 0], starts[s, p, 1], starts[s, p, 2], s == 0, False, *args)
+                if _try_start(
+                    starts[s, p, 0], starts[s, p, 1], starts[s, p, 2], s == 0, False, *before,
+                    scratch, *after,
+                ):  # fmt: skip
+                    scratch, best = best, scratch  # keep the winner's fit aside
+                    best_free[:] = free[p]
             nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]  # the ring around it
             t = _tangents(nx, ny, nz)
             for s in range(6):
                 ca, sa = np.cos(s * np.pi / 3), np.sin(s * np.pi / 3)
-                _try_start(
+                if _try_start(
                     nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3]),
                     ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4]),
                     nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5]),
-                    False, screen, *args,
+                    False, screen, *before, scratch, *after,
+                ):  # fmt: skip
+                    scratch, best = best, scratch
+                    best_free[:] = free[p]
+            if products is not None:
+                free[p, :] = best_free
+                _store_products(
+                    products, p, normals[p, 0], normals[p, 1], normals[p, 2], kept, w_kept, m,
+                    lights, half, cos_d, column, fraction, kind, ints, fa, fb, residual[p],
+                    coefficients[p], free[p], best, work_products,
                 )  # fmt: skip
 
 
@@ -809,13 +855,11 @@ def lm_step(
                     coefficients[p, :] = coef
                 damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
                 if products is not None:  # the new normal's, from the fit just done
-                    j00, j01, j11, g0, g1 = _products(
-                        tx, ty, tz, _tangents(tx, ty, tz), kept, w_kept, m, lights, half, cos_d,
-                        column, fraction, kind, ints, fa, fb, shifted, coef, free[p], scratch,
+                    _store_products(
+                        products, p, tx, ty, tz, kept, w_kept, m, lights, half, cos_d, column,
+                        fraction, kind, ints, fa, fb, shifted, coef, free[p], scratch,
                         work_products,
                     )  # fmt: skip
-                    products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
-                    products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
             else:
                 damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
 
@@ -877,6 +921,43 @@ def table_normal_equations(
             n_d, coefficients[lo:hi], bands[chunk], rhs[chunk],
         )  # fmt: skip
     return bands, rhs
+
+
+@_pjit
+def trimmed_starts(gray, ranks, lights, windows, starts):  # pragma: no cover
+    """The trimmed least-squares start normals of :func:`~brdfkit.vision.bivariate._start` into
+    ``starts`` ``(S, P, 3)``: per pixel and window ``windows[s] = (lo, hi)``, the unit ``b`` of
+    ``(sum_n l_n l_n^T + 1e-12 I) b = sum_n I_n l_n`` over the observations of rank (``ranks``
+    ``(P, N)``) in ``[lo, hi)`` (``gray`` ``(N, P)``; :func:`_solve_free`, as
+    :func:`~brdfkit.vision.photometric_stereo._weighted_least_squares` solves it), or the view
+    ``(0, 0, 1)`` where ``b = 0``."""
+    n_lights, n_pixels = gray.shape
+    for p in numba.prange(n_pixels):
+        gram, rhs = np.empty((3, 3)), np.empty(3)
+        work, work_b, b = np.empty((3, 3)), np.empty(3), np.empty(3)
+        free = np.ones(3, dtype=np.bool_)
+        for s in range(len(windows)):
+            lo, hi = windows[s, 0], windows[s, 1]
+            gram[:, :] = 0.0
+            rhs[:] = 0.0
+            for n in range(n_lights):
+                if lo <= ranks[p, n] < hi:
+                    for a in range(3):
+                        rhs[a] += gray[n, p] * lights[n, a]
+                        for c in range(3):
+                            gram[a, c] += lights[n, a] * lights[n, c]
+            for a in range(3):
+                gram[a, a] += 1e-12
+            _solve_free(gram, rhs, free, work, work_b, b)
+            length = np.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+            if length > 0:
+                starts[s, p, 0], starts[s, p, 1], starts[s, p, 2] = (
+                    b[0] / length,
+                    b[1] / length,
+                    b[2] / length,
+                )
+            else:
+                starts[s, p, 0], starts[s, p, 1], starts[s, p, 2] = 0.0, 0.0, 1.0
 
 
 @_pjit

@@ -47,6 +47,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -56,12 +57,12 @@ from numpy.typing import ArrayLike
 from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
 from brdfkit.vision.photometric_stereo import (
+    BLAS_THREADS,
     Callback,
     PhotometricStereoResult,
     _gray,
     _prepare,
     _result,
-    _weighted_least_squares,
 )
 
 MAX_ITERATIONS = 200
@@ -200,8 +201,8 @@ def _refine_normals(
 
     ``n(u, v) = normalise(n + u t_1 + v t_2)``; the Jacobian of the variable-projection
     residual is analytic (:func:`~brdfkit.vision._bivariate_kernels._products`), computed from
-    the fit that accepted a normal and kept through rejected steps (the normal and residual did
-    not change); a step (clipped to 0.2 per coordinate) is kept for the
+    the fit that chose the start or accepted a normal and kept through rejected steps (the
+    normal and residual did not change); a step (clipped to 0.2 per coordinate) is kept for the
     pixels whose cost falls, and their damping shrinks by 3 (grows by 4 otherwise; within
     [1e-7, 1e7], starting at 1e-3). A pixel stops when its step is below
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
@@ -214,6 +215,8 @@ def _refine_normals(
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     free = np.ones((len(gray), basis.size), dtype=bool)  # each pixel's last active set
     inputs = _kernel_inputs(lights, basis)
+    products = np.empty((len(gray), 6))  # J^T J, J^T r of the start's fit, then kept through
+    # rejected steps
     if normals.ndim == 3:
         starts = np.ascontiguousarray(normals, dtype=np.float64)
         normals, residual, cost, coefficients = (
@@ -224,16 +227,16 @@ def _refine_normals(
         )
         _bivariate_kernels.best_start(
             starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
-            cost, free, coefficients,
+            cost, free, coefficients, True, products,
         )  # fmt: skip
     else:
         normals = np.array(normals, dtype=np.float64, order="C")
-        residual, coefficients, cost = _fit(
-            normals, gray, weights, lights, basis, nonnegative, free
+        residual, coefficients = np.empty(gray.shape), np.empty((len(gray), basis.size))
+        cost = _bivariate_kernels.fit_pixels(
+            normals, gray, weights, *inputs, nonnegative, residual, coefficients, free, products
         )
     damping = np.full(len(normals), 1e-3)
     active = np.ones(len(normals), dtype=bool)
-    products = np.zeros((len(normals), 6))  # J^T J, J^T r kept through rejected steps
     for iteration in range(iterations):
         with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
             _bivariate_kernels.lm_step(
@@ -281,22 +284,30 @@ def _start(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
     pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
-    squares dropping (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the
-    observations (a broad lobe needs the last, a sharp one the first). ``ranks``: the
-    :func:`_ranks` of ``gray``, if already known."""
+    squares (:func:`~brdfkit.vision.photometric_stereo._weighted_least_squares` on the
+    :func:`_trimmed` weights, by the compiled
+    :func:`~brdfkit.vision._bivariate_kernels.trimmed_starts`, pixels over the cores) dropping
+    (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the observations (a
+    broad lobe needs the last, a sharp one the first). ``ranks``: the :func:`_ranks` of
+    ``gray``, if already known."""
+    from brdfkit.vision import _bivariate_kernels
+
     if not 0 <= shadow_threshold < 1:
         raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
     lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
     ranks = _ranks(gray) if ranks is None else ranks
-    starts = []
     n_lights = len(lights)
+    windows = []  # the ranks _trimmed keeps: [n_dark, N - n_bright)
     for dark, bright in ((0.25, 0.1), (0.25, 0.4), (0.1, 0.6)):
-        if n_lights - int(dark * n_lights) - int(bright * n_lights) < 3:
-            continue
-        b = _weighted_least_squares(gray, lights, _trimmed(ranks, dark, bright)).T
-        length = np.linalg.norm(b, axis=1, keepdims=True)
-        starts.append(np.where(length > 0, b / np.where(length > 0, length, 1.0), _VIEW))
-    return lit, np.stack(starts)
+        n_dark, n_bright = int(np.floor(dark * n_lights)), int(np.floor(bright * n_lights))
+        if n_lights - n_dark - n_bright >= 3:
+            windows.append((n_dark, n_lights - n_bright))
+    starts = np.empty((len(windows), gray.shape[1], 3))
+    _bivariate_kernels.trimmed_starts(
+        np.ascontiguousarray(gray), ranks, np.ascontiguousarray(lights, dtype=np.float64),
+        np.array(windows, dtype=np.int64), starts,
+    )  # fmt: skip
+    return lit, starts
 
 
 def _finish(
@@ -328,6 +339,25 @@ def _check_iterations(iterations: int) -> int:
     return check_count("iterations", iterations, MAX_ITERATIONS)
 
 
+def _blas_threads(method: Callable[..., PhotometricStereoResult]) -> Callable:
+    """``method`` run with :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS` BLAS threads.
+
+    Its BLAS products (channel means, the trimmed least-squares starts, the chromaticities) are
+    ``(P, N)`` by ``(N, <= 9)``, which a second thread does not speed up; a threaded OpenBLAS
+    spins after each call and then competes with the compiled kernels' threads for the cores
+    (the starts of the DiLiGenT-size benchmark: 0.29-0.37 s on one thread, 0.45-0.50 s on two,
+    the same numbers)."""
+
+    @functools.wraps(method)
+    def run(*args, **kwargs) -> PhotometricStereoResult:
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(BLAS_THREADS, user_api="blas"):
+            return method(*args, **kwargs)
+
+    return run
+
+
 # ----------------------------------------------------------------------------------------------
 # Shi et al. 2014: bi-polynomial low-frequency reflectance
 
@@ -344,6 +374,7 @@ def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
     )
 
 
+@_blas_threads
 def bipolynomial(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -436,6 +467,7 @@ def _sum_of_lobes_basis(knots_i: np.ndarray, knots_h: np.ndarray) -> Basis:
     return Basis(_bivariate_kernels.RAMPS, np.zeros(2, dtype=np.int64), knots_i, knots_h, size)
 
 
+@_blas_threads
 def constrained_bivariate(
     images: ArrayLike,
     light_directions: ArrayLike,
@@ -637,6 +669,7 @@ def _fit_table(
     table.values = _smoothed_solution(normal_matrix, rhs, table.n_h, table.n_d, smoothness)
 
 
+@_blas_threads
 def shared_bivariate(
     images: ArrayLike,
     light_directions: ArrayLike,
