@@ -161,3 +161,30 @@ def test_build_card_records_the_cpu_seconds_of_its_parts():
     # typeset in build_card (the atlas's workers), and what the page shows
     assert card.docs_html.startswith('<div class="doc">') and "Ideal diffuse" in card.docs_html
     assert card.docs_html == _docs_html(card) and card.docs_html in card_html(card)
+
+
+def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):
+    import math
+
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from brdfkit import report
+    from brdfkit.plot import albedo_plot, lobe_plot
+
+    monkeypatch.setattr(report, "_LAYOUTS", {})
+    angles = [math.radians(a) for a in (0, 30, 60)]
+    first, second = MODELS["lambertian"](), MODELS["ggx"](alpha=0.2)
+    fresh = report._png(lobe_plot(second, angles))  # constrained layout, as ever
+    report._png(lobe_plot(first, angles), layout=("lobe",))  # lays out, keeps the positions
+    assert list(report._LAYOUTS) == [("lobe",)]
+    reused = lobe_plot(second, angles)
+    assert report._png(reused, layout=("lobe",)) == fresh
+    assert not isinstance(reused.get_layout_engine(), ConstrainedLayoutEngine)
+    # y limits that widen the tick labels move the axes: a key of their own, laid out afresh
+    low, high = albedo_plot(first), albedo_plot(3000.0 * first)
+    report._png(low, layout=("albedo", low.axes[0].get_ylim()))
+    assert report._png(high, layout=("albedo", high.axes[0].get_ylim())) == report._png(
+        albedo_plot(3000.0 * first)
+    )
+    positions = list(report._LAYOUTS.values())
+    assert len(positions) == 3 and positions[1] != positions[2]

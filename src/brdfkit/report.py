@@ -79,9 +79,30 @@ class Card:
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
 
 
-def _png(fig, **savefig_kwargs) -> str:
+_LAYOUTS: dict[tuple, list[tuple[float, float, float, float]]] = {}
+"""The axes positions (figure fractions) constrained layout gave the first plot of each
+``layout`` key :func:`_png` was handed, in this process."""
+
+
+def _png(fig, layout: tuple | None = None) -> str:
+    """``fig`` as a base64 PNG at 100 dpi.
+
+    ``layout``: a key naming everything the figure's constrained layout depends on besides
+    its data (the kind of plot, the axis limits that set its tick labels, its legend's
+    labels). The first figure of a key is laid out as usual and its axes positions kept; the
+    next get them and no layout engine, so that their savefig skips the layout's own draw
+    (about 45 % of a savefig) and draws once: the same pixels, as the layout is a function
+    of the key alone.
+    """
+    positions = None if layout is None else _LAYOUTS.get(layout)
+    if positions is not None:
+        for ax, bounds in zip(fig.axes, positions, strict=True):
+            ax.set_position(bounds)
+        fig.set_layout_engine("none")
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100, **savefig_kwargs)
+    fig.savefig(buffer, format="png", dpi=100)
+    if layout is not None and positions is None:
+        _LAYOUTS[layout] = [ax.get_position(original=True).bounds for ax in fig.axes]
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
@@ -344,14 +365,17 @@ def build_card(
     )
     lap("environment spheres")
     representative = models[len(models) // 2]
+    # the lobe plot's decorations are fixed (no radial tick labels); the albedo plot's y
+    # tick labels follow its y limits
     card.images["lobe (plane of incidence)"] = _png(
-        lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)])
+        lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)]), layout=("lobe",)
     )
     lap("lobe plot")
+    names = [f"#{i + 1}" for i in range(len(models))]
+    figure = albedo_plot(models, labels=names, samples=1024, angles=16)
+    ax = figure.axes[0]
     card.images["directional albedo"] = _png(
-        albedo_plot(
-            models, labels=[f"#{i + 1}" for i in range(len(models))], samples=1024, angles=16
-        )
+        figure, layout=("albedo", ax.get_xlim(), ax.get_ylim(), *names)
     )
     lap("albedo plot")
     if run_checks:
