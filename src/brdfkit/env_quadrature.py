@@ -145,7 +145,9 @@ def _ring_grid(
     model: BRDF, cell: np.ndarray, radii: np.ndarray, channels: int
 ) -> tuple[np.ndarray, int]:
     """L_o on the (ring, ψ) grid, ``(rings, cols, channels)``, ψ_k = 2πk/cols, and the BRDF
-    evaluations spent."""
+    evaluations spent. The kernels keep the model's own channels: a grey model's kernel is
+    transformed once, not once per channel of the map (the same numbers, a third of the
+    work)."""
     rows, cols = cell.shape[:2]
     half = cols // 2
     t = (np.arange(rows) + 0.5) * (math.pi / rows)
@@ -170,10 +172,13 @@ def _ring_grid(
             axis=-1,
         )
         above = wi[..., 2] > 0
-        kernel = np.zeros((rows, cols, channels))
         idx = np.nonzero(above)
+        # rows past the last one with a node above the surface are all zero: left out of the
+        # transforms and of the sum over rows, whose other terms add in the same order
+        live = int(idx[0][-1]) + 1 if len(idx[0]) else 0
+        kernel = np.zeros((live, cols, model.channels))
         wo = np.array([-sin_o, 0.0, cos_o])
-        values = np.empty((len(idx[0]), channels))
+        values = np.empty((len(idx[0]), model.channels))
         for c0 in range(0, len(idx[0]), _CHUNK):
             sel = tuple(i[c0 : c0 + _CHUNK] for i in idx)
             w = wi[sel]
@@ -182,7 +187,7 @@ def _ring_grid(
         nodes += len(idx[0])
         kernel[idx[0], idx[1]] = values * d_omega[idx[0], None]
         kernel[:, half:] = kernel[:, half - 1 :: -1]
-        total = np.sum(np.conj(np.fft.rfft(kernel, axis=1)) * spectrum, axis=0)
+        total = np.sum(np.conj(np.fft.rfft(kernel, axis=1)) * spectrum[:live], axis=0)
         out[k] = np.fft.irfft(total, n=cols, axis=0)
     return out, nodes
 
