@@ -188,3 +188,39 @@ def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):
     )
     positions = list(report._LAYOUTS.values())
     assert len(positions) == 3 and positions[1] != positions[2]
+
+
+def test_default_examples_are_made_by_the_card_builders_not_the_parent(monkeypatch, tmp_path):
+    from brdfkit import report
+
+    made: list[str] = []
+    real = report.default_examples
+    monkeypatch.setattr(report, "default_examples", lambda name: made.append(name) or real(name))
+    handed = []
+
+    def build_cards(entries, options, progress):
+        handed.extend(entries)
+        return []
+
+    monkeypatch.setattr(report, "_build_cards", build_cards)
+    report.build_atlas(tmp_path / "index.html")
+    assert made == []  # the parent made no example: the builders will, each its card's
+    assert [title for title, _ in handed] == [n for n in DEFAULT_MODELS if n in MODELS]
+    title, examples = handed[1]
+    assert callable(examples) and made == []
+    assert [m.to_spec() for m in examples()] == [m.to_spec() for m in MODELS[title].examples()[:4]]
+    assert made == [title]
+
+
+def test_a_card_is_built_from_what_makes_its_examples():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.report import _card
+
+    options = {"envmap": EnvironmentMap(np.ones((8, 16, 3))), "resolution": 8, "samples": 4}
+    models = [MODELS["lambertian"](), MODELS["phong"]()]
+    made = _card("t", lambda: models, {**options, "run_checks": False})
+    given = _card("t", models, {**options, "run_checks": False})
+    assert made.models == given.models == models and made.labels == given.labels
+    assert made.images == given.images

@@ -16,6 +16,7 @@ References
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import inspect
 import io
@@ -330,7 +331,7 @@ def build_card(
     :func:`env_sphere` (``samples``, ``noise``, ``max_samples``); the CPU seconds of each part
     go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``). The
     docstrings are typeset here too (``docs_html``), so that :func:`_build_cards`'s workers
-    share docutils' work (4 CPU s for the default cards) instead of the page's writer."""
+    share docutils' work (0.3 CPU s for the default cards) instead of the page's writer."""
     from brdfkit.lights import DirectionalLight
     from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
@@ -386,12 +387,22 @@ def build_card(
     return card
 
 
+def _registered_defaults() -> list[str]:
+    """The names of :data:`DEFAULT_MODELS` that are registered: the default atlas's cards."""
+    return [name for name in DEFAULT_MODELS if name in MODELS]
+
+
+def default_examples(name: str) -> list[BRDF]:
+    """The example instances of the default card of the registered model ``name``."""
+    return MODELS[name].examples()[:4]
+
+
 def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str, list[BRDF]]]:
     """Titles and example instances: every registered default model, or the given specs/files."""
     from brdfkit.brdf import parse
 
     if not models:
-        return [(name, MODELS[name].examples()[:4]) for name in DEFAULT_MODELS if name in MODELS]
+        return [(name, default_examples(name)) for name in _registered_defaults()]
     cards = []
     for item in models:
         if isinstance(item, BRDF):
@@ -523,17 +534,29 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "rough_dielectric": 6.4, "thin_film": 5.9, "torrance_sparrow": 3.7,
-    "kulla_conty_dielectric": 2.7, "principled": 2.0, "kulla_conty": 1.9, "beckmann": 1.8,
-    "cook_torrance": 1.7, "rough_plastic": 1.7, "ashikhmin_shirley": 1.5,
+    "thin_film": 5.2, "rough_dielectric": 4.9, "kulla_conty_dielectric": 4.9,
+    "torrance_sparrow": 2.6, "kulla_conty": 1.9, "rough_plastic": 1.6, "ashikhmin_shirley": 1.4,
+    "principled": 1.4, "beckmann": 1.3, "mirror": 1.3, "smooth_dielectric": 1.3, "ggx": 1.2,
 }  # fmt: skip
-"""CPU seconds of the heaviest default cards, as measured with the quadrature spheres
-(``benchmarks/results/atlas_profile_session16.json``, ``bench_atlas.py --profile``); the
-others took 0.6–1.4 s. Only the order in which :func:`_build_cards` hands cards to its workers
-depends on it."""
+"""CPU seconds of the heaviest default cards, the construction of their examples included
+(``benchmarks/results/atlas_session19.json``, ``bench_atlas.py --profile``: mirror and smooth
+dielectric with their Monte Carlo on NumPy, a cold kernel cache); the others took 0.4–1.1 s.
+Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
 
 
-def _heaviest_first(entries: list[tuple[str, list[BRDF]]]) -> list[int]:
+Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
+"""A card's example instances, or what makes them (in the worker that builds the card)."""
+
+
+def _card(title: str, examples: Examples, options: dict) -> Card:
+    """:func:`build_card` of ``examples``, made first where they are a callable: the default
+    models' examples take seconds to construct (``kulla_conty_dielectric`` and
+    ``rough_plastic`` tabulate albedos), work the workers share instead of the parent doing
+    it alone before they start."""
+    return build_card(title, examples() if callable(examples) else examples, **options)
+
+
+def _heaviest_first(entries: Sequence[tuple[str, Examples]]) -> list[int]:
     """Indices of ``entries`` in decreasing expected cost (:data:`_CARD_CPU_SECONDS`; a card
     not listed, 1 s), ties in their order: the longest-processing-time-first schedule, so that
     the last card a worker takes is a short one and the workers finish together."""
@@ -541,11 +564,11 @@ def _heaviest_first(entries: list[tuple[str, list[BRDF]]]) -> list[int]:
 
 
 def _build_cards(
-    entries: list[tuple[str, list[BRDF]]],
+    entries: Sequence[tuple[str, Examples]],
     options: dict,
     progress: Callable[[str, int, int], None] | None,
 ) -> list[Card]:
-    """:func:`build_card` for every entry, on as many processes as this process has cores
+    """:func:`_card` for every entry, on as many processes as this process has cores
     (cards are independent; NumPy work runs on one core at a time), handed out heaviest first
     (:func:`_heaviest_first`); returned in their order."""
     import multiprocessing
@@ -562,7 +585,7 @@ def _build_cards(
         for done, (title, examples) in enumerate(entries):
             if progress is not None:
                 progress(title, done, len(entries))
-            cards.append(build_card(title, examples, **options))
+            cards.append(_card(title, examples, options))
         return cards
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -571,7 +594,7 @@ def _build_cards(
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(workers, mp_context=context) as pool:
         order = _heaviest_first(entries)
-        futures = {pool.submit(build_card, *entries[k], **options): k for k in order}
+        futures = {pool.submit(_card, *entries[k], options): k for k in order}
         if progress is not None:
             progress(entries[order[0]][0], 0, len(entries))
         for future in as_completed(futures):
@@ -602,7 +625,11 @@ def build_atlas(
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
-    entries = default_cards(models)
+    entries: Sequence[tuple[str, Examples]] = (
+        default_cards(models)
+        if models
+        else [(name, functools.partial(default_examples, name)) for name in _registered_defaults()]
+    )
     options = {
         "envmap": light,
         "resolution": resolution,
@@ -625,5 +652,6 @@ __all__ = [
     "build_card",
     "card_html",
     "default_cards",
+    "default_examples",
     "env_sphere",
 ]
