@@ -82,36 +82,42 @@ def time_atlas(
 
 
 def profile_atlas(only: list[str] | None = None) -> dict:
-    """CPU seconds of each part of every default card (:attr:`brdfkit.report.Card.cpu_seconds`),
-    built one after another in this process, and of each environment-lit sphere, with whether
-    compiled kernels were there for it (built, or in the kernel cache: the warm path) or not
-    (NumPy: a cold cache; the default atlas never builds them, its spheres are too small)."""
+    """CPU seconds of each part of every default card (the construction of its examples, then
+    :attr:`brdfkit.report.Card.cpu_seconds`), built one after another in this process, and of
+    each environment-lit sphere, with whether compiled kernels were there for it (built, or
+    in the kernel cache: the warm path) or not (NumPy: a cold cache; the default atlas never
+    builds them, its spheres are too small)."""
     from brdfkit.data import default_envmap_path
     from brdfkit.lights import EnvironmentMap
     from brdfkit.render_kernel import compiled_shader
-    from brdfkit.report import build_card, default_cards
+    from brdfkit.report import _registered_defaults, build_card, default_examples
 
     env = EnvironmentMap.from_file(default_envmap_path())
     start = time.process_time()
     _ = env.irradiance_table
     parts: dict[str, float] = {"irradiance table": time.process_time() - start}
     cards = []
-    for title, models in default_cards():
+    for title in _registered_defaults():
         if only and title not in only:
             continue
+        start = time.process_time()
+        models = default_examples(title)
+        made = time.process_time() - start
         warm = [compiled_shader(m, [env], method="auto", build=False) is not None for m in models]
         card = build_card(title, models, envmap=env, resolution=RESOLUTION, samples=SAMPLES)
-        for part, seconds in card.cpu_seconds.items():
+        card_parts = {"examples": made, **card.cpu_seconds}
+        for part, seconds in card_parts.items():
             parts[part] = parts.get(part, 0.0) + seconds
         spheres = [
             f"{s:.2f}{'' if w else ' (NumPy)'}"
             for s, w in zip(card.env_cpu_seconds, warm, strict=True)
         ]
-        print(f"  {title}: " + ", ".join(f"{k} {v:.2f}" for k, v in card.cpu_seconds.items())
-              + f"; env spheres {', '.join(spheres)} CPU s")  # fmt: skip
+        total = sum(card_parts.values())
+        print(f"  {title}: " + ", ".join(f"{k} {v:.2f}" for k, v in card_parts.items())
+              + f"; total {total:.2f}; env spheres {', '.join(spheres)} CPU s")  # fmt: skip
         cards.append(
-            {"card": title, "cpu_seconds": card.cpu_seconds, "env_cpu_seconds":
-             card.env_cpu_seconds, "env_compiled": warm}
+            {"card": title, "cpu_seconds": card_parts, "total_cpu_seconds": total,
+             "env_cpu_seconds": card.env_cpu_seconds, "env_compiled": warm}
         )  # fmt: skip
     print("  CPU s per part: " + ", ".join(f"{k} {v:.1f}" for k, v in parts.items())
           + f"; total {sum(parts.values()):.1f}")  # fmt: skip

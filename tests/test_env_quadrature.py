@@ -96,3 +96,17 @@ def test_refuses_anisotropic_and_delta(env, spec):
 def test_refuses_other_lights():
     with pytest.raises(ValueError, match="EnvironmentMap"):
         quadrature_sphere(parse("phong(ks=0.5, n=10.0)"), DirectionalLight(), RES)
+
+
+@pytest.mark.parametrize("level", [0, 2])
+def test_a_grey_kernel_serves_every_channel_of_the_map(env, level):
+    # a grey model's kernel is transformed once and meets each channel of the map's spectrum:
+    # the image of the same model with three equal channels, to rounding
+    grey = parse("ggx(alpha=0.3, eta=1.5)")
+    rgb = parse("ggx(alpha=0.3, eta=[1.5, 1.5, 1.5])")
+    assert (grey.channels, rgb.channels, env.channels) == (1, 3, 3)
+    a = quadrature_sphere(grey, env, RES, level=level)
+    b = quadrature_sphere(rgb, env, RES, level=level)
+    assert a.image.shape == b.image.shape == (RES, RES, 3) and a.nodes == b.nodes
+    assert np.ptp(a.image[RES // 2, RES // 2]) > 0  # the map's colour reaches the image
+    np.testing.assert_allclose(a.image, b.image, rtol=1e-12, atol=1e-15)

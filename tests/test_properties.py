@@ -188,6 +188,23 @@ def test_library_distributions_are_normalized_and_pass_the_white_furnace(distrib
     assert furnace.passed, furnace.detail
 
 
+def test_hemisphere_nodes_are_shared_read_only_and_integrate_exactly():
+    # Every microfacet check integrates over the same cached nodes: an integrand that wrote
+    # into them would corrupt every later check, so they are read-only.
+    from brdfkit.properties import _hemisphere_integral, _hemisphere_nodes
+
+    m, theta_weight = _hemisphere_nodes()
+    assert _hemisphere_nodes()[0] is m
+    with pytest.raises(ValueError):
+        m[0, 0] = 0.0
+    with pytest.raises(ValueError):
+        theta_weight[0] = 0.0
+    assert _hemisphere_integral(lambda m: m[:, 2])[0] == pytest.approx(math.pi, rel=1e-12)
+    assert _hemisphere_integral(lambda m: m[:, 0] ** 2)[0] == pytest.approx(
+        2 * math.pi / 3, rel=1e-12
+    )
+
+
 def test_white_furnace_fails_without_masking():
     # With G1 = 1 the projected area seen from θo exceeds cos θo (Heitz 2014, §4).
     furnace = check_white_furnace(Beckmann(0.5, exact_masking=False))

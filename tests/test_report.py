@@ -147,13 +147,80 @@ def test_build_card_records_the_cpu_seconds_of_its_parts():
     import numpy as np
 
     from brdfkit.lights import EnvironmentMap
-    from brdfkit.report import build_card
+    from brdfkit.report import _docs_html, build_card, card_html
 
     env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
     models = [MODELS["lambertian"](), MODELS["phong"]()]
     card = build_card("t", models, envmap=env, resolution=8, samples=4, run_checks=False)
-    parts = ["directional spheres", "environment spheres", "lobe plot", "albedo plot"]
+    parts = ["docstrings", "directional spheres", "environment spheres", "lobe plot"]
+    parts.append("albedo plot")
     assert list(card.cpu_seconds) == parts and all(s >= 0 for s in card.cpu_seconds.values())
     assert len(card.env_cpu_seconds) == 2 and card.env_samples[0] == "quadrature, 0 nodes"
     assert card.env_samples[1].startswith("quadrature, ")  # phong: isotropic, no delta
     assert sum(card.env_cpu_seconds) <= card.cpu_seconds["environment spheres"] + 1e-6
+    # typeset in build_card (the atlas's workers), and what the page shows
+    assert card.docs_html.startswith('<div class="doc">') and "Ideal diffuse" in card.docs_html
+    assert card.docs_html == _docs_html(card) and card.docs_html in card_html(card)
+
+
+def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):
+    import math
+
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from brdfkit import report
+    from brdfkit.plot import albedo_plot, lobe_plot
+
+    monkeypatch.setattr(report, "_LAYOUTS", {})
+    angles = [math.radians(a) for a in (0, 30, 60)]
+    first, second = MODELS["lambertian"](), MODELS["ggx"](alpha=0.2)
+    fresh = report._png(lobe_plot(second, angles))  # constrained layout, as ever
+    report._png(lobe_plot(first, angles), layout=("lobe",))  # lays out, keeps the positions
+    assert list(report._LAYOUTS) == [("lobe",)]
+    reused = lobe_plot(second, angles)
+    assert report._png(reused, layout=("lobe",)) == fresh
+    assert not isinstance(reused.get_layout_engine(), ConstrainedLayoutEngine)
+    # y limits that widen the tick labels move the axes: a key of their own, laid out afresh
+    low, high = albedo_plot(first), albedo_plot(3000.0 * first)
+    report._png(low, layout=("albedo", low.axes[0].get_ylim()))
+    assert report._png(high, layout=("albedo", high.axes[0].get_ylim())) == report._png(
+        albedo_plot(3000.0 * first)
+    )
+    positions = list(report._LAYOUTS.values())
+    assert len(positions) == 3 and positions[1] != positions[2]
+
+
+def test_default_examples_are_made_by_the_card_builders_not_the_parent(monkeypatch, tmp_path):
+    from brdfkit import report
+
+    made: list[str] = []
+    real = report.default_examples
+    monkeypatch.setattr(report, "default_examples", lambda name: made.append(name) or real(name))
+    handed = []
+
+    def build_cards(entries, options, progress):
+        handed.extend(entries)
+        return []
+
+    monkeypatch.setattr(report, "_build_cards", build_cards)
+    report.build_atlas(tmp_path / "index.html")
+    assert made == []  # the parent made no example: the builders will, each its card's
+    assert [title for title, _ in handed] == [n for n in DEFAULT_MODELS if n in MODELS]
+    title, examples = handed[1]
+    assert callable(examples) and made == []
+    assert [m.to_spec() for m in examples()] == [m.to_spec() for m in MODELS[title].examples()[:4]]
+    assert made == [title]
+
+
+def test_a_card_is_built_from_what_makes_its_examples():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.report import _card
+
+    options = {"envmap": EnvironmentMap(np.ones((8, 16, 3))), "resolution": 8, "samples": 4}
+    models = [MODELS["lambertian"](), MODELS["phong"]()]
+    made = _card("t", lambda: models, {**options, "run_checks": False})
+    given = _card("t", models, {**options, "run_checks": False})
+    assert made.models == given.models == models and made.labels == given.labels
+    assert made.images == given.images

@@ -145,7 +145,9 @@ def _ring_grid(
     model: BRDF, cell: np.ndarray, radii: np.ndarray, channels: int
 ) -> tuple[np.ndarray, int]:
     """L_o on the (ring, ψ) grid, ``(rings, cols, channels)``, ψ_k = 2πk/cols, and the BRDF
-    evaluations spent."""
+    evaluations spent. The kernels keep the model's own channels: a grey model's kernel is
+    transformed once, not once per channel of the map (the same numbers, a third of the
+    work)."""
     rows, cols = cell.shape[:2]
     half = cols // 2
     t = (np.arange(rows) + 0.5) * (math.pi / rows)
@@ -154,35 +156,35 @@ def _ring_grid(
         np.cos(np.arange(rows) * math.pi / rows) - np.cos(np.arange(1, rows + 1) * math.pi / rows)
     ) * (2 * math.pi / cols)
     st, ct = np.sin(t)[:, None], np.cos(t)[:, None]
-    u = np.stack(np.broadcast_arrays(st * np.cos(p), st * np.sin(p), ct), axis=-1)  # about v
+    # the grid's directions about v, component by component, (rows, half) each
+    ux, uy, uz = np.broadcast_arrays(st * np.cos(p), st * np.sin(p), ct)
     spectrum = np.fft.rfft(np.broadcast_to(cell, (rows, cols, channels)), axis=1)
     out = np.empty((len(radii), cols, channels))
     nodes = 0
     for k, r in enumerate(radii):
         sin_o, cos_o = float(r), math.sqrt(max(0.0, 1.0 - r * r))
-        # the ring's local frame: tangent (cos θo, 0, −sin θo), bitangent y, normal n0
-        wi = np.stack(
-            [
-                u[..., 0] * cos_o - u[..., 2] * sin_o,
-                u[..., 1],
-                u[..., 0] * sin_o + u[..., 2] * cos_o,
-            ],
-            axis=-1,
-        )
-        above = wi[..., 2] > 0
-        kernel = np.zeros((rows, cols, channels))
-        idx = np.nonzero(above)
+        # the ring's local frame: tangent (cos θo, 0, −sin θo), bitangent y, normal n0;
+        # only directions above the surface count
+        z = ux * sin_o + uz * cos_o
+        above = z > 0
+        # rows past the last one with a node above the surface are all zero: left out of the
+        # transforms and of the sum over rows, whose other terms add in the same order
+        live = int(np.flatnonzero(above.any(axis=1))[-1]) + 1 if above.any() else 0
+        keep = above[:live].ravel()
+        x, y = (ux[:live] * cos_o - uz[:live] * sin_o).ravel()[keep], uy[:live].ravel()[keep]
+        wi = np.stack([x, y, z[:live].ravel()[keep]], axis=-1)
         wo = np.array([-sin_o, 0.0, cos_o])
-        values = np.empty((len(idx[0]), channels))
-        for c0 in range(0, len(idx[0]), _CHUNK):
-            sel = tuple(i[c0 : c0 + _CHUNK] for i in idx)
-            w = wi[sel]
+        values = np.empty((len(wi), model.channels))
+        for c0 in range(0, len(wi), _CHUNK):
+            w = wi[c0 : c0 + _CHUNK]
             f = np.asarray(model.eval(w, np.broadcast_to(wo, w.shape)), dtype=float)
             values[c0 : c0 + len(w)] = f * w[:, 2:3]
-        nodes += len(idx[0])
-        kernel[idx[0], idx[1]] = values * d_omega[idx[0], None]
-        kernel[:, half:] = kernel[:, half - 1 :: -1]
-        total = np.sum(np.conj(np.fft.rfft(kernel, axis=1)) * spectrum, axis=0)
+        nodes += len(wi)
+        kernel = np.zeros((live, half, model.channels))
+        kernel.reshape(-1, model.channels)[keep] = values
+        kernel *= d_omega[:live, None, None]
+        kernel = np.concatenate([kernel, kernel[:, ::-1]], axis=1)
+        total = np.sum(np.conj(np.fft.rfft(kernel, axis=1)) * spectrum[:live], axis=0)
         out[k] = np.fft.irfft(total, n=cols, axis=0)
     return out, nodes
 

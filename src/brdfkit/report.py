@@ -16,6 +16,7 @@ References
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import inspect
 import io
@@ -69,6 +70,7 @@ class Card:
     models: list[BRDF]
     labels: list[str]
     docs: list[tuple[str, str]] = field(default_factory=list)  # (heading, docstring) per lobe
+    docs_html: str = ""  # ``docs`` typeset (:func:`build_card`, in its worker); "": at page time
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
@@ -78,9 +80,30 @@ class Card:
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
 
 
-def _png(fig, **savefig_kwargs) -> str:
+_LAYOUTS: dict[tuple, list[tuple[float, float, float, float]]] = {}
+"""The axes positions (figure fractions) constrained layout gave the first plot of each
+``layout`` key :func:`_png` was handed, in this process."""
+
+
+def _png(fig, layout: tuple | None = None) -> str:
+    """``fig`` as a base64 PNG at 100 dpi.
+
+    ``layout``: a key naming everything the figure's constrained layout depends on besides
+    its data (the kind of plot, the axis limits that set its tick labels, its legend's
+    labels). The first figure of a key is laid out as usual and its axes positions kept; the
+    next get them and no layout engine, so that their savefig skips the layout's own draw
+    (about 45 % of a savefig) and draws once: the same pixels, as the layout is a function
+    of the key alone.
+    """
+    positions = None if layout is None else _LAYOUTS.get(layout)
+    if positions is not None:
+        for ax, bounds in zip(fig.axes, positions, strict=True):
+            ax.set_position(bounds)
+        fig.set_layout_engine("none")
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100, **savefig_kwargs)
+    fig.savefig(buffer, format="png", dpi=100)
+    if layout is not None and positions is None:
+        _LAYOUTS[layout] = [ax.get_position(original=True).bounds for ax in fig.axes]
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
@@ -306,7 +329,9 @@ def build_card(
     """Render and measure one model family (its example instances) into a :class:`Card`:
     spheres under a directional light at ``samples`` spp, under ``envmap`` by
     :func:`env_sphere` (``samples``, ``noise``, ``max_samples``); the CPU seconds of each part
-    go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``)."""
+    go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``). The
+    docstrings are typeset here too (``docs_html``), so that :func:`_build_cards`'s workers
+    share docutils' work (0.3 CPU s for the default cards) instead of the page's writer."""
     from brdfkit.lights import DirectionalLight
     from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
@@ -322,6 +347,8 @@ def build_card(
         card.cpu_seconds[part] = time.process_time() - clock
         clock += card.cpu_seconds[part]
 
+    card.docs_html = _docs_html(card)
+    lap("docstrings")
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
     lit = [render_sphere(m, sun, resolution, samples=samples) for m in models]
     card.images["spheres under a directional light"] = _image_png(_sphere_row(lit, resolution))
@@ -339,14 +366,17 @@ def build_card(
     )
     lap("environment spheres")
     representative = models[len(models) // 2]
+    # the lobe plot's decorations are fixed (no radial tick labels); the albedo plot's y
+    # tick labels follow its y limits
     card.images["lobe (plane of incidence)"] = _png(
-        lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)])
+        lobe_plot(representative, [math.radians(a) for a in (0, 30, 60)]), layout=("lobe",)
     )
     lap("lobe plot")
+    names = [f"#{i + 1}" for i in range(len(models))]
+    figure = albedo_plot(models, labels=names, samples=1024, angles=16)
+    ax = figure.axes[0]
     card.images["directional albedo"] = _png(
-        albedo_plot(
-            models, labels=[f"#{i + 1}" for i in range(len(models))], samples=1024, angles=16
-        )
+        figure, layout=("albedo", ax.get_xlim(), ax.get_ylim(), *names)
     )
     lap("albedo plot")
     if run_checks:
@@ -357,12 +387,22 @@ def build_card(
     return card
 
 
+def _registered_defaults() -> list[str]:
+    """The names of :data:`DEFAULT_MODELS` that are registered: the default atlas's cards."""
+    return [name for name in DEFAULT_MODELS if name in MODELS]
+
+
+def default_examples(name: str) -> list[BRDF]:
+    """The example instances of the default card of the registered model ``name``."""
+    return MODELS[name].examples()[:4]
+
+
 def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str, list[BRDF]]]:
     """Titles and example instances: every registered default model, or the given specs/files."""
     from brdfkit.brdf import parse
 
     if not models:
-        return [(name, MODELS[name].examples()[:4]) for name in DEFAULT_MODELS if name in MODELS]
+        return [(name, default_examples(name)) for name in _registered_defaults()]
     cards = []
     for item in models:
         if isinstance(item, BRDF):
@@ -440,7 +480,7 @@ def card_html(card: Card) -> str:
     parts = [
         f'<section class="card" id="{html.escape(card.title)}"><h2>{html.escape(card.title)}</h2>'
     ]
-    parts.append(_docs_html(card))
+    parts.append(card.docs_html or _docs_html(card))
     parts.append("<p><b>Examples</b> (left to right)</p><ol>")
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
@@ -494,17 +534,50 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "rough_dielectric": 6.4, "thin_film": 5.9, "torrance_sparrow": 3.7,
-    "kulla_conty_dielectric": 2.7, "principled": 2.0, "kulla_conty": 1.9, "beckmann": 1.8,
-    "cook_torrance": 1.7, "rough_plastic": 1.7, "ashikhmin_shirley": 1.5,
+    "thin_film": 5.2, "rough_dielectric": 4.9, "kulla_conty_dielectric": 4.9,
+    "torrance_sparrow": 2.6, "kulla_conty": 1.9, "rough_plastic": 1.6, "ashikhmin_shirley": 1.4,
+    "principled": 1.4, "beckmann": 1.3, "mirror": 1.3, "smooth_dielectric": 1.3, "ggx": 1.2,
 }  # fmt: skip
-"""CPU seconds of the heaviest default cards, as measured with the quadrature spheres
-(``benchmarks/results/atlas_profile_session16.json``, ``bench_atlas.py --profile``); the
-others took 0.6–1.4 s. Only the order in which :func:`_build_cards` hands cards to its workers
-depends on it."""
+"""CPU seconds of the heaviest default cards, the construction of their examples included
+(``benchmarks/results/atlas_session19.json``, ``bench_atlas.py --profile``: mirror and smooth
+dielectric with their Monte Carlo on NumPy, a cold kernel cache); the others took 0.4–1.1 s.
+Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
 
 
-def _heaviest_first(entries: list[tuple[str, list[BRDF]]]) -> list[int]:
+Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
+"""A card's example instances, or what makes them (in the worker that builds the card)."""
+
+
+def _card(title: str, examples: Examples, options: dict) -> Card:
+    """:func:`build_card` of ``examples``, made first where they are a callable: the default
+    models' examples take seconds to construct (``kulla_conty_dielectric`` and
+    ``rough_plastic`` tabulate albedos), work the workers share instead of the parent doing
+    it alone before they start."""
+    return build_card(title, examples() if callable(examples) else examples, **options)
+
+
+_WORKER_OPTIONS: dict | None = None
+""":func:`build_card`'s options in an atlas worker process, set once as it starts
+(:func:`_start_worker`)."""
+
+
+def _start_worker(options: dict) -> None:
+    """Keep ``options`` for the cards this worker process builds (:func:`_worker_card`)."""
+    global _WORKER_OPTIONS
+    _WORKER_OPTIONS = options
+
+
+def _worker_card(title: str, examples: Examples) -> Card:
+    """:func:`_card` in an atlas worker, with the options it started with: they reach it once,
+    inherited by the fork, not pickled with every card, so that its cards share one map object
+    (its irradiance table, and :mod:`~brdfkit.env_quadrature`'s cell averages of it, cached
+    per map object: 0.07 CPU s per card for levels 0 and 1, 0.37 more for level 2)."""
+    if _WORKER_OPTIONS is None:
+        raise RuntimeError("_worker_card runs in a worker started by _start_worker")
+    return _card(title, examples, _WORKER_OPTIONS)
+
+
+def _heaviest_first(entries: Sequence[tuple[str, Examples]]) -> list[int]:
     """Indices of ``entries`` in decreasing expected cost (:data:`_CARD_CPU_SECONDS`; a card
     not listed, 1 s), ties in their order: the longest-processing-time-first schedule, so that
     the last card a worker takes is a short one and the workers finish together."""
@@ -512,11 +585,11 @@ def _heaviest_first(entries: list[tuple[str, list[BRDF]]]) -> list[int]:
 
 
 def _build_cards(
-    entries: list[tuple[str, list[BRDF]]],
+    entries: Sequence[tuple[str, Examples]],
     options: dict,
     progress: Callable[[str, int, int], None] | None,
 ) -> list[Card]:
-    """:func:`build_card` for every entry, on as many processes as this process has cores
+    """:func:`_card` for every entry, on as many processes as this process has cores
     (cards are independent; NumPy work runs on one core at a time), handed out heaviest first
     (:func:`_heaviest_first`); returned in their order."""
     import multiprocessing
@@ -533,16 +606,18 @@ def _build_cards(
         for done, (title, examples) in enumerate(entries):
             if progress is not None:
                 progress(title, done, len(entries))
-            cards.append(build_card(title, examples, **options))
+            cards.append(_card(title, examples, options))
         return cards
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
-    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+    with ProcessPoolExecutor(
+        workers, mp_context=context, initializer=_start_worker, initargs=(options,)
+    ) as pool:
         order = _heaviest_first(entries)
-        futures = {pool.submit(build_card, *entries[k], **options): k for k in order}
+        futures = {pool.submit(_worker_card, *entries[k]): k for k in order}
         if progress is not None:
             progress(entries[order[0]][0], 0, len(entries))
         for future in as_completed(futures):
@@ -573,7 +648,11 @@ def build_atlas(
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
-    entries = default_cards(models)
+    entries: Sequence[tuple[str, Examples]] = (
+        default_cards(models)
+        if models
+        else [(name, functools.partial(default_examples, name)) for name in _registered_defaults()]
+    )
     options = {
         "envmap": light,
         "resolution": resolution,
@@ -596,5 +675,6 @@ __all__ = [
     "build_card",
     "card_html",
     "default_cards",
+    "default_examples",
     "env_sphere",
 ]
