@@ -544,11 +544,11 @@ dielectric with their Monte Carlo on NumPy, a cold kernel cache); the others too
 Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
 
 
-Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
+_Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
 """A card's example instances, or what makes them (in the worker that builds the card)."""
 
 
-def _card(title: str, examples: Examples, options: dict) -> Card:
+def _card(title: str, examples: _Examples, options: dict) -> Card:
     """:func:`build_card` of ``examples``, made first where they are a callable: the default
     models' examples take seconds to construct (``kulla_conty_dielectric`` and
     ``rough_plastic`` tabulate albedos), work the workers share instead of the parent doing
@@ -567,7 +567,7 @@ def _start_worker(options: dict) -> None:
     _WORKER_OPTIONS = options
 
 
-def _worker_card(title: str, examples: Examples) -> Card:
+def _worker_card(title: str, examples: _Examples) -> Card:
     """:func:`_card` in an atlas worker, with the options it started with: they reach it once,
     inherited by the fork, not pickled with every card, so that its cards share one map object
     (its irradiance table, and :mod:`~brdfkit.env_quadrature`'s cell averages of it, cached
@@ -577,7 +577,7 @@ def _worker_card(title: str, examples: Examples) -> Card:
     return _card(title, examples, _WORKER_OPTIONS)
 
 
-def _heaviest_first(entries: Sequence[tuple[str, Examples]]) -> list[int]:
+def _heaviest_first(entries: Sequence[tuple[str, _Examples]]) -> list[int]:
     """Indices of ``entries`` in decreasing expected cost (:data:`_CARD_CPU_SECONDS`; a card
     not listed, 1 s), ties in their order: the longest-processing-time-first schedule, so that
     the last card a worker takes is a short one and the workers finish together."""
@@ -585,7 +585,7 @@ def _heaviest_first(entries: Sequence[tuple[str, Examples]]) -> list[int]:
 
 
 def _build_cards(
-    entries: Sequence[tuple[str, Examples]],
+    entries: Sequence[tuple[str, _Examples]],
     options: dict,
     progress: Callable[[str, int, int], None] | None,
 ) -> list[Card]:
@@ -648,7 +648,7 @@ def build_atlas(
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     light = EnvironmentMap.from_file(envmap_path)
-    entries: Sequence[tuple[str, Examples]] = (
+    entries: Sequence[tuple[str, _Examples]] = (
         default_cards(models)
         if models
         else [(name, functools.partial(default_examples, name)) for name in _registered_defaults()]
