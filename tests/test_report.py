@@ -147,20 +147,16 @@ def test_build_card_records_the_cpu_seconds_of_its_parts():
     import numpy as np
 
     from brdfkit.lights import EnvironmentMap
-    from brdfkit.report import _docs_html, build_card, card_html
+    from brdfkit.report import build_card
 
     env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
     models = [MODELS["lambertian"](), MODELS["phong"]()]
     card = build_card("t", models, envmap=env, resolution=8, samples=4, run_checks=False)
-    parts = ["docstrings", "directional spheres", "environment spheres", "lobe plot"]
-    parts.append("albedo plot")
+    parts = ["directional spheres", "environment spheres", "lobe plot", "albedo plot"]
     assert list(card.cpu_seconds) == parts and all(s >= 0 for s in card.cpu_seconds.values())
     assert len(card.env_cpu_seconds) == 2 and card.env_samples[0] == "quadrature, 0 nodes"
     assert card.env_samples[1].startswith("quadrature, ")  # phong: isotropic, no delta
     assert sum(card.env_cpu_seconds) <= card.cpu_seconds["environment spheres"] + 1e-6
-    # typeset in build_card (the atlas's workers), and what the page shows
-    assert card.docs_html.startswith('<div class="doc">') and "Ideal diffuse" in card.docs_html
-    assert card.docs_html == _docs_html(card) and card.docs_html in card_html(card)
 
 
 def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):

@@ -57,7 +57,13 @@ def test_the_workers_get_the_map_once_not_with_every_card(tmp_path):
     noted = tmp_path / "pids"
     entries = [(t, functools.partial(_examples_noting_the_process, str(noted))) for t in "abc"]
     options = {"envmap": env, "resolution": 8, "samples": 4, "run_checks": False}
+    # _build_cards forks only from a single-threaded process (earlier tests may have left
+    # threads, e.g. the kernels' pool): then the cards are built here, and nothing is pickled
+    forks = threading.active_count() == 1
     cards = _build_cards(entries, options, None)
     assert [c.title for c in cards] == ["a", "b", "c"] and _CountingMap.pickled == 0
     pids = set(noted.read_text().split())
-    assert str(os.getpid()) not in pids and 1 <= len(pids) <= 2  # built by forked workers
+    if forks:
+        assert str(os.getpid()) not in pids and 1 <= len(pids) <= 2  # built by forked workers
+    else:
+        assert pids == {str(os.getpid())}

@@ -70,7 +70,6 @@ class Card:
     models: list[BRDF]
     labels: list[str]
     docs: list[tuple[str, str]] = field(default_factory=list)  # (heading, docstring) per lobe
-    docs_html: str = ""  # ``docs`` typeset (:func:`build_card`, in its worker); "": at page time
     images: dict[str, str] = field(default_factory=dict)  # caption -> base64 PNG
     checks: list[dict] = field(default_factory=list)
     consistent: bool = True
@@ -329,9 +328,7 @@ def build_card(
     """Render and measure one model family (its example instances) into a :class:`Card`:
     spheres under a directional light at ``samples`` spp, under ``envmap`` by
     :func:`env_sphere` (``samples``, ``noise``, ``max_samples``); the CPU seconds of each part
-    go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``). The
-    docstrings are typeset here too (``docs_html``), so that :func:`_build_cards`'s workers
-    share docutils' work (0.3 CPU s for the default cards) instead of the page's writer."""
+    go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``)."""
     from brdfkit.lights import DirectionalLight
     from brdfkit.plot import albedo_plot, lobe_plot, model_label
     from brdfkit.properties import check
@@ -347,8 +344,6 @@ def build_card(
         card.cpu_seconds[part] = time.process_time() - clock
         clock += card.cpu_seconds[part]
 
-    card.docs_html = _docs_html(card)
-    lap("docstrings")
     sun = DirectionalLight((1.0, 0.6, 0.8), 3.0)
     lit = [render_sphere(m, sun, resolution, samples=samples) for m in models]
     card.images["spheres under a directional light"] = _image_png(_sphere_row(lit, resolution))
@@ -480,7 +475,7 @@ def card_html(card: Card) -> str:
     parts = [
         f'<section class="card" id="{html.escape(card.title)}"><h2>{html.escape(card.title)}</h2>'
     ]
-    parts.append(card.docs_html or _docs_html(card))
+    parts.append(_docs_html(card))
     parts.append("<p><b>Examples</b> (left to right)</p><ol>")
     parts.extend(f"<li><code>{html.escape(label)}</code></li>" for label in card.labels)
     parts.append("</ol>")
