@@ -459,10 +459,12 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
     """
     from scipy.ndimage import maximum_filter
 
+    from brdfkit.io import REC709_WEIGHTS
+
     height = image.shape[0]
     sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
     if image.shape[2] == 3:
-        lum = image @ np.array([0.2126, 0.7152, 0.0722])
+        lum = image @ np.array(REC709_WEIGHTS)
     else:
         lum = image.mean(axis=2)
     peak = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
