@@ -111,6 +111,41 @@ def test_belcour_barla_rgb_matches_the_spectrally_summed_airy_reflectance():
     assert np.median(errors) < 0.01, np.median(errors)
 
 
+def test_xyz_to_srgb_constants_are_colour_sciences_matrix():
+    """The matrix is kept as constants (importing colour-science costs ~1 CPU s a process);
+    they are colour-science's Bradford-adapted E → sRGB matrix, to rounding."""
+    colour = pytest.importorskip("colour")
+    white_e = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["E"]
+    expected = colour.XYZ_to_RGB(
+        np.eye(3), "sRGB", illuminant=white_e, chromatic_adaptation_transform="Bradford"
+    ).T
+    np.testing.assert_allclose(np.array(xyz_to_linear_srgb()), expected, rtol=1e-13, atol=1e-15)
+
+
+def test_thin_film_does_not_import_colour_science():
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import brdfkit
+
+    source = str(Path(brdfkit.__file__).parents[1])  # this brdfkit, not another installed one
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([source, os.environ.get("PYTHONPATH", "")])}
+    code = (
+        "import sys, numpy as np\n"
+        "from brdfkit.brdf import MODELS\n"
+        "m = MODELS['thin_film']()\n"
+        "w = np.array([[0.3, 0.1, 0.9]]) / np.linalg.norm([0.3, 0.1, 0.9])\n"
+        "m.eval(w, w)\n"
+        "print('colour' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
+    assert out.stdout.strip() == "False"
+
+
 def test_white_reflector_is_white():
     np.testing.assert_allclose(np.array(xyz_to_linear_srgb()) @ np.ones(3), 1.0, atol=1e-3)
 

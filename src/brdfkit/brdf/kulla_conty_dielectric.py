@@ -80,6 +80,7 @@ from brdfkit.brdf.base import (
     mixture_choices,
     normalized_weights,
     param,
+    per_direction,
     register,
     result_shape,
 )
@@ -404,6 +405,7 @@ class KullaContyDielectric(BRDF):
         return xp.broadcast_to(value, (*result_shape(wi, wo), 1))
 
     # -- sampling --------------------------------------------------------------------------
+    @per_direction
     def _probabilities(self, wo: Array) -> list[Array]:
         """Choice probabilities of the single lobe, the added reflection and the added
         transmission at ``wo``, each ``(...,)``."""
@@ -440,6 +442,7 @@ class KullaContyDielectric(BRDF):
         added light on that side, the weight f·|cos θi|/p carrying the rest."""
         return self._sample(wo, u, one_sided=True)
 
+    @per_direction
     def _probabilities_one_sided(self, wo: Array) -> list[Array]:
         xp = namespace(wo)
         a, b = self.shares(wo)
