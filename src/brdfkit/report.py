@@ -683,8 +683,7 @@ def build_atlas(
             default_cards(models)
             if models
             else [
-                (name, functools.partial(default_examples, name))
-                for name in _registered_defaults()
+                (name, functools.partial(default_examples, name)) for name in _registered_defaults()
             ]
         )
         options = {

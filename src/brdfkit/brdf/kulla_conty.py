@@ -425,7 +425,7 @@ def _clenshaw(coefficients: tuple[np.ndarray, ...], mu: Array) -> Array:
 
 
 def _clenshaw_numpy(coefficients: tuple[np.ndarray, ...], x: np.ndarray) -> np.ndarray:
-    """:func:`_clenshaw`'s recurrence on a NumPy ``x``, bit for bit: each step
+    r""":func:`_clenshaw`'s recurrence on a NumPy ``x``, bit for bit: each step
     :math:`b_1 \leftarrow (a + (2x)\,b_1) - b_2` (a sum of two terms is the same float in
     either order), with 2x made once and the step written into the buffer :math:`b_2` frees
     (three buffers, no temporaries)."""
