@@ -283,27 +283,32 @@ def _broadcast_rows(w: Any) -> np.ndarray | None:
 def _broadcast_back(value: Any, rows: tuple[int, ...], batch: tuple[int, ...]) -> Any:
     """A result computed on the cut directions (batch ``rows``) broadcast to the full ``batch``:
     an array ``rows`` (per direction) or ``rows + (C,)`` (per direction and channel), or a
-    list or tuple of them."""
+    list or tuple of them; ``None`` where a result has another shape (a model parameter that
+    varies over the batch gave it the batch's extent)."""
     if isinstance(value, list | tuple):
-        return type(value)(_broadcast_back(v, rows, batch) for v in value)
+        parts = [_broadcast_back(v, rows, batch) for v in value]
+        return None if any(part is None for part in parts) else type(value)(parts)
     if type(value) is not np.ndarray or value.shape[: len(rows)] != rows:
-        raise TypeError(f"per_direction: a result of shape {np.shape(value)} for rows {rows}")
+        return None
     if value.ndim == len(rows):
         return np.broadcast_to(value, batch)
     if value.ndim == len(rows) + 1:
         return np.broadcast_to(value, (*batch, value.shape[-1]))
-    raise TypeError(f"per_direction: a result of shape {value.shape} for rows {rows}")
+    return None
 
 
 def per_direction(method: Callable[[Any, Array], Any]) -> Callable[[Any, Array], Any]:
     """Decorate a method ``(self, w)`` whose results (an array ``(...,)`` or ``(..., C)``,
-    or a list or tuple of them) depend on each direction of ``w`` ``(..., 3)`` alone.
+    or a list or tuple of them) depend on each direction of ``w`` ``(..., 3)`` and on the
+    model's parameters alone.
 
     Where ``w`` is a NumPy array broadcast along batch axes (stride 0: the fixed ωo of a
-    sampler's χ² test and pointwise checks, or of an albedo estimate's samples), the method
-    runs on one direction per such axis and its results are broadcast back (read-only
-    views): the same values, from one evaluation per direction instead of one per sample.
-    Any other ``w`` (a contiguous batch, another array backend, a trace) goes through as is.
+    sampler's χ² test and pointwise checks, of an albedo estimate's samples, of a pixel's
+    samples), the method runs on one direction per such axis and its results are broadcast
+    back (read-only views): the same values, from one evaluation per direction instead of
+    one per sample. Any other ``w`` (a contiguous batch, another array backend, a trace)
+    goes through as is, and so does one whose results do not come out per direction (a
+    parameter varying over the batch): the method then runs again on the whole ``w``.
     """
 
     @functools.wraps(method)
@@ -311,7 +316,8 @@ def per_direction(method: Callable[[Any, Array], Any]) -> Callable[[Any, Array],
         rows = _broadcast_rows(w)
         if rows is None:
             return method(self, w)
-        return _broadcast_back(method(self, rows), rows.shape[:-1], w.shape[:-1])
+        value = _broadcast_back(method(self, rows), rows.shape[:-1], w.shape[:-1])
+        return method(self, w) if value is None else value
 
     return wrapper
 

@@ -81,6 +81,7 @@ from brdfkit.brdf.base import (
     check_choice,
     check_flag,
     param,
+    per_direction,
 )
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import CONDUCTORS, conductor, fresnel_conductor, fresnel_dielectric, schlick
@@ -367,8 +368,12 @@ class GGX(_StretchedDistribution):
         root = safe_sqrt(cos_theta * cos_theta + self._alpha2_sin2(w))
         return safe_div(2 * cos_theta, cos_theta + root)
 
-    def sample_visible(self, w: Array, u: Array) -> Array:
-        xp = namespace(w, u)
+    @per_direction
+    def _visible_frame(self, w: Array) -> tuple[Array, Array, Array, Array]:
+        """What :meth:`sample_visible` owes to ``w`` alone: the stretched direction vh, the
+        frame (t1, t2) about it and the blend s = (1 + vh_z)/2, each ``(..., 3)`` (s
+        ``(..., 1)``); made once per direction of a broadcast ``w`` (:func:`per_direction`)."""
+        xp = namespace(w)
         alpha_x, alpha_y = self.channel_mean()._alphas(w)
         vx, vy, vz = w[..., 0:1], w[..., 1:2], w[..., 2:3]
         vh = normalize(xp.concat(xp.broadcast_arrays(alpha_x * vx, alpha_y * vy, vz), axis=-1))
@@ -382,11 +387,16 @@ class GGX(_StretchedDistribution):
         )
         t1 = xp.where(lensq > 0, t1, x_axis)
         t2 = cross(vh, t1)
+        return vh, t1, t2, 0.5 * (1 + vh[..., 2:3])
+
+    def sample_visible(self, w: Array, u: Array) -> Array:
+        xp = namespace(w, u)
+        alpha_x, alpha_y = self.channel_mean()._alphas(w)
+        vh, t1, t2, s = self._visible_frame(w)
         r = xp.sqrt(u[..., 0:1])
         phi = (2 * math.pi) * u[..., 1:2]
         p1 = r * xp.cos(phi)
         p2 = r * xp.sin(phi)
-        s = 0.5 * (1 + vh[..., 2:3])
         p2 = (1 - s) * safe_sqrt(1 - p1 * p1) + s * p2
         nh = p1 * t1 + p2 * t2 + safe_sqrt(1 - p1 * p1 - p2 * p2) * vh
         ne = xp.concat(
@@ -657,10 +667,13 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         xp = namespace(m, u)
         eps = float(xp.finfo(u.dtype).eps)
         zero = xp.zeros_like(u)
-        end = xp.minimum(constant(math.pi / 2, m) / m, constant(_GAUSSIAN_SUPPORT, m)) + zero
+        end = xp.minimum(constant(math.pi / 2, m) / m, constant(_GAUSSIAN_SUPPORT, m))
+        # P(π/2) once per value of m (shape (1,) for a scalar m), not once per sample
         totals = {
-            n: self._integral(m, zero, end, n) for n in (_GAUSSIAN_GUESS_NODES, _GAUSSIAN_CDF_NODES)
+            n: self._integral(m, xp.zeros_like(end), end, n)
+            for n in (_GAUSSIAN_GUESS_NODES, _GAUSSIAN_CDF_NODES)
         }
+        end = end + zero
         log_survival = xp.log1p(-u)
         below_median = u < 0.5
         theta = xp.minimum(
