@@ -77,6 +77,7 @@ class Card:
     env_samples: list[int | str] = field(default_factory=list)
     cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU s of each part's making
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
+    docs_html: str | None = None  # the docstrings typeset (:func:`_docs_html`), once made
 
 
 _LAYOUTS: dict[tuple, list[tuple[float, float, float, float]]] = {}
@@ -476,7 +477,14 @@ def _img(data: str, caption: str) -> str:
 
 def _docs_html(card: Card) -> str:
     """The card's docstrings as HTML, each lobe's under its heading (element ids prefixed by
-    the card's title, so that the cards' footnotes do not collide)."""
+    the card's title, so that the cards' footnotes do not collide); kept in
+    ``card.docs_html``, where :func:`_build_cards` has them typeset already."""
+    if card.docs_html is None:
+        card.docs_html = _typeset_docs(card)
+    return card.docs_html
+
+
+def _typeset_docs(card: Card) -> str:
     slug = re.sub(r"\W+", "-", card.title).strip("-")
     parts = ['<div class="doc">']
     for i, (heading, doc) in enumerate(card.docs):
@@ -652,6 +660,9 @@ def _build_cards(
         for future in as_completed(futures):
             k = futures[future]
             results[k] = future.result()
+            # typeset here, in the parent (docutils beside Sphinx in a docs build needs it
+            # there), while the workers build the other cards: not after the last one
+            _docs_html(results[k])
             if progress is not None:
                 progress(entries[k][0], len(results), len(entries))
     return [results[k] for k in range(len(entries))]
