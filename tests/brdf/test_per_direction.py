@@ -59,7 +59,16 @@ def test_a_parameter_varying_over_the_batch_is_evaluated_whole():
 
 
 @pytest.mark.parametrize(
-    "name", ["kulla_conty", "kulla_conty_dielectric", "ggx", "rough_dielectric", "thin_film"]
+    "name",
+    [
+        "kulla_conty",
+        "kulla_conty_dielectric",
+        "ggx",
+        "beckmann",
+        "rough_dielectric",
+        "rough_plastic",
+        "thin_film",
+    ],
 )
 def test_sampling_with_a_broadcast_wo_is_bitwise_the_per_sample_result(name):
     rng = np.random.default_rng(2)
