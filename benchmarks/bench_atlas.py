@@ -21,7 +21,8 @@ estimates the reference's own noise, reported alongside), against the quadrature
 level there.
 
 Profile (``--profile``): the CPU seconds of each part of each card (directional spheres,
-environment spheres, plots, checks), cards built one after another, and of each
+environment spheres, plots, checks), cards built one after another (with one BLAS thread, as
+the atlas's processes), and of each
 environment-lit sphere, marked "(NumPy)" where its compiled kernels were not there (cold).
 
     python benchmarks/bench_atlas.py [--repeats 1] [--cold] [--noise-resolution 96]
@@ -243,8 +244,11 @@ def main() -> None:
         "options": goal or "defaults",
     }
     if args.profile:
+        from threadpoolctl import threadpool_limits
+
         print("CPU seconds of each part, cards one after another in this process:")
-        record["profile"] = profile_atlas(args.only)
+        with threadpool_limits(1, user_api="blas"):  # as the atlas's processes
+            record["profile"] = profile_atlas(args.only)
     if not args.skip_noise:
         print(f"noise at the atlas's spp N against 16 N spp, {args.noise_resolution}²:")
         rows = sphere_noise(args.noise_resolution, args.only, goal, args.mc_samples)

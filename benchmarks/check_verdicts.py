@@ -34,6 +34,13 @@ class _Laps:
 
 
 def main() -> None:
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1, user_api="blas"):  # as the atlas's processes
+        _verdicts()
+
+
+def _verdicts() -> None:
     out: dict[str, list] = {}
     totals: dict[str, float] = {}
     for title, models in default_cards():

@@ -186,6 +186,29 @@ def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):
     assert len(positions) == 3 and positions[1] != positions[2]
 
 
+def test_png_draws_a_figure_with_a_kept_layout_once(monkeypatch):
+    """A plot given the kept positions has no layout engine at all (not matplotlib's
+    placeholder, for which savefig draws the figure a second time, to lay it out)."""
+    import math
+
+    from matplotlib.figure import Figure
+
+    from brdfkit import report
+    from brdfkit.plot import lobe_plot
+
+    monkeypatch.setattr(report, "_LAYOUTS", {})
+    angles = [math.radians(a) for a in (0, 30, 60)]
+    report._png(lobe_plot(MODELS["lambertian"](), angles), layout=("lobe",))
+    draws = []
+    real = Figure.draw
+    monkeypatch.setattr(
+        Figure, "draw", lambda fig, renderer: draws.append(1) or real(fig, renderer)
+    )
+    reused = lobe_plot(MODELS["ggx"](alpha=0.2), angles)
+    report._png(reused, layout=("lobe",))
+    assert len(draws) == 1 and reused.get_layout_engine() is None
+
+
 def test_default_examples_are_made_by_the_card_builders_not_the_parent(monkeypatch, tmp_path):
     from brdfkit import report
 

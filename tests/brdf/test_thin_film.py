@@ -111,6 +111,76 @@ def test_belcour_barla_rgb_matches_the_spectrally_summed_airy_reflectance():
     assert np.median(errors) < 0.01, np.median(errors)
 
 
+def _xyz_afresh(cos_1, d, eta_2, eta_3, k_3):
+    """belcour_barla_xyz with every sensitivity evaluated afresh (the m = 0 term too)."""
+    from brdfkit.brdf.thin_film import ORDERS, _sensitivity, film_amplitudes
+
+    polarisations, q2 = film_amplitudes(cos_1, eta_2, eta_3, k_3)
+    opd = 2 * q2 * d
+    total = 0
+    for r12, r23_sq, phi23 in polarisations:
+        r12_sq = r12 * r12
+        t121 = 1 - r12_sq
+        r123_sq = r12_sq * r23_sq
+        rs = t121 * t121 * r23_sq / (1 - r123_sq)
+        phi2 = (np.pi - np.where(r12 < 0, np.pi, 0.0)) + phi23
+        xyz = (r12_sq + rs) * _sensitivity(0 * opd, 0 * opd)
+        cm = rs - t121
+        r123 = np.sqrt(np.maximum(r123_sq, 0.0))
+        for m in range(1, ORDERS + 1):
+            cm = cm * r123
+            xyz = xyz + cm * 2 * _sensitivity(m * opd, m * phi2)
+        total = total + 0.5 * xyz
+    return total
+
+
+def test_shared_sensitivities_are_the_fresh_ones_bit_for_bit():
+    """The m = 0 term is a constant and each order's Gaussian envelopes serve both
+    polarisations: the same floats as evaluating every sensitivity afresh."""
+    cos_1 = np.random.default_rng(7).random((5000, 1))
+    cos_1[:3, 0] = [1.0, 1e-9, 0.5]
+    for d, eta_2, eta_3, k_3 in ((400.0, 1.33, 1.5, 0.0), (250.0, 1.8, 0.2, 3.0), (0.0, 1.4, 1, 0)):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ours = belcour_barla_xyz(cos_1, d, eta_2, eta_3, k_3)
+            fresh = _xyz_afresh(cos_1, d, eta_2, eta_3, k_3)
+        assert ours.shape == fresh.shape and np.array_equal(ours, fresh, equal_nan=True)
+
+
+def test_xyz_to_srgb_constants_are_colour_sciences_matrix():
+    """The matrix is kept as constants (importing colour-science costs ~1 CPU s a process);
+    they are colour-science's Bradford-adapted E → sRGB matrix, to rounding."""
+    colour = pytest.importorskip("colour")
+    white_e = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["E"]
+    expected = colour.XYZ_to_RGB(
+        np.eye(3), "sRGB", illuminant=white_e, chromatic_adaptation_transform="Bradford"
+    ).T
+    np.testing.assert_allclose(np.array(xyz_to_linear_srgb()), expected, rtol=1e-13, atol=1e-15)
+
+
+def test_thin_film_does_not_import_colour_science():
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import brdfkit
+
+    source = str(Path(brdfkit.__file__).parents[1])  # this brdfkit, not another installed one
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([source, os.environ.get("PYTHONPATH", "")])}
+    code = (
+        "import sys, numpy as np\n"
+        "from brdfkit.brdf import MODELS\n"
+        "m = MODELS['thin_film']()\n"
+        "w = np.array([[0.3, 0.1, 0.9]]) / np.linalg.norm([0.3, 0.1, 0.9])\n"
+        "m.eval(w, w)\n"
+        "print('colour' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
+    assert out.stdout.strip() == "False"
+
+
 def test_white_reflector_is_white():
     np.testing.assert_allclose(np.array(xyz_to_linear_srgb()) @ np.ones(3), 1.0, atol=1e-3)
 

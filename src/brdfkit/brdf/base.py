@@ -17,6 +17,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import reprlib
 from collections.abc import Callable
@@ -262,6 +263,63 @@ def param(value: Any, like: Array) -> Array:
     floating = hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating")
     arr = asarray(value, xp, like=like, dtype=like.dtype if floating else None)
     return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
+
+
+def _broadcast_rows(w: Any) -> np.ndarray | None:
+    """``w`` ``(..., 3)`` with each batch axis along which it is broadcast (a NumPy stride of
+    0, length > 1) cut to length 1, or ``None`` where there is none (or ``w`` is not a
+    NumPy array)."""
+    if type(w) is not np.ndarray or w.ndim < 2:
+        return None
+    index = tuple(
+        slice(0, 1) if stride == 0 and n > 1 else slice(None)
+        for stride, n in zip(w.strides[:-1], w.shape[:-1], strict=True)
+    )
+    if all(i == slice(None) for i in index):
+        return None
+    return w[index]
+
+
+def _broadcast_back(value: Any, rows: tuple[int, ...], batch: tuple[int, ...]) -> Any:
+    """A result computed on the cut directions (batch ``rows``) broadcast to the full ``batch``:
+    an array ``rows`` (per direction) or ``rows + (C,)`` (per direction and channel), or a
+    list or tuple of them; ``None`` where a result has another shape (a model parameter that
+    varies over the batch gave it the batch's extent)."""
+    if isinstance(value, list | tuple):
+        parts = [_broadcast_back(v, rows, batch) for v in value]
+        return None if any(part is None for part in parts) else type(value)(parts)
+    if type(value) is not np.ndarray or value.shape[: len(rows)] != rows:
+        return None
+    if value.ndim == len(rows):
+        return np.broadcast_to(value, batch)
+    if value.ndim == len(rows) + 1:
+        return np.broadcast_to(value, (*batch, value.shape[-1]))
+    return None
+
+
+def per_direction(method: Callable[[Any, Array], Any]) -> Callable[[Any, Array], Any]:
+    """Decorate a method ``(self, w)`` whose results (an array ``(...,)`` or ``(..., C)``,
+    or a list or tuple of them) depend on each direction of ``w`` ``(..., 3)`` and on the
+    model's parameters alone.
+
+    Where ``w`` is a NumPy array broadcast along batch axes (stride 0: the fixed ωo of a
+    sampler's χ² test and pointwise checks, of an albedo estimate's samples, of a pixel's
+    samples), the method runs on one direction per such axis and its results are broadcast
+    back (read-only views): the same values, from one evaluation per direction instead of
+    one per sample. Any other ``w`` (a contiguous batch, another array backend, a trace)
+    goes through as is, and so does one whose results do not come out per direction (a
+    parameter varying over the batch): the method then runs again on the whole ``w``.
+    """
+
+    @functools.wraps(method)
+    def wrapper(self: Any, w: Array) -> Any:
+        rows = _broadcast_rows(w)
+        if rows is None:
+            return method(self, w)
+        value = _broadcast_back(method(self, rows), rows.shape[:-1], w.shape[:-1])
+        return method(self, w) if value is None else value
+
+    return wrapper
 
 
 def normalized_weights(weights: list[Array]) -> list[Array]:

@@ -80,6 +80,7 @@ from brdfkit.brdf.base import (
     mixture_choices,
     normalized_weights,
     param,
+    per_direction,
     register,
     result_shape,
 )
@@ -148,12 +149,15 @@ def dielectric_albedo(
     wo = np.stack([np.sqrt(np.clip(1 - flat * flat, 0, 1)), 0 * flat, flat], axis=-1)
     wo = np.broadcast_to(wo[:, None, :], (flat.size, u.shape[0], 3))
     model = single_scattering(alpha, eta)
+    # the sampler's normals and Fresnel terms, made once for both branches
+    h = sample_normal(model.ndf, True, wo, np.broadcast_to(u, (*wo.shape[:-1], 2)))
+    terms = fresnel(dot(wo, h, keepdims=True), param(model.eta, wo))
     branches = []
     for u_choice in (0.0, 1.0):  # reflect wherever F > 0; refract unless F = 1
         u3 = np.concatenate([u, np.full((u.shape[0], 1), u_choice)], axis=-1)
-        branches.append(model.sample(wo, np.broadcast_to(u3, wo.shape)).weight[..., 0])
-    h = sample_normal(model.ndf, True, wo, np.broadcast_to(u, (*wo.shape[:-1], 2)))
-    f = fresnel(dot(wo, h), eta)[0]
+        sample = model._sample_at_normal(wo, h, np.broadcast_to(u3, wo.shape), False, terms)
+        branches.append(sample.weight[..., 0])
+    f = terms[0][..., 0]
     albedo = np.stack([f * branches[0], (1 - f) * branches[1]], axis=-1)
     return np.einsum("pnk,n->pk", albedo, weights).reshape(*mu.shape, 2)
 
@@ -404,6 +408,7 @@ class KullaContyDielectric(BRDF):
         return xp.broadcast_to(value, (*result_shape(wi, wo), 1))
 
     # -- sampling --------------------------------------------------------------------------
+    @per_direction
     def _probabilities(self, wo: Array) -> list[Array]:
         """Choice probabilities of the single lobe, the added reflection and the added
         transmission at ``wo``, each ``(...,)``."""
@@ -440,6 +445,7 @@ class KullaContyDielectric(BRDF):
         added light on that side, the weight f·|cos θi|/p carrying the rest."""
         return self._sample(wo, u, one_sided=True)
 
+    @per_direction
     def _probabilities_one_sided(self, wo: Array) -> list[Array]:
         xp = namespace(wo)
         a, b = self.shares(wo)

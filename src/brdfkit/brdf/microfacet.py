@@ -81,6 +81,7 @@ from brdfkit.brdf.base import (
     check_choice,
     check_flag,
     param,
+    per_direction,
 )
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import CONDUCTORS, conductor, fresnel_conductor, fresnel_dielectric, schlick
@@ -367,8 +368,12 @@ class GGX(_StretchedDistribution):
         root = safe_sqrt(cos_theta * cos_theta + self._alpha2_sin2(w))
         return safe_div(2 * cos_theta, cos_theta + root)
 
-    def sample_visible(self, w: Array, u: Array) -> Array:
-        xp = namespace(w, u)
+    @per_direction
+    def _visible_frame(self, w: Array) -> tuple[Array, Array, Array, Array]:
+        """What :meth:`sample_visible` owes to ``w`` alone: the stretched direction vh, the
+        frame (t1, t2) about it and the blend s = (1 + vh_z)/2, each ``(..., 3)`` (s
+        ``(..., 1)``); made once per direction of a broadcast ``w`` (:func:`per_direction`)."""
+        xp = namespace(w)
         alpha_x, alpha_y = self.channel_mean()._alphas(w)
         vx, vy, vz = w[..., 0:1], w[..., 1:2], w[..., 2:3]
         vh = normalize(xp.concat(xp.broadcast_arrays(alpha_x * vx, alpha_y * vy, vz), axis=-1))
@@ -382,11 +387,16 @@ class GGX(_StretchedDistribution):
         )
         t1 = xp.where(lensq > 0, t1, x_axis)
         t2 = cross(vh, t1)
+        return vh, t1, t2, 0.5 * (1 + vh[..., 2:3])
+
+    def sample_visible(self, w: Array, u: Array) -> Array:
+        xp = namespace(w, u)
+        alpha_x, alpha_y = self.channel_mean()._alphas(w)
+        vh, t1, t2, s = self._visible_frame(w)
         r = xp.sqrt(u[..., 0:1])
         phi = (2 * math.pi) * u[..., 1:2]
         p1 = r * xp.cos(phi)
         p2 = r * xp.sin(phi)
-        s = 0.5 * (1 + vh[..., 2:3])
         p2 = (1 - s) * safe_sqrt(1 - p1 * p1) + s * p2
         nh = p1 * t1 + p2 * t2 + safe_sqrt(1 - p1 * p1 - p2 * p2) * vh
         ne = xp.concat(
@@ -460,8 +470,12 @@ class Beckmann(_StretchedDistribution):
             return xp.where(a < 1.6, 1 / g1 - 1, xp.zeros_like(a))
         return 0.5 * (erf(a) - 1) + xp.exp(-a * a) / (2 * math.sqrt(math.pi) * a)
 
-    def sample_visible(self, w: Array, u: Array) -> Array:
-        xp = namespace(w, u)
+    @per_direction
+    def _visible_setup(self, w: Array) -> tuple[Array, ...]:
+        """What :meth:`sample_visible` owes to ``w`` alone, each ``(..., 1)``: the azimuth's
+        cos φ and sin φ of the stretched direction and :func:`_beckmann_direction_terms` of
+        its cos θ; made once per direction of a broadcast ``w`` (:func:`per_direction`)."""
+        xp = namespace(w)
         alpha_x, alpha_y = self.channel_mean()._alphas(w)
         w_p = normalize(
             xp.concat(
@@ -474,7 +488,13 @@ class Beckmann(_StretchedDistribution):
         safe_sin = xp.where(has_phi, sin_theta, xp.ones_like(sin_theta))
         cos_phi = xp.where(has_phi, w_p[..., 0:1] / safe_sin, xp.ones_like(sin_theta))
         sin_phi = xp.where(has_phi, w_p[..., 1:2] / safe_sin, xp.zeros_like(sin_theta))
-        slope_x, slope_y = _beckmann_visible_slopes(w_p[..., 2:3], u)
+        return cos_phi, sin_phi, *_beckmann_direction_terms(w_p[..., 2:3])
+
+    def sample_visible(self, w: Array, u: Array) -> Array:
+        xp = namespace(w, u)
+        alpha_x, alpha_y = self.channel_mean()._alphas(w)
+        cos_phi, sin_phi, *terms = self._visible_setup(w)
+        slope_x, slope_y = _beckmann_visible_slopes(terms, u)
         slope_x, slope_y = (
             (cos_phi * slope_x - sin_phi * slope_y) * alpha_x,
             (sin_phi * slope_x + cos_phi * slope_y) * alpha_y,
@@ -485,9 +505,25 @@ class Beckmann(_StretchedDistribution):
 _BECKMANN_NEWTON_STEPS = 5
 
 
-def _beckmann_visible_slopes(cos_theta: Array, u: Array) -> tuple[Array, Array]:
-    r"""Slopes of the standard (α = 1) Beckmann visible normals for incidence ``cos_theta``
-    in the xz-plane: Jakob's Newton inversion in :math:`x = \operatorname{erf}(\tilde x)` of
+def _beckmann_direction_terms(cos_theta: Array) -> tuple[Array, Array, Array]:
+    r""":func:`_beckmann_visible_slopes`' terms of the incidence alone, from its ``cos_theta``:
+    tan θ (floored at 10⁻¹²), the largest value :math:`\operatorname{erf}(\cot\theta)` of x and
+    the CDF's total :math:`1 + \operatorname{erf}(\cot\theta) + \tan\theta\,
+    e^{-\cot^2\theta}/\sqrt\pi`."""
+    xp = namespace(cos_theta)
+    inv_sqrt_pi = 1 / math.sqrt(math.pi)
+    tan_theta = safe_sqrt(1 - cos_theta * cos_theta) / cos_theta
+    tan_theta = xp.maximum(tan_theta, constant(1e-12, tan_theta))
+    cot_theta = 1 / tan_theta
+    max_value = erf(cot_theta)
+    total = 1 + max_value + inv_sqrt_pi * tan_theta * xp.exp(-cot_theta * cot_theta)
+    return tan_theta, max_value, total
+
+
+def _beckmann_visible_slopes(terms: tuple[Array, Array, Array], u: Array) -> tuple[Array, Array]:
+    r"""Slopes of the standard (α = 1) Beckmann visible normals for an incidence in the
+    xz-plane, given its :func:`_beckmann_direction_terms` ``terms``: Jakob's Newton inversion
+    in :math:`x = \operatorname{erf}(\tilde x)` of
     :math:`1 + x + \tan\theta\, e^{-\operatorname{erfinv}(x)^2}/\sqrt\pi = u_1 C`, and
     :math:`\tilde y = \operatorname{erfinv}(2u_2 - 1)`.
 
@@ -496,17 +532,14 @@ def _beckmann_visible_slopes(cos_theta: Array, u: Array) -> tuple[Array, Array]:
     .. [1] W. Jakob, "An improved visible normal sampling routine for the Beckmann
            distribution", 2014; Mitsuba 3 ``MicrofacetDistribution::sample_visible_11``.
     """
-    xp = namespace(cos_theta, u)
+    tan_theta, max_value, total = terms
+    xp = namespace(tan_theta, u)
     inv_sqrt_pi = 1 / math.sqrt(math.pi)
-    eps = 1e-6 if cos_theta.dtype == xp.float32 else 1e-12
-    tan_theta = safe_sqrt(1 - cos_theta * cos_theta) / cos_theta
-    tan_theta = xp.maximum(tan_theta, constant(1e-12, tan_theta))
-    cot_theta = 1 / tan_theta
-    max_value = erf(cot_theta)
+    eps = 1e-6 if tan_theta.dtype == xp.float32 else 1e-12
     u = clamp(u, eps, 1 - eps)
     u1, u2 = u[..., 0:1], u[..., 1:2]
     x = max_value - (max_value + 1) * erf(xp.sqrt(-xp.log(u1)))
-    target = u1 * (1 + max_value + inv_sqrt_pi * tan_theta * xp.exp(-cot_theta * cot_theta))
+    target = u1 * total
     lo = -xp.ones_like(x) + eps
     hi = max_value - eps
     for _ in range(_BECKMANN_NEWTON_STEPS):
@@ -657,10 +690,13 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         xp = namespace(m, u)
         eps = float(xp.finfo(u.dtype).eps)
         zero = xp.zeros_like(u)
-        end = xp.minimum(constant(math.pi / 2, m) / m, constant(_GAUSSIAN_SUPPORT, m)) + zero
+        end = xp.minimum(constant(math.pi / 2, m) / m, constant(_GAUSSIAN_SUPPORT, m))
+        # P(π/2) once per value of m (shape (1,) for a scalar m), not once per sample
         totals = {
-            n: self._integral(m, zero, end, n) for n in (_GAUSSIAN_GUESS_NODES, _GAUSSIAN_CDF_NODES)
+            n: self._integral(m, xp.zeros_like(end), end, n)
+            for n in (_GAUSSIAN_GUESS_NODES, _GAUSSIAN_CDF_NODES)
         }
+        end = end + zero
         log_survival = xp.log1p(-u)
         below_median = u < 0.5
         theta = xp.minimum(

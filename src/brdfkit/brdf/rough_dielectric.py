@@ -236,8 +236,22 @@ class RoughDielectric(BRDF):
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo = xp.broadcast_to(wo, (*batch, 3))
         h = sample_normal(self.ndf, self.sample_visible, wo, u)
+        return self._sample_at_normal(wo, h, u, one_sided)
+
+    def _sample_at_normal(
+        self, wo: Array, h: Array, u: Array, one_sided: bool, fresnel_terms: tuple | None = None
+    ) -> Sample:
+        """:meth:`_sample` on from its microfacet normal ``h`` (``wo`` broadcast to the batch
+        already): reflect or refract by ``u[..., 2]``, the density and the weight.
+        ``fresnel_terms``: :func:`~brdfkit.fresnel.fresnel` of ``wo·h``, where the caller has
+        it (:func:`~brdfkit.brdf.kulla_conty_dielectric.dielectric_albedo` samples both
+        branches at each normal)."""
+        xp = namespace(wo, h, u)
+        batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo_h = dot(wo, h, keepdims=True)
-        f, cos_t, _, eta_ti = fresnel(wo_h, param(self.eta, wo))
+        if fresnel_terms is None:
+            fresnel_terms = fresnel(wo_h, param(self.eta, wo))
+        f, cos_t, _, eta_ti = fresnel_terms
         choice = wo[..., 2:3] > 0 if one_sided else u[..., 2:3] < f
         reflect = choice | (f >= 1)  # total internal reflection whatever u
         reflected = 2 * wo_h * h - wo

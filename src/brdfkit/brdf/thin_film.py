@@ -30,7 +30,6 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -127,11 +126,25 @@ def airy_reflectance(
     return 0.5 * total
 
 
-def _sensitivity(opd: Array, shift: Array) -> Array:
+def _envelopes(opd: Array) -> tuple[Array, Array, Array]:
+    r"""What :func:`_sensitivity` at optical path difference ``opd`` does not owe to its
+    shift: the phase :math:`2\pi\cdot 10^{-9}\,\text{opd}` and the Gaussian envelopes
+    :math:`e^{-v\,\text{phase}^2}` of the three fits ``(..., 3)`` and of X's second lobe
+    ``(..., 1)``; both polarisations of a Fourier order share them."""
+    xp = namespace(opd)
+    phase = (2 * math.pi * 1e-9) * opd
+    var = param([4.3278e09, 9.3046e09, 6.6121e09], opd)
+    return phase, xp.exp(-var * phase * phase), xp.exp(-4.5282e09 * phase * phase)
+
+
+def _sensitivity(
+    opd: Array, shift: Array, envelopes: tuple[Array, Array, Array] | None = None
+) -> Array:
     r"""The Fourier transform of the CIE 1931 colour-matching functions (Gaussian fits,
     normalised so that the m = 0 term is XYZ ≈ (1, 1, 1) of a white reflector under the
     equal-energy illuminant) at optical path difference ``opd`` (nm), shifted by ``shift``;
-    ``(..., 1)`` → ``(..., 3)``.
+    ``(..., 1)`` → ``(..., 3)``. ``envelopes``: :func:`_envelopes` of ``opd``, where the
+    caller has them already (the same values).
 
     References
     ----------
@@ -139,16 +152,21 @@ def _sensitivity(opd: Array, shift: Array) -> Array:
            (``evalSensitivity``); KHR_materials_iridescence for the nanometre form.
     """
     xp = namespace(opd, shift)
-    phase = (2 * math.pi * 1e-9) * opd
+    phase, gaussian, gaussian_x = _envelopes(opd) if envelopes is None else envelopes
     val = param([5.4856e-13, 4.4201e-13, 5.2481e-13], opd)
     pos = param([1.6810e06, 1.7953e06, 2.2084e06], opd)
     var = param([4.3278e09, 9.3046e09, 6.6121e09], opd)
     xyz = val * xp.sqrt(2 * math.pi * var) * xp.cos(pos * phase + shift)
-    xyz = xyz * xp.exp(-var * phase * phase)
+    xyz = xyz * gaussian
     extra = 9.7470e-14 * math.sqrt(2 * math.pi * 4.5282e09)
-    extra = extra * xp.cos(2.2399e06 * phase + shift) * xp.exp(-4.5282e09 * phase * phase)
+    extra = extra * xp.cos(2.2399e06 * phase + shift) * gaussian_x
     x_only = param([1.0, 0.0, 0.0], opd)
     return (xyz + x_only * extra) / 1.0685e-7
+
+
+_WHITE = tuple(float(v) for v in _sensitivity(np.zeros(1), np.zeros(1)))
+""":func:`_sensitivity` at zero path difference and shift (the m = 0 term, the CMFs'
+integrals): cos 0 = e⁰ = 1 exactly, so these are the very floats it gives there."""
 
 
 def belcour_barla_xyz(
@@ -162,10 +180,14 @@ def belcour_barla_xyz(
     r"""CIE XYZ (equal-energy illuminant, Y = 1 for a white reflector) of the Airy reflectance,
     by Belcour & Barla's spectral integration in Fourier space (module docstring), with
     ``orders`` terms m ≥ 1; ``(..., 1)`` arguments → ``(..., 3)``. The base index is the same
-    at every wavelength."""
+    at every wavelength. The m = 0 term's sensitivity is a constant (:data:`_WHITE`) and each
+    order's Gaussian envelopes are computed once for both polarisations (they do not depend
+    on the phase shift): the same floats as evaluating :func:`_sensitivity` afresh."""
     xp = namespace(cos_theta_1, thickness, eta_film, eta_base, k_base)
     polarisations, q2 = film_amplitudes(cos_theta_1, eta_film, eta_base, k_base)
     opd = 2 * q2 * thickness
+    white = param(_WHITE, opd)
+    envelopes = [_envelopes(m * opd) for m in range(1, orders + 1)]
     total = 0
     for r12, r23_sq, phi23 in polarisations:
         r12_sq = r12 * r12
@@ -174,28 +196,32 @@ def belcour_barla_xyz(
         rs = t121 * t121 * r23_sq / (1 - r123_sq)
         phi12 = xp.where(r12 < 0, constant(math.pi, r12), constant(0, r12))  # r12 is real
         phi2 = (math.pi - phi12) + phi23
-        xyz = (r12_sq + rs) * _sensitivity(0 * opd, 0 * opd)
+        xyz = (r12_sq + rs) * white
         cm = rs - t121
         r123 = safe_sqrt(r123_sq)
         for m in range(1, orders + 1):
             cm = cm * r123
-            xyz = xyz + cm * 2 * _sensitivity(m * opd, m * phi2)
+            xyz = xyz + cm * 2 * _sensitivity(m * opd, m * phi2, envelopes[m - 1])
         total = total + 0.5 * xyz
     return total
 
 
-@functools.lru_cache(maxsize=1)
+_XYZ_TO_LINEAR_SRGB = (
+    (3.1462980624321326, -1.6662654804053003, -0.4801892993520599),
+    (-0.995187803032164, 1.9555754230400555, 0.03971152892827865),
+    (0.06366240363778476, -0.21458887554061587, 1.1510009095928009),
+)
+""":func:`xyz_to_linear_srgb`'s matrix, as colour-science 0.4.7 computes it (rows)."""
+
+
 def xyz_to_linear_srgb() -> tuple[tuple[float, ...], ...]:
     """The 3×3 matrix from XYZ under the equal-energy illuminant E to linear sRGB (D65),
-    Bradford-adapted so that a white reflector (XYZ = (1, 1, 1)) is RGB (1, 1, 1); from
-    colour-science, as rows."""
-    import colour
-
-    white_e = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["E"]
-    matrix = colour.XYZ_to_RGB(
-        np.eye(3), "sRGB", illuminant=white_e, chromatic_adaptation_transform="Bradford"
-    ).T
-    return tuple(tuple(float(x) for x in row) for row in matrix)
+    Bradford-adapted so that a white reflector (XYZ = (1, 1, 1)) is RGB (1, 1, 1), as rows:
+    colour-science's ``XYZ_to_RGB(np.eye(3), "sRGB", illuminant=E,
+    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats), as
+    importing colour-science takes ~1 CPU s, a process's every thin-film evaluation paid it
+    (``tests/brdf/test_thin_film.py`` compares them with colour-science)."""
+    return _XYZ_TO_LINEAR_SRGB
 
 
 # --------------------------------------------------------------------------- the Fresnel factor

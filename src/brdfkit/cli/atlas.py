@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, progress, shown
+from brdfkit.cli._app import app, console, fail, shown, status
 from brdfkit.cli._output import OutputFolder
 from brdfkit.report import ENV_MAX_SAMPLES, ENV_NOISE
 
@@ -56,23 +56,31 @@ def atlas_command(
     import matplotlib
 
     matplotlib.use("Agg")
-    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from brdfkit.report import build_atlas
 
     if envmap is not None and not envmap.is_file():
         fail(f"envmap must be an existing .hdr/.exr file; got {shown(envmap)!r}")
     folder = OutputFolder(output, ("index.html",), inputs=(envmap, *map(Path, models)))
-    with progress(
+    # As cli._app.progress, but redrawn only as cards finish (no auto-refresh): rich's refresh
+    # thread would leave the process with two threads, and the atlas forks its card workers
+    # only from a single-threaded process, so on a terminal it built every card in turn.
+    with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         TextColumn("{task.completed}/{task.total}"),
         TimeElapsedColumn(),
+        console=status,
+        transient=True,
+        disable=not status.is_terminal,
+        auto_refresh=False,
     ) as bar:
         task = bar.add_task("atlas", total=None)
 
         def step(title: str, done: int, total: int) -> None:
             bar.update(task, description=f"atlas: {title}", completed=done, total=total)
+            bar.refresh()
 
         path = folder.write(
             "index.html",
