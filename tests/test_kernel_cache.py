@@ -165,3 +165,15 @@ def test_a_second_process_loads_the_tile_kernel_and_renders_the_same_image(tmp_p
     assert warm["stats"].get("misses", 0) == 0 and warm["stats"].get("hits", 0) >= 4
     assert warm["stats"].get("errors", 0) == 0
     np.testing.assert_array_equal(warm["f"], cold["f"])
+
+
+def test_the_version_reads_numbas_version_without_importing_numba():
+    """The atlas's workers ask for the cache's version; importing numba for its version alone
+    cost each of them ~0.3 s."""
+    code = (
+        "import sys; from brdfkit import kernel_cache; kernel_cache.version(); "
+        "print('numba' in sys.modules)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "False"
