@@ -8,7 +8,8 @@ and times every calibrated method of ``brdfkit ps`` (the registries of
 mask, the others on the mask. The target (issue 21) is < 2 s per method on 2 cores.
 Prints one JSON record per line: method, pixels, wall seconds (best of ``--repeat``), the CPU
 seconds of that run (all threads; more than the wall time when BLAS runs in parallel),
-iterations and the mean / median angular error in degrees. Before the timed runs each method
+iterations, the mean / median angular error in degrees and the load averages when the method
+finished (other processes on the cores lengthen the wall time). Before the timed runs each method
 is called once on a 16 x 16 crop, and the CPU seconds of that call are reported apart
 (``first_call_cpu_seconds``: compiling the numba kernels when their on-disk cache is cold,
 loading it otherwise).
@@ -88,6 +89,7 @@ def main() -> None:
             "iterations": iterations,
             "mean_deg": round(errors["mean"], 3),
             "median_deg": round(errors["median"], 3),
+            "loadavg": [round(x, 2) for x in os.getloadavg()],
         }
         print(json.dumps(record), flush=True)
 

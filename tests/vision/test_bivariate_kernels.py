@@ -454,3 +454,114 @@ def test_start_fits_keep_the_products_a_refit_gives(glossy, name):
     )
     reference = refit_products(moved, free.copy())
     np.testing.assert_array_equal(kept, reference)
+
+
+# ----------------------------------------------------------------------------------------------
+# The kernels of the 2026-12 speed-up against the computations they replace
+
+
+def _old_order(gray, shadow_threshold):
+    """The ranks and shadow weights as :func:`bivariate._start` made them before
+    ``order_statistics``: NumPy's sort and percentile."""
+    lit = (gray > shadow_threshold * bivariate._reference(gray.T)[None, :]).T.astype(np.float64)
+    return bivariate._ranks(gray), lit
+
+
+@pytest.mark.parametrize("n_lights", [3, 4, 10, 11, 96, 100])
+def test_order_statistics_equal_numpy_sort_and_percentile(glossy, n_lights):
+    rng = np.random.default_rng(7)
+    if n_lights == 96:
+        gray = glossy[0]
+    else:
+        gray = rng.random((n_lights, 300))
+    gray = np.concatenate([gray, np.round(gray[:, :60], 1), np.zeros((n_lights, 3))], axis=1)
+    gray[:2, -2] = 0.5  # ties above the shadows, an all-dark pixel
+    for threshold in (0.0, 0.05, 0.5):
+        ranks, lit, by_pixel = bivariate._order(gray, threshold)
+        ref_ranks, ref_lit = _old_order(gray, threshold)
+        np.testing.assert_array_equal(ranks, ref_ranks)  # ties by NumPy's order
+        np.testing.assert_array_equal(lit, ref_lit)
+        np.testing.assert_array_equal(by_pixel, gray.T)
+        assert by_pixel.flags.c_contiguous and ranks.dtype == ref_ranks.dtype
+    with pytest.raises(bivariate.ParameterError):
+        bivariate._order(gray, 1.0)
+
+
+def test_ramps_bound_equals_the_unconstrained_fit(glossy):
+    # the Cholesky bound against _fit's unconstrained cost (LU solve, residual pass) on the
+    # same observations: equal up to the rounding of the two solves (the Grams of normals far
+    # off are ill-conditioned: ~1e-12 of the signal), a thousandth of the screening margin
+    gray, lights, lit, starts, _ = glossy
+    basis = bivariate._sum_of_lobes_basis(*_ramps_knots())
+    inputs = bivariate._kernel_inputs(lights, basis)
+    n_lights, k = len(lights), basis.size
+    kept = np.empty(n_lights, np.int64)
+    g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
+    scratch = _bivariate_kernels._scratch(n_lights, k)
+    rng = np.random.default_rng(8)
+    normals = starts[1] + rng.normal(scale=0.2, size=starts[1].shape)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    for n, g, w in zip(normals, gray.T, lit, strict=True):
+        m = _bivariate_kernels._kept(w, g, kept, g_kept, w_kept)
+        for stride in (1, 3):
+            sub = np.arange(0, m, stride)
+            sk, sg, sw = kept[sub].copy(), g_kept[sub].copy(), w_kept[sub].copy()
+            bound = _bivariate_kernels._ramps_bound(
+                *n, sk, sg, sw, len(sub), lights, inputs[1], basis.fa, basis.fb, scratch
+            )
+            cost = _bivariate_kernels._fit(
+                *n, sk, sg, sw, len(sub), *inputs, False, np.empty(n_lights), np.empty(k),
+                np.ones(k, dtype=bool), scratch,
+            )  # fmt: skip
+            signal = np.sum(sw * sg**2)
+            margin = _bivariate_kernels.SCREEN_MARGIN * signal
+            assert abs(bound - cost) <= 1e-3 * margin, (bound, cost, signal)
+
+
+def test_pair_solve_equals_two_solves():
+    rng = np.random.default_rng(9)
+    for k in (2, 5, 14):
+        for _ in range(20):
+            a = rng.standard_normal((k + 3, k))
+            gram = a.T @ a
+            gram[0, 0] *= 1e6 if k > 2 else 1.0  # pivoting
+            free = rng.random(k) < 0.7
+            rhs = rng.standard_normal((2, k))
+            pair = np.empty((2, k))
+            _bivariate_kernels._solve_free_pair(
+                gram, rhs, free, np.empty((k, k)), np.empty((2, k)), pair
+            )
+            for side in range(2):
+                one = np.empty(k)
+                _bivariate_kernels._solve_free(
+                    gram, rhs[side], free, np.empty((k, k)), np.empty(k), one
+                )
+                np.testing.assert_array_equal(pair[side], one)
+
+
+def test_table_rows_equal_the_arccos_rows():
+    # fdlibm's acos, vectorised, against libm's: the same rows up to the last bit of θ_h; the
+    # compiled kernel exactly as its Python source computes (no floating-point licences)
+    rng = np.random.default_rng(10)
+    cosines = np.concatenate(
+        [rng.random(20000), [-0.5, 0.0, 1e-300, 0.5, np.nextafter(0.5, 0), 1.0, 1.5, 0.999999]]
+    )
+    m = len(cosines)
+    for n_h in (2, 5, 24):
+        bins, fractions = np.empty((m, 2), np.int64), np.empty((m, 2))
+        _bivariate_kernels._table_rows(cosines, m, n_h, bins, fractions)
+        py_bins, py_fractions = np.empty((m, 2), np.int64), np.empty((m, 2))
+        with np.errstate(invalid="ignore"):  # at cos θ_h = 1 the unused range divides 0 by 0
+            _bivariate_kernels._table_rows.py_func(cosines, m, n_h, py_bins, py_fractions)
+        np.testing.assert_array_equal(bins[:, 0], py_bins[:, 0])
+        np.testing.assert_array_equal(fractions, py_fractions)
+        theta = np.arccos(np.clip(cosines, 0.0, 1.0))
+        root = np.sqrt(theta / (np.pi / 2))
+        u = root * (n_h - 1)
+        i = np.minimum(np.floor(u).astype(np.int64), n_h - 2)
+        ours = fractions[:, 1] ** 2 * (np.pi / 2)
+        assert (np.abs(ours - theta) <= 4 * np.spacing(np.maximum(theta, 1e-300))).all()
+        np.testing.assert_allclose(fractions[:, 1], root, rtol=4e-16, atol=0)
+        same = bins[:, 0] == i  # a node's boundary may fall on either side by a bit
+        assert same.mean() > 0.999
+        np.testing.assert_allclose(fractions[same, 0], (u - i)[same], rtol=0, atol=1e-14)

@@ -17,9 +17,24 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
 - the start selection (:func:`best_start`) keeps the winner's residual for the search, and
   it and the search keep the weights of their normals (AZ08's next table needs no refit);
 - a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
-  normal did not move), and a pixel stops when its step is below a tolerance.
+  normal did not move), and a pixel stops when its step is below a tolerance;
+- the per-pixel work (a block's pixels, the fits, the Jacobian products, the solvers) is
+  compiled without numba's runtime (``_nrt=False``): the arrays it passes on per pixel and
+  call are not reference-counted (atomic increments and decrements, on counts that the threads
+  share, were a quarter of the time); the parallel kernels allocate each block's work arrays
+  and hand the block to it;
+- the ramps' screening bound (:func:`_ramps_bound`) solves by Cholesky and takes the cost from
+  the solution (no pivoting, no residual pass), the two solves of the Jacobian products share
+  one elimination (:func:`_solve_free_pair`), the ramp indices are counted without branches;
+- the table's rows (AZ08) are computed for a pixel's observations at once with fdlibm's
+  ``acos`` (:func:`_table_rows`, vectorised), instead of a libm call per observation;
+- the ranks, shadow weights and transposed intensities of the start come from one parallel
+  pass (:func:`order_statistics`).
 
-Kernels are compiled on first use and cached on disk (``cache=True``).
+All but the table's rows give the numbers they replace bit for bit (the fdlibm ``acos`` differs
+from libm's in the last bit for about a third of the arguments: the AZ08 normals of the
+DiLiGenT-size benchmark by ~1e-13). Kernels are compiled on first use and cached on disk
+(``cache=True``).
 
 References
 ----------
@@ -42,6 +57,12 @@ _inline = numba.njit(
     cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, inline="always"
 )
 _pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, parallel=True)
+_hot = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, _nrt=False)
+_strict = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=False, _nrt=False)
+"""Without floating-point licences (named: a callee inherits its caller's otherwise)."""
+_exact_pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=False, parallel=True)
+"""Without floating-point licences: :func:`order_statistics` rounds as NumPy does (no fused
+multiply-add in the percentile's interpolation)."""
 
 BIPOLYNOMIAL, RAMPS, TABLE = 0, 1, 2
 """Basis kinds (see :class:`brdfkit.vision.bivariate.Basis`)."""
@@ -73,13 +94,55 @@ def table_columns(cos_d, n_d):  # pragma: no cover
 
 
 @_inline
-def _table_row(cos_h, n_h):  # pragma: no cover
-    """The lower ``θ_h`` node ``i`` and fraction ``f_u`` (``sqrt(θ_h)`` uniform), and
-    ``sqrt(θ_h / (π/2))``."""
-    root = np.sqrt(np.arccos(min(max(cos_h, 0.0), 1.0)) / (np.pi / 2))
-    u = root * (n_h - 1)
-    i = min(int(np.floor(u)), n_h - 2)
-    return i, u - i, root
+def _root(w):  # pragma: no cover
+    """``sqrt(w)``, without the square root for the usual 0/1 weights (the same value)."""
+    return w if w == 1.0 or w == 0.0 else np.sqrt(w)
+
+
+_ACOS_P = (
+    1.66666666666666657415e-01, -3.25565818622400915405e-01, 2.01212532134862925881e-01,
+    -4.00555345006794114027e-02, 7.91534994289814532176e-04, 3.47933107596021167570e-05,
+)  # fmt: skip
+_ACOS_Q = (
+    -2.40339491173441421878e00, 2.02094576023350569471e00, -6.88283971605453293030e-01,
+    7.70381505559019352791e-02,
+)  # fmt: skip
+_PI_2_HI, _PI_2_LO = 1.57079632679489655800e00, 6.12323399573676603587e-17
+
+
+@_strict
+def _table_rows(cosines, m, n_h, bins, fractions):  # pragma: no cover
+    """The table's row of ``cosines[:m]`` (``cos θ_h``): the lower ``θ_h`` node ``i`` into
+    ``bins[:m, 0]`` and the fraction ``f_u`` above it (``sqrt(θ_h)`` uniform on ``n_h`` nodes)
+    and ``sqrt(θ_h / (π/2))`` into ``fractions[:m]``, vectorised: ``θ_h`` by fdlibm's ``acos``
+    (``e_acos.c``: a rational approximation of ``asin``, within 1 ulp, as libm's; its two
+    ranges computed both and selected, and compiled without floating-point licences, which
+    would undo its compensated sums) instead of an opaque libm call per observation.
+
+    Its ``θ_h`` and libm's differ in the last bit for about a third of the arguments; the
+    normals of the shared table (AZ08) by ~1e-13 (the DiLiGenT-size benchmark)."""
+    p0, p1, p2, p3, p4, p5 = _ACOS_P
+    q1, q2, q3, q4 = _ACOS_Q
+    for j in range(m):
+        x = min(max(cosines[j], 0.0), 1.0)
+        small = x < 0.5
+        z = x * x if small else (1.0 - x) * 0.5
+        p = z * (p0 + z * (p1 + z * (p2 + z * (p3 + z * (p4 + z * p5)))))
+        q = 1.0 + z * (q1 + z * (q2 + z * (q3 + z * q4)))
+        r = p / q
+        s = np.sqrt(z)
+        t = s * 134217729.0  # Veltkamp's split: high, the upper 26 bits of s (its square exact)
+        high = t - (t - s)
+        c = (z - high * high) / (s + high)
+        theta = _PI_2_HI - (x - (_PI_2_LO - x * r)) if small else 2.0 * (high + (r * s + c))
+        if x >= 1.0:
+            theta = 0.0
+        root = np.sqrt(theta / (np.pi / 2))
+        u = root * (n_h - 1)
+        i = min(int(np.floor(u)), n_h - 2)
+        bins[j, 0] = i
+        fractions[j, 0] = u - i
+        fractions[j, 1] = root
 
 
 @_inline
@@ -115,7 +178,7 @@ def _design(ints, nx, ny, nz, kept, m, lights, half, cos_d, design):  # pragma: 
             power_h *= ch
 
 
-@_jit
+@_hot
 def _table_system(
     nx, ny, nz, kept, g_kept, w_kept, m, lights, half, column, fraction, ints, fa, design, gram,
     rhs, bins, fractions,
@@ -123,17 +186,20 @@ def _table_system(
     """The design ``max(0, n·l) (1, T(θ_h, θ_d))`` of the shared table (``T`` bilinear on the
     ``ints = (n_h, n_d)`` nodes ``fa``) into ``design[:m]`` ``(M, 2)``, and its weighted Gram and
     right-hand side summed in the same pass (each entry as the general loop of :func:`_fit`
-    sums it). Each observation's :func:`_table_row` goes to ``bins[:m, 0]`` and ``fractions[:m]``
+    sums it). Each observation's :func:`_table_rows` goes to ``bins[:m, 0]`` and ``fractions[:m]``
     ``(f_u, sqrt(θ_h / (π/2)))``, for :func:`_products` (no second ``arccos``)."""
     n_h, n_d = ints[0], ints[1]
+    cosines = design[:, 1]  # cos θ_h, overwritten below
+    for j in range(m):
+        n = kept[j]
+        cosines[j] = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+    _table_rows(cosines, m, n_h, bins, fractions)
     g00 = g01 = g11 = r0 = r1 = 0.0
     for j in range(m):
         n = kept[j]
         cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
-        cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
         shading = max(cos_i, 0.0)
-        i, fu, root = _table_row(cos_h, n_h)
-        bins[j, 0], fractions[j, 0], fractions[j, 1] = i, fu, root
+        i, fu = bins[j, 0], fractions[j, 0]
         d0, d1 = shading, shading * _table_value(fa, i, fu, column[n], fraction[n], n_d)
         design[j, 0], design[j, 1] = d0, d1
         w0, w1 = w_kept[j] * d0, w_kept[j] * d1
@@ -146,7 +212,7 @@ def _table_system(
     rhs[0], rhs[1] = r0, r1
 
 
-@_jit
+@_hot
 def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
     """``coef`` = the solution of ``gram x = rhs`` on the ``free`` unknowns, 0 on the others:
     Gaussian elimination with partial pivoting (LAPACK's ``gesv``) of the free block; a zero
@@ -167,8 +233,8 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
         for r in range(c + 1, f):
             if abs(work[r, c]) > abs(work[pivot, c]):
                 pivot = r
-        if pivot != c:
-            for q in range(f):
+        if pivot != c:  # (the columns before c are no longer read)
+            for q in range(c, f):
                 work[c, q], work[pivot, q] = work[pivot, q], work[c, q]
             work_b[c], work_b[pivot] = work_b[pivot], work_b[c]
         if work[c, c] == 0.0:
@@ -176,7 +242,7 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
         for r in range(c + 1, f):
             factor = work[r, c] / work[c, c]
             if factor != 0.0:
-                for q in range(c, f):
+                for q in range(c + 1, f):  # (column c below the pivot is no longer read)
                     work[r, q] -= factor * work[c, q]
                 work_b[r] -= factor * work_b[c]
     for c in range(f - 1, -1, -1):
@@ -193,7 +259,57 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
             coef[i] = 0.0
 
 
-@_jit
+@_hot
+def _solve_free_pair(gram, rhs, free, work, work_b, coef):  # pragma: no cover
+    """:func:`_solve_free` of the two right-hand sides ``rhs`` ``(2, K)`` into ``coef``
+    ``(2, K)``, one elimination for both (``work_b`` ``(2, K)``): each side takes the same
+    operations in the same order as alone, so the same numbers."""
+    k = rhs.shape[1]
+    f = 0
+    for i in range(k):
+        if free[i]:
+            g = 0
+            for j in range(k):
+                if free[j]:
+                    work[f, g] = gram[i, j]
+                    g += 1
+            work_b[0, f], work_b[1, f] = rhs[0, i], rhs[1, i]
+            f += 1
+    for c in range(f):
+        pivot = c
+        for r in range(c + 1, f):
+            if abs(work[r, c]) > abs(work[pivot, c]):
+                pivot = r
+        if pivot != c:
+            for q in range(c, f):
+                work[c, q], work[pivot, q] = work[pivot, q], work[c, q]
+            for side in range(2):
+                work_b[side, c], work_b[side, pivot] = work_b[side, pivot], work_b[side, c]
+        if work[c, c] == 0.0:
+            continue
+        for r in range(c + 1, f):
+            factor = work[r, c] / work[c, c]
+            if factor != 0.0:
+                for q in range(c + 1, f):
+                    work[r, q] -= factor * work[c, q]
+                work_b[0, r] -= factor * work_b[0, c]
+                work_b[1, r] -= factor * work_b[1, c]
+    for side in range(2):
+        for c in range(f - 1, -1, -1):
+            total = work_b[side, c]
+            for q in range(c + 1, f):
+                total -= work[c, q] * work_b[side, q]
+            work_b[side, c] = total / work[c, c] if work[c, c] != 0.0 else 0.0
+        f = 0
+        for i in range(k):
+            if free[i]:
+                coef[side, i] = work_b[side, f]
+                f += 1
+            else:
+                coef[side, i] = 0.0
+
+
+@_hot
 def _weights(gram, rhs, nonnegative, warm, coef, work, work_b, free):  # pragma: no cover
     """One pixel's ``argmin_c c^T G c / 2 - r^T c`` (``c >= 0`` if ``nonnegative``) into
     ``coef``, with a relative ridge of ``1e-9`` on ``G``. Non-negative: active-set rounds from
@@ -262,14 +378,14 @@ def _ramp(x, knots):  # pragma: no cover
     when all are 1)."""
     steps = len(knots) - 1
     q = 0
-    while q < steps and x >= knots[q + 1]:  # then the ramp's ratio is >= 1: clipped to 1
-        q += 1
+    for a in range(steps):  # the ramps whose ratio is >= 1 (clipped to 1): a prefix, the knots
+        q += x >= knots[a + 1]  # increasing; counted without branches
     if q == steps:
         return q, 1.0
     return q, min(max((x - knots[q]) / (knots[q + 1] - knots[q]), 0.0), 1.0)
 
 
-@_jit
+@_hot
 def _ramps_system(
     nx, ny, nz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins, fractions,
     pairs, singles,
@@ -335,7 +451,7 @@ def _ramps_system(
             )
 
 
-@_jit
+@_hot
 def _kept(w, g, kept, g_kept, w_kept):  # pragma: no cover
     """The observations of non-zero weight: indices into ``kept``, their intensities and
     weights; returns their number."""
@@ -349,7 +465,7 @@ def _kept(w, g, kept, g_kept, w_kept):  # pragma: no cover
     return m
 
 
-@_jit
+@_hot
 def _fit(
     nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints, fa,
     fb, warm, nonnegative, residual, coef, free, scratch,
@@ -410,7 +526,7 @@ def _fit(
             model = 0.0
             for a in range(k):
                 model += design[j, a] * coef[a]
-        value = np.sqrt(w_kept[j]) * (g_kept[j] - model)
+        value = _root(w_kept[j]) * (g_kept[j] - model)
         residual[kept[j]] = value
         cost += value * value
     return cost
@@ -420,15 +536,15 @@ def _fit(
 def _products_scratch(n_lights, k):  # pragma: no cover
     """Work arrays of :func:`_products`: per kept observation the model's change ``dD c``
     ``(2, N)`` in the two tangent directions; per direction the weights' right-hand side and
-    change ``(2, K)``, the rows ``dD_j`` ``(2, K)``, the change's prefix sums ``(2, K + 2)`` and
-    sums by ramp index ``(2, 4, K/2 + 1)``."""
+    change ``(2, K)``, the rows ``dD_j`` ``(2, K)``, the change's prefix sums ``(2, K + 2)``,
+    sums by ramp index ``(2, 4, K/2 + 1)`` and the solver's right-hand sides ``(2, K)``."""
     return (
         np.empty((2, n_lights)), np.empty((2, k)), np.empty((2, k)), np.empty((2, k)),
-        np.empty((2, k + 2)), np.empty((2, 4, k // 2 + 1)),
+        np.empty((2, k + 2)), np.empty((2, 4, k // 2 + 1)), np.empty((2, k)),
     )  # fmt: skip
 
 
-@_jit
+@_hot
 def _products(
     nx, ny, nz, t, kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
     residual, coef, free, scratch, work_products,
@@ -446,8 +562,8 @@ def _products(
     smooth in the cosines (ramps, bilinear table, ``max(0, ·)``); at a kink the derivative is
     that of the piece the observation is in.
     """
-    design, gram, _, work, work_b, bins, fractions, _, _, _ = scratch
-    change, source, delta, rows, prefix, sums = work_products
+    design, gram, _, work, _, bins, fractions, _, _, _ = scratch
+    change, source, delta, rows, prefix, sums, pair = work_products
     k = len(coef)
     steps = k // 2
     source[:, :] = 0.0
@@ -460,7 +576,7 @@ def _products(
         th1 = t[3] * half[n, 0] + t[4] * half[n, 1] + t[5] * half[n, 2]
         cos_i = nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2]
         cos_h = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
-        weighted = np.sqrt(w_kept[j]) * residual[n]
+        weighted = _root(w_kept[j]) * residual[n]
         if kind == RAMPS:  # one fraction per lobe moves, at slope 1 / (knot spacing)
             qd, qs = bins[j, 0], bins[j, 1]
             slope_d = 1.0 / (fa[qd + 1] - fa[qd]) if qd < steps and cos_i >= fa[qd] else 0.0
@@ -558,7 +674,8 @@ def _products(
         ridge = 2e-9 * (trace_0 if c == 0 else trace_1) / k  # d of _weights' ridge: minus dρ c
         for a in range(k):
             source[c, a] -= ridge * coef[a]
-        _solve_free(gram, source[c], free, work, work_b, delta[c])
+    _solve_free_pair(gram, source, free, work, pair, delta)
+    for c in range(2):
         if kind == RAMPS:
             for lobe in range(2):
                 total = 0.0
@@ -569,7 +686,7 @@ def _products(
     j00 = j01 = j11 = g0 = g1 = 0.0
     for j in range(m):  # dr = -sqrt(w) (dD c + D dc)
         r = residual[kept[j]]
-        root = np.sqrt(w_kept[j])
+        root = _root(w_kept[j])
         d0 = d1 = 0.0
         for c in range(2):
             if kind == RAMPS:
@@ -609,27 +726,39 @@ def fit_pixels(
     k = coef.shape[1]
     cost = np.empty(n_pixels)
     for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
-        kept = np.empty(n_lights, np.int64)
-        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
-        scratch = _scratch(n_lights, k)
-        work_products = _products_scratch(n_lights, k)
-        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
-            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
-            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
-            cost[p] = _fit(
-                nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
-                ints, fa, fb, warm, nonnegative, residual[p], coef[p], free[p], scratch,
-            )  # fmt: skip
-            if products is not None:
-                _store_products(
-                    products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column,
-                    fraction, kind, ints, fa, fb, residual[p], coef[p], free[p], scratch,
-                    work_products,
-                )  # fmt: skip
+        _fit_block(
+            block * BLOCK, min((block + 1) * BLOCK, n_pixels), normals, gray, weights, lights,
+            half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, residual, coef,
+            free, products, cost, np.empty(n_lights, np.int64), np.empty(n_lights),
+            np.empty(n_lights), _scratch(n_lights, k), _products_scratch(n_lights, k),
+        )  # fmt: skip
     return cost
 
 
-@_jit
+@_hot
+def _fit_block(
+    lo, hi, normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
+    warm, nonnegative, residual, coef, free, products, cost, kept, g_kept, w_kept, scratch,
+    work_products,
+):  # pragma: no cover  # fmt: skip
+    """:func:`fit_pixels` on the pixels ``lo … hi - 1`` with the block's work arrays (without
+    numba's runtime, as :func:`_best_start_block`)."""
+    for p in range(lo, hi):
+        m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+        cost[p] = _fit(
+            nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+            ints, fa, fb, warm, nonnegative, residual[p], coef[p], free[p], scratch,
+        )  # fmt: skip
+        if products is not None:
+            _store_products(
+                products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column,
+                fraction, kind, ints, fa, fb, residual[p], coef[p], free[p], scratch,
+                work_products,
+            )  # fmt: skip
+
+
+@_hot
 def _store_products(
     products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column, fraction, kind, ints,
     fa, fb, residual, coef, free, scratch, work_products,
@@ -644,7 +773,7 @@ def _store_products(
     products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
 
 
-@_jit
+@_hot
 def _lower_bound(
     tx, ty, tz, kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, lights, half, cos_d,
     column, fraction, kind, ints, fa, fb, nonnegative, shifted, coef, all_free, scratch,
@@ -653,14 +782,71 @@ def _lower_bound(
     the fit: the fit to the subset ``sub_*[:m_sub]`` of the kept observations (the minimum of a
     part of the cost's terms), for the non-negative ramps without the constraint (the minimum
     over a superset of the weights: one solve instead of the active-set rounds). ``shifted``,
-    ``coef`` and ``all_free`` are overwritten."""
+    ``coef`` and ``all_free`` are overwritten (the ramps' bound: :func:`_ramps_bound`, which
+    leaves them alone)."""
+    if kind == RAMPS:
+        return _ramps_bound(
+            tx, ty, tz, sub_kept, sub_g, sub_w, m_sub, lights, half, fa, fb, scratch
+        )
     return _fit(
         tx, ty, tz, sub_kept, sub_g, sub_w, m_sub, lights, half, cos_d, column, fraction, kind,
         ints, fa, fb, False, nonnegative and kind != RAMPS, shifted, coef, all_free, scratch,
     )  # fmt: skip
 
 
-@_jit
+@_hot
+def _ramps_bound(tx, ty, tz, kept, g_kept, w_kept, m, lights, half, fa, fb, scratch):
+    """The ramps' :func:`_lower_bound`: the cost ``|sqrt(w) (I - D c)|^2`` of the unconstrained
+    least-squares weights ``c`` (with :func:`_weights`' ridge ``ρ``) of the observations given,
+    ``sum w I^2 - |y|^2 - ρ |c|^2`` from the Cholesky factor ``L`` of ``G + ρ I`` (``L y = b``,
+    ``L^T c = y``; ``b^T c = |y|^2``, ``c^T G c = b^T c - ρ |c|^2``): no pivoting, half the
+    elimination's operations, and no residual pass. It equals :func:`_fit`'s unconstrained cost
+    up to rounding, which the screening's margin covers (relative 1e-7 against 1e-16). A
+    non-positive pivot (rounding; ``G + ρ I`` is positive definite) gives the bound 0."""
+    _, gram, rhs, work, work_b, bins, fractions, pairs, singles, _ = scratch
+    _ramps_system(
+        tx, ty, tz, kept, g_kept, w_kept, m, lights, half, fa, fb, gram, rhs, bins, fractions,
+        pairs, singles,
+    )  # fmt: skip
+    k = len(rhs)
+    trace = 0.0
+    for i in range(k):
+        trace += gram[i, i]
+    ridge = 1e-9 * trace / k + 1e-300
+    for j in range(k):  # L (lower) into work, from the upper triangle of the Gram
+        total = gram[j, j] + ridge
+        for q in range(j):
+            total -= work[j, q] * work[j, q]
+        if not total > 0.0:
+            return 0.0
+        pivot = np.sqrt(total)
+        work[j, j] = pivot
+        for i in range(j + 1, k):
+            total = gram[j, i]
+            for q in range(j):
+                total -= work[i, q] * work[j, q]
+            work[i, j] = total / pivot
+    fitted = 0.0
+    for i in range(k):  # L y = b
+        total = rhs[i]
+        for q in range(i):
+            total -= work[i, q] * work_b[q]
+        work_b[i] = total / work[i, i]
+        fitted += work_b[i] * work_b[i]
+    penalty = 0.0
+    for i in range(k - 1, -1, -1):  # L^T c = y, in place
+        total = work_b[i]
+        for q in range(i + 1, k):
+            total -= work[q, i] * work_b[q]
+        work_b[i] = total / work[i, i]
+        penalty += work_b[i] * work_b[i]
+    signal = 0.0
+    for j in range(m):
+        signal += w_kept[j] * g_kept[j] * g_kept[j]
+    return signal - fitted - ridge * penalty
+
+
+@_hot
 def _try_start(
     tx, ty, tz, first, screen, kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, margin,
     lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, shifted, coef,
@@ -684,9 +870,11 @@ def _try_start(
     )  # fmt: skip
     if first or trial < cost[p]:
         normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
-        residual[p, :] = shifted
+        for n in range(len(shifted)):  # (loops: a slice copy would need numba's runtime)
+            residual[p, n] = shifted[n]
         cost[p] = trial
-        coefficients[p, :] = coef
+        for a in range(len(coef)):
+            coefficients[p, a] = coef[a]
         return True
     return False
 
@@ -714,62 +902,79 @@ def best_start(
     :func:`lm_step` keeps them (from the winner's fit, kept aside: the search's first iteration
     needs no refit), and ``free`` the winner's active set.
     """
-    n_starts, n_pixels = starts.shape[0], starts.shape[1]
-    n_lights = gray.shape[1]
+    n_pixels, n_lights = starts.shape[1], gray.shape[1]
     k = free.shape[1]
     cos_ring, sin_ring = np.cos(ring), np.sin(ring)
     for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
-        kept = np.empty(n_lights, np.int64)
-        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
-        sub_kept = np.empty(n_lights, np.int64)
-        sub_g, sub_w = np.empty(n_lights), np.empty(n_lights)
-        shifted = np.empty(n_lights)
-        coef = np.empty(k)
-        all_free = np.ones(k, dtype=np.bool_)
-        scratch, best = _scratch(n_lights, k), _scratch(n_lights, k)  # a fit; the winner's
-        best_free = np.ones(k, dtype=np.bool_)
-        work_products = _products_scratch(n_lights, k)
-        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
-            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
-            m_sub = 0
-            signal = 0.0
-            for j in range(m):
-                signal += w_kept[j] * g_kept[j] * g_kept[j]
-                if j % SCREEN_STRIDE == 0:
-                    sub_kept[m_sub], sub_g[m_sub], sub_w[m_sub] = kept[j], g_kept[j], w_kept[j]
-                    m_sub += 1
-            before = (
-                kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, SCREEN_MARGIN * signal,
-                lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative,
-                shifted, coef, free[p], all_free,
+        _best_start_block(
+            block * BLOCK, min((block + 1) * BLOCK, n_pixels), starts, cos_ring, sin_ring, gray,
+            weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm,
+            nonnegative, normals, residual, cost, free, coefficients, screen, products,
+            np.empty(n_lights, np.int64), np.empty(n_lights), np.empty(n_lights),
+            np.empty(n_lights, np.int64), np.empty(n_lights), np.empty(n_lights),
+            np.empty(n_lights), np.empty(k), np.ones(k, dtype=np.bool_),
+            _scratch(n_lights, k), _scratch(n_lights, k), np.ones(k, dtype=np.bool_),
+            _products_scratch(n_lights, k),
+        )  # fmt: skip
+
+
+@_hot
+def _best_start_block(
+    lo, hi, starts, cos_ring, sin_ring, gray, weights, lights, half, cos_d, column, fraction,
+    kind, ints, fa, fb, warm, nonnegative, normals, residual, cost, free, coefficients, screen,
+    products, kept, g_kept, w_kept, sub_kept, sub_g, sub_w, shifted, coef, all_free, scratch,
+    best, best_free, work_products,
+):  # pragma: no cover  # fmt: skip
+    """:func:`best_start` on the pixels ``lo … hi - 1`` with the block's work arrays (the
+    winner's fit ``best``, a fit ``scratch``): compiled without numba's runtime, so that no
+    array passed on per pixel and call is reference-counted (atomic operations on counts the
+    threads share, a quarter of the time before)."""
+    n_starts = starts.shape[0]
+    k = len(coef)
+    for p in range(lo, hi):
+        m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+        m_sub = 0
+        signal = 0.0
+        for j in range(m):
+            signal += w_kept[j] * g_kept[j] * g_kept[j]
+            if j % SCREEN_STRIDE == 0:
+                sub_kept[m_sub], sub_g[m_sub], sub_w[m_sub] = kept[j], g_kept[j], w_kept[j]
+                m_sub += 1
+        before = (
+            kept, g_kept, w_kept, m, sub_kept, sub_g, sub_w, m_sub, SCREEN_MARGIN * signal,
+            lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative,
+            shifted, coef, free[p], all_free,
+        )  # fmt: skip
+        after = (p, normals, residual, cost, coefficients)
+        for s in range(n_starts):
+            if _try_start(
+                starts[s, p, 0], starts[s, p, 1], starts[s, p, 2], s == 0, False, *before,
+                scratch, *after,
+            ):  # fmt: skip
+                scratch, best = best, scratch  # keep the winner's fit aside
+                for a in range(k):
+                    best_free[a] = free[p, a]
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]  # the ring around it
+        t = _tangents(nx, ny, nz)
+        for s in range(6):
+            ca, sa = np.cos(s * np.pi / 3), np.sin(s * np.pi / 3)
+            if _try_start(
+                nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3]),
+                ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4]),
+                nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5]),
+                False, screen, *before, scratch, *after,
+            ):  # fmt: skip
+                scratch, best = best, scratch
+                for a in range(k):
+                    best_free[a] = free[p, a]
+        if products is not None:
+            for a in range(k):
+                free[p, a] = best_free[a]
+            _store_products(
+                products, p, normals[p, 0], normals[p, 1], normals[p, 2], kept, w_kept, m,
+                lights, half, cos_d, column, fraction, kind, ints, fa, fb, residual[p],
+                coefficients[p], free[p], best, work_products,
             )  # fmt: skip
-            after = (p, normals, residual, cost, coefficients)
-            for s in range(n_starts):
-                if _try_start(
-                    starts[s, p, 0], starts[s, p, 1], starts[s, p, 2], s == 0, False, *before,
-                    scratch, *after,
-                ):  # fmt: skip
-                    scratch, best = best, scratch  # keep the winner's fit aside
-                    best_free[:] = free[p]
-            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]  # the ring around it
-            t = _tangents(nx, ny, nz)
-            for s in range(6):
-                ca, sa = np.cos(s * np.pi / 3), np.sin(s * np.pi / 3)
-                if _try_start(
-                    nx * cos_ring + sin_ring * (ca * t[0] + sa * t[3]),
-                    ny * cos_ring + sin_ring * (ca * t[1] + sa * t[4]),
-                    nz * cos_ring + sin_ring * (ca * t[2] + sa * t[5]),
-                    False, screen, *before, scratch, *after,
-                ):  # fmt: skip
-                    scratch, best = best, scratch
-                    best_free[:] = free[p]
-            if products is not None:
-                free[p, :] = best_free
-                _store_products(
-                    products, p, normals[p, 0], normals[p, 1], normals[p, 2], kept, w_kept, m,
-                    lights, half, cos_d, column, fraction, kind, ints, fa, fb, residual[p],
-                    coefficients[p], free[p], best, work_products,
-                )  # fmt: skip
 
 
 @_pjit
@@ -798,92 +1003,115 @@ def lm_step(
     n_pixels, n_lights = gray.shape
     k = free.shape[1]
     for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
-        kept = np.empty(n_lights, np.int64)
-        g_kept, w_kept = np.empty(n_lights), np.empty(n_lights)
-        shifted = np.empty(n_lights)
-        coef = np.empty(k)
-        scratch = _scratch(n_lights, k)
-        work_products = _products_scratch(n_lights, k)
-        for p in range(block * BLOCK, min((block + 1) * BLOCK, n_pixels)):
-            if not active[p]:
-                continue
-            r = residual[p]
-            m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
-            nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
-            t = _tangents(nx, ny, nz)
-            if products is not None and products[p, 5] != 0.0:  # held since the normal's fit
-                j00, j01, j11 = products[p, 0], products[p, 1], products[p, 2]
-                g0, g1 = products[p, 3], products[p, 4]
-            else:  # refit the normal for its system
-                _fit(
-                    nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction,
-                    kind, ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
-                )  # fmt: skip
-                j00, j01, j11, g0, g1 = _products(
-                    nx, ny, nz, t, kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
-                    ints, fa, fb, shifted, coef, free[p], scratch, work_products,
-                )  # fmt: skip
-                if products is not None:
-                    products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
-                    products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
-            shift = damping[p] * ((j00 + j11) / 2 + 1e-300)
-            a00, a11 = j00 + shift, j11 + shift
-            determinant = a00 * a11 - j01 * j01
-            if determinant != 0.0:
-                s0 = -(a11 * g0 - j01 * g1) / determinant
-                s1 = -(a00 * g1 - j01 * g0) / determinant
-            else:
-                s0 = s1 = 0.0
-            if abs(s0) < tolerance and abs(s1) < tolerance:
-                active[p] = False
-                continue
-            s0, s1 = min(max(s0, -0.2), 0.2), min(max(s1, -0.2), 0.2)  # at most ~11° per iteration
-            tx = nx + s0 * t[0] + s1 * t[3]
-            ty = ny + s0 * t[1] + s1 * t[4]
-            tz = nz + s0 * t[2] + s1 * t[5]
-            length = np.sqrt(tx * tx + ty * ty + tz * tz)
-            tx, ty, tz = tx / length, ty / length, tz / length
-            trial_cost = _fit(
-                tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
-                ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+        _lm_block(
+            block * BLOCK, min((block + 1) * BLOCK, n_pixels), normals, damping, residual, cost,
+            active, free, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa,
+            fb, warm, nonnegative, tolerance, products, coefficients,
+            np.empty(n_lights, np.int64), np.empty(n_lights), np.empty(n_lights),
+            np.empty(n_lights), np.empty(k), _scratch(n_lights, k),
+            _products_scratch(n_lights, k),
+        )  # fmt: skip
+
+
+@_hot
+def _lm_block(
+    lo, hi, normals, damping, residual, cost, active, free, gray, weights, lights, half, cos_d,
+    column, fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products, coefficients,
+    kept, g_kept, w_kept, shifted, coef, scratch, work_products,
+):  # pragma: no cover  # fmt: skip
+    """:func:`lm_step` on the pixels ``lo … hi - 1`` with the block's work arrays (without
+    numba's runtime, as :func:`_best_start_block`)."""
+    for p in range(lo, hi):
+        if not active[p]:
+            continue
+        r = residual[p]
+        m = _kept(weights[p], gray[p], kept, g_kept, w_kept)
+        nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
+        t = _tangents(nx, ny, nz)
+        if products is not None and products[p, 5] != 0.0:  # held since the normal's fit
+            j00, j01, j11 = products[p, 0], products[p, 1], products[p, 2]
+            g0, g1 = products[p, 3], products[p, 4]
+        else:  # refit the normal for its system
+            _fit(
+                nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction,
+                kind, ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
             )  # fmt: skip
-            if trial_cost < cost[p]:
-                normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
-                r[:] = shifted
-                cost[p] = trial_cost
-                if coefficients is not None:
-                    coefficients[p, :] = coef
-                damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
-                if products is not None:  # the new normal's, from the fit just done
-                    _store_products(
-                        products, p, tx, ty, tz, kept, w_kept, m, lights, half, cos_d, column,
-                        fraction, kind, ints, fa, fb, shifted, coef, free[p], scratch,
-                        work_products,
-                    )  # fmt: skip
-            else:
-                damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
+            j00, j01, j11, g0, g1 = _products(
+                nx, ny, nz, t, kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+                ints, fa, fb, shifted, coef, free[p], scratch, work_products,
+            )  # fmt: skip
+            if products is not None:
+                products[p, 0], products[p, 1], products[p, 2] = j00, j01, j11
+                products[p, 3], products[p, 4], products[p, 5] = g0, g1, 1.0
+        shift = damping[p] * ((j00 + j11) / 2 + 1e-300)
+        a00, a11 = j00 + shift, j11 + shift
+        determinant = a00 * a11 - j01 * j01
+        if determinant != 0.0:
+            s0 = -(a11 * g0 - j01 * g1) / determinant
+            s1 = -(a00 * g1 - j01 * g0) / determinant
+        else:
+            s0 = s1 = 0.0
+        if abs(s0) < tolerance and abs(s1) < tolerance:
+            active[p] = False
+            continue
+        s0, s1 = min(max(s0, -0.2), 0.2), min(max(s1, -0.2), 0.2)  # at most ~11° per iteration
+        tx = nx + s0 * t[0] + s1 * t[3]
+        ty = ny + s0 * t[1] + s1 * t[4]
+        tz = nz + s0 * t[2] + s1 * t[5]
+        length = np.sqrt(tx * tx + ty * ty + tz * tz)
+        tx, ty, tz = tx / length, ty / length, tz / length
+        trial_cost = _fit(
+            tx, ty, tz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
+            ints, fa, fb, warm, nonnegative, shifted, coef, free[p], scratch,
+        )  # fmt: skip
+        if trial_cost < cost[p]:
+            normals[p, 0], normals[p, 1], normals[p, 2] = tx, ty, tz
+            for n in range(len(shifted)):  # (loops: slice copies need numba's runtime)
+                r[n] = shifted[n]
+            cost[p] = trial_cost
+            if coefficients is not None:
+                for a in range(len(coef)):
+                    coefficients[p, a] = coef[a]
+            damping[p] = min(max(damping[p] / 3, 1e-7), 1e7)
+            if products is not None:  # the new normal's, from the fit just done
+                _store_products(
+                    products, p, tx, ty, tz, kept, w_kept, m, lights, half, cos_d, column,
+                    fraction, kind, ints, fa, fb, shifted, coef, free[p], scratch,
+                    work_products,
+                )  # fmt: skip
+        else:
+            damping[p] = min(max(damping[p] * 4, 1e-7), 1e7)
 
 
-@_jit
+@_hot
 def _table_sums(
-    normals, gray, weights, lights, half, column, fraction, n_h, n_d, coefficients, bands, rhs
-):  # pragma: no cover
-    """:func:`table_normal_equations` of the pixels given, added to ``bands`` and ``rhs``."""
-    corner = np.empty(4, np.int64)
-    weight = np.empty(4)
+    normals, gray, weights, lights, half, column, fraction, n_h, n_d, coefficients, bands, rhs,
+    corner, weight, used, cosines, bins, fractions,
+):  # pragma: no cover  # fmt: skip
+    """:func:`table_normal_equations` of the pixels given, added to ``bands`` and ``rhs``
+    (work arrays: ``corner``, ``weight`` ``(4,)``; per observation ``used``, ``cosines``
+    ``(N,)``, ``bins``, ``fractions`` ``(N, 2)``, for :func:`_table_rows`)."""
     for p in range(len(normals)):
         nx, ny, nz = normals[p, 0], normals[p, 1], normals[p, 2]
         rho_d, rho_s = coefficients[p, 0], coefficients[p, 1]
-        for n in range(gray.shape[1]):
-            w = weights[p, n]
-            if w == 0.0:
+        m = 0
+        for n in range(gray.shape[1]):  # the observations that add to the sums
+            if weights[p, n] == 0.0:
                 continue
             shading = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
-            scale = shading * rho_s  # d model / d T
-            if scale == 0.0:
+            if shading * rho_s == 0.0:
                 continue
+            used[m] = n
+            cosines[m] = nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2]
+            m += 1
+        _table_rows(cosines, m, n_h, bins, fractions)
+        for j in range(m):
+            n = used[j]
+            w = weights[p, n]
+            shading = max(nx * lights[n, 0] + ny * lights[n, 1] + nz * lights[n, 2], 0.0)
+            scale = shading * rho_s  # d model / d T
             target = gray[p, n] - shading * rho_d
-            i, fu, _ = _table_row(nx * half[n, 0] + ny * half[n, 1] + nz * half[n, 2], n_h)
+            i, fu = bins[j, 0], fractions[j, 0]
             c, fw = column[n], fraction[n]
             weight[0], weight[1] = (1 - fu) * (1 - fw), fu * (1 - fw)
             weight[2], weight[3] = (1 - fu) * fw, fu * fw
@@ -911,14 +1139,16 @@ def table_normal_equations(
     caller adds the parts).
     """
     size = n_h * n_d
-    n_pixels = len(normals)
+    n_pixels, n_lights = gray.shape
     bands = np.zeros((n_chunks, size, 3, 3))
     rhs = np.zeros((n_chunks, size))
     for chunk in numba.prange(n_chunks):
         lo, hi = chunk * n_pixels // n_chunks, (chunk + 1) * n_pixels // n_chunks
         _table_sums(
             normals[lo:hi], gray[lo:hi], weights[lo:hi], lights, half, column, fraction, n_h,
-            n_d, coefficients[lo:hi], bands[chunk], rhs[chunk],
+            n_d, coefficients[lo:hi], bands[chunk], rhs[chunk], np.empty(4, np.int64),
+            np.empty(4), np.empty(n_lights, np.int64), np.empty(n_lights),
+            np.empty((n_lights, 2), np.int64), np.empty((n_lights, 2)),
         )  # fmt: skip
     return bands, rhs
 
@@ -991,3 +1221,52 @@ def diffuse_albedo(
                 use[p, n] = weights[p, n] if c > 0.1 else 0.0
         rho[p] = numerator / max(denominator, 1e-300)
     return rho
+
+
+@_exact_pjit
+def order_statistics(
+    gray, threshold, previous, gamma, ranks, lit, tied, by_pixel
+):  # pragma: no cover
+    """Per pixel of ``gray`` ``(N, P)`` (pixels over the cores): the rank of each observation
+    ``(P, N)`` into ``ranks``, counted (the number of smaller observations:
+    :func:`numpy.argsort`'s order where no two observations are equal), whether two are equal
+    ``(P,)`` into ``tied`` (there the caller takes NumPy's order, which its sort algorithm
+    decides), the shadow weights ``(P, N)`` into ``lit`` (1 where the observation is above
+    ``threshold`` times the pixel's :func:`numpy.percentile`, linear, interpolated as NumPy does
+    between the sorted observations ``previous`` and ``previous + 1`` at ``gamma``, else 0), and
+    ``gray`` transposed ``(P, N)`` into ``by_pixel`` (the layout of the per-pixel kernels)."""
+    n_lights, n_pixels = gray.shape
+    following = min(previous + 1, n_lights - 1)
+    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+        lo, hi = block * BLOCK, min((block + 1) * BLOCK, n_pixels)
+        values = np.empty((BLOCK, n_lights))
+        for n in range(n_lights):  # the block's rows, read along gray's contiguous axis
+            for p in range(lo, hi):
+                values[p - lo, n] = gray[n, p]
+        for p in range(lo, hi):
+            row = values[p - lo]
+            for n in range(n_lights):
+                by_pixel[p, n] = row[n]
+            a = b = 0.0
+            equal = 0
+            for n in range(n_lights):
+                x = row[n]
+                below = same = 0
+                for q in range(n_lights):  # compares over the row (vectorised)
+                    below += row[q] < x
+                    same += row[q] == x
+                ranks[p, n] = below
+                equal += same
+                if below <= previous < below + same:  # the sorted row's entry [previous]
+                    a = x
+                if below <= following < below + same:
+                    b = x
+            tied[p] = equal > n_lights
+            difference = b - a
+            if gamma >= 0.5:  # numpy's _lerp
+                reference = b - difference * (1 - gamma)
+            else:
+                reference = a + difference * gamma
+            level = threshold * reference
+            for n in range(n_lights):
+                lit[p, n] = 1.0 if row[n] > level else 0.0

@@ -71,6 +71,11 @@ MAX_ITERATIONS = 200
 BEST_START_RING = np.radians(12.0)
 """Radius of the ring of 6 normals tried around the best start (:func:`_refine_normals`)."""
 
+CHUNK = 2
+"""Blocks of :data:`~brdfkit.vision._bivariate_kernels.BLOCK` pixels a thread takes at a time
+from the per-pixel kernels (``numba.parallel_chunksize``), as they finish, rather than fixed
+equal shares: the pixels' costs differ (highlights, shadows, pixels that stopped)."""
+
 STEP_TOLERANCE = 1e-6
 """A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
@@ -160,6 +165,8 @@ def _fit(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_residuals` and the costs ``|residual|^2`` ``(P,)``; ``free`` ``(P, K)`` holds the
     active sets the non-negative fits start from, updated in place (by default all free)."""
+    import numba
+
     from brdfkit.vision import _bivariate_kernels
 
     if free is None:
@@ -167,16 +174,11 @@ def _fit(
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     residual = np.empty(gray.shape)
     coefficients = np.empty((len(gray), basis.size))
-    cost = _bivariate_kernels.fit_pixels(
-        np.ascontiguousarray(normals, dtype=np.float64),
-        gray,
-        weights,
-        *_kernel_inputs(lights, basis),
-        nonnegative,
-        residual,
-        coefficients,
-        free,
-    )
+    with numba.parallel_chunksize(CHUNK):
+        cost = _bivariate_kernels.fit_pixels(
+            np.ascontiguousarray(normals, dtype=np.float64), gray, weights,
+            *_kernel_inputs(lights, basis), nonnegative, residual, coefficients, free,
+        )  # fmt: skip
     return residual, coefficients, cost
 
 
@@ -225,20 +227,23 @@ def _refine_normals(
             np.empty(len(gray)),
             np.empty((len(gray), basis.size)),
         )
-        _bivariate_kernels.best_start(
-            starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
-            cost, free, coefficients, True, products,
-        )  # fmt: skip
+        with numba.parallel_chunksize(CHUNK):
+            _bivariate_kernels.best_start(
+                starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
+                cost, free, coefficients, True, products,
+            )  # fmt: skip
     else:
         normals = np.array(normals, dtype=np.float64, order="C")
         residual, coefficients = np.empty(gray.shape), np.empty((len(gray), basis.size))
-        cost = _bivariate_kernels.fit_pixels(
-            normals, gray, weights, *inputs, nonnegative, residual, coefficients, free, products
-        )
+        with numba.parallel_chunksize(CHUNK):
+            cost = _bivariate_kernels.fit_pixels(
+                normals, gray, weights, *inputs, nonnegative, residual, coefficients, free,
+                products,
+            )  # fmt: skip
     damping = np.full(len(normals), 1e-3)
     active = np.ones(len(normals), dtype=bool)
     for iteration in range(iterations):
-        with numba.parallel_chunksize(2):  # blocks of pixels; they stop at different iterations
+        with numba.parallel_chunksize(CHUNK):  # pixels stop at different iterations
             _bivariate_kernels.lm_step(
                 normals, damping, residual, cost, active, free, gray, weights, *inputs,
                 nonnegative, STEP_TOLERANCE, products, coefficients,
@@ -267,6 +272,33 @@ def _ranks(gray: np.ndarray) -> np.ndarray:
     return ranks
 
 
+def _order(gray: np.ndarray, shadow_threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The :func:`_ranks` ``(P, N)`` of ``gray`` ``(N, P)``, the shadow weights ``(P, N)`` of
+    :func:`_start` (1 where brighter than ``shadow_threshold`` times the pixel's
+    :func:`_reference`) and ``gray`` transposed to ``(P, N)`` (C order): the same numbers, in
+    one pass of the compiled :func:`~brdfkit.vision._bivariate_kernels.order_statistics`
+    (pixels over the cores; ranks counted, and those of pixels with equal observations, whose
+    order NumPy's sort algorithm decides, by :func:`_ranks`)."""
+    from brdfkit.vision import _bivariate_kernels
+
+    if not 0 <= shadow_threshold < 1:
+        raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
+    n_lights, n_pixels = gray.shape
+    virtual = (n_lights - 1) * np.true_divide(90, 100)  # np.percentile's "linear" index
+    previous = int(np.floor(virtual))
+    ranks = np.empty((n_pixels, n_lights), dtype=np.intp)
+    lit = np.empty((n_pixels, n_lights))
+    tied = np.empty(n_pixels, dtype=bool)
+    by_pixel = np.empty((n_pixels, n_lights))
+    _bivariate_kernels.order_statistics(
+        np.ascontiguousarray(gray), float(shadow_threshold), previous,
+        float(virtual - previous), ranks, lit, tied, by_pixel,
+    )  # fmt: skip
+    if tied.any():
+        ranks[tied] = _ranks(gray[:, tied])
+    return ranks, lit, by_pixel
+
+
 def _trimmed(ranks: np.ndarray, dark_fraction: float, bright_fraction: float) -> np.ndarray:
     """:func:`~brdfkit.vision.photometric_stereo._trim_weights` ``(N, P)`` from the
     :func:`_ranks` (the same weights; fractions already checked)."""
@@ -281,6 +313,7 @@ def _start(
     lights: np.ndarray,
     shadow_threshold: float,
     ranks: np.ndarray | None = None,
+    lit: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow weights ``(P, N)`` (1 where brighter than ``shadow_threshold`` times the
     pixel's :func:`_reference`) and candidate start normals ``(S, P, 3)``: trimmed least
@@ -288,13 +321,14 @@ def _start(
     :func:`_trimmed` weights, by the compiled
     :func:`~brdfkit.vision._bivariate_kernels.trimmed_starts`, pixels over the cores) dropping
     (dark, bright) fractions (0.25, 0.1), (0.25, 0.4) and (0.1, 0.6) of the observations (a
-    broad lobe needs the last, a sharp one the first). ``ranks``: the :func:`_ranks` of
-    ``gray``, if already known."""
+    broad lobe needs the last, a sharp one the first). ``ranks``, ``lit``: the :func:`_ranks`
+    of ``gray`` and the shadow weights, if already known (:func:`_order` gives both)."""
     from brdfkit.vision import _bivariate_kernels
 
     if not 0 <= shadow_threshold < 1:
         raise ParameterError(f"shadow_threshold must be in [0, 1), got {shadow_threshold}")
-    lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
+    if lit is None:
+        lit = (gray > shadow_threshold * _reference(gray.T)[None, :]).T.astype(np.float64)
     ranks = _ranks(gray) if ranks is None else ranks
     n_lights = len(lights)
     windows = []  # the ranks _trimmed keeps: [n_dark, N - n_bright)
@@ -440,12 +474,12 @@ def bipolynomial(
             f"{bright_fraction} keeps {kept} of {n_lights} observations; need at least "
             f"{n_terms + 2}: lower the degree"
         )
-    ranks = _ranks(gray)
-    lit, normals = _start(gray, lights, shadow_threshold, ranks)
+    ranks, lit, by_pixel = _order(gray, shadow_threshold)
+    lit, normals = _start(gray, lights, shadow_threshold, ranks, lit)
     low_frequency = lit * _trimmed(ranks, 0.0, bright_fraction).T
     basis = _bipolynomial_basis(int(degree[0]), int(degree[1]))
     normals, _ = _refine_normals(
-        normals, gray.T, low_frequency, lights, basis, iterations=iterations, callback=callback
+        normals, by_pixel, low_frequency, lights, basis, iterations=iterations, callback=callback
     )
     return _finish(normals, gray, low_frequency, lights, observations, mask, ranks)
 
@@ -527,14 +561,14 @@ def constrained_bivariate(
             f"{len(lights)} lights; use knots <= {max((len(lights) - 2) // 2 + 1, 1)}"
         )
     gray = _gray(observations)
-    ranks = _ranks(gray)
-    lit, normals = _start(gray, lights, shadow_threshold, ranks)
+    ranks, lit, by_pixel = _order(gray, shadow_threshold)
+    lit, normals = _start(gray, lights, shadow_threshold, ranks, lit)
     knots_i = np.linspace(0.0, 1.0, knots)
     knots_h = np.cos(np.linspace(np.pi / 2, 0.0, knots))
     basis = _sum_of_lobes_basis(knots_i, knots_h)
     normals, _ = _refine_normals(
         normals,
-        gray.T,
+        by_pixel,
         lit,
         lights,
         basis,
@@ -726,13 +760,12 @@ def shared_bivariate(
         raise ParameterError(f"smoothness must be finite and >= 0, got {smoothness}")
     observations, lights, mask = _prepare(images, light_directions, mask)
     gray = _gray(observations)
-    ranks = _ranks(gray)
-    lit, starts = _start(gray, lights, shadow_threshold, ranks)
+    ranks, lit, by_pixel = _order(gray, shadow_threshold)
+    lit, starts = _start(gray, lights, shadow_threshold, ranks, lit)
     normals = starts[-1]
     table = _Table(n_h, n_d)
     theta_h = (np.linspace(0.0, 1.0, n_h) ** 2) * (np.pi / 2)
     table.values = np.repeat(np.exp(-((theta_h / np.radians(10.0)) ** 2)), n_d)
-    by_pixel = np.ascontiguousarray(gray.T)  # (P, N), as the kernels take it: one copy
     _, coefficients = _residuals(normals, by_pixel, lit, lights, _shared_basis(table), True)
     for round_ in range(rounds):
         _fit_table(table, normals, by_pixel, lit, lights, coefficients, smoothness)
