@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
+from brdfkit import env_quadrature
 from brdfkit.brdf import parse
+from brdfkit.brdf.base import BRDF, Sample
 from brdfkit.data import default_envmap_path
 from brdfkit.env_quadrature import error_estimate, quadrature_sphere
 from brdfkit.lights import DirectionalLight, EnvironmentMap
 from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
-from brdfkit.render import render_sphere
+from brdfkit.render import Camera, Sphere, gbuffer, render_sphere
 
 RES = 24
 BOUND = 0.005
@@ -85,11 +90,9 @@ def test_lambertian_is_exact(env):
     np.testing.assert_allclose(q.image, mc, rtol=1e-5, atol=1e-7)
 
 
-@pytest.mark.parametrize(
-    "spec", ["ggx(alpha=0.1, alpha_u=0.05, alpha_v=0.3)", "mirror(reflectance=1.0)"]
-)
-def test_refuses_anisotropic_and_delta(env, spec):
-    with pytest.raises(ValueError, match="isotropic model without delta lobes"):
+@pytest.mark.parametrize("spec", ["mirror(reflectance=1.0)", "smooth_dielectric(eta=1.5)"])
+def test_refuses_delta(env, spec):
+    with pytest.raises(ValueError, match="model without delta lobes"):
         quadrature_sphere(parse(spec), env, RES)
 
 
@@ -98,15 +101,202 @@ def test_refuses_other_lights():
         quadrature_sphere(parse("phong(ks=0.5, n=10.0)"), DirectionalLight(), RES)
 
 
-@pytest.mark.parametrize("level", [0, 2])
-def test_a_grey_kernel_serves_every_channel_of_the_map(env, level):
+@pytest.mark.parametrize(
+    ("level", "roughness"),
+    [(0, "alpha=0.3"), (2, "alpha=0.3"), (0, "alpha=0.1, alpha_u=0.1, alpha_v=0.3")],
+)
+def test_a_grey_kernel_serves_every_channel_of_the_map(env, level, roughness):
     # a grey model's kernel is transformed once and meets each channel of the map's spectrum:
-    # the image of the same model with three equal channels, to rounding
-    grey = parse("ggx(alpha=0.3, eta=1.5)")
-    rgb = parse("ggx(alpha=0.3, eta=[1.5, 1.5, 1.5])")
+    # the image of the same model with three equal channels, to rounding (also the kernels
+    # of an anisotropic model's tangent angles and their mirror images)
+    grey = parse(f"ggx({roughness}, eta=1.5)")
+    rgb = parse(f"ggx({roughness}, eta=[1.5, 1.5, 1.5])")
     assert (grey.channels, rgb.channels, env.channels) == (1, 3, 3)
     a = quadrature_sphere(grey, env, RES, level=level)
     b = quadrature_sphere(rgb, env, RES, level=level)
     assert a.image.shape == b.image.shape == (RES, RES, 3) and a.nodes == b.nodes
     assert np.ptp(a.image[RES // 2, RES // 2]) > 0  # the map's colour reaches the image
     np.testing.assert_allclose(a.image, b.image, rtol=1e-12, atol=1e-15)
+
+
+# --------------------------------------------------------------------------- anisotropic
+ANISOTROPIC = [
+    "ggx(alpha=0.1, alpha_u=0.05, alpha_v=0.3)",
+    "ward(kd=0.3, ks=0.6, alpha_x=0.1, alpha_y=0.4)",
+    "ashikhmin_shirley(rd=0.3, rs=0.1, nu=10.0, nv=1000.0)",
+    "principled(base_color=0.5, roughness=0.3, anisotropic=0.8)",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Turned(BRDF):
+    """``inner`` with its tangent turned by ``angle`` about the normal and, with ``skew``, its
+    values scaled by 1 + skew·(wi_x + wo_x)/2 (> 0, reciprocal): a model with neither the
+    mirror symmetry about the tangent nor (with skew) the one under a turn by π."""
+
+    inner: BRDF
+    angle: float = 0.0
+    skew: float = 0.0
+    isotropic = False
+
+    @property
+    def channels(self) -> int:  # type: ignore[override]
+        return self.inner.channels
+
+    def _turn(self, v, sign: float = 1.0):
+        c, s = math.cos(sign * self.angle), math.sin(sign * self.angle)
+        v = np.asarray(v, dtype=float)
+        return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1],
+                         v[..., 2]], axis=-1)  # fmt: skip
+
+    def _factor(self, wi, wo):
+        return (1 + self.skew * (np.asarray(wi)[..., 0] + np.asarray(wo)[..., 0]) / 2)[..., None]
+
+    def eval(self, wi, wo):
+        return self.inner.eval(self._turn(wi), self._turn(wo)) * self._factor(wi, wo)
+
+    def pdf(self, wi, wo):
+        return self.inner.pdf(self._turn(wi), self._turn(wo))
+
+    def sample(self, wo, u):
+        s = self.inner.sample(self._turn(wo), u)
+        wi = self._turn(s.wi, -1.0)
+        return Sample(wi, s.weight * self._factor(wi, wo), s.pdf, s.delta)
+
+    def sampling_weight(self, wo):
+        return self.inner.sampling_weight(self._turn(wo))
+
+
+@dataclass(frozen=True, eq=False)
+class Flagged(BRDF):
+    """An isotropic ``inner`` that says it is anisotropic: the anisotropic path's input."""
+
+    inner: BRDF
+    isotropic = False
+
+    @property
+    def channels(self) -> int:  # type: ignore[override]
+        return self.inner.channels
+
+    def eval(self, wi, wo):
+        return self.inner.eval(wi, wo)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spec", ANISOTROPIC)
+def test_anisotropic_matches_monte_carlo(env, spec):
+    # the pixels' tangents follow latitude lines about world +z, seen from the side: the
+    # quadrature must render the very sphere the Monte Carlo renderer does
+    model = parse(spec)
+    assert not model.isotropic
+    mask = interior_mask(RES)
+    q = quadrature_sphere(model, env, RES)
+    a = render_sphere(model, env, RES, samples=512, seed=1)
+    b = render_sphere(model, env, RES, samples=512, seed=2)
+    noise = relative_rmse(a, b, mask) / 2
+    error = relative_rmse(q.image, (a + b) / 2, mask)
+    assert error <= 3 * noise + BOUND, (error, noise)
+    assert q.error <= 0.01 and q.gammas >= env_quadrature.GAMMA_START
+
+
+@pytest.mark.slow
+def test_a_model_without_symmetries_matches_monte_carlo(env):
+    # turned by 0.5 rad and skewed: neither mirror symmetric nor periodic under a turn by π,
+    # so every tangent angle of the full turn is evaluated
+    model = Turned(parse("ggx(alpha=0.1, alpha_u=0.08, alpha_v=0.3)"), angle=0.5, skew=0.6)
+    assert env_quadrature._rotation_symmetry(model) == (2 * math.pi, False)
+    mask = interior_mask(RES)
+    q = quadrature_sphere(model, env, RES)
+    a = render_sphere(model, env, RES, samples=512, seed=1, compiled=False)
+    b = render_sphere(model, env, RES, samples=512, seed=2, compiled=False)
+    noise = relative_rmse(a, b, mask) / 2
+    error = relative_rmse(q.image, (a + b) / 2, mask)
+    assert error <= 3 * noise + BOUND, (error, noise)
+
+
+def test_rotation_symmetry_is_measured():
+    aniso = parse("ggx(alpha=0.1, alpha_u=0.05, alpha_v=0.3)")
+    assert env_quadrature._rotation_symmetry(aniso) == (math.pi, True)
+    assert env_quadrature._rotation_symmetry(Turned(aniso, angle=0.5)) == (math.pi, False)
+    assert env_quadrature._rotation_symmetry(Turned(aniso, skew=0.5)) == (2 * math.pi, True)
+
+
+@pytest.mark.parametrize("symmetry", [(math.pi, False), (2 * math.pi, True), (2 * math.pi, False)])
+def test_the_symmetries_only_save_work(env, monkeypatch, symmetry):
+    # the kernels of −γ mirrored from those of γ, and a period of π, give the image of
+    # every kernel evaluated over the full turn, to rounding, with fewer evaluations
+    model = parse("ward(kd=0.0, ks=0.6, alpha_x=0.1, alpha_y=0.4)")
+    both = quadrature_sphere(model, env, RES, level=0, gammas=8)
+    monkeypatch.setattr(env_quadrature, "_rotation_symmetry", lambda m: symmetry)
+    plain = quadrature_sphere(model, env, RES, level=0, gammas=8 if symmetry[0] == math.pi else 16)
+    np.testing.assert_allclose(plain.image, both.image, rtol=1e-9, atol=1e-12)
+    assert plain.nodes > both.nodes
+
+
+def test_an_isotropic_model_on_the_anisotropic_path_gives_the_isotropic_image(env):
+    model = parse("ggx(alpha=0.2, material='Au')")
+    iso = quadrature_sphere(model, env, RES)
+    flagged = quadrature_sphere(Flagged(model), env, RES)
+    assert iso.gammas == 1 and flagged.gammas == env_quadrature.GAMMA_START
+    assert (flagged.level, flagged.error) == (iso.level, pytest.approx(iso.error, abs=1e-12))
+    np.testing.assert_allclose(flagged.image, iso.image, rtol=1e-10, atol=1e-14)
+
+
+def test_the_pixel_tangent_angle_of_the_front_view():
+    # latitude tangents (world +z is the camera's y) seen from the side: the pixel's tangent
+    # is turned by γ = atan2(−cos θ sin ψ, cos ψ) from the ring tangent rotated by ψ
+    camera = Camera()
+    g = gbuffer(Sphere(), camera, 32)
+    frame = np.asarray(camera.rotation, dtype=float)
+    local = g.normals[g.mask] @ frame
+    r, psi = np.hypot(local[:, 0], local[:, 1]), np.arctan2(local[:, 1], local[:, 0])
+    gamma = env_quadrature._pixel_frames(g, frame, local, r, psi)
+    expected = np.arctan2(-local[:, 2] * np.sin(psi), np.cos(psi))
+    np.testing.assert_allclose(np.angle(np.exp(1j * (gamma - expected))), 0, atol=1e-12)
+
+
+def test_trigonometric_weights_interpolate_a_band_limited_function():
+    count = 8
+    beta = np.linspace(-4.0, 7.0, 50)
+    nodes = np.arange(count) * 2 * math.pi / count
+
+    def f(x):
+        return 1.5 + np.cos(x) - 0.5 * np.sin(3 * x) + 0.25 * np.cos(4 * x)  # Nyquist: cosine
+
+    weights = env_quadrature._trigonometric_weights(beta, count)
+    np.testing.assert_allclose(weights @ f(nodes), f(beta), atol=1e-12)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_the_anisotropic_image_is_within_the_goal_of_the_next_level(env):
+    # the next level: the grid twice as fine and every tangent angle (GAMMA_MAX)
+    model = parse("ashikhmin_shirley(rd=0.3, rs=0.1, nu=10.0, nv=1000.0)")
+    mask = interior_mask(48)
+    q = quadrature_sphere(model, env, 48)
+    finer = quadrature_sphere(model, env, 48, level=q.level + 1)
+    assert finer.gammas == env_quadrature.GAMMA_MAX
+    assert q.error <= 0.01
+    assert relative_rmse(q.image, finer.image, mask) <= 0.01
+
+
+@pytest.mark.slow
+def test_anisotropic_from_another_view_matches_monte_carlo(env):
+    # seen from above at a slant, the pole of the latitude tangents is on the sphere's face
+    camera = Camera.look_at((4.0, 3.0, 8.0), kind="orthographic")
+    model = parse("ward(kd=0.0, ks=0.8, alpha_x=0.08, alpha_y=0.3)")
+    mask = interior_mask(RES)
+    q = quadrature_sphere(model, env, RES, camera=camera)
+    a = render_sphere(model, env, RES, camera=camera, samples=512, seed=1)
+    b = render_sphere(model, env, RES, camera=camera, samples=512, seed=2)
+    noise = relative_rmse(a, b, mask) / 2
+    error = relative_rmse(q.image, (a + b) / 2, mask)
+    assert error <= 3 * noise + BOUND, (error, noise)
+
+
+def test_the_atlas_renders_anisotropic_spheres_by_quadrature(env):
+    from brdfkit.report import env_sphere
+
+    image, spent = env_sphere(parse("ward(kd=0.3, ks=0.6, alpha_x=0.1, alpha_y=0.4)"), env, RES)
+    assert isinstance(spent, str) and spent.startswith("quadrature")
+    assert image.shape == (RES, RES, 3)

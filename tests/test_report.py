@@ -139,8 +139,10 @@ def test_env_sphere_uses_the_quadrature_where_it_applies():
     assert spent.startswith("quadrature, ") and spent.endswith(" nodes")
     reference = render_sphere(ggx, env, 12, samples=1024, seed=2)
     assert relative_rmse(image, reference, interior_mask(12)) <= 0.02
-    aniso = MODELS["ggx"](alpha_u=0.05, alpha_v=0.3)
-    assert env_sphere(aniso, env, 12, samples=4, noise=None)[1] == 4  # Monte Carlo
+    aniso = MODELS["ggx"](alpha_u=0.05, alpha_v=0.3)  # the quadrature's tangent angles
+    assert env_sphere(aniso, env, 12, samples=4, noise=None)[1].startswith("quadrature, ")
+    mirror = MODELS["mirror"]()
+    assert env_sphere(mirror, env, 12, samples=4, noise=None)[1] == 4  # delta: Monte Carlo
 
 
 def test_build_card_records_the_cpu_seconds_of_its_parts():
