@@ -136,7 +136,7 @@ def _quadrature_row(title, k, model, env, resolution, cpu, goal, mc_samples) -> 
     mask = interior_mask(RESOLUTION)
     ref = finer.image
     error_a = relative_rmse(q.image, ref, mask) if np.any(ref[mask]) else 0.0
-    small = quadrature_sphere(model, env, resolution, level=q.level).image
+    small = quadrature_sphere(model, env, resolution, level=q.level, gammas=q.gammas).image
     a, b = (
         render_sphere(model, env, resolution, samples=mc_samples // 2, seed=s, compiled=True)
         for s in (2, 3)
