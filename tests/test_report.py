@@ -141,8 +141,27 @@ def test_env_sphere_uses_the_quadrature_where_it_applies():
     assert relative_rmse(image, reference, interior_mask(12)) <= 0.02
     aniso = MODELS["ggx"](alpha_u=0.05, alpha_v=0.3)  # the quadrature's tangent angles
     assert env_sphere(aniso, env, 12, samples=4, noise=None)[1].startswith("quadrature, ")
-    mirror = MODELS["mirror"]()
-    assert env_sphere(mirror, env, 12, samples=4, noise=None)[1] == 4  # delta: Monte Carlo
+    mirror = MODELS["mirror"]()  # delta: Monte Carlo, exact at one sample per replicate
+    assert env_sphere(mirror, env, 12, samples=4, noise=None)[1] == 2
+
+
+def test_env_sphere_renders_a_sample_independent_delta_model_at_two_samples():
+    import numpy as np
+
+    from brdfkit.lights import EnvironmentMap
+    from brdfkit.render import render_sphere
+    from brdfkit.report import env_sphere
+
+    env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
+    for name in ("mirror", "smooth_dielectric"):
+        model = MODELS[name]()
+        image, spp = env_sphere(model, env, 12, samples=32, noise=None)
+        assert spp == 2
+        reference = render_sphere(model, env, 12, samples=32, seed=5)
+        np.testing.assert_allclose(image, reference, rtol=1e-12, atol=1e-12)
+    # a delta lobe beside a glossy one: its samples disagree, so it gets all of its samples
+    mixed = MODELS["mirror"]() + MODELS["ggx"](alpha=0.3, material="Au")
+    assert env_sphere(mixed, env, 12, samples=8, noise=None, quadrature=False)[1] == 8
 
 
 def test_build_card_records_the_cpu_seconds_of_its_parts():

@@ -280,9 +280,12 @@ def env_sphere(
     :math:`\hat e = \sqrt{(1 + 1/16)\,\overline{e^2} / \overline{M^2}}`, the 1/16 for the
     reference's own noise; it stops once :math:`\hat e` is at most
     :data:`_MARGIN` × ``noise``. A sphere without Monte Carlo (Lambertian lobes:
-    zero ``stderr``) stops after its first pass. The compiled kernels render it where they
-    apply and are built already (in this process or in :mod:`brdfkit.kernel_cache`), or
-    where the most work it may take is worth their build
+    zero ``stderr``) stops after its first pass; a model with delta lobes is first rendered at 2
+    spp (one sample per replicate), which is its image where the two agree exactly (a mirror,
+    a smooth dielectric: every sample finds the same delta direction, and the map's samples
+    add nothing), 12× less work than 32 spp for the same values to rounding. The compiled
+    kernels render it where they apply and are built already (in this process or in
+    :mod:`brdfkit.kernel_cache`), or where the most work it may take is worth their build
     (:data:`~brdfkit.render_kernel.AUTO_COMPILE_WORK`; built once per machine, as
     :mod:`brdfkit.kernel_cache` keeps them). With ``quadrature`` (default), a model
     :func:`~brdfkit.env_quadrature.quadrature_sphere` applies to is rendered by it instead,
@@ -308,6 +311,17 @@ def env_sphere(
     # built (in this process or on disk) kernels serve any sphere; building them, only a big one
     built = compiled_shader(model, [light], method="auto", build=False) is not None
     compiled = built or math.pi / 4 * resolution**2 * limit >= AUTO_COMPILE_WORK
+    if model.has_delta and samples > 2:
+        # a mirror's or a smooth dielectric's estimate need not depend on its samples: where
+        # one sample of each replicate already agrees exactly, that pass is the image
+        probe = next(
+            progressive_sphere(
+                model, light, resolution, first_samples=2, max_samples=2, seed=seed,
+                compiled=compiled,
+            )
+        )  # fmt: skip
+        if not np.any(probe.stderr[mask]):
+            return probe.image, probe.samples
     for shaded in progressive_sphere(
         model, light, resolution, first_samples=samples, max_samples=limit, seed=seed,
         compiled=compiled,
