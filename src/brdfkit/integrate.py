@@ -288,18 +288,24 @@ def uniform_keys(
     queries for their ``stream``-th point set: from one seed per query (an integer array of
     shape ``batch``), or from an integer ``seed`` by :func:`~brdfkit.sampling.query_seeds`
     (``None``: a fresh random one)."""
+    return scramble_keys(uniform_seeds(seed, batch), stream, dim)
+
+
+def uniform_seeds(seed: int | Array | None, batch: tuple[int, ...]) -> np.ndarray:
+    """The 64-bit seeds ``batch`` of a batch of queries (:func:`uniform_keys`): ``seed``
+    itself (an integer array of shape ``batch``), or from an integer by
+    :func:`~brdfkit.sampling.query_seeds` (``None``: a fresh random one)."""
     if seed is None:
         seed = int(np.random.default_rng().integers(2**63))
     if np.ndim(seed) == 0:
-        seeds = query_seeds(int(seed), math.prod(batch)).reshape(batch)
-    else:
-        seeds = np.asarray(to_numpy(seed))
-        if seeds.shape != tuple(batch) or not np.issubdtype(seeds.dtype, np.integer):
-            raise ValueError(
-                f"seed must be an integer or an integer array of shape {tuple(batch)}; "
-                f"got {seeds.dtype} {seeds.shape}"
-            )
-    return scramble_keys(seeds, stream, dim)
+        return query_seeds(int(seed), math.prod(batch)).reshape(batch)
+    seeds = np.asarray(to_numpy(seed))
+    if seeds.shape != tuple(batch) or not np.issubdtype(seeds.dtype, np.integer):
+        raise ValueError(
+            f"seed must be an integer or an integer array of shape {tuple(batch)}; "
+            f"got {seeds.dtype} {seeds.shape}"
+        )
+    return seeds
 
 
 def _light_term(

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import functools
 import math
+import types
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -72,7 +73,7 @@ from brdfkit.integrate import (
     _Uniforms,
     split_diffuse,
     split_mirror,
-    uniform_keys,
+    uniform_seeds,
 )
 from brdfkit.lights import EnvironmentMap, Light
 
@@ -323,29 +324,26 @@ def _new_tile_kernel(
         return solid_angle_pdf(T(density[int(row) * width + int(col)]), sin_theta)
 
     reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
+    key_hash = jit(
+        types.FunctionType(
+            sampling.key_hash.__code__, {**vars(sampling), "_mix64": jit(sampling._mix64)}
+        )
+    )
+    key_slot = jit(sampling.key_slot)
     unit_interval = 2.0**-sampling.SOBOL_BITS
 
     @jit
-    def variate(points: np.ndarray, digits: np.ndarray, keys: np.ndarray, p: int, s: int,
-                k: int) -> float:  # fmt: skip
-        """Variate k of pixel p's sample s: ``sampling.scrambled_sobol`` (``digits``, the
-        sequence's bit-reversed digits ``(N, d)``, scrambled by ``keys[p]``), or the i.i.d.
-        ``points[p, s, k]`` where ``digits`` is empty."""
-        if digits.shape[0] == 0:
-            return points[p, s, k]
-        x = reverse_bits(laine_karras(np.uint64(digits[s, k]), np.uint64(keys[p, 0, k])))
-        return np.float64(x ^ np.uint64(keys[p, 1, k])) * unit_interval
-
-    @jit
-    def block_keys(keys: np.ndarray, pixels: np.ndarray, start: int, nb: int,
+    def block_keys(seeds: np.ndarray, stream: int, pixels: np.ndarray, start: int, nb: int,
                    out: np.ndarray) -> None:  # fmt: skip
-        """The block's pixels' scramble keys ``keys[p]`` ``(2, d)`` as ``out`` ``(2, d, nb)``
-        uint64: contiguous along the block for :func:`block_variates`."""
+        """The block's pixels' scramble keys of ``stream`` (``sampling.scramble_keys`` of
+        their seeds) as ``out`` ``(2, d, nb)`` uint64: contiguous along the block for
+        :func:`block_variates`."""
+        d = out.shape[1]
         for j in range(nb):
-            p = pixels[start + j]
+            seed = np.uint64(seeds[pixels[start + j]])
             for i in range(2):
-                for k in range(keys.shape[2]):
-                    out[i, k, j] = np.uint64(keys[p, i, k])
+                for k in range(d):
+                    out[i, k, j] = key_hash(seed, key_slot(stream, i * d + k))
 
     @jit
     def block_variates(digits: np.ndarray, keys: np.ndarray, s: int, nb: int,
@@ -375,10 +373,9 @@ def _new_tile_kernel(
         frame: np.ndarray,
         points_b: np.ndarray,
         digits_b: np.ndarray,
-        keys_b: np.ndarray,
         points_l: np.ndarray,
         digits_l: np.ndarray,
-        keys_l: np.ndarray,
+        seeds: np.ndarray,
         image: np.ndarray,
         rot: np.ndarray,
         scale: Any,
@@ -421,15 +418,15 @@ def _new_tile_kernel(
         cols = np.empty(BLOCK, np.int64)
         base = np.empty(BLOCK, np.int64)
         sobol = digits_b.shape[0] > 0
-        keys_bb = np.empty((2, keys_b.shape[2], BLOCK), np.uint64)
-        keys_lb = np.empty((2, keys_l.shape[2], BLOCK), np.uint64)
+        keys_bb = np.empty((2, 3, BLOCK), np.uint64)
+        keys_lb = np.empty((2, 2, BLOCK), np.uint64)
         u_b = np.empty((3, BLOCK), np.float64)
         u_l = np.empty((2, BLOCK), np.float64)
         for start in range(0, pixels.shape[0], BLOCK):
             nb = min(BLOCK, pixels.shape[0] - start)
             if sobol:
-                block_keys(keys_b, pixels, start, nb, keys_bb)
-                block_keys(keys_l, pixels, start, nb, keys_lb)
+                block_keys(seeds, 0, pixels, start, nb, keys_bb)
+                block_keys(seeds, 1, pixels, start, nb, keys_lb)
             for j in range(nb):
                 p = pixels[start + j]
                 for k in range(3):
@@ -446,9 +443,9 @@ def _new_tile_kernel(
                     for j in range(nb):
                         p = pixels[start + j]
                         for k in range(3):
-                            u_b[k, j] = variate(points_b, digits_b, keys_b, p, s, k)
+                            u_b[k, j] = points_b[p, s, k]
                         for k in range(2):
-                            u_l[k, j] = variate(points_l, digits_l, keys_l, p, s, k)
+                            u_l[k, j] = points_l[p, s, k]
                 # BRDF sampling, vectorised over the block
                 for j in range(nb):
                     for k in range(3):
@@ -750,7 +747,7 @@ class EnvironmentShader:
         """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
         batch, pixels = prepared.batch, prepared.pixels
         wo_flat, frame_flat, control = prepared.wo, prepared.frame, prepared.control
-        uniforms = _uniforms(seed, sequence, batch, samples, first_sample)
+        brdf_uniforms, map_uniforms, seeds = _uniforms(seed, sequence, batch, samples, first_sample)
         n = math.prod(batch)
         mean = np.zeros((n, self.channels))
         m2 = np.zeros((n, self.channels))
@@ -759,46 +756,64 @@ class EnvironmentShader:
         kernel = self._kernel
         power = self.heuristic == "power"
 
-        def run(lo: int) -> None:
-            hi = min(lo + _CHUNK, pixels.size)
+        bounds = _task_bounds(pixels.size, accel.threads())
+
+        def run(task: int) -> None:
+            lo, hi = bounds[task], bounds[task + 1]
             kernel(
-                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *uniforms[0],
-                *uniforms[1], *self._tables, power, control, found_mean[lo:hi],
+                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *brdf_uniforms,
+                *map_uniforms, seeds, *self._tables, power, control, found_mean[lo:hi],
                 found_m2[lo:hi], self._data,
             )  # fmt: skip
 
-        accel.run_tasks(run, range(0, pixels.size, _CHUNK), accel.threads())
+        accel.run_tasks(run, range(len(bounds) - 1), accel.threads())
         mean[pixels], m2[pixels] = found_mean, found_m2
         shape = (*batch, self.channels)
         return mean.reshape(shape), m2.reshape(shape)
 
 
-_CHUNK = 4 * BLOCK
-"""Pixels per task of the thread pool (a few ms of work at 16 spp)."""
+_CHUNK = 512
+"""Pixels per task of the thread pool, at most (a few ms of work at 16 spp)."""
+
+
+def _task_bounds(count: int, workers: int) -> list[int]:
+    """Bounds of the thread pool's tasks over ``count`` pixels: at most :data:`_CHUNK` each,
+    their number a multiple of ``workers`` and their sizes equal to within a pixel, so that
+    the workers finish a tile together (with tasks of :data:`_CHUNK` and a short last one,
+    one thread waited on the other for part of a task per tile)."""
+    tasks = -(-max(count, 1) // _CHUNK)
+    tasks = -(-tasks // workers) * workers
+    return [count * i // tasks for i in range(tasks + 1)]
 
 
 def _uniforms(
     seed: Any, sequence: str, batch: tuple[int, ...], samples: int, first_sample: int
-) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], np.ndarray]:
     """The NumPy path's uniforms (``integrate._Uniforms``, the same generator calls and keys)
-    of the BRDF's (3-D) and the map's (2-D) samples, without their pixels × samples array for
-    Sobol: per strategy ``(points, digits, keys)``, for ``"random"`` the i.i.d. ``points``
-    ``(n, N, d)`` (the others empty), for ``"sobol"`` the sequence's bit-reversed digits
-    ``(N, d)`` and the per-pixel keys ``(n, 2, d)`` that the kernel scrambles them with."""
+    of the BRDF's (3-D, stream 0) and the map's (2-D, stream 1) samples, without their
+    pixels × samples array for Sobol: per strategy ``(points, digits)``, then the pixels'
+    seeds. For ``"random"`` the i.i.d. ``points`` ``(n, N, d)`` (digits and seeds empty), for
+    ``"sobol"`` the sequence's bit-reversed digits ``(N, d)`` and the pixels' 64-bit seeds
+    ``(n,)`` (:func:`~brdfkit.integrate.uniform_seeds`), from which the kernel hashes the
+    scramble keys of each stream (``sampling.scramble_keys``; in NumPy a tile's keys took
+    ~0.6 ms, with the kernel's threads waiting)."""
     n = math.prod(batch)
     uniforms = _Uniforms(seed, sequence, first_sample)
     result = []
-    for stream, dim in enumerate((3, 2)):
+    for dim in (3, 2):
         if sequence == "random":
             points = uniforms.draw(batch, samples, dim).reshape(n, samples, dim)
-            digits, keys = np.empty((0, dim), np.uint32), np.empty((0, 2, dim), np.uint32)
+            digits = np.empty((0, dim), np.uint32)
         else:
             points = np.empty((0, 0, dim))
             integers = sampling.sobol_integers(first_sample, samples, dim)
             digits = np.ascontiguousarray(sampling.reverse_bits(integers))
-            keys = np.ascontiguousarray(uniform_keys(seed, batch, stream, dim).reshape(n, 2, dim))
-        result.append((points, digits, keys))
-    return result
+        result.append((points, digits))
+    if sequence == "random":
+        seeds = np.empty(0, np.uint64)
+    else:
+        seeds = np.ascontiguousarray(uniform_seeds(seed, batch).reshape(n), dtype=np.uint64)
+    return result[0], result[1], seeds
 
 
 AUTO_COMPILE_WORK = 4_000_000

@@ -884,6 +884,17 @@ def scramble_keys(seeds: np.ndarray, stream: int, dim: int) -> np.ndarray:
     """The :func:`scrambled_sobol` keys ``(..., 2, dim)`` uint32 of each query's 64-bit seed
     ``(...,)`` for its ``stream``-th independent point set: hashes of (seed, stream, slot)."""
     seeds = np.asarray(seeds, dtype=np.uint64)
-    slots = np.arange(2 * dim, dtype=np.uint64) + np.uint64(2 * SOBOL_DIMENSIONS * stream + 1)
-    mixed = _mix64(seeds[..., None] + slots * np.uint64(0xD1B54A32D192ED03))
-    return (mixed >> np.uint64(32)).astype(np.uint32).reshape(*seeds.shape, 2, dim)
+    slots = np.arange(2 * dim, dtype=np.uint64) + key_slot(stream, 0)
+    return key_hash(seeds[..., None], slots).astype(np.uint32).reshape(*seeds.shape, 2, dim)
+
+
+def key_slot(stream: int, slot: int) -> np.uint64:
+    """The hash input of slot ``slot`` (``i · dim + k``: key i of dimension k) of stream
+    ``stream`` in :func:`scramble_keys`."""
+    return np.uint64(2 * SOBOL_DIMENSIONS * stream + 1 + slot)
+
+
+def key_hash(seed: Any, slot: Any) -> Any:
+    """The 32-bit key (below 2^32, as uint64) of a query's 64-bit ``seed`` at a
+    :func:`key_slot`: uint64 NumPy arrays, or uint64 scalars in numba (the same code)."""
+    return _mix64(seed + slot * np.uint64(0xD1B54A32D192ED03)) >> np.uint64(32)
