@@ -346,12 +346,23 @@ def _new_table_functions(
             if ahead < n:
                 for corner in range(corners):
                     prefetch(values, flat[corner * n + ahead])
-            for c in range(width):
-                found[c] = zero
-            for corner in range(corners):  # lookup(): the 2^D corners in its order
-                at, w = flat[corner * n + j], corner_weight[corner * n + j]
+            if width == 4:  # RGB and the measured flag: four sums LLVM keeps in one vector
+                f0, f1, f2, f3 = zero, zero, zero, zero
+                for corner in range(corners):  # lookup(): the 2^D corners in its order
+                    # unsigned: no negative-index wrap-around per read
+                    at, w = np.uint64(flat[corner * n + j]), corner_weight[corner * n + j]
+                    f0 += w * values[at]
+                    f1 += w * values[at + np.uint64(1)]
+                    f2 += w * values[at + np.uint64(2)]
+                    f3 += w * values[at + np.uint64(3)]
+                found[0], found[1], found[2], found[3] = f0, f1, f2, f3
+            else:
                 for c in range(width):
-                    found[c] += w * values[at + c]
+                    found[c] = zero
+                for corner in range(corners):
+                    at, w = np.uint64(flat[corner * n + j]), corner_weight[corner * n + j]
+                    for c in range(width):
+                        found[c] += w * values[at + np.uint64(c)]
             measured = found[table_channels]
             for c in range(channels):
                 v = found[c * cstep] / measured if measured > covered_min else zero
