@@ -259,12 +259,13 @@ def _new_tile_kernel(
         return x / length, y / length, z / length
 
     @jit
-    def map_coordinates(wx: Any, wy: Any, wz: Any, rot: np.ndarray) -> tuple[Any, Any, Any]:
+    def map_coordinates(wx: Any, wy: Any, wz: Any, r: tuple) -> tuple[Any, Any, Any]:
         """``EnvironmentMap._map_coordinates`` of a unit direction: x = (φ mod 2π)/2π,
-        y = θ/π, and sin θ (the NumPy path's sin θ to rounding), branch-free."""
-        mx = wx * rot[0, 0] + wy * rot[1, 0] + wz * rot[2, 0]
-        my = wx * rot[0, 1] + wy * rot[1, 1] + wz * rot[2, 1]
-        mz = wx * rot[0, 2] + wy * rot[1, 2] + wz * rot[2, 2]
+        y = θ/π, and sin θ (the NumPy path's sin θ to rounding), branch-free; ``r`` the
+        map's rotation, row-major."""
+        mx = wx * r[0] + wy * r[3] + wz * r[6]
+        my = wx * r[1] + wy * r[4] + wz * r[7]
+        mz = wx * r[2] + wy * r[5] + wz * r[8]
         sin_theta = np.sqrt(max(mx * mx + my * my, zero))
         theta = atan2(sin_theta, mz)
         phi = atan2(my, mx)
@@ -406,7 +407,16 @@ def _new_tile_kernel(
         woc_buf = np.empty(BLOCK * 3, T)
         fc_buf = np.empty(BLOCK * brdf_channels, T)  # f and p_b there
         pbc_buf = np.empty(BLOCK, T)
-        coords = np.empty((BLOCK, 5), T)  # (x, y, sin θ) of the BRDF's, (x, y) of the map's
+        # the block's frames, frames[3 i + k, j] = frame[pixels[start + j], i, k]: contiguous
+        # along the block, so that the loops over it vectorise
+        frames = np.empty((9, BLOCK), T)
+        x_b, y_b, sin_b = np.empty(BLOCK, T), np.empty(BLOCK, T), np.empty(BLOCK, T)  # BRDF's
+        x_l, y_l = np.empty(BLOCK, T), np.empty(BLOCK, T)  # and the map's samples' (x, y)
+        m0_l, m1_l = np.empty(BLOCK, np.float64), np.empty(BLOCK, np.float64)  # their CDF
+        c0_l, c1_l = np.empty(BLOCK, np.float64), np.empty(BLOCK, np.float64)  # nodes, pdf
+        pdf_uv = np.empty(BLOCK, T)
+        r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
+             rot[2, 1], rot[2, 2])  # fmt: skip
         pdf_l = np.empty(BLOCK, T)
         cos_l = np.empty(BLOCK, T)
         cbw = np.empty((BLOCK, channels), T)
@@ -431,6 +441,8 @@ def _new_tile_kernel(
                 p = pixels[start + j]
                 for k in range(3):
                     wo_buf[j * 3 + k] = wo[p, k]
+                for i in range(9):
+                    frames[i, j] = frame[p, i // 3, i % 3]
                 for c in range(channels):
                     mean[start + j, c] = 0.0
                     m2[start + j, c] = 0.0
@@ -452,45 +464,51 @@ def _new_tile_kernel(
                         u_buf[j * 3 + k] = T(u_b[k, j])
                 sample_fn(params, wo_buf, u_buf, wi_buf, wt_buf, pdf_buf, delta_buf, nb, *data)
                 # Directions, map coordinates and the map's CDF searches first, texel reads
-                # after: short loops whose independent cache misses overlap.
+                # after: short loops whose independent cache misses overlap. The arithmetic
+                # runs in loops of its own, which LLVM vectorises (a loop with a gather or a
+                # prefetch in it runs scalar).
                 for j in range(nb):
-                    p = pixels[start + j]
                     v0, v1, v2 = wi_buf[j * 3], wi_buf[j * 3 + 1], wi_buf[j * 3 + 2]
-                    wx = v0 * frame[p, 0, 0] + v1 * frame[p, 1, 0] + v2 * frame[p, 2, 0]
-                    wy = v0 * frame[p, 0, 1] + v1 * frame[p, 1, 1] + v2 * frame[p, 2, 1]
-                    wz = v0 * frame[p, 0, 2] + v1 * frame[p, 1, 2] + v2 * frame[p, 2, 2]
+                    wx = v0 * frames[0, j] + v1 * frames[3, j] + v2 * frames[6, j]
+                    wy = v0 * frames[1, j] + v1 * frames[4, j] + v2 * frames[7, j]
+                    wz = v0 * frames[2, j] + v1 * frames[5, j] + v2 * frames[8, j]
                     ux, uy, uz = unit(wx, wy, wz)
-                    coords[j, 0], coords[j, 1], coords[j, 2] = map_coordinates(ux, uy, uz, rot)
-                    prefetch_texels(coords[j, 0], coords[j, 1], image, density)
+                    x_b[j], y_b[j], sin_b[j] = map_coordinates(ux, uy, uz, r)
                     a, b = T(u_l[0, j]), T(u_l[1, j])
                     a_buf[j] = min(np.float64(a), below_one_64)
                     b_buf[j] = min(np.float64(b), below_one_64)
+                for j in range(nb):
+                    prefetch_texels(x_b[j], y_b[j], image, density)
                 map_samples(
                     a_buf, b_buf, marginal, conditional, row_guide, col_guide, height, width,
                     nb, rows, cols, base,
                 )  # fmt: skip
+                for j in range(nb):  # the found cells' CDF nodes and pdf
+                    row, col, at = rows[j], cols[j], base[j] + cols[j]
+                    m0_l[j], m1_l[j] = marginal[row], marginal[row + 1]
+                    c0_l[j], c1_l[j] = conditional[at], conditional[at + 1]
+                    pdf_uv[j] = T(density[row * width + col])
                 for j in range(nb):
-                    p = pixels[start + j]
                     row, col, a, b = rows[j], cols[j], a_buf[j], b_buf[j]
-                    m0, m1 = marginal[row], marginal[row + 1]
-                    c0, c1 = conditional[base[j] + col], conditional[base[j] + col + 1]
+                    c0, c1, m0, m1 = c0_l[j], c1_l[j], m0_l[j], m1_l[j]
                     x = min(T((col + (a - c0) / (c1 - c0)) / width), below_one)
                     y = min(T((row + (b - m0) / (m1 - m0)) / height), below_one)
-                    pdf_uv = T(density[row * width + col])
-                    coords[j, 3], coords[j, 4] = x, y
-                    prefetch_texels(x, y, image, density)
+                    x_l[j], y_l[j] = x, y
                     theta, phi = y * pi, x * two_pi
                     sin_theta = sin(theta)
-                    pdf_l[j] = solid_angle_pdf(pdf_uv, sin_theta)
+                    pdf_l[j] = solid_angle_pdf(pdf_uv[j], sin_theta)
                     mx, my, mz = sin_theta * cos(phi), sin_theta * sin(phi), cos(theta)
-                    lx = mx * rot[0, 0] + my * rot[0, 1] + mz * rot[0, 2]
-                    ly = mx * rot[1, 0] + my * rot[1, 1] + mz * rot[1, 2]
-                    lz = mx * rot[2, 0] + my * rot[2, 1] + mz * rot[2, 2]
+                    lx = mx * r[0] + my * r[1] + mz * r[2]
+                    ly = mx * r[3] + my * r[4] + mz * r[5]
+                    lz = mx * r[6] + my * r[7] + mz * r[8]
                     for k in range(3):
                         wil_buf[j * 3 + k] = (
-                            lx * frame[p, k, 0] + ly * frame[p, k, 1] + lz * frame[p, k, 2]
-                        )
+                            lx * frames[3 * k, j] + ly * frames[3 * k + 1, j]
+                            + lz * frames[3 * k + 2, j]
+                        )  # fmt: skip
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
+                for j in range(nb):
+                    prefetch_texels(x_l[j], y_l[j], image, density)
                 # the BRDF at the map's directions above the surface only (about half of
                 # them): below it f = 0 and p_b = 0 and the term, times cos θ = 0, is 0
                 live = 0
@@ -514,7 +532,7 @@ def _new_tile_kernel(
                         f_buf[j * brdf_channels + c] = fc_buf[i * brdf_channels + c]
                 for j in range(nb):
                     p = pixels[start + j]
-                    x, y, sin_theta = coords[j, 0], coords[j, 1], coords[j, 2]
+                    x, y, sin_theta = x_b[j], y_b[j], sin_b[j]
                     lookup(x, y, image, scale, radiance)
                     p_light = map_pdf(x, y, sin_theta, density, height, width)
                     w_b = one if delta_buf[j] else weight(pdf_buf[j], p_light, power)
@@ -527,7 +545,7 @@ def _new_tile_kernel(
                         cbw[j, c] = term * w_b if upper else zero * w_b
                     # the map's sample: its radiance at the sampled coordinates (the NumPy
                     # path converts them to a direction and back, equal to rounding)
-                    lookup(coords[j, 3], coords[j, 4], image, scale, radiance)
+                    lookup(x_l[j], y_l[j], image, scale, radiance)
                     pl = pdf_l[j]
                     for c in range(map_channels):
                         value_l[j, c] = radiance[c] / pl if pl != zero else zero
