@@ -273,9 +273,9 @@ def _new_tile_kernel(
         return phi / two_pi, theta / pi, sin_theta
 
     @jit
-    def lookup(x: Any, y: Any, image: np.ndarray, scale: Any, out: np.ndarray) -> None:
+    def lookup(x: Any, y: Any, image: np.ndarray, scale: Any, out: np.ndarray, j: int) -> None:
         """``EnvironmentMap._lookup`` at map coordinates (x, y): bilinear, columns wrapping,
-        rows clamped; into ``out``."""
+        rows clamped; into ``out[:, j]``."""
         height, width, nc = image.shape
         row, col = y * T(height) - half, x * T(width) - half
         r0f, c0f = np.floor(row), np.floor(col)
@@ -292,7 +292,7 @@ def _new_tile_kernel(
         for c in range(nc):
             top = image[r0, c0, c] * (one - fc) + image[r0, c1, c] * fc
             bottom = image[r1, c0, c] * (one - fc) + image[r1, c1, c] * fc
-            out[c] = (top * (one - fr) + bottom * fr) * scale
+            out[c, j] = (top * (one - fr) + bottom * fr) * scale
 
     @jit
     def prefetch_texels(x: Any, y: Any, image: np.ndarray, density: np.ndarray) -> None:
@@ -364,7 +364,7 @@ def _new_tile_kernel(
         if power:
             p, q = p * p, q * q
         total = p + q
-        return p / total if total != zero else zero
+        return select(total != zero, p / select(total != zero, total, one), zero)
 
     @jit
     def shade(
@@ -419,9 +419,12 @@ def _new_tile_kernel(
              rot[2, 1], rot[2, 2])  # fmt: skip
         pdf_l = np.empty(BLOCK, T)
         cos_l = np.empty(BLOCK, T)
-        cbw = np.empty((BLOCK, channels), T)
-        value_l = np.empty((BLOCK, map_channels), T)
-        radiance = np.empty(map_channels, T)
+        controls = np.empty((brdf_channels, BLOCK), T)  # the block's control variates k
+        radiance_b = np.empty((map_channels, BLOCK), T)  # the map at the BRDF's samples,
+        radiance_l = np.empty((map_channels, BLOCK), T)  # at its own,
+        p_light = np.empty(BLOCK, T)  # and its pdf at the BRDF's
+        mean_b = np.empty((channels, BLOCK), np.float64)  # the block's running mean and
+        m2_b = np.empty((channels, BLOCK), np.float64)  # sum of squared deviations
         a_buf = np.empty(BLOCK, np.float64)
         b_buf = np.empty(BLOCK, np.float64)
         rows = np.empty(BLOCK, np.int64)
@@ -443,9 +446,11 @@ def _new_tile_kernel(
                     wo_buf[j * 3 + k] = wo[p, k]
                 for i in range(9):
                     frames[i, j] = frame[p, i // 3, i % 3]
+                for c in range(brdf_channels):
+                    controls[c, j] = control[p, c]
                 for c in range(channels):
-                    mean[start + j, c] = 0.0
-                    m2[start + j, c] = 0.0
+                    mean_b[c, j] = 0.0
+                    m2_b[c, j] = 0.0
             for s in range(samples):
                 inverse_count = 1.0 / (s + 1)
                 if sobol:
@@ -530,34 +535,40 @@ def _new_tile_kernel(
                     pbl_buf[j] = pbc_buf[i]
                     for c in range(brdf_channels):
                         f_buf[j * brdf_channels + c] = fc_buf[i * brdf_channels + c]
+                # the texel reads (and the map's pdf at the BRDF's samples), then the MIS
+                # arithmetic in a loop LLVM vectorises
                 for j in range(nb):
-                    p = pixels[start + j]
-                    x, y, sin_theta = x_b[j], y_b[j], sin_b[j]
-                    lookup(x, y, image, scale, radiance)
-                    p_light = map_pdf(x, y, sin_theta, density, height, width)
-                    w_b = one if delta_buf[j] else weight(pdf_buf[j], p_light, power)
-                    upper = wi_buf[j * 3 + 2] > zero
-                    pb = pdf_buf[j]
-                    cos_over_p = wi_buf[j * 3 + 2] / pb if pb != zero else zero
-                    for c in range(channels):
-                        k = control[p, c * cb_step] * cos_over_p  # (f − k)·cos/p
-                        term = (wt_buf[j * brdf_channels + c * cb_step] - k) * radiance[c * cl_step]
-                        cbw[j, c] = term * w_b if upper else zero * w_b
+                    lookup(x_b[j], y_b[j], image, scale, radiance_b, j)
+                    p_light[j] = map_pdf(x_b[j], y_b[j], sin_b[j], density, height, width)
                     # the map's sample: its radiance at the sampled coordinates (the NumPy
                     # path converts them to a direction and back, equal to rounding)
-                    lookup(x_l[j], y_l[j], image, scale, radiance)
-                    pl = pdf_l[j]
-                    for c in range(map_channels):
-                        value_l[j, c] = radiance[c] / pl if pl != zero else zero
+                    lookup(x_l[j], y_l[j], image, scale, radiance_l, j)
+                for j in range(nb):
+                    pb, pl = pdf_buf[j], pdf_l[j]
+                    w_b = select(delta_buf[j], one, weight(pb, p_light[j], power))
                     w_l = weight(pl, pbl_buf[j], power)
+                    upper = wi_buf[j * 3 + 2] > zero
+                    cos_over_p = select(pb != zero, wi_buf[j * 3 + 2] / select(pb != zero, pb, one),
+                                        zero)  # fmt: skip
                     for c in range(channels):
-                        f_k = f_buf[j * brdf_channels + c * cb_step] - control[p, c * cb_step]
-                        c_l = f_k * value_l[j, c * cl_step]
-                        x64 = np.float64(cbw[j, c] + c_l * cos_l[j] * w_l)
-                        previous = mean[start + j, c]
+                        k_c = controls[c * cb_step, j]
+                        k = k_c * cos_over_p  # (f − k)·cos/p
+                        term = (wt_buf[j * brdf_channels + c * cb_step] - k) * radiance_b[
+                            c * cl_step, j
+                        ]  # fmt: skip
+                        term_b = select(upper, term * w_b, zero * w_b)
+                        radiance = radiance_l[c * cl_step, j]
+                        value = select(pl != zero, radiance / select(pl != zero, pl, one), zero)
+                        c_l = (f_buf[j * brdf_channels + c * cb_step] - k_c) * value
+                        x64 = np.float64(term_b + c_l * cos_l[j] * w_l)
+                        previous = mean_b[c, j]
                         current = previous + (x64 - previous) * inverse_count
-                        mean[start + j, c] = current
-                        m2[start + j, c] += (x64 - previous) * (x64 - current)
+                        mean_b[c, j] = current
+                        m2_b[c, j] += (x64 - previous) * (x64 - current)
+            for j in range(nb):
+                for c in range(channels):
+                    mean[start + j, c] = mean_b[c, j]
+                    m2[start + j, c] = m2_b[c, j]
 
     return shade
 
