@@ -273,39 +273,50 @@ def _new_tile_kernel(
         return phi / two_pi, theta / pi, sin_theta
 
     @jit
-    def lookup(x: Any, y: Any, image: np.ndarray, scale: Any, out: np.ndarray, j: int) -> None:
-        """``EnvironmentMap._lookup`` at map coordinates (x, y): bilinear, columns wrapping,
-        rows clamped; into ``out[:, j]``."""
-        height, width, nc = image.shape
+    def texel_cell(x: Any, y: Any, height: int, width: int, nc: int) -> tuple:
+        """``EnvironmentMap._lookup``'s bilinear cell at map coordinates (x, y) in [0, 1]²,
+        branch-free: the offsets in the flat image of its texels (rows r0, r1 clamped, columns
+        c0, c1 wrapping: (r0, c0), (r0, c1), (r1, c0), (r1, c1)), then the weights (fr, fc)
+        of r1 and c1."""
         row, col = y * T(height) - half, x * T(width) - half
         r0f, c0f = np.floor(row), np.floor(col)
         fr, fc = row - r0f, col - c0f
         # NaN (a degenerate direction) reads texel 0 instead of an undefined index
-        r_index = int(r0f) if abs(r0f) < T(1e9) else 0
-        c_index = int(c0f) if abs(c0f) < T(1e9) else 0
+        r_index = np.int64(select(np.abs(r0f) < T(1e9), r0f, zero))
+        c_index = np.int64(select(np.abs(c0f) < T(1e9), c0f, zero))
         r0 = min(max(r_index, 0), height - 1)
         r1 = min(max(r_index + 1, 0), height - 1)
-        # c_index % width and (c0 + 1) % width without integer divisions (tens of cycles
-        # each): c_index is in [−1, W − 1] for x in [0, 1]
-        c0 = c_index if 0 <= c_index < width else c_index % width
-        c1 = c0 + 1 if c0 + 1 < width else 0
-        for c in range(nc):
-            top = image[r0, c0, c] * (one - fc) + image[r0, c1, c] * fc
-            bottom = image[r1, c0, c] * (one - fc) + image[r1, c1, c] * fc
+        # c_index mod W without integer divisions: c_index is in [−1, W − 1] for x in [0, 1]
+        c0 = select(c_index < 0, c_index + width, c_index)
+        c0 = select(c0 >= width, c0 - width, c0)
+        c1 = select(c0 + 1 < width, c0 + 1, np.int64(0))
+        top, bottom = r0 * width, r1 * width
+        return (top + c0) * nc, (top + c1) * nc, (bottom + c0) * nc, (bottom + c1) * nc, fr, fc
+
+    @jit
+    def bilinear(texels: np.ndarray, cells: np.ndarray, weights: np.ndarray, j: int,
+                 scale: Any, out: np.ndarray) -> None:  # fmt: skip
+        """``EnvironmentMap._lookup``: the bilinear value at the cell ``cells[:, j]``,
+        ``weights[:, j]`` of :func:`texel_cell` (``texels``: the flat image), into
+        ``out[:, j]``."""
+        i00, i01 = np.uint64(cells[0, j]), np.uint64(cells[1, j])  # unsigned: no
+        i10, i11 = np.uint64(cells[2, j]), np.uint64(cells[3, j])  # wrap-around per read
+        fr, fc = weights[0, j], weights[1, j]
+        for c in range(out.shape[0]):
+            k = np.uint64(c)
+            top = texels[i00 + k] * (one - fc) + texels[i01 + k] * fc
+            bottom = texels[i10 + k] * (one - fc) + texels[i11 + k] * fc
             out[c, j] = (top * (one - fr) + bottom * fr) * scale
 
     @jit
-    def prefetch_texels(x: Any, y: Any, image: np.ndarray, density: np.ndarray) -> None:
-        """Cache hints for :func:`lookup` and :func:`map_pdf` at map coordinates (x, y): the
-        two texel rows of the bilinear lookup and the pdf's texel (no effect on values)."""
-        height, width, nc = image.shape
-        row, col = np.floor(y * T(height) - half), np.floor(x * T(width) - half)
-        r0 = min(max(int(row) if abs(row) < T(1e9) else 0, 0), height - 1)
-        c0 = min(max(int(col) if abs(col) < T(1e9) else 0, 0), width - 1)
-        r1 = min(r0 + 1, height - 1)
-        prefetch(image, (r0 * width + c0) * nc)
-        prefetch(image, (r1 * width + c0) * nc)
-        prefetch(density, r1 * width + c0)
+    def pdf_texel(x: Any, y: Any, height: int, width: int) -> Any:
+        """``EnvironmentMap.pdf``'s texel at map coordinates (x, y): its flat index, −1
+        outside [0, 1)² (where the pdf is 0), branch-free."""
+        inside = (x >= zero) & (x < one) & (y >= zero) & (y < one)
+        col = min(max(np.floor(np.float64(x) * width), 0.0), width - 1.0)
+        row = min(max(np.floor(np.float64(y) * height), 0.0), height - 1.0)
+        index = np.int64(select(inside, row, 0.0)) * width + np.int64(select(inside, col, 0.0))
+        return select(inside, index, np.int64(-1))
 
     @jit
     def solid_angle_pdf(pdf_uv: Any, sin_theta: Any) -> Any:
@@ -313,16 +324,6 @@ def _new_tile_kernel(
         denominator = two_pi_sq * max(sin_theta, zero)
         ok = denominator != zero
         return select(ok, pdf_uv / select(ok, denominator, one), zero)
-
-    @jit
-    def map_pdf(x: Any, y: Any, sin_theta: Any, density: np.ndarray, height: int,
-                width: int) -> Any:  # fmt: skip
-        """``EnvironmentMap.pdf`` at map coordinates (x, y) of polar angle θ."""
-        if not (x >= zero and x < one and y >= zero and y < one):
-            return zero
-        col = min(max(np.floor(np.float64(x) * width), 0.0), width - 1.0)
-        row = min(max(np.floor(np.float64(y) * height), 0.0), height - 1.0)
-        return solid_angle_pdf(T(density[int(row) * width + int(col)]), sin_theta)
 
     reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
     key_hash = jit(
@@ -410,8 +411,7 @@ def _new_tile_kernel(
         # the block's frames, frames[3 i + k, j] = frame[pixels[start + j], i, k]: contiguous
         # along the block, so that the loops over it vectorise
         frames = np.empty((9, BLOCK), T)
-        x_b, y_b, sin_b = np.empty(BLOCK, T), np.empty(BLOCK, T), np.empty(BLOCK, T)  # BRDF's
-        x_l, y_l = np.empty(BLOCK, T), np.empty(BLOCK, T)  # and the map's samples' (x, y)
+        sin_b = np.empty(BLOCK, T)  # sin θ of the BRDF's samples in the map's frame
         m0_l, m1_l = np.empty(BLOCK, np.float64), np.empty(BLOCK, np.float64)  # their CDF
         c0_l, c1_l = np.empty(BLOCK, np.float64), np.empty(BLOCK, np.float64)  # nodes, pdf
         pdf_uv = np.empty(BLOCK, T)
@@ -422,7 +422,14 @@ def _new_tile_kernel(
         controls = np.empty((brdf_channels, BLOCK), T)  # the block's control variates k
         radiance_b = np.empty((map_channels, BLOCK), T)  # the map at the BRDF's samples,
         radiance_l = np.empty((map_channels, BLOCK), T)  # at its own,
-        p_light = np.empty(BLOCK, T)  # and its pdf at the BRDF's
+        p_texel = np.empty(BLOCK, T)  # and its pdf's texel at the BRDF's
+        # the bilinear cells (texel_cell) of the BRDF's and the map's samples, the pdf's texel
+        # (pdf_texel) at the BRDF's
+        cells_b, cells_l = np.empty((4, BLOCK), np.int64), np.empty((4, BLOCK), np.int64)
+        weights_b, weights_l = np.empty((2, BLOCK), T), np.empty((2, BLOCK), T)
+        density_b = np.empty(BLOCK, np.int64)
+        texels = image.reshape(-1)
+        nc = image.shape[2]
         mean_b = np.empty((channels, BLOCK), np.float64)  # the block's running mean and
         m2_b = np.empty((channels, BLOCK), np.float64)  # sum of squared deviations
         a_buf = np.empty(BLOCK, np.float64)
@@ -478,12 +485,18 @@ def _new_tile_kernel(
                     wy = v0 * frames[1, j] + v1 * frames[4, j] + v2 * frames[7, j]
                     wz = v0 * frames[2, j] + v1 * frames[5, j] + v2 * frames[8, j]
                     ux, uy, uz = unit(wx, wy, wz)
-                    x_b[j], y_b[j], sin_b[j] = map_coordinates(ux, uy, uz, r)
+                    x, y, sin_b[j] = map_coordinates(ux, uy, uz, r)
+                    i00, i01, i10, i11, fr, fc = texel_cell(x, y, height, width, nc)
+                    cells_b[0, j], cells_b[1, j], cells_b[2, j], cells_b[3, j] = i00, i01, i10, i11
+                    weights_b[0, j], weights_b[1, j] = fr, fc
+                    density_b[j] = pdf_texel(x, y, height, width)
                     a, b = T(u_l[0, j]), T(u_l[1, j])
                     a_buf[j] = min(np.float64(a), below_one_64)
                     b_buf[j] = min(np.float64(b), below_one_64)
-                for j in range(nb):
-                    prefetch_texels(x_b[j], y_b[j], image, density)
+                for j in range(nb):  # the lookup's two texel rows, the pdf's texel
+                    prefetch(texels, cells_b[0, j])
+                    prefetch(texels, cells_b[2, j])
+                    prefetch(density, max(density_b[j], 0))
                 map_samples(
                     a_buf, b_buf, marginal, conditional, row_guide, col_guide, height, width,
                     nb, rows, cols, base,
@@ -498,7 +511,9 @@ def _new_tile_kernel(
                     c0, c1, m0, m1 = c0_l[j], c1_l[j], m0_l[j], m1_l[j]
                     x = min(T((col + (a - c0) / (c1 - c0)) / width), below_one)
                     y = min(T((row + (b - m0) / (m1 - m0)) / height), below_one)
-                    x_l[j], y_l[j] = x, y
+                    i00, i01, i10, i11, fr, fc = texel_cell(x, y, height, width, nc)
+                    cells_l[0, j], cells_l[1, j], cells_l[2, j], cells_l[3, j] = i00, i01, i10, i11
+                    weights_l[0, j], weights_l[1, j] = fr, fc
                     theta, phi = y * pi, x * two_pi
                     sin_theta = sin(theta)
                     pdf_l[j] = solid_angle_pdf(pdf_uv[j], sin_theta)
@@ -513,7 +528,8 @@ def _new_tile_kernel(
                         )  # fmt: skip
                     cos_l[j] = max(wil_buf[j * 3 + 2], zero)
                 for j in range(nb):
-                    prefetch_texels(x_l[j], y_l[j], image, density)
+                    prefetch(texels, cells_l[0, j])
+                    prefetch(texels, cells_l[2, j])
                 # the BRDF at the map's directions above the surface only (about half of
                 # them): below it f = 0 and p_b = 0 and the term, times cos θ = 0, is 0
                 live = 0
@@ -538,14 +554,17 @@ def _new_tile_kernel(
                 # the texel reads (and the map's pdf at the BRDF's samples), then the MIS
                 # arithmetic in a loop LLVM vectorises
                 for j in range(nb):
-                    lookup(x_b[j], y_b[j], image, scale, radiance_b, j)
-                    p_light[j] = map_pdf(x_b[j], y_b[j], sin_b[j], density, height, width)
+                    bilinear(texels, cells_b, weights_b, j, scale, radiance_b)
+                    p_texel[j] = T(density[max(density_b[j], 0)])
                     # the map's sample: its radiance at the sampled coordinates (the NumPy
                     # path converts them to a direction and back, equal to rounding)
-                    lookup(x_l[j], y_l[j], image, scale, radiance_l, j)
+                    bilinear(texels, cells_l, weights_l, j, scale, radiance_l)
                 for j in range(nb):
                     pb, pl = pdf_buf[j], pdf_l[j]
-                    w_b = select(delta_buf[j], one, weight(pb, p_light[j], power))
+                    # EnvironmentMap.pdf at the BRDF's sample
+                    p_light = select(density_b[j] >= 0, solid_angle_pdf(p_texel[j], sin_b[j]),
+                                     zero)  # fmt: skip
+                    w_b = select(delta_buf[j], one, weight(pb, p_light, power))
                     w_l = weight(pl, pbl_buf[j], power)
                     upper = wi_buf[j * 3 + 2] > zero
                     cos_over_p = select(pb != zero, wi_buf[j * 3 + 2] / select(pb != zero, pb, one),
