@@ -316,3 +316,30 @@ def test_map_guides_are_built_once_per_map():
     assert col_guide.shape == (COLUMN_BUCKETS * width * height,)
     shader = EnvironmentShader(GOLD, env)
     assert shader._tables[-2] is row_guide and shader._tables[-1] is col_guide
+
+
+@pytest.mark.parametrize("count", [1, 255, 1024, 1025, 7300, 9472])
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_task_bounds_split_a_tile_evenly(count, workers):
+    """The thread pool's tasks over a tile: contiguous, covering it, at most _CHUNK pixels
+    each, a multiple of the workers in number, and equal in size to within a pixel."""
+    from brdfkit.render_kernel import _CHUNK, _task_bounds
+
+    bounds = np.array(_task_bounds(count, workers))
+    sizes = np.diff(bounds)
+    assert bounds[0] == 0 and bounds[-1] == count and np.all(sizes >= 0)
+    assert len(sizes) % workers == 0 and sizes.max() <= _CHUNK
+    assert sizes.max() - sizes.min() <= 1
+
+
+def test_scramble_keys_are_the_shared_hash_of_seed_and_slot():
+    """sampling.scramble_keys (NumPy) and the tile kernel (numba) hash the same key_hash of a
+    pixel's seed at key_slot(stream, i · dim + k): recomputed here slot by slot."""
+    seeds = sampling.query_seeds(5, 40)
+    for stream, dim in ((0, 3), (1, 2)):
+        keys = sampling.scramble_keys(seeds, stream, dim)
+        for i in range(2):
+            for k in range(dim):
+                slot = sampling.key_slot(stream, i * dim + k)
+                expected = sampling.key_hash(seeds, slot).astype(np.uint32)
+                np.testing.assert_array_equal(keys[:, i, k], expected)
