@@ -346,7 +346,7 @@ def _new_table_functions(
             if ahead < n:
                 for corner in range(corners):
                     prefetch(values, flat[corner * n + ahead])
-            if width == 4:  # RGB and the measured flag: four sums LLVM keeps in one vector
+            if width == 4:  # RGB and the measured flag: four sums in registers
                 f0, f1, f2, f3 = zero, zero, zero, zero
                 for corner in range(corners):  # lookup(): the 2^D corners in its order
                     # unsigned: no negative-index wrap-around per read
