@@ -37,6 +37,20 @@ def _compensated(model: KullaContyDielectric, wo: np.ndarray, nodes=(96, 64)) ->
     return single + added_albedo(model, wo)
 
 
+def test_dielectric_albedo_from_mirrored_nodes_equals_the_full_quadrature(monkeypatch):
+    """Half the azimuths (ωo in the xz-plane, an isotropic lobe): the same (R, T) to rounding,
+    from outside and from inside, through total internal reflection."""
+    import brdfkit.brdf.kulla_conty_dielectric as kcd
+
+    mu = np.cos(np.radians(THETAS))
+    mu = np.concatenate([mu, -mu])
+    half = [dielectric_albedo(a, eta, mu) for a, eta in ((0.05, 1.5), (0.6, 1 / 1.5))]
+    full_rule = kcd.visible_normal_quadrature
+    monkeypatch.setattr(kcd, "visible_normal_quadrature", lambda nodes, mirror: full_rule(nodes))
+    full = [dielectric_albedo(a, eta, mu) for a, eta in ((0.05, 1.5), (0.6, 1 / 1.5))]
+    np.testing.assert_allclose(half, full, rtol=1e-13, atol=1e-16)
+
+
 def _furnace_worst(etas, alphas, thetas) -> float:
     worst = 0.0
     for eta in etas:
