@@ -263,6 +263,19 @@ def _pixel_frames(
     return np.arctan2(across, along)
 
 
+def _kernel_values(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """``f(wi, wo) cos θi`` ``(n, C)`` of a ring's nodes, in chunks of :data:`_EVAL_CHUNK`
+    (elementwise: the same values). A ``wo`` that is one direction broadcast (a stride 0:
+    an isotropic model's ring) stays a view, so that what a model computes per direction
+    (:func:`~brdfkit.brdf.base.per_direction`) is made once per chunk, not once per node."""
+    values = np.empty((len(wi), model.channels))
+    for c0 in range(0, len(wi), _EVAL_CHUNK):
+        w = wi[c0 : c0 + _EVAL_CHUNK]
+        f = np.asarray(model.eval(w, wo[c0 : c0 + _EVAL_CHUNK]), dtype=float)
+        values[c0 : c0 + len(w)] = f * w[:, 2:3]
+    return values
+
+
 class _Level:
     r"""One refinement level: the (ring, ψ) grids of the tangent angles
     :math:`\gamma_k = kP/` :data:`GAMMA_MAX` computed so far (P the period of
@@ -357,12 +370,11 @@ class _Level:
                 xk, yk = x[k], y[k]
                 wi_parts.append(np.stack([xk * c + yk * s, yk * c - xk * s, z[k]], axis=-1))
                 wo_parts.append(np.broadcast_to([-sin_o * c, sin_o * s, cos_o], (len(xk), 3)))
-            wi, wo = np.concatenate(wi_parts), np.concatenate(wo_parts)
-            values = np.empty((len(wi), model.channels))
-            for c0 in range(0, len(wi), _EVAL_CHUNK):
-                w = wi[c0 : c0 + _EVAL_CHUNK]
-                f = np.asarray(model.eval(w, wo[c0 : c0 + _EVAL_CHUNK]), dtype=float)
-                values[c0 : c0 + len(w)] = f * w[:, 2:3]
+            if len(wi_parts) == 1:  # one ωo, left a broadcast view
+                wi, wo = wi_parts[0], wo_parts[0]
+            else:  # several: one array, evaluated in full chunks
+                wi, wo = np.concatenate(wi_parts), np.concatenate(wo_parts)
+            values = _kernel_values(model, wi, wo)
             self.nodes += len(wi)
             kernels = np.zeros((len(own), live, cols, model.channels))
             start = 0
