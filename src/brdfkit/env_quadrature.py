@@ -263,16 +263,33 @@ def _pixel_frames(
     return np.arctan2(across, along)
 
 
+def _ring_nodes(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, gammas: list[float], sin_o: float, cos_o: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A ring's kernel nodes ``wi`` ``(γ, n, 3)`` at the directions (x, y, z) of its local
+    frame, and ``wo`` the same shape, with wi and wo both turned by −γ about the normal per
+    tangent angle γ: ``wo`` is a view of one direction per γ (a stride 0 along the nodes)."""
+    c = np.array([math.cos(g) for g in gammas])[:, None]
+    s = np.array([math.sin(g) for g in gammas])[:, None]
+    wi = np.stack([x * c + y * s, y * c - x * s, np.broadcast_to(z, (len(gammas), len(z)))], -1)
+    wo = np.stack([-sin_o * c, sin_o * s, np.full_like(c, cos_o)], axis=-1)
+    return wi, np.broadcast_to(wo, wi.shape)
+
+
 def _kernel_values(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-    """``f(wi, wo) cos θi`` ``(n, C)`` of a ring's nodes, in chunks of :data:`_EVAL_CHUNK`
-    (elementwise: the same values). A ``wo`` that is one direction broadcast (a stride 0:
-    an isotropic model's ring) stays a view, so that what a model computes per direction
-    (:func:`~brdfkit.brdf.base.per_direction`) is made once per chunk, not once per node."""
-    values = np.empty((len(wi), model.channels))
-    for c0 in range(0, len(wi), _EVAL_CHUNK):
-        w = wi[c0 : c0 + _EVAL_CHUNK]
-        f = np.asarray(model.eval(w, wo[c0 : c0 + _EVAL_CHUNK]), dtype=float)
-        values[c0 : c0 + len(w)] = f * w[:, 2:3]
+    """``f(wi, wo) cos θi`` ``(γ, n, C)`` of a ring's nodes ``(γ, n, 3)``
+    (:func:`_ring_nodes`), up to :data:`_EVAL_CHUNK` at a time, as whole rows of γ or pieces
+    of one (contiguous; elementwise: the same values). ``wo``, one direction per γ, stays a
+    view, so that what a model computes per direction
+    (:func:`~brdfkit.brdf.base.per_direction`) is made once per γ and chunk, not per node."""
+    count, n = wi.shape[:2]
+    values = np.empty((count, n, model.channels))
+    rows, step = max(1, _EVAL_CHUNK // max(n, 1)), min(n, _EVAL_CHUNK)
+    for g0 in range(0, count, rows):
+        for c0 in range(0, n, step):
+            chunk = slice(g0, g0 + rows), slice(c0, c0 + step)
+            f = np.asarray(model.eval(wi[chunk], wo[chunk]), dtype=float)
+            values[chunk] = f * wi[chunk][..., 2:3]
     return values
 
 
@@ -363,27 +380,18 @@ class _Level:
             x, y, z, keep = ux[:live] * cos_o - uz[:live] * sin_o, uy[:live], z[:live], above[:live]
             keep_half = keep.copy()
             keep_half[:, half:] = False
-            wi_parts, wo_parts = [], []
-            for gam, ev in zip(gammas, even, strict=True):
-                k = keep_half if ev else keep
-                c, s = math.cos(gam), math.sin(gam)
-                xk, yk = x[k], y[k]
-                wi_parts.append(np.stack([xk * c + yk * s, yk * c - xk * s, z[k]], axis=-1))
-                wo_parts.append(np.broadcast_to([-sin_o * c, sin_o * s, cos_o], (len(xk), 3)))
-            if len(wi_parts) == 1:  # one ωo, left a broadcast view
-                wi, wo = wi_parts[0], wo_parts[0]
-            else:  # several: one array, evaluated in full chunks
-                wi, wo = np.concatenate(wi_parts), np.concatenate(wo_parts)
-            values = _kernel_values(model, wi, wo)
-            self.nodes += len(wi)
             kernels = np.zeros((len(own), live, cols, model.channels))
-            start = 0
-            for j, ev in enumerate(even):
-                n = len(wi_parts[j])
-                kernels[j][keep_half if ev else keep] = values[start : start + n]
-                start += n
-                if ev:
-                    kernels[j][:, half:] = kernels[j][:, half - 1 :: -1]
+            for ev, k in ((False, keep), (True, keep_half)):
+                js = [j for j, e in enumerate(even) if e == ev]
+                if not js:
+                    continue
+                wi, wo = _ring_nodes(x[k], y[k], z[k], [gammas[j] for j in js], sin_o, cos_o)
+                values = _kernel_values(model, wi, wo)
+                self.nodes += values.shape[0] * values.shape[1]
+                for v, j in zip(values, js, strict=True):
+                    kernels[j][k] = v
+                    if ev:
+                        kernels[j][:, half:] = kernels[j][:, half - 1 :: -1]
             kernels *= self.d_omega[:live, None, None]
             # per γ the sum over rows of conj(K̂) Ŝ, as products (m, γ, rows) @ (m, rows, C);
             # the reversed kernel's transform is e^{2πim/N} conj(K̂), so −γ's correlation

@@ -461,7 +461,10 @@ class Beckmann(_StretchedDistribution):
         xp = namespace(u)
         return -xp.log1p(-clamp(u, 0.0, 1 - 1e-16))
 
+    @per_direction
     def smith_lambda(self, w: Array) -> Array:
+        """Λ of the class docstring (erf); made once per direction of a broadcast ``w``
+        (:func:`~brdfkit.brdf.base.per_direction`)."""
         xp = namespace(w)
         s2 = self._slope_tan2(w)
         a = 1 / xp.sqrt(xp.maximum(s2, constant(_TINY, s2)))
