@@ -568,14 +568,13 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "thin_film": 5.2, "rough_dielectric": 4.9, "kulla_conty_dielectric": 4.9,
-    "torrance_sparrow": 2.6, "kulla_conty": 1.9, "rough_plastic": 1.6, "ashikhmin_shirley": 1.4,
-    "principled": 1.4, "beckmann": 1.3, "mirror": 1.3, "smooth_dielectric": 1.3, "ggx": 1.2,
+    "rough_dielectric": 3.9, "kulla_conty_dielectric": 2.7, "thin_film": 2.1,
+    "torrance_sparrow": 1.7, "rough_plastic": 1.4, "ashikhmin_shirley": 1.3, "beckmann": 1.2,
 }  # fmt: skip
 """CPU seconds of the heaviest default cards, the construction of their examples included
-(``benchmarks/results/atlas_session19.json``, ``bench_atlas.py --profile``: mirror and smooth
-dielectric with their Monte Carlo on NumPy, a cold kernel cache); the others took 0.4–1.1 s.
-Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
+(``benchmarks/results/atlas_profile_hatlas7.json``, ``bench_atlas.py --profile``, a warm
+kernel cache); the others took 0.3–1.0 s. Only the order in which :func:`_build_cards`
+hands cards to its workers depends on it."""
 
 
 _Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
