@@ -319,3 +319,16 @@ def test_kernel_values_in_chunks_equal_each_tangent_angle_evaluated_alone(monkey
     for g in range(len(gammas)):
         alone = model.eval(np.array(wi[g]), np.array(wo[g])) * wi[g][:, 2:3]
         np.testing.assert_array_equal(values[g], alone)
+
+
+def test_cell_radiance_does_not_depend_on_its_bands(monkeypatch):
+    """Bands of one row of cells or of all rows at once: bitwise the same cell averages."""
+    env = EnvironmentMap(np.random.default_rng(6).gamma(0.5, 2.0, size=(16, 32, 3)))
+    frame = np.array([[0.6, 0.0, 0.8], [0.0, 1.0, 0.0], [-0.8, 0.0, 0.6]])
+    cells = []
+    for chunk in (1, 1 << 30):
+        monkeypatch.setattr(env_quadrature, "_LOOKUP_CHUNK", chunk)
+        env_quadrature._LV_CACHE.clear()
+        cells.append(env_quadrature._cell_radiance(env, frame, 8, 16))
+    np.testing.assert_array_equal(cells[0], cells[1])
+    assert cells[0].shape == (8, 16, 3) and np.all(cells[0] > 0)

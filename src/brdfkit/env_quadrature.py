@@ -115,10 +115,11 @@ _EVAL_CHUNK = 1 << 14
 (1.5× faster than 2^18 for GGX; the values do not depend on it)."""
 _LV_CACHE: dict[tuple, tuple[EnvironmentMap, np.ndarray]] = {}
 _LOOKUP_CHUNK = 1 << 15
-"""Directions per call of the map's lookup in :func:`_cell_radiance` (rows of whole bands):
-the lookup's temporaries stay in the CPU's caches (its values are elementwise, so they do not
-depend on it). One call over level 3's 2·10⁶ points took 1.3 s of the rough dielectric's
-inside view (cProfile)."""
+"""Directions per band of :func:`_cell_radiance` (whole rows of cells): the directions, the
+map's lookups and their weighted sums per cell are made band by band, their temporaries in
+the CPU's caches (the values do not depend on it). One lookup over level 3's 2·10⁶ points
+took 1.3 s of the rough dielectric's inside view (cProfile); banded lookups of directions
+made at once, 0.70 s (fresh memory) or 0.32 s; whole bands, 0.27 s."""
 
 
 def _grid(level: int) -> tuple[int, int, int]:
@@ -183,16 +184,15 @@ def _cell_radiance(env: EnvironmentMap, frame: np.ndarray, rows: int, cols: int)
     t = (np.arange(rows * s) + 0.5) * (math.pi / (rows * s))
     p = (np.arange(cols * s) + 0.5) * (2 * math.pi / (cols * s))
     st, ct = np.sin(t)[:, None], np.cos(t)[:, None]
-    local = np.stack(np.broadcast_arrays(st * np.cos(p), st * np.sin(p), ct), axis=-1)
-    directions = local @ frame.T
-    value = np.empty((*directions.shape[:-1], env.channels))
-    band = max(1, _LOOKUP_CHUNK // (cols * s))
-    for r0 in range(0, rows * s, band):  # elementwise: the same values, in the caches
-        rows_band = slice(r0, r0 + band)
-        value[rows_band] = env.incident_radiance(np.zeros(3), directions[rows_band])
+    cos_p, sin_p = np.cos(p), np.sin(p)
+    total = np.empty((rows, cols, env.channels))
+    band = max(1, _LOOKUP_CHUNK // (cols * s * s))  # rows of cells per band
+    for c0 in range(0, rows, band):  # elementwise but for each cell's sum: the same values
+        r = slice(c0 * s, (c0 + band) * s)
+        local = np.stack(np.broadcast_arrays(st[r] * cos_p, st[r] * sin_p, ct[r]), axis=-1)
+        value = env.incident_radiance(np.zeros(3), local @ frame.T) * st[r, :, None]
+        total[c0 : c0 + band] = value.reshape(-1, s, cols, s, env.channels).sum(axis=(1, 3))
     weight = np.broadcast_to(st, (rows * s, cols * s))[..., None]
-    shape = (rows, s, cols, s, value.shape[-1])
-    total = (value * weight).reshape(shape).sum(axis=(1, 3))
     cell = total / weight.reshape(rows, s, cols, s, 1).sum(axis=(1, 3))
     if len(_LV_CACHE) > 8:
         _LV_CACHE.clear()
