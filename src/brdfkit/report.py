@@ -679,8 +679,12 @@ def _build_cards(
         return cards
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    # the imports (Python, under the GIL) beside the table's NumPy loops (which release it);
+    # both done before the fork, which copies no other thread
+    importer = threading.Thread(target=_import_card_modules, name="atlas imports")
+    importer.start()
     _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
-    _import_card_modules()
+    importer.join()
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(
