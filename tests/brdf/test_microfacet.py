@@ -452,3 +452,21 @@ def test_correlated_masking_of_one_sided_pairs_equals_their_values_in_a_mixed_ba
         assert 0 < np.count_nonzero(above) < len(wi)
         one_sided = masking_shadowing(dist, wi[above], wo[above], h[above], "smith_correlated")
         np.testing.assert_array_equal(one_sided, mixed[above])
+
+
+def test_visible_sampling_of_a_broadcast_view_stays_per_direction_with_the_same_values():
+    """One ωo below the surface broadcast over many samples: flipped once (still a stride-0
+    view), and the normals and their density are bitwise those of the batch written out."""
+    from brdfkit.brdf._microfacet_sampling import _upper, normal_pdf, sample_normal
+
+    wo = np.broadcast_to(np.array([0.6, 0.0, -0.8]), (500, 3))
+    up = _upper(wo)
+    assert up.strides[0] == 0
+    np.testing.assert_array_equal(up, np.broadcast_to([-0.6, -0.0, 0.8], (500, 3)))
+    u = np.random.default_rng(8).random((500, 2))
+    for ndf in (GGX(0.3, 0.1), Beckmann(0.2)):
+        h = sample_normal(ndf, True, wo, u)
+        np.testing.assert_array_equal(h, sample_normal(ndf, True, np.array(wo), u))
+        np.testing.assert_array_equal(
+            normal_pdf(ndf, True, wo, h), normal_pdf(ndf, True, np.array(wo), h)
+        )
