@@ -222,3 +222,11 @@ def test_the_shipped_fresnel_table_is_what_its_recipe_computes():
     ratio, _ = fresnel_ratio_node(1, 7)
     np.testing.assert_allclose(fresnel_ratio_table()[1, 7], ratio, atol=5e-5)
     assert np.all((ratio >= 0) & (ratio <= 1))
+
+
+def test_multiple_scattering_albedo_of_a_broadcast_direction_is_made_once():
+    model = KullaConty(alpha=[0.3, 0.5, 0.8], material="Cu")
+    wo = np.broadcast_to(spherical_to_cartesian(np.array(0.9), np.array(0.4)), (300, 3))
+    once = model._E_ms_of(wo)
+    assert once.shape == (300, 3) and once.strides[0] == 0
+    np.testing.assert_array_equal(once, model.E_ms(np.array(wo)[:, 2:3]))

@@ -249,3 +249,13 @@ def test_one_sided_sampling_matches_its_density(side):
     assert np.all(s.wi[ok, 2] > 0) and np.all(s.weight[~ok] == 0)
     expected = model.eval(s.wi[ok], wo) * s.wi[ok, 2:3] / s.pdf[ok, None]
     np.testing.assert_allclose(s.weight[ok], expected, rtol=1e-10)
+
+
+def test_shares_of_a_broadcast_direction_are_made_once_with_the_same_values():
+    model = KullaContyDielectric(alpha=0.6, eta=1 / 1.5)
+    for side in (1.0, -1.0):
+        wo = np.broadcast_to(_direction(50.0, side), (300, 3))
+        once = model.shares(wo)
+        assert all(part.strides[0] == 0 for part in once)
+        for part, full in zip(once, model.shares(np.array(wo)), strict=True):
+            np.testing.assert_array_equal(part, full)

@@ -382,10 +382,16 @@ class KullaConty(MixtureSampled):
         ratio = clamp(_clenshaw(self._ratio_coefficients, mu), 0.0, 1.0)
         return ratio * (1 - self.E(mu))
 
+    @per_direction
+    def _E_ms_of(self, w: Array) -> Array:
+        """:meth:`E_ms` at the cosine of ``w`` ``(..., 3)``; made once per direction of a
+        broadcast ``w`` (the fixed ωo of :meth:`eval` in a quadrature ring, a check's samples)."""
+        return self.E_ms(w[..., 2:3])
+
     def eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         single = self._single.eval(wi, wo)
-        multiple = self.E_ms(wi[..., 2:3]) * self.E_ms(wo[..., 2:3]) * param(self._ms_scale, wi)
+        multiple = self._E_ms_of(wi) * self._E_ms_of(wo) * param(self._ms_scale, wi)
         multiple = xp.where(upper_hemisphere(wi, wo), multiple, xp.zeros_like(multiple))
         return single + multiple
 
