@@ -300,3 +300,35 @@ def test_the_atlas_renders_anisotropic_spheres_by_quadrature(env):
     image, spent = env_sphere(parse("ward(kd=0.3, ks=0.6, alpha_x=0.1, alpha_y=0.4)"), env, RES)
     assert isinstance(spent, str) and spent.startswith("quadrature")
     assert image.shape == (RES, RES, 3)
+
+
+@pytest.mark.parametrize("rows", [3, 40_000])
+def test_kernel_values_in_chunks_equal_each_tangent_angle_evaluated_alone(monkeypatch, rows):
+    """A ring's nodes of several γ, in chunks of whole γ rows (short rows) or of pieces of
+    one (long rows), with ωo a broadcast view: bitwise the values of each γ's nodes
+    evaluated at once as plain arrays."""
+    monkeypatch.setattr(env_quadrature, "_EVAL_CHUNK", 1000)
+    model = parse("beckmann(alpha_u=0.4, alpha_v=0.1)")
+    rng = np.random.default_rng(4)
+    x, y = rng.uniform(-0.7, 0.7, size=(2, rows))
+    z = np.sqrt(1 - x * x - y * y)
+    gammas = [0.3, 1.1, 2.0]
+    wi, wo = env_quadrature._ring_nodes(x, y, z, gammas, 0.6, 0.8)
+    assert wo.strides[1] == 0
+    values = env_quadrature._kernel_values(model, wi, wo)
+    for g in range(len(gammas)):
+        alone = model.eval(np.array(wi[g]), np.array(wo[g])) * wi[g][:, 2:3]
+        np.testing.assert_array_equal(values[g], alone)
+
+
+def test_cell_radiance_does_not_depend_on_its_bands(monkeypatch):
+    """Bands of one row of cells or of all rows at once: bitwise the same cell averages."""
+    env = EnvironmentMap(np.random.default_rng(6).gamma(0.5, 2.0, size=(16, 32, 3)))
+    frame = np.array([[0.6, 0.0, 0.8], [0.0, 1.0, 0.0], [-0.8, 0.0, 0.6]])
+    cells = []
+    for chunk in (1, 1 << 30):
+        monkeypatch.setattr(env_quadrature, "_LOOKUP_CHUNK", chunk)
+        env_quadrature._LV_CACHE.clear()
+        cells.append(env_quadrature._cell_radiance(env, frame, 8, 16))
+    np.testing.assert_array_equal(cells[0], cells[1])
+    assert cells[0].shape == (8, 16, 3) and np.all(cells[0] > 0)

@@ -332,3 +332,14 @@ def test_environment_map_irradiance_matches_the_full_resolution_pixel_sum(shared
     error = env.irradiance(normals) - brute
     assert np.max(np.abs(error)) < 0.005 * brute.max()
     assert np.sqrt(np.mean((error / brute) ** 2)) < 0.003
+
+
+def test_environment_map_makes_its_sampling_distribution_when_first_sampled():
+    """Only looked up, a map never builds its light-sampling distribution; sampling does,
+    once, and its density is the one :meth:`pdf` gives."""
+    env = EnvironmentMap(np.random.default_rng(2).gamma(0.5, 2.0, size=(16, 32, 3)))
+    env.incident_radiance(np.zeros(3), np.array([[0.0, 0.6, 0.8]]))
+    assert "_distribution" not in vars(env)
+    drawn = env.sample(np.zeros(3), np.random.default_rng(3).random((64, 2)))
+    assert "_distribution" in vars(env)
+    np.testing.assert_allclose(env.pdf(np.zeros(3), drawn.wi), drawn.pdf, rtol=1e-6)

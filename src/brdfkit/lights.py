@@ -504,8 +504,6 @@ class EnvironmentMap(Light):
     rotation: Any = None
 
     def __post_init__(self) -> None:
-        from brdfkit.sampling import Distribution2D
-
         img = to_numpy(check_number("image", self.image)) if self.image is not None else None
         if img is None or img.ndim != 3 or img.shape[0] < 2 or img.shape[1] < 2:
             shape = None if img is None else img.shape
@@ -523,7 +521,16 @@ class EnvironmentMap(Light):
         object.__setattr__(self, "image", np.ascontiguousarray(img, dtype=np.float32))
         object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "channels", img.shape[2])
-        object.__setattr__(self, "_distribution", Distribution2D(_sampling_weights(img)))
+
+    @functools.cached_property
+    def _distribution(self):
+        """The light-sampling distribution of :meth:`sample` and :meth:`pdf`
+        (:func:`_sampling_weights`), made when first needed: a map only looked up (the atlas's
+        quadrature spheres, whose Monte Carlo renders sample :attr:`compensated`) never
+        pays for it."""
+        from brdfkit.sampling import Distribution2D
+
+        return Distribution2D(_sampling_weights(self.image))
 
     @functools.cached_property
     def compensated(self) -> EnvironmentMap:

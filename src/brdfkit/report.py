@@ -568,14 +568,13 @@ def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
 
 
 _CARD_CPU_SECONDS = {
-    "thin_film": 5.2, "rough_dielectric": 4.9, "kulla_conty_dielectric": 4.9,
-    "torrance_sparrow": 2.6, "kulla_conty": 1.9, "rough_plastic": 1.6, "ashikhmin_shirley": 1.4,
-    "principled": 1.4, "beckmann": 1.3, "mirror": 1.3, "smooth_dielectric": 1.3, "ggx": 1.2,
+    "rough_dielectric": 3.9, "kulla_conty_dielectric": 2.7, "thin_film": 2.1,
+    "torrance_sparrow": 1.7, "rough_plastic": 1.4, "ashikhmin_shirley": 1.3, "beckmann": 1.2,
 }  # fmt: skip
 """CPU seconds of the heaviest default cards, the construction of their examples included
-(``benchmarks/results/atlas_session19.json``, ``bench_atlas.py --profile``: mirror and smooth
-dielectric with their Monte Carlo on NumPy, a cold kernel cache); the others took 0.4–1.1 s.
-Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
+(``benchmarks/results/atlas_profile_hatlas7.json``, ``bench_atlas.py --profile``, a warm
+kernel cache); the others took 0.3–1.0 s. Only the order in which :func:`_build_cards`
+hands cards to its workers depends on it."""
 
 
 _Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
@@ -596,11 +595,37 @@ _WORKER_OPTIONS: dict | None = None
 
 
 def _start_worker(options: dict) -> None:
-    """Keep ``options`` for the cards this worker process builds (:func:`_worker_card`), and
-    hold its BLAS to one thread for its life (:func:`_one_blas_thread`)."""
+    """Keep ``options`` for the cards this worker process builds (:func:`_worker_card`), hold
+    its BLAS to one thread for its life (:func:`_one_blas_thread`) and have it reuse the
+    memory it frees (:func:`_keep_freed_memory`)."""
     global _WORKER_OPTIONS
     _WORKER_OPTIONS = options
     _one_blas_thread()
+    _keep_freed_memory()
+
+
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+"""glibc's ``mallopt`` parameters (``malloc.h``)."""
+
+
+def _keep_freed_memory() -> None:
+    """Have glibc's malloc serve blocks up to 32 MiB from its heap and keep up to 1 GiB of
+    freed memory, in this process (an atlas worker, which lives for one atlas).
+
+    A card's NumPy temporaries are megabytes (10⁵ samples × 3 in the checks, a quadrature
+    ring's nodes), many above malloc's threshold for ``mmap``: each was mapped afresh and its
+    pages zeroed by the kernel on first touch, then unmapped when freed. Kept instead, they
+    are reused: the workers' system time fell from 1.1–1.3 to 0.3–0.5 CPU s per atlas.
+    Nothing is changed where the C library is not glibc (no ``mallopt``)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c")).mallopt
+    except (OSError, AttributeError, TypeError):
+        return
+    mallopt(_M_MMAP_THRESHOLD, 1 << 25)
+    mallopt(_M_TRIM_THRESHOLD, 1 << 30)
 
 
 def _one_blas_thread():
@@ -635,6 +660,25 @@ def _heaviest_first(entries: Sequence[tuple[str, _Examples]]) -> list[int]:
     return sorted(range(len(entries)), key=lambda k: -_CARD_CPU_SECONDS.get(entries[k][0], 1.0))
 
 
+_CARD_MODULES = (
+    "matplotlib.backends.backend_agg",
+    "matplotlib.projections.polar",
+    "PIL.PngImagePlugin",
+    "scipy.stats",
+)
+"""The modules every card imports (its plots, its PNGs, its χ² tests and Sobol' points):
+0.8 CPU s, more than a typical card's own work."""
+
+
+def _import_card_modules() -> None:
+    """Import :data:`_CARD_MODULES` in the process that forks the atlas's workers, so that
+    they inherit them: imported once, not once in every worker."""
+    import importlib
+
+    for name in _CARD_MODULES:
+        importlib.import_module(name)
+
+
 def _build_cards(
     entries: Sequence[tuple[str, _Examples]],
     options: dict,
@@ -661,7 +705,12 @@ def _build_cards(
         return cards
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    # the imports (Python, under the GIL) beside the table's NumPy loops (which release it);
+    # both done before the fork, which copies no other thread
+    importer = threading.Thread(target=_import_card_modules, name="atlas imports")
+    importer.start()
     _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
+    importer.join()
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(

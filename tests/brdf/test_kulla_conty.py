@@ -19,6 +19,7 @@ from brdfkit.brdf.kulla_conty import (
     fresnel_ratio_table,
     ggx_albedo,
     table_coordinates_from_conductor,
+    visible_normal_quadrature,
 )
 from brdfkit.brdf.microfacet import FresnelTerm
 from brdfkit.brdf.random_walk import random_walk_albedo
@@ -39,6 +40,29 @@ def _multiple_albedo(model: KullaConty, theta_o: float, n: int = 128) -> np.ndar
     wo = spherical_to_cartesian(np.array(theta_o), np.array(1.3))
     added = model.eval(wi, wo) - model._single.eval(wi, wo)
     return 2 * math.pi * np.sum((w * 2 * s * mu_i)[:, None] * added, axis=0)  # dμ = 2s ds
+
+
+def test_mirror_quadrature_is_the_half_with_cos_phi_positive_at_twice_the_weight():
+    u, w = visible_normal_quadrature((8, 16))
+    half_u, half_w = visible_normal_quadrature((8, 16), mirror=True)
+    keep = np.cos(2 * math.pi * u[:, 1]) > 0
+    np.testing.assert_array_equal(half_u, u[keep])
+    np.testing.assert_array_equal(half_w, 2 * w[keep])
+    with pytest.raises(ValueError, match="multiple of 4"):
+        visible_normal_quadrature((8, 6), mirror=True)
+
+
+def test_ggx_albedo_from_mirrored_nodes_equals_the_full_quadrature(monkeypatch):
+    """Half the azimuths (ωo in the xz-plane, an isotropic lobe): the same sums to rounding."""
+    import brdfkit.brdf.kulla_conty as kc
+
+    mu = np.cos(THETAS)
+    fresnel = FresnelTerm("conductor", np.array([0.2, 0.9, 1.1]), np.array([3.9, 2.4, 2.2]))
+    half = [ggx_albedo(a, mu, fresnel) for a in (0.05, 0.5, 1.0)]
+    full_rule = kc.visible_normal_quadrature
+    monkeypatch.setattr(kc, "visible_normal_quadrature", lambda nodes, mirror: full_rule(nodes))
+    full = [ggx_albedo(a, mu, fresnel) for a in (0.05, 0.5, 1.0)]
+    np.testing.assert_allclose(half, full, rtol=1e-13, atol=0)
 
 
 @pytest.mark.slow
@@ -198,3 +222,11 @@ def test_the_shipped_fresnel_table_is_what_its_recipe_computes():
     ratio, _ = fresnel_ratio_node(1, 7)
     np.testing.assert_allclose(fresnel_ratio_table()[1, 7], ratio, atol=5e-5)
     assert np.all((ratio >= 0) & (ratio <= 1))
+
+
+def test_multiple_scattering_albedo_of_a_broadcast_direction_is_made_once():
+    model = KullaConty(alpha=[0.3, 0.5, 0.8], material="Cu")
+    wo = np.broadcast_to(spherical_to_cartesian(np.array(0.9), np.array(0.4)), (300, 3))
+    once = model._E_ms_of(wo)
+    assert once.shape == (300, 3) and once.strides[0] == 0
+    np.testing.assert_array_equal(once, model.E_ms(np.array(wo)[:, 2:3]))

@@ -37,6 +37,20 @@ def _compensated(model: KullaContyDielectric, wo: np.ndarray, nodes=(96, 64)) ->
     return single + added_albedo(model, wo)
 
 
+def test_dielectric_albedo_from_mirrored_nodes_equals_the_full_quadrature(monkeypatch):
+    """Half the azimuths (ωo in the xz-plane, an isotropic lobe): the same (R, T) to rounding,
+    from outside and from inside, through total internal reflection."""
+    import brdfkit.brdf.kulla_conty_dielectric as kcd
+
+    mu = np.cos(np.radians(THETAS))
+    mu = np.concatenate([mu, -mu])
+    half = [dielectric_albedo(a, eta, mu) for a, eta in ((0.05, 1.5), (0.6, 1 / 1.5))]
+    full_rule = kcd.visible_normal_quadrature
+    monkeypatch.setattr(kcd, "visible_normal_quadrature", lambda nodes, mirror: full_rule(nodes))
+    full = [dielectric_albedo(a, eta, mu) for a, eta in ((0.05, 1.5), (0.6, 1 / 1.5))]
+    np.testing.assert_allclose(half, full, rtol=1e-13, atol=1e-16)
+
+
 def _furnace_worst(etas, alphas, thetas) -> float:
     worst = 0.0
     for eta in etas:
@@ -235,3 +249,13 @@ def test_one_sided_sampling_matches_its_density(side):
     assert np.all(s.wi[ok, 2] > 0) and np.all(s.weight[~ok] == 0)
     expected = model.eval(s.wi[ok], wo) * s.wi[ok, 2:3] / s.pdf[ok, None]
     np.testing.assert_allclose(s.weight[ok], expected, rtol=1e-10)
+
+
+def test_shares_of_a_broadcast_direction_are_made_once_with_the_same_values():
+    model = KullaContyDielectric(alpha=0.6, eta=1 / 1.5)
+    for side in (1.0, -1.0):
+        wo = np.broadcast_to(_direction(50.0, side), (300, 3))
+        once = model.shares(wo)
+        assert all(part.strides[0] == 0 for part in once)
+        for part, full in zip(once, model.shares(np.array(wo)), strict=True):
+            np.testing.assert_array_equal(part, full)

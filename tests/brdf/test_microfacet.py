@@ -421,3 +421,52 @@ def test_gaussian_float32_sampler_near_one():
     u1 = np.array([0.999, 1 - 1e-6, np.nextafter(np.float32(1), np.float32(0)), 1.0])
     for m in (1e-3, 0.3, 1.2, 8.0):
         assert np.max(_gaussian_sampler_cdf_error(m, u1, np.float32)) < 4e-7, m
+
+
+def test_gaussian_lambda_of_a_broadcast_direction_is_made_once_with_the_same_values():
+    """A fixed ωo broadcast over a batch (a quadrature ring, a sampler's checks): Λ is made
+    once (a stride-0 view comes back) and equals Λ of the batch written out."""
+    ndf = TorranceSparrowGaussian(0.3)
+    w = np.array([0.5, -0.2, 0.7])
+    w = np.broadcast_to(w / np.linalg.norm(w), (257, 3))
+    once = ndf.smith_lambda(w)
+    assert once.shape == (257, 1) and once.strides[0] == 0
+    np.testing.assert_array_equal(once, ndf.smith_lambda(np.ascontiguousarray(w)))
+
+
+def test_correlated_masking_of_one_sided_pairs_equals_their_values_in_a_mixed_batch():
+    """Pairs all on one side skip the Beta function (NumPy): the values of the same pairs
+    where the batch also holds transmission pairs, bitwise."""
+    rng = np.random.default_rng(5)
+    wi, wo = rng.normal(size=(2, 400, 3))
+    wi, wo = (
+        wi / np.linalg.norm(wi, axis=-1, keepdims=True),
+        wo / np.linalg.norm(wo, axis=-1, keepdims=True),
+    )
+    wo[:, 2] = np.abs(wo[:, 2])
+    h = wi + wo
+    h = np.where(h[:, 2:3] < 0, -h, h) / np.linalg.norm(h, axis=-1, keepdims=True)
+    for dist in (GGX(0.3), Beckmann(0.2, 0.5)):
+        mixed = masking_shadowing(dist, wi, wo, h, "smith_correlated")
+        above = wi[:, 2] > 0
+        assert 0 < np.count_nonzero(above) < len(wi)
+        one_sided = masking_shadowing(dist, wi[above], wo[above], h[above], "smith_correlated")
+        np.testing.assert_array_equal(one_sided, mixed[above])
+
+
+def test_visible_sampling_of_a_broadcast_view_stays_per_direction_with_the_same_values():
+    """One ωo below the surface broadcast over many samples: flipped once (still a stride-0
+    view), and the normals and their density are bitwise those of the batch written out."""
+    from brdfkit.brdf._microfacet_sampling import _upper, normal_pdf, sample_normal
+
+    wo = np.broadcast_to(np.array([0.6, 0.0, -0.8]), (500, 3))
+    up = _upper(wo)
+    assert up.strides[0] == 0
+    np.testing.assert_array_equal(up, np.broadcast_to([-0.6, -0.0, 0.8], (500, 3)))
+    u = np.random.default_rng(8).random((500, 2))
+    for ndf in (GGX(0.3, 0.1), Beckmann(0.2)):
+        h = sample_normal(ndf, True, wo, u)
+        np.testing.assert_array_equal(h, sample_normal(ndf, True, np.array(wo), u))
+        np.testing.assert_array_equal(
+            normal_pdf(ndf, True, wo, h), normal_pdf(ndf, True, np.array(wo), h)
+        )

@@ -14,12 +14,21 @@ References
 
 from __future__ import annotations
 
+import numpy as np
+
 from brdfkit._array import Array, namespace
+from brdfkit.brdf.base import _broadcast_rows
 from brdfkit.brdf.microfacet import MicrofacetDistribution
 
 
 def _upper(wo: Array) -> Array:
-    """``wo`` flipped into the upper hemisphere where it lies below."""
+    """``wo`` flipped into the upper hemisphere where it lies below. A NumPy ``wo`` broadcast
+    along batch axes (one ωo for a check's or an albedo estimate's samples) is flipped once
+    per direction and stays broadcast, so that what the distribution makes per direction
+    (:func:`~brdfkit.brdf.base.per_direction`) is made once, not once per sample."""
+    rows = _broadcast_rows(wo)
+    if rows is not None:
+        return np.broadcast_to(np.where(rows[..., 2:3] > 0, rows, -rows), wo.shape)
     xp = namespace(wo)
     return xp.where(wo[..., 2:3] > 0, wo, -wo)
 

@@ -144,7 +144,7 @@ def dielectric_albedo(
     probability the sampler gives each branch.
     """
     mu = np.asarray(mu, dtype=np.float64)
-    u, weights = visible_normal_quadrature(nodes)
+    u, weights = visible_normal_quadrature(nodes, mirror=True)  # ωo in the xz-plane
     flat = mu.reshape(-1)
     wo = np.stack([np.sqrt(np.clip(1 - flat * flat, 0, 1)), 0 * flat, flat], axis=-1)
     wo = np.broadcast_to(wo[:, None, :], (flat.size, u.shape[0], 3))
@@ -174,7 +174,7 @@ def albedo_series(alpha: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
     r"""Chebyshev coefficients, in :math:`x = 2\sqrt\mu - 1`, of the single-scattering flux
     albedo :math:`E(\mu) = R + T` of :func:`single_scattering` seen from outside and from
     inside, each ``(DEGREE + 1,)``; computed by :func:`dielectric_albedo` at the Chebyshev
-    points (~1 s) and kept in memory."""
+    points (~0.3 s) and kept in memory."""
     x = np.cos(math.pi * (np.arange(DEGREE + 1) + 0.5) / (DEGREE + 1))
     mu = ((x + 1) / 2) ** 2
     e = dielectric_albedo(alpha, eta, np.concatenate([mu, -mu])).sum(axis=-1)
@@ -371,9 +371,12 @@ class KullaContyDielectric(BRDF):
         e = xp.where(w[..., 2:3] > 0, _clenshaw(self._e[0], mu), _clenshaw(self._e[1], mu))
         return clamp(e, 0.0, 1.0)
 
+    @per_direction
     def shares(self, w: Array) -> tuple[Array, Array]:
         r"""(a, b): the reflected and transmitted flux albedos of the added lobe seen from
-        ``w`` ``(..., 3)``, each ``(..., 1)``; a + b = 1 − E(μ) (module docstring)."""
+        ``w`` ``(..., 3)``, each ``(..., 1)``; a + b = 1 − E(μ) (module docstring). Made once
+        per direction of a broadcast ``w`` (the fixed ωo of :meth:`eval` in a quadrature
+        ring, a check's samples): three Chebyshev series of degree 32."""
         xp = namespace(w)
         mu = xp.abs(w[..., 2:3])
         outside = w[..., 2:3] > 0

@@ -66,6 +66,7 @@ from brdfkit._array import (
     dot,
     erf,
     erfinv,
+    is_numpy,
     log_gamma,
     namespace,
     normalize,
@@ -460,7 +461,10 @@ class Beckmann(_StretchedDistribution):
         xp = namespace(u)
         return -xp.log1p(-clamp(u, 0.0, 1 - 1e-16))
 
+    @per_direction
     def smith_lambda(self, w: Array) -> Array:
+        """Λ of the class docstring (erf); made once per direction of a broadcast ``w``
+        (:func:`~brdfkit.brdf.base.per_direction`)."""
         xp = namespace(w)
         s2 = self._slope_tan2(w)
         a = 1 / xp.sqrt(xp.maximum(s2, constant(_TINY, s2)))
@@ -641,7 +645,11 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         value = self.normalization(wm) * xp.exp(-((theta / m) ** 2))
         return xp.where(wm[..., 2:3] > 0, value, xp.zeros_like(value))
 
+    @per_direction
     def smith_lambda(self, w: Array) -> Array:
+        """Λ by the 32-point quadrature of the class docstring; made once per direction of a
+        broadcast ``w`` (:func:`~brdfkit.brdf.base.per_direction`: the fixed ωo of a sampler's
+        checks, of an albedo estimate, of a quadrature ring's kernel)."""
         xp = namespace(w)
         m = param(self.m, w)
         cos_theta = clamp(xp.abs(w[..., 2:3]), 0.0, 1.0)
@@ -814,13 +822,15 @@ def masking_shadowing(
         lambda_i = distribution.smith_lambda(wi)
         lambda_o = distribution.smith_lambda(wo)
         reflection = 1 / (1 + lambda_i + lambda_o)
-        if not transmission:
+        same_side = (wi[..., 2:3] * wo[..., 2:3]) > 0
+        # NumPy, every pair on one side (a BSDF's quadrature above the surface): the
+        # reflection form is the value, the Beta function would be taken for nothing
+        if not transmission or (is_numpy(xp) and bool(np.all(same_side))):
             return xp.where(visible, reflection, xp.zeros_like(reflection))
         big = constant(1e6, lambda_i)
         li, lo = xp.minimum(lambda_i, big), xp.minimum(lambda_o, big)
         log_beta = log_gamma(1 + li) + log_gamma(1 + lo) - log_gamma(2 + li + lo)
         transmission = xp.exp(xp.minimum(log_beta, xp.zeros_like(log_beta)))
-        same_side = (wi[..., 2:3] * wo[..., 2:3]) > 0
         value = xp.where(same_side, reflection, transmission)
         return xp.where(visible, value, xp.zeros_like(value))
     raise ParameterError(f"masking must be one of {', '.join(MASKINGS)}; got {kind!r}")
