@@ -528,7 +528,7 @@ def test_pair_solve_equals_two_solves():
             free = rng.random(k) < 0.7
             rhs = rng.standard_normal((2, k))
             pair = np.empty((2, k))
-            _bivariate_kernels._solve_free_pair(
+            _bivariate_kernels._solve_free_sides(
                 gram, rhs, free, np.empty((k, k)), np.empty((2, k)), pair
             )
             for side in range(2):

@@ -25,7 +25,7 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
   and hand the block to it;
 - the ramps' screening bound (:func:`_ramps_bound`) solves by Cholesky and takes the cost from
   the solution (no pivoting, no residual pass), the two solves of the Jacobian products share
-  one elimination (:func:`_solve_free_pair`), the ramp indices are counted without branches;
+  one elimination (:func:`_solve_free_sides`), the ramp indices are counted without branches;
 - the table's rows (AZ08) are computed for a pixel's observations at once with fdlibm's
   ``acos`` (:func:`_table_rows`, vectorised), instead of a libm call per observation;
 - the ranks, shadow weights and transposed intensities of the start come from one parallel
@@ -214,10 +214,19 @@ def _table_system(
 
 @_hot
 def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
-    """``coef`` = the solution of ``gram x = rhs`` on the ``free`` unknowns, 0 on the others:
-    Gaussian elimination with partial pivoting (LAPACK's ``gesv``) of the free block; a zero
-    pivot leaves that unknown 0."""
-    k = len(rhs)
+    """``coef`` = the solution of ``gram x = rhs`` on the ``free`` unknowns, 0 on the others
+    (:func:`_solve_free_sides` of one right-hand side)."""
+    _solve_free_sides(gram, rhs[None, :], free, work, work_b[None, :], coef[None, :])
+
+
+@_hot
+def _solve_free_sides(gram, rhs, free, work, work_b, coef):  # pragma: no cover
+    """The solutions of ``gram x = rhs[s]`` on the ``free`` unknowns, 0 on the others, for
+    each right-hand side ``rhs[s]`` (``(S, K)``) into ``coef[s]``: one Gaussian elimination with
+    partial pivoting (LAPACK's ``gesv``) of the free block for all sides (``work_b``
+    ``(S, K)``); a zero pivot leaves that unknown 0. Each side takes the same operations in the
+    same order as alone, so the same numbers."""
+    sides, k = rhs.shape
     f = 0
     for i in range(k):
         if free[i]:
@@ -226,7 +235,8 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
                 if free[j]:
                     work[f, g] = gram[i, j]
                     g += 1
-            work_b[f] = rhs[i]
+            for side in range(sides):
+                work_b[side, f] = rhs[side, i]
             f += 1
     for c in range(f):
         pivot = c
@@ -236,7 +246,8 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
         if pivot != c:  # (the columns before c are no longer read)
             for q in range(c, f):
                 work[c, q], work[pivot, q] = work[pivot, q], work[c, q]
-            work_b[c], work_b[pivot] = work_b[pivot], work_b[c]
+            for side in range(sides):
+                work_b[side, c], work_b[side, pivot] = work_b[side, pivot], work_b[side, c]
         if work[c, c] == 0.0:
             continue
         for r in range(c + 1, f):
@@ -244,57 +255,9 @@ def _solve_free(gram, rhs, free, work, work_b, coef):  # pragma: no cover
             if factor != 0.0:
                 for q in range(c + 1, f):  # (column c below the pivot is no longer read)
                     work[r, q] -= factor * work[c, q]
-                work_b[r] -= factor * work_b[c]
-    for c in range(f - 1, -1, -1):
-        total = work_b[c]
-        for q in range(c + 1, f):
-            total -= work[c, q] * work_b[q]
-        work_b[c] = total / work[c, c] if work[c, c] != 0.0 else 0.0
-    f = 0
-    for i in range(k):
-        if free[i]:
-            coef[i] = work_b[f]
-            f += 1
-        else:
-            coef[i] = 0.0
-
-
-@_hot
-def _solve_free_pair(gram, rhs, free, work, work_b, coef):  # pragma: no cover
-    """:func:`_solve_free` of the two right-hand sides ``rhs`` ``(2, K)`` into ``coef``
-    ``(2, K)``, one elimination for both (``work_b`` ``(2, K)``): each side takes the same
-    operations in the same order as alone, so the same numbers."""
-    k = rhs.shape[1]
-    f = 0
-    for i in range(k):
-        if free[i]:
-            g = 0
-            for j in range(k):
-                if free[j]:
-                    work[f, g] = gram[i, j]
-                    g += 1
-            work_b[0, f], work_b[1, f] = rhs[0, i], rhs[1, i]
-            f += 1
-    for c in range(f):
-        pivot = c
-        for r in range(c + 1, f):
-            if abs(work[r, c]) > abs(work[pivot, c]):
-                pivot = r
-        if pivot != c:
-            for q in range(c, f):
-                work[c, q], work[pivot, q] = work[pivot, q], work[c, q]
-            for side in range(2):
-                work_b[side, c], work_b[side, pivot] = work_b[side, pivot], work_b[side, c]
-        if work[c, c] == 0.0:
-            continue
-        for r in range(c + 1, f):
-            factor = work[r, c] / work[c, c]
-            if factor != 0.0:
-                for q in range(c + 1, f):
-                    work[r, q] -= factor * work[c, q]
-                work_b[0, r] -= factor * work_b[0, c]
-                work_b[1, r] -= factor * work_b[1, c]
-    for side in range(2):
+                for side in range(sides):
+                    work_b[side, r] -= factor * work_b[side, c]
+    for side in range(sides):
         for c in range(f - 1, -1, -1):
             total = work_b[side, c]
             for q in range(c + 1, f):
@@ -674,7 +637,7 @@ def _products(
         ridge = 2e-9 * (trace_0 if c == 0 else trace_1) / k  # d of _weights' ridge: minus dρ c
         for a in range(k):
             source[c, a] -= ridge * coef[a]
-    _solve_free_pair(gram, source, free, work, pair, delta)
+    _solve_free_sides(gram, source, free, work, pair, delta)
     for c in range(2):
         if kind == RAMPS:
             for lobe in range(2):
