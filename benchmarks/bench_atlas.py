@@ -12,8 +12,8 @@ Noise: every sphere of every default card under the environment map. The atlas's
 samples N is made at its resolution (:func:`brdfkit.report.env_sphere`, seed 1); the same
 passes totalling N spp are then rendered at ``--noise-resolution`` (per-pixel noise does not
 depend on the resolution; the default is the atlas's own) and compared with a render at 16 N
-spp with another seed, inside the silhouette (:func:`~brdfkit.mitsuba_scenes.relative_rmse`;
-the goal: every sphere under 1 %). A sphere :func:`~brdfkit.env_quadrature.quadrature_sphere`
+spp with another seed, inside the silhouette (:func:`~brdfkit.interop.mitsuba.relative_rmse`;
+the goal: every sphere under 1 %). A sphere :func:`~brdfkit.render.quadrature_sphere`
 renders (no noise) is compared instead with (a) the quadrature one level finer at the atlas's
 resolution (2× the rows, columns and rings: 8× the kernel nodes) and (b) Monte Carlo at
 ``--noise-resolution`` from two seeds of ``--mc-samples``/2 spp each (their half difference
@@ -60,8 +60,8 @@ def time_atlas(
     repeats: int, cold: bool, goal: dict | None = None
 ) -> tuple[list[float], list[float], list[str]]:
     """Wall and CPU seconds of each atlas build and whether it ran on a cold or warm cache."""
-    from brdfkit import kernel_cache
-    from brdfkit.report import build_atlas
+    from brdfkit.compiled import cache as kernel_cache
+    from brdfkit.report.atlas import build_atlas
 
     seconds, cpu, cache = [], [], []
     saved = os.environ.get(kernel_cache.ENV)
@@ -89,9 +89,9 @@ def profile_atlas(only: list[str] | None = None) -> dict:
     in the kernel cache: the warm path) or not (NumPy: a cold cache; the default atlas never
     builds them, its spheres are too small)."""
     from brdfkit.data import default_envmap_path
-    from brdfkit.lights import EnvironmentMap
-    from brdfkit.render_kernel import compiled_shader
-    from brdfkit.report import _registered_defaults, build_card, default_examples
+    from brdfkit.light import EnvironmentMap
+    from brdfkit.render._reflection_kernels import compiled_shader
+    from brdfkit.report.atlas import _registered_defaults, build_card, default_examples
 
     env = EnvironmentMap.from_file(default_envmap_path())
     start = time.process_time()
@@ -127,9 +127,10 @@ def profile_atlas(only: list[str] | None = None) -> dict:
 
 def _quadrature_row(title, k, model, env, resolution, cpu, goal, mc_samples) -> dict:
     """A quadrature sphere's errors against (a) the next level and (b) Monte Carlo."""
-    from brdfkit.env_quadrature import GOAL, quadrature_sphere
-    from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
-    from brdfkit.render import render_sphere
+    from brdfkit.interop.mitsuba import relative_rmse
+    from brdfkit.render import quadrature_sphere, render_sphere
+    from brdfkit.render.environment_quadrature import GOAL
+    from brdfkit.render.scene import interior_mask
 
     q = quadrature_sphere(model, env, RESOLUTION, goal=(goal or {}).get("noise") or GOAL)
     finer = quadrature_sphere(model, env, RESOLUTION, level=q.level + 1)
@@ -166,10 +167,11 @@ def sphere_noise(
     mc_samples: int = 2048,
 ) -> list[dict]:
     from brdfkit.data import default_envmap_path
-    from brdfkit.lights import EnvironmentMap
-    from brdfkit.mitsuba_scenes import interior_mask, relative_rmse
+    from brdfkit.interop.mitsuba import relative_rmse
+    from brdfkit.light import EnvironmentMap
     from brdfkit.render import render_sphere
-    from brdfkit.report import default_cards, env_sphere
+    from brdfkit.render.scene import interior_mask
+    from brdfkit.report.atlas import default_cards, env_sphere
 
     env = EnvironmentMap.from_file(default_envmap_path())
     mask = interior_mask(resolution)
@@ -234,7 +236,7 @@ def main() -> None:
 
     matplotlib.use("Agg")
     start = time.perf_counter()
-    import brdfkit.report  # noqa: F401
+    import brdfkit.report.atlas  # noqa: F401
 
     import_seconds = time.perf_counter() - start
     record: dict = {

@@ -43,7 +43,7 @@ os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.s
 
 import numpy as np
 
-import brdfkit.accel as accel
+import brdfkit.compiled.kernels as accel
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.fresnel import conductor
 

@@ -2,7 +2,7 @@
 
 For every material and model, with each objective and loss: the fitting errors and the CIEDE2000
 difference between the measured and the fitted sphere
-(:func:`brdfkit.appearance.sphere_difference`) under the default directional light, and its mean
+(:func:`brdfkit.fit.sphere_difference`) under the default directional light, and its mean
 over :data:`LIGHTS` (four directions: head-on, the default, from the side, grazing). Writes two
 Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and the
 spheres to ``benchmarks/results/cornell_fits.png`` (rows: materials; columns: measured, then
@@ -21,10 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.appearance import DEFAULT_LIGHT_DIRECTION, sphere_difference
-from brdfkit.fit import fit
+from brdfkit.fit import sphere_difference
+from brdfkit.fit.analytic import fit
+from brdfkit.fit.appearance import DEFAULT_LIGHT_DIRECTION
 from brdfkit.io import data_path, write_image
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.measured import read_cornell
 
 MATERIALS = ("acryl_blue", "cayman", "garnet_red", "krylon_blue")

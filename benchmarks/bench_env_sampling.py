@@ -4,7 +4,8 @@ The tile kernel's map sample finds, per variate pair, the row of the marginal CD
 column of that row's conditional CDF. It used a fixed-step bisection run in lock step over
 a block of 256 variates (``sampling._find_interval``'s ~10 + ~11 steps on a 1k map: the
 ``lockstep`` baseline below, the code of main at ea8677f); it now scans from guide tables
-(:func:`brdfkit.render_kernel.map_sampler`, :func:`brdfkit.render_kernel.map_guides`). Both
+(:func:`brdfkit.render._reflection_kernels.map_sampler`,
+:func:`brdfkit.render._reflection_kernels.map_guides`). Both
 run here on the same variates in blocks of 256, alternating, best of ``--repeats``; the
 texels they find are checked equal. Run single-threaded (the kernels are serial anyway):
 
@@ -24,9 +25,9 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from brdfkit import accel
-from brdfkit.lights import EnvironmentMap
-from brdfkit.render_kernel import BLOCK, map_guides, map_sampler
+from brdfkit.compiled import kernels as accel
+from brdfkit.light import EnvironmentMap
+from brdfkit.render._reflection_kernels import BLOCK, map_guides, map_sampler
 
 select = accel._intrinsics()["_select"]
 

@@ -39,9 +39,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-import brdfkit.fit as fitting
+import brdfkit.fit.analytic as fitting
 from brdfkit.brdf import MODELS, parse
-from brdfkit.fit import fit, fit_data
+from brdfkit.fit.analytic import fit, fit_data
 from brdfkit.measured import read_merl, write_merl
 
 TRUTH = (

@@ -2,7 +2,7 @@
 
 Workloads: ``eval`` of ``kulla_conty(alpha=0.5, material='Au')`` and of its single-scattering
 lobe ``rough_conductor(alpha=0.5, material='Au')`` on 10⁶ float32 direction pairs, on the NumPy
-path and compiled (:func:`brdfkit.accel.compile`), interleaved (A, B, A, B, …) and reported
+path and compiled (:func:`brdfkit.compiled.compile`), interleaved (A, B, A, B, …) and reported
 as ratios; and the one-time cost of a roughness's E(μ) table (:func:`albedo_table`, first
 call, uncached). The machine is shared: read the ratios, not the seconds.
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-import brdfkit.accel as accel
+import brdfkit.compiled.kernels as accel
 from brdfkit.brdf import KullaConty, RoughConductor
 from brdfkit.brdf.kulla_conty import albedo_table
 from brdfkit.sampling import square_to_uniform_hemisphere

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.appearance import sphere_difference
-from brdfkit.fit import fit
+from brdfkit.fit import sphere_difference
+from brdfkit.fit.analytic import fit
 from brdfkit.io import data_path
 from brdfkit.measured import read_cornell, read_rgl
 

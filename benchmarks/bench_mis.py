@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.brdf import parse
-from brdfkit.integrate import reflected_radiance
-from brdfkit.lights import EnvironmentMap
+from brdfkit.light import EnvironmentMap
+from brdfkit.render import reflected_radiance
 
 MAPS = (
     "probulator/grace.hdr",

@@ -3,7 +3,7 @@
 Renders the real DiLiGenT bear ground-truth normals (40 670 mask pixels; Lambertian +
 Blinn-Phong, attached and cast shadows, noise; the real DiLiGenT images are not available here)
 and times every calibrated method of ``brdfkit ps`` (the registries of
-:mod:`brdfkit.vision.photometric_stereo`, :mod:`~brdfkit.vision.bivariate` and
+:mod:`brdfkit.vision.photometric_stereo`, :mod:`~brdfkit.vision.bivariate_stereo` and
 :mod:`~brdfkit.vision.consensus`), least squares on every pixel of the stack and on the object
 mask, the others on the mask. The target (issue 21) is < 2 s per method on 2 cores.
 Prints one JSON record per line: method, pixels, wall seconds (best of ``--repeat``), the CPU
@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.vision import bivariate, consensus, datasets, photometric_stereo
+from brdfkit.vision import bivariate_stereo, consensus, datasets, photometric_stereo
 from brdfkit.vision.metrics import angular_error
 
-METHODS = {**photometric_stereo.METHODS, **bivariate.METHODS, **consensus.METHODS}
+METHODS = {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
 
 
 def main() -> None:

@@ -30,10 +30,10 @@ import numpy as np
 from brdfkit.brdf._spec import parse
 from brdfkit.geometry import frame_from_normal, to_local
 from brdfkit.measured import read
-from brdfkit.vision import bivariate, consensus, datasets, photometric_stereo
+from brdfkit.vision import bivariate_stereo, consensus, datasets, photometric_stereo
 from brdfkit.vision.metrics import angular_error
 
-METHODS = {**photometric_stereo.METHODS, **bivariate.METHODS, **consensus.METHODS}
+METHODS = {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
 
 ANALYTIC = {
     "matte": "lambertian(albedo=[0.6, 0.5, 0.4])",

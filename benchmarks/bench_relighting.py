@@ -101,7 +101,7 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.vision import datasets
-from brdfkit.vision.integration import least_squares_integration
+from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import (
     calibrate_lights_chrome_sphere,
     fit_circle,

@@ -1,18 +1,18 @@
 """Rendering efficiency of brdfkit against Mitsuba 3's ``direct`` integrator, side by side.
 
-Scenes: :func:`brdfkit.mitsuba_scenes.benchmark_scenes` (gold GGX under
+Scenes: :func:`brdfkit.interop.mitsuba.benchmark_scenes` (gold GGX under
 ``royal_esplanade_1k``, Lambertian + GGX plastic under ``studio_small_03_1k``, a MERL-layout
 table of GGX copper), a unit sphere at 256², brdfkit's orthographic front view; Mitsuba gets
 the same camera, the same map at its own texel nodes and the matching BSDF (see
-:mod:`brdfkit.mitsuba_scenes`).
+:mod:`brdfkit.interop.mitsuba`).
 
 Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` (``compiled=True``:
-the float32 kernel of :mod:`brdfkit.render_kernel`, where the BRDF compiles; the NumPy path
-where it does not, or with ``--numpy`` as well) and Mitsuba's ``mi.render`` alternate
+the float32 kernel of :mod:`brdfkit.render._reflection_kernels`, where the BRDF compiles; the NumPy
+path where it does not, or with ``--numpy`` as well) and Mitsuba's ``mi.render`` alternate
 ``--repeats`` times with fresh seeds. Reported: seconds per image (the minimum; the kernels'
 build time apart, "compile s"), the relative RMSE against the renderer's *own* reference at
 ``--reference`` spp (≥ 16× the largest spp; inside the silhouette,
-:func:`~brdfkit.mitsuba_scenes.interior_mask`; NumPy and compiled share one estimator and the
+:func:`~brdfkit.render.scene.interior_mask`; NumPy and compiled share one estimator and the
 compiled reference), the efficiency 1/(seconds·error²) and its ratio to Mitsuba's (> 1:
 brdfkit is more efficient), and how far the two references differ. Mitsuba's
 llvm variant needs ``benchmarks/setup.sh``; without it the run falls back to ``scalar_rgb``
@@ -37,10 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import mitsuba_scenes as ms
-from brdfkit.lights import EnvironmentMap
-from brdfkit.render import render_sphere
-from brdfkit.render_kernel import compiled_shader
+from brdfkit.interop import mitsuba as ms
+from brdfkit.light import EnvironmentMap
+from brdfkit.render import interior_mask, render_sphere
+from brdfkit.render._reflection_kernels import compiled_shader
 
 RESOLUTION = 256
 SPPS = (16, 64)
@@ -65,7 +65,7 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
     }
     compile_seconds = None
     plan = compiled_shader(scene.brdf, [env], method="auto")
-    if plan is not None:  # where brdfkit.accel or render_table_kernel compiles the BRDF
+    if plan is not None:  # where brdfkit.compiled.kernels or render_table_kernel compiles the BRDF
         start = time.perf_counter()
         plan[0].build()
         compile_seconds = time.perf_counter() - start
@@ -76,7 +76,7 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
         renderers["numpy"] = lambda spp, seed: render_sphere(
             scene.brdf, env, resolution=RESOLUTION, samples=spp, seed=seed, compiled=False
         )
-    mask = ms.interior_mask(RESOLUTION)
+    mask = interior_mask(RESOLUTION)
     for render in renderers.values():
         render(4, 12345)  # warm-up: Mitsuba's JIT, brdfkit's caches
     # each renderer's own reference; NumPy and compiled share one estimator (and the compiled

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 
 from brdfkit.brdf import Lambertian
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import normal_map_gbuffer, shade
 from brdfkit.vision import shape_from_shading as sfs
 from brdfkit.vision.metrics import angular_error

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit import io, sh
+from brdfkit import io
+from brdfkit.light import spherical_harmonics as sh
 
 NORMALS = (32, 64)
 

@@ -23,8 +23,8 @@ from tqdm import tqdm
 
 from brdfkit.io import data_path
 from brdfkit.vision import datasets, photometric_stereo
-from brdfkit.vision.integration import METHODS as INTEGRATORS
 from brdfkit.vision.metrics import angular_error, depth_error
+from brdfkit.vision.normal_integration import METHODS as INTEGRATORS
 
 OBJECTS = ("bear", "cat", "cow", "goblet", "harvest", "pot1", "pot2")
 """The DiLiGenT objects with ground-truth normals, depth and K in the shared data."""

@@ -1,9 +1,9 @@
 """Every physics check's verdict on each default atlas card's model, and its CPU seconds.
 
-``python benchmarks/check_verdicts.py OUT.json`` writes, per card, the :func:`brdfkit.properties.
-check` results of the model the atlas checks (the card's middle instance) to ``OUT.json``
-(atomically; diff two runs to see that a change keeps every verdict, value and detail), and
-prints the CPU seconds of each check per card and in total.
+``python benchmarks/check_verdicts.py OUT.json`` writes, per card, the
+:func:`brdfkit.checks.properties. check` results of the model the atlas checks (the card's middle
+instance) to ``OUT.json`` (atomically; diff two runs to see that a change keeps every verdict,
+value and detail), and prints the CPU seconds of each check per card and in total.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import sys
 import time
 from pathlib import Path
 
-from brdfkit import properties
+from brdfkit.checks import properties
 from brdfkit.io import atomic_write
-from brdfkit.report import default_cards
+from brdfkit.report.atlas import default_cards
 
 
 class _Laps:

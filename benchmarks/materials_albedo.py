@@ -1,6 +1,6 @@
 """The directional albedo of every real-material preset, and the presets whose albedo exceeds 1.
 
-For each preset of :func:`brdfkit.materials.catalogue`, ρ(θo) by 2048 importance samples
+For each preset of :func:`brdfkit.brdf.presets.catalogue`, ρ(θo) by 2048 importance samples
 (scrambled Sobol) at θo = 0°, 20°, 40°, 60°, 75°, 85°; a preset exceeds 1 when
 ρ − 3σ > 1 at some θo. Writes a JSON table to ``--out`` (default: print the summary only).
 
@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
+from brdfkit.brdf.presets import Material, catalogue
 from brdfkit.geometry import spherical_to_cartesian
-from brdfkit.materials import Material, catalogue
 
 THETA_O = (0.0, 20.0, 40.0, 60.0, 75.0, 85.0)
 SAMPLES = 2048

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit import mitsuba_scenes as ms
+from brdfkit.interop import mitsuba as ms
 from brdfkit.io import atomic_write
-from brdfkit.lights import EnvironmentMap
+from brdfkit.light import EnvironmentMap
 from brdfkit.render import render_sphere
 
 

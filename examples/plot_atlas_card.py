@@ -6,7 +6,7 @@ One card of the reflectance atlas
 model. :func:`brdfkit.report.build_card` makes one card's content: a row of spheres across the
 model's example parameters under a directional light and under the bundled environment map, a
 lobe plot (:func:`brdfkit.plot.lobe_plot`) and the directional albedo curves
-(:func:`brdfkit.plot.albedo_plot`), and the physics checks (:func:`brdfkit.properties.check`:
+(:func:`brdfkit.plot.albedo_plot`), and the physics checks (:func:`brdfkit.checks.check`:
 non-negativity, reciprocity, energy, isotropy, sampling) with their numbers, set against what
 the model claims. Here the Cook–Torrance card's images and checks are laid out with matplotlib;
 the atlas page itself adds the formula and the docstring as HTML.
@@ -25,8 +25,8 @@ import matplotlib.image
 from matplotlib.figure import Figure
 
 from brdfkit.data import default_envmap_path
-from brdfkit.lights import EnvironmentMap
-from brdfkit.report import build_card, default_cards
+from brdfkit.light import EnvironmentMap
+from brdfkit.report.atlas import build_card, default_cards
 
 title = "cook_torrance"
 models = dict(default_cards())[title]  # the atlas's example instances of the model

@@ -9,7 +9,7 @@ Lambertian + Cook–Torrance, Lambertian + GGX and Lambertian + Ward, with its d
 and loss: ``cube_root`` (Forés et al. 2012) under the robust ``soft_l1``. A fit is judged by
 eye: each fitted sphere is rendered beside the measured one under the same directional light
 and exposed alike, and its mean CIEDE2000 difference from the measured sphere
-(:func:`brdfkit.appearance.sphere_difference`) is in its title; below about 12 reads as alike
+(:func:`brdfkit.fit.sphere_difference`) is in its title; below about 12 reads as alike
 at a glance.
 
 ``benchmarks/bench_cornell_fits.py`` also fits Lambertian alone and two GGX lobes, with every
@@ -28,9 +28,9 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from brdfkit.appearance import sphere_difference
 from brdfkit.brdf import parse
-from brdfkit.fit import fit
+from brdfkit.fit import sphere_difference
+from brdfkit.fit.analytic import fit
 from brdfkit.io import data_path, srgb_encode
 from brdfkit.measured import read_cornell
 

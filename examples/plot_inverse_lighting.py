@@ -9,9 +9,10 @@ sphere (albedo 0.8), rendered by exact quadrature over the map's pixels, seen fr
 and from the back so that the whole sphere of normals is observed.
 :func:`~brdfkit.vision.lighting.estimate_sh_lighting` fits the nine coefficients per channel
 by least squares; the sphere re-rendered from them
-(:func:`brdfkit.sh.irradiance_sh`) looks like the input, and the coefficients are a few per
-cent from the map's own projection (:func:`brdfkit.sh.project_latlong`): the Lambertian
-kernel's l ≥ 4 part is what is left.
+(:func:`brdfkit.light.spherical_harmonics.irradiance_sh`) looks like the input, and the
+coefficients are a few per
+cent from the map's own projection (:func:`brdfkit.light.spherical_harmonics.project_latlong`): the
+Lambertian kernel's l ≥ 4 part is what is left.
 
 Without the shared data folder the example uses the environment map that ships with brdfkit.
 
@@ -27,8 +28,13 @@ from matplotlib.figure import Figure
 
 from brdfkit.data import default_envmap_path
 from brdfkit.io import data_path, read_image, srgb_encode
+from brdfkit.light.spherical_harmonics import (
+    irradiance_sh,
+    latlong_directions,
+    latlong_solid_angles,
+    project_latlong,
+)
 from brdfkit.render import Sphere, gbuffer
-from brdfkit.sh import irradiance_sh, latlong_directions, latlong_solid_angles, project_latlong
 from brdfkit.vision.lighting import estimate_sh_lighting
 
 ALBEDO = 0.8

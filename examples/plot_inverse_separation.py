@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 
 from brdfkit.brdf import Lambertian, parse
 from brdfkit.io import srgb_encode
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import Sphere, gbuffer, shade
 from brdfkit.vision.separation import separate_dichromatic
 

@@ -4,7 +4,7 @@ Five models under the same light
 
 Five reflectance models side by side, each a spec string read by :func:`brdfkit.brdf.parse`,
 rendered under the bundled environment map plus a directional light
-(:class:`~brdfkit.lights.DirectionalLight`) and exposed alike: Lambertian, Oren–Nayar's rough
+(:class:`~brdfkit.light.DirectionalLight`) and exposed alike: Lambertian, Oren–Nayar's rough
 diffuse (σ = 0.5), the energy-conserving modified Phong, Ward's anisotropic lobe, and a plastic
 (Lambertian + GGX, the dichromatic model).
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from brdfkit.brdf import parse
 from brdfkit.data import default_envmap_path
-from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.light import DirectionalLight, EnvironmentMap
 from brdfkit.plot import save, sphere_gallery
 
 env = EnvironmentMap.from_file(default_envmap_path())

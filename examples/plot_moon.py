@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.brdf import Hapke, Lambertian, LommelSeeliger
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.plot import _figure, lobe_data, save
 from brdfkit.render import render_sphere
 

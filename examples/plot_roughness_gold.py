@@ -16,7 +16,7 @@ from pathlib import Path
 
 from brdfkit.brdf import RoughConductor
 from brdfkit.data import default_envmap_path
-from brdfkit.lights import EnvironmentMap
+from brdfkit.light import EnvironmentMap
 from brdfkit.plot import save, sphere_gallery
 
 env = EnvironmentMap.from_file(default_envmap_path())

@@ -23,7 +23,7 @@ import numpy as np
 from brdfkit.brdf import ThinFilm
 from brdfkit.brdf.thin_film import airy_reflectance, xyz_to_linear_srgb
 from brdfkit.io import srgb_encode
-from brdfkit.lights import parse_light
+from brdfkit.light import parse_light
 from brdfkit.plot import _figure, save
 from brdfkit.render import render_sphere
 

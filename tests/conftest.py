@@ -83,7 +83,7 @@ def browser_dom(tmp_path) -> Callable[..., str]:
 
 @pytest.fixture(scope="session", autouse=True)
 def _kernel_cache(tmp_path_factory):
-    """A kernel cache of this session's own (:mod:`brdfkit.kernel_cache`), so that tests
+    """A kernel cache of this session's own (:mod:`brdfkit.compiled.cache`), so that tests
     about building kernels do not depend on what earlier sessions left in the user's."""
     import os
 

@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 
 from brdfkit import plot
 from brdfkit.brdf import Lambertian, parse
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 
 
 def test_lobe_data_of_lambertian_is_rho_over_pi_times_cosine():

@@ -10,6 +10,7 @@ from scipy import integrate
 from scipy.stats import binomtest
 
 from brdfkit import sampling
+from brdfkit.checks import assert_chi2, assert_chi2_planar
 from brdfkit.sampling import (
     SOBOL_DIMENSIONS,
     Distribution2D,
@@ -37,7 +38,6 @@ from brdfkit.sampling import (
     square_to_uniform_triangle,
     square_to_uniform_triangle_pdf,
 )
-from brdfkit.testing import assert_chi2, assert_chi2_planar
 
 RNG = np.random.default_rng(20240611)
 U = RNG.random((64, 2))

@@ -178,8 +178,8 @@ def normalize(a: Array) -> Array:
 
     The squared norm is floored at float32's smallest normal number before its square root
     (so vectors shorter than 1.1e-19 come out shorter than unit, never NaN): a division by a
-    square root, which the compiled path (:mod:`brdfkit.accel`) turns into a multiplication by
-    a reciprocal square root."""
+    square root, which the compiled path (:mod:`brdfkit.compiled.kernels`) turns into a
+    multiplication by a reciprocal square root."""
     xp = namespace(a)
     squared = dot(a, a, keepdims=True)
     tiny = constant(np.finfo(np.float32).tiny, squared)
@@ -422,8 +422,8 @@ def check_param(
     brdfkit.errors.ParameterError
         A ``ValueError`` naming the argument, the offending value and the allowed range, e.g.
         ``"alpha must be in (0.0, inf]; got -1"`` (``"must be finite and in …"`` for NaN or
-        infinity). :mod:`brdfkit.fit` reads the model bounds back from this message for finite
-        probes, so its ``must be in <interval>`` form is a contract.
+        infinity). :mod:`brdfkit.fit.analytic` reads the model bounds back from this message for
+        finite probes, so its ``must be in <interval>`` form is a contract.
     """
     low = -math.inf if lo is None else lo - slack
     high = math.inf if hi is None else hi + slack

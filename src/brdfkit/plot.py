@@ -27,7 +27,7 @@ from brdfkit.geometry import from_half_diff, spherical_to_cartesian
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from brdfkit.lights import Light
+    from brdfkit.light.base import Light
 
 
 def _figure(**kwargs) -> Figure:
@@ -230,7 +230,7 @@ def sphere_images(
     the 99th percentile of luminance over all spheres maps to white; otherwise ``exposure`` is
     in stops.
     """
-    from brdfkit.render import render_sphere
+    from brdfkit.render.shading import render_sphere
 
     images = [
         render_sphere(model, lights, resolution=resolution, samples=samples) for model in brdfs

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import MODELS
-from brdfkit.brdf.base import BRDF, parameter_domains
+from brdfkit.brdf.base import BRDF
 from brdfkit.errors import ParameterError
+from brdfkit.params import parameter_domains
 from brdfkit.sampling import square_to_uniform_hemisphere
 
 EXTREMES = [

@@ -8,7 +8,6 @@ import warnings
 import numpy as np
 import pytest
 
-from brdfkit import accel
 from brdfkit.brdf import KullaConty
 from brdfkit.brdf.kulla_conty import (
     albedo_table,
@@ -23,6 +22,7 @@ from brdfkit.brdf.kulla_conty import (
 )
 from brdfkit.brdf.microfacet import FresnelTerm
 from brdfkit.brdf.random_walk import random_walk_albedo
+from brdfkit.compiled import kernels as accel
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import CONDUCTORS
 from brdfkit.geometry import spherical_to_cartesian

@@ -217,7 +217,7 @@ def test_the_shipped_split_table_is_what_its_recipe_computes():
 
 @pytest.mark.slow  # numba compiles eval, pdf and sample: ~1-3 min on two busy cores
 def test_compiled_path_matches_numpy():
-    from brdfkit import accel
+    from brdfkit.compiled import kernels as accel
     from brdfkit.geometry import spherical_to_cartesian
 
     model = KullaContyDielectric(alpha=0.4, eta=1.5)
@@ -238,7 +238,7 @@ def test_one_sided_sampling_matches_its_density(side):
     """A one-sided render's view (:func:`~brdfkit.brdf.one_sided.one_sided_view`): χ² of
     sample_one_sided against pdf_one_sided on the upper hemisphere, weight = f·cos θi/pdf."""
     from brdfkit.brdf.one_sided import one_sided_view
-    from brdfkit.testing import brdf_sampler, chi2_test
+    from brdfkit.checks import brdf_sampler, chi2_test
 
     model = KullaContyDielectric(alpha=0.7, eta=1.5)
     wo = _direction(50.0, side)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lafortune, ModifiedPhong
+from brdfkit.checks import assert_chi2, brdf_sampler
 from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _rotate_z(w: np.ndarray, angle: float) -> np.ndarray:

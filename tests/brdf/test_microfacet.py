@@ -15,8 +15,8 @@ from brdfkit.brdf.microfacet import (
     TorranceSparrowGaussian,
     masking_shadowing,
 )
+from brdfkit.checks import chi2_test
 from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
-from brdfkit.testing import chi2_test
 
 DISTRIBUTIONS = [
     GGX(0.05),

@@ -9,10 +9,10 @@ import pytest
 
 from brdfkit.brdf import MODELS, Lambertian, RoughDielectric, SmoothDielectric
 from brdfkit.brdf.one_sided import OneSided, one_sided_view
+from brdfkit.checks import brdf_sampler, chi2_test
 from brdfkit.fresnel import fresnel_dielectric
-from brdfkit.integrate import reflected_radiance
-from brdfkit.lights import EnvironmentMap, UniformSky
-from brdfkit.testing import brdf_sampler, chi2_test
+from brdfkit.light import EnvironmentMap, UniformSky
+from brdfkit.render import reflected_radiance
 
 ROUGH = RoughDielectric.examples()
 IDS = [m.to_spec()[:60] for m in ROUGH]

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lambertian, OrenNayar
+from brdfkit.checks import assert_chi2, brdf_sampler
 from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _angles(wi: np.ndarray, wo: np.ndarray):

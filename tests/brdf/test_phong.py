@@ -11,8 +11,8 @@ from scipy import integrate
 
 from brdfkit.brdf import BlinnPhong, ModifiedPhong, Phong
 from brdfkit.brdf.phong import blinn_phong_normalization
+from brdfkit.checks import assert_chi2, brdf_sampler
 from brdfkit.sampling import hemisphere_pairs, square_to_uniform_hemisphere
-from brdfkit.testing import assert_chi2, brdf_sampler
 
 
 def _view(theta: float, phi: float = 0.3) -> np.ndarray:

@@ -12,12 +12,12 @@ import math
 import numpy as np
 import pytest
 
-from brdfkit import accel
 from brdfkit.brdf import Hapke, Lambertian, LommelSeeliger, Minnaert
 from brdfkit.brdf.hapke import chandrasekhar_h, henyey_greenstein
 from brdfkit.brdf.lommel_seeliger import lommel_seeliger_albedo
+from brdfkit.compiled import kernels as accel
 from brdfkit.geometry import spherical_to_cartesian
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import render_sphere
 
 RESOLUTION = 65

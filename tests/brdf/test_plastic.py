@@ -194,7 +194,7 @@ def test_parameters_are_checked():
 def test_compiled_path_matches_numpy():
     """(~1 min: numba compiles eval, pdf and sample of both models; the table lookup traces as
     63 ramps.)"""
-    from brdfkit import accel
+    from brdfkit.compiled import kernels as accel
 
     wi, wo = _upper(512, 8), _upper(512, 9)
     u = np.random.default_rng(10).random((512, 3))

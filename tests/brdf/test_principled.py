@@ -241,7 +241,7 @@ def test_lobes_switch_off():
 @pytest.mark.slow
 def test_compiled_path_matches_numpy():
     """(~20 s: numba compiles eval, pdf and sample.)"""
-    from brdfkit import accel
+    from brdfkit.compiled import kernels as accel
 
     model = Principled(**PARAMETER_SETS[-1])
     wi, wo = _upper(512, 8), _upper(512, 9)

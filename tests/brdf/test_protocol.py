@@ -15,7 +15,7 @@ import pytest
 from brdfkit.brdf import MODELS
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.lambertian import Lambertian
-from brdfkit.properties import (
+from brdfkit.checks import (
     check_energy,
     check_isotropy,
     check_nonnegativity,

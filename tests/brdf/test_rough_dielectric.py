@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import RoughDielectric
+from brdfkit.checks import brdf_sampler, chi2_test
 from brdfkit.fresnel import fresnel_dielectric
-from brdfkit.testing import brdf_sampler, chi2_test
 
 EXAMPLES = RoughDielectric.examples()
 IDS = [m.to_spec()[:70] for m in EXAMPLES]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brdfkit import accel
 from brdfkit.brdf import RoughConductor, ThinFilm
 from brdfkit.brdf.thin_film import airy_reflectance, belcour_barla_xyz, xyz_to_linear_srgb
+from brdfkit.compiled import kernels as accel
 from brdfkit.fresnel import fresnel_conductor
 from brdfkit.geometry import spherical_to_cartesian
 

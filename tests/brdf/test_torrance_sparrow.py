@@ -17,8 +17,8 @@ from brdfkit.brdf import (
 )
 from brdfkit.brdf._spec import parse
 from brdfkit.brdf.microfacet import Beckmann, TorranceSparrowGaussian
+from brdfkit.checks import brdf_sampler, chi2_test
 from brdfkit.fresnel import conductor, f0_from_ior, fresnel_conductor, fresnel_dielectric
-from brdfkit.testing import brdf_sampler, chi2_test
 
 CLASSES = [TorranceSparrow, CookTorrance, RoughConductor, GGXConductor, BeckmannConductor]
 EXAMPLES = [model for cls in CLASSES for model in cls.examples()]

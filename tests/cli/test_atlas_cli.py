@@ -18,7 +18,7 @@ def test_the_progress_bar_on_a_terminal_starts_no_thread(tmp_path, monkeypatch):
     forks its workers only from a single-threaded one: on a terminal every card was built in
     turn. The bar is shown (a terminal) and redrawn as cards finish, from the one thread."""
     import brdfkit.cli.atlas as atlas_cli
-    import brdfkit.report as report
+    import brdfkit.report.atlas as report
 
     screen = io.StringIO()
     monkeypatch.setattr(atlas_cli, "status", Console(file=screen, force_terminal=True))

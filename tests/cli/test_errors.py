@@ -1,6 +1,6 @@
 """How the command line reports bad input: one line on stderr, exit 2, no traceback, no markup.
 
-Regression tests for the defects of issue 16 that the command line itself owned.
+Regression tests for the defects the command line itself owned.
 """
 
 from __future__ import annotations
@@ -52,12 +52,12 @@ def test_long_errors_are_not_wrapped(tmp_path):
 
 
 def test_an_internal_error_is_not_a_failed_check(monkeypatch):
-    import brdfkit.properties
+    import brdfkit.checks.properties
 
     def broken(*args, **kwargs):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(brdfkit.properties, "check", broken)
+    monkeypatch.setattr(brdfkit.checks.properties, "check", broken)
     result = _invoke("check", "lambertian")
     assert result.exit_code == 3
     assert result.stderr.startswith("internal error: RuntimeError: a bug")

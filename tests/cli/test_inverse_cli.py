@@ -11,9 +11,9 @@ from typer.testing import CliRunner
 from brdfkit.brdf import Lambertian
 from brdfkit.cli import app
 from brdfkit.io import read_image, write_image
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
+from brdfkit.light.spherical_harmonics import irradiance_sh
 from brdfkit.render import Sphere, gbuffer, normal_map_gbuffer, shade
-from brdfkit.sh import irradiance_sh
 from brdfkit.vision.separation import separate_dichromatic
 
 runner = CliRunner()

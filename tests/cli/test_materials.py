@@ -8,8 +8,8 @@ import json
 from typer.testing import CliRunner
 
 from brdfkit.brdf import parse
+from brdfkit.brdf.presets import catalogue
 from brdfkit.cli import app
-from brdfkit.materials import catalogue
 
 runner = CliRunner()
 

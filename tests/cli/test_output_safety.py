@@ -1,4 +1,4 @@
-"""Every command that writes files keeps the user's data (issue 16's "Must show").
+"""Every command that writes files keeps the user's data.
 
 For each subcommand with ``-o``: an existing folder holding an unrelated file keeps it
 byte-identical; ``-o`` equal to (or inside) an input is refused and the input is unchanged; a
@@ -23,7 +23,7 @@ from brdfkit.brdf import Lambertian
 from brdfkit.cli import app
 from brdfkit.cli._output import MANIFEST
 from brdfkit.io import write_image
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.measured import write_merl
 from brdfkit.render import Sphere, gbuffer, shade
 from brdfkit.vision import datasets

@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 
 from brdfkit.cli import app
 from brdfkit.vision import datasets
-from brdfkit.vision.integration import least_squares_integration
+from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import (
     calibrate_lights_chrome_sphere,
     least_squares,

@@ -8,7 +8,7 @@ import numpy as np
 from typer.testing import CliRunner
 
 from brdfkit.cli import app
-from brdfkit.vision import bivariate, datasets
+from brdfkit.vision import bivariate_stereo, datasets
 from brdfkit.vision.photometric_stereo import sphere_normals
 
 runner = CliRunner()
@@ -31,7 +31,7 @@ def test_metrics_json_and_a_nonlambertian_method(tmp_path):
     # The file holds the measures: what --json prints, less where the files went.
     assert written == {k: v for k, v in printed.items() if k not in ("output", "files")}
     loaded = datasets.load_diligent(tmp_path / "ballPNG")
-    expected = bivariate.bipolynomial(loaded.images, loaded.light_directions, loaded.mask)
+    expected = bivariate_stereo.bipolynomial(loaded.images, loaded.light_directions, loaded.mask)
     np.testing.assert_allclose(np.load(out / "normals.npy"), expected.normals)
     assert written["method"] == "bipolynomial"
     assert written["angular_error_deg"]["mean"] < 2.0

@@ -17,7 +17,7 @@ pytest.importorskip("distributed", reason="needs the dask extra: pip install 'br
 from brdfkit.brdf import parse
 from brdfkit.cli import app
 from brdfkit.distributed import batch
-from brdfkit.fit import fit
+from brdfkit.fit.analytic import fit
 from brdfkit.measured.merl import read_merl, write_merl
 
 runner = CliRunner()

@@ -19,7 +19,7 @@ from brdfkit.cli import app
 from brdfkit.distributed import tiled
 from brdfkit.vision import datasets
 from brdfkit.vision import photometric_stereo as ps
-from brdfkit.vision.integration import least_squares_integration
+from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.synthesis import synthetic_set
 
 runner = CliRunner()

@@ -20,10 +20,10 @@ import pytest
 from _page import canvas_pixels, expected_pixels, light_world, settled
 
 from brdfkit.brdf import parse
+from brdfkit.checks import check
 from brdfkit.geometry import from_half_diff
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.measured import read
-from brdfkit.properties import check
 from brdfkit.render import render_sphere
 
 pytestmark = pytest.mark.slow

@@ -9,8 +9,8 @@ import pytest
 from _page import canvas_pixels, expected_pixels, light_world, settled
 
 from brdfkit.brdf import parse
-from brdfkit.lights import DirectionalLight
-from brdfkit.materials import catalogue, preset
+from brdfkit.brdf.presets import catalogue, preset
+from brdfkit.light import DirectionalLight
 from brdfkit.render import render_sphere
 
 pytestmark = pytest.mark.slow

@@ -7,9 +7,10 @@ import math
 import pytest
 
 from brdfkit.brdf import MODELS, parse
-from brdfkit.brdf.base import EXPONENT, ROUGHNESS, parameter_domains
+from brdfkit.brdf.base import EXPONENT, ROUGHNESS
 from brdfkit.errors import SpecError
 from brdfkit.explore.model_tree import brdf_of, controls_of, slider, spec_of, tree_of
+from brdfkit.params import parameter_domains
 
 
 @pytest.mark.parametrize(

@@ -115,7 +115,7 @@ def test_the_widget_front_end_draws_what_python_renders(browser):
 
     from brdfkit.brdf import parse
     from brdfkit.explore import Explorer
-    from brdfkit.lights import DirectionalLight
+    from brdfkit.light import DirectionalLight
     from brdfkit.render import render_sphere
 
     widget = Explorer(SPEC)

@@ -10,7 +10,7 @@ import pytest
 from brdfkit.brdf import parse
 from brdfkit.data import default_envmap_path
 from brdfkit.explore import views
-from brdfkit.lights import EnvironmentMap
+from brdfkit.light import EnvironmentMap
 from brdfkit.render import gbuffer, progressive, render_sphere, shade
 
 SPECS = [

@@ -1,5 +1,5 @@
 """Fuzz the spec parsers: model specs (:func:`brdfkit.brdf.parse`) and light specs
-(:func:`brdfkit.lights.parse_light`).
+(:func:`brdfkit.light.parse_light`).
 
 Two kinds of input: grammar-aware specs (model names, known and unknown, parameter names, real
 and made up, values from the ordinary to the extreme, nested ``+``, ``*`` and parentheses) and
@@ -19,7 +19,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from brdfkit.brdf import MODELS, parse
-from brdfkit.lights import PointLight, parse_light
+from brdfkit.light import PointLight, parse_light
 from brdfkit.sampling import square_to_uniform_hemisphere
 
 UNKNOWN = ["lambertain", "open", "__import__", "eval", "exec", "x", "MODELS"]

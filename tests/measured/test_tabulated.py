@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import parse
+from brdfkit.checks import brdf_sampler, chi2_test
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import spherical_to_cartesian
 from brdfkit.measured import MeasuredSamples, TabulatedBRDF, read_cornell, spectrum_to_rgb_matrix
@@ -18,7 +19,6 @@ from brdfkit.measured.tabulated import (
     white_sky_weights,
 )
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_uniform_hemisphere
-from brdfkit.testing import brdf_sampler, chi2_test
 
 GLOSSY = "lambertian(rho=0.2) + ggx(alpha=0.1)"
 """A glossy analytic model to tabulate: a sharp highlight over a diffuse floor."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from brdfkit.errors import ParameterError, ResourceError
-from brdfkit.vision import integration, metrics, photometric_stereo, separation
+from brdfkit.vision import metrics, normal_integration, photometric_stereo, separation
 from brdfkit.vision.shape_from_shading import shape_from_shading
 
 NORMALS, MASK = photometric_stereo.sphere_normals((12, 12), (5.5, 5.5), 5.0)
@@ -39,9 +39,10 @@ def _with_nan(array: np.ndarray, index: tuple) -> np.ndarray:
          ResourceError, "pixels"),
         (lambda: photometric_stereo.sphere_normals((8, 8), (np.nan, 0), 3.0),
          ParameterError, "centre"),
-        (lambda: integration.poisson_dct(_with_nan(NORMALS, (6, 6, 0)), MASK),
+        (lambda: normal_integration.poisson_dct(_with_nan(NORMALS, (6, 6, 0)), MASK),
          ParameterError, "finite"),
-        (lambda: integration.least_squares_integration(NORMALS, MASK, np.full((3, 3), np.nan)),
+        (lambda: normal_integration.least_squares_integration(
+            NORMALS, MASK, np.full((3, 3), np.nan)),
          ParameterError, "camera"),
         (lambda: shape_from_shading(IMAGES[0], [0, 0, 1], MASK, smoothness=np.inf),
          ParameterError, "smoothness"),
@@ -78,4 +79,4 @@ def test_nan_outside_the_mask_is_ignored():
     assert not MASK[0, 0]
     error = metrics.angular_error(normals, NORMALS, MASK)
     assert error["mean"] == pytest.approx(0.0, abs=1e-6)
-    assert np.all(np.isfinite(integration.poisson_dct(normals, MASK)[MASK]))
+    assert np.all(np.isfinite(normal_integration.poisson_dct(normals, MASK)[MASK]))

@@ -9,9 +9,14 @@ from brdfkit.brdf import Lambertian
 from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.geometry import reflect
 from brdfkit.io import read_image
-from brdfkit.lights import DirectionalLight, EnvironmentMap
+from brdfkit.light import DirectionalLight, EnvironmentMap
+from brdfkit.light.spherical_harmonics import (
+    irradiance_sh,
+    latlong_directions,
+    latlong_solid_angles,
+    project_latlong,
+)
 from brdfkit.render import Sphere, gbuffer, shade
-from brdfkit.sh import irradiance_sh, latlong_directions, latlong_solid_angles, project_latlong
 from brdfkit.vision import datasets
 from brdfkit.vision.lighting import (
     estimate_directional_light,

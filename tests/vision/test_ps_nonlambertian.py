@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brdfkit.vision import bivariate, consensus, datasets
+from brdfkit.vision import bivariate_stereo, consensus, datasets
 from brdfkit.vision.metrics import angular_error
 from brdfkit.vision.photometric_stereo import least_squares, sphere_normals
 
 NONLAMBERTIAN = {
-    "bipolynomial": bivariate.bipolynomial,
-    "constrained_bivariate": bivariate.constrained_bivariate,
-    "shared_bivariate": bivariate.shared_bivariate,
+    "bipolynomial": bivariate_stereo.bipolynomial,
+    "constrained_bivariate": bivariate_stereo.constrained_bivariate,
+    "shared_bivariate": bivariate_stereo.shared_bivariate,
     "consensus": consensus.consensus,
 }
 
@@ -103,13 +103,13 @@ def test_bivariate_methods_run_on_the_blas_threads_they_are_given(glossy, monkey
         return max(info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas")
 
     seen = []
-    start = bivariate._start
+    start = bivariate_stereo._start
 
     def spy(*args, **kwargs):
         seen.append(blas_threads())
         return start(*args, **kwargs)
 
-    monkeypatch.setattr(bivariate, "_start", spy)
+    monkeypatch.setattr(bivariate_stereo, "_start", spy)
     with threadpool_limits(2, user_api="blas"):
         for name in ("bipolynomial", "constrained_bivariate", "shared_bivariate"):
             NONLAMBERTIAN[name](glossy.images[:, 15:23, 15:23], glossy.light_directions)
@@ -128,22 +128,22 @@ def test_bad_input_is_named():
         with pytest.raises(ValueError, match="shadow_threshold"):
             method(images, lights, shadow_threshold=1.5)
     for method in (
-        bivariate.bipolynomial,
-        bivariate.constrained_bivariate,
-        bivariate.shared_bivariate,
+        bivariate_stereo.bipolynomial,
+        bivariate_stereo.constrained_bivariate,
+        bivariate_stereo.shared_bivariate,
     ):
         with pytest.raises(ValueError, match="iterations"):
             method(images, lights, iterations=0)
     with pytest.raises(ValueError, match="candidates"):
         consensus.consensus(images, lights, candidates=3)
     with pytest.raises(ValueError, match="lower the degree"):
-        bivariate.bipolynomial(images, lights, degree=(3, 1))
+        bivariate_stereo.bipolynomial(images, lights, degree=(3, 1))
     with pytest.raises(ValueError, match="degree"):
-        bivariate.bipolynomial(images, lights, degree=(-1, 0))
+        bivariate_stereo.bipolynomial(images, lights, degree=(-1, 0))
     with pytest.raises(ValueError, match="knots"):
-        bivariate.constrained_bivariate(images, lights, knots=8)
+        bivariate_stereo.constrained_bivariate(images, lights, knots=8)
     with pytest.raises(ValueError, match="smoothness"):
-        bivariate.shared_bivariate(images, lights, smoothness=-1.0)
+        bivariate_stereo.shared_bivariate(images, lights, smoothness=-1.0)
 
 
 def test_robust_pca_rank_three_is_what_wu_et_al_recover(glossy, baseline):

@@ -175,7 +175,7 @@ def test_shadowed_relighting_beats_unshadowed_on_a_scene_with_cast_shadows():
 
 def test_gray_sphere_depth_has_the_scale_of_its_fitted_radius(shared_data):
     data = datasets.load_psm(shared_data / "photometric_stereo" / "psm" / "gray", step=4)
-    from brdfkit.vision.integration import least_squares_integration
+    from brdfkit.vision.normal_integration import least_squares_integration
 
     c_x, c_y, radius = fit_circle(data.mask)
     rows, columns = np.indices(data.mask.shape)

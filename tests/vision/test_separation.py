@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lambertian, parse
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import Sphere, gbuffer, shade
 from brdfkit.vision.separation import (
     max_chromaticity,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Lambertian
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import normal_map_gbuffer, shade
 from brdfkit.vision import shape_from_shading as sfs
 from brdfkit.vision.metrics import angular_error

@@ -11,7 +11,7 @@ from brdfkit.brdf import parse
 from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.ward import Ward
 from brdfkit.errors import ParameterError
-from brdfkit.lights import DirectionalLight
+from brdfkit.light import DirectionalLight
 from brdfkit.render import normal_map_gbuffer, shade
 from brdfkit.vision import datasets, svbrdf
 from brdfkit.vision.photometric_stereo import (

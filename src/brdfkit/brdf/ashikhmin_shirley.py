@@ -11,17 +11,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_sqrt, to_numpy
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    EXPONENT,
-    Domain,
-    channel_count,
-    check_domains,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, EXPONENT, register, upper_hemisphere
 from brdfkit.brdf.microfacet import IOR, FresnelTerm
 from brdfkit.brdf.phong import (
     Component,
@@ -32,6 +22,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 _DIFFUSE_NORMALIZATION = 28 / (23 * math.pi)
 """28/(23π): makes ∫(1 − (1 − cos θi/2)⁵) cos θi dωi · 28/(23π) = 1 (the integral is 23π/28)."""

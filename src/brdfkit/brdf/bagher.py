@@ -10,16 +10,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, clamp, dot, namespace, normalize, to_numpy
-from brdfkit.brdf.base import (
-    BRDF,
-    UNPHYSICAL_MAX,
-    Domain,
-    channel_count,
-    check_domains,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import BRDF, register, upper_hemisphere
 from brdfkit.brdf.microfacet import GGX
 from brdfkit.brdf.phong import (
     Component,
@@ -28,6 +19,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
+from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_domains, param
 
 SGD_ALPHA = Domain(1e-6, 10.0, hint="SGD width α")
 SGD_P = Domain(0.0, 10.0, hint="SGD shape p")

@@ -18,16 +18,15 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
-import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, check_param, constant, is_abstract, namespace, to_numpy
+from brdfkit._array import Array, asarray, constant, namespace, to_numpy
 from brdfkit.errors import ParameterError
+from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_choice, described, param
 
 MODELS: dict[str, type[BRDF]] = {}
 """Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
@@ -51,174 +50,29 @@ HEMISPHERES = ("upper", "both")
 transmission."""
 
 
-# --------------------------------------------------------------------------- validation
-_SHORT = reprlib.Repr()
-_SHORT.maxstring = _SHORT.maxother = 40
-_SHORT.maxlist = _SHORT.maxtuple = 6
-
-
-def _described(value: Any) -> str:
-    """``value`` for an error message: its type and a shortened repr."""
-    return f"{type(value).__name__} {_SHORT.repr(value)}"
-
-
-def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is one of
-    the strings ``choices``."""
-    if not isinstance(value, str) or value not in choices:
-        raise ParameterError(f"{name} must be one of {choices}; got {_described(value)}")
-    return value
-
-
-def check_flag(name: str, value: Any) -> bool:
-    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is a bool."""
-    if not isinstance(value, bool | np.bool_):
-        raise ParameterError(f"{name} must be True or False; got {_described(value)}")
-    return bool(value)
-
-
-def check_number(name: str, value: Any) -> Any:
-    """Raise :class:`~brdfkit.errors.ParameterError` naming ``name`` unless ``value`` is a real
-    number or a non-empty array of them (a list, a NumPy, PyTorch or JAX array), not a bool.
-
-    Strings, ``None``, booleans, complex numbers, empty and ragged lists are refused; the value
-    is returned unchanged.
-    """
-    if hasattr(value, "dtype") and hasattr(value, "shape") and not isinstance(value, np.generic):
-        xp = namespace(value)
-        real = xp.isdtype(value.dtype, ("real floating", "integral"))
-        if real and (is_abstract(value) or math.prod(value.shape) > 0):
-            return value
-    elif isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool | np.bool_
-    ):
-        return value
-    elif isinstance(value, list | tuple | np.generic):
-        try:
-            array = np.asarray(value)
-        except (ValueError, TypeError):  # ragged nesting
-            array = None
-        if array is not None and array.dtype.kind in "iuf" and array.size > 0:
-            return value
-    raise ParameterError(
-        f"{name} must be a real number or a non-empty array of real numbers; got "
-        f"{_described(value)}"
-    )
-
-
-@dataclass(frozen=True)
-class Domain:
-    """The interval a numeric parameter may take: ``[lo, hi]`` (either end open).
-
-    Every numeric parameter of a model is checked against one declared domain, in which its
-    formulas are finite (the model's :attr:`BRDF.domains`, read by :func:`parameter_domains`).
-    ``unphysical_hi`` is the upper end when the model's ``allow_unphysical`` switch is on
-    (``None``: the switch does not widen it). ``log`` says that the parameter is best varied on
-    a logarithmic scale (roughness, exponents: the explorer's sliders read it).
-    """
-
-    lo: float
-    hi: float
-    lo_open: bool = False
-    hi_open: bool = False
-    hint: str = ""
-    unphysical_hi: float | None = None
-    log: bool = False
-
-    def check(self, name: str, value: Any, *, unphysical: bool = False) -> Any:
-        """``value`` unchanged if it is a number (or array) inside the domain.
-
-        Raises
-        ------
-        brdfkit.errors.ParameterError
-            Naming ``name``, the value and the domain (``"alpha must be in [0.0001, 10.0];
-            got 1e+308"``), or the type for a value that is no number.
-        """
-        check_number(name, value)
-        hi = self.unphysical_hi if unphysical and self.unphysical_hi is not None else self.hi
-        hint = self.hint
-        if not unphysical and self.unphysical_hi is not None:
-            hint = f"{hint}; " if hint else ""
-            hint += "pass allow_unphysical=True for more"
-        return check_param(
-            name, value, self.lo, hi, lo_open=self.lo_open, hi_open=self.hi_open, hint=hint
-        )
-
-
-UNPHYSICAL_MAX = 1e6
-"""The upper end of colour and scale parameters beyond physics (``allow_unphysical=True``, the
-factor ``k`` of ``k * model``): data in arbitrary units, far from any float overflow."""
-
 ALBEDO = Domain(0.0, 1.0, hint="an albedo", unphysical_hi=UNPHYSICAL_MAX)
 """Albedos and reflectances (ρ, k_d, k_s, ``diffuse``, ``reflectance``, f0): [0, 1]."""
+
 
 ROUGHNESS = Domain(1e-4, 10.0, hint="microfacet roughness α", log=True)
 """Microfacet roughness α (GGX, Beckmann; Cook–Torrance's m): [10⁻⁴, 10]. At 10⁻⁴ the lobe is a
 mirror to 0.006°; at 10 facets slope at 84° on average; in between D, Λ and the samplers stay
 finite in float32."""
 
+
 EXPONENT = Domain(0.0, 1e6, hint="cosine exponent", log=True)
 """Cosine-lobe exponents n (Phong, Blinn–Phong, Lafortune): [0, 10⁶], a lobe 0.1° wide at the
 top end."""
+
 
 SCALE = Domain(0.0, UNPHYSICAL_MAX, hint="the factor of k * model")
 """The factor ``k`` of :class:`Scaled`: [0, 10⁶]."""
 
 
-def parameter_domains(cls: type[BRDF]) -> dict[str, Domain]:
-    """The declared :class:`Domain` of each numeric parameter of the model class ``cls``.
-
-    Read from the class attribute :attr:`BRDF.domains` of ``cls`` and of its bases (a
-    subclass's entry overrides its base's), the one declaration that validation
-    (:func:`check_domains`), ``brdfkit models`` and the explorer's sliders share.
-
-    Parameters
-    ----------
-    cls : a model class (a dataclass subclass of :class:`BRDF`).
-
-    Returns
-    -------
-    dict
-        Parameter name to its domain, in the order of the dataclass fields; parameters that
-        are no numbers (options, flags) are absent.
-    """
-    declared: dict[str, Domain] = {}
-    for klass in reversed(cls.__mro__):
-        declared.update(vars(klass).get("domains", {}))
-    order = {f.name: i for i, f in enumerate(dataclasses.fields(cls))}
-    return dict(sorted(declared.items(), key=lambda item: order.get(item[0], len(order))))
-
-
-def check_domains(model: BRDF) -> None:
-    """Check every numeric parameter of ``model`` against its declared domain
-    (:func:`parameter_domains`).
-
-    An optional parameter (one whose default is ``None``) that is ``None`` is not checked; a
-    model with an ``allow_unphysical`` switch has it checked first, and when it is on, domains
-    with an ``unphysical_hi`` reach up to that. Cross-parameter conditions (ρd + ρs ≤ 1, the
-    Fresnel options) stay with each model.
-
-    Raises
-    ------
-    brdfkit.errors.ParameterError
-        Naming the first parameter (in field order) that is no number or lies outside its
-        domain, or ``allow_unphysical`` when it is no bool.
-    """
-    cls = type(model)
-    optional = {f.name for f in dataclasses.fields(cls) if f.default is None}
-    unphysical = hasattr(model, "allow_unphysical") and check_flag(
-        "allow_unphysical", model.allow_unphysical
-    )
-    for name, domain in parameter_domains(cls).items():
-        value = getattr(model, name)
-        if value is not None or name not in optional:
-            domain.check(name, value, unphysical=unphysical)
-
-
 def check_brdf(name: str, value: Any) -> BRDF:
     """Raise :class:`~brdfkit.errors.ParameterError` unless ``value`` is a :class:`BRDF`."""
     if not isinstance(value, BRDF):
-        raise ParameterError(f"{name} must be a BRDF; got {_described(value)}")
+        raise ParameterError(f"{name} must be a BRDF; got {described(value)}")
     return value
 
 
@@ -226,43 +80,6 @@ def check_hemisphere(hemisphere: str) -> str:
     """Raise :class:`~brdfkit.errors.ParameterError` unless ``hemisphere`` is one of
     :data:`HEMISPHERES`."""
     return check_choice("hemisphere", hemisphere, HEMISPHERES)
-
-
-def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
-    """The channel count C implied by channel-valued parameters (their trailing axis).
-
-    Scalars count as 1 and broadcast to any C; two parameters with different trailing sizes > 1
-    are a :class:`~brdfkit.errors.ParameterError` that names both.
-    """
-    count, owner = 1, None
-    for i, value in enumerate(values):
-        shape = tuple(value.shape) if hasattr(value, "shape") else np.shape(value)
-        c = shape[-1] if shape else 1
-        if c == 1:
-            continue
-        if count not in (1, c):
-            this = names[i] if i < len(names) else f"parameter {i}"
-            raise ParameterError(
-                f"{this} has {c} channels but {owner} has {count}; channel-valued parameters "
-                "must share their last axis (or have length 1)"
-            )
-        count, owner = c, names[i] if i < len(names) else f"parameter {i}"
-    return count
-
-
-def param(value: Any, like: Array) -> Array:
-    """A parameter as an array in the namespace, dtype and device of ``like``, at least 1-d.
-
-    Parameters broadcast against ``batch + (C,)``: a scalar becomes shape ``(1,)``. They take
-    the directions' floating dtype, so float32 inputs compute in float32 end to end (a float64
-    parameter is rounded; a torch parameter keeps its autograd graph through the cast).
-    """
-    if type(value) is float and type(like) is np.ndarray and like.dtype.kind == "f":
-        return np.array([value], dtype=like.dtype)  # the common case, before the general rules
-    xp = namespace(like, value)
-    floating = hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating")
-    arr = asarray(value, xp, like=like, dtype=like.dtype if floating else None)
-    return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
 
 
 def _broadcast_rows(w: Any) -> np.ndarray | None:
@@ -570,7 +387,7 @@ class Sum(BRDF):
     def __post_init__(self) -> None:
         if not isinstance(self.lobes, tuple) or len(self.lobes) < 1:
             raise ParameterError(
-                f"lobes must be a non-empty tuple of BRDFs; got {_described(self.lobes)}"
+                f"lobes must be a non-empty tuple of BRDFs; got {described(self.lobes)}"
             )
         for i, lobe in enumerate(self.lobes):
             check_brdf(f"lobes[{i}]", lobe)
@@ -753,24 +570,14 @@ __all__ = [
     "MODELS",
     "ROUGHNESS",
     "SCALE",
-    "UNPHYSICAL_MAX",
-    "Domain",
     "Sample",
     "Scaled",
     "Sum",
     "broadcast_channels",
-    "channel_count",
     "check_brdf",
-    "check_choice",
-    "check_domains",
-    "check_flag",
     "check_hemisphere",
-    "check_number",
-    "check_param",
     "mixture_choices",
     "normalized_weights",
-    "param",
-    "parameter_domains",
     "register",
     "result_shape",
     "upper_hemisphere",

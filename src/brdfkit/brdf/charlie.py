@@ -7,19 +7,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, asarray, clamp, namespace, normalize, safe_div
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Domain,
-    Sample,
-    channel_count,
-    check_domains,
-    check_flag,
-    param,
-    register,
-    result_shape,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, register, result_shape, upper_hemisphere
+from brdfkit.params import Domain, channel_count, check_domains, check_flag, param
 from brdfkit.sampling import square_to_uniform_hemisphere, square_to_uniform_hemisphere_pdf
 
 SHEEN_ROUGHNESS = Domain(1e-3, 1.0, hint="sheen roughness r")

@@ -7,15 +7,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, constant, dot, namespace, norm, safe_div, safe_sqrt
-from brdfkit.brdf.base import (
-    BRDF,
-    Domain,
-    channel_count,
-    check_domains,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import BRDF, register, upper_hemisphere
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
@@ -24,6 +16,7 @@ from brdfkit.brdf.phong import (
     diffuse_and_lobe,
     sample_cosine_lobe,
 )
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 ASYMMETRY = Domain(-0.95, 0.95, hint="Henyey–Greenstein asymmetry ξ (< 0: backscattering)")
 """The Henyey–Greenstein asymmetry ξ of the particles: [−0.95, 0.95]."""

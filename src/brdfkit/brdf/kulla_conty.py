@@ -12,22 +12,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, clamp, namespace, safe_sqrt, to_numpy
-from brdfkit.brdf.base import (
-    BRDF,
-    Domain,
-    check_domains,
-    normalized_weights,
-    param,
-    per_direction,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import BRDF, normalized_weights, per_direction, register, upper_hemisphere
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR, FresnelTerm
+from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
 from brdfkit.brdf.random_walk import random_walk_albedo
-from brdfkit.brdf.torrance_sparrow import RoughConductor, defined_params
+from brdfkit.brdf.rough_conductor import RoughConductor
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import spherical_to_cartesian
+from brdfkit.params import Domain, check_domains, param
 
 COMPENSATED_ROUGHNESS = Domain(0.01, 1.0, hint="GGX roughness α of the tabulated range")
 """The roughness α of :class:`KullaConty`: [0.01, 1], where E(μ) is tabulated to ≤ 2·10⁻⁴

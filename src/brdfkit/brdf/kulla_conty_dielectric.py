@@ -73,13 +73,9 @@ from brdfkit._array import Array, clamp, dot, namespace, to_numpy
 from brdfkit.brdf._microfacet_sampling import sample_normal
 from brdfkit.brdf.base import (
     BRDF,
-    Domain,
     Sample,
-    check_choice,
-    check_domains,
     mixture_choices,
     normalized_weights,
-    param,
     per_direction,
     register,
     result_shape,
@@ -93,13 +89,14 @@ from brdfkit.brdf.kulla_conty import (
     chebyshev_weights,
     visible_normal_quadrature,
 )
+from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.brdf.plastic import diffuse_fresnel_reflectance
 from brdfkit.brdf.random_walk import dielectric_random_walk_albedo
 from brdfkit.brdf.rough_dielectric import RoughDielectric
 from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
-from brdfkit.brdf.torrance_sparrow import defined_params
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
+from brdfkit.params import Domain, check_choice, check_domains, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 ETA_RANGE = (1.1, 2.5)

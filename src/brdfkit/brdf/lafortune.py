@@ -13,11 +13,7 @@ from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
     EXPONENT,
-    Domain,
-    channel_count,
-    check_domains,
     normalized_weights,
-    param,
     register,
     upper_hemisphere,
 )
@@ -31,6 +27,7 @@ from brdfkit.brdf.phong import (
     sample_cosine_lobe,
 )
 from brdfkit.errors import ParameterError
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 _LOBE_PARAMS = ("cx", "cy", "cz", "n")
 

@@ -10,16 +10,13 @@ from brdfkit._array import Array, namespace
 from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
-    Domain,
     Sample,
-    channel_count,
-    check_domains,
     check_hemisphere,
-    param,
     register,
     result_shape,
     upper_hemisphere,
 )
+from brdfkit.params import Domain, channel_count, check_domains, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 

@@ -7,18 +7,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, constant, namespace, safe_div
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Domain,
-    channel_count,
-    check_domains,
-    check_hemisphere,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, check_hemisphere, register, upper_hemisphere
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 
 def lommel_seeliger_albedo(w: Array, mu: Array) -> Array:

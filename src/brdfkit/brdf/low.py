@@ -24,16 +24,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_sqrt
-from brdfkit.brdf.base import (
-    BRDF,
-    UNPHYSICAL_MAX,
-    Domain,
-    channel_count,
-    check_domains,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import BRDF, register, upper_hemisphere
 from brdfkit.brdf.microfacet import IOR, FresnelTerm, masking_shadowing
 from brdfkit.brdf.phong import (
     Component,
@@ -42,6 +33,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
+from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_domains, param
 
 LOW_A = Domain(0.0, UNPHYSICAL_MAX, hint="unnormalised scale A in sr⁻¹")
 """Löw's scale A: [0, 10⁶] sr⁻¹ (the MERL fits reach 5.7·10³)."""

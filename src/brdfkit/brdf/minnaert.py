@@ -7,17 +7,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, constant, namespace
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Domain,
-    channel_count,
-    check_domains,
-    check_hemisphere,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, check_hemisphere, register, upper_hemisphere
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
@@ -25,6 +15,7 @@ from brdfkit.brdf.phong import (
     cosine_lobe_pdf,
     sample_cosine_lobe,
 )
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 MINNAERT_K = Domain(0.0, 10.0, hint="Minnaert exponent k (1: Lambertian)")
 """Minnaert's exponent k: [0, 10]; k = 1 is Lambertian, k = ½ the flat full-Moon disk."""

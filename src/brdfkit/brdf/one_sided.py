@@ -1,7 +1,7 @@
 r"""A BSDF as a one-sided render sees it: sampling only the hemisphere the lights are in.
 
-The reflection equation as :mod:`brdfkit.integrate` evaluates it is one-sided: lights lie above
-the surface, so only :math:`\omega_i` with :math:`\cos\theta_i > 0` contribute,
+The reflection equation as :mod:`brdfkit.render.reflection_equation` evaluates it is one-sided:
+lights lie above the surface, so only :math:`\omega_i` with :math:`\cos\theta_i > 0` contribute,
 
 .. math:: L_o(\omega_o) = \int_{H^2_+} L_i(\omega_i)\,f(\omega_i, \omega_o)\cos\theta_i\,
           d\omega_i .

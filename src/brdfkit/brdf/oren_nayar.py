@@ -7,18 +7,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, namespace, safe_div, safe_sqrt
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Domain,
-    channel_count,
-    check_choice,
-    check_domains,
-    param,
-    register,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, register, upper_hemisphere
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
+from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
 
 _MODELS = ("qualitative", "full")
 

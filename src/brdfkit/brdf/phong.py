@@ -32,6 +32,7 @@ import numpy as np
 from brdfkit._array import (
     Array,
     asarray,
+    check_param,
     dot,
     namespace,
     normalize,
@@ -42,21 +43,22 @@ from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
     EXPONENT,
-    UNPHYSICAL_MAX,
-    Domain,
     Sample,
-    channel_count,
-    check_choice,
-    check_domains,
-    check_flag,
-    check_param,
     mixture_choices,
     normalized_weights,
-    param,
     register,
     upper_hemisphere,
 )
 from brdfkit.geometry import frame_from_normal, reflect, to_world
+from brdfkit.params import (
+    UNPHYSICAL_MAX,
+    Domain,
+    channel_count,
+    check_choice,
+    check_domains,
+    check_flag,
+    param,
+)
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 Component = tuple[Array, Callable[[Array], Array], Callable[[Array], Array]]
@@ -183,7 +185,7 @@ ALBEDOS: dict[str, Domain] = {"kd": ALBEDO, "ks": ALBEDO, "n": EXPONENT}
 
 def check_albedo_sum(kd: Any, ks: Any, allow_unphysical: Any) -> None:
     """ρd + ρs ≤ 1 (energy conservation) unless ``allow_unphysical``, for ρd, ρs already
-    checked against their domains (:func:`~brdfkit.brdf.base.check_domains`); they must share
+    checked against their domains (:func:`~brdfkit.params.check_domains`); they must share
     their channels."""
     hint = "pass allow_unphysical=True to allow it"
     unphysical = check_flag("allow_unphysical", allow_unphysical)

@@ -57,24 +57,19 @@ from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
     ROUGHNESS,
-    Domain,
     Sample,
-    channel_count,
-    check_choice,
-    check_domains,
-    check_flag,
     mixture_choices,
     normalized_weights,
-    param,
     register,
     result_shape,
     upper_hemisphere,
 )
 from brdfkit.brdf.microfacet import MASKINGS, masking_shadowing
+from brdfkit.brdf.microfacet_reflection import DISTRIBUTIONS, stretched_distribution
 from brdfkit.brdf.phong import reflect_about
-from brdfkit.brdf.torrance_sparrow import DISTRIBUTIONS, stretched_distribution
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel, fresnel_dielectric
+from brdfkit.params import Domain, channel_count, check_choice, check_domains, check_flag, param
 from brdfkit.sampling import (
     square_to_cosine_hemisphere,
     square_to_cosine_hemisphere_pdf,
@@ -225,7 +220,7 @@ def _lerp_table(table: np.ndarray, cos_theta: Array) -> Array:
     r"""``table`` (over μ = linspace(0, 1)) interpolated linearly at ``cos_theta``, as Mitsuba's
     ``lerp_gather``; ``cos_theta`` is ``(..., 1)`` and so is the result.
 
-    Under JAX tracing (``jax.jit``, :func:`brdfkit.accel.compile`, which has no gather) the
+    Under JAX tracing (``jax.jit``, :func:`brdfkit.compiled.compile`, which has no gather) the
     same interpolant is summed from ramps, :math:`T_0 + \sum_k (T_{k+1} - T_k)
     \,\mathrm{clip}(x - k, 0, 1)`; elsewhere it is gathered.
     """

@@ -24,14 +24,9 @@ from brdfkit._array import (
 from brdfkit.brdf.base import (
     ALBEDO,
     BRDF,
-    Domain,
     Sample,
-    channel_count,
-    check_choice,
-    check_domains,
     mixture_choices,
     normalized_weights,
-    param,
     register,
     result_shape,
     upper_hemisphere,
@@ -40,6 +35,7 @@ from brdfkit.brdf.microfacet import GGX, masking_shadowing
 from brdfkit.brdf.phong import reflect_about
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel_dielectric
+from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 WEIGHT = Domain(0.0, 1.0, hint="a principled weight")

@@ -53,24 +53,13 @@ import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
-from brdfkit.brdf.base import (
-    BRDF,
-    ROUGHNESS,
-    Domain,
-    Sample,
-    channel_count,
-    check_choice,
-    check_domains,
-    check_flag,
-    param,
-    register,
-    result_shape,
-)
+from brdfkit.brdf.base import BRDF, ROUGHNESS, Sample, register, result_shape
 from brdfkit.brdf.microfacet import IOR, masking_shadowing
+from brdfkit.brdf.microfacet_reflection import defined_params, stretched_distribution
 from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
-from brdfkit.brdf.torrance_sparrow import defined_params, stretched_distribution
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
+from brdfkit.params import Domain, channel_count, check_choice, check_domains, check_flag, param
 
 SMITH_MASKINGS = ("smith_separable", "smith_correlated")
 """Masking–shadowing functions defined for transmission."""

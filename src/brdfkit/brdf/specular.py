@@ -34,23 +34,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, namespace
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Domain,
-    Sample,
-    channel_count,
-    check_choice,
-    check_domains,
-    check_hemisphere,
-    param,
-    register,
-    result_shape,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, check_hemisphere, register, result_shape
 from brdfkit.brdf.microfacet import EXTINCTION, IOR, FresnelTerm
-from brdfkit.brdf.torrance_sparrow import defined_params
+from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
+from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
 
 MODES = ("radiance", "importance")
 """Transport modes of the dielectric BSDFs (which way the η² factor of refraction goes)."""

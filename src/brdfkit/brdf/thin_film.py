@@ -37,10 +37,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, clamp, constant, namespace, safe_div, safe_sqrt, to_numpy
-from brdfkit.brdf.base import BRDF, ROUGHNESS, Domain, channel_count, check_domains, param, register
+from brdfkit.brdf.base import BRDF, ROUGHNESS, register
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR
-from brdfkit.brdf.torrance_sparrow import MicrofacetReflection
+from brdfkit.brdf.microfacet_reflection import MicrofacetReflection
 from brdfkit.errors import ParameterError
+from brdfkit.params import Domain, channel_count, check_domains, param
 
 THICKNESS = Domain(0.0, 10_000.0, hint="film thickness in nanometres")
 """The film thickness d: [0, 10⁴] nm (beyond a few µm the colours wash out to the mean)."""

@@ -8,7 +8,7 @@ import typer
 
 from brdfkit.cli._app import app, console, fail, shown, status
 from brdfkit.cli._output import OutputFolder
-from brdfkit.report import ENV_MAX_SAMPLES, ENV_NOISE
+from brdfkit.report.atlas import ENV_MAX_SAMPLES, ENV_NOISE
 
 
 @app.command("atlas")
@@ -58,7 +58,7 @@ def atlas_command(
     matplotlib.use("Agg")
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from brdfkit.report import build_atlas
+    from brdfkit.report.atlas import build_atlas
 
     if envmap is not None and not envmap.is_file():
         fail(f"envmap must be an existing .hdr/.exr file; got {shown(envmap)!r}")

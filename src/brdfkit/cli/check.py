@@ -29,7 +29,7 @@ def check_command(
     claim, 2 on a bad spec and 3 on an internal error.
     """
     from brdfkit.brdf._spec import parse
-    from brdfkit.properties import check
+    from brdfkit.checks.properties import check
 
     brdf = parse(spec)
     with status.status("checking…") as spinner:

@@ -104,8 +104,8 @@ def fit_command(
     a re-run skips the fits done (keyed by the file's SHA-256 and the options).
     """
     import brdfkit.measured as measured_io
-    from brdfkit.fit import fit
-    from brdfkit.fit_select import BIVARIATE, fit_any, select_model
+    from brdfkit.fit.analytic import fit
+    from brdfkit.fit.select import BIVARIATE, fit_any, select_model
 
     if len(files) > 1 or len(models) > 1 or workers is not None or scheduler is not None:
         from brdfkit.cli._fit_batch import run_batch
@@ -208,10 +208,10 @@ def _write_outputs(folder: OutputFolder, measured, result, resolution: int, envm
     differences by light."""
     import numpy as np
 
-    from brdfkit.appearance import sphere_difference
     from brdfkit.data import default_envmap_path
+    from brdfkit.fit.appearance import sphere_difference
     from brdfkit.io import write_image
-    from brdfkit.lights import EnvironmentMap
+    from brdfkit.light.environment import EnvironmentMap
 
     lights = {"directional": None}
     if envmap:

@@ -38,7 +38,7 @@ def materials_command(
 ) -> None:
     """List the real-material presets: each MERL material as fitted by a published model, for
     specs such as brdfkit render "material(name='alum-bronze', fit='ngan_ward')"."""
-    from brdfkit.materials import catalogue, citation, fits
+    from brdfkit.brdf.presets import catalogue, citation, fits
 
     if fit is not None and fit not in fits():
         fail(f"--fit: unknown fit {fit!r}; expected one of {', '.join(fits())}")
@@ -61,7 +61,7 @@ def materials_command(
 def _write_gallery(path: Path, fit: str | None, model: str | None, count: int) -> None:
     from brdfkit.cli._output import output_file
     from brdfkit.io import atomic_write_bytes
-    from brdfkit.materials.gallery import gallery_html
+    from brdfkit.report.gallery import gallery_html
 
     path = output_file(path, option="--gallery", suffixes=(".html", ".htm"))
     if count == 0:

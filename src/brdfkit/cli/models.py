@@ -45,7 +45,8 @@ def model_table() -> list[dict[str, Any]]:
     """One record per registered model: spec name, class, summary, parameters (defaults as
     spec text), their domains, and the claims."""
     from brdfkit.brdf import MODELS
-    from brdfkit.brdf.base import _spec_value, parameter_domains
+    from brdfkit.brdf.base import _spec_value
+    from brdfkit.params import parameter_domains
 
     records = []
     for name, cls in sorted(MODELS.items()):

@@ -36,8 +36,8 @@ def plot_command(
 
     matplotlib.use("Agg")
     from brdfkit import plot
-    from brdfkit.lights import parse_light
-    from brdfkit.report import default_cards
+    from brdfkit.light.spec import parse_light
+    from brdfkit.report.atlas import default_cards
 
     if kind not in KINDS:
         fail(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")

@@ -116,7 +116,7 @@ def ps_command(
     from brdfkit.cli import _ps_tiled
     from brdfkit.io import write_image
     from brdfkit.vision import datasets
-    from brdfkit.vision import integration as integrate
+    from brdfkit.vision import normal_integration as integrate
     from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
     from brdfkit.vision.uncalibrated import CUES
     from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
@@ -215,9 +215,9 @@ def ps_command(
 
 def _solvers() -> dict[str, Any]:
     """Every calibrated method by name: the Lambertian and robust ones, the non-Lambertian."""
-    from brdfkit.vision import bivariate, consensus, photometric_stereo
+    from brdfkit.vision import bivariate_stereo, consensus, photometric_stereo
 
-    return {**photometric_stereo.METHODS, **bivariate.METHODS, **consensus.METHODS}
+    return {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
 
 
 def _table(summary: dict[str, Any]) -> Table:

@@ -66,8 +66,9 @@ def render_command(
     from brdfkit._checks import check_memory
     from brdfkit.brdf import parse
     from brdfkit.io import read_image, write_image
-    from brdfkit.lights import parse_light
-    from brdfkit.render import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer, shade
+    from brdfkit.light.spec import parse_light
+    from brdfkit.render.scene import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer
+    from brdfkit.render.shading import shade
     from brdfkit.vision.datasets import read_normal_map
 
     output = output_file(

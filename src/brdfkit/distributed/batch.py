@@ -105,7 +105,7 @@ def prepare(task: FitTask) -> Any:
     seed (which draws the samples of a BRDF that is no table); or, when the file or the seed is
     refused, the error's message (a ``str``), which each fit of it reports."""
     import brdfkit.measured as measured_io
-    from brdfkit.fit import fit_data
+    from brdfkit.fit.analytic import fit_data
 
     try:
         seed = task.options.get("seed", 0)
@@ -124,7 +124,7 @@ def fit_prepared(task: FitTask, measurements: Any) -> dict[str, Any]:
     record: the task's identity and :meth:`brdfkit.fit.FitResult.to_dict`, ``status``
     ``"ok"``; or ``status`` ``"error"`` and the error's message when the file or the options
     are refused (or the fit fails)."""
-    from brdfkit.fit import build_kernels, fit
+    from brdfkit.fit.analytic import build_kernels, fit
 
     record: dict[str, Any] = {
         "key": task.key,

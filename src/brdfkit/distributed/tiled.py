@@ -219,7 +219,7 @@ def _integrate_tile(
     import scipy.ndimage
     import zarr
 
-    from brdfkit.vision.integration import least_squares_integration
+    from brdfkit.vision.normal_integration import least_squares_integration
 
     labels, count = scipy.ndimage.label(mask)
     depth = np.full(mask.shape, np.nan)
@@ -292,13 +292,13 @@ def integrate(
     """Orthographic depth of a large normal map, tile by tile, into a Zarr array ``(H, W)``.
 
     Each tile, grown by ``overlap`` pixels on every side, is integrated by
-    :func:`brdfkit.vision.integration.least_squares_integration` (a task per tile), which fixes
-    one constant per connected piece of the tile's mask. The constants ``c`` of all pieces are
+    :func:`brdfkit.vision.normal_integration.least_squares_integration` (a task per tile), which
+    fixes one constant per connected piece of the tile's mask. The constants ``c`` of all pieces are
     then the least-squares solution of ``c_a - c_b = mean(z_b - z_a)`` over each pair of pieces
     that overlap (weighted by the overlap's pixel count), one piece per connected component of
     the whole mask held at 0. The depth of each tile's core is its grown depth plus its
     piece's constant; finally each component's nearest pixel is put at 0, as
-    :func:`~brdfkit.vision.integration.least_squares_integration` does.
+    :func:`~brdfkit.vision.normal_integration.least_squares_integration` does.
 
     The grown tiles' depths wait in a scratch Zarr store beside ``depth_store`` (removed at the
     end); the client holds the mask and its component labels (5 bytes a pixel) and one

@@ -7,7 +7,7 @@ A tree is what the front end holds for one analytic BRDF::
     {"scaled": 0.5, "inner": tree}        # k * model; k a number or a list per channel
 
 :func:`tree_of` turns a BRDF into its tree (and :func:`controls_of` lists each parameter with the
-slider its :class:`~brdfkit.brdf.base.Domain` declares); :func:`brdf_of` writes a tree as a spec
+slider its :class:`~brdfkit.params.Domain` declares); :func:`brdf_of` writes a tree as a spec
 string and reads it with :func:`brdfkit.brdf.parse`, so that the parser's validation (names,
 types, domains) is the only one, and a tree can never run code.
 
@@ -24,17 +24,9 @@ import math
 from typing import Any
 
 from brdfkit.brdf._spec import MAX_SPEC_LENGTH, parse
-from brdfkit.brdf.base import (
-    BRDF,
-    MODELS,
-    SCALE,
-    Domain,
-    Scaled,
-    Sum,
-    _spec_value,
-    parameter_domains,
-)
+from brdfkit.brdf.base import BRDF, MODELS, SCALE, Scaled, Sum, _spec_value
 from brdfkit.errors import SpecError
+from brdfkit.params import Domain, parameter_domains
 
 MAX_DEPTH = 16
 """The deepest tree :func:`brdf_of` reads (sums and scales nested)."""

@@ -337,7 +337,7 @@ class ExplorerServer:
 @functools.cache
 def _material_choices() -> list[list[str]]:
     """``[fit, name, spec]`` of every real-material preset, for the page's material picker."""
-    from brdfkit.materials import catalogue
+    from brdfkit.brdf.presets import catalogue
 
     return [[r["fit"], r["name"], r["spec"]] for r in catalogue()]
 

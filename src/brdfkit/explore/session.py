@@ -75,7 +75,7 @@ class Session:
         """``envmap``: the environment map (``.hdr``/``.exr``) of the environment-lit sphere;
         ``None``, the bundled one (:func:`brdfkit.data.default_envmap_path`)."""
         from brdfkit.data import default_envmap_path
-        from brdfkit.lights import EnvironmentMap
+        from brdfkit.light.environment import EnvironmentMap
 
         path = Path(envmap) if envmap is not None else default_envmap_path()
         self.envmap = EnvironmentMap.from_file(path)
@@ -364,7 +364,7 @@ class Session:
         the map's tables and the compiled kernels of the very BRDF objects the page's
         messages resolve to (:meth:`brdf` keeps them by spec; kernels are kept per object).
         In a fresh process the first passes otherwise run on NumPy while the kernels build."""
-        from brdfkit.render_kernel import compiled_shader
+        from brdfkit.render._reflection_kernels import compiled_shader
 
         for spec in specs or ["lambertian + ggx"]:
             try:
@@ -381,8 +381,8 @@ class Session:
         self.warmed.set()
 
     def checks(self, message: Message) -> Reply:
-        """The physics checks (:func:`brdfkit.properties.check`) of the message's entry."""
-        from brdfkit.properties import check
+        """The physics checks (:func:`brdfkit.checks.check`) of the message's entry."""
+        from brdfkit.checks.properties import check
 
         entry = message.entries[0]
         brdf, _ = self.brdf(entry)

@@ -2,7 +2,7 @@
 
 Every view is linked to one incident direction ``wi`` = (θi, φi) in the local frame (z the
 normal). The lit sphere is :func:`brdfkit.render.shade` of a unit sphere under a
-:class:`~brdfkit.lights.DirectionalLight` whose world direction is ``wi`` carried by
+:class:`~brdfkit.light.DirectionalLight` whose world direction is ``wi`` carried by
 :data:`LOCAL_TO_WORLD`: the frame at the sphere's centre pixel, whose normal faces the default
 camera, so that the sphere's centre sees the BRDF at exactly (θi, φi) with ``wo`` = the normal.
 
@@ -27,9 +27,11 @@ import numpy as np
 from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import from_half_diff, spherical_to_cartesian
-from brdfkit.integrate import _delta, _diffuse_envmap, _setup, split_diffuse
-from brdfkit.lights import DirectionalLight, EnvironmentMap
-from brdfkit.render import GBuffer, Pass, Sphere, gbuffer, progressive
+from brdfkit.light.analytic import DirectionalLight
+from brdfkit.light.environment import EnvironmentMap
+from brdfkit.render.passes import Pass, progressive
+from brdfkit.render.reflection_equation import _delta, _diffuse_envmap, _setup, split_diffuse
+from brdfkit.render.scene import GBuffer, Sphere, gbuffer
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
@@ -82,7 +84,8 @@ def sphere_gbuffer(resolution: int) -> GBuffer:
 @dataclass(frozen=True, eq=False)
 class Disk:
     """The sphere's visible pixels, flattened, with what :func:`~brdfkit.render.shade` derives
-    from their G-buffer before it evaluates a light (:func:`brdfkit.integrate._setup`): the
+    from their G-buffer before it evaluates a light
+    (:func:`brdfkit.render.reflection_equation._setup`): the
     points, the local frames (normal, tangent) and ``wo`` in them, each ``(N, 3)``."""
 
     mask: np.ndarray
@@ -103,7 +106,7 @@ def sphere_disk(resolution: int) -> Disk:
 def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
     state.resolution)``: the same delta-light term of the reflection equation
-    (:func:`brdfkit.integrate.reflected_radiance`), evaluated in one batch on the visible
+    (:func:`brdfkit.render.reflected_radiance`), evaluated in one batch on the visible
     pixels only, from geometry computed once per resolution (the background stays 0)."""
     disk = sphere_disk(state.resolution)
     value = to_numpy(_delta(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
@@ -134,7 +137,7 @@ def environment_passes(
 
 def diffuse_term(brdf: BRDF, envmap: EnvironmentMap, resolution: int) -> np.ndarray | None:
     """The exact part of the environment-lit sphere that needs no samples: ρ E(n)/π of the
-    BRDF's Lambertian lobes (:func:`brdfkit.integrate.split_diffuse`, the term
+    BRDF's Lambertian lobes (:func:`brdfkit.render.split_diffuse`, the term
     :func:`brdfkit.render.progressive`'s estimator adds to every pass), ``(R, R, C)``;
     ``None`` for a BRDF without a Lambertian lobe. The page shows it before the first pass."""
     rho, _ = split_diffuse(brdf)

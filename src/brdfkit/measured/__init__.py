@@ -1,8 +1,8 @@
 """Measured BRDFs: MERL, RGL (EPFL) and Cornell files, and tabulated BRDFs.
 
 Every reader returns a :class:`~brdfkit.brdf.base.BRDF` (``eval``, ``pdf``, ``sample``,
-``albedo``), so checks, rendering, plots and fitting (:mod:`brdfkit.fit`) work on measured data
-unchanged. Measured BRDFs are data, not spec models: they are not registered with the spec
+``albedo``), so checks, rendering, plots and fitting (:mod:`brdfkit.fit.analytic`) work on measured
+data unchanged. Measured BRDFs are data, not spec models: they are not registered with the spec
 parser. They sample the cosine-weighted hemisphere (no analytic sampler exists for a table).
 Every reader either returns a BRDF whose ``eval`` is finite and non-negative or raises
 :class:`~brdfkit.errors.FormatError` naming the file (and the field, byte or line).

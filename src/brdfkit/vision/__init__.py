@@ -7,6 +7,6 @@ rows going *down*, so the y component of a direction is minus the row direction.
 
 Modules: :mod:`~brdfkit.vision.datasets` (DiLiGenT and the classic "psm" course layout),
 :mod:`~brdfkit.vision.photometric_stereo` (Lambertian least squares, robust estimators, chrome
-sphere calibration), :mod:`~brdfkit.vision.integration` (normals to
+sphere calibration), :mod:`~brdfkit.vision.normal_integration` (normals to
 depth) and :mod:`~brdfkit.vision.metrics` (angular errors as the DiLiGenT benchmark computes them).
 """

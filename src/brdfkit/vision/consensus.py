@@ -15,7 +15,8 @@ correlations against shared candidates: one matrix product, the other sums over 
 lights in a compiled kernel, all exact sums of integers), then refined by hill climbing on
 rings of decreasing radius around the best (4°, 2°, 1°, 0.5°, 0.25°; six trial normals a ring,
 each kept if its cost is lower), pixel by pixel in a compiled kernel
-(:mod:`brdfkit.vision._ps_kernels`; a trial's ranks insertion-sort the previous order).
+(:mod:`brdfkit.vision._photometric_stereo_kernels`; a trial's ranks insertion-sort the previous
+order).
 
 Higo et al. also use an isotropy constraint and a Markov random field over the image to
 smooth the per-pixel choices; both are omitted here (each pixel is solved alone), so this is
@@ -38,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from brdfkit._checks import check_count
 from brdfkit.errors import ParameterError
-from brdfkit.vision.bivariate import _finish, _reference
+from brdfkit.vision.bivariate_stereo import _finish, _reference
 from brdfkit.vision.photometric_stereo import (
     BLAS_THREADS,
     Callback,
@@ -83,11 +84,11 @@ def _global_search(
     The sums over the lit lights ``sum_k lit_k ranks_k R_ck`` are a matrix product (BLAS, one
     thread: see :data:`~brdfkit.vision.photometric_stereo.BLAS_THREADS`; in single precision
     when every partial sum is an integer below ``2^24``, so exactly), the rest and the cost
-    are :func:`brdfkit.vision._ps_kernels.consensus_best`, pixels over the cores.
+    are :func:`brdfkit.vision._photometric_stereo_kernels.consensus_best`, pixels over the cores.
     """
     from threadpoolctl import threadpool_limits
 
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _photometric_stereo_kernels
 
     cosines = candidates @ lights.T  # (M, N)
     candidate_ranks = _ranks(cosines)
@@ -103,7 +104,7 @@ def _global_search(
         for start in range(0, len(ranks), _BLOCK):
             r, w = ranks[start : start + _BLOCK], lit[start : start + _BLOCK]
             products = (w * r).astype(dtype) @ ranks_t
-            best[start : start + _BLOCK] = _ps_kernels.consensus_best(
+            best[start : start + _BLOCK] = _photometric_stereo_kernels.consensus_best(
                 w, r, products, tables, totals
             )
     return candidates[best], np.argsort(cosines, axis=1)[best]
@@ -121,7 +122,7 @@ def consensus(
     """Photometric stereo by the consensus of monotonicity and visibility (Higo et al. 2010).
 
     See the module docstring for the cost and the search. The albedo is the diffuse one along
-    the found normals (as :mod:`brdfkit.vision.bivariate` reports it).
+    the found normals (as :mod:`brdfkit.vision.bivariate_stereo` reports it).
 
     Parameters
     ----------
@@ -157,12 +158,14 @@ def consensus(
     normals, order = _global_search(ranks, lit, lights, _hemisphere(count))
     if callback is not None:
         callback(1, steps)
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _photometric_stereo_kernels
 
     cost = np.empty(len(normals))
     for step in range(len(_RINGS)):
         radius = _RINGS[step : step + 1]
-        _ps_kernels.consensus_rings(normals, cost, order, ranks, lit, lights, radius, step == 0)
+        _photometric_stereo_kernels.consensus_rings(
+            normals, cost, order, ranks, lit, lights, radius, step == 0
+        )
         if callback is not None:
             callback(step + 2, steps)
     return _finish(normals, gray, lit, lights, observations, mask)

@@ -14,12 +14,12 @@ lighting up to one scale (Basri & Jacobs 2003). :func:`estimate_directional_ligh
 single distant light, :math:`B = \tfrac{\rho}{\pi} E \max(n\cdot l, 0)`, by least squares on the
 lit pixels, re-deciding which pixels are in attached shadow from the current estimate.
 :func:`mirror_ball_to_latlong` turns the photograph of a mirror ball into a lat-long
-environment map (the geometry is :meth:`brdfkit.lights.EnvironmentMap.from_mirror_ball`; this
+environment map (the geometry is :meth:`brdfkit.light.EnvironmentMap.from_mirror_ball`; this
 adds locating the ball from its mask).
 
 Frames: normals, coefficients and directions share whatever frame the normals are given in
 (the camera frame x right, y up, z towards the camera of :mod:`brdfkit.vision`, or the world
-frame of :mod:`brdfkit.render`); the SH convention is :mod:`brdfkit.sh`'s.
+frame of :mod:`brdfkit.render`); the SH convention is :mod:`brdfkit.light.spherical_harmonics`'s.
 
 References
 ----------
@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
 from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import ParameterError
-from brdfkit.sh import lambertian_kernel, sh_basis
+from brdfkit.light.spherical_harmonics import lambertian_kernel, sh_basis
 
 __all__ = [
     "MAX_ITERATIONS",
@@ -61,7 +61,7 @@ MAX_ITERATIONS = 10_000
 """Largest ``iterations`` of :func:`estimate_directional_light`."""
 
 _LATLONG_BYTES_PER_PIXEL = 160
-"""Peak bytes per lat-long pixel of :meth:`~brdfkit.lights.EnvironmentMap.from_mirror_ball`
+"""Peak bytes per lat-long pixel of :meth:`~brdfkit.light.EnvironmentMap.from_mirror_ball`
 (directions, normals and sampling tables), plus 8 per channel: ``tracemalloc`` measured 125 for
 a 512 × 1024 map of 1 or 3 channels."""
 
@@ -123,8 +123,9 @@ def estimate_sh_lighting(
 
     .. math:: B_p = \frac{\rho}{\pi}\sum_{k<9} \hat A_{l(k)}\, Y_k(n_p)\, L_k
 
-    with :math:`\hat A_l = \pi, 2\pi/3, \pi/4` (:func:`brdfkit.sh.lambertian_kernel`), solved
-    per channel by a QR factorisation of the ``P × 9`` design matrix. The nine functions are
+    with :math:`\hat A_l = \pi, 2\pi/3, \pi/4`
+    (:func:`brdfkit.light.spherical_harmonics.lambertian_kernel`), solved per channel by a QR
+    factorisation of the ``P × 9`` design matrix. The nine functions are
     linearly independent on any open patch of the sphere, so the normals a single view sees
     (a hemisphere) determine all nine coefficients, but less stably than the whole sphere does.
 
@@ -143,8 +144,9 @@ def estimate_sh_lighting(
     Returns
     -------
     array (9, C)
-        Radiance coefficients ``L_lm`` in :mod:`brdfkit.sh`'s convention, same backend and
-        dtype as ``image``; ``brdfkit.sh.irradiance_sh(L, n) * ρ / π`` re-renders the image.
+        Radiance coefficients ``L_lm`` in :mod:`brdfkit.light.spherical_harmonics`'s convention,
+        same backend and dtype as ``image``; ``brdfkit.light.spherical_harmonics.irradiance_sh(L,
+        n) * ρ / π`` re-renders the image.
 
     Raises
     ------
@@ -279,7 +281,7 @@ def mirror_ball_to_latlong(
     With ``mask`` the ball's disc is located by :func:`brdfkit.vision.photometric_stereo.
     fit_circle` (centre and radius from the mask's moments) and the photo is resampled
     bilinearly to the square that circumscribes it; without, ``photo`` must already be that
-    square. :meth:`brdfkit.lights.EnvironmentMap.from_mirror_ball` then maps every lat-long
+    square. :meth:`brdfkit.light.EnvironmentMap.from_mirror_ball` then maps every lat-long
     direction ``d`` to the ball point whose normal :math:`n = (d + v)/|d + v|` reflects the
     view direction ``v`` into ``d`` (orthographic view). Its frame: world +z is the photo's
     up, +x points towards the camera, +y to the photo's right. Directions right behind the ball
@@ -295,7 +297,7 @@ def mirror_ball_to_latlong(
     Returns
     -------
     numpy.ndarray (height, width, C)
-        Radiance in :mod:`brdfkit.sh`'s lat-long convention.
+        Radiance in :mod:`brdfkit.light.spherical_harmonics`'s lat-long convention.
 
     Raises
     ------
@@ -313,7 +315,7 @@ def mirror_ball_to_latlong(
     """
     from scipy.ndimage import map_coordinates
 
-    from brdfkit.lights import EnvironmentMap
+    from brdfkit.light.environment import EnvironmentMap
     from brdfkit.vision.photometric_stereo import fit_circle
 
     height = check_count("height", height, MAX_LATLONG_HEIGHT, minimum=2)

@@ -268,7 +268,7 @@ def sparse_regression(
     solved by the augmented Lagrangian method (ADMM) with a penalty ``beta`` growing by 5 % per
     iteration: ``b = L^+ (I - e + y / beta)``, ``e = shrink(I - L b + y / beta, 1 / beta)``,
     ``y += beta (I - L b - e)``. The pixels share only ``beta``'s schedule and the stopping test,
-    so a compiled kernel (:mod:`brdfkit.vision._ps_kernels`) runs blocks of
+    so a compiled kernel (:mod:`brdfkit.vision._photometric_stereo_kernels`) runs blocks of
     :data:`ADMM_BLOCK` iterations pixel by pixel (each pixel's rows in cache), keeping every
     iteration's ``b`` and gap of the block, and the first iteration that passes the test ends it.
 
@@ -293,7 +293,7 @@ def sparse_regression(
     max_iterations = check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     check_param("tol", tol, 0.0)
     observations, lights, mask = _prepare(images, light_directions, mask)
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _photometric_stereo_kernels
 
     gray = _gray(observations)
     pseudo_inverse = np.linalg.pinv(lights)
@@ -306,7 +306,9 @@ def sparse_regression(
         block = betas[start : start + ADMM_BLOCK]
         bs = np.empty((len(block), 3, len(pixels)))
         gap2 = np.empty((len(block), len(pixels)))
-        _ps_kernels.admm_chunk(pixels, error, dual, pseudo_inverse, lights, block, bs, gap2)
+        _photometric_stereo_kernels.admm_chunk(
+            pixels, error, dual, pseudo_inverse, lights, block, bs, gap2
+        )
         done = np.flatnonzero(np.sqrt(gap2.sum(axis=1)) <= tol * scale)
         last = done[0] if len(done) else len(block) - 1
         b = bs[last]
@@ -415,7 +417,7 @@ def robust_pca(
     data_norm = np.linalg.norm(data)
     from threadpoolctl import threadpool_limits
 
-    from brdfkit.vision import _ps_kernels
+    from brdfkit.vision import _photometric_stereo_kernels
 
     with threadpool_limits(BLAS_THREADS, user_api="blas"):
         norm_two = np.sqrt(np.linalg.eigvalsh(data @ data.T)[-1])
@@ -432,7 +434,7 @@ def robust_pca(
             left, right = _shrinkage_factors(matrix.T @ matrix, 1.0 / mu, rank)
             mu_next = min(mu * 1.5, mu_max)
             z = np.empty((len(pixels), left.shape[1]))  # M V_k, so A = z left^T
-            gap2 = _ps_kernels.rpca_step(
+            gap2 = _photometric_stereo_kernels.rpca_step(
                 pixels, sparse, dual, observed, left, right, mu, mu_next, lam, z, matrix
             )
             mu = mu_next

@@ -58,7 +58,7 @@ from brdfkit.brdf.ward import WARD_ALPHA, Ward
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal, to_local
 from brdfkit.vision.datasets import cast_shadows
-from brdfkit.vision.integration import least_squares_integration
+from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import _prepare, trimmed_least_squares
 
 MAX_LOBES = 4
@@ -475,8 +475,8 @@ def shadow_visibility(
     """Cast-shadow visibility ``(N, H, W)`` of distant lights on the surface of the normals.
 
     The normals are integrated to a depth map by
-    :func:`~brdfkit.vision.integration.least_squares_integration` (orthographic: the depth is in
-    units of the pixel spacing of ``normals``, which is what lets it shadow itself correctly;
+    :func:`~brdfkit.vision.normal_integration.least_squares_integration` (orthographic: the depth
+    is in units of the pixel spacing of ``normals``, which is what lets it shadow itself correctly;
     nothing is integrated across the occluding contour, so each connected part of the mask
     gets its own constant), and each light's shadows are marched over its height
     ``-depth`` by :func:`~brdfkit.vision.datasets.cast_shadows` with ``pixel_size = 1``.

@@ -1,0 +1,315 @@
+"""An on-disk cache of the compiled kernels, so that building them is paid once per machine.
+
+:mod:`brdfkit.compiled.kernels` traces a model's code with JAX and compiles the generated source
+with numba; :mod:`brdfkit.render._reflection_kernels` compiles a tile kernel around those kernels.
+Both cost seconds per model structure, every process. numba's own ``cache=True`` cannot help: it
+keys its files on a function's source file (the generated code has none) and on a pickle of a
+closure's cells (a compiled function pickles with a random id, so it never matches in the next
+process). This module gives a numba dispatcher a cache keyed instead by a string the caller
+computes from everything the machine code depends on (the generated source, its constants,
+the tile's options), under a folder that names the version of brdfkit's code, numba and
+Python; numba adds the CPU (its own "magic tuple") to each entry. It also keeps small JSON
+records (the generated source of a model structure's kernel), so that a warm process does not
+even trace.
+
+The folder is ``$BRDFKIT_CACHE_DIR`` if set (empty: no disk cache), else
+``platformdirs.user_cache_dir("brdfkit")``, then ``kernels/<version>``. Files are written
+atomically (numba's own temporary-and-rename; :func:`brdfkit.io.atomic_write` for records), so
+processes building the same kernel at once are safe. A folder that cannot be written, or an
+entry that cannot be read (corrupt, truncated, another numba), degrades to compiling in memory
+with no error; :data:`STATS` counts what happened. Version folders of this cache unused for
+:data:`STALE_DAYS` are removed (only folders holding this cache's marker file).
+
+References
+----------
+.. [1] Numba documentation, "Notes on Caching" (index and data files, cache invalidation).
+"""
+
+from __future__ import annotations
+
+import collections
+import functools
+import hashlib
+import json
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import time
+import weakref
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+ENV = "BRDFKIT_CACHE_DIR"
+"""Environment variable overriding the cache folder (an empty value turns the cache off)."""
+STALE_DAYS = 30
+"""Days after which a version folder not used since is removed."""
+_MARKER = "brdfkit-kernel-cache"
+
+STATS: collections.Counter[str] = collections.Counter()
+"""Counts of ``hits``/``misses`` (numba machine code loaded from disk or compiled),
+``record_hits``/``record_misses`` (generated sources) and ``errors`` (entries that could not be
+read or written: the kernel was then compiled in memory), since the process started."""
+
+_LOCK = threading.Lock()
+_USABLE: dict[Path, bool] = {}
+_KEYS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+
+
+_APPLICATION = frozenset(
+    {"cli", "explore", "vision", "distributed", "report.py", "plot.py", "fit.py", "fit_select.py"}
+)
+"""brdfkit's application layers (first path component in the package): code no kernel's
+trace or template reaches, left out of :func:`version` so that editing them keeps the cache."""
+
+
+@functools.cache
+def version() -> str:
+    """A hash of everything the cached kernels depend on besides their key: the source of
+    every module of brdfkit but its application layers (the models, the tracer, the kernels'
+    templates: :data:`_APPLICATION`), numba, llvmlite and Python. The versions come from the
+    installed packages' metadata: importing numba only to read its version cost ~0.3 s in
+    each of the atlas's worker processes."""
+    numba, llvmlite = metadata.version("numba"), metadata.version("llvmlite")
+    digest = hashlib.sha256(f"{numba}|{llvmlite}|{sys.version}".encode())
+    package = Path(__file__).parent
+    for path in sorted(package.rglob("*.py")):
+        relative = path.relative_to(package)
+        if relative.parts[0] in _APPLICATION:
+            continue
+        digest.update(str(relative).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+def root() -> Path | None:
+    """The folder holding every version of the cache, or ``None`` when turned off."""
+    override = os.environ.get(ENV)
+    if override is not None:
+        return Path(override).expanduser() if override else None
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("brdfkit")) / "kernels"
+
+
+def directory() -> Path | None:
+    """This version's folder, created, or ``None`` when the cache is off or cannot be written."""
+    base = root()
+    if base is None:
+        return None
+    path = base / version()
+    with _LOCK:
+        usable = _USABLE.get(path)
+        if usable is None:
+            usable = _USABLE[path] = _prepare(path)
+    return path if usable else None
+
+
+def _prepare(path: Path) -> bool:
+    """Create ``path`` with its marker, check it can be written, prune stale versions."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        marker = path / _MARKER
+        marker.touch()  # its time: when this version was last used
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError:
+        return False
+    _prune(path.parent, keep=path)
+    return True
+
+
+def _prune(base: Path, keep: Path) -> None:
+    """Remove the version folders under ``base`` that hold this cache's marker and were not
+    used for :data:`STALE_DAYS` (nothing else: a folder without the marker is not ours)."""
+    cutoff = time.time() - STALE_DAYS * 86400
+    try:
+        folders = [p for p in base.iterdir() if p.is_dir() and p != keep]
+    except OSError:
+        return
+    for folder in folders:
+        try:
+            if (folder / _MARKER).stat().st_mtime < cutoff:
+                shutil.rmtree(folder)
+        except OSError:
+            continue
+
+
+def key(*parts: Any) -> str:
+    """A cache key: the hash of ``parts``' text."""
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
+
+
+# --------------------------------------------------------------------------- numba entries
+def _entry(cache_key: str) -> Path | None:
+    folder = directory()
+    return None if folder is None else folder / "numba" / cache_key
+
+
+def has(cache_key: str) -> bool:
+    """Whether numba machine code for ``cache_key`` is on disk (loading it compiles nothing)."""
+    path = _entry(cache_key)
+    return path is not None and any(path.glob("*.nbi"))
+
+
+def key_of(dispatcher: Any) -> str | None:
+    """The key :func:`enable` gave ``dispatcher``, or ``None`` (compiled in memory only)."""
+    return _KEYS.get(dispatcher)
+
+
+def enable(dispatcher: Any, cache_key: str) -> bool:
+    """Give a numba dispatcher (not yet compiled) the disk cache of ``cache_key``; ``False``
+    (and nothing changed) where the cache is off or cannot be written."""
+    path = _entry(cache_key)
+    if path is None:
+        return False
+    try:
+        dispatcher._cache = _keyed_cache_class()(dispatcher.py_func, cache_key, path)
+    except Exception:  # numba's internals changed: compile in memory
+        STATS["errors"] += 1
+        return False
+    _KEYS[dispatcher] = cache_key
+    return True
+
+
+def njit(py_func: Callable[..., Any], cache_key: str, **options: Any) -> Any:
+    """``numba.njit(**options)(py_func)`` with the disk cache of ``cache_key``."""
+    import numba
+
+    dispatcher = numba.njit(**options)(py_func)
+    enable(dispatcher, cache_key)
+    return dispatcher
+
+
+@functools.cache
+def _keyed_cache_class() -> type:
+    """numba's per-function cache, keyed by our key and stored in our folder (a subclass of
+    its ``FunctionCache`` that needs no source file and does not pickle closures)."""
+    from numba.core.caching import (
+        CompileResultCacheImpl,
+        FunctionCache,
+        IndexDataCacheFile,
+        _CacheLocator,
+    )
+
+    class Locator(_CacheLocator):
+        def __init__(self, path: Path) -> None:
+            self._path = str(path)
+            self._py_file = "<brdfkit kernel>"
+
+        def get_cache_path(self) -> str:
+            return self._path
+
+        def get_source_stamp(self) -> str:
+            return "brdfkit"  # the key (the folder's name) already says what the code is
+
+        def get_disambiguator(self) -> str:
+            return ""
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> None:
+            return None
+
+    class Impl(CompileResultCacheImpl):
+        def __init__(self, py_func: Any, path: Path) -> None:
+            self._lineno = py_func.__code__.co_firstlineno
+            self._locator = Locator(path)
+            self._filename_base = self.get_filename_base("kernel", getattr(sys, "abiflags", ""))
+
+    class KeyedCache(FunctionCache):
+        def __init__(self, py_func: Any, cache_key: str, path: Path) -> None:
+            self._name = repr(py_func)
+            self._py_func = py_func
+            self._key = cache_key
+            self._impl = Impl(py_func, path)
+            self._cache_path = str(path)
+            self._cache_file = IndexDataCacheFile(
+                cache_path=str(path),
+                filename_base=self._impl.filename_base,
+                source_stamp=self._impl.locator.get_source_stamp(),
+            )
+            self.enable()
+
+        def _index_key(self, sig: Any, codegen: Any) -> tuple[Any, ...]:
+            return (sig, codegen.magic_tuple(), self._key)
+
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            try:
+                data = super().load_overload(sig, target_context)
+            except Exception:  # a corrupt or foreign entry: compile, then overwrite it
+                STATS["errors"] += 1
+                return None
+            STATS["hits" if data is not None else "misses"] += 1
+            return data
+
+        def save_overload(self, sig: Any, data: Any) -> None:
+            try:
+                super().save_overload(sig, data)
+            except Exception:
+                try:  # an unreadable index: a fresh one, then the entry
+                    self._cache_file.flush()
+                    super().save_overload(sig, data)
+                except Exception:  # unwritable (disk full, permissions): kept in memory
+                    STATS["errors"] += 1
+
+    return KeyedCache
+
+
+# --------------------------------------------------------------------------- JSON records
+def _record_path(kind: str, cache_key: str) -> Path | None:
+    folder = directory()
+    return None if folder is None else folder / kind / f"{cache_key}.json"
+
+
+def load_record(kind: str, cache_key: str) -> dict | None:
+    """The record stored under ``kind``/``cache_key``, or ``None`` (absent or unreadable)."""
+    path = _record_path(kind, cache_key)
+    if path is None:
+        return None
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        STATS["record_misses"] += 1
+        return None
+    except (OSError, ValueError):
+        STATS["errors"] += 1
+        return None
+    if not isinstance(record, dict):
+        STATS["errors"] += 1
+        return None
+    STATS["record_hits"] += 1
+    return record
+
+
+def store_record(kind: str, cache_key: str, record: dict) -> None:
+    """Store ``record`` (JSON) under ``kind``/``cache_key``, atomically; errors are counted,
+    never raised."""
+    from brdfkit.io import atomic_write
+
+    path = _record_path(kind, cache_key)
+    if path is None:
+        return
+    text = json.dumps(record)
+    try:
+        atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    except OSError:
+        STATS["errors"] += 1
+
+
+__all__ = [
+    "ENV",
+    "STALE_DAYS",
+    "STATS",
+    "directory",
+    "enable",
+    "has",
+    "key",
+    "key_of",
+    "load_record",
+    "njit",
+    "root",
+    "store_record",
+    "version",
+]

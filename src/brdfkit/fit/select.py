@@ -1,0 +1,127 @@
+r"""Model selection by held-out error, and the data-driven bivariate fit, for ``brdfkit fit``.
+
+:func:`select_model` fits every candidate (analytic specs, and ``"bivariate"``: the (θh, θd)
+table of Romeiro et al. 2008, :func:`brdfkit.measured.bivariate_brdf.fit_bivariate`) to a random
+80 % of the measurements, scores each by its RMS residual on the other 20 % (on the fit's
+objective scale, all channels pooled), and refits the best on all of them.
+
+References
+----------
+.. [1] T. Hastie, R. Tibshirani, J. Friedman, *The Elements of Statistical Learning*, 2nd ed.,
+       §7.2 (model selection by held-out error), 2009.
+.. [2] F. Romeiro, Y. Vasilyev, T. Zickler, "Passive reflectometry", ECCV 2008.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from brdfkit.brdf.base import BRDF
+from brdfkit.errors import ParameterError
+from brdfkit.fit.analytic import OBJECTIVES, FitResult, fit, fit_data, fit_errors, residuals
+from brdfkit.measured.bivariate_brdf import fit_bivariate
+from brdfkit.measured.tabulated import MeasuredSamples
+
+BIVARIATE = "bivariate"
+"""The name of the data-driven candidate."""
+
+CANDIDATES = (
+    "lambertian + cook_torrance",
+    "lambertian + ggx",
+    "lambertian + ward",
+    "lambertian + ashikhmin_shirley(rd=0)",
+    BIVARIATE,
+)
+"""What ``--model auto`` chooses from."""
+
+HOLDOUT = 0.2
+"""The share of measurements held out to score the candidates."""
+
+
+@dataclass(frozen=True, eq=False)
+class Selection:
+    """The outcome of :func:`select_model`: the chosen candidate, every candidate's held-out
+    RMS residual, and the chosen candidate refitted on all measurements."""
+
+    chosen: str
+    held_out: dict[str, float]
+    result: FitResult
+
+
+def _split(data: MeasuredSamples, rng: np.random.Generator) -> tuple[MeasuredSamples, ...]:
+    held = rng.random(data.wi.shape[0]) < HOLDOUT
+
+    def part(mask: np.ndarray) -> MeasuredSamples:
+        return MeasuredSamples(data.wi[mask], data.wo[mask], data.values[mask], name=data.name)
+
+    return part(~held), part(held)
+
+
+def fit_any(measured: BRDF | MeasuredSamples, spec: str, **options: Any) -> FitResult:
+    """:func:`brdfkit.fit.fit`, or the bivariate table when ``spec`` is ``"bivariate"`` (its
+    result has no parameters; ``options`` other than ``objective`` do not apply to it)."""
+    if spec.strip() != BIVARIATE:
+        return fit(measured, spec, **options)
+    start = time.perf_counter()
+    data = fit_data(measured)
+    model = fit_bivariate(data, smoothness=options.get("smoothness", 1e-3))
+    nh, nd, _ = model.table.shape
+    return FitResult(
+        model=model,
+        spec=f"{BIVARIATE} ({nh} θh × {nd} θd table)",
+        params={},
+        errors=fit_errors(model, data),
+        objective=options.get("objective", "cube_root"),
+        loss="linear",
+        loss_scale=0.0,
+        mode="per_channel",
+        cost=0.0,
+        starts=1,
+        nfev=1,
+        samples=data.wi.shape[0],
+        fit_samples=data.wi.shape[0],
+        success=True,
+        message="weighted linear least squares with a second-difference prior",
+        seconds=time.perf_counter() - start,
+    )
+
+
+def select_model(
+    measured: BRDF | MeasuredSamples,
+    candidates: tuple[str, ...] = CANDIDATES,
+    *,
+    objective: str = "cube_root",
+    seed: int = 0,
+    **options: Any,
+) -> Selection:
+    """Choose among ``candidates`` by held-out error (module docstring) and refit the best.
+
+    ``options`` go to :func:`brdfkit.fit.fit` for the analytic candidates.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        On an empty ``candidates`` or an unknown ``objective``.
+    """
+    if not candidates:
+        raise ParameterError("candidates must name at least one model")
+    if objective not in OBJECTIVES:
+        raise ParameterError(f"objective must be one of {OBJECTIVES}; got {objective!r}")
+    data = fit_data(measured, seed=seed)
+    train, test = _split(data, np.random.default_rng(seed))
+    held_out = {}
+    for spec in candidates:
+        model = fit_any(train, spec, objective=objective, seed=seed, **options).model
+        r = residuals(model, test, objective)
+        held_out[spec] = float(np.sqrt(np.mean(r * r)))
+    chosen = min(held_out, key=held_out.__getitem__)
+    result = fit_any(data, chosen, objective=objective, seed=seed, **options)
+    return Selection(chosen, held_out, dataclasses.replace(result, objective=objective))
+
+
+__all__ = ["BIVARIATE", "CANDIDATES", "HOLDOUT", "Selection", "fit_any", "select_model"]

@@ -1,0 +1,382 @@
+"""Environment maps: distant light from an equirectangular (lat-long) image.
+
+:class:`EnvironmentMap` interpolates the image bilinearly, samples directions in proportion to
+luminance·sin θ, and precomputes the irradiance of every normal for the diffuse part of a BRDF.
+
+References
+----------
+.. [1] P. Debevec, "Rendering synthetic objects into real scenes", SIGGRAPH 1998.
+.. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 3rd ed., §14.2.4.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brdfkit._array import (
+    Array,
+    asarray,
+    clamp,
+    constant,
+    namespace,
+    normalize,
+    safe_div,
+    to_numpy,
+)
+from brdfkit.errors import ParameterError
+from brdfkit.geometry import (
+    cartesian_to_spherical,
+    spherical_to_cartesian,
+)
+from brdfkit.light.base import STRENGTH, Light, LightSample, _batch
+from brdfkit.params import check_number
+
+
+def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray:
+    """Texel weights (H, W) of an environment map's light sampling: luminance·sin θ.
+
+    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood, so the neighbourhood's
+    maximum is sampled (L/pdf stays bounded next to a bright sun), plus a floor of 10⁻³ of
+    its mean so that every direction the lookup can light has a positive density. With
+    ``compensate`` the map's sin θ-weighted mean luminance is subtracted first, clipped at
+    zero (:attr:`EnvironmentMap.compensated`).
+    """
+    from scipy.ndimage import maximum_filter
+
+    from brdfkit.io import REC709_WEIGHTS
+
+    height = image.shape[0]
+    sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
+    if image.shape[2] == 3:
+        lum = image @ np.array(REC709_WEIGHTS)
+    else:
+        lum = image.mean(axis=2)
+    peak = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
+    floor = 1e-3 * max(peak.mean(), 1e-12)
+    if compensate:
+        mean = float(np.sum(lum * sin_theta) / (np.sum(sin_theta) * lum.shape[1]))
+        peak = np.maximum(peak - mean, 0.0)
+    return (peak + floor) * sin_theta
+
+
+@dataclass(frozen=True, eq=False)
+class EnvironmentMap(Light):
+    r"""Distant radiance from an equirectangular (lat-long) image, bilinearly interpolated.
+
+    The map follows :func:`brdfkit.light.spherical_harmonics.latlong_directions`: row 0 at +z (θ =
+    0), column 0 starting at φ = 0 (+x) with φ growing towards +y. ``rotation`` (a 3×3 matrix)
+    takes map directions to world directions. Importance sampling draws pixels from a
+    piecewise-constant distribution proportional to luminance·sin θ (the 3×3 maximum, since the
+    bilinear lookup mixes neighbours, plus a small floor so that every direction the bilinear
+    lookup can light has a positive density), with solid-angle pdf
+    :math:`p_\omega = p_{uv} / (2\pi^2 \sin\theta)`.
+
+    Parameters
+    ----------
+    image : (H, W, C) non-negative radiance (W·m⁻²·sr⁻¹).
+    scale : multiplies the radiance.
+    rotation : (3, 3) rotation matrix map → world (default identity).
+
+    References
+    ----------
+    .. [1] P. Debevec, "Rendering synthetic objects into real scenes", SIGGRAPH 1998.
+    .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 3rd ed., §14.2.4.
+    """
+
+    image: Any = None
+    scale: float = 1.0
+    rotation: Any = None
+
+    def __post_init__(self) -> None:
+        img = to_numpy(check_number("image", self.image)) if self.image is not None else None
+        if img is None or img.ndim != 3 or img.shape[0] < 2 or img.shape[1] < 2:
+            shape = None if img is None else img.shape
+            raise ParameterError(
+                f"image must be an (H, W, C) lat-long array with H, W >= 2; got {shape}"
+            )
+        if not np.all(np.isfinite(img)) or np.any(img < 0):
+            raise ParameterError("image must hold finite, non-negative radiance values")
+        STRENGTH.check("scale", self.scale)
+        rot = np.eye(3) if self.rotation is None else check_number("rotation", self.rotation)
+        rot = np.asarray(to_numpy(rot), dtype=float)
+        finite = rot.shape == (3, 3) and np.all(np.isfinite(rot))
+        if not finite or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6):
+            raise ParameterError(f"rotation must be a 3×3 rotation matrix; got {rot!r}")
+        object.__setattr__(self, "image", np.ascontiguousarray(img, dtype=np.float32))
+        object.__setattr__(self, "rotation", rot)
+        object.__setattr__(self, "channels", img.shape[2])
+
+    @functools.cached_property
+    def _distribution(self):
+        """The light-sampling distribution of :meth:`sample` and :meth:`pdf`
+        (:func:`_sampling_weights`), made when first needed: a map only looked up (the atlas's
+        quadrature spheres, whose Monte Carlo renders sample :attr:`compensated`) never
+        pays for it."""
+        from brdfkit.sampling import Distribution2D
+
+        return Distribution2D(_sampling_weights(self.image))
+
+    @functools.cached_property
+    def compensated(self) -> EnvironmentMap:
+        r"""The same map with the light-sampling distribution MIS should combine with BRDF
+        sampling: proportional to :math:`\max(L - \bar L, 0)\sin\theta` plus the floor,
+        with :math:`\bar L` the map's mean luminance over the sphere.
+
+        Multiple importance sampling with BRDF sampling covers the directions where the map is
+        near its mean well already; taking the mean out of the light's density spends its
+        samples on what is brighter (Karlík et al.'s MIS compensation), and the floor keeps the
+        density positive wherever the map lights, so either strategy alone stays unbiased. Same
+        radiance, rotation and scale; only :meth:`sample` and :meth:`pdf` differ.
+
+        References
+        ----------
+        .. [1] O. Karlík, M. Šik, P. Vévoda, T. Skřivan, J. Křivánek, "MIS compensation:
+           optimizing sampling techniques in multiple importance sampling", *ACM Trans.
+           Graph.* 38(6), 2019.
+        """
+        from brdfkit.sampling import Distribution2D
+
+        view = copy.copy(self)
+        weights = _sampling_weights(self.image, compensate=True)
+        object.__setattr__(view, "_distribution", Distribution2D(weights))
+        view.__dict__["compensated"] = view
+        return view
+
+    @classmethod
+    def from_file(
+        cls, path: str | Path, scale: float = 1.0, rotation: Any = None
+    ) -> EnvironmentMap:
+        """Read a lat-long ``.hdr``/``.exr`` (or LDR, decoded to linear) environment map."""
+        from brdfkit.io import read_image
+
+        image = read_image(path)
+        if Path(path).suffix.lower() not in (".hdr", ".exr", ".pfm"):
+            from brdfkit.io import srgb_decode
+
+            image = srgb_decode(image)
+        return cls(image[..., :3], scale=scale, rotation=rotation)
+
+    @classmethod
+    def from_mirror_ball(
+        cls, photo: Any, height: int = 256, width: int = 512, scale: float = 1.0
+    ) -> EnvironmentMap:
+        """Convert a photograph of a mirror ball (cropped to the ball) to a lat-long map.
+
+        Orthographic view along the camera's −z; the camera frame (x right, y up, z towards the
+        camera) maps to the world frame as world = (z_cam, x_cam, y_cam): world +z is the
+        photo's up and world +x points towards the camera. For a world direction d the ball
+        normal reflecting the view direction v = +x into d is n = (d + v)/|d + v|, seen at
+        photo coordinates (x, y) = (n·x_cam, n·y_cam). Directions right behind the ball
+        (d ≈ −v) are not seen and come out poorly sampled.
+        """
+        from brdfkit.light.spherical_harmonics import latlong_directions
+
+        photo = to_numpy(photo).astype(np.float32)
+        if photo.ndim != 3 or photo.shape[0] < 2:
+            raise ParameterError(f"photo must be an (H, W, C) image of the ball; got {photo.shape}")
+        d = latlong_directions(height, width)
+        v = np.array([1.0, 0.0, 0.0])
+        n = d + v
+        n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+        x_cam, y_cam = n[..., 1], n[..., 2]
+        ph, pw = photo.shape[:2]
+        col = (x_cam + 1) / 2 * pw - 0.5
+        row = (1 - y_cam) / 2 * ph - 0.5
+        image = _bilinear_np(photo, row, col)
+        return cls(image, scale=scale)
+
+    def _map_coordinates(self, wi: Array) -> tuple[Array, Array, Array]:
+        """Unit world ``wi`` as map coordinates: x = φ/2π ∈ [0, 1), y = θ/π, and θ."""
+        xp = namespace(wi)
+        wi_map = xp.matmul(wi, asarray(self.rotation, xp, like=wi))
+        theta, phi = cartesian_to_spherical(wi_map)
+        x = xp.remainder(phi, constant(2 * math.pi, phi)) / (2 * math.pi)
+        return x, theta / math.pi, theta
+
+    def _lookup(self, wi: Array) -> Array:
+        xp = namespace(wi)
+        x, y, _ = self._map_coordinates(wi)
+        height, width = self.image.shape[:2]
+        image = asarray(self.image, xp, like=wi)
+        value = _bilinear(image, y * height - 0.5, x * width - 0.5)
+        return value * self.scale
+
+    def incident_radiance(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        value = self._lookup(normalize(wi))
+        return xp.broadcast_to(value, (*_batch(points, wi), value.shape[-1]))
+
+    def sample(self, points: Array, u: Array) -> LightSample:
+        xp = namespace(points, u)
+        uv, pdf_uv = self._distribution.sample(asarray(u[..., :2], xp, like=points))
+        theta, phi = uv[..., 1] * math.pi, uv[..., 0] * (2 * math.pi)
+        wi_map = spherical_to_cartesian(theta, phi)
+        wi = xp.matmul(wi_map, xp.permute_dims(asarray(self.rotation, xp, like=points), (1, 0)))
+        pdf = _solid_angle_pdf(pdf_uv, theta)
+        value = safe_div(self._lookup(wi), pdf[..., None])
+        batch = _batch(points, wi)
+        inf = xp.full(batch, math.inf, dtype=points.dtype)
+        return LightSample(
+            xp.broadcast_to(wi, (*batch, 3)),
+            xp.broadcast_to(value, (*batch, value.shape[-1])),
+            xp.broadcast_to(pdf, batch),
+            inf,
+            False,
+        )
+
+    def pdf(self, points: Array, wi: Array) -> Array:
+        xp = namespace(points, wi)
+        x, y, theta = self._map_coordinates(normalize(wi))
+        pdf_uv = self._distribution.pdf(xp.stack([x, y], axis=-1))
+        pdf = _solid_angle_pdf(pdf_uv, theta)
+        return xp.broadcast_to(pdf, _batch(points, wi))
+
+    def irradiance(self, normals: Array) -> Array:
+        r"""Irradiance :math:`E(n) = \int L(\omega) \max(n\cdot\omega, 0)\,d\omega` on a
+        surface with unit world normal ``normals`` ``(..., 3)``; ``(..., C)``.
+
+        A Lambertian surface of albedo ρ under the map reflects exactly :math:`\rho E(n)/\pi`
+        towards every viewer above it, with no Monte Carlo. E is read from
+        :meth:`irradiance_table` (built once per map) by bilinear interpolation.
+        """
+        xp = namespace(normals)
+        x, y, _ = self._map_coordinates(normalize(normals))
+        table = asarray(self.irradiance_table, xp, like=normals)
+        rows, cols = table.shape[:2]
+        return _bilinear(table, y * (rows - 1), x * cols) * self.scale
+
+    @functools.cached_property
+    def irradiance_table(self) -> np.ndarray:
+        r"""E at map-frame normals on a lat-long node grid, ``(97, 192, C)`` float32.
+
+        Row ``i`` holds θ = πi/96 (both poles included), column ``j`` φ = 2πj/192. Each
+        value is a normalised quadrature over the map's pixels grouped into 48×96 cells:
+
+        .. math:: E(n) = \pi\,\frac{\sum_c \max(n\cdot M_c, 0)}{\sum_c \max(n\cdot A_c, 0)},
+           \quad M_c = \sum_{p\in c} L_p \,\Delta\Omega_p\, \omega_p,
+           \quad A_c = \sum_{p\in c} \Delta\Omega_p\, \omega_p,
+
+        with :math:`\Delta\Omega_p = \tfrac{2\pi}{W}(\cos\theta_p^- - \cos\theta_p^+)` the
+        exact solid angle of pixel p and :math:`\omega_p` its centre. Because
+        :math:`n\cdot\omega` is linear in ω, the cell moments M_c are exact for every cell
+        wholly above or below n's horizon; only cells that straddle it (where the cosine is
+        below the cell's size, π/48) err, by at most their radiance × solid angle × π/96.
+        The denominator is the same quadrature of L = 1 (exactly π in the limit): it removes
+        the quadrature's own error, so a constant map gives E = πL to rounding (white-out).
+        The grid's bilinear interpolation errs by at most ~h|∇E|/4 (h = π/96) at the kink
+        that a point-like source puts at its terminator, and by O(h²) elsewhere.
+
+        References
+        ----------
+        .. [1] R. Ramamoorthi, P. Hanrahan, "An efficient representation for irradiance
+               environment maps", SIGGRAPH 2001 (the irradiance map; here by direct
+               summation instead of spherical harmonics, which ring at a sun).
+        """
+        moments, areas = _cell_moments(self.image, IRRADIANCE_CELLS)
+        rows, cols = IRRADIANCE_GRID
+        t, p = np.meshgrid(
+            np.linspace(0.0, math.pi, rows), np.arange(cols) * (2 * math.pi / cols), indexing="ij"
+        )
+        normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+        normals = normals.reshape(-1, 3).astype(np.float32)
+        channels = moments.shape[0]
+        table = np.empty((normals.shape[0], channels))
+        for start in range(0, normals.shape[0], 512):  # ~20 MB of temporaries per block
+            n = normals[start : start + 512]
+            area = _clamped_sum(n, areas)
+            for ch in range(channels):
+                table[start : start + 512, ch] = math.pi * _clamped_sum(n, moments[ch]) / area
+        return table.reshape(rows, cols, channels).astype(np.float32)
+
+
+IRRADIANCE_CELLS = (48, 96)
+"""Cells (rows, columns) the map's pixels are grouped into for :meth:`EnvironmentMap.irradiance`."""
+
+
+IRRADIANCE_GRID = (97, 192)
+"""Node grid (rows with both poles, columns) of :meth:`EnvironmentMap.irradiance_table`."""
+
+
+def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    r"""Per cell of a lat-long ``image``, :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as
+    ``(C, 3, cells)`` and :math:`A_c = \sum_p \Delta\Omega_p\omega_p` as ``(3, cells)``
+    float32; pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``."""
+    height, width, channels = image.shape
+    edges = np.arange(height + 1) * (math.pi / height)
+    solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
+    theta = (np.arange(height) + 0.5) * (math.pi / height)
+    phi = (np.arange(width) + 0.5) * (2 * math.pi / width)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    omega = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
+    weighted = (omega * solid_angle[:, None]).reshape(3, -1)  # (3, H·W)
+    rows, cols = cells
+    cell = (np.arange(height) * rows // height)[:, None] * cols + np.arange(width) * cols // width
+    cell, count = cell.ravel(), rows * cols
+
+    def per_cell(values: np.ndarray) -> np.ndarray:
+        return np.stack([np.bincount(cell, values * w, count) for w in weighted])
+
+    radiance = image.reshape(-1, channels).astype(np.float64)
+    moments = np.stack([per_cell(radiance[:, ch]) for ch in range(channels)])
+    return moments.astype(np.float32), per_cell(np.ones(height * width)).astype(np.float32)
+
+
+def _clamped_sum(normals: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Σ_c max(n·v_c, 0) for each of ``normals`` ``(N, 3)`` over ``vectors`` ``(3, cells)``."""
+    dots = normals @ vectors
+    return np.maximum(dots, 0.0, out=dots).sum(axis=1, dtype=np.float64)
+
+
+def _solid_angle_pdf(pdf_uv: Array, theta: Array) -> Array:
+    """p_ω = p_uv / (2π² sin θ) of a lat-long map; 0 at the poles (sin θ ≤ 0 after rounding)."""
+    return safe_div(pdf_uv, 2 * math.pi**2 * clamp(namespace(theta).sin(theta), 0.0))
+
+
+def _bilinear(image: Array, row: Array, col: Array) -> Array:
+    """Bilinear lookup of an (H, W, C) lat-long image at fractional pixel coordinates.
+
+    Columns wrap around (φ is periodic); rows clamp at the poles.
+    """
+    xp = namespace(image, row)
+    height, width, channels = image.shape
+    r0f, c0f = xp.floor(row), xp.floor(col)
+    fr, fc = (row - r0f)[..., None], (col - c0f)[..., None]
+    r_index = xp.astype(r0f, xp.int64)
+    r0 = xp.clip(r_index, 0, height - 1)
+    r1 = xp.clip(r_index + 1, 0, height - 1)
+    c0 = xp.remainder(xp.astype(c0f, xp.int64), width)
+    c1 = xp.remainder(c0 + 1, width)
+    flat = xp.reshape(image, (height * width, channels))
+    shape = (*row.shape, channels)
+
+    def at(r: Array, c: Array) -> Array:
+        return xp.reshape(xp.take(flat, xp.reshape(r * width + c, (-1,)), axis=0), shape)
+
+    top = at(r0, c0) * (1 - fc) + at(r0, c1) * fc
+    bottom = at(r1, c0) * (1 - fc) + at(r1, c1) * fc
+    return top * (1 - fr) + bottom * fr
+
+
+def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndarray:
+    """Bilinear lookup clamped at every border (for photographs, which do not wrap)."""
+    from scipy.ndimage import map_coordinates
+
+    return np.stack(
+        [
+            map_coordinates(image[..., c], [row, col], order=1, mode="nearest")
+            for c in range(image.shape[2])
+        ],
+        axis=-1,
+    )
+
+
+__all__ = [
+    "EnvironmentMap",
+]

@@ -1,0 +1,351 @@
+"""The compiled environment-map shader equals the NumPy path and passes a furnace test."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from brdfkit import sampling
+from brdfkit.brdf import Lambertian, RoughConductor
+from brdfkit.light import DirectionalLight, EnvironmentMap, PointLight, SphereLight
+from brdfkit.render import (
+    Sphere,
+    directional_albedo,
+    gbuffer,
+    reflected_radiance,
+    render_sphere,
+    shade,
+)
+from brdfkit.render._reflection_kernels import (
+    COLUMN_BUCKETS,
+    ROW_BUCKETS,
+    EnvironmentShader,
+    compiled_shader,
+    kernels_built,
+    map_guides,
+    map_sampler,
+)
+from brdfkit.render._reflection_kernels import reflected_radiance as compiled_radiance
+
+GOLD = RoughConductor(alpha=0.2, material="Au", masking="smith_separable")
+
+
+def _map(seed: int = 1, rotation: np.ndarray | None = None) -> EnvironmentMap:
+    """A small map with bright texels (a peaked distribution) and dark ones."""
+    image = np.random.default_rng(seed).random((16, 32, 3)) ** 4 * 5
+    return EnvironmentMap(image, scale=1.5, rotation=rotation)
+
+
+def _rotation() -> np.ndarray:
+    a, b = 0.7, -0.4
+    rz = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    rx = np.array([[1, 0, 0], [0, math.cos(b), -math.sin(b)], [0, math.sin(b), math.cos(b)]])
+    return rz @ rx
+
+
+@pytest.mark.parametrize("brdf", [GOLD, Lambertian([0.3, 0.2, 0.1]) + GOLD])
+def test_shade_compiled_float64_equals_numpy_path_on_a_sphere(brdf):
+    g = gbuffer(Sphere(), None, 16)
+    env = _map()
+    expected = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000)  # several tiles
+    image = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000, compiled="float64")
+    assert np.all(image[~g.mask] == 0)
+    np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+def test_shade_compiled_float32_equals_numpy_path_to_float32_precision():
+    g = gbuffer(Sphere(), None, 16)
+    env = _map()
+    expected = shade(g, GOLD, env, samples=16, seed=2)
+    image = shade(g, GOLD, env, samples=16, seed=2, compiled=True)
+    scale = np.max(expected)
+    assert np.max(np.abs(image - expected)) < 1e-3 * scale
+    assert np.median(np.abs(image - expected)[g.mask]) < 1e-5 * scale
+
+
+@pytest.mark.parametrize("heuristic", ["power", "balance"])
+def test_random_uniforms_rotated_map_and_stderr_equal_numpy_path(heuristic):
+    g = gbuffer(Sphere(), None, 8)
+    env = _map(3, _rotation())
+    args = (GOLD, env, g.wo, g.normals, g.points, g.tangents)
+    kwargs = {"samples": 12, "seed": 9, "sequence": "random", "heuristic": heuristic}
+    expected = reflected_radiance(*args, method="mis", **kwargs)
+    estimate = compiled_radiance(*args, method="mis", dtype=np.float64, **kwargs)
+    np.testing.assert_allclose(estimate.value, expected.value, rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(estimate.stderr, expected.stderr, rtol=1e-9, atol=1e-13)
+
+
+def test_sobol_blocks_and_per_pixel_seeds_equal_numpy_path():
+    """The kernel scrambles the Sobol' digits per pixel as sampling.scrambled_sobol does."""
+    from brdfkit.sampling import query_seeds
+
+    g = gbuffer(Sphere(), None, 8)
+    env = _map(3, _rotation())
+    args = (GOLD, env, g.wo, g.normals, g.points, g.tangents)
+    seeds = query_seeds(21, 64).reshape(8, 8)
+    kwargs = {"samples": 8, "seed": seeds, "sequence": "sobol", "first_sample": 8}
+    expected = reflected_radiance(*args, **kwargs)
+    estimate = compiled_radiance(*args, dtype=np.float64, **kwargs)
+    np.testing.assert_allclose(estimate.value, expected.value, rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(estimate.stderr, expected.stderr, rtol=1e-9, atol=1e-13)
+
+
+def test_scrambled_sobol_estimates_are_unbiased_in_a_furnace():
+    """Independent seeds of the per-pixel scrambled sequences average to L·ρ(wo) (ρ by
+    quadrature), within their own spread across seeds."""
+    radiance = 0.8
+    env = EnvironmentMap(np.full((8, 16, 3), radiance))
+    theta = np.linspace(0.05, 1.45, 8)
+    wo = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
+    albedo = directional_albedo(GOLD, wo, method="quadrature", theta_steps=128, phi_steps=256)
+    shader = EnvironmentShader(GOLD, env, method="mis", dtype=np.float64)
+    values = np.stack([shader(wo, samples=16, seed=s, sequence="sobol").value for s in range(16)])
+    z = (values.mean(axis=0) - radiance * albedo.value) / (values.std(axis=0, ddof=1) / 4)
+    assert np.all(np.abs(z) < 5), z
+
+
+def test_constant_map_furnace_gives_radiance_times_directional_albedo():
+    """Under a constant map L the reflected radiance is L·ρ(wo) (ρ by quadrature)."""
+    radiance = 0.8
+    env = EnvironmentMap(np.full((8, 16, 3), radiance))
+    theta = np.linspace(0.05, 1.45, 8)
+    wo = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
+    albedo = directional_albedo(GOLD, wo, method="quadrature", theta_steps=128, phi_steps=256)
+    estimate = EnvironmentShader(GOLD, env, dtype=np.float64)(wo, samples=4096, seed=4)
+    z = (estimate.value - radiance * albedo.value) / estimate.stderr
+    assert np.all(np.abs(z) < 5), z
+    # a Lambertian lobe alone needs no samples: ρ·L exactly
+    white = EnvironmentShader(Lambertian([0.5, 0.7, 0.9]), env, dtype=np.float64)(wo)
+    expected = np.broadcast_to(radiance * np.array([0.5, 0.7, 0.9]), white.value.shape)
+    np.testing.assert_allclose(white.value, expected, rtol=1e-5)
+    assert np.all(white.stderr == 0)
+
+
+def test_mask_skips_pixels_without_changing_the_others():
+    g = gbuffer(Sphere(), None, 8)
+    shader = EnvironmentShader(GOLD, _map(), dtype=np.float64)
+    full = shader(g.wo, g.normals, g.points, g.tangents, samples=8, sequence="sobol")
+    masked = shader(g.wo, g.normals, g.points, g.tangents, samples=8, sequence="sobol", mask=g.mask)
+    # To rounding: with the parameters an input of the kernels (not folded constants), a
+    # pixel's place in a vectorised block (main loop or remainder) can change its last bit.
+    np.testing.assert_allclose(masked.value[g.mask], full.value[g.mask], rtol=1e-15, atol=0)
+    assert np.all(masked.value[~g.mask] == 0)
+
+
+def test_unsupported_inputs_are_refused():
+    env = _map()
+    with pytest.raises(ValueError, match="one EnvironmentMap"):
+        EnvironmentShader(GOLD, DirectionalLight((0, 0, 1), 1.0))
+    with pytest.raises(ValueError, match="one EnvironmentMap"):
+        EnvironmentShader(GOLD, [env, env])
+    with pytest.raises(ValueError, match="heuristic"):
+        EnvironmentShader(GOLD, env, heuristic="optimal")
+    with pytest.raises(ValueError, match="method"):
+        EnvironmentShader(GOLD, env, method="quadrature")
+    with pytest.raises(ValueError, match="dtype"):
+        EnvironmentShader(GOLD, env, dtype=np.int32)
+    with pytest.raises(ValueError, match="per-pixel"):
+        EnvironmentShader(Lambertian(np.full((8, 8, 3), 0.5)) + GOLD, env)
+    with pytest.raises(ValueError, match="compiled"):
+        render_sphere(GOLD, env, resolution=8, samples=2, compiled="yes")
+    with pytest.raises(ValueError, match="samples"):
+        EnvironmentShader(GOLD, env)(np.array([0.0, 0.0, 1.0]), samples=0)
+
+
+def test_where_the_kernel_does_not_apply_shade_falls_back_to_numpy():
+    env = _map()
+    textured = Lambertian(np.full((8, 8, 3), 0.5)) + GOLD  # a per-pixel albedo
+    sky = [env, DirectionalLight((0, 0, 1), 1.0)]
+    for brdf, lights, method in [
+        (textured, env, "auto"),
+        (GOLD, env, "brdf"),
+        (GOLD, [env, env], "mis"),
+    ]:
+        expected = render_sphere(
+            brdf, lights, resolution=8, samples=2, method=method, compiled=False
+        )
+        image = render_sphere(brdf, lights, resolution=8, samples=2, method=method, compiled=True)
+        np.testing.assert_array_equal(image, expected)
+    assert compiled_shader(GOLD, sky, method="auto") is not None
+    assert compiled_shader(GOLD, [env, SphereLight((0, 0, 3), 0.5, 1.0)], method="auto") is None
+
+
+@pytest.mark.slow
+def test_sums_scaled_lobes_and_delta_lights_equal_numpy_path():
+    brdf = Lambertian([0.3, 0.2, 0.1]) + 0.5 * GOLD + 0.3 * RoughConductor(alpha=0.5)
+    lights = [
+        DirectionalLight((1, 0.3, 0.5), 2.0),
+        _map(2, _rotation()),
+        PointLight((2, 1, 1), 3.0),
+    ]
+    g = gbuffer(Sphere(), None, 12)
+    expected = shade(g, brdf, lights, samples=8, seed=3, compiled=False)
+    image = shade(g, brdf, lights, samples=8, seed=3, compiled="float64")
+    np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+@pytest.mark.slow
+def test_auto_compiles_only_large_renders_or_models_already_built():
+    model = RoughConductor(alpha=0.35, material="Cu", masking="smith_separable")
+    env = _map()
+    g = gbuffer(Sphere(), None, 10)
+    assert not kernels_built(model)
+    numpy_image = shade(g, model, env, samples=4, seed=1, compiled=False)
+    np.testing.assert_array_equal(shade(g, model, env, samples=4, seed=1), numpy_image)
+    assert not kernels_built(model)  # a small render does not pay for compiling
+    EnvironmentShader(model, env).build()
+    assert kernels_built(model)
+    image = shade(g, model, env, samples=4, seed=1)  # now the compiled path
+    np.testing.assert_array_equal(image, shade(g, model, env, samples=4, seed=1, compiled=True))
+    assert not np.array_equal(image, numpy_image)
+    scale = np.max(numpy_image)
+    assert np.max(np.abs(image - numpy_image)) < 1e-3 * scale
+    assert np.median(np.abs(image - numpy_image)[g.mask]) < 1e-5 * scale
+
+
+def test_a_second_parameter_set_reuses_the_shading_kernels(monkeypatch):
+    import brdfkit.compiled.kernels as accel
+
+    first = RoughConductor(alpha=0.25, material="Cu", masking="smith_separable")
+    second = RoughConductor(alpha=0.6, material="Cu", masking="smith_separable")
+    env = _map()
+    EnvironmentShader(first, env, dtype=np.float64).build()
+    assert kernels_built(second, np.float64)
+    monkeypatch.setattr(accel, "_compile", lambda *a, **k: pytest.fail("compiled again"))
+    monkeypatch.setattr(accel, "_numba_kernel", lambda *a, **k: pytest.fail("compiled again"))
+    g = gbuffer(Sphere(), None, 12)
+    for model in (second, first):
+        expected = shade(g, model, env, samples=8, seed=5, compiled=False)
+        image = shade(g, model, env, samples=8, seed=5, compiled="float64")
+        np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
+
+
+def test_render_sphere_keeps_the_set_up_of_the_most_recent_inputs(monkeypatch):
+    """A second render of the same inputs skips prepare (frames, floor, irradiance) and
+    equals an uncached render; other inputs replace the kept work."""
+    env, other = _map(), RoughConductor(alpha=0.45, material="Cu", masking="smith_separable")
+    calls = []
+    prepare = EnvironmentShader.prepare
+    monkeypatch.setattr(
+        EnvironmentShader,
+        "prepare",
+        lambda self, *a, **k: calls.append(1) or prepare(self, *a, **k),
+    )
+    kwargs = {"samples": 8, "compiled": True, "max_evaluations": 2_000}  # several tiles
+    first = render_sphere(GOLD, env, 16, seed=3, **kwargs)
+    tiles = len(calls)
+    assert tiles > 1
+    np.testing.assert_array_equal(render_sphere(GOLD, env, 16, seed=3, **kwargs), first)
+    again = render_sphere(GOLD, env, 16, seed=4, **kwargs)
+    assert len(calls) == tiles  # nothing prepared again
+    fresh = shade(gbuffer(Sphere(), None, 16), GOLD, env, seed=4, **kwargs)
+    np.testing.assert_array_equal(again, fresh)
+    assert len(calls) == 2 * tiles
+    calls.clear()
+    changed = render_sphere(other, env, 16, seed=4, **kwargs)
+    assert len(calls) == tiles and not np.array_equal(changed, again)
+    env2 = _map(2)
+    expected = shade(gbuffer(Sphere(), None, 16), GOLD, env2, seed=4, **kwargs)
+    np.testing.assert_array_equal(render_sphere(GOLD, env2, 16, seed=4, **kwargs), expected)
+    numpy_image = render_sphere(GOLD, env, 16, seed=4, **{**kwargs, "compiled": False})
+    assert not np.array_equal(numpy_image, again)
+    np.testing.assert_array_equal(render_sphere(GOLD, env, 16, seed=4, **kwargs), again)
+
+
+def _map_texels(distribution, a, b, guides):
+    """The compiled map sample's rows and columns (render_kernel.map_sampler)."""
+    n = a.size
+    height, width = distribution.shape
+    rows, cols, base = (np.empty(n, np.int64) for _ in range(3))
+    map_sampler()(
+        a, b, distribution._marginal, distribution._conditional, *guides, height, width, n,
+        rows, cols, base,
+    )  # fmt: skip
+    np.testing.assert_array_equal(base, rows * (width + 1))
+    return rows, cols
+
+
+def test_guide_table_map_sample_finds_the_bisection_texels():
+    """The guide-table search of a map sample finds the NumPy bisection's row and column
+    (sampling._find_interval, Distribution2D.sample's) for every variate: empty rows (the
+    first and the last included), empty texels at the start, end and inside rows, variates on
+    CDF nodes, 0 and just below 1; and it does so from any guide (only the scan length
+    depends on it)."""
+    rng = np.random.default_rng(7)
+    image = rng.random((24, 40)) ** 3
+    image[[0, 5, 6, 11, -1]] = 0.0  # empty rows: flat runs of the marginal
+    image[:, [0, 1, 17, 18, 19, -1]] = 0.0  # empty first, inner and last texels of each row
+    image[3, 2:30] = 0.0
+    image[7, :] = 0.0
+    image[7, 20] = 4.0  # a row with one texel
+    distribution = sampling.Distribution2D(image)
+    marginal, conditional = distribution._marginal, distribution._conditional
+    height, width = distribution.shape
+    below_one = 1 - np.finfo(np.float64).eps / 2
+    n = 20_000
+    a, b = rng.random(n), rng.random(n)
+    b[: height + 1] = np.minimum(marginal, below_one)  # on the marginal's nodes
+    rows_on_nodes = np.flatnonzero(np.diff(marginal) > 0)
+    b[height + 1 : 2 * height + 1] = 0.5 * (marginal[rows_on_nodes[0]]
+                                            + marginal[rows_on_nodes[0] + 1])  # fmt: skip
+    a[height + 1 : 2 * height + 1] = rng.random(height)
+    # each row's conditional nodes, with b in that row
+    for i, row in enumerate(rows_on_nodes):
+        at = slice(1000 + i * (width + 1), 1000 + (i + 1) * (width + 1))
+        b[at] = marginal[row] + 0.5 * (marginal[row + 1] - marginal[row])
+        a[at] = np.minimum(conditional[row * (width + 1) : (row + 1) * (width + 1)], below_one)
+    a[-4:], b[-4:] = [0.0, below_one, 0.0, below_one], [0.0, 0.0, below_one, below_one]
+    expected_rows = sampling._find_interval(marginal, np.zeros(n, np.int64), b, height)
+    expected_cols = sampling._find_interval(conditional, expected_rows * (width + 1), a, width)
+    assert np.all(image[expected_rows, expected_cols] > 0)
+    rows, cols = _map_texels(distribution, a, b, map_guides(distribution))
+    np.testing.assert_array_equal(rows, expected_rows)
+    np.testing.assert_array_equal(cols, expected_cols)
+    for row_buckets, col_buckets in ((1, 1), (7, 3), (4 * height, 8)):
+        guides = (
+            rng.integers(0, height, row_buckets).astype(np.int32),
+            rng.integers(0, width, height * col_buckets).astype(np.int32),
+        )
+        rows, cols = _map_texels(distribution, a, b, guides)
+        np.testing.assert_array_equal(rows, expected_rows)
+        np.testing.assert_array_equal(cols, expected_cols)
+
+
+def test_map_guides_are_built_once_per_map():
+    env = _map()
+    distribution = env.compensated._distribution  # the shader's MIS samples the compensated map
+    row_guide, col_guide = map_guides(distribution)
+    height, width = distribution.shape
+    assert row_guide.shape == (ROW_BUCKETS * height,)
+    assert col_guide.shape == (COLUMN_BUCKETS * width * height,)
+    shader = EnvironmentShader(GOLD, env)
+    assert shader._tables[-2] is row_guide and shader._tables[-1] is col_guide
+
+
+@pytest.mark.parametrize("count", [1, 255, 1024, 1025, 7300, 9472])
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_task_bounds_split_a_tile_evenly(count, workers):
+    """The thread pool's tasks over a tile: contiguous, covering it, at most _CHUNK pixels
+    each, a multiple of the workers in number, and equal in size to within a pixel."""
+    from brdfkit.render._reflection_kernels import _CHUNK, _task_bounds
+
+    bounds = np.array(_task_bounds(count, workers))
+    sizes = np.diff(bounds)
+    assert bounds[0] == 0 and bounds[-1] == count and np.all(sizes >= 0)
+    assert len(sizes) % workers == 0 and sizes.max() <= _CHUNK
+    assert sizes.max() - sizes.min() <= 1
+
+
+def test_scramble_keys_are_the_shared_hash_of_seed_and_slot():
+    """sampling.scramble_keys (NumPy) and the tile kernel (numba) hash the same key_hash of a
+    pixel's seed at key_slot(stream, i · dim + k): recomputed here slot by slot."""
+    seeds = sampling.query_seeds(5, 40)
+    for stream, dim in ((0, 3), (1, 2)):
+        keys = sampling.scramble_keys(seeds, stream, dim)
+        for i in range(2):
+            for k in range(dim):
+                slot = np.array([sampling.key_slot(stream, i * dim + k)])  # wrapping: no warning
+                expected = sampling.key_hash(seeds, slot).astype(np.uint32)
+                np.testing.assert_array_equal(keys[:, i, k], expected)
