@@ -6,7 +6,8 @@ Every ``bench_NAME.py`` writes its numbers to ``benchmarks/results/NAME.json`` t
 - ``benchmark``: ``NAME``;
 - ``command``: the command line that made the file;
 - ``machine``: :func:`machine`, the CPU model, core count, operating system, Python, the versions
-  of the packages that matter to the numbers, the brdfkit commit, the date and the load average.
+  of the packages that matter to the numbers, the commit of the brdfkit that ran, the date and
+  the load average.
 
 ``python benchmarks/tables.py`` turns these files into the tables of ``benchmarks/README.md``.
 """
@@ -14,6 +15,7 @@ Every ``bench_NAME.py`` writes its numbers to ``benchmarks/results/NAME.json`` t
 from __future__ import annotations
 
 import datetime
+import importlib.util
 import json
 import os
 import platform
@@ -50,8 +52,13 @@ def cpu_model() -> str:
 
 
 def _commit() -> str:
-    """The checkout's commit (``git rev-parse``), ``+`` when it has changes, or ``"unknown"``."""
-    root = Path(__file__).resolve().parents[1]
+    """The commit of the checkout brdfkit is imported from (``git rev-parse``), with ``+`` when
+    it has uncommitted changes, or ``"unknown"`` (not a git checkout)."""
+    spec = importlib.util.find_spec("brdfkit")  # finds the package without importing it
+    if spec is not None and spec.origin is not None:
+        root = Path(spec.origin).resolve().parent
+    else:
+        root = Path(__file__).resolve().parents[1]
     try:
         head = subprocess.run(
             ["git", "rev-parse", "--short=12", "HEAD"],
@@ -68,8 +75,9 @@ def _commit() -> str:
 
 def machine(packages: Iterable[str] = ()) -> dict[str, Any]:
     """What the numbers of a run depend on besides the code: CPU, cores, OS, Python, package
-    versions (:data:`PACKAGES` and ``packages``; ``"not installed"`` where absent), the brdfkit
-    commit, the date (UTC) and the load average (1, 5, 15 minutes) when called."""
+    versions (:data:`PACKAGES` and ``packages``; ``"not installed"`` where absent), the commit of
+    the brdfkit that is imported, the date (UTC) and the load average (1, 5, 15 minutes) when
+    called: at the end of the run, when the results are written."""
     versions = {}
     for name in dict.fromkeys((*PACKAGES, *packages)):
         try:
