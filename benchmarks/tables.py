@@ -516,8 +516,8 @@ def sh(r: dict) -> str:
             "lrrrrr",
         )  # fmt: skip
         return (
-            f"{table}\n\nAll {len(r['maps'])} maps: mean error {pct(r['mean_by_max'])} of the "
-            f"largest irradiance, largest {pct(r['max_by_max'])}."
+            f"{table}\n\nOver the maps: mean error {pct(r['mean_by_max'])} of the largest "
+            f"irradiance, largest {pct(r['max_by_max'])}."
         )
     low, high = r["mean_by_max_range"]
     return rows(
@@ -580,26 +580,44 @@ TABLES: dict[str, Callable[[dict], str]] = {
 
 def section(name: str, results: Path = RESULTS) -> str:
     """The generated Markdown of one benchmark: its tables, then its machine line."""
+    if not (results / f"{name}.json").exists():
+        return f"(No results yet: run `python benchmarks/bench_{name}.py`.)"
     record = load(name, results)
-    return f"{TABLES[name](record)}\n\n{machine_line(record)}"
+    tables = TABLES[name](record) or "(This run recorded nothing that has a table.)"
+    return f"{tables}\n\n{machine_line(record)}"
 
 
 # --- the README's comparison with peers ------------------------------------------------------
 
 
 def peers(results: Path = RESULTS) -> str:
-    """One row per comparison with a peer, each from a results file."""
-    body = []
-    render_rows = load("render", results)["rows"]
+    """One row per comparison with a peer, each from a results file; a row whose numbers a
+    file lacks (a run without its peer) is left out."""
+    body: list[list[str]] = []
+    for row in (_render_peer, _brdf_peers, _fit_peer, _ps_peer):
+        try:
+            body += row(results)
+        except (OSError, KeyError, StopIteration, ValueError):
+            continue
+    return rows(["task", "peer", "brdfkit", "command"], body)
+
+
+def _render_peer(results: Path) -> list[list[str]]:
+    record = load("render", results)
+    render_rows, variant = record["rows"], record["mitsuba"].split()[-1]
     ratios = [
         x.get("compiled_efficiency_ratio") or x["numpy_efficiency_ratio"] for x in render_rows
     ]
     scenes = ", ".join(dict.fromkeys(x["scene"] for x in render_rows))
-    body.append(
+    spps = " and ".join(str(spp) for spp in dict.fromkeys(x["spp"] for x in render_rows))
+    return [
         ["Rendering a sphere under an environment map (efficiency: 1 / (time × error²))",
-         f"Mitsuba 3 `direct`, `llvm_ad_rgb` ({scenes}; 16 and 64 spp)",
+         f"Mitsuba 3 `direct`, `{variant}` ({scenes}; {spps} spp)",
          f"{min(ratios):.1f}–{max(ratios):.0f}× Mitsuba's", "`python benchmarks/bench_render.py`"]
-    )  # fmt: skip
+    ]  # fmt: skip
+
+
+def _brdf_peers(results: Path) -> list[list[str]]:
     brdf_rows = load("brdf", results)["rows"]
 
     def rate(workload: str, n: int, impl: str) -> float:
@@ -615,36 +633,38 @@ def peers(results: Path = RESULTS) -> str:
         for n in (10**6, 10**7)
         if any(x["n"] == n for x in brdf_rows)
     ]
-    body.append(
+    sample = rate("sample+eval", 10**6, "brdfkit accel f32") / rate("sample+eval", 10**6, mitsuba)
+    return [
         ["GGX conductor `eval`, float32, 10⁶ and 10⁷ pairs (compiled)", f"{mitsuba}",
          " and ".join(f"{g:.2f}×" for g in ggx) + " Mitsuba's rate",
-         "`python benchmarks/bench_brdf.py`"]
-    )  # fmt: skip
-    sample = rate("sample+eval", 10**6, "brdfkit accel f32") / rate("sample+eval", 10**6, mitsuba)
-    body.append(
+         "`python benchmarks/bench_brdf.py`"],
         ["Lambertian + GGX, sample then eval, 10⁶ (compiled)", mitsuba,
-         f"{sample:.2f}× Mitsuba's rate", "`python benchmarks/bench_brdf.py`"]
-    )  # fmt: skip
+         f"{sample:.2f}× Mitsuba's rate", "`python benchmarks/bench_brdf.py`"],
+    ]  # fmt: skip
+
+
+def _fit_peer(results: Path) -> list[list[str]]:
     f = load("fit", results)
-    if "runs" in f:
-        ours = min(x["seconds"] for x in f["runs"]["default"])
-        theirs = min(x["seconds"] for x in f["runs"]["peer_2point"])
-        body.append(
-            ["Fitting Lambertian + 2 GGX lobes to a MERL-sized table",
-             "SciPy `least_squares`, 2-point Jacobian",
-             f"{ours:.1f} s against {theirs:.1f} s", "`python benchmarks/bench_fit.py`"]
-        )  # fmt: skip
+    ours = min(x["seconds"] for x in f["runs"]["default"])
+    theirs = min(x["seconds"] for x in f["runs"]["peer_2point"])
+    return [
+        ["Fitting Lambertian + 2 GGX lobes to a MERL-sized table",
+         "SciPy `least_squares`, 2-point Jacobian",
+         f"{ours:.1f} s against {theirs:.1f} s", "`python benchmarks/bench_fit.py`"]
+    ]  # fmt: skip
+
+
+def _ps_peer(results: Path) -> list[list[str]]:
     _, table = ps_materials_averages(load("ps_materials", results))
     average = table["average"]
     best = min(average, key=average.get)
-    body.append(
+    return [
         ["Calibrated photometric stereo, DiLiGenT-layout renders of the real DiLiGenT normals, "
-         f"{len(table) - 1} materials (mean angular error)",
+         f"{len(table) - 1} material{'s' if len(table) > 2 else ''} (mean angular error)",
          "least squares (Woodham 1980, DiLiGenT's baseline)",
          f"{average[best]:.1f}° ({PS_NAMES.get(best, best)}) against "
          f"{average['least_squares']:.1f}°", "`python benchmarks/bench_ps_materials.py`"]
-    )  # fmt: skip
-    return rows(["task", "peer", "brdfkit", "command"], body)
+    ]  # fmt: skip
 
 
 # --- documents -------------------------------------------------------------------------------
