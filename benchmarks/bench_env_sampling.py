@@ -4,9 +4,9 @@ The tile kernel's map sample finds, per variate pair, the row of the marginal CD
 column of that row's conditional CDF. The peer is a fixed-step bisection run in lock step over
 a block of 256 variates (``sampling._find_interval``'s ~10 + ~11 steps on a 1k map: the
 ``lockstep`` baseline below, what the kernel did before guide tables); the kernel scans from
-guide tables (Chen & Asau 1974; :func:`brdfkit.render_kernel.map_sampler`,
-:func:`brdfkit.render_kernel.map_guides`). Both run here on the same variates in blocks of 256,
-alternating, best of ``--repeats``; the texels they find are checked equal. Run
+guide tables (Chen & Asau 1974; :func:`brdfkit.render._reflection_kernels.map_sampler`,
+:func:`brdfkit.render._reflection_kernels.map_guides`). Both run here on the same variates in
+blocks of 256, alternating, best of ``--repeats``; the texels they find are checked equal. Run
 single-threaded (the kernels are serial anyway):
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_env_sampling.py [--data ../shared/data]
