@@ -219,7 +219,7 @@ def main() -> None:
         "--only", nargs="+", help="noise and profile of these cards only (e.g. ggx)"
     )
     parser.add_argument("--json", action="store_true", help="print the record as JSON")
-    parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "atlas.json"))
+    parser.add_argument("--out", help="results file (default: benchmarks/results/atlas.json)")
     parser.add_argument(
         "--noise-goal", type=float, help="not the default: the atlas's --noise (e.g. 0.01)"
     )
@@ -240,7 +240,7 @@ def main() -> None:
 
     import_seconds = time.perf_counter() - start
     record: dict = {
-        "machine": f"{platform.machine()}, {len(os.sched_getaffinity(0))} cores usable, "
+        "host": f"{platform.machine()}, {len(os.sched_getaffinity(0))} cores usable, "
         f"{platform.python_version()}",
         "import_seconds": import_seconds,
         "options": goal or "defaults",
@@ -280,8 +280,9 @@ def main() -> None:
                 f"spheres within {GOAL_NOISE:.0%} rel. RMSE of 16× spp: {len(within)}/{len(rows)}; "
                 f"worst {worst['card']} #{worst['example'] + 1}: {worst['rel_rmse']:.4f}"
             )
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(record, indent=2) + "\n")
+    from _machine import write_results
+
+    write_results(__file__, record, args.out)
 
 
 if __name__ == "__main__":

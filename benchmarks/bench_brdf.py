@@ -402,7 +402,7 @@ def run(sizes: list[int], repeats: int, with_mitsuba: bool) -> dict[str, Any]:
     runner.sample_eval(1_000_000)
     runner.albedo()
     return {
-        "machine": {**about, "load_average_at_end": os.getloadavg()},
+        "host": {**about, "load_average_at_end": os.getloadavg()},
         "mitsuba": runner.mitsuba.version if runner.mitsuba else None,
         "rows": runner.rows,
     }
@@ -473,11 +473,14 @@ def main() -> None:
     parser.add_argument("--sizes", type=float, nargs="+", default=[1e6, 1e7])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-mitsuba", action="store_true")
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "brdf.json")
+    parser.add_argument("--out", type=Path, help="default: benchmarks/results/brdf.json")
     args = parser.parse_args()
     result = run([int(s) for s in args.sizes], args.repeats, not args.no_mitsuba)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=1))
+    from _machine import header, results_path
+
+    out = args.out or results_path(__file__)
+    record = {**header(__file__, packages=("jax", "jaxlib", "mitsuba", "drjit")), **result}
+    out.write_text(json.dumps(record, indent=1) + "\n")
     print()
     print(table(result))
 

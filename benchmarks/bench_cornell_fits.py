@@ -4,13 +4,13 @@ For every material and model, with each objective and loss: the fitting errors a
 difference between the measured and the fitted sphere
 (:func:`brdfkit.fit.sphere_difference`) under the default directional light, and its mean
 over :data:`LIGHTS` (four directions: head-on, the default, from the side, grazing). Writes two
-Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and the
-spheres to ``benchmarks/results/cornell_fits.png`` (rows: materials; columns: measured, then
-each fit, default objective and loss, exposed alike). The README's picture is made by
+Markdown tables on stdout, every number to ``benchmarks/results/cornell_fits.json`` and, with
+``--image PATH``, the spheres (rows: materials; columns: measured, then each fit, default
+objective and loss, exposed alike). The README's picture is made by
 ``examples/plot_cornell_fits.py``.
 
     python benchmarks/bench_cornell_fits.py [--data ../shared/data] [--resolution 96]
-        [--loss-scale 0.5]
+        [--loss-scale 0.5] [--image spheres.png]
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ FITTINGS = tuple(
 )
 """(objective, loss) pairs; the first is :func:`brdfkit.fit.fit`'s default."""
 LIGHTS = ((0.0, 0.0, 1.0), DEFAULT_LIGHT_DIRECTION, (0.8, 0.2, 0.56), (0.9, 0.1, 0.2))
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
@@ -46,6 +45,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=None, help="shared data folder")
     parser.add_argument("--resolution", type=int, default=96)
     parser.add_argument("--loss-scale", type=float, default=0.5, help="fit's loss_scale")
+    parser.add_argument("--image", type=Path, help="write the measured and fitted spheres here")
     args = parser.parse_args()
     folder = (args.data or data_path()) / "measured" / "cornell"
     records, rows = [], []
@@ -89,9 +89,12 @@ def main() -> None:
                     if model in PICTURED:
                         row.append(look.other)
         rows.append(np.concatenate(row, axis=1))
-    write_image(ROOT / "benchmarks" / "results" / "cornell_fits.png", np.concatenate(rows, axis=0))
-    results = ROOT / "benchmarks" / "results" / "cornell_fits.json"
-    results.write_text(json.dumps(records, indent=1))
+    if args.image is not None:
+        write_image(args.image, np.concatenate(rows, axis=0))
+    from _machine import header, results_path
+
+    results = {**header(__file__), "records": records}
+    results_path(__file__).write_text(json.dumps(results, indent=1, ensure_ascii=False) + "\n")
 
     def cell(material: str, model: str, fitting: tuple[str, str], averaged: bool) -> float:
         (record,) = (

@@ -22,15 +22,6 @@ limit.
    when the 2-worker run gets no more than the 1-worker one, the machine had no core to give.
    "CPU per fit" = the workers' CPU seconds over the fits: equal for 1 and 2 workers when the
    two processes do not slow each other down (through shared memory bandwidth and caches).
-   Measured 2026-12-02 on the 2-core VM **under load** (load average 6–15 from other jobs; the
-   workers got 0.3–0.4 cores, so the wall-clock ratios say nothing), CPU s per fit, 1 → 2
-   workers, ``--fits 32``: 8 files × 4 models, the code before (each fit re-reads and
-   re-prepares its file; glibc's default heap) 1.04–1.32 → 1.80–1.86 (+60 %); now 0.63–0.73 →
-   0.72–0.75 (+8 %, with 3–4 of the 8 prepared files moved between workers); 32 files × 1
-   model 0.60–0.62 → 0.63–0.64 (+4 %). Later that day (load average 9–10, ``--fits 8``,
-   processes of the two versions one after the other), the models evaluated by their compiled
-   kernels and each file's measured side of the objectives kept across its fits: 2.01 → 1.60 CPU
-   s per fit on 1 worker, 2.59 → 2.06 on 2 (−20 % each; the machine gave 0.3–0.5 cores).
 2. **Out of core.** A Lambertian sphere stack ``(N, H, W, 3)`` float32 is written straight to a
    Zarr store (one band at a time), several times larger than the memory limit given to the
    workers (LocalCluster ``memory_limit``; Dask pauses a worker at 80 % of it and restarts one
@@ -39,8 +30,9 @@ limit.
    (``VmHWM`` of ``/proc/self/status``: the kernel's high-water mark, imports included), the solve's
    seconds and pixels per second, and the mean angular error against the sphere.
 
-Prints a summary and one JSON object; ``--json-out FILE`` keeps it. The machine may be shared:
-timings are noisy, the interleaving is there to spread bursts of load over both sides.
+Prints a summary and one JSON object, and writes it to ``benchmarks/results/dask.json``
+(``--json-out FILE``: elsewhere). The machine may be shared: timings are noisy, the
+interleaving is there to spread bursts of load over both sides.
 
     python benchmarks/bench_dask.py  # --fits 8 --models-per-file 4 --repeats 2 --size 2304
     # --limit 256MiB
@@ -200,7 +192,7 @@ def main() -> None:
     parser.add_argument("--tile", type=int, default=128)
     parser.add_argument("--skip-batch", action="store_true")
     parser.add_argument("--skip-ooc", action="store_true")
-    parser.add_argument("--json-out", type=Path)
+    parser.add_argument("--json-out", type=Path, help="default: benchmarks/results/dask.json")
     args = parser.parse_args()
     report = {"cpus": os.cpu_count(), "load_average": os.getloadavg()}
     with tempfile.TemporaryDirectory(prefix="bench-dask-") as scratch:
@@ -233,10 +225,12 @@ def main() -> None:
               f"under limit: {o['peak_under_limit']}; {o['pixels_per_second'] / 1e6:.3f} "
               f"Mpixel/s ({o['solve_seconds']:.1f} s), "
               f"error {o['mean_angular_error_deg_all_lit']:.2g}°")  # fmt: skip
-    text = json.dumps(report, indent=1)
+    from _machine import header, results_path
+
+    text = json.dumps({**header(__file__, packages=("dask", "distributed", "zarr")), **report},
+                      indent=1)  # fmt: skip
     print(text)
-    if args.json_out:
-        args.json_out.write_text(text + "\n")
+    (args.json_out or results_path(__file__)).write_text(text + "\n")
 
 
 if __name__ == "__main__":

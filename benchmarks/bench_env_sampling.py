@@ -1,18 +1,19 @@
-"""ns per environment-map sample's texel search in the compiled render kernel (issue #17).
+"""ns per environment-map sample's texel search in the compiled render kernel.
 
 The tile kernel's map sample finds, per variate pair, the row of the marginal CDF and the
-column of that row's conditional CDF. It used a fixed-step bisection run in lock step over
+column of that row's conditional CDF. The peer is a fixed-step bisection run in lock step over
 a block of 256 variates (``sampling._find_interval``'s ~10 + ~11 steps on a 1k map: the
-``lockstep`` baseline below, the code of main at ea8677f); it now scans from guide tables
-(:func:`brdfkit.render._reflection_kernels.map_sampler`,
-:func:`brdfkit.render._reflection_kernels.map_guides`). Both
-run here on the same variates in blocks of 256, alternating, best of ``--repeats``; the
-texels they find are checked equal. Run single-threaded (the kernels are serial anyway):
+``lockstep`` baseline below, what the kernel did before guide tables); the kernel scans from
+guide tables (Chen & Asau 1974; :func:`brdfkit.render._reflection_kernels.map_sampler`,
+:func:`brdfkit.render._reflection_kernels.map_guides`). Both run here on the same variates in
+blocks of 256, alternating, best of ``--repeats``; the texels they find are checked equal. Run
+single-threaded (the kernels are serial anyway):
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_env_sampling.py [--data ../shared/data]
-        [--map royal_esplanade_1k.hdr] [--samples 1048576] [--repeats 15]
+        [--map royal_esplanade_1k.hdr studio_small_03_1k.hdr] [--samples 1048576] [--repeats 15]
 
-Prints ns per sample of each and their ratio.
+Prints ns per sample of each and their ratio, per map; writes them to
+``benchmarks/results/env_sampling.json``.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ select = accel._intrinsics()["_select"]
 
 
 @numba.njit(nogil=True, error_model="numpy")
-def _find_intervals(cdf, base, u, count, steps, nb, out):  # the baseline, main's ea8677f
+def _find_intervals(cdf, base, u, count, steps, nb, out):  # the lock-step baseline
     for j in range(nb):
         out[j] = 0
     hi = np.empty(nb, np.int64)
@@ -80,11 +81,25 @@ def _guided(map_samples):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", default=str(Path(__file__).parents[2] / "shared" / "data"))
-    parser.add_argument("--map", default="royal_esplanade_1k.hdr")
+    parser.add_argument(
+        "--map", nargs="+", default=["royal_esplanade_1k.hdr", "studio_small_03_1k.hdr"]
+    )
     parser.add_argument("--samples", type=int, default=2**20)
     parser.add_argument("--repeats", type=int, default=15)
     args = parser.parse_args()
-    env = EnvironmentMap.from_file(Path(args.data) / "envmaps" / "polyhaven" / args.map)
+    maps = [measure(args, name) for name in args.map]
+    from _machine import write_results
+
+    write_results(
+        __file__,
+        {"samples": args.samples, "repeats": args.repeats,
+         "numba_threads": numba.get_num_threads(), "maps": maps},
+    )  # fmt: skip
+
+
+def measure(args: argparse.Namespace, map_name: str) -> dict:
+    """ns per sample of the lock-step bisection and of the guide tables on one map."""
+    env = EnvironmentMap.from_file(Path(args.data) / "envmaps" / "polyhaven" / map_name)
     d = env._distribution
     height, width = d.shape
     marginal, conditional = d._marginal, d._conditional
@@ -116,10 +131,15 @@ def main() -> None:
             best[name] = min(best[name], time.perf_counter() - start)
     for x, y in zip(out["lockstep"], out["guide"], strict=True):
         np.testing.assert_array_equal(x, y)
-    print(f"{args.map} {height}x{width}, {n} samples, numba threads {numba.get_num_threads()}")
-    for name, seconds in best.items():
-        print(f"{name:9s} {seconds / n * 1e9:7.2f} ns/sample (best of {args.repeats})")
+    print(f"{map_name} {height}x{width}, {n} samples, numba threads {numba.get_num_threads()}")
+    for method, seconds in best.items():
+        print(f"{method:9s} {seconds / n * 1e9:7.2f} ns/sample (best of {args.repeats})")
     print(f"ratio lockstep/guide {best['lockstep'] / best['guide']:.2f}")
+    return {
+        "map": map_name, "height": height, "width": width,
+        "ns_per_sample": {method: seconds / n * 1e9 for method, seconds in best.items()},
+        "ratio": best["lockstep"] / best["guide"],
+    }  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -29,8 +29,8 @@ extras); results go to ``benchmarks/results/explore.json`` and a Markdown table 
 frame it would send (:func:`~brdfkit.explore.protocol.encode_frame`), after the same
 warm-up; per repeat the wall and CPU seconds (``time.process_time``, both cores) to the first
 image, the first pass and 1 % noise, and the samples per pixel then. It leaves out the page's
-decoding and drawing (a few ms per pass) and needs no browser; results go to
-``benchmarks/results/explore_session.json``.
+decoding and drawing (a few ms per pass) and needs no browser; its results go to the same
+file, ``benchmarks/results/explore.json``, in place of the browser's.
 """
 
 from __future__ import annotations
@@ -156,9 +156,13 @@ def session_main(args: argparse.Namespace) -> None:
     session.warm_up([ANALYTIC])
     warm_up = time.perf_counter() - start
     runs = [environment_session(session, ANALYTIC, args.env_limit) for _ in range(args.repeats)]
-    results = {"platform": platform.platform(), "warm_up_s": warm_up, "runs": runs}
+    from _machine import header
+
+    results = {**header(__file__, packages=("starlette", "uvicorn", "websockets")),
+               "platform": platform.platform(), "warm_up_s": warm_up,
+               "runs": runs}  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2))
+    args.out.write_text(json.dumps(results, indent=2) + "\n")
     print("| run | first image ms | first pass ms | 1 % noise s | CPU s | spp | noise % |")
     print("|---|---|---|---|---|---|---|")
     for i, r in enumerate(runs):
@@ -179,13 +183,18 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="--session runs")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
-    if args.session:
-        args.out = args.out or Path(__file__).parent / "results/explore_session.json"
-        return session_main(args)
     args.out = args.out or Path(__file__).parent / "results/explore.json"
+    if args.session:
+        return session_main(args)
     from playwright.sync_api import sync_playwright
 
-    results: dict[str, Any] = {"platform": platform.platform(), "workloads": {}}
+    from _machine import header
+
+    results: dict[str, Any] = {
+        **header(__file__, packages=("playwright", "starlette", "uvicorn", "websockets")),
+        "platform": platform.platform(),
+        "workloads": {},
+    }
     with tempfile.TemporaryDirectory() as folder, sync_playwright() as p:
         merl = Path(folder) / "table.binary"
         write_merl(merl, parse("lambertian(albedo=[0.3, 0.5, 0.7]) + ggx(alpha=0.15)"))
@@ -209,7 +218,7 @@ def main() -> None:
             server.stop()
         browser.close()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=2))
+    args.out.write_text(json.dumps(results, indent=2) + "\n")
     print(
         "| workload | median ms | p95 ms | server views ms | page draw ms | render_sphere ms "
         "| ratio |"

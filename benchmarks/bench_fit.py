@@ -4,16 +4,16 @@ A MERL file is written from Lambertian + two GGX lobes (a sharp and a broad one)
 ``lambertian + ggx + ggx`` is fitted to it with :func:`brdfkit.fit.fit` (defaults: 4 starts on
 4 000 samples, refinement on 30 000, errors on all measured nodes), with a rich progress bar on
 stderr: by the default path (the Jacobian one lobe per column, one BLAS thread inside the least
-squares) and, interleaved in the same run (``--repeats`` pairs), by the previous one as the peer
-(scipy's ``"2-point"`` Jacobian, P + 1 full evaluations, the process's BLAS threads). The same
-run measures, on all the table's samples, one NumPy evaluation of the 3-lobe model against one
-torch forward + backward pass (the cost of an autograd gradient), the comparison behind the
-choice of finite-difference least squares on NumPy.
+squares) and, interleaved in the same run (``--repeats`` pairs), by the peer: scipy's
+``"2-point"`` finite-difference Jacobian (P + 1 full evaluations, the process's BLAS threads).
+The same run measures, on all the table's samples, one NumPy evaluation of the 3-lobe model
+against one torch forward + backward pass (the cost of an autograd gradient), the comparison
+behind the choice of finite-difference least squares on NumPy.
 
-Prints one JSON object: wall time (and this process's CPU seconds, the fairer figure on a
-machine busy with other work), samples, recovered parameters, errors, and the timings.
-Run with two threads to reproduce the 2-core figure: ``OMP_NUM_THREADS=2 python
-benchmarks/bench_fit.py``.
+Prints one JSON object and writes it to ``benchmarks/results/fit.json``: wall time (and this
+process's CPU seconds, the fairer figure on a machine busy with other work), samples, recovered
+parameters, errors, and the timings. Run with two threads to reproduce the 2-core figure:
+``OMP_NUM_THREADS=2 python benchmarks/bench_fit.py``.
 
 ``--contention``: instead, the CPU seconds per fit (``time.process_time``) of one process
 fitting alone against two processes fitting at once, ``--fits`` fits each, the two set-ups
@@ -23,7 +23,8 @@ this benchmark's table). On two free cores a fit that is not held back by a shar
 takes the same CPU time either way; the ratio of the two (two processes over one) is what a
 shared memory bus costs each fit, and bounds the scaling of batch fitting on two workers by
 2 / ratio. On a machine busy with other work (load above the core count) the ratio is noise;
-the CPU per fit still compares two versions of the code run one after the other.
+the CPU per fit still compares two versions of the code run one after the other. Its record
+goes to the same file, in place of the fit's.
 """
 
 from __future__ import annotations
@@ -130,9 +131,13 @@ def main() -> None:
     parser.add_argument("--fits", type=int, default=3)
     args = parser.parse_args()
     repeats = args.repeats
+    from _machine import header, results_path
+
     if args.contention:
-        json.dump(contention(args.model, args.starts, args.fits, repeats), sys.stdout, indent=2)
+        record = {**header(__file__), **contention(args.model, args.starts, args.fits, repeats)}
+        json.dump(record, sys.stdout, indent=2)
         print()
+        results_path(__file__).write_text(json.dumps(record, indent=2) + "\n")
         return
     with tempfile.TemporaryDirectory() as folder:
         path = write_merl(Path(folder) / "three_lobes.binary", parse(TRUTH))
@@ -166,6 +171,7 @@ def main() -> None:
             )
     fitting._JACOBIAN, fitting._BLAS_THREADS = paths["default"]
     record = {
+        **header(__file__, packages=("torch",)),
         "samples": result.samples,
         "fit_samples": result.fit_samples,
         "threads": os.environ.get("OMP_NUM_THREADS", "all"),
@@ -181,6 +187,7 @@ def main() -> None:
     }
     json.dump(record, sys.stdout, indent=2)
     print()
+    results_path(__file__).write_text(json.dumps(record, indent=2) + "\n")
 
 
 if __name__ == "__main__":

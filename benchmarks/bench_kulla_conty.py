@@ -59,8 +59,10 @@ def main() -> None:
     start = time.perf_counter()
     albedo_table(0.37)
     results["table_seconds"] = time.perf_counter() - start
+    from _machine import header
+
     path = Path(__file__).parent / "results" / "kulla_conty.json"
-    path.write_text(json.dumps(results, indent=2) + "\n")
+    path.write_text(json.dumps({**header(__file__), **results}, indent=2) + "\n")
     print("| path | kulla_conty / rough_conductor eval time (10⁶ float32 pairs) |")
     print("|---|---|")
     for name in ("numpy", "compiled"):

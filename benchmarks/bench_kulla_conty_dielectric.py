@@ -4,7 +4,8 @@
 on the sphere, NumPy, interleaved repeats, CPU seconds (process_time; the machine may be
 shared), and the one-off construction cost of a new (α, η) (E(μ) by quadrature, cached).
 
-``python benchmarks/bench_kulla_conty_dielectric.py``
+``python benchmarks/bench_kulla_conty_dielectric.py``; results go to
+``benchmarks/results/kulla_conty_dielectric.json``.
 """
 
 from __future__ import annotations
@@ -39,6 +40,14 @@ def main() -> None:
     for name, value in best.items():
         print(f"{name}: {value * 1e3:.1f} ms CPU per {PAIRS} pairs (best of {REPEATS})")
     print(f"ratio: {best['kulla_conty_dielectric'] / best['rough_dielectric']:.2f}")
+    from _machine import write_results
+
+    write_results(
+        __file__,
+        {"pairs": PAIRS, "repeats": REPEATS, "construction_cpu_seconds": construction,
+         "cpu_seconds": best,
+         "ratio": best["kulla_conty_dielectric"] / best["rough_dielectric"]},
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ configuration of :data:`CONFIGS` (model × objective, soft-L1 loss; the models i
 held-out file, the configuration with the least mean over the *other four* files, and its score
 on the held-out one. Prints a Markdown table; writes ``benchmarks/results/loo_fits.json``.
 
-    PYTHONPATH=$PWD/src python benchmarks/bench_loo_fits.py [--data ../shared/data]
+    python benchmarks/bench_loo_fits.py [--data ../shared/data]
 """
 
 from __future__ import annotations
@@ -36,7 +36,6 @@ CONFIGS = tuple(
     for model in ("lambertian + cook_torrance", "lambertian + ggx", "lambertian + ggx + ggx")
     for objective in ("cube_root", "log")
 )
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
@@ -65,11 +64,13 @@ def main() -> None:
             {"held_out": held_out, "model": chosen[0], "objective": chosen[1], "delta_e": value}
         )
         print(f"| {held_out} | {chosen[0]}, {chosen[1]} | {value:.2f} |")
-    out = ROOT / "benchmarks" / "results" / "loo_fits.json"
+    from _machine import header, results_path
+
     table = [
         {"file": k[0], "model": k[1], "objective": k[2], "delta_e": v} for k, v in scores.items()
     ]
-    out.write_text(json.dumps({"scores": table, "leave_one_out": rows}, indent=1))
+    record = {**header(__file__), "scores": table, "leave_one_out": rows}
+    results_path(__file__).write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

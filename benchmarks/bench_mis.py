@@ -3,7 +3,8 @@
 For 32 random normal/view pairs per map and BRDF: the mean squared error of each estimator
 (``--samples`` per strategy, ``--seeds`` independent runs) against a 65,536-sample MIS
 reference, relative to the best; and the mean reported variance (stderr²) beside it, which
-shows whether the standard error is honest. Prints a Markdown table and a JSON record.
+shows whether the standard error is honest. Prints a Markdown table and a JSON record, and
+writes the record to ``benchmarks/results/mis.json``.
 
     python benchmarks/bench_mis.py [--data ../shared/data] [--samples 256] [--seeds 8]
 """
@@ -98,6 +99,10 @@ def main() -> None:
             )
             print(f"| {name} | {spec} | {cells} |", flush=True)
     print(json.dumps(rows))
+    from _machine import header, results_path
+
+    record = {**header(__file__), "reference_samples": 65536, "rows": rows}
+    results_path(__file__).write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -5,14 +5,14 @@ Blinn-Phong, attached and cast shadows, noise; the real DiLiGenT images are not 
 and times every calibrated method of ``brdfkit ps`` (the registries of
 :mod:`brdfkit.vision.photometric_stereo`, :mod:`~brdfkit.vision.bivariate_stereo` and
 :mod:`~brdfkit.vision.consensus`), least squares on every pixel of the stack and on the object
-mask, the others on the mask. The target (issue 21) is < 2 s per method on 2 cores.
-Prints one JSON record per line: method, pixels, wall seconds (best of ``--repeat``), the CPU
-seconds of that run (all threads; more than the wall time when BLAS runs in parallel),
-iterations, the mean / median angular error in degrees and the load averages when the method
-finished (other processes on the cores lengthen the wall time). Before the timed runs each method
-is called once on a 16 x 16 crop, and the CPU seconds of that call are reported apart
-(``first_call_cpu_seconds``: compiling the numba kernels when their on-disk cache is cold,
-loading it otherwise).
+mask, the others on the mask. The target is < 2 s per method on 2 cores. Prints one JSON
+record per line (and writes them all to ``benchmarks/results/photometric_stereo.json``):
+method, pixels, wall seconds (best of ``--repeat``), the CPU seconds of that run (all threads;
+more than the wall time when BLAS runs in parallel), iterations, the mean / median angular
+error in degrees and the load averages when the method finished (other processes on the cores
+lengthen the wall time). Before the timed runs each method is called once on a 16 x 16 crop,
+and the CPU seconds of that call are reported apart (``first_call_cpu_seconds``: compiling the
+numba kernels when their on-disk cache is cold, loading it otherwise).
 
     python benchmarks/bench_photometric_stereo.py [--data ../shared/data] [--repeat 3]
         [--methods least_squares consensus ...]
@@ -63,6 +63,7 @@ def main() -> None:
     cases += [(name, data.mask) for name in args.methods]
     row, column = (int(c.mean()) for c in np.nonzero(data.mask))
     crop = data.images[:, row - 8 : row + 8, column - 8 : column + 8]  # inside the object
+    records = []
     for name, mask in cases:
         start_cpu = time.process_time()
         METHODS[name](crop, data.light_directions)  # compiles the kernels or loads the cache
@@ -92,6 +93,11 @@ def main() -> None:
             "loadavg": [round(x, 2) for x in os.getloadavg()],
         }
         print(json.dumps(record), flush=True)
+        records.append(record)
+    from _machine import header, results_path
+
+    results = {**header(__file__), "repeat": args.repeat, "records": records}
+    results_path(__file__).write_text(json.dumps(results, indent=1) + "\n")
 
 
 if __name__ == "__main__":

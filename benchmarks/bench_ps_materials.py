@@ -11,10 +11,11 @@ normalised to a 99th percentile of 1; noise is ``--noise`` of that.
 
 Prints one JSON line per (object, material, method) — mean / median angular error (°) and
 seconds — then a Markdown table of the mean error per material and method, averaged over the
-objects (the DiLiGenT paper's table), with the best method of each row in bold.
+objects (the DiLiGenT paper's table), with the best method of each row in bold. Every record
+goes to ``benchmarks/results/ps_materials.json`` (``--out``: elsewhere).
 
     python benchmarks/bench_ps_materials.py [--data ../shared/data] [--objects bear cat pot1]
-        [--step 4] [--noise 0.005] [--methods ...] [--out benchmarks/results/ps_materials.json]
+        [--step 4] [--noise 0.005] [--methods ...]
 """
 
 from __future__ import annotations
@@ -121,9 +122,16 @@ def main() -> None:
                 }
                 records.append(record)
                 print(json.dumps(record), flush=True)
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(records, indent=1) + "\n", encoding="utf-8")
+    from _machine import header, results_path
+
+    out = args.out or results_path(__file__)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    results = {
+        **header(__file__),
+        "objects": args.objects, "step": args.step, "noise": args.noise,
+        "methods": args.methods, "materials": args.materials, "records": records,
+    }  # fmt: skip
+    out.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
     print(table(records, args.methods, args.materials))
 
 

@@ -11,82 +11,15 @@ rendered without cast shadows, and with the shadows of the recovered shape (the 
 model): the normals of the ``svbrdf_cv`` fit integrated to depth (orthographic, pixel units) and
 marched by :func:`brdfkit.vision.svbrdf.shadow_visibility`, with the bias chosen on the 9 training
 images by :func:`~brdfkit.vision.svbrdf.select_shadow_bias` ("chosen", possibly "no shadows") or
-with bias 0. The error is the RMS over the mask's pixels and channels (images in [0, 1]), on all
-pixels, on the pixels the held-out light reaches (real image above 5 % of its 99th percentile)
-and on the dark rest, and (``rms_gain``) on all pixels after each held-out image's best gain
-(a diagnostic). Prints one JSON record per object, fold, model and shadow setting, then
-Markdown tables of the means over the folds.
+with bias 0, or with the shadows each model sees in its own training images ("observed"; all
+settings: :data:`SHADOWS`). The error is the RMS over the mask's pixels and channels (images
+in [0, 1]), on all pixels, on the pixels the held-out light reaches (real image above 5 % of its
+99th percentile) and on the dark rest, and (``rms_gain``) on all pixels after each held-out
+image's best gain (a diagnostic). Prints one JSON record per object, fold, model and shadow
+setting, then Markdown tables of the means over the folds; every record and the means go to
+``benchmarks/results/relighting.json``.
 
     python benchmarks/bench_relighting.py [--data ../shared/data] [--step 2] [--objects gray]
-
-Measured (``--step 4``, 2026-12-02, machine at load 5-13, ~25-60 CPU s per fold; RMS on all
-pixels, mean over the 4 folds, shadows off / chosen / observed; bias 0 in the JSON):
-
-| object | lambertian | svbrdf_1 | svbrdf_cv |
-|---|---|---|---|
-| buddha | 0.0378/0.0377/0.0378 | 0.0380/0.0379/0.0380 | 0.0376/0.0376/0.0376 |
-| cat | 0.0347/0.0346/0.0347 | 0.0356/0.0354/0.0356 | 0.0349/0.0348/0.0349 |
-| gray | 0.0232/0.0229/0.0230 | 0.0215/0.0214/0.0213 | 0.0217/0.0216/0.0203 |
-| horse | 0.0491/0.0475/0.0491 | 0.0603/0.0586/0.0536 | 0.0536/0.0513/0.0476 |
-| owl | 0.0211/0.0211/0.0211 | 0.0220/0.0220/0.0219 | 0.0210/0.0210/0.0209 |
-| rock | 0.0243/0.0242/0.0243 | 0.0262/0.0260/0.0259 | 0.0247/0.0245/0.0245 |
-| mean | 0.0317/0.0314/0.0317 | 0.0339/0.0336/0.0327 | 0.0322/0.0318/**0.0310** |
-
-(svbrdf_2: 0.0381/0.0377/0.0366.) With the shadows each model sees in its own
-training images ("observed"), the cross-validated SVBRDF beats Lambertian relighting on average,
-0.0310 against 0.0317 under the same procedure (-2.2 %) and against 0.0314 for Lambertian with
-the geometric cast shadows, its best setting chosen on the training images (-1.3 %). Per object
-it wins on buddha, gray, horse and owl and still loses, by 0.6-0.8 %, on cat (0.0349 / 0.0347)
-and rock (0.0245 / 0.0243). Against Lambertian with geometric shadows, horse is a tie (0.0476 /
-0.0475). The least-squares Lambertian model gains nothing from the observed visibility (its
-training-image selection picks none in 23 of 24 folds): fitted through the shadowed
-observations, its albedo already carries their mean darkening. The SVBRDF, fitted without them,
-picks a visibility on horse and rock in every fold (width 5-20 degrees, ratio 0.3), on owl in 3
-and gray in 2, never on buddha or cat, and its dark-pixel RMS falls from 0.0696 to 0.0508 (mean;
-horse 0.1707 -> 0.0986), below Lambertian's 0.0556. The cross-validated lobe count is still 0 in
-every fold: on psm the specular lobes do not predict held-out lights better than the robust
-diffuse fit. So the SVBRDF that wins is the Goldman et al. model with K = 0 chosen by
-cross-validation, plus the observed visibility. The "both" setting (geometric shadows, then what
-the training images still show) changed nothing on buddha and 3 folds of cat (the run was
-stopped there for time).
-
-Why cat and rock are still lost (2026-12-02; a diagnosis that looked at the held-out images and
-chose nothing): the held-out error is dominated by the held-out lamp's unknown brightness. The
-K = 0 SVBRDF fitted to all 12 images of an object, each image divided by its prediction (sums
-over the lit pixels), gives per light 0-11 cat 0.98 1.04 0.87 0.97 1.05 1.00 1.02 0.98 1.02
-0.99 1.07 1.03 and rock 1.00 1.07 0.83 0.96 1.07 1.00 1.00 0.96 1.03 0.99 1.08 1.03 (buddha,
-horse, owl alike: light 2 3-17 % dark, lights 4 and 10 0-10 % bright), but 0.99-1.01 on the
-gray sphere with its known normals: the lamps changed between the spheres' session and the
-objects'. No model fitted to the other 9 images can know it. ``rms_gain`` scales each held-out
-prediction by its best gain (one number read from the photograph) and so removes it; lambertian
-vs svbrdf_cv (K = 0 in every fold), observed shadows, mean of the 4 folds:
-
-| object | rms lambertian | rms svbrdf_cv | rms_gain lambertian | rms_gain svbrdf_cv |
-|---|---|---|---|---|
-| buddha | 0.03779 | 0.03763 | 0.03460 | 0.03433 |
-| cat | 0.03472 | 0.03489 | 0.02836 | 0.02842 |
-| gray | 0.02296 | 0.02028 | 0.02244 | 0.01978 |
-| horse | 0.04911 | 0.04761 | 0.04538 | 0.04345 |
-| owl | 0.02114 | 0.02090 | 0.01991 | 0.01953 |
-| rock | 0.02432 | 0.02447 | 0.01632 | 0.01625 |
-
-Without the lamp's brightness, the SVBRDF wins on rock too (-0.4 %); cat stays a loss of 0.2 %,
-far inside the 13-17 % gain of light 2 that the raw RMS carries. Estimating the 9 training
-lamps' gains within the fit (semi-calibrated photometric stereo, Cho et al., TPAMI 2018;
-prototype, not in the library) lowers rock's ``rms_gain`` to 0.0157 but raises both raw RMS
-(cat 0.0351, rock 0.0246): the held-out lamp is still predicted at the training lamps' mean.
-
-Earlier (step 4, no observed visibility): the recovered shape casts too few shadows. At fold 0
-(shadows of the least-squares normals, bias 0)
-about half of the held-out dark pixels are attached shadows, which both models render; the
-predicted cast shadows are mostly right (85-100 % of them are dark in the photograph, owl 54 %,
-cat 66 %) but cover only 1-19 % of the dark pixels: least-squares integration
-smooths over the depth discontinuities that cast the real shadows (horse's legs, buddha's
-folds). On the gray sphere, where the normals are known, the depth has the right scale
-(slope 1.0016 against the sphere of the fitted radius, 0.14 px RMS), but from the 9-light
-normals it is 11 % too flat (0.887, 0.63-0.70 px). Bias 0 (no tolerance) over-shadows where
-the integrated depth has spikes (owl's dark eyes and beak: 0.0211 -> 0.0273; horse), which is
-why the bias is chosen on the training images: there it picks no shadows on owl in 3 of 4 folds.
 """
 
 from __future__ import annotations
@@ -244,6 +177,7 @@ def main() -> None:
                               "cpu_s": time.process_time() - start}), flush=True)  # fmt: skip
     titles = (("rms", "all pixels"), ("rms_lit", "lit pixels"), ("rms_dark", "dark"),
               ("rms_gain", "all pixels, each held-out image at its best gain"))  # fmt: skip
+    means: dict[str, dict[str, dict[str, dict[str, float]]]] = {}
     for key, title in titles:
         print(f"\nRMS, {title}, mean over the folds; cast shadows " + " / ".join(args.shadows))
         print("\n| object | " + " | ".join(MODELS) + " |")
@@ -257,8 +191,16 @@ def main() -> None:
                             if m == model and s == shadows and name in (o, "mean")
                             for r in rs]  # fmt: skip
                     pair.append(f"{np.mean([r[key] for r in rows]):.4f}")
+                    cell = means.setdefault(name, {}).setdefault(model, {})
+                    cell.setdefault(shadows, {})[key] = float(np.mean([r[key] for r in rows]))
                 cells.append(" / ".join(pair))
             print(f"| {name} | " + " | ".join(cells) + " |")
+    from _machine import header, results_path
+
+    records = [r for rs in table.values() for r in rs]
+    results = {**header(__file__), "step": args.step, "shadows": args.shadows,
+               "means": means, "records": records}  # fmt: skip
+    results_path(__file__).write_text(json.dumps(results, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -130,7 +130,7 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", help="scene names to run (default: all)")
     parser.add_argument("--numpy", action="store_true", help="also time the NumPy path")
     parser.add_argument("--json", action="store_true", help="print the record as JSON")
-    parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "render.json"))
+    parser.add_argument("--out", help="results file (default: benchmarks/results/render.json)")
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()
     if variant != "llvm_ad_rgb":
@@ -165,7 +165,7 @@ def main() -> None:
         "reference_spp": args.reference,
         "repeats": args.repeats,
         "mitsuba": f"{mi.__version__} {variant}",
-        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_version()}",
+        "host": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.python_version()}",
         "rows": rows,
     }
     if args.json:
@@ -180,8 +180,12 @@ def main() -> None:
             for r in rows
         )
         print(f"\nlowest efficiency brdfkit/Mitsuba: {worst[0]:.2f} ({worst[1]}, {worst[2]} spp)")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps(record, indent=2) + "\n")
+    from _machine import header, results_path
+
+    out = Path(args.out) if args.out else results_path(__file__)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    record = {**header(__file__, packages=("mitsuba", "drjit")), **record}
+    out.write_text(json.dumps(record, indent=2) + "\n")
 
 
 if __name__ == "__main__":

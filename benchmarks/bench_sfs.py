@@ -2,11 +2,12 @@
 
 Renders a Lambertian sphere (radius 5/12 of the image, light 21° off the view) at each size and
 times :func:`brdfkit.vision.shape_from_shading.shape_from_shading` (cascadic multigrid above
-4096 mask pixels); the peer is the single-level trust-region solver the library used before
-(``_solve_small`` on the whole image, from the tent start), run only up to ``--peer-max``
+4096 mask pixels); the peer is a single-level trust-region solve of the whole image
+(``_solve_small``, from the tent start), run only up to ``--peer-max``
 pixels across because its cost grows much faster. Prints one JSON line per (size, solver):
 wall-clock seconds, CPU seconds of the process (all its threads: on a shared machine the wall
-clock mostly measures the other users), residual evaluations and mean / median normal error (°).
+clock mostly measures the other users), residual evaluations and mean / median normal error (°);
+writes them all to ``benchmarks/results/sfs.json``.
 
     python benchmarks/bench_sfs.py [--sizes 128 256 512] [--peer-max 96]
 """
@@ -43,6 +44,7 @@ def main() -> None:
     parser.add_argument("--peer-max", type=int, default=96)
     args = parser.parse_args()
     light = np.array([0.3, 0.2, 1.0]) / np.linalg.norm([0.3, 0.2, 1.0])
+    records = []
     for size in sorted(set(args.sizes) | {s for s in (64, 96) if s <= args.peer_max}):
         normals, mask = sphere(size)
         gbuffer = normal_map_gbuffer(normals, mask)
@@ -77,6 +79,11 @@ def main() -> None:
                 "median_deg": round(errors["median"], 3),
             }
             print(json.dumps(record), flush=True)
+            records.append(record)
+    from _machine import header, results_path
+
+    results = {**header(__file__), "records": records}
+    results_path(__file__).write_text(json.dumps(results, indent=1) + "\n")
 
 
 if __name__ == "__main__":

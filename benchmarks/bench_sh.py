@@ -5,7 +5,7 @@ brute force over the map's pixels, E(n) = Σ L max(n·ω, 0) ΔΩ, against the 9
 irradiance. Reports per map the solid-angle-weighted mean and the maximum of |E₉ − E|,
 normalised by the map's largest irradiance (Ramamoorthi & Hanrahan's normalisation), and
 pointwise relative to E; then the average over all maps. Prints a Markdown table and a JSON
-record.
+record, and writes the record to ``benchmarks/results/sh.json``.
 
     python benchmarks/bench_sh.py [--data ../shared/data]
 """
@@ -60,7 +60,11 @@ def main() -> None:
     mean = float(np.mean([r["mean_by_max"] for r in rows]))
     worst = float(np.max([r["max_by_max"] for r in rows]))
     print(f"\nAll {len(rows)} maps: mean error {mean:.2%} of E_max, largest {worst:.2%}")
-    print(json.dumps({"maps": rows, "mean_by_max": mean, "max_by_max": worst}))
+    record = {"normals": list(NORMALS), "maps": rows, "mean_by_max": mean, "max_by_max": worst}
+    print(json.dumps(record))
+    from _machine import header, results_path
+
+    results_path(__file__).write_text(json.dumps({**header(__file__), **record}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

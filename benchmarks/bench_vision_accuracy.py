@@ -1,4 +1,4 @@
-"""Accuracy of photometric stereo and normal integration on real data (the README's tables).
+"""Accuracy of photometric stereo and normal integration on real data.
 
 1. The real psm gray sphere (12 images, ground truth from the mask's fitted circle), lights
    calibrated from the psm chrome sphere as ``brdfkit ps --chrome`` does: mean / median angular
@@ -8,7 +8,8 @@
    orthographic), the DCT Poisson solver and Frankot-Chellappa: RMSE after fitting scale and
    offset to the ground-truth depth, % of its range (``metrics.depth_error``).
 
-Everything at full resolution. Prints two Markdown tables, then one JSON line with all numbers.
+Everything at full resolution. Prints two Markdown tables, then one JSON line with all numbers,
+and writes them to ``benchmarks/results/vision_accuracy.json``.
 
     python benchmarks/bench_vision_accuracy.py [--data ../shared/data]
 """
@@ -81,7 +82,11 @@ def main() -> None:
     for name, row in integration.items():
         print(f"| {name} | {' | '.join(f'{row[key]:.2f}' for key in COLUMNS)} |")
     print()
-    print(json.dumps({"psm_gray_sphere": ps, "diligent_integration_rmse_percent": integration}))
+    record = {"psm_gray_sphere": ps, "diligent_integration_rmse_percent": integration}
+    print(json.dumps(record))
+    from _machine import header, results_path
+
+    results_path(__file__).write_text(json.dumps({**header(__file__), **record}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

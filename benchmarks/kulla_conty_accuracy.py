@@ -7,14 +7,15 @@ eval integrated over ωi by quadrature), of the published Kulla–Conty Fresnel 
 (``PATHS`` paths, seeds independent of those that built the table). Reported: the worst
 relative difference to the walk per material and method, with where it occurs.
 
-``python benchmarks/kulla_conty_accuracy.py``; results go to
-``benchmarks/results/kulla_conty_accuracy.json``. Deterministic; ~3 min on two busy cores.
+``python benchmarks/kulla_conty_accuracy.py [OUT.json]`` prints the results and, given
+``OUT.json``, writes them there too. Deterministic; ~3 min on two busy cores.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import sys
 import warnings
 from pathlib import Path
 
@@ -82,8 +83,9 @@ def main() -> None:
             name: {"worst_relative": value, "at": where} for name, (value, where) in worst.items()
         }
         print(material, json.dumps(results[material]), flush=True)
-    path = Path(__file__).parent / "results" / "kulla_conty_accuracy.json"
-    atomic_write(path, lambda tmp: tmp.write_text(json.dumps(results, indent=2) + "\n"))
+    if len(sys.argv) > 1:
+        text = json.dumps(results, indent=2) + "\n"
+        atomic_write(Path(sys.argv[1]), lambda tmp: tmp.write_text(text))
     print("| material | tabulated R (this model) | published KC F_avg term |")
     print("|---|---|---|")
     for material, row in results.items():

@@ -10,14 +10,15 @@ table's). Reported per method and lobe: the worst relative difference where the 
 resolves it (standard error < 0.5 % of the value), and the worst difference in standard
 errors elsewhere (tiny R or T); and the worst |R + T − 1|.
 
-``python benchmarks/kulla_conty_dielectric_accuracy.py``; results go to
-``benchmarks/results/kulla_conty_dielectric_accuracy.json``. Deterministic; ~5 min CPU.
+``python benchmarks/kulla_conty_dielectric_accuracy.py [OUT.json]`` prints the results and, given
+``OUT.json``, writes them there too. Deterministic; ~5 min CPU.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import sys
 import warnings
 from pathlib import Path
 
@@ -87,8 +88,9 @@ def main() -> None:
         }
         for split, row in worst.items()
     }
-    path = Path(__file__).parent / "results" / "kulla_conty_dielectric_accuracy.json"
-    atomic_write(path, lambda tmp: tmp.write_text(json.dumps(results, indent=2) + "\n"))
+    if len(sys.argv) > 1:
+        text = json.dumps(results, indent=2) + "\n"
+        atomic_write(Path(sys.argv[1]), lambda tmp: tmp.write_text(text))
     print(json.dumps(results, indent=2))
 
 

@@ -4,7 +4,7 @@ For each preset of :func:`brdfkit.brdf.presets.catalogue`, ρ(θo) by 2048 impor
 (scrambled Sobol) at θo = 0°, 20°, 40°, 60°, 75°, 85°; a preset exceeds 1 when
 ρ − 3σ > 1 at some θo. Writes a JSON table to ``--out`` (default: print the summary only).
 
-    PYTHONPATH=$PWD/src python benchmarks/materials_albedo.py [--out albedo.json]
+    python benchmarks/materials_albedo.py [--out albedo.json]
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Single-thread time of one compiled 256² gold render at 16 spp (issue #17): the kernel.
+"""Single-thread time of one compiled 256² gold render at 16 spp: the kernel.
 
 ``render_sphere`` of ``bench_render.py``'s gold scene (GGX α = 0.2 gold under
 ``royal_esplanade_1k``), ``compiled=True``, on one thread (``BRDFKIT_THREADS=1``); the first

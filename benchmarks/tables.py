@@ -1,0 +1,728 @@
+"""Write the benchmark tables of ``benchmarks/README.md`` (and the README's comparison with
+peers) from the results files, so that the documents show what ``benchmarks/results`` holds.
+
+Each ``bench_NAME.py`` writes ``benchmarks/results/NAME.json`` (see ``_machine.py``); here every
+such file becomes the Markdown between ``<!-- results: NAME -->`` and ``<!-- end results: NAME
+-->`` in ``benchmarks/README.md``: its tables, the machine it ran on and the command that made
+it. The table between ``<!-- peers -->`` and ``<!-- end peers -->`` in the project's
+``README.md`` is made from the same files.
+
+    python benchmarks/tables.py           # rewrite the tables in both documents
+    python benchmarks/tables.py --check   # exit 1 if a document is stale or results are amiss
+
+``--check`` also fails when ``benchmarks/results`` holds a file that no ``bench_*.py`` writes,
+or more files than there are benchmark scripts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from statistics import mean
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+BENCHMARKS_README = HERE / "README.md"
+README = HERE.parent / "README.md"
+
+
+def load(name: str, results: Path = RESULTS) -> dict[str, Any]:
+    return json.loads((results / f"{name}.json").read_text(encoding="utf-8"))
+
+
+def rows(header: list[str], body: list[list[Any]], align: str | None = None) -> str:
+    """A Markdown table; ``align`` is one letter per column, ``l`` or ``r``."""
+    align = align or "l" * len(header)
+    rule = "|" + "|".join("---:" if a == "r" else "---" for a in align) + "|"
+    lines = ["| " + " | ".join(header) + " |", rule]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in body]
+    return "\n".join(lines)
+
+
+def sci(x: float) -> str:
+    """3 significant digits as a × 10ⁿ (evaluations per second)."""
+    exponent = len(str(int(abs(x)))) - 1 if abs(x) >= 1 else 0
+    superscript = str(exponent).translate(str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹"))
+    return f"{x / 10**exponent:.2f}×10{superscript}"
+
+
+def pct(x: float, digits: int = 2) -> str:
+    return f"{100 * x:.{digits}f} %"
+
+
+def machine_line(record: dict[str, Any]) -> str:
+    """*Machine: …; date; command* under each table."""
+    m = record["machine"]
+    packages = ", ".join(
+        f"{name} {version}"
+        for name, version in m.get("packages", {}).items()
+        if version not in ("unknown", "not installed")
+    )
+    parts = [f"{m['cpu']}, {m['cores']} cores" if m["cpu"] != "unknown" else "CPU unknown"]
+    parts.append(f"{m['os']}" if m["os"] != "unknown" else "OS unknown")
+    parts.append(f"Python {m['python']}" if m["python"] != "unknown" else "Python unknown")
+    if packages:
+        parts.append(packages)
+    if m.get("commit", "unknown") != "unknown":
+        parts.append(f"brdfkit at {m['commit']}")
+    text = f"*Machine:* {'; '.join(parts)}; {m['date']}. *Command:* `{record['command']}`."
+    if m.get("note"):
+        text += f" *Note:* {m['note']}"
+    return text
+
+
+# --- one function per benchmark: its tables (without the machine line) ----------------------
+
+
+def atlas(r: dict) -> str:
+    warm = [k for k, c in enumerate(r.get("atlas_cache", [])) if c != "cold"]
+    out = []
+    if warm:
+        best = min(warm, key=lambda k: r["atlas_seconds"][k])
+        out.append(
+            rows(
+                ["builds", "wall s (best)", "CPU s (that build)", "wall s (each)", "import s"],
+                [
+                    [
+                        len(warm),
+                        f"{r['atlas_seconds'][best]:.1f}",
+                        f"{r['atlas_cpu_seconds'][best]:.1f}",
+                        ", ".join(f"{r['atlas_seconds'][k]:.1f}" for k in warm),
+                        f"{r['import_seconds']:.2f}",
+                    ]
+                ],
+                "rrrlr",
+            )
+        )
+    if "noise" in r:
+        spheres = r["noise"]["spheres"]
+        quad = [s for s in spheres if s["spp"] == 0]
+        mc = [s for s in spheres if s["spp"] > 0]
+        body = []
+        if quad:
+            finer = max(quad, key=lambda s: s["rel_rmse_finer_quadrature"])
+            vs_mc = max(quad, key=lambda s: s["rel_rmse_mc"])
+            noise = max(s["mc_noise"] for s in quad)
+            samples = quad[0]["mc_samples"]
+            body.append(
+                [len(quad), "quadrature", "the next finer quadrature level",
+                 sum(s["rel_rmse_finer_quadrature"] <= 0.01 for s in quad),
+                 f"{pct(finer['rel_rmse_finer_quadrature'])} "
+                 f"({finer['card']}, example {finer['example'] + 1})"]
+            )  # fmt: skip
+            body.append(
+                [len(quad), "quadrature",
+                 f"Monte Carlo, {samples} spp (its own noise: up to {pct(noise, 1)})",
+                 sum(s["rel_rmse_mc"] <= 0.01 for s in quad),
+                 f"{pct(vs_mc['rel_rmse_mc'])} ({vs_mc['card']}, example {vs_mc['example'] + 1})"]
+            )  # fmt: skip
+        if mc:
+            worst = max(mc, key=lambda s: s["rel_rmse"])
+            spp = sorted({s["spp"] for s in mc})
+            spp_text = f"{spp[0]}" if len(spp) == 1 else f"{spp[0]}–{spp[-1]}"
+            body.append(
+                [len(mc), f"Monte Carlo, {spp_text} spp", "Monte Carlo at 16× the spp",
+                 sum(s["rel_rmse"] <= 0.01 for s in mc),
+                 f"{pct(worst['rel_rmse'], 4)} ({worst['card']}, example {worst['example'] + 1})"]
+            )  # fmt: skip
+        out.append(
+            rows(
+                ["spheres", "rendered by", "relative RMSE against", "within 1 %", "worst"],
+                body,
+                "rllrl",
+            )
+        )
+    return "\n\n".join(out)
+
+
+def brdf(r: dict) -> str:
+    data = r["rows"]
+    peer = {(x["workload"], x["n"]): x for x in data if x["impl"].startswith("Mitsuba")}
+    body = []
+    for x in data:
+        p = peer.get((x["workload"], x["n"]))
+        ratio = f"{x['per_second'] / p['per_second']:.2f}" if p else "–"
+        cpu = (
+            f"{p['cpu_seconds'] / x['cpu_seconds']:.2f}"
+            if p and "cpu_seconds" in p and "cpu_seconds" in x
+            else ""
+        )
+        body.append([x["workload"], sci(x["n"]).replace("1.00×", ""), x["impl"],
+                     sci(x["per_second"]), ratio, cpu])  # fmt: skip
+    return rows(
+        [
+            "workload",
+            "pairs",
+            "implementation",
+            "evaluations/s",
+            "÷ Mitsuba",
+            "÷ Mitsuba, CPU time",
+        ],
+        body,
+        "lrlrrr",
+    )
+
+
+CORNELL_MODELS = {
+    "lambertian": "Lambertian",
+    "lambertian + cook_torrance": "+ Cook–Torrance",
+    "lambertian + ggx": "+ GGX",
+    "lambertian + ward": "+ Ward",
+    "lambertian + ggx + ggx": "+ GGX + GGX",
+}
+
+
+def cornell_fits(r: dict) -> str:
+    records = r["records"]
+    fittings = list(dict.fromkeys((x["objective"], x["loss"]) for x in records))
+    default = fittings[0]
+
+    def cell(material: str, model: str, fitting: tuple, averaged: bool = False) -> float:
+        (x,) = (
+            x
+            for x in records
+            if (x["material"], x["model"], x["objective"], x["loss"]) == (material, model, *fitting)
+        )
+        return mean(x["delta_e_per_light"].values()) if averaged else x["delta_e"]["mean"]
+
+    materials = list(dict.fromkeys(x["material"] for x in records))
+    models = [m for m in CORNELL_MODELS if any(x["model"] == m for x in records)]
+    main = rows(
+        ["material", *(CORNELL_MODELS[m] for m in models)],
+        [[material, *(f"{cell(material, m, default):.1f}" for m in models)]
+         for material in materials],
+        "l" + "r" * len(models),
+    )  # fmt: skip
+    specular = models[1:]
+    summary = rows(
+        ["objective", "loss", "default light", f"{len(records[0]['delta_e_per_light'])} lights"],
+        [
+            [f"`{o}`", f"`{loss}`",
+             f"{mean(cell(m, d, (o, loss)) for m in materials for d in specular):.1f}",
+             f"{mean(cell(m, d, (o, loss), True) for m in materials for d in specular):.1f}"]
+            for o, loss in fittings
+        ],
+        "llrr",
+    )  # fmt: skip
+    return (
+        f"Mean CIEDE2000, measured against fitted sphere, default light, default fit "
+        f"(`{default[0]}` objective, `{default[1]}` loss):\n\n{main}\n\n"
+        f"Mean over the {len(materials) * len(specular)} fits with a specular lobe, by objective "
+        f"and loss:\n\n{summary}"
+    )
+
+
+def dask(r: dict) -> str:
+    out = []
+    if "batch" in r:
+        b = r["batch"]
+        body = [
+            [w, f"{b['best_seconds'][w]:.1f}", ", ".join(f"{s:.1f}" for s in b["seconds"][w]),
+             ", ".join(f"{c:.2f}" for c in b["cores_busy"][w]),
+             ", ".join(f"{c:.2f}" for c in b["cpu_seconds_per_fit"][w])]
+            for w in ("1", "2")
+        ]  # fmt: skip
+        out.append(
+            f"{b['fits']} fits ({b['distinct_files']} files × {len(b['models'])} models), "
+            f"best of {b['repeats']}: speed-up **{b['speedup_1_to_2']:.2f}×** from 1 to 2 "
+            "workers.\n\n"
+            + rows(["workers", "best s", "s (each)", "cores busy", "CPU s per fit"], body, "rrlll")
+        )
+    if "out_of_core" in r:
+        o = r["out_of_core"]
+        mib = 2**20
+        text = rows(
+            ["stack", "memory limit", "worker peaks", "solve s", "Mpixel/s", "mean error"],
+            [[f"{o['stack_bytes'] / 2**30:.2f} GiB {tuple(o['stack_shape'])}",
+              f"{o['limit_per_worker_bytes'] / mib:.0f} MiB × {o['workers']}",
+              ", ".join(f"{p / mib:.0f} MiB" for p in o["worker_peak_rss_bytes"]),
+              f"{o['solve_seconds']:.0f}", f"{o['pixels_per_second'] / 1e6:.3f}",
+              f"{o['mean_angular_error_deg_all_lit']:.4f}°"]],
+            "llrrrr",
+        )  # fmt: skip
+        run = o.get("run")
+        if run:
+            text += f"\n\nOut of core: {run['date']}, {run['note']}."
+        out.append(text)
+    return "\n\n".join(out)
+
+
+def env_sampling(r: dict) -> str:
+    return rows(
+        ["map", "lock-step bisection ns", "guide tables ns", "ratio"],
+        [[m["map"], f"{m['ns_per_sample']['lockstep']:.1f}", f"{m['ns_per_sample']['guide']:.1f}",
+          f"{m['ratio']:.2f}"] for m in r["maps"]],
+        "lrrr",
+    )  # fmt: skip
+
+
+def _ms(x: float | None) -> str:
+    return "not reached" if x is None else f"{x:.0f}"
+
+
+def explore(r: dict) -> str:
+    out = []
+    if "workloads" in r:
+        out.append(
+            rows(
+                ["workload", "median ms", "p95 ms", "server views ms", "page draw ms",
+                 "render_sphere ms"],
+                [[name, f"{w['median_ms']:.1f}", f"{w['p95_ms']:.1f}",
+                  f"{w['server_views_median_ms']:.1f}", f"{w['page_draw_median_ms']:.1f}",
+                  f"{w['render_sphere_median_ms']:.1f}"] for name, w in r["workloads"].items()],
+                "lrrrrr",
+            )
+        )  # fmt: skip
+        env = next((w["envmap"] for w in r["workloads"].values() if "envmap" in w), None)
+        if env:
+            noise1 = "not reached" if env["noise1"] is None else f"{env['noise1'] / 1e3:.2f}"
+            out.append(
+                "Environment map (Lambertian + GGX):\n\n"
+                + rows(
+                    ["first image ms", "first pass ms", "1 % noise s", "spp then", "noise then"],
+                    [[_ms(env["first"]), _ms(env["firstPass"]), noise1, env["samples"],
+                      pct(env["noise"])]],
+                    "rrrrr",
+                )
+            )  # fmt: skip
+    if "runs" in r:
+        out.append(
+            "Environment map, in-process (`--session`):\n\n"
+            + rows(
+                ["run", "first image ms", "first pass ms", "1 % noise s", "CPU s", "spp", "noise"],
+                [[k, f"{1e3 * x['first']:.0f}", f"{1e3 * x['first_pass']:.0f}",
+                  "not reached" if x["noise1"] is None else f"{x['noise1']:.2f}",
+                  f"{x.get('noise1_cpu', x['cpu']):.2f}", x["samples"], pct(x["noise"])]
+                 for k, x in enumerate(r["runs"])],
+                "rrrrrrr",
+            )
+        )  # fmt: skip
+    return "\n\n".join(out)
+
+
+def fit(r: dict) -> str:
+    if "runs" not in r:  # --contention
+        return rows(
+            ["model", "starts", "median CPU s per fit, 1 process", "2 processes", "ratio"],
+            [[r["model"], r["starts"], f"{r['median_cpu_per_fit']['1']:.3f}",
+              f"{r['median_cpu_per_fit']['2']:.3f}", f"{r['ratio_2_over_1']:.2f}"]],
+            "lrrrr",
+        )  # fmt: skip
+    names = {"default": "brdfkit (one lobe per Jacobian column)",
+             "peer_2point": "SciPy's 2-point finite differences"}  # fmt: skip
+    body = [
+        [names.get(name, name), ", ".join(f"{x['seconds']:.2f}" for x in runs),
+         ", ".join(f"{x['cpu_seconds']:.2f}" for x in runs), runs[0]["nfev"],
+         f"{max(max(x['alpha_relative_errors']) for x in runs):.1e}"]
+        for name, runs in r["runs"].items()
+    ]  # fmt: skip
+    text = (
+        f"`{r['truth']}` fitted back on {r['samples']:,} measured nodes "
+        f"({r['fit_samples']:,} in the refinement), runs interleaved:\n\n"
+        + rows(["Jacobian", "wall s", "CPU s", "evaluations", "worst α error"], body, "lllrr")
+    )
+    if "numpy_eval_s" in r:
+        text += (
+            f"\n\nOne NumPy evaluation of the model on every node: {r['numpy_eval_s']:.2f} s; "
+            f"one torch forward and backward pass: {r['torch_forward_backward_s']:.2f} s."
+        )
+    return text
+
+
+def kulla_conty(r: dict) -> str:
+    table = rows(
+        ["path", "kulla_conty s", "rough_conductor s", "ratio"],
+        [[path, f"{r[path]['kulla_conty_s']:.3f}", f"{r[path]['rough_conductor_s']:.3f}",
+          f"{r[path]['ratio']:.2f}"] for path in ("numpy", "compiled") if path in r],
+        "lrrr",
+    )  # fmt: skip
+    return f"{table}\n\nE(μ) table for a new α: {r['table_seconds']:.2f} s."
+
+
+def kulla_conty_dielectric(r: dict) -> str:
+    cpu = r["cpu_seconds"]
+    table = rows(
+        ["model", f"CPU ms per {r['pairs']:,} pairs"],
+        [[name, f"{1e3 * s:.1f}"] for name, s in cpu.items()],
+        "lr",
+    )
+    return (
+        f"{table}\n\nRatio {r['ratio']:.2f}; a new (α, η) costs "
+        f"{r['construction_cpu_seconds']:.2f} CPU s once."
+    )
+
+
+def loo_fits(r: dict) -> str:
+    return rows(
+        ["held-out file", "configuration chosen on the other four", "CIEDE2000 on it"],
+        [[x["held_out"], f"`{x['model']}`, `{x['objective']}`", f"{x['delta_e']:.2f}"]
+         for x in r["leave_one_out"]],
+        "llr",
+    )  # fmt: skip
+
+
+MIS_NAMES = {"brdf": "BRDF", "light": "light", "mis balance": "MIS balance",
+             "mis power": "MIS power", "mis optimal": "MIS optimal"}  # fmt: skip
+
+
+def mis(r: dict) -> str:
+    keys = list(r["rows"][0]["relative"])
+    body = [
+        [x["map"].split("/")[-1].removesuffix(".hdr"), f"`{x['brdf']}`",
+         *(f"{x['mse'][k] / min(x['mse'].values()):.2f} "
+           f"({x['reported_variance'][k] / min(x['mse'].values()):.2f})" for k in keys)]
+        for x in r["rows"]
+    ]  # fmt: skip
+    first = r["rows"][0]
+    return (
+        f"Mean squared error relative to the best estimator of the row "
+        f"({first['samples_per_strategy']} samples per strategy, {first['seeds']} seeds; in "
+        "brackets the mean reported variance, on the same scale):\n\n"
+        + rows(["map", "BRDF", *(MIS_NAMES.get(k, k) for k in keys)], body, "ll" + "r" * len(keys))
+    )
+
+
+def photometric_stereo(r: dict) -> str:
+    records = r["records"]
+    stack = records[0]["stack"]
+    body = [
+        [x["method"], f"{x['pixels']:,}", f"{x['seconds']:.2f}", f"{x['cpu_seconds']:.2f}",
+         f"{x['first_call_cpu_seconds']:.2f}", x["iterations"],
+         f"{x['mean_deg']:.2f} / {x['median_deg']:.2f}"]
+        for x in records
+    ]  # fmt: skip
+    return f"Stack {' × '.join(map(str, stack))} (images × rows × columns × channels):\n\n" + rows(
+        ["method", "pixels", "wall s", "CPU s", "first call CPU s", "iterations",
+         "error ° (mean / median)"],
+        body,
+        "lrrrrrr",
+    )  # fmt: skip
+
+
+PS_NAMES = {
+    "least_squares": "least squares",
+    "trimmed": "trimmed",
+    "sparse_regression": "sparse regression",
+    "robust_pca": "robust PCA",
+    "bipolynomial": "ST14",
+    "constrained_bivariate": "IA14",
+    "shared_bivariate": "AZ08",
+    "consensus": "HM10",
+}
+
+
+def ps_materials_averages(r: dict) -> tuple[list[str], dict[str, dict[str, float]]]:
+    """Methods, and the mean error per material and method over the objects."""
+    records = r["records"]
+    methods = list(dict.fromkeys(x["method"] for x in records))
+    materials = list(dict.fromkeys(x["material"] for x in records))
+    table = {
+        material: {
+            m: mean(x["mean_deg"] for x in records if (x["material"], x["method"]) == (material, m))
+            for m in methods
+        }
+        for material in materials
+    }
+    table["average"] = {m: mean(table[material][m] for material in materials) for m in methods}
+    return methods, table
+
+
+def ps_materials(r: dict) -> str:
+    methods, table = ps_materials_averages(r)
+    body = []
+    for material, means in table.items():
+        best = min(means, key=means.get)
+        body.append(
+            [material, *(f"**{v:.2f}**" if m == best else f"{v:.2f}" for m, v in means.items()),
+             PS_NAMES.get(best, best)]
+        )  # fmt: skip
+    return (
+        f"Mean angular error (°) over {', '.join(r['objects'])} (every {r['step']}th pixel), "
+        "best of each row in bold:\n\n"
+        + rows(["material", *(PS_NAMES.get(m, m) for m in methods), "best"], body,
+               "l" + "r" * len(methods) + "l")
+    )  # fmt: skip
+
+
+def relighting(r: dict) -> str:
+    means = r["means"]
+    order = ("lambertian", "svbrdf_1", "svbrdf_2", "svbrdf_cv")
+    models = [m for m in order if any(m in obj for obj in means.values())]
+    models += [m for obj in means.values() for m in obj if m not in models]
+    shadows = r["shadows"]
+
+    def cell(obj: str, model: str) -> str:
+        values = means[obj].get(model, {})
+        if not values:
+            return "–"
+        return " / ".join(f"{values[s]['rms']:.4f}" if s in values else "–" for s in shadows)
+
+    return (
+        f"RMS error of the held-out photographs (all pixels), mean over the folds; cast shadows "
+        f"{' / '.join(shadows)}:\n\n"
+        + rows(["object", *models], [[obj, *(cell(obj, m) for m in models)] for obj in means])
+    )
+
+
+def render(r: dict) -> str:
+    body = []
+    for x in r["rows"]:
+        ours = "compiled" if "compiled" in x else "numpy"
+        body.append(
+            [x["scene"], x["spp"], f"{x[ours]['seconds']:.3f}", f"{x[ours]['rel_rmse']:.4f}",
+             f"{x['mitsuba']['seconds']:.3f}", f"{x['mitsuba']['rel_rmse']:.4f}",
+             f"**{x[f'{ours}_efficiency_ratio']:.2f}**"]
+        )  # fmt: skip
+    compile_s = {x["scene"]: x["compile_seconds"] for x in r["rows"] if x["compile_seconds"]}
+    text = (
+        f"{r['resolution']}² sphere, relative RMSE against each renderer's own "
+        f"{r['reference_spp']}-spp reference, best of {r['repeats']}:\n\n"
+        + rows(
+            ["scene", "spp", "brdfkit s", "brdfkit error", "Mitsuba s", "Mitsuba error",
+             "efficiency ÷ Mitsuba"],
+            body,
+            "lrrrrrr",
+        )
+    )  # fmt: skip
+    if compile_s:
+        text += "\n\nKernel build, once per model (not in the times): " + ", ".join(
+            f"{scene} {s:.1f} s" for scene, s in compile_s.items()
+        )
+        text += "."
+    return text
+
+
+def sfs(r: dict) -> str:
+    return rows(
+        ["size", "solver", "pixels", "wall s", "CPU s", "evaluations", "error ° (mean / median)"],
+        [[f"{x['size']}²", x["solver"], f"{x['pixels']:,}", f"{x['seconds']:.2f}",
+          f"{x['cpu_seconds']:.2f}", x["evaluations"],
+          f"{x['mean_deg']:.2f} / {x['median_deg']:.2f}"] for x in r["records"]],
+        "llrrrrr",
+    )  # fmt: skip
+
+
+def sh(r: dict) -> str:
+    if r["maps"]:
+        table = rows(
+            ["map", "pixels", "mean / E_max", "max / E_max", "mean relative", "max relative"],
+            [[x["map"], x["pixels"], pct(x["mean_by_max"]), pct(x["max_by_max"]),
+              pct(x["mean_relative"]), pct(x["max_relative"], 1)] for x in r["maps"]],
+            "lrrrrr",
+        )  # fmt: skip
+        return (
+            f"{table}\n\nOver the maps: mean error {pct(r['mean_by_max'])} of the largest "
+            f"irradiance, largest {pct(r['max_by_max'])}."
+        )
+    low, high = r["mean_by_max_range"]
+    return rows(
+        ["maps", "mean error / E_max (average over the maps)", "per map", "highest"],
+        [[r["map_count"], pct(r["mean_by_max"]), f"{pct(low)} – {pct(high)}",
+          r["mean_by_max_highest"]]],
+        "rrll",
+    )  # fmt: skip
+
+
+INTEGRATORS = {
+    "ls_perspective": "LS perspective",
+    "least_squares": "LS orthographic",
+    "poisson_dct": "DCT Poisson",
+    "frankot_chellappa": "Frankot–Chellappa",
+}
+
+
+def vision_accuracy(r: dict) -> str:
+    ps = rows(
+        ["method", "mean °", "median °"],
+        [[m, f"{e['mean']:.2f}", f"{e['median']:.2f}"] for m, e in r["psm_gray_sphere"].items()],
+        "lrr",
+    )
+    integration = rows(
+        ["object", *INTEGRATORS.values()],
+        [[obj, *(f"{row[k]:.2f}" for k in INTEGRATORS)]
+         for obj, row in r["diligent_integration_rmse_percent"].items()],
+        "lrrrr",
+    )  # fmt: skip
+    return (
+        "Photometric stereo on the real psm gray sphere, lights from the chrome sphere:\n\n"
+        f"{ps}\n\nNormal integration of the real DiLiGenT ground-truth normals, depth RMSE "
+        f"after fitting scale and offset, % of the depth range:\n\n{integration}"
+    )
+
+
+TABLES: dict[str, Callable[[dict], str]] = {
+    "brdf": brdf,
+    "render": render,
+    "env_sampling": env_sampling,
+    "mis": mis,
+    "sh": sh,
+    "atlas": atlas,
+    "explore": explore,
+    "kulla_conty": kulla_conty,
+    "kulla_conty_dielectric": kulla_conty_dielectric,
+    "fit": fit,
+    "cornell_fits": cornell_fits,
+    "loo_fits": loo_fits,
+    "dask": dask,
+    "photometric_stereo": photometric_stereo,
+    "ps_materials": ps_materials,
+    "vision_accuracy": vision_accuracy,
+    "sfs": sfs,
+    "relighting": relighting,
+}
+"""Every benchmark, in the order of ``benchmarks/README.md``."""
+
+
+def section(name: str, results: Path = RESULTS) -> str:
+    """The generated Markdown of one benchmark: its tables, then its machine line."""
+    if not (results / f"{name}.json").exists():
+        return f"(No results yet: run `python benchmarks/bench_{name}.py`.)"
+    record = load(name, results)
+    tables = TABLES[name](record) or "(This run recorded nothing that has a table.)"
+    return f"{tables}\n\n{machine_line(record)}"
+
+
+# --- the README's comparison with peers ------------------------------------------------------
+
+
+def peers(results: Path = RESULTS) -> str:
+    """One row per comparison with a peer, each from a results file; a row whose numbers a
+    file lacks (a run without its peer) is left out."""
+    body: list[list[str]] = []
+    for row in (_render_peer, _brdf_peers, _fit_peer, _ps_peer):
+        try:
+            body += row(results)
+        except (OSError, KeyError, StopIteration, ValueError):
+            continue
+    return rows(["task", "peer", "brdfkit", "command"], body)
+
+
+def _render_peer(results: Path) -> list[list[str]]:
+    record = load("render", results)
+    render_rows, variant = record["rows"], record["mitsuba"].split()[-1]
+    ratios = [
+        x.get("compiled_efficiency_ratio") or x["numpy_efficiency_ratio"] for x in render_rows
+    ]
+    scenes = ", ".join(dict.fromkeys(x["scene"] for x in render_rows))
+    spps = " and ".join(str(spp) for spp in dict.fromkeys(x["spp"] for x in render_rows))
+    return [
+        ["Rendering a sphere under an environment map (efficiency: 1 / (time × error²))",
+         f"Mitsuba 3 `direct`, `{variant}` ({scenes}; {spps} spp)",
+         f"{min(ratios):.1f}–{max(ratios):.0f}× Mitsuba's", "`python benchmarks/bench_render.py`"]
+    ]  # fmt: skip
+
+
+def _brdf_peers(results: Path) -> list[list[str]]:
+    brdf_rows = load("brdf", results)["rows"]
+
+    def rate(workload: str, n: int, impl: str) -> float:
+        return next(
+            x["per_second"]
+            for x in brdf_rows
+            if (x["workload"], x["n"]) == (workload, n) and x["impl"] == impl
+        )
+
+    mitsuba = "Mitsuba 3 llvm_ad_rgb"
+    ggx = [
+        rate("eval", n, "brdfkit accel f32") / rate("eval", n, mitsuba)
+        for n in (10**6, 10**7)
+        if any(x["n"] == n for x in brdf_rows)
+    ]
+    sample = rate("sample+eval", 10**6, "brdfkit accel f32") / rate("sample+eval", 10**6, mitsuba)
+    return [
+        ["GGX conductor `eval`, float32, 10⁶ and 10⁷ pairs (compiled)", "Mitsuba 3 `llvm_ad_rgb`",
+         " and ".join(f"{g:.2f}×" for g in ggx) + " Mitsuba's rate",
+         "`python benchmarks/bench_brdf.py`"],
+        ["Lambertian + GGX, sample then eval, 10⁶ (compiled)", "Mitsuba 3 `llvm_ad_rgb`",
+         f"{sample:.2f}× Mitsuba's rate", "`python benchmarks/bench_brdf.py`"],
+    ]  # fmt: skip
+
+
+def _fit_peer(results: Path) -> list[list[str]]:
+    f = load("fit", results)
+    ours = min(x["seconds"] for x in f["runs"]["default"])
+    theirs = min(x["seconds"] for x in f["runs"]["peer_2point"])
+    return [
+        ["Fitting Lambertian + 2 GGX lobes to a MERL-sized table",
+         "SciPy `least_squares`, 2-point Jacobian",
+         f"{ours:.1f} s against {theirs:.1f} s (best of {len(f['runs']['default'])})",
+         "`python benchmarks/bench_fit.py`"]
+    ]  # fmt: skip
+
+
+def _ps_peer(results: Path) -> list[list[str]]:
+    _, table = ps_materials_averages(load("ps_materials", results))
+    average = table["average"]
+    best = min(average, key=average.get)
+    return [
+        ["Calibrated photometric stereo, DiLiGenT-layout renders of the real DiLiGenT normals, "
+         f"{len(table) - 1} material{'s' if len(table) > 2 else ''} (mean angular error)",
+         "least squares (Woodham 1980, DiLiGenT's baseline)",
+         f"{average[best]:.1f}° ({PS_NAMES.get(best, best)}) against "
+         f"{average['least_squares']:.1f}°", "`python benchmarks/bench_ps_materials.py`"]
+    ]  # fmt: skip
+
+
+# --- documents -------------------------------------------------------------------------------
+
+
+def replace(text: str, marker: str, body: str) -> str:
+    """``text`` with what lies between ``<!-- marker -->`` and ``<!-- end marker -->`` set to
+    ``body``; KeyError if the markers are missing."""
+    start, end = f"<!-- {marker} -->", f"<!-- end {marker} -->"
+    pattern = re.compile(rf"{re.escape(start)}\n.*?{re.escape(end)}", re.DOTALL)
+    if not pattern.search(text):
+        raise KeyError(f"markers {start} … {end} not found")
+    return pattern.sub(lambda _: f"{start}\n{body}\n{end}", text, count=1)
+
+
+def documents(results: Path = RESULTS) -> dict[Path, str]:
+    """The two documents as they should read, given the results."""
+    text = BENCHMARKS_README.read_text(encoding="utf-8")
+    for name in TABLES:
+        text = replace(text, f"results: {name}", section(name, results))
+    readme = replace(README.read_text(encoding="utf-8"), "peers", peers(results))
+    return {BENCHMARKS_README: text, README: readme}
+
+
+def problems(results: Path = RESULTS) -> list[str]:
+    """What is amiss in ``results`` itself: files no benchmark writes, missing files, too many."""
+    scripts = {p.stem.removeprefix("bench_") for p in HERE.glob("bench_*.py")}
+    files = sorted(p.name for p in results.iterdir() if not p.name.startswith("."))
+    found = []
+    if len(files) > len(scripts):
+        found.append(f"{len(files)} files in {results} for {len(scripts)} benchmark scripts")
+    for name in files:
+        if not name.endswith(".json") or name.removesuffix(".json") not in scripts:
+            found.append(f"{name}: no bench_*.py writes it")
+    for name in sorted(scripts - {f.removesuffix(".json") for f in files}):
+        found.append(f"bench_{name}.py has no results file")
+    for name in sorted(scripts - set(TABLES)):
+        found.append(f"bench_{name}.py has no table in tables.py")
+    return found
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true", help="exit 1 if anything is stale")
+    args = parser.parse_args()
+    found = problems()
+    for path, text in documents().items():
+        if path.read_text(encoding="utf-8") != text:
+            if args.check:
+                found.append(f"{path.relative_to(HERE.parent)} is stale: run benchmarks/tables.py")
+            else:
+                path.write_text(text, encoding="utf-8")
+                print(f"rewrote the tables of {path.relative_to(HERE.parent)}")
+    for problem in found:
+        print(problem, file=sys.stderr)
+    return 1 if found else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
