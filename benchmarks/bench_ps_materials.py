@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.brdf._spec import parse
+from brdfkit.brdf.spec import parse
 from brdfkit.geometry import frame_from_normal, to_local
 from brdfkit.measured import read
 from brdfkit.vision import bivariate_stereo, consensus, datasets, photometric_stereo

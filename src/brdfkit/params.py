@@ -206,7 +206,13 @@ def param(value: Any, like: Array) -> Array:
     return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
 
 
+MAX_SPEC_LENGTH = 100_000
+"""The longest model or light spec string brdfkit reads, in characters (a spatially varying
+model has no spec; a spectral one with a few thousand values per parameter fits)."""
+
+
 __all__ = [
+    "MAX_SPEC_LENGTH",
     "UNPHYSICAL_MAX",
     "Domain",
     "channel_count",

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import brdfkit.brdf  # noqa: F401  (registers every model)
-from brdfkit.brdf._spec import MAX_SPEC_LENGTH, parse
 from brdfkit.brdf.base import MODELS, Scaled, Sum
 from brdfkit.brdf.lambertian import Lambertian
+from brdfkit.brdf.spec import parse
 from brdfkit.errors import ParameterError, SpecError
+from brdfkit.params import MAX_SPEC_LENGTH
 from brdfkit.sampling import square_to_uniform_hemisphere
 
 EXAMPLES = [
@@ -287,7 +288,7 @@ def test_a_sum_samples_torch_directions_with_numpy_uniforms():
 def test_a_long_chain_is_refused_whatever_the_recursion_limit():
     import sys
 
-    from brdfkit.brdf._spec import MAX_CHAIN
+    from brdfkit.brdf.spec import MAX_CHAIN
 
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(20_000)  # IPython (which anywidget imports) raises it to 3000

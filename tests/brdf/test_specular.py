@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from brdfkit.brdf import Mirror, SmoothConductor, SmoothDielectric
-from brdfkit.brdf._spec import parse
+from brdfkit.brdf.spec import parse
 from brdfkit.fresnel import conductor, fresnel_conductor, fresnel_dielectric, schlick
 
 

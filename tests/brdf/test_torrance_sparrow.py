@@ -15,8 +15,8 @@ from brdfkit.brdf import (
     RoughConductor,
     TorranceSparrow,
 )
-from brdfkit.brdf._spec import parse
 from brdfkit.brdf.microfacet import Beckmann, TorranceSparrowGaussian
+from brdfkit.brdf.spec import parse
 from brdfkit.checks import brdf_sampler, chi2_test
 from brdfkit.fresnel import conductor, f0_from_ior, fresnel_conductor, fresnel_dielectric
 

@@ -82,7 +82,7 @@ def test_reciprocal(normalization):
 
 
 def test_spec_round_trip():
-    from brdfkit.brdf._spec import parse
+    from brdfkit.brdf.spec import parse
 
     for model in Ward.examples():
         spec = model.to_spec()

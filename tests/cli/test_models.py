@@ -9,7 +9,7 @@ import math
 from typer.testing import CliRunner
 
 from brdfkit.brdf import MODELS
-from brdfkit.brdf._spec import parse
+from brdfkit.brdf.spec import parse
 from brdfkit.cli import app
 
 runner = CliRunner()

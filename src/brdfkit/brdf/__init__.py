@@ -8,13 +8,13 @@ spec parser and re-exports the names in each module's ``__all__`` here
 import importlib
 import pkgutil
 
-from brdfkit.brdf._spec import parse
 from brdfkit.brdf.base import BRDF, MODELS, Sample, Scaled, Sum
+from brdfkit.brdf.spec import parse
 
 __all__ = ["BRDF", "MODELS", "Sample", "Scaled", "Sum", "parse"]
 
 for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-    if _module.name.startswith("_") or _module.name == "base":
+    if _module.name.startswith("_") or _module.name in ("base", "spec"):
         continue
     _mod = importlib.import_module(f"{__name__}.{_module.name}")
     for _name in getattr(_mod, "__all__", ()):

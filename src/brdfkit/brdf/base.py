@@ -316,7 +316,7 @@ class BRDF:
 
     def to_spec(self) -> str:
         """This model as a spec string that :func:`brdfkit.brdf.parse` reads back."""
-        args = ", ".join(f"{k}={_spec_value(v)}" for k, v in self.params().items())
+        args = ", ".join(f"{k}={spec_value(v)}" for k, v in self.params().items())
         return f"{self.spec_name}({args})"
 
     def __repr__(self) -> str:
@@ -338,7 +338,15 @@ class BRDF:
     __rmul__ = __mul__
 
 
-def _spec_value(v: Any) -> str:
+def spec_value(v: Any) -> str:
+    """A parameter value as the spec grammar writes it: a string quoted, a number in the
+    shortest form that reads back to the same float, a per-channel value as ``[a, b, c]``.
+
+    Raises
+    ------
+    ValueError
+        For a spatially varying value (it has no spec-string form).
+    """
     if isinstance(v, str):
         return repr(v)
     if isinstance(v, bool):
@@ -559,7 +567,7 @@ class Scaled(BRDF):
         inner = self.inner.to_spec()
         if isinstance(self.inner, Sum):
             inner = f"({inner})"
-        return f"{_spec_value(self.k)} * {inner}"
+        return f"{spec_value(self.k)} * {inner}"
 
 
 __all__ = [
@@ -580,5 +588,6 @@ __all__ = [
     "normalized_weights",
     "register",
     "result_shape",
+    "spec_value",
     "upper_hemisphere",
 ]

@@ -28,7 +28,7 @@ def check_command(
     not to be reciprocal, as the original Phong model does), 1 when a check contradicts a
     claim, 2 on a bad spec and 3 on an internal error.
     """
-    from brdfkit.brdf._spec import parse
+    from brdfkit.brdf.spec import parse
     from brdfkit.checks.properties import check
 
     brdf = parse(spec)

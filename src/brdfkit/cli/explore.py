@@ -36,7 +36,7 @@ def explore_command(
     request, and it reads only the files named here or uploaded through the page. Stop it with
     Ctrl-C.
     """
-    from brdfkit.brdf._spec import parse
+    from brdfkit.brdf.spec import parse
     from brdfkit.explore.server import ExplorerServer
     from brdfkit.explore.session import MEASURED_SUFFIXES, Session, fit_spec
 

@@ -45,7 +45,7 @@ def model_table() -> list[dict[str, Any]]:
     """One record per registered model: spec name, class, summary, parameters (defaults as
     spec text), their domains, and the claims."""
     from brdfkit.brdf import MODELS
-    from brdfkit.brdf.base import _spec_value
+    from brdfkit.brdf.base import spec_value
     from brdfkit.params import parameter_domains
 
     records = []
@@ -60,7 +60,7 @@ def model_table() -> list[dict[str, Any]]:
                 default = f.default_factory()
             else:
                 default = None
-            parameters[f.name] = None if default is None else _spec_value(default)
+            parameters[f.name] = None if default is None else spec_value(default)
         domains = {
             key: {**dataclasses.asdict(domain), "interval": interval(domain)}
             for key, domain in parameter_domains(cls).items()

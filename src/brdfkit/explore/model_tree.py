@@ -23,10 +23,10 @@ import dataclasses
 import math
 from typing import Any
 
-from brdfkit.brdf._spec import MAX_SPEC_LENGTH, parse
-from brdfkit.brdf.base import BRDF, MODELS, SCALE, Scaled, Sum, _spec_value
+from brdfkit.brdf.base import BRDF, MODELS, SCALE, Scaled, Sum, spec_value
+from brdfkit.brdf.spec import parse
 from brdfkit.errors import SpecError
-from brdfkit.params import Domain, parameter_domains
+from brdfkit.params import MAX_SPEC_LENGTH, Domain, parameter_domains
 
 MAX_DEPTH = 16
 """The deepest tree :func:`brdf_of` reads (sums and scales nested)."""
@@ -62,12 +62,12 @@ def _json_value(value: Any) -> Any:
     """A parameter value as JSON: a float, a list of floats, a string, a bool or ``None``."""
     if value is None or isinstance(value, str | bool):
         return value
-    text = _spec_value(value)  # raises for spatially varying values
+    text = spec_value(value)  # raises for spatially varying values
     return parse_number_text(text)
 
 
 def parse_number_text(text: str) -> float | list[float]:
-    """A number or ``[a, b, c]`` written by :func:`~brdfkit.brdf.base._spec_value`."""
+    """A number or ``[a, b, c]`` written by :func:`~brdfkit.brdf.base.spec_value`."""
     if text.startswith("["):
         return [float(x) for x in text[1:-1].split(",")]
     return float(text)

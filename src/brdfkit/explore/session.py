@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit.brdf._spec import parse
 from brdfkit.brdf.base import BRDF
+from brdfkit.brdf.spec import parse
 from brdfkit.errors import BrdfkitError, FormatError
 from brdfkit.explore import views
 from brdfkit.explore.model_tree import brdf_of, controls_of, tree_of

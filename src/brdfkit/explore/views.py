@@ -30,7 +30,12 @@ from brdfkit.geometry import from_half_diff, spherical_to_cartesian
 from brdfkit.light.analytic import DirectionalLight
 from brdfkit.light.environment import EnvironmentMap
 from brdfkit.render.passes import Pass, progressive
-from brdfkit.render.reflection_equation import _delta, _diffuse_envmap, _setup, split_diffuse
+from brdfkit.render.reflection_equation import (
+    delta_radiance,
+    diffuse_envmap_radiance,
+    local_frames,
+    split_diffuse,
+)
 from brdfkit.render.scene import GBuffer, Sphere, gbuffer
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -85,7 +90,7 @@ def sphere_gbuffer(resolution: int) -> GBuffer:
 class Disk:
     """The sphere's visible pixels, flattened, with what :func:`~brdfkit.render.shade` derives
     from their G-buffer before it evaluates a light
-    (:func:`brdfkit.render.reflection_equation._setup`): the
+    (:func:`brdfkit.render.reflection_equation.local_frames`): the
     points, the local frames (normal, tangent) and ``wo`` in them, each ``(N, 3)``."""
 
     mask: np.ndarray
@@ -99,7 +104,7 @@ def sphere_disk(resolution: int) -> Disk:
     """The :class:`Disk` of :func:`sphere_gbuffer` (cached: only the light moves)."""
     g = sphere_gbuffer(resolution)
     m = g.mask
-    _, point, frame, wo_local, _ = _setup(g.wo[m], g.normals[m], g.points[m], g.tangents[m])
+    _, point, frame, wo_local, _ = local_frames(g.wo[m], g.normals[m], g.points[m], g.tangents[m])
     return Disk(m, point, frame, wo_local)
 
 
@@ -109,7 +114,7 @@ def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     (:func:`brdfkit.render.reflected_radiance`), evaluated in one batch on the visible
     pixels only, from geometry computed once per resolution (the background stays 0)."""
     disk = sphere_disk(state.resolution)
-    value = to_numpy(_delta(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
+    value = to_numpy(delta_radiance(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
     image = np.zeros((*disk.mask.shape, value.shape[-1]))
     image[disk.mask] = value
     return image
@@ -144,7 +149,7 @@ def diffuse_term(brdf: BRDF, envmap: EnvironmentMap, resolution: int) -> np.ndar
     if rho is None or np.ndim(rho) > 1:
         return None
     disk = sphere_disk(resolution)
-    value = to_numpy(_diffuse_envmap(rho, envmap, disk.frame, disk.wo_local))
+    value = to_numpy(diffuse_envmap_radiance(rho, envmap, disk.frame, disk.wo_local))
     image = np.zeros((*disk.mask.shape, value.shape[-1]))
     image[disk.mask] = value
     return image

@@ -23,8 +23,8 @@ from typing import Any
 import anywidget
 import traitlets
 
-from brdfkit.brdf._spec import parse
 from brdfkit.brdf.base import BRDF
+from brdfkit.brdf.spec import parse
 from brdfkit.errors import BrdfkitError
 from brdfkit.explore.protocol import ProtocolError, array_table, parse_object
 from brdfkit.explore.session import MEASURED_SUFFIXES, Session, error_reply, fit_spec

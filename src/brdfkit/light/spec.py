@@ -25,7 +25,7 @@ def parse_light(spec: str) -> Light:
     """A light from a short text spec, e.g. ``"directional:1,0.5,0.7:3"`` or ``"envmap:sky.hdr"``.
 
     The forms are :data:`LIGHT_SPECS`; numbers are read with :class:`float`, and a spec holds at
-    most :data:`~brdfkit.brdf._spec.MAX_SPEC_LENGTH` characters. An environment map's file is
+    most :data:`~brdfkit.params.MAX_SPEC_LENGTH` characters. An environment map's file is
     read by :func:`brdfkit.io.read_image`, whose errors pass through.
 
     Raises
@@ -37,7 +37,7 @@ def parse_light(spec: str) -> Light:
         For a value outside its domain (a zero or non-finite direction, a negative or infinite
         strength), naming it.
     """
-    from brdfkit.brdf._spec import MAX_SPEC_LENGTH
+    from brdfkit.params import MAX_SPEC_LENGTH
 
     if not isinstance(spec, str):
         raise SpecError(f"light spec must be a string; got {type(spec).__name__} {spec!r:.80}")

@@ -73,11 +73,11 @@ from brdfkit.params import check_choice
 from brdfkit.render.reflection_equation import (
     FLOOR_DIRECTIONS,
     Estimate,
-    _diffuse_envmap,
     _floor_directions,
     _mirror_envmap,
-    _setup,
     _Uniforms,
+    diffuse_envmap_radiance,
+    local_frames,
     split_diffuse,
     split_mirror,
     uniform_seeds,
@@ -740,10 +740,10 @@ class EnvironmentShader:
         """What does not depend on the samples, for any number of :meth:`shade` calls on
         these queries (progressive passes): the local frames, and the exact terms (the
         Lambertian lobes' ρE(n)/π and the control variate's k·E(n))."""
-        _, point, frame, wo_local, batch = _setup(np.asarray(wo), normal, point, tangent)
+        _, point, frame, wo_local, batch = local_frames(np.asarray(wo), normal, point, tangent)
         value = np.zeros((*batch, self.channels))
         if self.rho is not None:
-            value = value + _diffuse_envmap(self.rho, self.env, frame, wo_local)
+            value = value + diffuse_envmap_radiance(self.rho, self.env, frame, wo_local)
         if self.mirror is not None:
             value = value + _mirror_envmap(self.mirror, self.env, point, frame, wo_local)
         if self._kernel is None:
@@ -754,7 +754,7 @@ class EnvironmentShader:
         if self.control:
             control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
             k = control.reshape(*batch, self.rest.channels).astype(np.float64)
-            value = value + _diffuse_envmap(k * math.pi, self.env, frame, wo_local)
+            value = value + diffuse_envmap_radiance(k * math.pi, self.env, frame, wo_local)
         t = self.dtype
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
         frame_flat = np.ascontiguousarray(

@@ -548,7 +548,7 @@ def quadrature_sphere(
         :class:`~brdfkit.light.EnvironmentMap`, a perspective camera or ``gammas`` that
         are not 1 or an even divisor of :data:`GAMMA_MAX`.
     """
-    from brdfkit.render.reflection_equation import _mirror_envmap, _setup
+    from brdfkit.render.reflection_equation import _mirror_envmap, local_frames
     from brdfkit.render.scene import Camera, Sphere, gbuffer, interior_mask
 
     if not isinstance(env, EnvironmentMap):
@@ -571,7 +571,7 @@ def quadrature_sphere(
     if rho is not None:
         exact += np.asarray(rho, dtype=float) * np.asarray(env.irradiance(normals)) / math.pi
     if mirror is not None:
-        _, point, frames, wo_local, _ = _setup(g.wo[g.mask], normals, g.points[g.mask], None)
+        _, point, frames, wo_local, _ = local_frames(g.wo[g.mask], normals, g.points[g.mask], None)
         exact += np.asarray(_mirror_envmap(mirror, env, point, frames, wo_local))
 
     def image_of(values: np.ndarray) -> np.ndarray:

@@ -68,7 +68,10 @@ def _as_lights(light: Light | Sequence[Light]) -> list[Light]:
     return lights
 
 
-def _setup(wo: Array, normal: Array | None, point: Array | None, tangent: Array | None):
+def local_frames(wo: Array, normal: Array | None, point: Array | None, tangent: Array | None):
+    """The namespace, points, shading frames, ``wo`` in them and the batch shape of a query:
+    ``wo`` normalised, ``normal`` (default +z) and ``point`` (default the origin) broadcast to
+    one batch, the frames built from the normals (and tangents, where given)."""
     wo = normalize(check_vectors("wo", wo))
     xp = namespace(wo)
     normal = xp.asarray([0.0, 0.0, 1.0], dtype=wo.dtype) if normal is None else normal
@@ -154,7 +157,7 @@ def reflected_radiance(
             "heuristic='optimal' needs a BRDF without delta lobes (their pdf is not a density); "
             f"got {type(brdf).__name__} with one: use 'power' or 'balance'"
         )
-    xp, point, frame, wo_local, _ = _setup(wo, normal, point, tangent)
+    xp, point, frame, wo_local, _ = local_frames(wo, normal, point, tangent)
     rng = _Uniforms(seed, sequence, first_sample)
     rho, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
     value = stderr2 = None
@@ -162,7 +165,7 @@ def reflected_radiance(
         if method == "auto" and isinstance(lt, EnvironmentMap):
             v, e2 = 0.0, None
             if rho is not None:
-                v = _diffuse_envmap(rho, lt, frame, wo_local)
+                v = diffuse_envmap_radiance(rho, lt, frame, wo_local)
             mirror, sampled = split_mirror(rest)
             if mirror is not None:
                 v = v + _mirror_envmap(mirror, lt, point, frame, wo_local)
@@ -177,9 +180,9 @@ def reflected_radiance(
                 )
                 v = v + v_rest
                 if k is not None:
-                    v = v + _diffuse_envmap(k * math.pi, lt, frame, wo_local)
+                    v = v + diffuse_envmap_radiance(k * math.pi, lt, frame, wo_local)
         elif lt.delta:
-            v, e2 = _delta(brdf, lt, point, frame, wo_local), None
+            v, e2 = delta_radiance(brdf, lt, point, frame, wo_local), None
         elif method == "quadrature":
             v, e2 = _quadrature(brdf, lt, point, frame, wo_local, theta_steps, phi_steps), None
         else:
@@ -253,7 +256,7 @@ def _mirror_envmap(mirror: BRDF, env: EnvironmentMap, point: Array, frame, wo_lo
     return xp.where(wo_local[..., 2:3] > 0, albedo * radiance, xp.zeros_like(albedo * radiance))
 
 
-def _diffuse_envmap(rho: Array, env: EnvironmentMap, frame, wo_local: Array) -> Array:
+def diffuse_envmap_radiance(rho: Array, env: EnvironmentMap, frame, wo_local: Array) -> Array:
     """ρ E(n)/π towards viewers above the surface (Lambertian is one-sided), else 0."""
     xp = namespace(wo_local)
     irradiance = env.irradiance(frame[2])
@@ -325,7 +328,9 @@ def _light_term(
     return f * ls.value * cos_theta_i[..., None], wi_local
 
 
-def _delta(brdf: BRDF, light: Light, point: Array, frame, wo_local: Array) -> Array:
+def delta_radiance(brdf: BRDF, light: Light, point: Array, frame, wo_local: Array) -> Array:
+    """The radiance a delta light (directional, point) reflects towards ``wo_local``:
+    :math:`f(\\omega_i, \\omega_o)\\,E_\\perp\\cos\theta_i`, ``(..., C)``."""
     return _light_term(brdf, light.sample(point, None), frame, wo_local)[0]
 
 
@@ -535,9 +540,12 @@ __all__ = [
     "HEURISTICS",
     "METHODS",
     "Estimate",
+    "delta_radiance",
+    "diffuse_envmap_radiance",
     "diffuse_floor",
     "directional_albedo",
     "hemispherical_reflectance",
+    "local_frames",
     "reflected_radiance",
     "split_diffuse",
     "split_mirror",

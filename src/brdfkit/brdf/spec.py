@@ -57,13 +57,11 @@ import numpy as np
 
 from brdfkit.brdf.base import BRDF, MODELS, Scaled, Sum
 from brdfkit.errors import ParameterError, SpecError
+from brdfkit.params import MAX_SPEC_LENGTH
 
 Value = float | str | bool | None | list[float]
 """A parameter value a spec may hold."""
 
-MAX_SPEC_LENGTH = 100_000
-"""The longest spec string :func:`parse` reads, in characters (a spatially varying model has no
-spec; a spectral one with a few thousand values per parameter fits)."""
 
 MAX_CHAIN = 2000
 """The most operands one sum or product of a spec may chain (``a + b + …``)."""
@@ -105,8 +103,6 @@ def parse(spec: str) -> BRDF:
         raise SpecError(
             f"spec {_quote(spec)} holds {len(spec)} characters; at most {MAX_SPEC_LENGTH}"
         )
-    import brdfkit.brdf  # noqa: F401  (registers every model)
-
     text = spec.strip()
     try:
         tree = ast.parse(text, mode="eval")
@@ -299,4 +295,4 @@ def _unsupported(node: ast.AST, text: str, expected: str) -> SpecError:
     )
 
 
-__all__ = ["MAX_CHAIN", "MAX_SPEC_LENGTH", "parse"]
+__all__ = ["MAX_CHAIN", "parse"]
