@@ -84,7 +84,7 @@ def atlas_command(
     folder = OutputFolder(output, ("index.html",), inputs=(envmap, *map(Path, models)))
     # As cli._app.progress, but redrawn only as cards finish (no auto-refresh): rich's refresh
     # thread would leave the process with two threads, and the atlas forks its card workers
-    # only from a single-threaded process, so on a terminal it built every card in turn.
+    # only from a single-threaded process (otherwise it builds every card in turn).
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
