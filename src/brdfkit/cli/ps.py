@@ -152,13 +152,10 @@ def ps_command(
                 task, description=stage, completed=done, total=total
             ),
         )  # fmt: skip
-    summary = surface.measures()
-    measures = json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-    writes = _writes(surface, measures)
+    writes = _writes(surface)
     for name, write in writes.items():
         folder.write(name, write)
-    summary["output"] = shown(output)
-    summary["files"] = list(writes)
+    summary = {**surface.measures(), "output": shown(output), "files": list(writes)}
     if as_json:
         typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
         return
@@ -166,7 +163,7 @@ def ps_command(
     console.print(f"wrote {shown(output)}/")
 
 
-def _writes(surface: Reconstruction, measures: str) -> dict[str, Any]:
+def _writes(surface: Reconstruction) -> dict[str, Any]:
     """Each output file's name and the function that writes it, in the order written."""
     import numpy as np
 
@@ -189,7 +186,8 @@ def _writes(surface: Reconstruction, measures: str) -> dict[str, Any]:
         error_shown = error_preview(surface.error_map)
         writes["angular_error.npy"] = lambda path: np.save(path, surface.error_map)
         writes["angular_error.png"] = lambda path: write_image(path, error_shown, srgb=False)
-    writes["metrics.json"] = lambda path: path.write_text(measures, encoding="utf-8")
+    measures = json.dumps(surface.measures(), indent=2, ensure_ascii=False, allow_nan=False)
+    writes["metrics.json"] = lambda path: path.write_text(measures + "\n", encoding="utf-8")
     return writes
 
 

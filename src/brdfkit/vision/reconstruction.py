@@ -52,7 +52,7 @@ SOLVERS: dict[str, Callable[..., PhotometricStereoResult]] = {
 _WITHOUT_PROGRESS = ("least_squares", "trimmed")
 """The closed-form methods, which take no progress callback."""
 
-Progress = Callable[[str, int, "int | None"], None]
+Progress = Callable[[str, int, int | None], None]
 """Progress callback ``progress(stage, done, total)``: the stage's name (the method, then
 ``integrating (INTEGRATOR)``), and the iterations done of ``total`` (``None``: not known)."""
 
