@@ -14,9 +14,9 @@ runner = CliRunner()
 
 
 def test_the_progress_bar_on_a_terminal_starts_no_thread(tmp_path, monkeypatch):
-    """rich's auto-refresh thread made the process two-threaded, and ``report._build_cards``
-    forks its workers only from a single-threaded one: on a terminal every card was built in
-    turn. The bar is shown (a terminal) and redrawn as cards finish, from the one thread."""
+    """``report._build_cards`` forks its workers only from a single-threaded process (otherwise
+    it builds every card in turn), and rich's auto-refresh thread would make it two-threaded.
+    The bar is shown (a terminal) and redrawn as cards finish, from the one thread."""
     import brdfkit.cli.atlas as atlas_cli
     import brdfkit.report.atlas as report
 

@@ -139,7 +139,8 @@ def test_fit_refuses_an_unknown_fixed_parameter(tmp_path):
 
 
 def test_hdr_with_pixels_never_well_exposed_writes_no_nan(tmp_path):
-    """~1 % of the pixels are saturated in every exposure: the merge used to be all NaN."""
+    """~1 % of the pixels are saturated in every exposure: they take the nearest exposure (and
+    the fallback mask), and nothing in the merge, the response or the mask is NaN."""
     rng = np.random.default_rng(3)
     radiance = rng.uniform(0.02, 0.2, (40, 40, 3))
     radiance[:4, :4] = 1e3  # 16 of 1600 pixels: 1 %

@@ -237,7 +237,8 @@ def test_a_folder_output_that_is_an_existing_file_is_refused(inputs, tmp_path):
 
 @pytest.mark.slow
 def test_the_real_entry_point_with_a_non_utf8_name(tmp_path):
-    """The crash was a SIGSEGV (rc 139) in the real process: run the console script itself."""
+    """A name that is not UTF-8 is written by the real process, not only by the test runner:
+    run the console script itself (a crash there is a signal, such as SIGSEGV, rc 139)."""
     name = b"\xff.png"
     command = [sys.executable, "-c", "from brdfkit.cli import main; main()"]
     args = ["render", "-r", "8", "-s", "1", "--light", "directional:0,0,1", "-o"]

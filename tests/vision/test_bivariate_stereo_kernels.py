@@ -1,45 +1,22 @@
-"""The compiled kernels of :mod:`brdfkit.vision.bivariate_stereo` against the NumPy code they
-replaced (copied here as references): the shared table's least-squares system, the trims from one
-sort,
-the warm-started non-negative fits and the per-pixel stopping of the normal search."""
+"""The compiled kernels of :mod:`brdfkit.vision.bivariate_stereo` against their readable NumPy
+versions in :mod:`brdfkit.vision.bivariate_reference`: the shared table's least-squares system,
+the trims from one sort, the warm-started non-negative fits and the per-pixel stopping of the
+normal search."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import sparse
 
-from brdfkit.vision import _bivariate_stereo_kernels, bivariate_stereo, datasets, photometric_stereo
+from brdfkit.vision import (
+    _bivariate_stereo_kernels,
+    bivariate_reference,
+    bivariate_stereo,
+    datasets,
+    photometric_stereo,
+)
 from brdfkit.vision.bivariate_stereo import _half_vectors
 from brdfkit.vision.photometric_stereo import _trim_weights
-
-# ----------------------------------------------------------------------------------------------
-# The NumPy reference: the table fit before the kernel (sparse COO assembly of every
-# observation's 4 x 4 bilinear couplings)
-
-
-def _ref_fit_table(table, normals, gray, weights, lights, coefficients, smoothness):
-    half, cos_theta_d = _half_vectors(lights)
-    shading = np.clip(normals @ lights.T, 0.0, None)
-    index, weight = table.weights(normals @ half.T, np.broadcast_to(cos_theta_d, shading.shape))
-    scale = shading * coefficients[:, 1:2]
-    target = gray - shading * coefficients[:, :1]
-    size = table.n_h * table.n_d
-    rows, cols, values, rhs = [], [], [], np.zeros(size)
-    for a in range(4):
-        wa = weights * scale * weight[a]
-        rhs += np.bincount(index[a].ravel(), (wa * target).ravel(), size)
-        for b in range(4):
-            rows.append(index[a].ravel())
-            cols.append(index[b].ravel())
-            values.append((wa * scale * weight[b]).ravel())
-    normal_matrix = sparse.coo_matrix(
-        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), (size, size)
-    ).tocsr()
-    return bivariate_stereo._smoothed_solution(normal_matrix, rhs, table.n_h, table.n_d, smoothness)
-
-
-# ----------------------------------------------------------------------------------------------
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +52,9 @@ def test_table_fit_matches_numpy(glossy, bins):
         normals, gray.T, lit, lights, bivariate_stereo._shared_basis(table), True
     )
     assert (coefficients[:, 1] > 0).mean() > 0.5  # a specular weight on most pixels
-    reference = _ref_fit_table(table, normals, gray.T, lit, lights, coefficients, 1e-2)
+    reference = bivariate_reference.table_fit(
+        table, normals, gray.T, lit, lights, coefficients, 1e-2
+    )
     bivariate_stereo._fit_table(table, normals, gray.T, lit, lights, coefficients, 1e-2)
     assert table.values.max() == 1.0 and np.ptp(table.values) > 0.5
     np.testing.assert_allclose(table.values, reference, rtol=1e-8, atol=1e-10)
@@ -159,7 +138,8 @@ def _ramps_knots(n=8):
 
 def test_ramps_system_equals_the_dense_gram(glossy):
     """The ramps' Gram and right-hand side from sums by ramp index equal ``D^T W D`` and
-    ``D^T W I`` of the dense design (IA14's ``g(n·l) + s(n·h)``), also for normals far off."""
+    ``D^T W I`` of the dense design (:func:`bivariate_reference.design` of IA14's
+    ``g(n·l) + s(n·h)``), also for normals far off."""
     gray, lights, lit, starts, _ = glossy
     knots_i, knots_h = _ramps_knots()
     half, _ = _half_vectors(lights)
@@ -169,17 +149,12 @@ def test_ramps_system_equals_the_dense_gram(glossy):
     steps = len(knots_i) - 1
     scratch = [np.empty((len(lights), 2), np.int64), np.empty((len(lights), 2))]
     scratch += [np.empty((4, steps + 1, steps + 1)), np.empty((6, steps + 1))]
+    basis = bivariate_stereo._sum_of_lobes_basis(knots_i, knots_h)
     for p, n in enumerate(normals):
         kept = np.flatnonzero(lit[p])
         cos_i, cos_h = lights[kept] @ n, half[kept] @ n
-        design = np.concatenate(
-            [
-                np.clip((cos_i[:, None] - knots_i[:-1]) / np.diff(knots_i), 0, 1),
-                np.clip((cos_h[:, None] - knots_h[:-1]) / np.diff(knots_h), 0, 1)
-                * (cos_i > 0)[:, None],
-            ],
-            axis=1,
-        )
+        unused_cos_d = np.zeros((1, len(kept)))  # the ramps see cos θ_i and cos θ_h only
+        design = bivariate_reference.design(basis, cos_i[None], cos_h[None], unused_cos_d)[0]
         w, g = lit[p, kept], gray[kept, p]
         gram, rhs = np.full((2 * steps, 2 * steps), np.nan), np.empty(2 * steps)
         _bivariate_stereo_kernels._ramps_system(
@@ -189,26 +164,6 @@ def test_ramps_system_equals_the_dense_gram(glossy):
         reference = (design.T * w) @ design
         np.testing.assert_allclose(gram[upper], reference[upper], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(rhs, (design.T * w) @ g, rtol=1e-12, atol=1e-12)
-
-
-def _ref_best_start(starts, gray, weights, lights, basis, nonnegative, ring=np.radians(12.0)):
-    """The NumPy start selection the kernel replaced: all pixels one candidate at a time."""
-
-    def cost(normals):
-        return bivariate_stereo._fit(normals, gray, weights, lights, basis, nonnegative)[2]
-
-    def pick(candidates):
-        costs = np.stack([cost(c) for c in candidates])
-        best = np.argmin(costs, axis=0)
-        return np.stack(candidates)[best, np.arange(len(best))]
-
-    normals = pick(list(starts))
-    t_1, t_2 = bivariate_stereo._tangent_frame(normals)
-    ring_normals = [normals]
-    for angle in np.arange(6) * np.pi / 3:
-        tilted = normals * np.cos(ring) + np.sin(ring) * (np.cos(angle) * t_1 + np.sin(angle) * t_2)
-        ring_normals.append(tilted)
-    return pick(ring_normals)
 
 
 def _basis(name: str) -> tuple[bivariate_stereo.Basis, bool]:
@@ -225,7 +180,7 @@ def test_best_start_kernel_equals_numpy(glossy, name):
     gray, lights, lit, starts, _ = glossy
     basis, nonnegative = _basis(name)
     g, w = np.ascontiguousarray(gray.T), np.ascontiguousarray(lit)
-    reference = _ref_best_start(starts, g, w, lights, basis, nonnegative)
+    reference = bivariate_reference.best_start(starts, g, w, lights, basis, nonnegative)
     normals, residual, cost = np.empty((len(g), 3)), np.empty(g.shape), np.empty(len(g))
     free = np.ones((len(g), basis.size), dtype=bool)
     coefficients = np.empty((len(g), basis.size))
@@ -338,20 +293,16 @@ def test_kept_products_through_rejected_steps_change_nothing(glossy, name):
 
 
 def test_diffuse_albedo_kernel_equals_numpy(glossy):
-    """The albedo pass of ``_finish`` against the NumPy code it replaced, with pixels whose
-    trimmed set is empty (all their lit observations then)."""
+    """The albedo pass of ``_finish`` against :func:`bivariate_reference.diffuse_albedo`, with
+    pixels whose trimmed set is empty (all their lit observations then)."""
     gray, lights, lit, starts, _ = glossy
     normals = starts[0]
     weights = lit.copy()
     weights[:3, :60] = 0.0  # few lit observations left: none of middle rank on these pixels
     ranks = bivariate_stereo._ranks(gray)
+    rho_ref, use_ref = bivariate_reference.diffuse_albedo(normals, gray, weights, lights, ranks)
     cos_theta_i = np.clip(normals @ lights.T, 0.0, None)
-    lit_ref = weights * (cos_theta_i > 0.1)
-    trim = bivariate_stereo._trimmed(ranks, 0.25, 0.25).T * lit_ref
-    use_ref = np.where(trim.sum(axis=1, keepdims=True) > 0, trim, lit_ref)
-    rho_ref = np.sum(use_ref * cos_theta_i * gray.T, axis=1) / np.maximum(
-        np.sum(use_ref * cos_theta_i**2, axis=1), 1e-300
-    )
+    trim = bivariate_stereo._trimmed(ranks, 0.25, 0.25).T * weights * (cos_theta_i > 0.1)
     use = np.empty(ranks.shape)
     n_trim = int(np.floor(0.25 * len(lights)))
     rho = _bivariate_stereo_kernels.diffuse_albedo(
@@ -457,19 +408,6 @@ def test_start_fits_keep_the_products_a_refit_gives(glossy, name):
     np.testing.assert_array_equal(kept, reference)
 
 
-# ----------------------------------------------------------------------------------------------
-# The kernels of the 2026-12 speed-up against the computations they replace
-
-
-def _old_order(gray, shadow_threshold):
-    """The ranks and shadow weights as :func:`bivariate_stereo._start` made them before
-    ``order_statistics``: NumPy's sort and percentile."""
-    lit = (gray > shadow_threshold * bivariate_stereo._reference(gray.T)[None, :]).T.astype(
-        np.float64
-    )
-    return bivariate_stereo._ranks(gray), lit
-
-
 @pytest.mark.parametrize("n_lights", [3, 4, 10, 11, 96, 100])
 def test_order_statistics_equal_numpy_sort_and_percentile(glossy, n_lights):
     rng = np.random.default_rng(7)
@@ -481,7 +419,7 @@ def test_order_statistics_equal_numpy_sort_and_percentile(glossy, n_lights):
     gray[:2, -2] = 0.5  # ties above the shadows, an all-dark pixel
     for threshold in (0.0, 0.05, 0.5):
         ranks, lit, by_pixel = bivariate_stereo._order(gray, threshold)
-        ref_ranks, ref_lit = _old_order(gray, threshold)
+        ref_ranks, ref_lit = bivariate_reference.order(gray, threshold)
         np.testing.assert_array_equal(ranks, ref_ranks)  # ties by NumPy's order
         np.testing.assert_array_equal(lit, ref_lit)
         np.testing.assert_array_equal(by_pixel, gray.T)

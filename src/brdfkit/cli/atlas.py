@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -10,31 +11,34 @@ from brdfkit.cli._app import app, console, fail, shown, status
 from brdfkit.cli._output import OutputFolder
 from brdfkit.report.atlas import ENV_MAX_SAMPLES, ENV_NOISE
 
-
-@app.command("atlas")
-def atlas_command(
-    output: Path = typer.Option(
-        Path("atlas"), "--output", "-o", metavar="FOLDER", help="Output folder."
-    ),
-    models: list[str] = typer.Option(
-        [],
+_Output = Annotated[Path, typer.Option("--output", "-o", metavar="FOLDER", help="Output folder.")]
+_Models = Annotated[
+    list[str],
+    typer.Option(
         "--models",
         "-m",
         metavar="MODEL",
         help="Model specs or measured files (repeatable); default: all models.",
     ),
-    envmap: Path | None = typer.Option(
-        None,
+]
+_Envmap = Annotated[
+    Path | None,
+    typer.Option(
         "--envmap",
         metavar="FILE",
         help="Lat-long .hdr/.exr map; default: the bundled Poly Haven map.",
     ),
-    resolution: int = typer.Option(96, "--resolution", "-r", metavar="PIXELS", min=16, max=1024),
-    samples: int = typer.Option(
-        32, "--samples", "-s", metavar="N", min=1, max=4096, help="Samples per pixel (first pass)."
+]
+_Resolution = Annotated[int, typer.Option("--resolution", "-r", metavar="PIXELS", min=16, max=1024)]
+_Samples = Annotated[
+    int,
+    typer.Option(
+        "--samples", "-s", metavar="N", min=1, max=4096, help="Samples per pixel (first pass)."
     ),
-    noise: float = typer.Option(
-        ENV_NOISE or 0.0,
+]
+_Noise = Annotated[
+    float,
+    typer.Option(
         "--noise",
         metavar="REL_RMSE",
         min=0.0,
@@ -42,15 +46,30 @@ def atlas_command(
         help="Refine each environment-lit sphere until its estimated relative RMSE against a "
         "16×-spp render is below this, e.g. 0.01 (minutes); 0: every sphere at --samples.",
     ),
-    max_samples: int = typer.Option(
-        ENV_MAX_SAMPLES,
+]
+_MaxSamples = Annotated[
+    int,
+    typer.Option(
         "--max-samples",
         metavar="N",
         min=1,
         max=65536,
         help="Most samples per pixel of one environment-lit sphere.",
     ),
-    checks: bool = typer.Option(True, "--checks/--no-checks", help="Run the physics checks."),
+]
+_Checks = Annotated[bool, typer.Option("--checks/--no-checks", help="Run the physics checks.")]
+
+
+@app.command("atlas")
+def atlas_command(
+    output: _Output = Path("atlas"),
+    models: _Models = (),
+    envmap: _Envmap = None,
+    resolution: _Resolution = 96,
+    samples: _Samples = 32,
+    noise: _Noise = ENV_NOISE or 0.0,
+    max_samples: _MaxSamples = ENV_MAX_SAMPLES,
+    checks: _Checks = True,
 ) -> None:
     """Write an HTML atlas: every model's formula, spheres, lobes, albedo and physics checks."""
     import matplotlib
@@ -65,7 +84,7 @@ def atlas_command(
     folder = OutputFolder(output, ("index.html",), inputs=(envmap, *map(Path, models)))
     # As cli._app.progress, but redrawn only as cards finish (no auto-refresh): rich's refresh
     # thread would leave the process with two threads, and the atlas forks its card workers
-    # only from a single-threaded process, so on a terminal it built every card in turn.
+    # only from a single-threaded process (otherwise it builds every card in turn).
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),

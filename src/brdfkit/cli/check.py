@@ -3,25 +3,29 @@
 from __future__ import annotations
 
 import json
+from typing import Annotated
 
 import typer
 from rich.text import Text
 
 from brdfkit.cli._app import CHECK_FAILED, app, console, status
 
-
-@app.command("check")
-def check_command(
-    spec: str = typer.Argument(
-        ...,
+_Spec = Annotated[
+    str,
+    typer.Argument(
         metavar="SPEC",
         help='Model spec, e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)" or "phong(n=20)".',
     ),
-    as_json: bool = typer.Option(False, "--json", help="Print the report as JSON."),
-    seed: int = typer.Option(
-        0, metavar="N", help="Seed of the random directions and Monte Carlo samples."
-    ),
-) -> None:
+]
+_Json = Annotated[bool, typer.Option("--json", help="Print the report as JSON.")]
+_Seed = Annotated[
+    int,
+    typer.Option(metavar="N", help="Seed of the random directions and Monte Carlo samples."),
+]
+
+
+@app.command("check")
+def check_command(spec: _Spec, as_json: _Json = False, seed: _Seed = 0) -> None:
     """Check reciprocity, energy conservation, isotropy, non-negativity and sampling.
 
     Exits with 0 when every measurement agrees with what the model claims (a model may claim

@@ -3,31 +3,44 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from brdfkit.cli._app import app, fail, shown, status
 
-
-@app.command("explore")
-def explore_command(
-    items: list[str] = typer.Argument(
-        None,
+_Items = Annotated[
+    list[str] | None,
+    typer.Argument(
         metavar="[SPEC_OR_FILE]...",
         help='Model specs ("ggx(alpha=0.1)"), measured files (MERL .binary, RGL .bsdf, '
         "Cornell .brdf) and fit.json results of brdfkit fit to show; the default is a "
         "Lambertian + GGX.",
     ),
-    envmap: Path = typer.Option(
-        None,
+]
+_Envmap = Annotated[
+    Path | None,
+    typer.Option(
         "--envmap",
         metavar="FILE",
         help="Lat-long .hdr/.exr map of the environment-lit sphere (default: the bundled one).",
     ),
-    port: int = typer.Option(0, "--port", metavar="N", help="Port on 127.0.0.1 (0: a free one)."),
-    no_browser: bool = typer.Option(
-        False, "--no-browser", help="Print the address instead of opening a browser."
-    ),
+]
+_Port = Annotated[
+    int, typer.Option("--port", metavar="N", help="Port on 127.0.0.1 (0: a free one).")
+]
+_NoBrowser = Annotated[
+    bool,
+    typer.Option("--no-browser", help="Print the address instead of opening a browser."),
+]
+
+
+@app.command("explore")
+def explore_command(
+    items: _Items = None,
+    envmap: _Envmap = None,
+    port: _Port = 0,
+    no_browser: _NoBrowser = False,
 ) -> None:
     """Open the explorer: lit spheres (drag to move the light), the 3D lobe, the polar plot, the
     θh/θd/θv curves, the albedo and the θh×θd slice of several BRDFs at once.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
@@ -56,45 +56,62 @@ def _cell(values: Any) -> str:
     return " ".join(f"{float(v):.4f}" for v in values)
 
 
-@app.command("fresnel")
-def fresnel_command(
-    material: str | None = typer.Option(
-        None,
+_Material = Annotated[
+    str | None,
+    typer.Option(
         "--material",
         "-m",
         metavar="NAME",
         help="A preset: a conductor (Au, Ag, Al, Cu, Cr, W; RGB) or a dielectric (water, bk7, "
         "diamond, …).",
     ),
-    ior: float | None = typer.Option(
-        None, "--ior", metavar="ETA", help="Relative index of refraction η = n_inside / n_outside."
+]
+_Ior = Annotated[
+    float | None,
+    typer.Option(
+        "--ior", metavar="ETA", help="Relative index of refraction η = n_inside / n_outside."
     ),
-    k: float | None = typer.Option(
-        None,
+]
+_Kappa = Annotated[
+    float | None,
+    typer.Option(
         "--k",
         metavar="KAPPA",
         help="Extinction coefficient κ: with --ior, a conductor of index η + iκ.",
     ),
-    angles: str = typer.Option(
-        DEFAULT_ANGLES,
+]
+_Angles = Annotated[
+    str,
+    typer.Option(
         "--angles",
         metavar="A1,A2,...",
         help="Angles of incidence in degrees, comma-separated.",
     ),
-    inside: bool = typer.Option(
-        False,
+]
+_Inside = Annotated[
+    bool,
+    typer.Option(
         "--inside",
         help="Dielectrics: light arrives from inside (shows total internal "
         "reflection beyond the critical angle).",
     ),
-    as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
+]
+_Json = Annotated[bool, typer.Option("--json", help="Print the table as JSON.")]
+
+
+@app.command("fresnel")
+def fresnel_command(
+    material: _Material = None,
+    ior: _Ior = None,
+    k: _Kappa = None,
+    angles: _Angles = DEFAULT_ANGLES,
+    inside: _Inside = False,
+    as_json: _Json = False,
 ) -> None:
     """Tabulate the Fresnel reflectance Rs, Rp and R = (Rs + Rp)/2 against the angle."""
     import numpy as np
-    from rich.table import Table
 
     from brdfkit.fresnel import fresnel_conductor, fresnel_dielectric
-    from brdfkit.geometry import critical_angle
 
     theta_deg = _parse_angles(angles)
     spec = _interface(material, ior, k)
@@ -118,6 +135,15 @@ def fresnel_command(
         record = {**spec, "inside": inside, "rows": rows}
         typer.echo(json.dumps(record, indent=2, ensure_ascii=False))
         return
+    _print_table(spec, inside, eta, rows)
+
+
+def _print_table(spec: dict[str, Any], inside: bool, eta: Any, rows: list[dict]) -> None:
+    """The reflectances by angle (and the transmittance of a dielectric) as a table."""
+    import numpy as np
+    from rich.table import Table
+
+    from brdfkit.geometry import critical_angle
 
     side = " (from inside)" if inside else ""
     channels = " (R G B)" if len(eta) == 3 else ""

@@ -1,56 +1,71 @@
-"""``brdfkit hdr``: camera response recovery and HDR merging of an exposure stack."""
+"""``brdfkit hdr``: camera response recovery and HDR merging of an exposure stack
+(:mod:`brdfkit.vision.calibration`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated, Any
 
 import typer
 
 from brdfkit.cli._app import app, console, fail, shown
 from brdfkit.cli._output import output_file
 
-
-@app.command("hdr")
-def hdr_command(
-    images: list[Path] = typer.Argument(
-        ..., metavar="IMAGE", help="8-bit exposures of a static scene."
-    ),
-    times: str = typer.Option(
-        ..., "--times", "-t", metavar="T1,T2,...", help="Exposure times in seconds: t1,t2,..."
-    ),
-    output: Path = typer.Option(
-        Path("merged.exr"), "--output", "-o", metavar="FILE", help=".exr or .hdr."
-    ),
-    response: Path | None = typer.Option(
-        None,
+_Images = Annotated[
+    list[Path], typer.Argument(metavar="IMAGE", help="8-bit exposures of a static scene.")
+]
+_Times = Annotated[
+    str,
+    typer.Option("--times", "-t", metavar="T1,T2,...", help="Exposure times in seconds: t1,t2,..."),
+]
+_Output = Annotated[Path, typer.Option("--output", "-o", metavar="FILE", help=".exr or .hdr.")]
+_Response = Annotated[
+    Path | None,
+    typer.Option(
         "--response",
         metavar="FILE",
         help="Also write the recovered ln f⁻¹ per code (CSV, 256 rows).",
     ),
-    smoothness: float = typer.Option(
-        50.0, "--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness λ."
-    ),
-    samples: int = typer.Option(
-        200,
+]
+_Smoothness = Annotated[
+    float, typer.Option("--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness λ.")
+]
+_Samples = Annotated[
+    int,
+    typer.Option(
         "--samples",
         metavar="N",
         min=2,
         max=100_000,
         help="Pixels sampled for the fit (at most 100000).",
     ),
-    fallback_mask: Path | None = typer.Option(
-        None,
+]
+_FallbackMask = Annotated[
+    Path | None,
+    typer.Option(
         "--fallback-mask",
         metavar="FILE",
         help="Also write a PNG mask of the pixels no exposure showed well (white), whose "
         "radiance comes from the nearest exposure (a bound, not a measurement).",
     ),
+]
+
+
+@app.command("hdr")
+def hdr_command(
+    images: _Images,
+    times: _Times,
+    output: _Output = Path("merged.exr"),
+    response: _Response = None,
+    smoothness: _Smoothness = 50.0,
+    samples: _Samples = 200,
+    fallback_mask: _FallbackMask = None,
 ) -> None:
     """Recover the camera response (Debevec & Malik 1997) and merge the stack to radiance."""
     import numpy as np
 
     from brdfkit._array import check_param
-    from brdfkit.io import atomic_write, read_image_codes, write_image
+    from brdfkit.io import atomic_write, write_image
     from brdfkit.vision.calibration import merge_hdr, recover_response
 
     output = output_file(output, inputs=images, suffixes=(".exr", ".hdr"))
@@ -61,26 +76,8 @@ def hdr_command(
             fallback_mask, inputs=images, option="--fallback-mask", suffixes=(".png",)
         )
     check_param("--smoothness", smoothness, 0.0)
-    try:
-        exposure_times = [float(v) for v in times.split(",")]
-    except ValueError:
-        fail(f"--times must be comma-separated numbers; got {times!r}")
-    if len(exposure_times) != len(images):
-        fail(f"--times lists {len(exposure_times)} times for {len(images)} images")
-    stack = []
-    for path in images:
-        if path.suffix.lower() in (".hdr", ".exr"):
-            fail(f"{shown(path)} is already linear radiance: an exposure stack is 8-bit photos")
-        codes = read_image_codes(path)
-        if codes.dtype != np.uint8:
-            fail(f"{shown(path)} has {codes.dtype} samples; the stack must be 8-bit images")
-        codes = codes[..., :3] if codes.shape[-1] >= 3 else codes[..., :1]
-        if stack and codes.shape != stack[0].shape:
-            fail(
-                f"{shown(path)} is {codes.shape}, {shown(images[0])} is {stack[0].shape}: "
-                "sizes must match"
-            )
-        stack.append(codes)
+    exposure_times = _exposure_times(times, len(images))
+    stack = _read_stack(images)
     g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
     radiance, fell_back = merge_hdr(stack, exposure_times, g, return_mask=True)
     write_image(output, radiance)  # atomic
@@ -97,3 +94,37 @@ def hdr_command(
             "sample and took the nearest exposure"
         )
     console.print(f"wrote {shown(output)} ({radiance.shape[1]}×{radiance.shape[0]}){note}")
+
+
+def _exposure_times(times: str, count: int) -> list[float]:
+    """The ``--times`` of ``count`` images, in seconds."""
+    try:
+        exposure_times = [float(v) for v in times.split(",")]
+    except ValueError:
+        fail(f"--times must be comma-separated numbers; got {times!r}")
+    if len(exposure_times) != count:
+        fail(f"--times lists {len(exposure_times)} times for {count} images")
+    return exposure_times
+
+
+def _read_stack(images: list[Path]) -> list[Any]:
+    """The 8-bit codes of every exposure (RGB or grey), all of one size."""
+    import numpy as np
+
+    from brdfkit.io import read_image_codes
+
+    stack = []
+    for path in images:
+        if path.suffix.lower() in (".hdr", ".exr"):
+            fail(f"{shown(path)} is already linear radiance: an exposure stack is 8-bit photos")
+        codes = read_image_codes(path)
+        if codes.dtype != np.uint8:
+            fail(f"{shown(path)} has {codes.dtype} samples; the stack must be 8-bit images")
+        codes = codes[..., :3] if codes.shape[-1] >= 3 else codes[..., :1]
+        if stack and codes.shape != stack[0].shape:
+            fail(
+                f"{shown(path)} is {codes.shape}, {shown(images[0])} is {stack[0].shape}: "
+                "sizes must match"
+            )
+        stack.append(codes)
+    return stack

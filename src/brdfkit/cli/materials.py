@@ -5,36 +5,49 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Annotated
 
 import typer
 from rich.text import Text
 
 from brdfkit.cli._app import app, console, fail, progress, shown
 
-
-@app.command("materials")
-def materials_command(
-    fit: str | None = typer.Option(
-        None,
+_Fit = Annotated[
+    str | None,
+    typer.Option(
         "--fit",
         metavar="FIT",
         help="Keep one fit (e.g. ngan_ward, low_lowsmooth_E2, bagher_sgd).",
     ),
-    model: str | None = typer.Option(
-        None,
+]
+_Model = Annotated[
+    str | None,
+    typer.Option(
         "--model",
         metavar="TEXT",
         help="Keep the fits whose name or bbm model contains this text (e.g. ward, cook).",
     ),
-    as_json: bool = typer.Option(
-        False, "--json", help="Print the presets as JSON (with specs and citations)."
-    ),
-    gallery: Path | None = typer.Option(
-        None,
+]
+_Json = Annotated[
+    bool,
+    typer.Option("--json", help="Print the presets as JSON (with specs and citations)."),
+]
+_Gallery = Annotated[
+    Path | None,
+    typer.Option(
         "--gallery",
         metavar="OUT.html",
         help="Write a page with one small sphere per preset kept (a few seconds for all).",
     ),
+]
+
+
+@app.command("materials")
+def materials_command(
+    fit: _Fit = None,
+    model: _Model = None,
+    as_json: _Json = False,
+    gallery: _Gallery = None,
 ) -> None:
     """List the real-material presets: each MERL material as fitted by a published model, for
     specs such as brdfkit render "material(name='alum-bronze', fit='ngan_ward')"."""

@@ -6,7 +6,7 @@ import dataclasses
 import json
 import re
 import textwrap
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 from rich.text import Text
@@ -143,12 +143,14 @@ def model_block(record: dict[str, Any], width: int) -> list[Text]:
     return lines
 
 
+_Json = Annotated[
+    bool,
+    typer.Option("--json", help="Print the list as JSON (with classes, summaries and domains)."),
+]
+
+
 @app.command("models")
-def models_command(
-    as_json: bool = typer.Option(
-        False, "--json", help="Print the list as JSON (with classes, summaries and domains)."
-    ),
-) -> None:
+def models_command(as_json: _Json = False) -> None:
     """List the registered models: their physics claims, and their parameters with defaults
     and domains."""
     records = model_table()

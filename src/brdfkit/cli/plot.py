@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -13,23 +14,37 @@ from brdfkit.cli._output import light_files, output_file
 KINDS = ("lobe", "lobe3d", "half-diff", "albedo", "spheres")
 
 
+_Kind = Annotated[str, typer.Argument(metavar="KIND", help=f"One of: {', '.join(KINDS)}.")]
+_Models = Annotated[
+    list[str],
+    typer.Argument(
+        metavar="MODEL", help="Model specs or measured files (several for albedo/spheres)."
+    ),
+]
+_Output = Annotated[
+    Path,
+    typer.Option("--output", "-o", metavar="FILE", help="Output .png/.svg/.pdf."),
+]
+_ThetaI = Annotated[
+    list[float],
+    typer.Option("--theta-i", metavar="DEGREES", help="Incidence angles (degrees)."),
+]
+_Log = Annotated[bool, typer.Option("--log", help="Logarithmic lobe radius.")]
+_Light = Annotated[
+    str, typer.Option("--light", "-l", metavar="SPEC", help="Light spec for spheres.")
+]
+_Resolution = Annotated[int, typer.Option("--resolution", "-r", metavar="PIXELS", min=16, max=1024)]
+
+
 @app.command("plot")
 def plot_command(
-    kind: str = typer.Argument(..., metavar="KIND", help=f"One of: {', '.join(KINDS)}."),
-    models: list[str] = typer.Argument(
-        ..., metavar="MODEL", help="Model specs or measured files (several for albedo/spheres)."
-    ),
-    output: Path = typer.Option(
-        Path("plot.png"), "--output", "-o", metavar="FILE", help="Output .png/.svg/.pdf."
-    ),
-    theta_i: list[float] = typer.Option(
-        [0.0, 30.0, 60.0], "--theta-i", metavar="DEGREES", help="Incidence angles (degrees)."
-    ),
-    log: bool = typer.Option(False, "--log", help="Logarithmic lobe radius."),
-    light: str = typer.Option(
-        "envmap", "--light", "-l", metavar="SPEC", help="Light spec for spheres."
-    ),
-    resolution: int = typer.Option(128, "--resolution", "-r", metavar="PIXELS", min=16, max=1024),
+    kind: _Kind,
+    models: _Models,
+    output: _Output = Path("plot.png"),
+    theta_i: _ThetaI = (0.0, 30.0, 60.0),
+    log: _Log = False,
+    light: _Light = "envmap",
+    resolution: _Resolution = 128,
 ) -> None:
     """Draw a BRDF the way people look at one."""
     import matplotlib

@@ -1,10 +1,11 @@
-"""``brdfkit ps``: photometric stereo on a DiLiGenT or psm folder, then normal integration."""
+"""``brdfkit ps``: photometric stereo on a DiLiGenT or psm folder, then normal integration
+(:func:`brdfkit.vision.reconstruction.reconstruct`)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -13,9 +14,9 @@ from brdfkit.cli._output import OutputFolder
 from brdfkit.cli._ps_data import load_with_lights
 
 if TYPE_CHECKING:
-    import numpy as np
-    import trimesh
     from rich.table import Table
+
+    from brdfkit.vision.reconstruction import Reconstruction
 
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vision.bivariate
@@ -25,6 +26,69 @@ _OUTPUTS = (
     "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
     "mesh.ply", "angular_error.npy", "angular_error.png", "metrics.json",
 )  # fmt: skip
+
+_Dataset = Annotated[
+    Path,
+    typer.Argument(
+        metavar="FOLDER",
+        help="A DiLiGenT object folder (filenames.txt, ...) or a psm object folder.",
+    ),
+]
+_Method = Annotated[
+    str,
+    typer.Option("--method", "-m", metavar="METHOD", help=f"One of: {', '.join(_METHODS)}."),
+]
+_Chrome = Annotated[
+    Path | None,
+    typer.Option(
+        "--chrome", metavar="FOLDER", help="psm chrome-sphere folder: calibrate the lights from it."
+    ),
+]
+_Integration = Annotated[
+    str,
+    typer.Option("--integration", metavar="METHOD", help=f"One of: {', '.join(_INTEGRATORS)}."),
+]
+_Camera = Annotated[
+    Path | None,
+    typer.Option(
+        "--camera",
+        metavar="FILE",
+        help="K.txt (3x3 intrinsics): perspective integration (least_squares).",
+    ),
+]
+_Step = Annotated[
+    int,
+    typer.Option(
+        "--step", metavar="N", min=1, max=64, help="Keep every step-th row and column (at most 64)."
+    ),
+]
+_Output = Annotated[Path, typer.Option("--output", "-o", metavar="FOLDER", help="Output folder.")]
+_Json = Annotated[
+    bool, typer.Option("--json", help="Print the measures and the files written as JSON.")
+]
+_Uncalibrated = Annotated[
+    bool,
+    typer.Option(
+        "--uncalibrated",
+        help="Estimate the lights from the images (the given lights are only compared).",
+    ),
+]
+_GbrCue = Annotated[
+    str,
+    typer.Option(
+        "--gbr-cue", metavar="CUE", help="With --uncalibrated: entropy or diffuse_maxima."
+    ),
+]
+_Chunks = Annotated[
+    int | None,
+    typer.Option(
+        "--chunks",
+        metavar="PIXELS",
+        min=16,
+        help="Out of core: tiles of PIXELS² on Dask, Zarr outputs (also when the stack would "
+        "not fit in memory).",
+    ),
+]
 
 
 def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
@@ -36,69 +100,17 @@ def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
 
 @app.command("ps")
 def ps_command(
-    dataset: Path = typer.Argument(
-        ...,
-        metavar="FOLDER",
-        help="A DiLiGenT object folder (filenames.txt, ...) or a psm object folder.",
-    ),
-    method: str = typer.Option(
-        "sparse_regression",
-        "--method",
-        "-m",
-        metavar="METHOD",
-        help=f"One of: {', '.join(_METHODS)}.",
-    ),
-    chrome: Path | None = typer.Option(
-        None,
-        "--chrome",
-        metavar="FOLDER",
-        help="psm chrome-sphere folder: calibrate the lights from it.",
-    ),
-    integration: str = typer.Option(
-        "least_squares",
-        "--integration",
-        metavar="METHOD",
-        help=f"One of: {', '.join(_INTEGRATORS)}.",
-    ),
-    camera: Path | None = typer.Option(
-        None,
-        "--camera",
-        metavar="FILE",
-        help="K.txt (3x3 intrinsics): perspective integration (least_squares).",
-    ),
-    step: int = typer.Option(
-        1,
-        "--step",
-        metavar="N",
-        min=1,
-        max=64,
-        help="Keep every step-th row and column (at most 64).",
-    ),
-    output: Path = typer.Option(
-        Path("ps"), "--output", "-o", metavar="FOLDER", help="Output folder."
-    ),
-    as_json: bool = typer.Option(
-        False, "--json", help="Print the measures and the files written as JSON."
-    ),
-    uncalibrated: bool = typer.Option(
-        False,
-        "--uncalibrated",
-        help="Estimate the lights from the images (the given lights are only compared).",
-    ),
-    gbr_cue: str = typer.Option(
-        "entropy",
-        "--gbr-cue",
-        metavar="CUE",
-        help="With --uncalibrated: entropy or diffuse_maxima.",
-    ),
-    chunks: int | None = typer.Option(
-        None,
-        "--chunks",
-        metavar="PIXELS",
-        min=16,
-        help="Out of core: tiles of PIXELS² on Dask, Zarr outputs (also when the stack would "
-        "not fit in memory).",
-    ),
+    dataset: _Dataset,
+    method: _Method = "sparse_regression",
+    chrome: _Chrome = None,
+    integration: _Integration = "least_squares",
+    camera: _Camera = None,
+    step: _Step = 1,
+    output: _Output = Path("ps"),
+    as_json: _Json = False,
+    uncalibrated: _Uncalibrated = False,
+    gbr_cue: _GbrCue = "entropy",
+    chunks: _Chunks = None,
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
 
@@ -111,101 +123,39 @@ def ps_command(
     lights.txt holds the light directions used; metrics.json the measures (as --json prints
     them). Frame: x right, y up, z towards the camera.
     """
-    import numpy as np
-
     from brdfkit.cli import _ps_tiled
-    from brdfkit.io import write_image
-    from brdfkit.vision import datasets
-    from brdfkit.vision import normal_integration as integrate
-    from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
+    from brdfkit.vision.reconstruction import read_intrinsics, reconstruct
     from brdfkit.vision.uncalibrated import CUES
-    from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
 
     _choice(method, _METHODS, "--method")
     _choice(integration, _INTEGRATORS, "--integration")
     _choice(gbr_cue, CUES, "--gbr-cue")
     if _ps_tiled.wanted(dataset, chunks, step):
-        refused = {
-            "--chrome": chrome,
-            "--camera": camera,
-            "--step": step != 1,
-            "--uncalibrated": uncalibrated,
-        }
+        refused = {"--chrome": chrome, "--camera": camera, "--step": step != 1,
+                   "--uncalibrated": uncalibrated}  # fmt: skip
         _ps_tiled.run(dataset, method, integration, chunks, refused, output, as_json)
         return
     if camera is not None and integration != "least_squares":
         fail(f"--camera needs --integration least_squares, got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
+    intrinsics = None if camera is None else read_intrinsics(camera, step)
     with progress() as bar:
         task = bar.add_task("reading images", total=None)
-
-        def advance(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        data = load_with_lights(dataset, chrome, step, advance)
-        bar.update(task, description=f"{method}", completed=0, total=None)
-        solver = _solvers()[method]
-        extra = {} if method in ("least_squares", "trimmed") else {"callback": advance}
-        if uncalibrated:
-            from dataclasses import replace
-
-            # The integrability smoothing is 1 px of the full-resolution images (see the module).
-            estimate = solve_uncalibrated(
-                data.images, data.mask, cue=gbr_cue, method=method, sigma=1.0 / step
-            )
-            cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
-            light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
-            result = estimate.result
-            data = replace(data, light_directions=estimate.light_directions)
-        else:
-            result = solver(data.images, data.light_directions, data.mask, **extra)
-        bar.update(task, description=f"integrating ({integration})", total=None)
-        intrinsics = None if camera is None else _intrinsics(camera, step)
-        integrator = integrate.METHODS[integration]
-        perspective = () if intrinsics is None else (intrinsics,)
-        depth = integrator(result.normals, data.mask, *perspective)
-    mesh = _mesh(depth, data.mask, intrinsics)
-    summary: dict[str, Any] = {
-        "dataset": data.name,
-        "method": method,
-        "integration": integration,
-        "lights": len(data.images),
-        "pixels": int(data.mask.sum()),
-    }
-    if uncalibrated:  # the lights of --chrome or of the data set, compared with the estimate
-        summary["gbr_cue"] = gbr_cue
-        summary["light_error_deg"] = {
-            "mean": float(light_error.mean()), "median": float(np.median(light_error))
-        }  # fmt: skip
-    errors = None
-    if data.normals is not None:
-        errors = angular_error(result.normals, data.normals, data.mask)
-        error_map = angular_error_map(result.normals, data.normals, data.mask)
-        truth_depth = integrator(data.normals, data.mask, *perspective)
-        relative = depth_error(depth, truth_depth, data.mask)["relative_rmse"]
-        summary["angular_error_deg"] = errors
-        summary["depth_relative_rmse"] = float(relative)
-    scale = np.percentile(result.albedo[data.mask], 99) or 1.0
-    albedo_shown = (result.albedo / scale).clip(0, 1).astype(np.float32)
-    writes = {
-        "normals.png": lambda path: datasets.write_normal_map(path, result.normals),
-        "normals.npy": lambda path: np.save(path, result.normals),
-        "albedo.npy": lambda path: np.save(path, result.albedo),
-        "albedo.png": lambda path: write_image(path, albedo_shown),
-        "depth.npy": lambda path: np.save(path, depth),
-        "lights.txt": lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"),
-        "mesh.ply": lambda path: mesh.export(path, file_type="ply"),
-    }
-    if errors is not None:
-        error_shown = np.nan_to_num(error_map / 45.0, nan=0.0).clip(0, 1).astype(np.float32)
-        writes["angular_error.npy"] = lambda path: np.save(path, error_map)
-        writes["angular_error.png"] = lambda path: write_image(path, error_shown, srgb=False)
-    measures = json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-    writes["metrics.json"] = lambda path: path.write_text(measures, encoding="utf-8")
+        data = load_with_lights(
+            dataset, chrome, step, lambda done, total: bar.update(task, completed=done, total=total)
+        )
+        surface = reconstruct(
+            data, method=method, integration=integration, camera=intrinsics,
+            uncalibrated=uncalibrated, gbr_cue=gbr_cue,
+            sigma=1.0 / step,  # the integrability smoothing: 1 px of the full-resolution images
+            progress=lambda stage, done, total: bar.update(
+                task, description=stage, completed=done, total=total
+            ),
+        )  # fmt: skip
+    writes = _writes(surface)
     for name, write in writes.items():
         folder.write(name, write)
-    summary["output"] = shown(output)
-    summary["files"] = list(writes)
+    summary = {**surface.measures(), "output": shown(output), "files": list(writes)}
     if as_json:
         typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
         return
@@ -213,11 +163,32 @@ def ps_command(
     console.print(f"wrote {shown(output)}/")
 
 
-def _solvers() -> dict[str, Any]:
-    """Every calibrated method by name: the Lambertian and robust ones, the non-Lambertian."""
-    from brdfkit.vision import bivariate_stereo, consensus, photometric_stereo
+def _writes(surface: Reconstruction) -> dict[str, Any]:
+    """Each output file's name and the function that writes it, in the order written."""
+    import numpy as np
 
-    return {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
+    from brdfkit.cli._previews import albedo_preview, error_preview
+    from brdfkit.io import write_image
+    from brdfkit.vision.datasets import write_normal_map
+
+    result, data = surface.result, surface.data
+    albedo_shown = albedo_preview(result.albedo, data.mask)
+    writes = {
+        "normals.png": lambda path: write_normal_map(path, result.normals),
+        "normals.npy": lambda path: np.save(path, result.normals),
+        "albedo.npy": lambda path: np.save(path, result.albedo),
+        "albedo.png": lambda path: write_image(path, albedo_shown),
+        "depth.npy": lambda path: np.save(path, surface.depth),
+        "lights.txt": lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"),
+        "mesh.ply": lambda path: surface.mesh.export(path, file_type="ply"),
+    }
+    if surface.error_map is not None:
+        error_shown = error_preview(surface.error_map)
+        writes["angular_error.npy"] = lambda path: np.save(path, surface.error_map)
+        writes["angular_error.png"] = lambda path: write_image(path, error_shown, srgb=False)
+    measures = json.dumps(surface.measures(), indent=2, ensure_ascii=False, allow_nan=False)
+    writes["metrics.json"] = lambda path: path.write_text(measures + "\n", encoding="utf-8")
+    return writes
 
 
 def _table(summary: dict[str, Any]) -> Table:
@@ -237,46 +208,3 @@ def _table(summary: dict[str, Any]) -> Table:
         relative = summary["depth_relative_rmse"]
         table.add_row("depth RMSE vs GT-normal depth", f"{100 * relative:.2f} % of range")
     return table
-
-
-def _intrinsics(path: Path, step: int) -> np.ndarray:
-    """The 3×3 camera matrix in ``path`` (K.txt), scaled to every ``step``-th pixel."""
-    import numpy as np
-
-    from brdfkit.errors import FormatError
-
-    try:
-        matrix = np.loadtxt(path, ndmin=2, encoding="utf-8")
-    except (OSError, ValueError, UnicodeDecodeError) as error:
-        raise FormatError(path, f"not a 3×3 matrix of numbers ({error})") from None
-    if matrix.shape != (3, 3) or not np.isfinite(matrix).all() or matrix[2, 2] == 0:
-        raise FormatError(path, f"expected a finite 3×3 camera matrix; got shape {matrix.shape}")
-    return matrix * np.array([[1 / step], [1 / step], [1]])
-
-
-def _mesh(depth: np.ndarray, mask: np.ndarray, camera: np.ndarray | None) -> trimesh.Trimesh:
-    """A triangle mesh of the depth map: one vertex per mask pixel, two triangles per 2x2 block.
-
-    Vertices in the camera frame (x right, y up, z towards the camera): orthographic
-    ``(u, -v, -depth)`` in pixel units; perspective ``depth K^-1 (u, v, 1)`` with y and z
-    flipped from OpenCV's frame. Triangles wind counter-clockwise seen from the camera.
-    """
-    import numpy as np
-    import trimesh
-
-    rows, columns = np.nonzero(mask)
-    z = depth[mask]
-    if camera is None:
-        vertices = np.stack([columns, -rows, -z], axis=1).astype(np.float64)
-    else:
-        rays = np.stack([columns, rows, np.ones_like(columns)], axis=1) @ np.linalg.inv(camera).T
-        vertices = rays * z[:, None] * np.array([1.0, -1.0, -1.0])
-    index = np.full(mask.shape, -1)
-    index[mask] = np.arange(len(z))
-    a, b = index[:-1, :-1], index[:-1, 1:]  # top left, top right
-    c, d = index[1:, :-1], index[1:, 1:]  # bottom left, bottom right
-    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
-    faces = np.concatenate(
-        [np.stack([a[full], c[full], b[full]], 1), np.stack([b[full], c[full], d[full]], 1)]
-    )
-    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)

@@ -3,46 +3,63 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from brdfkit.cli._app import app, console, fail, shown
 from brdfkit.cli._output import OutputFolder
 
-
-@app.command("separate")
-def separate_command(
-    image: Path = typer.Argument(
-        ...,
+_Image = Annotated[
+    Path,
+    typer.Argument(
         metavar="IMAGE",
         help="Linear RGB image (.hdr/.exr, or 8/16-bit with --encoding); with --crossed, "
         "the parallel-polariser image.",
     ),
-    crossed: Path | None = typer.Option(
-        None,
+]
+_Crossed = Annotated[
+    Path | None,
+    typer.Option(
         "--crossed",
         metavar="IMAGE",
         help="Crossed-polariser image: use the polarisation method.",
     ),
-    illuminant: str | None = typer.Option(
-        None,
+]
+_Illuminant = Annotated[
+    str | None,
+    typer.Option(
         "--illuminant",
         metavar="R,G,B",
         help="Light colour R,G,B for the dichromatic method (white).",
     ),
-    encoding: str | None = typer.Option(
-        None,
+]
+_Encoding = Annotated[
+    str | None,
+    typer.Option(
         "--encoding",
         metavar="srgb|linear",
         help="How 8/16-bit inputs are encoded: srgb or linear.",
     ),
-    output: Path = typer.Option(
-        Path("separation"),
+]
+_Output = Annotated[
+    Path,
+    typer.Option(
         "--output",
         "-o",
         metavar="FOLDER",
         help="Folder for diffuse.exr and specular.exr.",
     ),
+]
+
+
+@app.command("separate")
+def separate_command(
+    image: _Image,
+    crossed: _Crossed = None,
+    illuminant: _Illuminant = None,
+    encoding: _Encoding = None,
+    output: _Output = Path("separation"),
 ) -> None:
     """Split an image into diffuse and specular reflection (dichromatic model or polarisation)."""
     import numpy as np

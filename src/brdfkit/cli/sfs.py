@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -12,41 +13,60 @@ from brdfkit.cli._output import OutputFolder
 _OUTPUTS = ("depth.npy", "normals.npy", "normals.png")
 
 
-@app.command("sfs")
-def sfs_command(
-    image: Path = typer.Argument(
-        ..., metavar="IMAGE", help="Linear .hdr/.exr (or 8/16-bit with --encoding)."
-    ),
-    light: str = typer.Option(
-        ..., "--light", "-l", metavar="X,Y,Z", help="Direction towards the light: X,Y,Z."
-    ),
-    mask: Path | None = typer.Option(
-        None, "--mask", metavar="FILE", help="Object mask image (white = object)."
-    ),
-    encoding: str | None = typer.Option(
-        None,
+_Image = Annotated[
+    Path,
+    typer.Argument(metavar="IMAGE", help="Linear .hdr/.exr (or 8/16-bit with --encoding)."),
+]
+_Light = Annotated[
+    str,
+    typer.Option("--light", "-l", metavar="X,Y,Z", help="Direction towards the light: X,Y,Z."),
+]
+_Mask = Annotated[
+    Path | None,
+    typer.Option("--mask", metavar="FILE", help="Object mask image (white = object)."),
+]
+_Encoding = Annotated[
+    str | None,
+    typer.Option(
         "--encoding",
         metavar="srgb|linear",
         help="How an 8/16-bit input is encoded: srgb or linear.",
     ),
-    step: int = typer.Option(
-        1,
+]
+_Step = Annotated[
+    int,
+    typer.Option(
         "--step",
         metavar="N",
         min=1,
         max=64,
         help="Average step × step pixel blocks first (at most 64).",
     ),
-    smoothness: float = typer.Option(
-        1e-4, "--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness weight λ."
-    ),
-    output: Path = typer.Option(
-        Path("sfs"),
+]
+_Smoothness = Annotated[
+    float,
+    typer.Option("--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness weight λ."),
+]
+_Output = Annotated[
+    Path,
+    typer.Option(
         "--output",
         "-o",
         metavar="FOLDER",
         help="Folder for depth.npy, normals.npy and normals.png.",
     ),
+]
+
+
+@app.command("sfs")
+def sfs_command(
+    image: _Image,
+    light: _Light,
+    mask: _Mask = None,
+    encoding: _Encoding = None,
+    step: _Step = 1,
+    smoothness: _Smoothness = 1e-4,
+    output: _Output = Path("sfs"),
 ) -> None:
     """Recover depth and normals from one image (Horn's variational shape from shading)."""
     import numpy as np

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 from enum import StrEnum
+from typing import Annotated, Any
 
 import typer
 
@@ -21,6 +22,54 @@ class Shape(StrEnum):
     rectangle = "rectangle"
     triangle = "triangle"
     cap = "cap"
+
+
+_ShapeArgument = Annotated[
+    Shape, typer.Argument(metavar="SHAPE", help="disk, rectangle, triangle or cap.")
+]
+_Radius = Annotated[float, typer.Option("--radius", "-r", metavar="R", help="Disk radius.")]
+_Width = Annotated[float, typer.Option("--width", metavar="W", help="Rectangle width (along x).")]
+_Height = Annotated[
+    float, typer.Option("--height", metavar="H", help="Rectangle height (along y).")
+]
+_Vertices = Annotated[
+    str,
+    typer.Option(
+        "--vertices",
+        metavar="X,Y,Z;X,Y,Z;X,Y,Z",
+        show_default=False,
+        help="Triangle vertices (default: a unit equilateral triangle in z = 0, centred at the "
+        "origin).",
+    ),
+]
+_Distance = Annotated[
+    float,
+    typer.Option(
+        "--distance", "-d", metavar="D", help="Observer height above the shape's plane (z)."
+    ),
+]
+_Offset = Annotated[
+    float, typer.Option("--offset", metavar="X", help="Observer offset along x from the axis.")
+]
+_HalfAngle = Annotated[
+    float,
+    typer.Option(
+        "--half-angle",
+        metavar="DEGREES",
+        help="Cap half-angle α in degrees (90: the hemisphere).",
+    ),
+]
+_Order = Annotated[
+    int,
+    typer.Option(
+        "--order",
+        metavar="N",
+        min=1,
+        max=2048,
+        help="Gauss–Legendre nodes per parameter of the numerical integral (1–2048).",
+    ),
+]
+_Json = Annotated[bool, typer.Option("--json", help="Print the table as JSON.")]
 
 
 def _parse_vertices(text: str) -> list[list[float]]:
@@ -66,73 +115,57 @@ def _planar(shape: Shape, radius: float, width: float, height: float, vertices: 
     )
 
 
+def _cap(half_angle: float):
+    """(description, exact-method label, Ω, parametric surface, observer) of a spherical cap
+    seen from its centre."""
+    import numpy as np
+
+    from brdfkit import radiometry as rad
+
+    if not 0.0 < half_angle <= 180.0:
+        fail(f"--half-angle must be in (0, 180] degrees; got {half_angle:g}")
+    alpha = math.radians(half_angle)
+    point = np.zeros(3)
+    return (
+        f"spherical cap, half-angle {half_angle:g}°, seen from its centre",
+        "2π(1 − cos α)",
+        float(rad.solid_angle_cap(alpha)),
+        rad.cap_surface(point, np.array([0.0, 0.0, 1.0]), 1.0, alpha),
+        point,
+    )
+
+
 @app.command("solid-angle")
 def solid_angle_command(
-    shape: Shape = typer.Argument(..., metavar="SHAPE", help="disk, rectangle, triangle or cap."),
-    radius: float = typer.Option(1.0, "--radius", "-r", metavar="R", help="Disk radius."),
-    width: float = typer.Option(1.0, "--width", metavar="W", help="Rectangle width (along x)."),
-    height: float = typer.Option(1.0, "--height", metavar="H", help="Rectangle height (along y)."),
-    vertices: str = typer.Option(
-        DEFAULT_VERTICES,
-        "--vertices",
-        metavar="X,Y,Z;X,Y,Z;X,Y,Z",
-        show_default=False,
-        help="Triangle vertices (default: a unit equilateral triangle in z = 0, centred at the "
-        "origin).",
-    ),
-    distance: float = typer.Option(
-        1.0, "--distance", "-d", metavar="D", help="Observer height above the shape's plane (z)."
-    ),
-    offset: float = typer.Option(
-        0.0, "--offset", metavar="X", help="Observer offset along x from the axis."
-    ),
-    half_angle: float = typer.Option(
-        90.0,
-        "--half-angle",
-        metavar="DEGREES",
-        help="Cap half-angle α in degrees (90: the hemisphere).",
-    ),
-    order: int = typer.Option(
-        64,
-        "--order",
-        metavar="N",
-        min=1,
-        max=2048,
-        help="Gauss–Legendre nodes per parameter of the numerical integral (1–2048).",
-    ),
-    as_json: bool = typer.Option(False, "--json", help="Print the table as JSON."),
+    shape: _ShapeArgument,
+    radius: _Radius = 1.0,
+    width: _Width = 1.0,
+    height: _Height = 1.0,
+    vertices: _Vertices = DEFAULT_VERTICES,
+    distance: _Distance = 1.0,
+    offset: _Offset = 0.0,
+    half_angle: _HalfAngle = 90.0,
+    order: _Order = 64,
+    as_json: _Json = False,
 ) -> None:
     """Solid angle Ω of a shape seen from a point, in sr and as a fraction of the hemisphere,
     checked against the numerical surface integral Ω = ∬ r·n̂ dS / |r|³ (CMU 16-385 lecture 14).
     """
     import numpy as np
-    from rich.table import Table
 
     from brdfkit import radiometry as rad
 
     if shape is Shape.cap:
-        if not 0.0 < half_angle <= 180.0:
-            fail(f"--half-angle must be in (0, 180] degrees; got {half_angle:g}")
-        alpha = math.radians(half_angle)
-        point = np.zeros(3)
-        description = f"spherical cap, half-angle {half_angle:g}°, seen from its centre"
-        method = "2π(1 − cos α)"
-        exact = float(rad.solid_angle_cap(alpha))
-        surface = rad.cap_surface(point, np.array([0.0, 0.0, 1.0]), 1.0, alpha)
+        description, method, exact, surface, point = _cap(half_angle)
     else:
         point = np.array([offset, 0.0, distance])
         description, method, solid_angle, surface = _planar(shape, radius, width, height, vertices)
         exact = float(solid_angle(point))
     numeric = abs(float(rad.solid_angle_surface(surface, point, order=order)))
-
     rows = [(method, exact)]
     if shape is Shape.disk and offset == 0.0 and distance != 0.0:
-        rows.append(
-            (
-                "on axis: 2π(1 − d/√(d²+R²))",
-                float(rad.solid_angle_disk_on_axis(radius, abs(distance))),
-            )
-        )
+        on_axis = float(rad.solid_angle_disk_on_axis(radius, abs(distance)))
+        rows.append(("on axis: 2π(1 − d/√(d²+R²))", on_axis))
     rows.append((f"∬ r·n̂ dS/|r|³ (Gauss–Legendre {order}²)", numeric))
     if as_json:
         record = {
@@ -151,9 +184,16 @@ def solid_angle_command(
         }
         typer.echo(json.dumps(record, indent=2, ensure_ascii=False))
         return
+    _print_table(description, point, rows, abs(numeric - exact))
+
+
+def _print_table(description: str, point: Any, rows: list, difference: float) -> None:
+    """The solid angles by each method, in sr and as fractions of the hemisphere."""
+    from rich.table import Table
+
     table = Table(
         title=f"{description}\nobserver at ({point[0]:g}, {point[1]:g}, {point[2]:g})",
-        caption=f"|numerical − exact| = {abs(numeric - exact):.3e} sr",
+        caption=f"|numerical − exact| = {difference:.3e} sr",
     )
     table.add_column("method")
     table.add_column("Ω [sr]", justify="right")

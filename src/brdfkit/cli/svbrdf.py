@@ -1,12 +1,12 @@
 """``brdfkit svbrdf``: shape and spatially varying BRDF from a photometric-stereo folder,
-relighting, and the held-out relighting error against the Lambertian model."""
+relighting, and the held-out relighting error against the Lambertian model
+(:func:`brdfkit.vision.svbrdf_capture.capture_svbrdf`)."""
 
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -14,10 +14,58 @@ from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 from brdfkit.cli._ps_data import load_with_lights
 
+if TYPE_CHECKING:
+    from brdfkit.vision.svbrdf_capture import SVBRDFCapture
+
 _OUTPUTS = (
     "normals.npy", "normals.png", "albedo.npy", "albedo.png", "weights.npy", "basis.json",
     "relit.npy", "held_out.npy",
 )  # fmt: skip
+
+_Dataset = Annotated[
+    Path, typer.Argument(metavar="FOLDER", help="A DiLiGenT object folder or a psm object folder.")
+]
+_Chrome = Annotated[
+    Path | None,
+    typer.Option(
+        "--chrome", metavar="FOLDER", help="psm chrome-sphere folder: calibrate the lights."
+    ),
+]
+_Lobes = Annotated[
+    str,
+    typer.Option(
+        "--lobes",
+        "-k",
+        metavar="K",
+        help="Specular basis lobes: 0-4, or 'auto' (cross-validated over 0, 1, 2).",
+    ),
+]
+_HoldOut = Annotated[
+    str | None,
+    typer.Option(
+        "--hold-out",
+        metavar="I,J,..",
+        help="Fit without these images, render them and report the relighting error.",
+    ),
+]
+_Relight = Annotated[
+    Path | None,
+    typer.Option("--relight", metavar="FILE", help="Light directions (N rows 'x y z') to render."),
+]
+_CastShadows = Annotated[
+    bool,
+    typer.Option(
+        "--cast-shadows",
+        help="Render cast shadows: the fitted normals integrated to depth, its bias chosen on "
+        "the fitted images (both models of --hold-out get the same shadows).",
+    ),
+]
+_Step = Annotated[
+    int,
+    typer.Option("--step", metavar="N", min=1, max=64, help="Keep every step-th row and column."),
+]
+_Output = Annotated[Path, typer.Option("--output", "-o", metavar="FOLDER", help="Output folder.")]
+_Json = Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")]
 
 
 def _indices(text: str, count: int) -> list[int]:
@@ -35,41 +83,15 @@ def _indices(text: str, count: int) -> list[int]:
 
 @app.command("svbrdf")
 def svbrdf_command(
-    dataset: Path = typer.Argument(
-        ..., metavar="FOLDER", help="A DiLiGenT object folder or a psm object folder."
-    ),
-    chrome: Path | None = typer.Option(
-        None, "--chrome", metavar="FOLDER", help="psm chrome-sphere folder: calibrate the lights."
-    ),
-    lobes: str = typer.Option(
-        "1",
-        "--lobes",
-        "-k",
-        metavar="K",
-        help="Specular basis lobes: 0-4, or 'auto' (cross-validated over 0, 1, 2).",
-    ),
-    hold_out: str | None = typer.Option(
-        None,
-        "--hold-out",
-        metavar="I,J,..",
-        help="Fit without these images, render them and report the relighting error.",
-    ),
-    relight: Path | None = typer.Option(
-        None, "--relight", metavar="FILE", help="Light directions (N rows 'x y z') to render."
-    ),
-    cast_shadows: bool = typer.Option(
-        False,
-        "--cast-shadows",
-        help="Render cast shadows: the fitted normals integrated to depth, its bias chosen on "
-        "the fitted images (both models of --hold-out get the same shadows).",
-    ),
-    step: int = typer.Option(
-        1, "--step", metavar="N", min=1, max=64, help="Keep every step-th row and column."
-    ),
-    output: Path = typer.Option(
-        Path("svbrdf"), "--output", "-o", metavar="FOLDER", help="Output folder."
-    ),
-    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+    dataset: _Dataset,
+    chrome: _Chrome = None,
+    lobes: _Lobes = "1",
+    hold_out: _HoldOut = None,
+    relight: _Relight = None,
+    cast_shadows: _CastShadows = False,
+    step: _Step = 1,
+    output: _Output = Path("svbrdf"),
+    as_json: _Json = False,
 ) -> None:
     """Normals, albedo and Ward specular lobes with per-pixel weights (Goldman et al. 2005).
 
@@ -80,94 +102,26 @@ def svbrdf_command(
     Lambertian model's. --cast-shadows renders both with the cast shadows of the recovered
     shape (svbrdf.shadow_visibility).
     """
-    import numpy as np
+    from brdfkit.vision.svbrdf import MAX_LOBES
+    from brdfkit.vision.svbrdf_capture import capture_svbrdf, read_light_directions
 
-    from brdfkit.io import write_image
-    from brdfkit.vision import datasets, photometric_stereo, svbrdf
-
-    if lobes != "auto" and lobes not in {str(k) for k in range(svbrdf.MAX_LOBES + 1)}:
-        fail(f"--lobes must be 0 to {svbrdf.MAX_LOBES} or 'auto'; got {lobes!r}")
+    if lobes != "auto" and lobes not in {str(k) for k in range(MAX_LOBES + 1)}:
+        fail(f"--lobes must be 0 to {MAX_LOBES} or 'auto'; got {lobes!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, relight))
-    new_lights = None
-    if relight is not None:
-        from brdfkit.errors import FormatError
-
-        try:
-            new_lights = np.loadtxt(relight, ndmin=2, encoding="utf-8")
-        except (OSError, ValueError, UnicodeDecodeError) as error:
-            raise FormatError(relight, f"not rows of 'x y z' numbers ({error})") from None
-        if new_lights.shape[1] != 3 or not np.all(np.isfinite(new_lights)):
-            raise FormatError(relight, f"expected finite rows 'x y z'; got {new_lights.shape}")
-        if np.any(np.linalg.norm(new_lights, axis=1) == 0):
-            raise FormatError(relight, "a light direction is zero")
+    new_lights = None if relight is None else read_light_directions(relight)
     with progress() as bar:
         task = bar.add_task("reading images", total=None)
-
-        def advance(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        data = load_with_lights(dataset, chrome, step, advance)
-        lights = data.light_directions
-        images = data.images.astype(np.float64)
-        held = [] if hold_out is None else _indices(hold_out, len(images))
-        train = [k for k in range(len(images)) if k not in held]
-        scores = None
-        if lobes == "auto":
-            bar.update(task, description="choosing the lobes (cross-validation)", total=None)
-            count, scores = svbrdf.select_lobes(images[train], lights[train], data.mask)
-        else:
-            count = int(lobes)
-        bar.update(task, description=f"fitting {count} lobe(s)", total=None)
-        fit = svbrdf.fit_svbrdf(images[train], lights[train], data.mask, lobes=count)
-    summary: dict[str, Any] = {
-        "dataset": data.name,
-        "lobes": count,
-        "alphas": [float(a) for a in fit.alphas],
-        "basis": fit.basis_specs(),
-        "fit_rms": fit.rms[-1] if fit.rms else None,
-        "pixels": int(data.mask.sum()),
-    }
-    if scores is not None:
-        summary["cross_validated_rms"] = {str(k): v for k, v in scores.items()}
-
-    def visibility(directions: Any) -> Any:
-        """The cast shadows of the fitted shape under ``directions``, or None."""
-        if not cast_shadows:
-            return None
-        return svbrdf.shadow_visibility(fit.normals, data.mask, directions, bias=bias)
-
-    if cast_shadows:
-        bias, _ = svbrdf.select_shadow_bias(fit, images[train], lights[train])
-        summary["shadow_bias"] = bias if math.isfinite(bias) else None  # None: no shadows
-    writes = {
-        "normals.npy": lambda path: np.save(path, fit.normals),
-        "normals.png": lambda path: datasets.write_normal_map(path, fit.normals),
-        "albedo.npy": lambda path: np.save(path, fit.albedo),
-        "albedo.png": lambda path: write_image(path, _shown(fit.albedo, data.mask)),
-        "weights.npy": lambda path: np.save(path, fit.weights),
-        "basis.json": lambda path: Path(path).write_text(
-            json.dumps({"basis": summary["basis"], "alphas": summary["alphas"]}, indent=2),
-            encoding="utf-8",
-        ),
-    }
-    if new_lights is not None:
-        writes["relit.npy"] = lambda path: np.save(
-            path, fit.relight(new_lights, visibility=visibility(new_lights))
+        data = load_with_lights(
+            dataset, chrome, step, lambda done, total: bar.update(task, completed=done, total=total)
         )
-    if held:
-        shadows = visibility(lights[held])
-        rendered = fit.relight(lights[held], visibility=shadows)
-        ls = photometric_stereo.least_squares(images[train], lights[train], data.mask)
-        lambert = svbrdf.lambertian_relight(
-            ls.albedo, ls.normals, data.mask, lights[held], visibility=shadows
-        )
-        real = images[held][:, data.mask]
-        summary["held_out"] = held
-        summary["relighting_rms"] = {
-            "svbrdf": float(np.sqrt(np.mean((rendered[:, data.mask] - real) ** 2))),
-            "lambertian": float(np.sqrt(np.mean((lambert[:, data.mask] - real) ** 2))),
-        }
-        writes["held_out.npy"] = lambda path: np.save(path, rendered)
+        held = [] if hold_out is None else _indices(hold_out, len(data.images))
+        capture = capture_svbrdf(
+            data, lobes=lobes if lobes == "auto" else int(lobes), hold_out=held,
+            relight=new_lights, cast_shadows=cast_shadows,
+            progress=lambda stage: bar.update(task, description=stage, total=None),
+        )  # fmt: skip
+    summary = capture.summary()
+    writes = _writes(capture, summary)
     for name, write in writes.items():
         folder.write(name, write)
     summary["output"] = shown(output)
@@ -175,24 +129,47 @@ def svbrdf_command(
     if as_json:
         typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
         return
+    _print_table(capture, summary)
+    console.print(f"wrote {shown(output)}/")
+
+
+def _writes(capture: SVBRDFCapture, summary: dict[str, Any]) -> dict[str, Any]:
+    """Each output file's name and the function that writes it, in the order written."""
+    import numpy as np
+
+    from brdfkit.cli._previews import albedo_preview
+    from brdfkit.io import write_image
+    from brdfkit.vision.datasets import write_normal_map
+
+    fit = capture.fit
+    basis = json.dumps({"basis": summary["basis"], "alphas": summary["alphas"]}, indent=2)
+    writes = {
+        "normals.npy": lambda path: np.save(path, fit.normals),
+        "normals.png": lambda path: write_normal_map(path, fit.normals),
+        "albedo.npy": lambda path: np.save(path, fit.albedo),
+        "albedo.png": lambda path: write_image(path, albedo_preview(fit.albedo, fit.mask)),
+        "weights.npy": lambda path: np.save(path, fit.weights),
+        "basis.json": lambda path: Path(path).write_text(basis, encoding="utf-8"),
+    }
+    if capture.relit is not None:
+        writes["relit.npy"] = lambda path: np.save(path, capture.relit)
+    if capture.held_out_renders is not None:
+        writes["held_out.npy"] = lambda path: np.save(path, capture.held_out_renders)
+    return writes
+
+
+def _print_table(capture: SVBRDFCapture, summary: dict[str, Any]) -> None:
+    """The lobes' roughness, the shadow bias and the held-out errors as a table."""
     from rich.table import Table
 
-    table = Table(title=f"{data.name}: SVBRDF, {count} lobe(s), {len(train)} images")
+    title = f"{capture.name}: SVBRDF, {capture.lobes} lobe(s), {len(capture.train)} images"
+    table = Table(title=title)
     table.add_column("measure")
     table.add_column("value", justify="right")
-    table.add_row("Ward roughness", ", ".join(f"{a:.3f}" for a in fit.alphas) or "-")
-    if cast_shadows:
-        table.add_row("cast-shadow bias (px)", f"{bias:g}")
+    table.add_row("Ward roughness", ", ".join(f"{a:.3f}" for a in capture.fit.alphas) or "-")
+    if capture.shadow_bias is not None:
+        table.add_row("cast-shadow bias (px)", f"{capture.shadow_bias:g}")
     if "relighting_rms" in summary:
         for model, value in summary["relighting_rms"].items():
             table.add_row(f"held-out RMS, {model}", f"{value:.4f}")
     console.print(table)
-    console.print(f"wrote {shown(output)}/")
-
-
-def _shown(albedo: Any, mask: Any) -> Any:
-    """The albedo scaled by its 99th percentile over the mask, in [0, 1], for a PNG."""
-    import numpy as np
-
-    scale = np.percentile(albedo[mask], 99) or 1.0
-    return (albedo / scale).clip(0, 1).astype(np.float32)

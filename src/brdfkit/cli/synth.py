@@ -5,49 +5,69 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
-
-@app.command("synth")
-def synth_command(
-    shapes: list[str] = typer.Option(
-        ["sphere"],
+_Shapes = Annotated[
+    list[str],
+    typer.Option(
         "--shape",
         "-s",
         metavar="SHAPE",
         help="sphere[:PIXELS] or a normal map file (mask.png beside it); repeatable.",
     ),
-    brdfs: list[str] = typer.Option(
-        ["lambertian(rho=0.6)"],
+]
+_Brdfs = Annotated[
+    list[str],
+    typer.Option(
         "--brdf",
         "-b",
         metavar="SPEC|FILE",
         help="A model spec or a measured file (.binary, .bsdf, .brdf); repeatable.",
     ),
-    lights: list[str] = typer.Option(
-        ["diligent"],
+]
+_LightSets = Annotated[
+    list[str],
+    typer.Option(
         "--lights",
         "-l",
         metavar="SET",
         help="diligent, grid:COLUMNSxROWS:DEGREES or a file of x y z rows; repeatable.",
     ),
-    all_lit: bool = typer.Option(
-        False, "--all-lit", help="Mask only the pixels every light reaches (no shadows)."
-    ),
-    output: Path = typer.Option(
-        Path("synth"), "--output", "-o", metavar="FOLDER", help="Output folder: one per set."
-    ),
-    workers: int | None = typer.Option(
-        None, "--workers", metavar="N", min=1, help="Local Dask worker processes."
-    ),
-    scheduler: str | None = typer.Option(
-        None, "--scheduler", metavar="ADDRESS", help="A Dask scheduler (tcp://host:8786)."
-    ),
-    as_json: bool = typer.Option(False, "--json", help="Print the sets written as JSON."),
+]
+_AllLit = Annotated[
+    bool,
+    typer.Option("--all-lit", help="Mask only the pixels every light reaches (no shadows)."),
+]
+_Output = Annotated[
+    Path,
+    typer.Option("--output", "-o", metavar="FOLDER", help="Output folder: one per set."),
+]
+_Workers = Annotated[
+    int | None,
+    typer.Option("--workers", metavar="N", min=1, help="Local Dask worker processes."),
+]
+_Scheduler = Annotated[
+    str | None,
+    typer.Option("--scheduler", metavar="ADDRESS", help="A Dask scheduler (tcp://host:8786)."),
+]
+_Json = Annotated[bool, typer.Option("--json", help="Print the sets written as JSON.")]
+
+
+@app.command("synth")
+def synth_command(
+    shapes: _Shapes = ("sphere",),
+    brdfs: _Brdfs = ("lambertian(rho=0.6)",),
+    lights: _LightSets = ("diligent",),
+    all_lit: _AllLit = False,
+    output: _Output = Path("synth"),
+    workers: _Workers = None,
+    scheduler: _Scheduler = None,
+    as_json: _Json = False,
 ) -> None:
     """Render photometric-stereo data sets: every shape × BRDF × light set, as Dask tasks.
 

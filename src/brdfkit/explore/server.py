@@ -18,15 +18,15 @@ References
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import functools
+import logging
 import secrets
 import socket
 import threading
 from collections.abc import Awaitable, Callable, MutableMapping
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from brdfkit.errors import BrdfkitError
 from brdfkit.explore.protocol import (
@@ -38,10 +38,17 @@ from brdfkit.explore.protocol import (
 )
 from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply, fit_spec
 
+if TYPE_CHECKING:
+    from starlette.requests import Request
+    from starlette.responses import Response
+    from starlette.websockets import WebSocket
+
 Scope = MutableMapping[str, Any]
 Receive = Callable[[], Awaitable[Any]]
 Send = Callable[[Any], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+_log = logging.getLogger(__name__)
 
 STATIC = Path(str(resources.files("brdfkit.explore") / "static"))
 """The front end's files (package data)."""
@@ -99,168 +106,222 @@ class Guard:
             await send({"type": "http.response.body", "body": body})
 
 
-def build_app(session: Session, token: str, port: int, initial: list[str]) -> ASGIApp:
-    """The guarded Starlette application serving ``session`` under ``/TOKEN/``.
+def _json(content: Any, status_code: int = 200) -> Response:
+    """A JSON response with the page's :data:`SECURITY_HEADERS`."""
+    from starlette.responses import JSONResponse
 
-    ``initial`` lists the specs and file names the page opens with.
-    """
-    from starlette.applications import Starlette
-    from starlette.requests import Request
-    from starlette.responses import FileResponse, JSONResponse, Response
-    from starlette.routing import Mount, Route, WebSocketRoute
-    from starlette.staticfiles import StaticFiles
-    from starlette.websockets import WebSocket, WebSocketDisconnect
+    return JSONResponse(content, status_code, headers=SECURITY_HEADERS)
 
-    async def index(request: Request) -> Response:
-        return FileResponse(STATIC / "index.html", headers=SECURITY_HEADERS)
+
+async def _index(request: Request) -> Response:
+    """The page."""
+    from starlette.responses import FileResponse
+
+    return FileResponse(STATIC / "index.html", headers=SECURITY_HEADERS)
+
+
+def _config(session: Session, initial: list[str]) -> Callable[[Request], Awaitable[Response]]:
+    """The handler of ``config``: what the page opens with (``initial``), the session's files
+    and environment map, the upload limit and the material presets."""
 
     async def config(request: Request) -> Response:
-        return JSONResponse(
+        return _json(
             {
                 "initial": initial,
                 "files": session.files,
                 "envmap": session.envmap_name,
                 "max_upload": MAX_UPLOAD_BYTES,
                 "materials": _material_choices(),  # the picker of static/materials.js
-            },
-            headers=SECURITY_HEADERS,
+            }
         )
 
-    def too_large(name: str, size: str) -> Response:
-        message = (
-            f"{name[:60]!r} holds {size} bytes; an upload holds at most "
-            f"{MAX_UPLOAD_BYTES >> 20} MiB ({MAX_UPLOAD_BYTES} bytes)"
-        )
-        return JSONResponse({"error": message}, 413, headers=SECURITY_HEADERS)
+    return config
+
+
+def _too_large(name: str, size: str) -> Response:
+    """The 413 reply to an upload of ``size`` bytes beyond :data:`MAX_UPLOAD_BYTES`."""
+    message = (
+        f"{name[:60]!r} holds {size} bytes; an upload holds at most "
+        f"{MAX_UPLOAD_BYTES >> 20} MiB ({MAX_UPLOAD_BYTES} bytes)"
+    )
+    return _json({"error": message}, 413)
+
+
+def _upload(session: Session) -> Callable[[Request], Awaitable[Response]]:
+    """The handler of ``upload``: a measured file added to ``session`` (its key in the reply),
+    or a fit.json read for its spec (no file kept); at most :data:`MAX_UPLOAD_BYTES`."""
 
     async def upload(request: Request) -> Response:
         name = request.query_params.get("name", "")
         length = request.headers.get("content-length", "")
         if length.isdigit() and int(length) > MAX_UPLOAD_BYTES:
-            return too_large(name, length)
+            return _too_large(name, length)
         data = bytearray()
         async for chunk in request.stream():
             data += chunk
             if len(data) > MAX_UPLOAD_BYTES:
-                return too_large(name, f"more than {MAX_UPLOAD_BYTES}")
+                return _too_large(name, f"more than {MAX_UPLOAD_BYTES}")
         if name.lower().endswith(".json"):  # a fit.json: its spec, no file kept
             try:
                 spec = fit_spec(bytes(data), name[:60])
             except (BrdfkitError, ValueError) as error:
-                return JSONResponse({"error": str(error)[:500]}, 400, headers=SECURITY_HEADERS)
-            return JSONResponse({"spec": spec}, headers=SECURITY_HEADERS)
+                return _json({"error": str(error)[:500]}, 400)
+            return _json({"spec": spec})
         try:
             key = await asyncio.to_thread(session.add_upload, name, bytes(data))
         except (BrdfkitError, ValueError, OSError) as error:
-            return JSONResponse({"error": str(error)[:500]}, 400, headers=SECURITY_HEADERS)
-        return JSONResponse({"name": key}, headers=SECURITY_HEADERS)
+            return _json({"error": str(error)[:500]}, 400)
+        return _json({"name": key})
 
-    async def channel(ws: WebSocket) -> None:
-        await ws.accept()
-        # Latest-wins slots: a message waiting in a slot is replaced by a newer one of its kind,
-        # so a slider that moves faster than the renders skips the stale states. Renders run in
-        # one worker; the slow albedo curves and physics checks in another, so they never hold
-        # up the next image.
-        pending: dict[str, Message | None] = {"render": None, "albedo": None, "checks": None}
-        wakes = {"fast": asyncio.Event(), "slow": asyncio.Event()}
-        lock = asyncio.Lock()
+    return upload
 
-        async def reply(replies: list[tuple[dict[str, Any], list[Any]]]) -> None:
-            async with lock:
-                for header, arrays in replies:
-                    await ws.send_bytes(encode_frame(header, [a.tobytes() for a in arrays]))
 
-        async def work(wake: asyncio.Event, kinds: tuple[str, ...]) -> None:
-            while True:
-                await wake.wait()
-                wake.clear()
-                for kind in kinds:
-                    message, pending[kind] = pending[kind], None
-                    if message is None:
-                        continue
-                    run = {"render": session.render, "albedo": session.albedo}.get(kind)
-                    try:
-                        if run is None:
-                            result = await asyncio.to_thread(session.checks, message)
-                        else:
-                            stale = lambda k=kind: pending[k] is not None  # noqa: E731
-                            result = await asyncio.to_thread(run, message, stale)
-                    except (BrdfkitError, ValueError) as error:
-                        result = error_reply(message.seq, error)
-                    if result is not None:
-                        await reply([result])
-                    if kind == "render" and result is not None:
-                        pending["albedo"] = message
-                        wakes["slow"].set()
-                    if any(pending[k] is not None for k in kinds):
-                        wake.set()
+class _Channel:
+    """One page's WebSocket: its messages in latest-wins slots, served by three workers.
 
-        env: dict[str, Any] = {"message": None, "cancel": threading.Event()}
-        wakes["env"] = asyncio.Event()
+    A message waiting in a slot is replaced by a newer one of its kind, so a slider that moves
+    faster than the renders skips the stale states. Renders run in one worker; the slow albedo
+    curves and physics checks in another, so they never hold up the next image; the
+    environment-lit spheres come pass by pass from a third, and a newer render cancels them.
+    """
 
-        async def environment() -> None:
-            # The environment-lit spheres, pass by pass; a newer render cancels the old one.
-            while True:
-                await wakes["env"].wait()
-                wakes["env"].clear()
-                message, env["message"] = env["message"], None
-                if message is None:
-                    continue
-                cancel = env["cancel"] = threading.Event()
-                passes = session.environment(message, cancel)
-                while not cancel.is_set():
-                    result = await asyncio.to_thread(next, passes, None)
-                    if result is None or cancel.is_set():
-                        break
-                    await reply([result])
+    def __init__(self, session: Session, ws: WebSocket) -> None:
+        self.session, self.ws = session, ws
+        self.pending: dict[str, Message | None] = {"render": None, "albedo": None, "checks": None}
+        self.wakes = {"fast": asyncio.Event(), "slow": asyncio.Event(), "env": asyncio.Event()}
+        self.lock = asyncio.Lock()
+        self.environment_message: Message | None = None
+        self.cancel = threading.Event()
 
+    async def serve(self) -> None:
+        """Accept the socket and serve it until the page goes away."""
+        from starlette.websockets import WebSocketDisconnect
+
+        await self.ws.accept()
         workers = [
-            asyncio.create_task(work(wakes["fast"], ("render",))),
-            asyncio.create_task(work(wakes["slow"], ("checks", "albedo"))),
-            asyncio.create_task(environment()),
+            asyncio.create_task(self._work(self.wakes["fast"], ("render",))),
+            asyncio.create_task(self._work(self.wakes["slow"], ("checks", "albedo"))),
+            asyncio.create_task(self._environment()),
         ]
         try:
-            while True:
-                event = await ws.receive()
-                if event["type"] == "websocket.disconnect":
-                    break
-                text = event.get("text")
-                try:
-                    if text is None:
-                        raise ProtocolError("messages must be JSON text")
-                    message = parse_message(text)
-                except ProtocolError as error:
-                    await reply([error_reply(0, error)])
-                    continue
-                pending[message.type] = message
-                wakes["fast" if message.type == "render" else "slow"].set()
-                if message.type == "render":
-                    env["cancel"].set()
-                    env["message"] = message
-                    wakes["env"].set()
+            await self._listen()
         except WebSocketDisconnect:
             pass
         finally:
             for worker in workers:
                 worker.cancel()
-            for worker in workers:
-                with contextlib.suppress(asyncio.CancelledError, Exception):
-                    await worker
+            await _stopped(workers)
+
+    async def _reply(self, replies: list[tuple[dict[str, Any], list[Any]]]) -> None:
+        async with self.lock:
+            for header, arrays in replies:
+                await self.ws.send_bytes(encode_frame(header, [a.tobytes() for a in arrays]))
+
+    async def _listen(self) -> None:
+        """Put each message in its slot and wake its worker, until the page disconnects."""
+        while True:
+            event = await self.ws.receive()
+            if event["type"] == "websocket.disconnect":
+                return
+            text = event.get("text")
+            try:
+                if text is None:
+                    raise ProtocolError("messages must be JSON text")
+                message = parse_message(text)
+            except ProtocolError as error:
+                await self._reply([error_reply(0, error)])
+                continue
+            self.pending[message.type] = message
+            self.wakes["fast" if message.type == "render" else "slow"].set()
+            if message.type == "render":
+                self.cancel.set()
+                self.environment_message = message
+                self.wakes["env"].set()
+
+    async def _run(self, kind: str, message: Message) -> Any:
+        """The reply to ``message`` of ``kind`` (``None`` when a newer one made it stale)."""
+        run = {"render": self.session.render, "albedo": self.session.albedo}.get(kind)
+        try:
+            if run is None:
+                return await asyncio.to_thread(self.session.checks, message)
+            stale = lambda: self.pending[kind] is not None  # noqa: E731
+            return await asyncio.to_thread(run, message, stale)
+        except (BrdfkitError, ValueError) as error:
+            return error_reply(message.seq, error)
+
+    async def _work(self, wake: asyncio.Event, kinds: tuple[str, ...]) -> None:
+        """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo."""
+        while True:
+            await wake.wait()
+            wake.clear()
+            for kind in kinds:
+                message, self.pending[kind] = self.pending[kind], None
+                if message is None:
+                    continue
+                result = await self._run(kind, message)
+                if result is not None:
+                    await self._reply([result])
+                if kind == "render" and result is not None:
+                    self.pending["albedo"] = message
+                    self.wakes["slow"].set()
+                if any(self.pending[k] is not None for k in kinds):
+                    wake.set()
+
+    async def _environment(self) -> None:
+        """The environment-lit spheres, pass by pass; a newer render cancels the old one."""
+        while True:
+            await self.wakes["env"].wait()
+            self.wakes["env"].clear()
+            message, self.environment_message = self.environment_message, None
+            if message is None:
+                continue
+            cancel = self.cancel = threading.Event()
+            passes = self.session.environment(message, cancel)
+            while not cancel.is_set():
+                result = await asyncio.to_thread(next, passes, None)
+                if result is None or cancel.is_set():
+                    break
+                await self._reply([result])
+
+
+async def _stopped(workers: list[asyncio.Task]) -> None:
+    """Wait for the cancelled ``workers``; log the failure of one that died of anything but the
+    page going away (its replies then stopped)."""
+    from starlette.websockets import WebSocketDisconnect
+
+    for outcome in await asyncio.gather(*workers, return_exceptions=True):
+        if isinstance(outcome, Exception) and not isinstance(
+            outcome, WebSocketDisconnect | OSError
+        ):
+            _log.error("an explorer worker failed", exc_info=outcome)
+
+
+def _channel(session: Session) -> Callable[[WebSocket], Awaitable[None]]:
+    """The handler of the WebSocket ``ws`` (:class:`_Channel`)."""
+
+    async def channel(ws: WebSocket) -> None:
+        await _Channel(session, ws).serve()
+
+    return channel
+
+
+def build_app(session: Session, token: str, port: int, initial: list[str]) -> ASGIApp:
+    """The guarded Starlette application serving ``session`` under ``/TOKEN/``.
+
+    ``initial`` lists the specs and file names the page opens with.
+    """
+    from starlette.applications import Starlette
+    from starlette.routing import Mount, Route, WebSocketRoute
+    from starlette.staticfiles import StaticFiles
 
     routes = [
-        Mount(
-            f"/{token}",
-            routes=[
-                Route("/", index),
-                Route("/config", config),
-                Route("/upload", upload, methods=["POST"]),
-                WebSocketRoute("/ws", channel),
-                Mount("/static", StaticFiles(directory=STATIC)),
-            ],
-        )
+        Route("/", _index),
+        Route("/config", _config(session, initial)),
+        Route("/upload", _upload(session), methods=["POST"]),
+        WebSocketRoute("/ws", _channel(session)),
+        Mount("/static", StaticFiles(directory=STATIC)),
     ]
-    app = Starlette(routes=routes)
-    return Guard(app, token, port)
+    return Guard(Starlette(routes=[Mount(f"/{token}", routes=routes)]), token, port)
 
 
 WARM_UP_TIMEOUT = 300.0

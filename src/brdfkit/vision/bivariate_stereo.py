@@ -24,10 +24,11 @@ and the normal is the minimiser of the remaining residual (variable projection):
 The normal search is the same for all: Levenberg–Marquardt on the two tangent coordinates of
 the normal, the residual's Jacobian analytic (variable projection [6]_), every pixel on its
 own until its step falls below :data:`STEP_TOLERANCE` (a compiled per-pixel kernel,
-:mod:`brdfkit.vision._bivariate_stereo_kernels`, the pixels split over the cores), started from
-trimmed least squares. Observations darker than ``shadow_threshold`` times a pixel's 90th-percentile
-observation are shadows and excluded; this selection does not depend on the candidate normal, so
-costs stay comparable.
+:mod:`brdfkit.vision._bivariate_stereo_kernels`, the pixels split over the cores; their readable
+NumPy version, which the tests hold them to, is :mod:`brdfkit.vision.bivariate_reference`),
+started from trimmed least squares. Observations darker than ``shadow_threshold`` times a
+pixel's 90th-percentile observation are shadows and excluded; this selection does not depend on
+the candidate normal, so costs stay comparable.
 
 References
 ----------
@@ -379,8 +380,7 @@ def _blas_threads(method: Callable[..., PhotometricStereoResult]) -> Callable:
     Its BLAS products (channel means, the trimmed least-squares starts, the chromaticities) are
     ``(P, N)`` by ``(N, <= 9)``, which a second thread does not speed up; a threaded OpenBLAS
     spins after each call and then competes with the compiled kernels' threads for the cores
-    (the starts of the DiLiGenT-size benchmark: 0.29-0.37 s on one thread, 0.45-0.50 s on two,
-    the same numbers)."""
+    (the numbers are the same on any count of threads)."""
 
     @functools.wraps(method)
     def run(*args, **kwargs) -> PhotometricStereoResult:

@@ -507,6 +507,30 @@ def _read_normal_gt(path: Path, mask: np.ndarray) -> np.ndarray:
     return np.where(finite, normals, 0.0)
 
 
+def read_normal_gt(path: str | Path, mask: ArrayLike) -> np.ndarray:
+    """The ground-truth normals ``(H, W, 3)`` of a DiLiGenT ``Normal_gt.mat``, for a ``mask``
+    ``(H, W)``: finite inside the mask (NaN or infinity outside it become 0).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file: not MATLAB level 5, no ``Normal_gt``, the wrong shape, or NaN or
+        infinity inside the mask.
+    """
+    return _read_normal_gt(Path(path), np.asarray(mask, dtype=bool))
+
+
+def image_names(folder: str | Path) -> list[str]:
+    """The image file names that a DiLiGenT folder's ``filenames.txt`` lists, in order.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The listing is missing or is not UTF-8 text.
+    """
+    return [token for _, tokens in _lines(Path(folder) / "filenames.txt") for token in tokens]
+
+
 def _read_intensities(path: Path, count: int) -> np.ndarray:
     """``(count, 3)`` positive light intensities from ``r g b`` rows."""
     intensities = _read_rows(path, 3)

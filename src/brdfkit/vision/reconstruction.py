@@ -1,0 +1,286 @@
+"""Photometric stereo from a data set to a surface: normals and albedo, depth, a mesh, and the
+errors against the ground truth where the data set holds one.
+
+:func:`reconstruct` chains what ``brdfkit ps`` does: a calibrated method of :data:`SOLVERS`
+under the data set's lights (or, with ``uncalibrated=True``, the lights estimated from the
+images by :func:`~brdfkit.vision.uncalibrated.uncalibrated` and compared with the given ones),
+an integrator of :data:`~brdfkit.vision.normal_integration.METHODS` (orthographic, or
+perspective through a camera matrix), the mesh of the depth map (:func:`depth_mesh`) and, when
+the data set has ground-truth normals, the angular errors and the depth error against the depth
+integrated from those normals (:mod:`~brdfkit.vision.metrics`).
+
+Frame: x right, y up, z towards the camera (:mod:`brdfkit.vision`).
+
+References
+----------
+.. [1] R. J. Woodham, "Photometric method for determining surface orientation from multiple
+   images", Optical Engineering 19(1), 1980.
+.. [2] B. Shi, Z. Mo, Z. Wu, D. Duan, S.-K. Yeung, P. Tan, "A benchmark dataset and evaluation
+   for non-Lambertian and uncalibrated photometric stereo", IEEE TPAMI 41(2), 2019 (the
+   angular-error measures).
+.. [3] Y. Quéau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", J. Math. Imaging
+   Vis. 60, 2018.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from brdfkit.errors import FormatError, ParameterError
+from brdfkit.vision import bivariate_stereo, consensus, photometric_stereo
+from brdfkit.vision import normal_integration as integration_methods
+from brdfkit.vision.datasets import PhotometricStereoData
+from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
+from brdfkit.vision.photometric_stereo import PhotometricStereoResult
+
+if TYPE_CHECKING:
+    import trimesh
+
+SOLVERS: dict[str, Callable[..., PhotometricStereoResult]] = {
+    **photometric_stereo.METHODS,
+    **bivariate_stereo.METHODS,
+    **consensus.METHODS,
+}
+"""Every calibrated method by name: the Lambertian and robust ones, the bivariate
+(non-Lambertian) ones and the consensus search (the ``--method`` choices of ``brdfkit ps``)."""
+
+_WITHOUT_PROGRESS = ("least_squares", "trimmed")
+"""The closed-form methods, which take no progress callback."""
+
+Progress = Callable[[str, int, int | None], None]
+"""Progress callback ``progress(stage, done, total)``: the stage's name (the method, then
+``integrating (INTEGRATOR)``), and the iterations done of ``total`` (``None``: not known)."""
+
+
+@dataclass(frozen=True)
+class Reconstruction:
+    """Output of :func:`reconstruct`.
+
+    Attributes
+    ----------
+    data : the data set, its ``light_directions`` those the normals were solved with (the
+        estimated ones with ``uncalibrated``).
+    method, integration : the names of the solver and the integrator.
+    result : normals ``(H, W, 3)``, albedo ``(H, W, C)`` and the mask.
+    depth : ``(H, W)`` depth (orthographic: pixel units along -z; perspective: along the rays).
+    mesh : the depth map as a triangle mesh (:func:`depth_mesh`).
+    light_error : ``(N,)`` angles in degrees between the estimated and the given lights
+        (``uncalibrated`` only), else ``None``.
+    gbr_cue : the cue that resolved the GBR ambiguity (``uncalibrated`` only), else ``None``.
+    angular_error : ``{"mean", "median"}`` of the angular error in degrees over the mask, when
+        the data set has ground-truth normals, else ``None``.
+    error_map : ``(H, W)`` angular error in degrees (NaN off the mask), with ground truth.
+    depth_relative_rmse : RMSE of the depth against the depth integrated from the ground-truth
+        normals, after the best scale and offset, over the range of the latter; with ground
+        truth.
+    """
+
+    data: PhotometricStereoData
+    method: str
+    integration: str
+    result: PhotometricStereoResult
+    depth: np.ndarray
+    mesh: trimesh.Trimesh
+    light_error: np.ndarray | None = None
+    gbr_cue: str | None = None
+    angular_error: dict[str, float] | None = None
+    error_map: np.ndarray | None = None
+    depth_relative_rmse: float | None = None
+
+    def measures(self) -> dict[str, Any]:
+        """The run and its measures as JSON-ready numbers (what ``brdfkit ps`` writes to
+        ``metrics.json``)."""
+        summary: dict[str, Any] = {
+            "dataset": self.data.name,
+            "method": self.method,
+            "integration": self.integration,
+            "lights": len(self.data.images),
+            "pixels": int(self.data.mask.sum()),
+        }
+        if self.light_error is not None:
+            summary["gbr_cue"] = self.gbr_cue
+            summary["light_error_deg"] = {
+                "mean": float(self.light_error.mean()),
+                "median": float(np.median(self.light_error)),
+            }
+        if self.angular_error is not None:
+            summary["angular_error_deg"] = self.angular_error
+            summary["depth_relative_rmse"] = self.depth_relative_rmse
+        return summary
+
+
+def read_intrinsics(path: str | os.PathLike, step: int = 1) -> np.ndarray:
+    """The 3×3 camera matrix ``K`` in the text file ``path``, scaled to every ``step``-th pixel
+    (its first two rows divided by ``step``).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The file cannot be read, or does not hold a finite 3×3 matrix with ``K[2, 2] != 0``.
+    """
+    try:
+        matrix = np.loadtxt(path, ndmin=2, encoding="utf-8")
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise FormatError(path, f"not a 3×3 matrix of numbers ({error})") from None
+    if matrix.shape != (3, 3) or not np.isfinite(matrix).all() or matrix[2, 2] == 0:
+        raise FormatError(path, f"expected a finite 3×3 camera matrix; got shape {matrix.shape}")
+    return matrix * np.array([[1 / step], [1 / step], [1]])
+
+
+def depth_mesh(
+    depth: np.ndarray, mask: np.ndarray, camera: np.ndarray | None = None
+) -> trimesh.Trimesh:
+    """A triangle mesh of a depth map: one vertex per mask pixel, two triangles per 2×2 block of
+    mask pixels.
+
+    Vertices are in the camera frame (x right, y up, z towards the camera): orthographic
+    ``(u, -v, -z)`` in pixel units; perspective ``z K⁻¹ (u, v, 1)`` with y and z flipped from
+    OpenCV's frame. Triangles wind counter-clockwise seen from the camera, so that their normals
+    point towards +z.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> mesh = depth_mesh(np.zeros((3, 4)), np.ones((3, 4), bool))
+    >>> len(mesh.vertices), len(mesh.faces)
+    (12, 12)
+    >>> bool(np.all(mesh.face_normals[:, 2] > 0))
+    True
+    """
+    import trimesh
+
+    rows, columns = np.nonzero(mask)
+    z = depth[mask]
+    if camera is None:
+        vertices = np.stack([columns, -rows, -z], axis=1).astype(np.float64)
+    else:
+        rays = np.stack([columns, rows, np.ones_like(columns)], axis=1) @ np.linalg.inv(camera).T
+        vertices = rays * z[:, None] * np.array([1.0, -1.0, -1.0])
+    index = np.full(mask.shape, -1)
+    index[mask] = np.arange(len(z))
+    a, b = index[:-1, :-1], index[:-1, 1:]  # top left, top right
+    c, d = index[1:, :-1], index[1:, 1:]  # bottom left, bottom right
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    faces = np.concatenate(
+        [np.stack([a[full], c[full], b[full]], 1), np.stack([b[full], c[full], d[full]], 1)]
+    )
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+def _check_choices(method: str, integration: str, camera: np.ndarray | None) -> None:
+    if method not in SOLVERS:
+        raise ParameterError(f"method must be one of {', '.join(SOLVERS)}; got {method!r}")
+    if integration not in integration_methods.METHODS:
+        choices = ", ".join(integration_methods.METHODS)
+        raise ParameterError(f"integration must be one of {choices}; got {integration!r}")
+    if camera is not None and integration != "least_squares":
+        raise ParameterError(
+            f"a camera matrix needs integration='least_squares' (perspective); got {integration!r}"
+        )
+
+
+def _solve(
+    data: PhotometricStereoData,
+    method: str,
+    uncalibrated: bool,
+    gbr_cue: str,
+    sigma: float,
+    progress: Progress,
+) -> tuple[PhotometricStereoData, PhotometricStereoResult, np.ndarray | None]:
+    """The normals and albedo; with ``uncalibrated``, the data set with the estimated lights and
+    their angles in degrees to the given ones."""
+    from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
+
+    progress(method, 0, None)
+    if not uncalibrated:
+        extra = {}
+        if method not in _WITHOUT_PROGRESS:
+            extra["callback"] = lambda done, total: progress(method, done, total)
+        return data, SOLVERS[method](data.images, data.light_directions, data.mask, **extra), None
+    estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, method=method, sigma=sigma)
+    cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
+    light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    return replace(data, light_directions=estimate.light_directions), estimate.result, light_error
+
+
+def reconstruct(
+    data: PhotometricStereoData,
+    *,
+    method: str = "sparse_regression",
+    integration: str = "least_squares",
+    camera: np.ndarray | None = None,
+    uncalibrated: bool = False,
+    gbr_cue: str = "entropy",
+    sigma: float = 1.0,
+    progress: Progress | None = None,
+) -> Reconstruction:
+    """Normals, albedo, depth and mesh of a photometric-stereo data set, and their errors where
+    it holds ground-truth normals.
+
+    Parameters
+    ----------
+    data : the images, lights, mask and (optionally) ground-truth normals
+        (:func:`~brdfkit.vision.datasets.load_dataset`).
+    method : a calibrated method of :data:`SOLVERS`.
+    integration : an integrator of :data:`brdfkit.vision.normal_integration.METHODS`.
+    camera : ``(3, 3)`` intrinsics ``K`` for perspective integration
+        (:func:`read_intrinsics`; ``least_squares`` integration only); orthographic when
+        ``None``.
+    uncalibrated : estimate the lights from the images (Hayakawa's factorisation,
+        integrability, the GBR from ``gbr_cue``), then solve with ``method`` under them; the
+        data set's lights are only compared with the estimate.
+    gbr_cue : a cue of :data:`brdfkit.vision.uncalibrated.CUES`.
+    sigma : smoothing in pixels of ``data`` before the integrability derivatives
+        (``uncalibrated`` only).
+    progress : ``progress(stage, done, total)`` as the work advances (:data:`Progress`).
+
+    Returns
+    -------
+    Reconstruction
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        An unknown method or integrator, a camera with another integrator, or what the solver
+        raises on the data.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.vision import datasets, photometric_stereo
+    >>> normals, mask = photometric_stereo.sphere_normals((16, 16), (7.5, 7.5), 7.0)
+    >>> lights = datasets.diligent_like_lights(3, 3, np.radians(20))
+    >>> data = datasets.render_synthetic(normals, mask, lights, albedo=0.5)
+    >>> surface = reconstruct(data, method="least_squares")
+    >>> surface.angular_error["mean"] < 1.0
+    True
+    >>> surface.depth.shape, len(surface.mesh.vertices) == int(mask.sum())
+    ((16, 16), True)
+    """
+    _check_choices(method, integration, camera)
+    report = progress if progress is not None else (lambda stage, done, total: None)
+    data, result, light_error = _solve(data, method, uncalibrated, gbr_cue, sigma, report)
+    report(f"integrating ({integration})", 0, None)
+    integrator = integration_methods.METHODS[integration]
+    perspective = () if camera is None else (camera,)
+    depth = integrator(result.normals, data.mask, *perspective)
+    mesh = depth_mesh(depth, data.mask, camera)
+    errors: dict[str, Any] = {}
+    if data.normals is not None:
+        truth_depth = integrator(data.normals, data.mask, *perspective)
+        errors = {
+            "angular_error": angular_error(result.normals, data.normals, data.mask),
+            "error_map": angular_error_map(result.normals, data.normals, data.mask),
+            "depth_relative_rmse": float(
+                depth_error(depth, truth_depth, data.mask)["relative_rmse"]
+            ),
+        }
+    return Reconstruction(
+        data, method, integration, result, depth, mesh, light_error,
+        gbr_cue if uncalibrated else None, **errors,
+    )  # fmt: skip
