@@ -208,6 +208,9 @@ LABELS = re.compile(
 )
 
 
+THIS_FILE = "tests/test_architecture.py"  # it spells the labels out
+
+
 def test_no_lab_notebook_labels_in_tracked_files():
     """No work-log labels, helper or branch names, or issue numbers in the repository."""
     files = subprocess.run(
@@ -218,10 +221,10 @@ def test_no_lab_notebook_labels_in_tracked_files():
         path = ROOT / name
         if path.suffix not in {".py", ".md", ".rst", ".toml", ".txt", ".js", ".json", ".cfg", ""}:
             continue
-        if not path.is_file() or path.stat().st_size > 2_000_000:
+        if not path.is_file() or path.stat().st_size > 2_000_000 or name == THIS_FILE:
             continue
         for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
-            if LABELS.search(line) and "LABELS" not in line:
+            if LABELS.search(line):
                 hits.append(f"{name}:{number}: {line.strip()[:80]}")
     assert hits == []
 
