@@ -136,8 +136,8 @@ def conductor(name: str) -> tuple[tuple[float, float, float], tuple[float, float
     --------
     >>> import numpy as np
     >>> eta, k = conductor("au")
-    >>> f0_from_conductor(np.array(eta), np.array(k)).round(4)  # gold's colour at normal incidence
-    array([0.9667, 0.802 , 0.3241])
+    >>> f0_from_conductor(np.array(eta), np.array(k)).round(4).tolist()  # gold, head on
+    [0.9667, 0.802, 0.3241]
     """
     by_lower = {key.lower(): key for key in CONDUCTORS}
     key = by_lower.get(name.strip().lower())
@@ -298,8 +298,8 @@ def fresnel_dielectric(
     Glass at normal, 60° and grazing incidence; from inside at 60°, beyond the critical angle:
 
     >>> import numpy as np
-    >>> fresnel_dielectric(np.array([1.0, 0.5, 0.0]), 1.5).round(4)
-    array([0.04  , 0.0892, 1.    ])
+    >>> fresnel_dielectric(np.array([1.0, 0.5, 0.0]), 1.5).round(4).tolist()
+    [0.04, 0.0892, 1.0]
     >>> float(fresnel_dielectric(-0.5, 1.5))
     1.0
     >>> r_s, r_p = fresnel_dielectric(0.5, 1.5, polarized=True)
@@ -351,10 +351,10 @@ def fresnel_conductor(
 
     >>> import numpy as np
     >>> eta, k = (np.array(v) for v in conductor("Au"))
-    >>> fresnel_conductor(1.0, eta, k).round(4)
-    array([0.9667, 0.802 , 0.3241])
-    >>> fresnel_conductor(0.0, eta, k).round(4)
-    array([1., 1., 1.])
+    >>> fresnel_conductor(1.0, eta, k).round(4).tolist()
+    [0.9667, 0.802, 0.3241]
+    >>> fresnel_conductor(0.0, eta, k).round(4).tolist()
+    [1.0, 1.0, 1.0]
     """
     cos_theta_i, eta, k = asarrays(cos_theta_i, eta, k)
     if validate:
@@ -397,8 +397,8 @@ def f0_from_ior(eta: Any) -> Array:
     Examples
     --------
     >>> import numpy as np
-    >>> f0_from_ior(np.array([1.5, 2.419, 1 / 1.5])).round(4)
-    array([0.04  , 0.1723, 0.04  ])
+    >>> f0_from_ior(np.array([1.5, 2.419, 1 / 1.5])).round(4).tolist()
+    [0.04, 0.1723, 0.04]
     """
     (eta,) = asarrays(eta)
     check_param("eta", eta, 0.0, lo_open=True, hint="relative index")
@@ -445,8 +445,8 @@ def schlick(cos_theta_i: Any, f0: Any) -> Array:
     Examples
     --------
     >>> import numpy as np
-    >>> schlick(np.array([1.0, 0.5, 0.0]), 0.04).round(4)
-    array([0.04, 0.07, 1.  ])
+    >>> schlick(np.array([1.0, 0.5, 0.0]), 0.04).round(4).tolist()
+    [0.04, 0.07, 1.0]
     """
     cos_theta_i, f0 = asarrays(cos_theta_i, f0)
     check_param("f0", f0, 0.0, 1.0, hint="reflectance at normal incidence")

@@ -242,8 +242,9 @@ def param(value: Any, like: Array) -> Array:
     Examples
     --------
     >>> import numpy as np
-    >>> param(0.5, np.zeros(3, dtype=np.float32))
-    array([0.5], dtype=float32)
+    >>> value = param(0.5, np.zeros(3, dtype=np.float32))
+    >>> value.shape, value.dtype
+    ((1,), dtype('float32'))
     """
     if type(value) is float and type(like) is np.ndarray and like.dtype.kind == "f":
         return np.array([value], dtype=like.dtype)  # the common case, before the general rules

@@ -82,8 +82,8 @@ def lobe_data(
     >>> import numpy as np
     >>> from brdfkit.brdf import Lambertian
     >>> theta, value = lobe_data(Lambertian(rho=0.5), math.radians(30), samples=5)
-    >>> np.degrees(theta), (value * np.pi).round(4)
-    (array([-90., -45.,   0.,  45.,  90.]), array([0.5, 0.5, 0.5, 0.5, 0.5]))
+    >>> np.degrees(theta).tolist(), (value * np.pi).round(4).tolist()
+    ([-90.0, -45.0, 0.0, 45.0, 90.0], [0.5, 0.5, 0.5, 0.5, 0.5])
     """
     theta = np.linspace(-math.pi / 2, math.pi / 2, samples)
     wo = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
@@ -178,8 +178,8 @@ def half_diff_data(
     >>> import numpy as np
     >>> from brdfkit.brdf import Lambertian
     >>> theta_h, theta_d, value = half_diff_data(Lambertian(rho=0.5), resolution=4)
-    >>> np.degrees(theta_h)
-    array([11.25, 33.75, 56.25, 78.75])
+    >>> np.degrees(theta_h).tolist()
+    [11.25, 33.75, 56.25, 78.75]
     >>> value.shape, int(np.isnan(value).sum())  # at φd = 90° no pair dips below the horizon
     ((4, 4), 0)
     """
@@ -235,8 +235,8 @@ def albedo_data(
 
     >>> from brdfkit.brdf import Lambertian
     >>> theta, rho, stderr = albedo_data(Lambertian(rho=0.5), angles=3, samples=256)
-    >>> rho.round(12), stderr
-    (array([0.5, 0.5, 0.5]), array([0., 0., 0.]))
+    >>> rho.round(12).tolist(), stderr.tolist()
+    ([0.5, 0.5, 0.5], [0.0, 0.0, 0.0])
     """
     theta = np.linspace(0, math.radians(89), angles)
     wo = spherical_to_cartesian(theta, np.zeros_like(theta))

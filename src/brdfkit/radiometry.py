@@ -709,10 +709,10 @@ def irradiance_point_source(
     The inverse-square law: twice as far, a quarter of the irradiance; tilted by 60°, half:
 
     >>> up = [0.0, 0.0, 1.0]
-    >>> irradiance_point_source(100.0, [0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up)
-    array([25.])
-    >>> irradiance_point_source(100.0, [0.0, 0.0, 4.0], [0.0, 0.0, 0.0], up)
-    array([6.25])
+    >>> irradiance_point_source(100.0, [0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up).tolist()
+    [25.0]
+    >>> irradiance_point_source(100.0, [0.0, 0.0, 4.0], [0.0, 0.0, 0.0], up).tolist()
+    [6.25]
     >>> float(irradiance_point_source(100.0, [3**0.5, 0.0, 1.0], [0.0, 0.0, 0.0], up)[0].round(10))
     12.5
     """
@@ -970,8 +970,8 @@ def radiance_from_intensity(
 
     Examples
     --------
-    >>> radiance_from_intensity(2.0, 0.5)
-    array([4.])
+    >>> radiance_from_intensity(2.0, 0.5).tolist()
+    [4.0]
     """
     intensity, area, cos_theta = asarrays(intensity, area, cos_theta)
     check_finite("intensity", intensity)
@@ -1003,10 +1003,8 @@ def intensity_lambertian(
 
     Examples
     --------
-    >>> intensity_lambertian(1.0, 2.0, [1.0, 0.5, -0.5])
-    array([[2.],
-           [1.],
-           [0.]])
+    >>> intensity_lambertian(1.0, 2.0, [1.0, 0.5, -0.5]).tolist()
+    [[2.0], [1.0], [0.0]]
     """
     radiance, area, cos_theta = asarrays(radiance, area, cos_theta)
     check_finite("radiance", radiance)

@@ -143,10 +143,8 @@ def square_to_uniform_disk_concentric(u: Array) -> Array:
 
     Examples
     --------
-    >>> square_to_uniform_disk_concentric([[0.5, 0.5], [0.75, 0.5], [1.0, 0.5]])
-    array([[0. , 0. ],
-           [0.5, 0. ],
-           [1. , 0. ]])
+    >>> square_to_uniform_disk_concentric([[0.5, 0.5], [0.75, 0.5], [1.0, 0.5]]).tolist()
+    [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]
     """
     u = _check_unit_square("u", u)
     xp = namespace(u)
@@ -178,8 +176,8 @@ def square_to_uniform_disk_concentric_pdf(p: Array) -> Array:
 
     Examples
     --------
-    >>> square_to_uniform_disk_concentric_pdf([[0.5, 0.0], [1.0, 1.0]]).round(4)
-    array([0.3183, 0.    ])
+    >>> square_to_uniform_disk_concentric_pdf([[0.5, 0.0], [1.0, 1.0]]).round(4).tolist()
+    [0.3183, 0.0]
     """
     p = _check_pairs("p", p)
     return _uniform_density(1 / math.pi, dot(p, p) <= 1, p)
@@ -206,8 +204,8 @@ def square_to_uniform_sphere(u: Array) -> Array:
 
     Examples
     --------
-    >>> square_to_uniform_sphere([0.0, 0.25]).round(4)
-    array([0.866, 0.   , 0.5  ])
+    >>> square_to_uniform_sphere([0.0, 0.25]).round(4).tolist()
+    [0.866, 0.0, 0.5]
     >>> float(square_to_uniform_sphere_pdf([0.0, 0.0, -1.0]).round(6))  # 1/(4π)
     0.079577
     """
@@ -261,10 +259,11 @@ def square_to_uniform_hemisphere(u: Array) -> Array:
 
     Examples
     --------
-    >>> square_to_uniform_hemisphere([0.5, 0.5])
-    array([0., 0., 1.])
-    >>> square_to_uniform_hemisphere_pdf([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]).round(4)  # 1/(2π)
-    array([0.1592, 0.    ])
+    >>> square_to_uniform_hemisphere([0.5, 0.5]).tolist()
+    [0.0, 0.0, 1.0]
+    >>> up_and_down = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
+    >>> square_to_uniform_hemisphere_pdf(up_and_down).round(4).tolist()  # 1/(2π), then 0
+    [0.1592, 0.0]
     """
     p = square_to_uniform_disk_concentric(u)
     xp = namespace(p)
@@ -338,11 +337,10 @@ def square_to_cosine_hemisphere(u: Array) -> Array:
     (:func:`square_to_cosine_hemisphere_pdf`):
 
     >>> w = square_to_cosine_hemisphere([[0.5, 0.5], [0.25, 0.5]])
-    >>> w.round(4)
-    array([[ 0.   ,  0.   ,  1.   ],
-           [-0.5  ,  0.   ,  0.866]])
-    >>> square_to_cosine_hemisphere_pdf(w).round(4)
-    array([0.3183, 0.2757])
+    >>> w.round(4).tolist()
+    [[0.0, 0.0, 1.0], [-0.5, 0.0, 0.866]]
+    >>> square_to_cosine_hemisphere_pdf(w).round(4).tolist()
+    [0.3183, 0.2757]
     """
     p = square_to_uniform_disk_concentric(u)
     xp = namespace(p)
@@ -457,8 +455,8 @@ def square_to_uniform_triangle(u: Array) -> Array:
     Examples
     --------
     >>> b = square_to_uniform_triangle([0.19, 0.5])
-    >>> b.round(4), float(square_to_uniform_triangle_pdf(b))
-    (array([0.1 , 0.45]), 2.0)
+    >>> b.round(4).tolist(), float(square_to_uniform_triangle_pdf(b))
+    ([0.1, 0.45], 2.0)
     """
     u = _check_unit_square("u", u)
     xp = namespace(u)
@@ -665,12 +663,10 @@ class Distribution2D:
     >>> import numpy as np
     >>> distribution = Distribution2D(np.array([[1.0, 3.0]]))
     >>> points, pdf = distribution.sample(np.array([[0.1, 0.5], [0.5, 0.5]]))
-    >>> points.round(4), pdf
-    (array([[0.2   , 0.5   ],
-           [0.6667, 0.5   ]]), array([0.5, 1.5]))
-    >>> distribution.invert(points).round(4)
-    array([[0.1, 0.5],
-           [0.5, 0.5]])
+    >>> points.round(4).tolist(), pdf.tolist()
+    ([[0.2, 0.5], [0.6667, 0.5]], [0.5, 1.5])
+    >>> distribution.invert(points).round(4).tolist()
+    [[0.1, 0.5], [0.5, 0.5]]
     """
 
     def __init__(self, image: Any) -> None:
@@ -829,11 +825,8 @@ def sobol(n: int, dim: int, seed: int | None = None, scramble: bool = True) -> n
 
     Examples
     --------
-    >>> sobol(4, 2, scramble=False)
-    array([[0.  , 0.  ],
-           [0.5 , 0.5 ],
-           [0.75, 0.25],
-           [0.25, 0.75]])
+    >>> sobol(4, 2, scramble=False).tolist()
+    [[0.0, 0.0], [0.5, 0.5], [0.75, 0.25], [0.25, 0.75]]
     >>> sobol(256, 3, seed=7).shape
     (256, 3)
     """
