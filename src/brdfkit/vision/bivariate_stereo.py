@@ -378,9 +378,7 @@ def _blas_threads(method: Callable[..., PhotometricStereoResult]) -> Callable:
 
     Its BLAS products (channel means, the trimmed least-squares starts, the chromaticities) are
     ``(P, N)`` by ``(N, <= 9)``, which a second thread does not speed up; a threaded OpenBLAS
-    spins after each call and then competes with the compiled kernels' threads for the cores
-    (the starts of the DiLiGenT-size benchmark: 0.29-0.37 s on one thread, 0.45-0.50 s on two,
-    the same numbers)."""
+    spins after each call and then competes with the compiled kernels' threads for the cores."""
 
     @functools.wraps(method)
     def run(*args, **kwargs) -> PhotometricStereoResult:
