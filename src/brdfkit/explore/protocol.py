@@ -14,6 +14,10 @@ Messages from the front end::
 An entry is ``{"id": "b1", "visible": true, "source": S}`` with ``S`` one of ``{"spec": "ggx"}``,
 ``{"tree": {...}}`` (:mod:`brdfkit.explore.model_tree`) or ``{"file": "name"}`` (a file the server
 was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`.
+
+References
+----------
+.. [1] I. Fette, A. Melnikov, "The WebSocket Protocol", RFC 6455, IETF, 2011.
 """
 
 from __future__ import annotations

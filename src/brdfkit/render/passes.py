@@ -3,6 +3,13 @@
 :func:`progressive` yields a :class:`Pass` per refinement (the running mean, its per-pixel
 standard error and, with Sobol' replicates, an unbiased error estimate), so that a viewer can
 show an image at once and refine it, and stop when the noise is low enough.
+
+References
+----------
+.. [1] A. B. Owen, *Monte Carlo theory, methods and examples*, 2013, §17.2 (independent
+       replicates of randomized quasi-Monte Carlo).
+.. [2] T. F. Chan, G. H. Golub, R. J. LeVeque, "Updating formulae and a pairwise algorithm for
+       computing sample variances", COMPSTAT 1982.
 """
 
 from __future__ import annotations
