@@ -39,10 +39,9 @@ the system under 4 GiB free, so each task reuses the pages the last one faulted 
 glibc's default, arrays over its adaptive threshold (at most 32 MB: a MERL file's 35 MB of
 values always) are still fresh ``mmap`` pages, whose faults cost system time, and faults of two
 workers slow each other; with these settings a fit of a MERL table faults hardly at all. A
-worker keeps its peak
-memory (a few hundred MB for a fit) until it exits; unfit for a worker under a tight
-``memory_limit``, whose resident size must fall when a task ends. A variable the user exports
-still applies.
+worker keeps its peak memory (a few hundred MB for a fit) until it exits; unfit for a worker
+under a tight ``memory_limit``, whose resident size must fall when a task ends. A variable the
+user exports still applies.
 """
 
 

@@ -82,9 +82,9 @@ Jacobian (one backward pass per residual, or one forward-mode pass per parameter
 by memory traffic (each direction array is 27 MB, each step of a model's evaluation reads and
 writes such arrays). So those passes run on cache-sized pieces: the nodes' directions one θh
 row at a time from the grid's axes (:meth:`TabulatedBRDF.node_axes`, their sines and cosines
-once per axis value), the errors (:func:`fit_errors`) on blocks of 8192 samples.
-Inside a least-squares run nothing is computed twice: the measurements' side of the residuals
-once, a Jacobian column's residuals only in the channels its step moves, and a lobe whose own
+once per axis value), the errors (:func:`fit_errors`) on blocks of 8192 samples. Inside a
+least-squares run nothing is computed twice: the measurements' side of the residuals once, a
+Jacobian column's residuals only in the channels its step moves, and a lobe whose own
 parameters did not change keeps its values. The results are those of the plain computation
 (``tests/fit/test_fit_blocks.py``).
 
