@@ -107,6 +107,13 @@ def dielectric(name: str) -> float:
     ------
     ValueError
         For an unknown name, listing the known ones.
+
+    Examples
+    --------
+    >>> dielectric("Diamond")
+    2.419
+    >>> float(f0_from_ior(dielectric("glass")).round(4))
+    0.04
     """
     key = name.strip().lower()
     if key not in IOR:
@@ -124,6 +131,13 @@ def conductor(name: str) -> tuple[tuple[float, float, float], tuple[float, float
     ------
     ValueError
         For an unknown name, listing the known ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> eta, k = conductor("au")
+    >>> f0_from_conductor(np.array(eta), np.array(k)).round(4).tolist()  # gold, head on
+    [0.9667, 0.802, 0.3241]
     """
     by_lower = {key.lower(): key for key in CONDUCTORS}
     key = by_lower.get(name.strip().lower())
@@ -244,6 +258,14 @@ def fresnel(cos_theta_i: Any, eta: Any) -> tuple[Array, Array, Array, Array]:
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., §1.5.2, 1999.
     .. [2] Mitsuba 3, ``fresnel(cos_theta_i, eta)`` in ``include/mitsuba/render/fresnel.h``.
+
+    Examples
+    --------
+    Into glass at sin θi = 0.6: sin θt = 0.4, the refracted ray goes down:
+
+    >>> F, cos_theta_t, eta_it, eta_ti = fresnel(0.8, 1.5)
+    >>> float(F.round(4)), float(cos_theta_t.round(4)), float(eta_it)
+    (0.0439, -0.9165, 1.5)
     """
     r_s, r_p, cos_theta_t, eta_it, eta_ti = _dielectric(cos_theta_i, eta)
     return 0.5 * (r_s + r_p), cos_theta_t, eta_it, eta_ti
@@ -270,6 +292,19 @@ def fresnel_dielectric(
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., §1.5.2-1.5.4, 1999.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *PBRT*, 4th ed., §9.3.5 ``FrDielectric``, 2023.
+
+    Examples
+    --------
+    Glass at normal, 60° and grazing incidence; from inside at 60°, beyond the critical angle:
+
+    >>> import numpy as np
+    >>> fresnel_dielectric(np.array([1.0, 0.5, 0.0]), 1.5).round(4).tolist()
+    [0.04, 0.0892, 1.0]
+    >>> float(fresnel_dielectric(-0.5, 1.5))
+    1.0
+    >>> r_s, r_p = fresnel_dielectric(0.5, 1.5, polarized=True)
+    >>> float(r_s.round(4)), float(r_p.round(4))
+    (0.1766, 0.0018)
     """
     r_s, r_p, _, _, _ = _dielectric(cos_theta_i, eta)
     return (r_s, r_p) if polarized else 0.5 * (r_s + r_p)
@@ -309,6 +344,17 @@ def fresnel_conductor(
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., §14.2, 1999.
     .. [2] K. D. Moeller, *Optics*, University Science Books, 1988.
     .. [3] Mitsuba 3, ``fresnel_conductor`` in ``include/mitsuba/render/fresnel.h``.
+
+    Examples
+    --------
+    Gold's RGB index (:func:`conductor`), at normal and at grazing incidence:
+
+    >>> import numpy as np
+    >>> eta, k = (np.array(v) for v in conductor("Au"))
+    >>> fresnel_conductor(1.0, eta, k).round(4).tolist()
+    [0.9667, 0.802, 0.3241]
+    >>> fresnel_conductor(0.0, eta, k).round(4).tolist()
+    [1.0, 1.0, 1.0]
     """
     cos_theta_i, eta, k = asarrays(cos_theta_i, eta, k)
     if validate:
@@ -347,6 +393,12 @@ def f0_from_ior(eta: Any) -> Array:
     References
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., eq. 1.5(24), 1999.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f0_from_ior(np.array([1.5, 2.419, 1 / 1.5])).round(4).tolist()
+    [0.04, 0.1723, 0.04]
     """
     (eta,) = asarrays(eta)
     check_param("eta", eta, 0.0, lo_open=True, hint="relative index")
@@ -360,6 +412,13 @@ def f0_from_conductor(eta: Any, k: Any) -> Array:
     References
     ----------
     .. [1] M. Born and E. Wolf, *Principles of Optics*, 7th ed., eq. 14.2(26), 1999.
+
+    Examples
+    --------
+    With κ = 0 it is the dielectric's :func:`f0_from_ior`:
+
+    >>> float(f0_from_conductor(1.5, 0.0).round(4)), float(f0_from_conductor(0.2, 3.0).round(4))
+    (0.04, 0.9234)
     """
     eta, k = asarrays(eta, k)
     check_param("eta", eta, 0.0, lo_open=True, hint="real part of the index")
@@ -382,6 +441,12 @@ def schlick(cos_theta_i: Any, f0: Any) -> Array:
            Graphics Forum* 13(3):233-246, 1994, eq. 15.
     .. [2] N. Chapman, "Better approximations to the Fresnel reflectance", 2023,
            https://www.forwardscattering.org/post/65
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> schlick(np.array([1.0, 0.5, 0.0]), 0.04).round(4).tolist()
+    [0.04, 0.07, 1.0]
     """
     cos_theta_i, f0 = asarrays(cos_theta_i, f0)
     check_param("f0", f0, 0.0, 1.0, hint="reflectance at normal incidence")

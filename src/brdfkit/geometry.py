@@ -41,6 +41,18 @@ def frame_from_normal(normal: Array, tangent: Array | None = None) -> tuple[Arra
     Returns
     -------
     s, t, n : each ``(..., 3)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> frame = frame_from_normal([0.0, 1.0, 0.0])
+    >>> to_local(np.array([0.0, 1.0, 0.0]), frame).tolist()  # the normal is the local +z
+    [0.0, 0.0, 1.0]
+    >>> to_world(np.array([0.0, 0.0, 1.0]), frame).tolist()
+    [0.0, 1.0, 0.0]
+    >>> s, t, n = frame_from_normal([0.0, 0.6, 0.8])
+    >>> float(round(np.dot(s, t), 12)), float(round(np.dot(s, n), 12))
+    (0.0, 0.0)
     """
     n = normalize(check_vectors("normal", normal))
     xp = namespace(n)
@@ -75,7 +87,16 @@ def to_world(v: Array, frame: tuple[Array, Array, Array]) -> Array:
 
 # --------------------------------------------------------------------------- spherical
 def spherical_to_cartesian(theta: Array, phi: Array) -> Array:
-    """Unit vector(s) at polar angle ``theta`` (from +z) and azimuth ``phi`` (from +x)."""
+    """Unit vector(s) at polar angle ``theta`` (from +z) and azimuth ``phi`` (from +x).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spherical_to_cartesian(np.pi / 4, np.pi / 2).round(4).tolist()
+    [0.0, 0.7071, 0.7071]
+    >>> spherical_to_cartesian(np.zeros(5), np.zeros(5)).shape
+    (5, 3)
+    """
     xp = namespace(theta, phi)
     theta = asarray(theta, xp, like=phi if hasattr(phi, "dtype") else None)
     phi = asarray(phi, xp, like=theta)
@@ -96,6 +117,13 @@ def cartesian_to_spherical(v: Array) -> tuple[Array, Array]:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §3.8.3 (spherical polar
        coordinates).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> theta, phi = cartesian_to_spherical([0.0, 2.0, 2.0])
+    >>> float(np.degrees(theta)), float(np.degrees(phi))
+    (45.0, 90.0)
     """
     v = check_vectors("v", v)
     xp = namespace(v)
@@ -110,6 +138,13 @@ def reflect(w: Array, normal: Array | None = None) -> Array:
     """Mirror direction of ``w`` about ``normal`` (default +z): 2(w·n)n − w.
 
     Both ``w`` and the result point away from the surface.
+
+    Examples
+    --------
+    >>> reflect([0.6, 0.48, 0.64]).tolist()
+    [-0.6, -0.48, 0.64]
+    >>> reflect([0.6, 0.48, 0.64], normal=[1.0, 0.0, 0.0]).tolist()
+    [0.6, -0.48, -0.64]
     """
     w = check_vectors("w", w)
     xp = namespace(w)
@@ -133,6 +168,17 @@ def refract(w: Array, eta: Array | float, normal: Array | None = None) -> tuple[
     -------
     w_t : (..., 3) refracted direction (zero where total internal reflection occurs).
     valid : (...,) bool, False under total internal reflection.
+
+    Examples
+    --------
+    Into glass (η = 1.5) at sin θ_i = 0.6, so sin θ_t = 0.4; out of it, beyond the critical angle:
+
+    >>> import numpy as np
+    >>> w_t, valid = refract([0.48, 0.36, 0.8], 1.5)
+    >>> w_t.round(4).tolist(), bool(valid)
+    ([-0.32, -0.24, -0.9165], True)
+    >>> bool(refract([0.72, 0.54, -0.4359], 1.5)[1])
+    False
     """
     w = check_vectors("w", w)
     xp = namespace(w, eta)
@@ -157,7 +203,14 @@ def refract(w: Array, eta: Array | float, normal: Array | None = None) -> tuple[
 
 
 def critical_angle(eta: Array | float) -> Array:
-    """Critical angle θ_c = arcsin(1/η) (radians) for light leaving a medium of relative index η."""
+    """Critical angle θ_c = arcsin(1/η) (radians) for light leaving a medium of relative index η.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> float(np.degrees(critical_angle(1.5)).round(4))
+    41.8103
+    """
     xp = namespace(eta)
     eta = asarray(eta, xp)
     check_param("eta", eta, 1.0, hint="for a critical angle to exist")
@@ -165,7 +218,14 @@ def critical_angle(eta: Array | float) -> Array:
 
 
 def half_vector(wi: Array, wo: Array) -> Array:
-    """The normalised half vector h = ``(wi + wo)/|wi + wo|`` of a reflection pair."""
+    """The normalised half vector h = ``(wi + wo)/|wi + wo|`` of a reflection pair.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> half_vector(np.array([0.6, 0.0, 0.8]), np.array([0.0, 0.6, 0.8])).round(4).tolist()
+    [0.3313, 0.3313, 0.8835]
+    """
     return normalize(wi + wo)
 
 
@@ -192,6 +252,18 @@ def to_half_diff(wi: Array, wo: Array) -> tuple[Array, Array, Array, Array]:
     h = normalize(wi + wo) has spherical angles (θh, φh); the difference vector is ``wi`` rotated
     by −φh about z, then by −θh about y, and has spherical angles (θd, φd). (θh, θd) ∈ [0, π/2]²
     for pairs in the upper hemisphere; φh, φd ∈ (−π, π].
+
+    Examples
+    --------
+    A mirror pair has θd = θi and its half vector at the normal; :func:`from_half_diff` inverts:
+
+    >>> import numpy as np
+    >>> angles = to_half_diff([0.6, 0.0, 0.8], [-0.6, 0.0, 0.8])
+    >>> [float(np.degrees(a).round(4)) for a in angles]
+    [0.0, 0.0, 36.8699, 0.0]
+    >>> wi, wo = from_half_diff(*to_half_diff([0.6, 0.0, 0.8], [0.0, 0.6, 0.8]))
+    >>> wi.round(4).tolist(), wo.round(4).tolist()
+    ([0.6, 0.0, 0.8], [0.0, 0.6, 0.8])
     """
     wi = normalize(check_vectors("wi", wi))
     wo = normalize(asarray(check_vectors("wo", wo), like=wi))
@@ -218,6 +290,13 @@ def to_isotropic(wi: Array, wo: Array) -> tuple[Array, Array, Array]:
     """Isotropic reduction ``(theta_i, theta_o, delta_phi)`` with Δφ = φo − φi wrapped to [0, π].
 
     An isotropic BRDF depends only on these three numbers (and, being reciprocal, on ``|Δφ|``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> theta_i, theta_o, delta_phi = to_isotropic([0.6, 0.0, 0.8], [0.0, 0.6, 0.8])
+    >>> float(theta_i.round(4)), float(theta_o.round(4)), float(np.degrees(delta_phi))
+    (0.6435, 0.6435, 90.0)
     """
     theta_i, phi_i = cartesian_to_spherical(wi)
     theta_o, phi_o = cartesian_to_spherical(wo)

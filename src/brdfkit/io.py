@@ -120,6 +120,16 @@ def srgb_encode(linear: Array) -> Array:
     References
     ----------
     .. [1] IEC 61966-2-1:1999, §5.2, eq. (5).
+
+    Examples
+    --------
+    Middle grey (18 % reflectance) encodes to about 46 % of full scale:
+
+    >>> import numpy as np
+    >>> srgb_encode(np.array([0.0, 0.0031308, 0.18, 1.0])).round(4).tolist()
+    [0.0, 0.0404, 0.4614, 1.0]
+    >>> float(srgb_decode(srgb_encode(np.float64(0.18))).round(12))
+    0.18
     """
     xp = namespace(linear)
     linear = asarray(linear, xp)
@@ -152,6 +162,12 @@ def srgb_decode(encoded: Array) -> Array:
     References
     ----------
     .. [1] IEC 61966-2-1:1999, §5.2, eq. (4) (as corrected in Amendment 1, 2003).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> srgb_decode(np.array([0.04045, 0.5, 1.0])).round(4).tolist()
+    [0.0031, 0.214, 1.0]
     """
     xp = namespace(encoded)
     encoded = asarray(encoded, xp)
@@ -177,6 +193,12 @@ def luminance(rgb: Array) -> Array:
     References
     ----------
     .. [1] ITU-R BT.709-6, item 3.2.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> luminance(np.array([[1.0, 1.0, 1.0], [0.0, 1.0, 0.0]])).round(12).tolist()
+    [[1.0], [0.7152]]
     """
     xp = namespace(rgb)
     rgb = asarray(rgb, xp)
@@ -220,6 +242,14 @@ def tonemap(image: Array, exposure: float = 0.0, method: str = "clip") -> Array:
     ----------
     .. [1] E. Reinhard, M. Stark, P. Shirley and J. Ferwerda, "Photographic tone reproduction
        for digital images", SIGGRAPH 2002, eq. 3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tonemap(np.array([0.25, 0.5, 4.0]), exposure=1.0).tolist()  # one stop up, clipped
+    [0.5, 1.0, 1.0]
+    >>> tonemap(np.array([1.0, 1.0, 1.0]), method="reinhard").tolist()  # L/(1 + L) at L = 1
+    [0.5, 0.5, 0.5]
     """
     if method not in TONEMAP_METHODS:
         raise ValueError(f"method must be one of {TONEMAP_METHODS}; got {method!r}")
@@ -455,6 +485,23 @@ def read_image(path: str | os.PathLike, *, srgb_to_linear: bool = False) -> np.n
     ----------
     .. [1] G. Ward, "Real pixels", *Graphics Gems II*, 1991.
     .. [2] IEC 61966-2-1:1999.
+
+    Examples
+    --------
+    A PNG written from linear middle grey stores sRGB codes; decoding gets the grey back:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = write_image(Path(folder) / "grey.png", np.full((2, 3), 0.18))
+    ...     codes, image = read_image_codes(path), read_image(path, srgb_to_linear=True)
+    >>> image.shape, image.dtype, int(codes[0, 0, 0]), round(float(image[0, 0, 0]), 3)
+    ((2, 3, 1), dtype('float32'), 118, 0.181)
+    >>> read_image("missing.png")
+    Traceback (most recent call last):
+    ...
+    brdfkit.io.ImageNotFoundError: missing.png: no such file
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -489,6 +536,15 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     ----------
     .. [1] Python documentation, :func:`os.replace` ("if successful, the renaming will be an
        atomic operation (this is a POSIX requirement)").
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = atomic_write(Path(folder) / "notes.txt", lambda tmp: tmp.write_text("hello"))
+    ...     print(path.name, path.read_text(), sorted(p.name for p in path.parent.iterdir()))
+    notes.txt hello ['notes.txt']
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -583,6 +639,19 @@ def write_image(
     .. [1] IEC 61966-2-1:1999 (sRGB encoding).
     .. [2] G. Ward, "Real pixels", *Graphics Gems II*, 1991 (RGBE).
     .. [3] F. Kainz, R. Bogart and P. Stanczyk, *Technical Introduction to OpenEXR*, 2013.
+
+    Examples
+    --------
+    An EXR keeps the linear values (float32 here):
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = write_image(Path(folder) / "red.exr", np.tile([0.5, 0.0, 0.0], (2, 2, 1)))
+    ...     pixel = read_image(path)[0, 0]
+    >>> pixel.dtype, pixel.tolist()
+    (dtype('float32'), [0.5, 0.0, 0.0])
     """
     path = Path(path)
     suffix = path.suffix.lower()

@@ -84,6 +84,22 @@ class Domain:
     ``allow_unphysical`` switch is on (``None``: the switch does not widen it). ``log`` says that
     the parameter is best varied on a logarithmic scale (roughness, exponents: the explorer's
     sliders read it).
+
+    Examples
+    --------
+    >>> albedo = Domain(0.0, 1.0, hint="an albedo", unphysical_hi=1e6)
+    >>> albedo.check("rho", 0.5)
+    0.5
+    >>> albedo.check("rho", 3.0, unphysical=True)
+    3.0
+    >>> albedo.check("rho", 1.5)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.ParameterError: rho must be in [0.0, 1.0]; got 1.5 (an albedo; pass ...)
+    >>> Domain(0.0, 1.0, lo_open=True).check("alpha", "rough")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.ParameterError: alpha must be a real number or ...; got str 'rough'
     """
 
     lo: float
@@ -135,6 +151,12 @@ def parameter_domains(cls: type) -> dict[str, Domain]:
     dict
         Parameter name to its domain, in the order of the dataclass fields; parameters that
         are no numbers (options, flags) are absent.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> parameter_domains(Lambertian)["rho"].hi
+    1.0
     """
     declared: dict[str, Domain] = {}
     for klass in reversed(cls.__mro__):
@@ -157,6 +179,16 @@ def check_domains(model: Any) -> None:
     brdfkit.errors.ParameterError
         Naming the first parameter (in field order) that is no number or lies outside its
         domain, or ``allow_unphysical`` when it is no bool.
+
+    Examples
+    --------
+    Models call it at construction:
+
+    >>> from brdfkit.brdf import Lambertian
+    >>> Lambertian(rho=1.5)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.ParameterError: rho must be in [0.0, 1.0]; got 1.5 ...
     """
     cls = type(model)
     optional = {f.name for f in dataclasses.fields(cls) if f.default is None}
@@ -174,6 +206,15 @@ def channel_count(*values: Any, names: tuple[str, ...] = ()) -> int:
 
     Scalars count as 1 and broadcast to any C; two parameters with different trailing sizes > 1
     are a :class:`~brdfkit.errors.ParameterError` that names both.
+
+    Examples
+    --------
+    >>> channel_count(0.5, [0.8, 0.5, 0.2])
+    3
+    >>> channel_count([0.8, 0.5, 0.2], [0.1, 0.2], names=("rho", "k"))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.ParameterError: k has 2 channels but rho has 3; ...
     """
     count, owner = 1, None
     for i, value in enumerate(values):
@@ -197,6 +238,13 @@ def param(value: Any, like: Array) -> Array:
     Parameters broadcast against ``batch + (C,)``: a scalar becomes shape ``(1,)``. They take
     the directions' floating dtype, so float32 inputs compute in float32 end to end (a float64
     parameter is rounded; a torch parameter keeps its autograd graph through the cast).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> value = param(0.5, np.zeros(3, dtype=np.float32))
+    >>> value.shape, value.dtype
+    ((1,), dtype('float32'))
     """
     if type(value) is float and type(like) is np.ndarray and like.dtype.kind == "f":
         return np.array([value], dtype=like.dtype)  # the common case, before the general rules

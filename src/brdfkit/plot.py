@@ -37,7 +37,16 @@ def _figure(**kwargs) -> Figure:
 
 
 def model_label(brdf: BRDF, width: int | None = None) -> str:
-    """A short label: the model's spec string, or the name of measured data (which has none)."""
+    """A short label: the model's spec string, or the name of measured data (which has none).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> model_label(Lambertian(rho=0.5))
+    'lambertian(rho=0.5, allow_unphysical=False)'
+    >>> model_label(Lambertian(rho=0.5), width=10)
+    'lambertian'
+    """
     try:
         text = brdf.to_spec()
     except ValueError:  # tabulated or measured data
@@ -64,6 +73,17 @@ def lobe_data(
     -------
     theta : (samples,) signed outgoing angles (radians).
     value : (samples,) grey value (channel mean).
+
+    Examples
+    --------
+    A Lambertian lobe is flat, ρ/π (a half circle in :func:`lobe_plot` without the cosine):
+
+    >>> import math
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> theta, value = lobe_data(Lambertian(rho=0.5), math.radians(30), samples=5)
+    >>> np.degrees(theta).tolist(), (value * np.pi).round(4).tolist()
+    ([-90.0, -45.0, 0.0, 45.0, 90.0], [0.5, 0.5, 0.5, 0.5, 0.5])
     """
     theta = np.linspace(-math.pi / 2, math.pi / 2, samples)
     wo = np.stack([np.sin(theta), np.zeros_like(theta), np.cos(theta)], axis=-1)
@@ -82,7 +102,15 @@ def lobe_plot(
     log: bool = False,
     title: str | None = None,
 ) -> Figure:
-    """Polar lobe plot in the plane of incidence for several incidence angles."""
+    """Polar lobe plot in the plane of incidence for several incidence angles.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> fig = lobe_plot(parse("lambertian(rho=0.3) + ggx(alpha=0.2)"))
+    >>> fig.axes[0].name, len(fig.axes[0].get_lines())
+    ('polar', 3)
+    """
     fig = _figure(figsize=(4.2, 3.2), layout="constrained")
     ax = fig.add_subplot(projection="polar")
     ax.set_theta_zero_location("N")
@@ -144,6 +172,16 @@ def half_diff_data(
 
     Returns ``theta_h`` (R,), ``theta_d`` (R,) and the grey values (R, R) indexed
     ``[theta_d, theta_h]``; pairs with a direction below the horizon are NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> theta_h, theta_d, value = half_diff_data(Lambertian(rho=0.5), resolution=4)
+    >>> np.degrees(theta_h).tolist()
+    [11.25, 33.75, 56.25, 78.75]
+    >>> value.shape, int(np.isnan(value).sum())  # at φd = 90° no pair dips below the horizon
+    ((4, 4), 0)
     """
     theta_h = (np.arange(resolution) + 0.5) * (math.pi / 2 / resolution)
     theta_d = theta_h.copy()
@@ -189,7 +227,17 @@ def half_diff_plot(brdf: BRDF, resolution: int = 90, phi_d: float = math.pi / 2)
 def albedo_data(
     brdf: BRDF, angles: int = 30, samples: int = 4096
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Directional albedo ρ(θo) (grey) with its Monte Carlo standard error."""
+    """Directional albedo ρ(θo) (grey) with its Monte Carlo standard error.
+
+    Examples
+    --------
+    A Lambertian surface reflects ρ at every angle; sampled by its cosine, with no error:
+
+    >>> from brdfkit.brdf import Lambertian
+    >>> theta, rho, stderr = albedo_data(Lambertian(rho=0.5), angles=3, samples=256)
+    >>> rho.round(12).tolist(), stderr.tolist()
+    ([0.5, 0.5, 0.5], [0.0, 0.0, 0.0])
+    """
     theta = np.linspace(0, math.radians(89), angles)
     wo = spherical_to_cartesian(theta, np.zeros_like(theta))
     mean, stderr = brdf.albedo_estimate(wo, samples=samples)
@@ -240,7 +288,17 @@ def sphere_images(
 
 def encode_spheres(images: Sequence[np.ndarray], exposure: float | None = None) -> list[np.ndarray]:
     """Linear sphere images ``(R, R, C)`` as 8-bit sRGB ``(R, R, 3)``, one exposure for the
-    row as in :func:`sphere_images`."""
+    row as in :func:`sphere_images`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> dim, bright = encode_spheres([np.full((4, 4, 1), 0.25), np.full((4, 4, 3), 0.5)])
+    >>> dim.shape, dim.dtype
+    ((4, 4, 3), dtype('uint8'))
+    >>> dim[0, 0].tolist(), bright[0, 0].tolist()  # the brighter maps to white
+    ([188, 188, 188], [255, 255, 255])
+    """
     from brdfkit.io import luminance, srgb_encode, tonemap
 
     images = [np.repeat(im, 3, axis=-1) if im.shape[-1] == 1 else im[..., :3] for im in images]
@@ -280,7 +338,18 @@ def sphere_gallery(
 
 
 def save(fig: Figure, path, dpi: int = 110) -> None:
-    """Save ``fig`` to ``path`` (PNG/SVG/PDF by extension), atomically."""
+    """Save ``fig`` to ``path`` (PNG/SVG/PDF by extension), atomically.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from brdfkit.brdf import Lambertian
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     save(lobe_plot(Lambertian(rho=0.5)), Path(folder) / "lobe.png", dpi=30)
+    ...     print(sorted(p.name for p in Path(folder).iterdir()))
+    ['lobe.png']
+    """
     from brdfkit.io import atomic_write
 
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi))

@@ -140,6 +140,11 @@ def square_to_uniform_disk_concentric(u: Array) -> Array:
     ----------
     .. [1] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.1.
+
+    Examples
+    --------
+    >>> square_to_uniform_disk_concentric([[0.5, 0.5], [0.75, 0.5], [1.0, 0.5]]).tolist()
+    [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]
     """
     u = _check_unit_square("u", u)
     xp = namespace(u)
@@ -168,6 +173,11 @@ def square_to_uniform_disk_concentric_pdf(p: Array) -> Array:
     References
     ----------
     .. [1] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+
+    Examples
+    --------
+    >>> square_to_uniform_disk_concentric_pdf([[0.5, 0.0], [1.0, 1.0]]).round(4).tolist()
+    [0.3183, 0.0]
     """
     p = _check_pairs("p", p)
     return _uniform_density(1 / math.pi, dot(p, p) <= 1, p)
@@ -191,6 +201,13 @@ def square_to_uniform_sphere(u: Array) -> Array:
     References
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.2.
+
+    Examples
+    --------
+    >>> square_to_uniform_sphere([0.0, 0.25]).round(4).tolist()
+    [0.866, 0.0, 0.5]
+    >>> float(square_to_uniform_sphere_pdf([0.0, 0.0, -1.0]).round(6))  # 1/(4π)
+    0.079577
     """
     u = _check_unit_square("u", u)
     xp = namespace(u)
@@ -239,6 +256,14 @@ def square_to_uniform_hemisphere(u: Array) -> Array:
     ----------
     .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_hemisphere``, 2022.
     .. [2] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+
+    Examples
+    --------
+    >>> square_to_uniform_hemisphere([0.5, 0.5]).tolist()
+    [0.0, 0.0, 1.0]
+    >>> up_and_down = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
+    >>> square_to_uniform_hemisphere_pdf(up_and_down).round(4).tolist()  # 1/(2π), then 0
+    [0.1592, 0.0]
     """
     p = square_to_uniform_disk_concentric(u)
     xp = namespace(p)
@@ -271,7 +296,14 @@ def hemisphere_pairs(count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]
     """``count`` independent random direction pairs ``(wi, wo)``, NumPy float64 ``(count, 3)``
     each, uniform on the upper hemisphere (:func:`square_to_uniform_hemisphere`; ``wi`` drawn
     first, from one NumPy generator seeded with ``seed``): the usual arguments of a check or a
-    fit of a BRDF."""
+    fit of a BRDF.
+
+    Examples
+    --------
+    >>> wi, wo = hemisphere_pairs(1000, seed=1)
+    >>> wi.shape, bool((wi[:, 2] >= 0).all() and (wo[:, 2] >= 0).all())
+    ((1000, 3), True)
+    """
     rng = np.random.default_rng(seed)
     return (
         square_to_uniform_hemisphere(rng.random((count, 2))),
@@ -298,6 +330,17 @@ def square_to_cosine_hemisphere(u: Array) -> Array:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.3 (Malley's method).
     .. [2] P. Shirley and K. Chiu, "A low distortion map between disk and square", JGT 2(3), 1997.
+
+    Examples
+    --------
+    The centre of the square goes to the normal; the density is cos θ/π
+    (:func:`square_to_cosine_hemisphere_pdf`):
+
+    >>> w = square_to_cosine_hemisphere([[0.5, 0.5], [0.25, 0.5]])
+    >>> w.round(4).tolist()
+    [[0.0, 0.0, 1.0], [-0.5, 0.0, 0.866]]
+    >>> square_to_cosine_hemisphere_pdf(w).round(4).tolist()
+    [0.3183, 0.2757]
     """
     p = square_to_uniform_disk_concentric(u)
     xp = namespace(p)
@@ -345,6 +388,17 @@ def square_to_uniform_cone(u: Array, cos_cutoff: Array | float) -> Array:
     ----------
     .. [1] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_cone``, 2022.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.5.4.
+
+    Examples
+    --------
+    The rim of the square goes to the rim of the cone (here θ_max = 60°), where the density is
+    1/(2π(1 − cos θ_max)) = 1/π:
+
+    >>> w = square_to_uniform_cone([1.0, 0.5], 0.5)
+    >>> float(w[2].round(4))
+    0.5
+    >>> float(square_to_uniform_cone_pdf(w, 0.5).round(4))
+    0.3183
     """
     p = square_to_uniform_disk_concentric(_in_namespace_of(u, cos_cutoff))
     xp = namespace(p, cos_cutoff)
@@ -397,6 +451,12 @@ def square_to_uniform_triangle(u: Array) -> Array:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 3rd ed., §13.6.5.
     .. [2] W. Jakob et al., Mitsuba 3, ``warp::square_to_uniform_triangle``, 2022.
+
+    Examples
+    --------
+    >>> b = square_to_uniform_triangle([0.19, 0.5])
+    >>> b.round(4).tolist(), float(square_to_uniform_triangle_pdf(b))
+    ([0.1, 0.45], 2.0)
     """
     u = _check_unit_square("u", u)
     xp = namespace(u)
@@ -490,6 +550,18 @@ def square_to_spherical_triangle(u: Array, a: Array, b: Array, c: Array) -> Arra
     ----------
     .. [1] J. Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995.
     .. [2] M. Pharr et al., *Physically Based Rendering*, 4th ed., §6.5.4 (the robust form used).
+
+    Examples
+    --------
+    The octant spanned by the axes has solid angle π/2:
+
+    >>> import numpy as np
+    >>> a, b, c = np.eye(3)
+    >>> w = square_to_spherical_triangle([0.3, 0.7], a, b, c)
+    >>> bool(np.all(w > 0)), float(np.linalg.norm(w).round(12))
+    (True, 1.0)
+    >>> float((square_to_spherical_triangle_pdf(w, a, b, c) * np.pi / 2).round(12))
+    1.0
     """
     u = _check_unit_square("u", _in_namespace_of(u, a, b, c))
     a, b, c, _, alpha, solid_angle = _spherical_triangle(a, b, c, u)
@@ -583,6 +655,18 @@ class Distribution2D:
     ----------
     .. [1] M. Pharr et al., *Physically Based Rendering*, 4th ed., §A.4.2 (``PiecewiseConstant2D``).
     .. [2] W. Jakob et al., Mitsuba 3, ``DiscreteDistribution2D``, 2022.
+
+    Examples
+    --------
+    A one-row image whose right texel is three times as bright as the left one:
+
+    >>> import numpy as np
+    >>> distribution = Distribution2D(np.array([[1.0, 3.0]]))
+    >>> points, pdf = distribution.sample(np.array([[0.1, 0.5], [0.5, 0.5]]))
+    >>> points.round(4).tolist(), pdf.tolist()
+    ([[0.2, 0.5], [0.6667, 0.5]], [0.5, 1.5])
+    >>> distribution.invert(points).round(4).tolist()
+    [[0.1, 0.5], [0.5, 0.5]]
     """
 
     def __init__(self, image: Any) -> None:
@@ -738,6 +822,13 @@ def sobol(n: int, dim: int, seed: int | None = None, scramble: bool = True) -> n
     .. [1] I. M. Sobol', USSR Comput. Math. Math. Phys. 7(4), 1967.
     .. [2] S. Joe and F. Y. Kuo, "Constructing Sobol sequences with better two-dimensional
            projections", SIAM J. Sci. Comput. 30, 2008.
+
+    Examples
+    --------
+    >>> sobol(4, 2, scramble=False).tolist()
+    [[0.0, 0.0], [0.5, 0.5], [0.75, 0.25], [0.25, 0.75]]
+    >>> sobol(256, 3, seed=7).shape
+    (256, 3)
     """
     from scipy.stats import qmc
 
@@ -797,8 +888,9 @@ _ONE, _TWO, _FOUR, _EIGHT, _SIXTEEN = _U32(1), _U32(2), _U32(4), _U32(8), _U32(1
 _M1, _M2, _M4, _M8 = _U32(0x55555555), _U32(0x33333333), _U32(0x0F0F0F0F), _U32(0x00FF00FF)
 _LK = _U32(0x3D20ADEA), _U32(0x05526C56), _U32(0x53A22864)
 # The bit operations below run on NumPy uint32 arrays and, unchanged, on numba uint64 scalars
-# (render_kernel): every constant is a uint32 (never a Python int, which numba types as int64
-# and would mix into float64) and every product is masked to 32 bits.
+# (the compiled tile kernel, brdfkit.render._reflection_kernels): every constant is a uint32
+# (never a Python int, which numba types as int64 and would mix into float64) and every product
+# is masked to 32 bits.
 
 
 def reverse_bits(x: Any) -> Any:

@@ -14,10 +14,10 @@ Grammar (everything else is rejected)::
     term   := NAME | NAME "(" [NAME "=" value {"," NAME "=" value}] ")"
     factor := number | "[" number {"," number} "]" | factor "*" factor
     value  := number | string | True | False | None | "[" number {"," number} "]"
+    number := ["-"] (int | float)
 
 Parameter names are the model's dataclass fields, or the aliases in its ``spec_aliases``
 (``lambertian(albedo=0.8)`` sets the field ``rho``).
-    number := ["-"] (int | float)
 
 ``+`` builds :class:`~brdfkit.brdf.base.Sum`, ``*`` builds :class:`~brdfkit.brdf.base.Scaled`:
 a chain ``a + b + c`` is one sum of three lobes, and a product ``0.5 * model * [1, 0.5, 0.5]``
@@ -27,7 +27,7 @@ The string is read with :func:`ast.parse` and only the node types above are inte
 never passed to :func:`eval`, so a spec cannot run code. :meth:`BRDF.to_spec` writes specs that
 this parser reads back.
 
-A spec holds at most :data:`MAX_SPEC_LENGTH` characters and a sum or product at most
+A spec holds at most :data:`~brdfkit.params.MAX_SPEC_LENGTH` characters and a sum or product at most
 :data:`MAX_CHAIN` operands (read without recursion, and refused whatever the interpreter's
 recursion limit, which IPython, for one, raises); Python's parser refuses expressions nested
 more than about 200 parentheses deep, and so does :func:`parse`.

@@ -44,7 +44,18 @@ TABLE_COLUMNS = ("key", "file", "model", "status", "spec", "cost", "nfev", "samp
 
 
 def file_sha256(path: str | Path) -> str:
-    """``sha256:<hex>`` of a file's bytes."""
+    """``sha256:<hex>`` of a file's bytes.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "paint.binary"
+    ...     _ = path.write_bytes(b"abc")
+    ...     file_sha256(path)
+    'sha256:ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad'
+    """
     digest = hashlib.sha256()
     with open(path, "rb") as stream:
         for block in iter(lambda: stream.read(1 << 20), b""):
@@ -84,6 +95,23 @@ def tasks(files: Iterable[str | Path], models: Iterable[str], **options: Any) ->
     ------
     brdfkit.errors.FormatError
         A file that does not exist or whose suffix no reader takes.
+
+    Examples
+    --------
+    A task's key follows the file's bytes and the options, not the file's name:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "paint.binary"
+    ...     _ = path.write_bytes(b"abc")
+    ...     planned = tasks([path], ["lambertian", "lambertian + ggx"], starts=2)
+    ...     path = path.rename(Path(folder) / "renamed.binary")
+    ...     again = tasks([path], ["lambertian", "lambertian + ggx"], starts=2)
+    >>> [task.model for task in planned], [t.key for t in planned] == [t.key for t in again]
+    (['lambertian', 'lambertian + ggx'], True)
+    >>> planned[0].folder == f"paint-{planned[0].key}"
+    True
     """
     models = list(models)
     options = {k: (list(v) if isinstance(v, tuple | list) else v) for k, v in options.items()}
@@ -191,7 +219,14 @@ def run(
 
 
 def read_records(text: str) -> dict[str, dict[str, Any]]:
-    """The records of a ``results.jsonl`` text by key (unreadable lines are skipped)."""
+    """The records of a ``results.jsonl`` text by key (unreadable lines are skipped).
+
+    Examples
+    --------
+    >>> text = jsonl([{"key": "k1", "model": "lambertian", "status": "ok"}]) + "{truncated\\n"
+    >>> read_records(text)
+    {'k1': {'key': 'k1', 'model': 'lambertian', 'status': 'ok'}}
+    """
     records = {}
     for line in text.splitlines():
         try:
@@ -204,13 +239,29 @@ def read_records(text: str) -> dict[str, dict[str, Any]]:
 
 
 def jsonl(records: Iterable[dict[str, Any]]) -> str:
-    """Records as JSON lines, one per record."""
+    """Records as JSON lines, one per record.
+
+    Examples
+    --------
+    >>> print(jsonl([{"key": "k1", "errors": {"rmse": 0.1}}, {"key": "k2"}]), end="")
+    {"key": "k1", "errors": {"rmse": 0.1}}
+    {"key": "k2"}
+    """
     return "".join(json.dumps(r, ensure_ascii=False, allow_nan=False) + "\n" for r in records)
 
 
 def table(records: Iterable[dict[str, Any]]) -> str:
     """Records as CSV: :data:`TABLE_COLUMNS`, then ``error.<name>`` and ``param.<name>``
-    columns (the union over the records; a colour parameter's values joined by spaces)."""
+    columns (the union over the records; a colour parameter's values joined by spaces).
+
+    Examples
+    --------
+    >>> record = {"key": "k1", "model": "lambertian", "status": "ok", "errors": {"rmse": 0.1},
+    ...           "params": {"0.lambertian.rho": [0.5, 0.4, 0.3]}}
+    >>> print(table([record]), end="")
+    key,file,model,status,spec,cost,nfev,samples,success,seconds,message,error.rmse,param.0.lambertian.rho
+    k1,,lambertian,ok,,,,,,,,0.1,0.5 0.4 0.3
+    """
     records = list(records)
     rows, extra = [], {}
     for record in records:

@@ -24,9 +24,9 @@ WORKER_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": N
 Dask exports ``MALLOC_TRIM_THRESHOLD_=65536`` to every worker so that freed memory returns to the
 system quickly. Setting it switches off glibc's adaptive mmap threshold: then every large
 temporary array is a fresh ``mmap``, zeroed page by page on first touch. A brdfkit fit allocates
-many such arrays; measured on a 2-core machine, a ~1 s fit took 5× the page faults (50,000 against
-10,000) and 0.32 s of system time against 0.08 s, and two workers faulting at once slowed each
-other. brdfkit's workers keep glibc's default (a variable the user exports still applies).
+many such arrays, so its page faults and system time multiply, and two workers faulting at once
+slow each other. brdfkit's workers keep glibc's default (a variable the user exports still
+applies).
 """
 
 KEEP_MEMORY_CONFIG = {
@@ -37,13 +37,11 @@ KEEP_MEMORY_CONFIG = {
 batch fitting): glibc serves every array under 1 GiB from its heap and returns none of it to
 the system under 4 GiB free, so each task reuses the pages the last one faulted in. With
 glibc's default, arrays over its adaptive threshold (at most 32 MB: a MERL file's 35 MB of
-values always) are still fresh ``mmap`` pages. Measured on a 2-core virtual machine (loaded)
-for a two-lobe fit of a MERL table: 0.041 → 0.004 s of system time and 1,400 → 2 page faults
-per fit on prepared samples, 0.149 → 0.060 s and 6,300 → 40 with the preparation; each page
-fault cost ~30–60 µs there, and faults of two workers slow each other. A worker keeps its peak
-memory (a few hundred MB for a fit) until it exits; unfit for a worker under a tight
-``memory_limit``, whose resident size must fall when a task ends. A variable the user exports
-still applies.
+values always) are still fresh ``mmap`` pages, whose faults cost system time, and faults of two
+workers slow each other; with these settings a fit of a MERL table faults hardly at all. A
+worker keeps its peak memory (a few hundred MB for a fit) until it exits; unfit for a worker
+under a tight ``memory_limit``, whose resident size must fall when a task ends. A variable the
+user exports still applies.
 """
 
 

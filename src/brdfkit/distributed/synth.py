@@ -41,7 +41,13 @@ DEFAULT_SPHERE = 128
 @dataclass(frozen=True)
 class SynthTask:
     """One data set: a shape, a BRDF and a light set (specs, see the module docstring);
-    ``all_lit`` keeps in the mask only the pixels that every light reaches."""
+    ``all_lit`` keeps in the mask only the pixels that every light reaches.
+
+    Examples
+    --------
+    >>> SynthTask("sphere:8", "lambertian(rho=0.5)", "grid:3x2:30").folder
+    'sphere_8-lambertian_rho_0.5_-grid_3x2_30-9d4c7378'
+    """
 
     shape: str
     brdf: str
@@ -79,6 +85,12 @@ def shape_normals(spec: str) -> tuple[np.ndarray, np.ndarray]:
     ------
     brdfkit.errors.ParameterError, brdfkit.errors.FormatError
         An unknown spec, a bad size, or an unreadable normal map or mask.
+
+    Examples
+    --------
+    >>> normals, mask = shape_normals("sphere:8")
+    >>> normals.shape, int(mask.sum())
+    ((8, 8, 3), 32)
     """
     from brdfkit.vision import datasets
     from brdfkit.vision.photometric_stereo import sphere_normals
@@ -110,6 +122,14 @@ def light_set(spec: str) -> np.ndarray:
     ------
     brdfkit.errors.ParameterError, brdfkit.errors.FormatError
         An unknown or malformed spec, or an unreadable file.
+
+    Examples
+    --------
+    Three columns by two rows of lights, up to 30° from the view:
+
+    >>> lights = light_set("grid:3x2:30")
+    >>> lights.shape, lights[1].round(3).tolist()
+    ((6, 3), [0.0, 0.25, 0.968])
     """
     from brdfkit.vision import datasets
 
@@ -132,7 +152,13 @@ def light_set(spec: str) -> np.ndarray:
 
 
 def read_brdf(spec: str) -> Any:
-    """The BRDF of a spec: a measured file by its suffix, else a model spec."""
+    """The BRDF of a spec: a measured file by its suffix, else a model spec.
+
+    Examples
+    --------
+    >>> type(read_brdf("lambertian(rho=0.5)")).__name__
+    'Lambertian'
+    """
     if Path(spec).suffix.lower() in MEASURED_SUFFIXES:
         from brdfkit.measured import read
 

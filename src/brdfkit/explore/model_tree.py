@@ -45,6 +45,15 @@ def tree_of(brdf: BRDF) -> dict[str, Any]:
     ------
     SpecError
         For a model with no spec form (a measured table, a spatially varying parameter).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> tree = tree_of(parse("lambertian(rho=0.5) + 0.5 * ggx(alpha=0.2)"))
+    >>> tree["sum"][0]
+    {'model': 'lambertian', 'params': {'rho': 0.5, 'allow_unphysical': False}}
+    >>> tree["sum"][1]["scaled"], tree["sum"][1]["inner"]["params"]["alpha"]
+    (0.5, 0.2)
     """
     if isinstance(brdf, Sum):
         return {"sum": [tree_of(lobe) for lobe in brdf.lobes]}
@@ -67,7 +76,13 @@ def _json_value(value: Any) -> Any:
 
 
 def parse_number_text(text: str) -> float | list[float]:
-    """A number or ``[a, b, c]`` written by :func:`~brdfkit.brdf.base.spec_value`."""
+    """A number or ``[a, b, c]`` written by :func:`~brdfkit.brdf.base.spec_value`.
+
+    Examples
+    --------
+    >>> parse_number_text("0.5"), parse_number_text("[0.8, 0.5, 0.2]")
+    (0.5, [0.8, 0.5, 0.2])
+    """
     if text.startswith("["):
         return [float(x) for x in text[1:-1].split(",")]
     return float(text)
@@ -81,6 +96,13 @@ def spec_of(tree: Any) -> str:
     SpecError
         For a node of no known form, a value that is no number, list, string, bool or ``None``,
         a tree deeper than :data:`MAX_DEPTH` or larger than :data:`MAX_NODES`.
+
+    Examples
+    --------
+    >>> spec_of({"sum": [{"model": "lambertian", "params": {"rho": 0.3}}, {"model": "ggx"}]})
+    '(lambertian(rho=0.3)) + (ggx())'
+    >>> print(spec_of({"model": "lambertian", "params": {"rho": "__import__('os')"}}))  # no code
+    lambertian(rho="__import__('os')")
     """
     count = [0]
     text = _spec(tree, 0, count)
@@ -139,13 +161,28 @@ def _literal(value: Any) -> str:
 
 
 def brdf_of(tree: Any) -> BRDF:
-    """The BRDF a tree describes, built by the spec parser (its errors propagate)."""
+    """The BRDF a tree describes, built by the spec parser (its errors propagate).
+
+    Examples
+    --------
+    >>> brdf_of({"model": "lambertian", "params": {"rho": 0.3}})
+    Lambertian(rho=0.3, allow_unphysical=False)
+    """
     return parse(spec_of(tree))
 
 
 def slider(domain: Domain) -> dict[str, Any]:
     """The slider a domain declares: ``{lo, hi, log}`` with finite ends (a log slider's lower
-    end is positive, :data:`LOG_FLOOR` at most, for a domain that starts at 0)."""
+    end is positive, :data:`LOG_FLOOR` at most, for a domain that starts at 0).
+
+    Examples
+    --------
+    >>> from brdfkit.params import Domain
+    >>> slider(Domain(0.0, 1.0, hint="an albedo"))
+    {'lo': 0.0, 'hi': 1.0, 'log': False, 'hint': 'an albedo'}
+    >>> slider(Domain(1e-4, 10.0, log=True))["log"]
+    True
+    """
     lo, hi = domain.lo, domain.hi
     log = domain.log or (lo >= 0 and hi / max(lo, LOG_FLOOR) > 1e4)
     if log:
@@ -156,7 +193,16 @@ def slider(domain: Domain) -> dict[str, Any]:
 def controls_of(brdf: BRDF) -> list[dict[str, Any]]:
     """One record per editable parameter of ``brdf``'s tree, in order: ``path`` (the list of
     keys and indices that reach its value in :func:`tree_of`), ``name``, ``model``, ``kind``
-    (``"number"``, ``"rgb"``, ``"bool"``, ``"text"``) and, for numbers, the ``slider``."""
+    (``"number"``, ``"rgb"``, ``"bool"``, ``"text"``) and, for numbers, the ``slider``.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> for control in controls_of(parse("lambertian(rho=0.5)")):
+    ...     print(control["name"], control["kind"], control["path"])
+    rho number ['params', 'rho']
+    allow_unphysical bool ['params', 'allow_unphysical']
+    """
     controls: list[dict[str, Any]] = []
     _controls(brdf, [], controls)
     return controls

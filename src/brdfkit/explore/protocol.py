@@ -14,6 +14,10 @@ Messages from the front end::
 An entry is ``{"id": "b1", "visible": true, "source": S}`` with ``S`` one of ``{"spec": "ggx"}``,
 ``{"tree": {...}}`` (:mod:`brdfkit.explore.model_tree`) or ``{"file": "name"}`` (a file the server
 was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`.
+
+References
+----------
+.. [1] I. Fette, A. Melnikov, "The WebSocket Protocol", RFC 6455, IETF, 2011.
 """
 
 from __future__ import annotations
@@ -79,6 +83,17 @@ def parse_message(data: str | bytes) -> Message:
     ProtocolError
         Naming the field and what it must be; for a message over :data:`MAX_MESSAGE_BYTES` or
         that is not a JSON object.
+
+    Examples
+    --------
+    >>> parse_message("not json")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.explore.protocol.ProtocolError: message is not JSON: Expecting value: ...
+    >>> parse_message('{"type": "render", "seq": -1}')
+    Traceback (most recent call last):
+    ...
+    brdfkit.explore.protocol.ProtocolError: seq must be a non-negative integer
     """
     if len(data) > MAX_MESSAGE_BYTES:
         raise ProtocolError(f"message holds {len(data)} bytes; at most {MAX_MESSAGE_BYTES}")
@@ -198,7 +213,17 @@ def encode_frame(header: dict[str, Any], buffers: list[bytes]) -> bytes:
 
 
 def decode_frame(frame: bytes) -> tuple[dict[str, Any], list[np.ndarray]]:
-    """Inverse of :func:`encode_frame` (for tests and Python clients)."""
+    """Inverse of :func:`encode_frame` (for tests and Python clients).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> table, buffers = array_table([np.arange(3, dtype=np.float32)])
+    >>> frame = encode_frame({"type": "render", "arrays": table}, buffers)
+    >>> header, arrays = decode_frame(frame)
+    >>> header["arrays"], header["offsets"], arrays[0].tolist(), len(frame) % 8
+    ([{'dtype': 'float32', 'shape': [3]}], [0], [0.0, 1.0, 2.0], 0)
+    """
     (length,) = struct.unpack_from("<I", frame)
     header = json.loads(frame[4 : 4 + length])
     start = -(-(4 + length) // 8) * 8

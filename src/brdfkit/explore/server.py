@@ -360,7 +360,7 @@ class ExplorerServer:
             self.app,
             log_level="warning",
             ws_max_size=MAX_MESSAGE_BYTES,
-            ws_per_message_deflate=False,  # float arrays barely compress; zlib cost ~100 ms
+            ws_per_message_deflate=False,  # float arrays barely compress; zlib costs more
             lifespan="off",
         )
         self._server = uvicorn.Server(config)

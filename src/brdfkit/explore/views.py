@@ -60,7 +60,13 @@ ALBEDO_SAMPLES = 1024
 
 @dataclass(frozen=True)
 class ViewState:
-    """The shared settings of all views (angles in degrees, as the sliders show them)."""
+    """The shared settings of all views (angles in degrees, as the sliders show them).
+
+    Examples
+    --------
+    >>> ViewState(theta_i=45.0).wi().round(4).tolist()
+    [0.7071, 0.0, 0.7071]
+    """
 
     theta_i: float = 45.0
     phi_i: float = 0.0
@@ -112,7 +118,17 @@ def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
     state.resolution)``: the same delta-light term of the reflection equation
     (:func:`brdfkit.render.reflected_radiance`), evaluated in one batch on the visible
-    pixels only, from geometry computed once per resolution (the background stays 0)."""
+    pixels only, from geometry computed once per resolution (the background stays 0).
+
+    Examples
+    --------
+    A Lambertian sphere lit from the viewer with irradiance π: ρ cos θ at most:
+
+    >>> from brdfkit.brdf import parse
+    >>> image = sphere(parse("lambertian(rho=0.5)"), ViewState(theta_i=0.0, resolution=8))
+    >>> image.shape, float(image.max().round(4))
+    ((8, 8, 1), 0.4921)
+    """
     disk = sphere_disk(state.resolution)
     value = to_numpy(delta_radiance(brdf, state.light(), disk.point, disk.frame, disk.wo_local))
     image = np.zeros((*disk.mask.shape, value.shape[-1]))

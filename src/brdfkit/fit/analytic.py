@@ -52,15 +52,11 @@ independently (every parameter becomes per channel).
 
 **Which objective and loss.** Fitted to the four Cornell paints with five models, the spheres
 look most like the measured ones (CIEDE2000 between rendered spheres, :mod:`brdfkit.fit.appearance`;
-``benchmarks/bench_cornell_fits.py``, 2026-12-02) with a compressing objective under
-``soft_l1``: mean ΔE over the 16 fits with a specular lobe 7.3 for ``cube_root``, 6.9 for
-``log`` (at the data's level; 9.3 at Löw et al.'s fixed level), against 9.1 and 6.9 under
-plain least squares, 9.8 and 17.5 for ``cosine``; averaged over four light directions,
-``cube_root`` and ``log`` under ``soft_l1`` tie at 5.8 (8.5 and 6.0 under plain least squares,
-9.3 and 16.5 for ``cosine``). The cosine-weighted error is ruled by a few grazing or
-near-mirror samples hundreds of times larger than the rest and trades the body colour for
-them. Forés et al. found with observers that the cube root fits closest by eye; it stays the
-default.
+``benchmarks/bench_cornell_fits.py`` compares them) with a compressing objective, ``cube_root``
+or ``log``, under ``soft_l1``; ``cosine`` is far behind. The cosine-weighted error is ruled by
+a few grazing or near-mirror samples hundreds of times larger than the rest and trades the body
+colour for them. Forés et al. found with observers that the cube root fits closest by eye; it
+is the default.
 
 **Starts and samples**: the first start is the model's own parameter values; the others sweep the
 lobes' roughness (``alpha``, ``m``, exponents ``n``) log-uniformly over :data:`ROUGHNESS_SWEEP`
@@ -76,37 +72,21 @@ errors are reported on all.
 **Jacobian.** The model is a sum of lobes and a parameter changes one lobe only, so each column
 of the forward-difference Jacobian re-evaluates that lobe alone beside the others' cached values,
 and a lobe factor's column needs no evaluation at all (scipy's own ``"2-point"`` differences take
-P + 1 evaluations of the whole model). The least squares runs its SVDs of the tall, narrow
-Jacobian on one BLAS thread (threads do not speed them up; on a busy machine a threaded OpenBLAS
-spins and makes them tens of times slower). Lambertian + 2 GGX lobes fitted to a MERL-sized table
-(1.11 M measured nodes): 302 evaluations against 1509 (the better Jacobian converges in fewer
-steps), both α recovered to 10⁻¹⁵, 1.2–2.5 s against 2.2–2.9 s by scipy's differences, on 2 quiet
-cores (2026-12-02; 6.2–7.2 s against 63–73 s under a load average of 16 before the work below,
-where threaded BLAS spun); ``benchmarks/bench_fit.py``. Torch autograd would not make it
-cheaper: a forward and backward pass of that model on all the nodes takes about as long as one
-NumPy evaluation (0.56–0.74 s against 0.46–0.56 s, quiet), and it gives a gradient, whereas the
-trust-region least squares needs the whole Jacobian (one backward pass per residual, or one
-forward-mode pass per parameter).
+P + 1 evaluations of the whole model; ``benchmarks/bench_fit.py`` compares the two). The least
+squares runs its SVDs of the tall, narrow Jacobian on one BLAS thread (``_BLAS_THREADS``).
+Torch autograd would not make it cheaper: a forward and backward pass costs about one
+evaluation and gives a gradient, whereas the trust-region least squares needs the whole
+Jacobian (one backward pass per residual, or one forward-mode pass per parameter).
 
 **Memory and repeated work.** A pass over all of a MERL table's 1.11 M measured nodes is bound
 by memory traffic (each direction array is 27 MB, each step of a model's evaluation reads and
-writes such arrays), which two fits at once on two cores share. So those passes run on
-cache-sized pieces: the nodes' directions one θh row at a time from the grid's axes
-(:meth:`TabulatedBRDF.node_axes`, their sines and cosines once per axis value), the errors
-(:func:`fit_errors`) on blocks of 8192 samples. Inside a least-squares run nothing is computed
-twice: the measurements' side of the residuals once, a Jacobian column's residuals only in the
-channels its step moves, and a lobe whose own parameters did not change keeps its values. The
-results are those of the plain computation (``tests/test_fit_blocks.py``; the 3-lobe fit below
-gives bit-identical parameters), and a GGX evaluation on 4000 pairs takes half the time it did
-(0.19 against 0.37 ms: the transmission term skipped, Python-float parameters taken without
-array calls). CPU seconds per fit on the MERL-sized table, before → after, processes of the two
-versions alternating on the 2-core machine under a load average of 14–18 (7 other jobs):
-Lambertian + 2 GGX (defaults) median 2.93 → 1.48 s, least 1.78 → 1.27 s (6 fits each);
-Lambertian + GGX with one start (``benchmarks/bench_dask.py``'s batch) median 0.84 → 0.61 s,
-least 0.71 → 0.51 s (9 fits each). The busier the machine, the more the old passes over 27 MB
-arrays cost. In a calmer spell (load average 5.4), ``benchmarks/bench_fit.py``'s 3-lobe fit
-took 1.91–2.17 s (1.39–1.55 s CPU, progress bar included; both α to 10⁻¹⁵), the code before
-these changes 2.3 s (2.1 s CPU) in the same minutes.
+writes such arrays). So those passes run on cache-sized pieces: the nodes' directions one θh
+row at a time from the grid's axes (:meth:`TabulatedBRDF.node_axes`, their sines and cosines
+once per axis value), the errors (:func:`fit_errors`) on blocks of 8192 samples. Inside a
+least-squares run nothing is computed twice: the measurements' side of the residuals once, a
+Jacobian column's residuals only in the channels its step moves, and a lobe whose own
+parameters did not change keeps its values. The results are those of the plain computation
+(``tests/fit/test_fit_blocks.py``).
 
 References
 ----------
@@ -193,8 +173,7 @@ EVALUATIONS = (1, 1_000_000)
 _BLAS_THREADS: int | None = 1
 """BLAS threads inside a least-squares run (``None``: the process's own). Its SVDs and products
 are of tall, narrow Jacobians (≤ 10⁵ × a dozen), which threads do not speed up; on a busy machine
-a threaded OpenBLAS spins and makes them tens of times slower (12 000 × 11: 6 ms on one thread,
-0.15–0.23 s on two, under load)."""
+a threaded OpenBLAS spins and makes them many times slower."""
 
 _JACOBIAN = "lobes"
 """How a least-squares run differentiates: ``"lobes"`` (:class:`_LobeValues`: one lobe
@@ -204,8 +183,8 @@ evaluations; the peer in ``benchmarks/bench_fit.py``)."""
 _BLOCK = 8192
 """Measurements per block in :func:`fit_errors`, which passes over all of them. A MERL table
 has 1.11 M measured nodes: each of their direction arrays is 27 MB, and every step of a
-model's evaluation on them reads and writes memory, which two processes share; on blocks of
-8192 (196 KB per direction array) the temporaries stay in the cores' caches."""
+model's evaluation on them reads and writes memory; on blocks of 8192 (196 KB per direction
+array) the temporaries stay in the cores' caches."""
 
 _OPEN_MARGIN = 1e-6
 _BIG = 1e30
@@ -226,6 +205,13 @@ def fit_data(
     - any other :class:`TabulatedBRDF` (MERL): its grid nodes;
     - any other BRDF (RGL, an analytic model): ``samples`` random pairs (wi, wo), both uniform
       on the hemisphere (seeded), evaluated.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> data = fit_data(Lambertian(rho=[0.5, 0.4, 0.3]), samples=1000)
+    >>> data.wi.shape, data.values.shape, bool(data.valid.all())
+    ((1000, 3), (1000, 3), True)
     """
     if isinstance(measured, TabulatedBRDF) and measured.samples is not None:
         measured = measured.samples
@@ -298,6 +284,15 @@ def residuals(model: BRDF, data: MeasuredSamples, objective: str = "cosine") -> 
     References
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005. .. [2] J. Löw et al., ACM TOG 2012.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> data = fit_data(Lambertian(rho=0.5), samples=100)
+    >>> r = residuals(Lambertian(rho=0.5), data, "cube_root")
+    >>> r.shape, float(np.abs(r).max())
+    ((100, 1), 0.0)
     """
     check_choice("objective", objective, OBJECTIVES)
     return _residuals(_predicted(model, data), data, objective, log_scale(data))
@@ -319,6 +314,16 @@ def log_scale(data: MeasuredSamples) -> float:
     ----------
     .. [1] J. Löw, J. Kronander, A. Ynnerman, J. Unger, "BRDF models for accurate and efficient
            rendering of glossy surfaces", ACM TOG 31(1), 2012 (the log objective, :math:`s=1`).
+
+    Examples
+    --------
+    The level follows the data: twice as bright, twice the level.
+
+    >>> from brdfkit.brdf import Lambertian
+    >>> dim = log_scale(fit_data(Lambertian(rho=0.25), samples=1000))
+    >>> bright = log_scale(fit_data(Lambertian(rho=0.5), samples=1000))
+    >>> round(bright / dim, 12)
+    2.0
     """
     return _measured_side(data).level
 
@@ -342,7 +347,7 @@ def _measured_side(data: MeasuredSamples) -> _MeasuredSide:
     objectives' measured sides: for a MERL table that is 1.11 M × 3 cube roots and
     logarithms each, per fit, as costly as a fit's least squares. Kept, they cost 3 arrays of
     the values' size (27 MB each for MERL) while ``data`` lives. Computed on cache-sized
-    blocks (:data:`_BLOCK`), element by element as before, so the results are the same.
+    blocks (:data:`_BLOCK`), element by element, so the results equal the whole-array ones.
     """
     key = id(data)
     if key in _MEASURED_SIDES and _MEASURED_SIDES[key][0]() is data:
@@ -381,11 +386,9 @@ def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     building a model's kernels takes seconds, more than a small fit.
 
     A fit evaluates its model hundreds of times, and its errors on all the measurements: NumPy
-    runs a model one operation at a time, each writing a full-size temporary array. Compiled,
-    Lambertian + GGX took 8.8 against 236 ms on a MERL table's 1.11 M nodes, 0.39 against
-    3.1 ms on 30 000 pairs and 0.18 against 0.57 ms on 4000 (one core, 2026-12-02); the values
-    differ by 10⁻¹⁵–10⁻¹³ relative (the kernels' fast-math contractions and
-    reassociation, :data:`brdfkit.compiled.kernels._FASTMATH`).
+    runs a model one operation at a time, each writing a full-size temporary array, where the
+    kernel makes one pass. The values differ by 10⁻¹⁵–10⁻¹³ relative (the kernels' fast-math
+    contractions and reassociation, :data:`brdfkit.compiled.kernels._FASTMATH`).
     """
     from brdfkit.compiled import kernels as accel
 
@@ -459,6 +462,17 @@ def fit_errors(model: BRDF, data: MeasuredSamples) -> dict[str, float]:
     References
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, EGSR 2005.
+
+    Examples
+    --------
+    A Lambertian of albedo 0.5 against data of albedo 0.4: f differs by 0.1/π everywhere,
+    a quarter of the data's values:
+
+    >>> import math
+    >>> from brdfkit.brdf import Lambertian
+    >>> errors = fit_errors(Lambertian(rho=0.5), fit_data(Lambertian(rho=0.4), samples=1000))
+    >>> round(errors["rmse"] * math.pi, 12), round(errors["relative_l2"], 12)
+    (0.1, 0.25)
     """
     return _errors(model, data)
 
@@ -1127,6 +1141,22 @@ def fit(
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, "Experimental analysis of BRDF models", EGSR 2005.
     .. [2] SciPy, ``scipy.optimize.least_squares``.
+
+    Examples
+    --------
+    Samples of a known model give its parameters back (GGX, which has no colour parameter of its
+    own, gets a fitted factor):
+
+    >>> from brdfkit.brdf import parse
+    >>> from brdfkit.measured import MeasuredSamples
+    >>> from brdfkit.sampling import hemisphere_pairs
+    >>> wi, wo = hemisphere_pairs(2000, seed=1)
+    >>> truth = parse("lambertian(rho=0.2) + ggx(alpha=0.3)")
+    >>> result = fit(MeasuredSamples(wi, wo, truth.eval(wi, wo)), "lambertian + ggx", starts=1)
+    >>> {name: round(value, 6) for name, value in result.params.items()}
+    {'0.lambertian.rho': 0.2, '1.ggx.alpha': 0.3, '1.ggx.scale': 1.0}
+    >>> result.success, result.errors["relative_l2"] < 1e-9
+    (True, True)
     """
     from brdfkit.brdf import parse
 

@@ -60,7 +60,16 @@ class SphereDifference:
 
 
 def delta_e_2000(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
-    """CIEDE2000 difference between linear-sRGB colours (``(..., 3)`` each, white = 1)."""
+    """CIEDE2000 difference between linear-sRGB colours (``(..., 3)`` each, white = 1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> float(delta_e_2000(np.array([0.5, 0.2, 0.1]), np.array([0.5, 0.2, 0.1])))
+    0.0
+    >>> float(delta_e_2000(np.array([0.5, 0.2, 0.1]), np.array([0.5, 0.25, 0.1])).round(2))
+    7.11
+    """
     import colour
 
     srgb = colour.RGB_COLOURSPACES["sRGB"]
@@ -92,6 +101,18 @@ def sphere_difference(
     ValueError
         If the reference sphere renders black (nothing to expose by), or the BRDFs do not give
         three colour channels.
+
+    Examples
+    --------
+    An orange and a blue Lambertian sphere look like different materials:
+
+    >>> from brdfkit.brdf import Lambertian
+    >>> orange, blue = Lambertian(rho=[0.5, 0.3, 0.2]), Lambertian(rho=[0.3, 0.3, 0.5])
+    >>> sphere_difference(orange, orange, resolution=16).mean
+    0.0
+    >>> difference = sphere_difference(orange, blue, resolution=16)
+    >>> difference.mean > 20, difference.delta_e.shape
+    (True, (16, 16))
     """
     from brdfkit.render.shading import render_sphere
 

@@ -64,7 +64,15 @@ def _split(data: MeasuredSamples, rng: np.random.Generator) -> tuple[MeasuredSam
 
 def fit_any(measured: BRDF | MeasuredSamples, spec: str, **options: Any) -> FitResult:
     """:func:`brdfkit.fit.fit`, or the bivariate table when ``spec`` is ``"bivariate"`` (its
-    result has no parameters; ``options`` other than ``objective`` do not apply to it)."""
+    result has no parameters; ``options`` other than ``objective`` do not apply to it).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> result = fit_any(fit_data(Lambertian(rho=0.5), samples=2000), "bivariate")
+    >>> result.spec, result.params, round(result.errors["relative_l2"], 6)
+    ('bivariate (32 θh × 16 θd table)', {}, 0.0)
+    """
     if spec.strip() != BIVARIATE:
         return fit(measured, spec, **options)
     start = time.perf_counter()
@@ -107,6 +115,22 @@ def select_model(
     ------
     brdfkit.errors.ParameterError
         On an empty ``candidates`` or an unknown ``objective``.
+
+    Examples
+    --------
+    A plastic (a diffuse base under a glossy lobe) is no Lambertian surface:
+
+    >>> from brdfkit.brdf import parse
+    >>> from brdfkit.measured import MeasuredSamples
+    >>> from brdfkit.sampling import hemisphere_pairs
+    >>> wi, wo = hemisphere_pairs(1000, seed=1)
+    >>> plastic = parse("lambertian(rho=0.2) + ggx(alpha=0.3)")
+    >>> data = MeasuredSamples(wi, wo, plastic.eval(wi, wo))
+    >>> selection = select_model(data, ("lambertian", "lambertian + ggx"), starts=1)
+    >>> selection.chosen, sorted(selection.held_out)
+    ('lambertian + ggx', ['lambertian', 'lambertian + ggx'])
+    >>> round(selection.result.params["1.ggx.alpha"], 6)
+    0.3
     """
     if not candidates:
         raise ParameterError("candidates must name at least one model")

@@ -70,6 +70,18 @@ class DirectionalLight(_DeltaLight):
     References
     ----------
     .. [1] CMU 16-385 Lecture 14, "directional light"; PBRT 4th ed. §12.4.
+
+    Examples
+    --------
+    The direction is normalised; every receiving point gets the same direction and irradiance:
+
+    >>> import numpy as np
+    >>> light = DirectionalLight(direction=(0.0, 0.0, 2.0), irradiance=3.0)
+    >>> light.direction.tolist(), light.delta
+    ([0.0, 0.0, 1.0], True)
+    >>> sample = light.sample(np.zeros((2, 3)))
+    >>> sample.wi.tolist(), sample.value.tolist()
+    ([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]], [[3.0], [3.0]])
     """
 
     direction: Any = (0.0, 0.0, 1.0)
@@ -95,6 +107,14 @@ class PointLight(_DeltaLight):
     """An isotropic point light of intensity ``intensity`` (W·sr⁻¹) at ``position``.
 
     The irradiance at distance r on a surface facing it is E⊥ = I/r² (inverse-square law).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> light = PointLight(position=(0.0, 0.0, 2.0), intensity=100.0)
+    >>> sample = light.sample(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    >>> sample.value.tolist(), sample.distance.tolist()
+    ([[25.0], [100.0]], [2.0, 1.0])
     """
 
     position: Any = (0.0, 0.0, 1.0)
@@ -136,6 +156,19 @@ class SphereLight(Light):
 
     Sampled uniformly in the cone of directions it subtends (solid-angle sampling, pdf
     1/(2π(1 − cos α)) with sin α = R/d); a point facing it receives E = πL sin²α.
+
+    Examples
+    --------
+    Seen from twice its radius the sphere fills a cone of half-angle 30°; a sample's value
+    L/pdf is L times that cone's solid angle:
+
+    >>> import numpy as np
+    >>> light = SphereLight(center=(0.0, 0.0, 2.0), radius=1.0, radiance=1.0)
+    >>> sample = light.sample(np.zeros(3), np.array([0.3, 0.7]))
+    >>> float(sample.value[0].round(4)), float(sample.pdf.round(4))
+    (0.8418, 1.1879)
+    >>> light.incident_radiance(np.zeros(3), np.array([0.0, 1.0, 0.0])).tolist()  # misses it
+    [0.0]
     """
 
     center: Any = (0.0, 0.0, 2.0)
@@ -235,7 +268,21 @@ class _PlanarLight(Light):
 class DiskLight(_PlanarLight):
     """A one-sided Lambertian disk of ``radius`` at ``center`` emitting ``radiance`` towards
     ``normal``; sampled uniformly by area (concentric map), pdf converted to solid angle
-    r²/(A cos θ_l)."""
+    r²/(A cos θ_l).
+
+    Examples
+    --------
+    The default disk (radius 1/2) hangs 2 above the origin, facing down: straight up, the pdf
+    is r²/(A cos θ_l) = 4/(π/4) = 16/π:
+
+    >>> import numpy as np
+    >>> light = DiskLight()
+    >>> up = np.array([0.0, 0.0, 1.0])
+    >>> light.incident_radiance(np.zeros(3), up).tolist()
+    [1.0]
+    >>> float((light.pdf(np.zeros(3), up) * np.pi).round(12))
+    16.0
+    """
 
     center: Any = (0.0, 0.0, 2.0)
     normal: Any = (0.0, 0.0, -1.0)
@@ -269,7 +316,20 @@ class DiskLight(_PlanarLight):
 @dataclass(frozen=True, eq=False)
 class RectangleLight(_PlanarLight):
     """A one-sided Lambertian parallelogram ``corner + s·edge_u + t·edge_v`` (s, t ∈ [0, 1])
-    emitting ``radiance`` towards ``edge_u × edge_v``; sampled uniformly by area."""
+    emitting ``radiance`` towards ``edge_u × edge_v``; sampled uniformly by area.
+
+    Examples
+    --------
+    The default unit square hangs 2 above the origin, facing down:
+
+    >>> import numpy as np
+    >>> light = RectangleLight(radiance=(1.0, 0.5, 0.25))
+    >>> up = np.array([0.0, 0.0, 1.0])
+    >>> light.channels, light.incident_radiance(np.zeros(3), up).tolist()
+    (3, [1.0, 0.5, 0.25])
+    >>> float(light.pdf(np.zeros(3), up))  # r²/(A cos θ_l)
+    4.0
+    """
 
     corner: Any = (-0.5, -0.5, 2.0)
     edge_u: Any = (0.0, 1.0, 0.0)
@@ -318,6 +378,17 @@ class UniformSky(Light):
 
     A Lambertian surface of albedo ρ facing up under it has radiance ρL ("white-out").
     Sampled uniformly over the upper hemisphere.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sky = UniformSky(radiance=2.0)
+    >>> up_and_down = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    >>> sky.incident_radiance(np.zeros(3), up_and_down).tolist()
+    [[2.0], [0.0]]
+    >>> sample = sky.sample(np.zeros(3), np.array([0.2, 0.9]))
+    >>> float((sample.value[0] / (2 * np.pi)).round(12))  # L/pdf = L·2π
+    2.0
     """
 
     radiance: Any = 1.0

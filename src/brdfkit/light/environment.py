@@ -88,6 +88,26 @@ class EnvironmentMap(Light):
     ----------
     .. [1] P. Debevec, "Rendering synthetic objects into real scenes", SIGGRAPH 1998.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 3rd ed., §14.2.4.
+
+    Examples
+    --------
+    A map from an array: bright upper half (row 0 is the zenith), dark lower half:
+
+    >>> import numpy as np
+    >>> image = np.zeros((8, 16, 3))
+    >>> image[:4] = 1.0
+    >>> env = EnvironmentMap(image, scale=0.5)
+    >>> up_and_down = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    >>> env.incident_radiance(np.zeros(3), up_and_down).tolist()
+    [[0.5, 0.5, 0.5], [0.0, 0.0, 0.0]]
+
+    A sample's value is the radiance over the density of :meth:`pdf` in its direction:
+
+    >>> sample = env.sample(np.zeros(3), np.array([0.3, 0.2]))
+    >>> bool(sample.wi[2] > 0), bool(np.isclose(sample.pdf, env.pdf(np.zeros(3), sample.wi)))
+    (True, True)
+    >>> (sample.value * sample.pdf).round(12).tolist()
+    [0.5, 0.5, 0.5]
     """
 
     image: Any = None

@@ -36,6 +36,18 @@ def parse_light(spec: str) -> Light:
     brdfkit.errors.ParameterError
         For a value outside its domain (a zero or non-finite direction, a negative or infinite
         strength), naming it.
+
+    Examples
+    --------
+    >>> light = parse_light("directional:0,0,2:3")
+    >>> type(light).__name__, light.direction.tolist(), light.irradiance
+    ('DirectionalLight', [0.0, 0.0, 1.0], 3.0)
+    >>> parse_light("point:0,0,2:10").intensity, parse_light("sky:0.5").radiance
+    (10.0, 0.5)
+    >>> parse_light("laser:1")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.SpecError: light spec 'laser:1' has an unknown kind 'laser'. Known forms: ...
     """
     from brdfkit.params import MAX_SPEC_LENGTH
 

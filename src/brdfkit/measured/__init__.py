@@ -43,6 +43,25 @@ def read(path: str | os.PathLike) -> TabulatedBRDF | RGLBRDF:
     ------
     FormatError
         For another extension (listing the known ones), or as the reader raises.
+
+    Examples
+    --------
+    >>> read("photo.png")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.FormatError: photo.png: must end in one of .binary, .bsdf, .brdf to be read ...
+
+    A file the reader cannot make sense of is named with the field and byte that are wrong:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "short.binary"
+    ...     _ = path.write_bytes(b"1234")
+    ...     read(path)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.FormatError: .../short.binary (field 'dimensions', byte 0): truncated: ...
     """
     suffix = Path(path).suffix.lower()
     if suffix not in READERS:

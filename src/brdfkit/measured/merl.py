@@ -74,6 +74,21 @@ def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedB
     References
     ----------
     .. [1] W. Matusik et al., SIGGRAPH 2003; ``BRDFRead.cpp``.
+
+    Examples
+    --------
+    A file whose header is not MERL's:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "small.binary"
+    ...     _ = path.write_bytes(np.array([2, 2, 2], dtype="<i4").tobytes())
+    ...     read_merl(path)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.FormatError: .../small.binary (field 'dimensions', byte 0): ...
     """
     path = Path(path)
     raw = path.read_bytes()

@@ -366,6 +366,14 @@ class MeasuredSamples:
     spectral : (N, n) spectral values behind ``values`` (``None`` if not spectral).
     wavelengths : (n,) wavelengths of ``spectral`` in nm (``None`` if not spectral).
     name : a label (usually the file name).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> up, down = [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]
+    >>> samples = MeasuredSamples(np.array([up, up, up]), np.array([up, down, up]), [0.3, 0.3, -1])
+    >>> samples.values.shape, samples.valid.tolist()  # below the surface, "not measured"
+    ((3, 1), [True, False, False])
     """
 
     wi: np.ndarray
@@ -442,6 +450,20 @@ class TabulatedBRDF(MixtureSampled):
     References
     ----------
     .. [1] S. Rusinkiewicz, EGWR 1998. .. [2] W. Matusik et al., SIGGRAPH 2003.
+
+    Examples
+    --------
+    A table of a model, looked up between its nodes, is close to the model:
+
+    >>> import numpy as np
+    >>> from brdfkit.brdf import parse
+    >>> model = parse("ggx(alpha=0.3)")
+    >>> table = TabulatedBRDF.from_brdf(model, (32, 32, 32))
+    >>> table.shape, table.channels, table.isotropic
+    ((32, 32, 32), 1, True)
+    >>> wi, wo = np.array([0.0, 0.6, 0.8]), np.array([0.0, -0.6, 0.8])  # a mirror pair
+    >>> float(model.eval(wi, wo)[0].round(3)), float(table.eval(wi, wo)[0].round(3))
+    (1.348, 1.349)
     """
 
     values: Any = None
@@ -612,6 +634,16 @@ class TabulatedBRDF(MixtureSampled):
 
         Nodes with either direction at or below the horizon are stored as −1 ("not measured").
         ``channels`` broadcasts a grey model to C channels (default: the model's own).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from brdfkit.brdf import Lambertian
+        >>> table = TabulatedBRDF.from_brdf(Lambertian(rho=0.5), (8, 8, 16), channels=3)
+        >>> table.shape, table.channels, table.clamped > 0  # some nodes lie below the horizon
+        ((8, 8, 16), 3, True)
+        >>> (table.eval(np.array([0.6, 0.0, 0.8]), np.array([0.0, 0.6, 0.8])) * np.pi).tolist()
+        [0.5, 0.5, 0.5]
         """
         shape = tuple(int(s) for s in shape)
         if len(shape) not in (3, 4) or min(shape) < 1:
@@ -657,6 +689,19 @@ class TabulatedBRDF(MixtureSampled):
         ----------
         .. [1] C. B. Barber, D. P. Dobkin, H. Huhdanpaa, "The Quickhull algorithm for convex
                hulls", ACM TOMS 22(4), 1996 (scipy.spatial.Delaunay).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from brdfkit.brdf import Lambertian
+        >>> from brdfkit.sampling import hemisphere_pairs
+        >>> wi, wo = hemisphere_pairs(300)
+        >>> samples = MeasuredSamples(wi, wo, Lambertian(rho=0.5).eval(wi, wo), name="white")
+        >>> table = TabulatedBRDF.from_samples(samples, (8, 8, 8), method="nearest")
+        >>> table.name, table.samples is samples
+        ('white', True)
+        >>> (table.eval(np.array([0.6, 0.0, 0.8]), np.array([0.0, 0.6, 0.8])) * np.pi).tolist()
+        [0.5]
         """
         from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
         from scipy.spatial import QhullError
@@ -717,6 +762,17 @@ def lookup(
     References
     ----------
     .. [1] W. H. Press et al., *Numerical Recipes*, 3rd ed., §3.6 (interpolation in a grid).
+
+    Examples
+    --------
+    A two-node axis, looked up a quarter and three quarters of the way:
+
+    >>> import numpy as np
+    >>> table, axes = np.array([[0.0], [10.0]]), [(2, False)]
+    >>> lookup(table, [np.array([0.25, 0.75])], axes, "linear").tolist()
+    [[2.5], [7.5]]
+    >>> lookup(table, [np.array([0.25, 0.75])], axes, "nearest").tolist()
+    [[0.0], [10.0]]
     """
     xp = namespace(table, *coords)
     strides = np.cumprod([1] + [size for size, _ in axes[:0:-1]])[::-1]

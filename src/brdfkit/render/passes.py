@@ -3,6 +3,13 @@
 :func:`progressive` yields a :class:`Pass` per refinement (the running mean, its per-pixel
 standard error and, with Sobol' replicates, an unbiased error estimate), so that a viewer can
 show an image at once and refine it, and stop when the noise is low enough.
+
+References
+----------
+.. [1] A. B. Owen, *Monte Carlo theory, methods and examples*, 2013, §17.2 (independent
+       replicates of randomized quasi-Monte Carlo).
+.. [2] T. F. Chan, G. H. Golub, R. J. LeVeque, "Updating formulae and a pairwise algorithm for
+       computing sample variances", COMPSTAT 1982.
 """
 
 from __future__ import annotations
@@ -68,7 +75,7 @@ def progressive(
     each one scrambled Sobol' sequence per pixel that every pass continues
     (``first_sample``: after N samples of each, the next N), so that after each pass each
     replicate holds a whole scrambled net, not a union of independently scrambled pieces
-    (measured on a gold sphere: 1.26–1.41× lower RMS error at 16–128 spp). The first pass
+    (whose error is higher for the same samples). The first pass
     has ``first_samples`` samples in all (half from each; at least one each), and
     ``max_samples`` counts both. :attr:`Pass.error` is :math:`|\bar x_A - \bar x_B|/2`:
     its square is an unbiased estimate of the image's variance
@@ -85,6 +92,17 @@ def progressive(
            algorithm for computing sample variances", COMPSTAT 1982.
     .. [2] A. B. Owen, *Monte Carlo theory, methods and examples*, 2013, §17.2 (independent
            replicates of randomized quasi-Monte Carlo estimate its variance).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> from brdfkit.light import DirectionalLight
+    >>> from brdfkit.render import Sphere, gbuffer
+    >>> g = gbuffer(Sphere(), resolution=4)
+    >>> model, light = parse("ggx(alpha=0.3)"), DirectionalLight((1.0, 0.0, 1.0))
+    >>> passes = list(progressive(g, model, light, max_samples=8, compiled=False))
+    >>> [p.samples for p in passes], passes[-1].image.shape
+    ([2, 4, 8], (4, 4, 1))
     """
     if first_samples < 1:
         raise ValueError(f"first_samples must be >= 1; got {first_samples}")
@@ -234,7 +252,17 @@ def progressive_sphere(
     camera: Camera | None = None,
     **kwargs: Any,
 ) -> Iterator[Pass]:
-    """:func:`progressive` on a unit sphere seen by ``camera`` (as :func:`render_sphere`)."""
+    """:func:`progressive` on a unit sphere seen by ``camera`` (as :func:`render_sphere`).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> from brdfkit.light import UniformSky
+    >>> for step in progressive_sphere(Lambertian(rho=0.5), UniformSky(), 4, max_samples=4):
+    ...     print(step.samples, step.image.shape, step.error is not None)
+    2 (4, 4, 1) True
+    4 (4, 4, 1) True
+    """
     return progressive(gbuffer(Sphere(), camera, resolution), brdf, lights, **kwargs)
 
 

@@ -73,7 +73,16 @@ class Camera:
     def look_at(
         cls, position: Any, target: Any = (0, 0, 0), up: Any = (0, 0, 1), **kwargs: Any
     ) -> Camera:
-        """A camera at ``position`` looking at ``target`` with ``up`` towards the image's top."""
+        """A camera at ``position`` looking at ``target`` with ``up`` towards the image's top.
+
+        Examples
+        --------
+        Looking down from above, with +y to the image's top: the camera's axes are the world's:
+
+        >>> camera = Camera.look_at((0.0, 0.0, 5.0), up=(0.0, 1.0, 0.0))
+        >>> camera.rotation.tolist()
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        """
         position, target, up = (np.asarray(v, dtype=float) for v in (position, target, up))
         z = position - target
         if np.linalg.norm(z) == 0:
@@ -203,7 +212,16 @@ def gbuffer(
     rows: slice | None = None,
 ) -> GBuffer:
     """Trace one ray per pixel of ``camera`` (default: orthographic front view) to ``shape``
-    (or only the image's ``rows``, a G-buffer of those rows)."""
+    (or only the image's ``rows``, a G-buffer of those rows).
+
+    Examples
+    --------
+    >>> g = gbuffer(Sphere(), resolution=4)
+    >>> g.shape, g.mask.astype(int).tolist()
+    ((4, 4), [[0, 1, 1, 0], [1, 1, 1, 1], [1, 1, 1, 1], [0, 1, 1, 0]])
+    >>> g.normals[1, 1].round(4).tolist(), g.wo[1, 1].tolist()  # the viewer is along +x
+    ([0.9354, -0.25, 0.25], [1.0, 0.0, 0.0])
+    """
     height, width = (resolution, resolution) if isinstance(resolution, int) else resolution
     camera = camera or Camera()
     origins, directions = camera.rays(height, width, rows)
@@ -223,6 +241,15 @@ def normal_map_gbuffer(
 
     The view is orthographic along ``view`` (default +z, towards the camera), the frame in which
     photometric-stereo normals and light directions are given.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> normals = np.zeros((2, 3, 3))
+    >>> normals[0] = (0.0, 0.0, 2.0)  # the bottom row is empty (zero normals)
+    >>> g = normal_map_gbuffer(normals)
+    >>> g.mask.tolist(), g.normals[0, 0].tolist()
+    ([[True, True, True], [False, False, False]], [0.0, 0.0, 1.0])
     """
     n = np.asarray(to_numpy(normals), dtype=float)
     if n.ndim != 3 or n.shape[2] != 3:
@@ -238,7 +265,13 @@ def normal_map_gbuffer(
 
 
 def interior_mask(resolution: int, margin: float = 0.03) -> np.ndarray:
-    """Pixels whose centre lies inside the orthographic unit sphere by ``margin`` (radii)."""
+    """Pixels whose centre lies inside the orthographic unit sphere by ``margin`` (radii).
+
+    Examples
+    --------
+    >>> interior_mask(4).astype(int).tolist()
+    [[0, 1, 1, 0], [1, 1, 1, 1], [1, 1, 1, 1], [0, 1, 1, 0]]
+    """
     c = ((np.arange(resolution) + 0.5) * 2 - resolution) / resolution
     x, y = np.meshgrid(c, c)
     return x * x + y * y < (1 - margin) ** 2

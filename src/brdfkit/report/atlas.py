@@ -75,7 +75,7 @@ class Card:
     consistent: bool = True
     # spp of each environment-lit sphere, or what its quadrature spent ("quadrature, N nodes")
     env_samples: list[int | str] = field(default_factory=list)
-    cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU s of each part's making
+    cpu_seconds: dict[str, float] = field(default_factory=dict)  # CPU seconds of each part
     env_cpu_seconds: list[float] = field(default_factory=list)  # of each environment-lit sphere
     docs_html: str | None = None  # the docstrings typeset (:func:`_docs_html`), once made
 
@@ -226,6 +226,12 @@ def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> st
     ------
     docutils.utils.SystemMessage
         With ``strict``, on the first message docutils reports.
+
+    Examples
+    --------
+    >>> fragment = docstring_html("The albedo :math:`ρ` of the surface.")
+    >>> fragment.startswith("<p>The albedo <math"), "<mi>ρ</mi>" in fragment
+    (True, True)
     """
     from docutils.core import publish_parts
     from docutils.writers.html5_polyglot import Writer
@@ -246,8 +252,8 @@ def docstring_html(doc: str, *, id_prefix: str = "", strict: bool = False) -> st
 ENV_NOISE = None
 """The default goal for a Monte Carlo sphere under the environment map, its estimated
 relative RMSE against a 16×-spp render of itself (:func:`env_sphere`): none, ``samples`` spp.
-A goal of 1 % (``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres: minutes
-on 2 cores (``benchmarks/bench_atlas.py``). Spheres the quadrature renders
+A goal of 1 % (``brdfkit atlas --noise 0.01``) takes 64–1024 spp on the glossy spheres, many
+times the default's work (``benchmarks/bench_atlas.py``). Spheres the quadrature renders
 (:mod:`brdfkit.render.environment_quadrature`) meet ``noise``, or else its own 1 % goal, without
 noise."""
 ENV_MAX_SAMPLES = 2048
@@ -421,12 +427,24 @@ def _registered_defaults() -> list[str]:
 
 
 def default_examples(name: str) -> list[BRDF]:
-    """The example instances of the default card of the registered model ``name``."""
+    """The example instances of the default card of the registered model ``name``.
+
+    Examples
+    --------
+    >>> [type(model).__name__ for model in default_examples("lambertian")]
+    ['Lambertian', 'Lambertian', 'Lambertian', 'Lambertian']
+    """
     return MODELS[name].examples()[:4]
 
 
 def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str, list[BRDF]]]:
-    """Titles and example instances: every registered default model, or the given specs/files."""
+    """Titles and example instances: every registered default model, or the given specs/files.
+
+    Examples
+    --------
+    >>> [(title, len(examples)) for title, examples in default_cards(["ggx(alpha=0.2)"])]
+    [('ggx(alpha=0.2)', 1)]
+    """
     from brdfkit.brdf import parse
 
     if not models:
@@ -572,9 +590,10 @@ _CARD_CPU_SECONDS = {
     "rough_dielectric": 3.9, "kulla_conty_dielectric": 2.7, "thin_film": 2.1,
     "torrance_sparrow": 1.7, "rough_plastic": 1.4, "ashikhmin_shirley": 1.3, "beckmann": 1.2,
 }  # fmt: skip
-"""CPU seconds of the heaviest default cards, the construction of their examples included
-(``benchmarks/bench_atlas.py --profile``, a warm kernel cache); the others took 0.3–1.0 s.
-Only the order in which :func:`_build_cards` hands cards to its workers depends on it."""
+"""The expected cost, in CPU seconds, of the heaviest default cards, the construction of their
+examples included (as ``benchmarks/bench_atlas.py --profile`` reports it with a warm kernel
+cache); a card not listed counts 1. Only the order in which :func:`_build_cards` hands cards to
+its workers depends on it."""
 
 
 _Examples = Sequence[BRDF] | Callable[[], Sequence[BRDF]]
@@ -613,10 +632,10 @@ def _keep_freed_memory() -> None:
     freed memory, in this process (an atlas worker, which lives for one atlas).
 
     A card's NumPy temporaries are megabytes (10⁵ samples × 3 in the checks, a quadrature
-    ring's nodes), many above malloc's threshold for ``mmap``: each was mapped afresh and its
-    pages zeroed by the kernel on first touch, then unmapped when freed. Kept instead, they
-    are reused: the workers' system time fell from 1.1–1.3 to 0.3–0.5 CPU s per atlas.
-    Nothing is changed where the C library is not glibc (no ``mallopt``)."""
+    ring's nodes), many above malloc's threshold for ``mmap``: each would be mapped afresh and
+    its pages zeroed by the kernel on first touch, then unmapped when freed. Kept instead, they
+    are reused, which saves most of the workers' system time. Nothing is changed where the C
+    library is not glibc (no ``mallopt``)."""
     import ctypes
     import ctypes.util
 
@@ -635,9 +654,8 @@ def _one_blas_thread():
     The atlas's work is one process per core already, and its matrix products are narrow
     (``(n, 3) @ (3, m)``: the irradiance table's 18 k normals against 4.6 k cells, a map's
     rotation): BLAS threads gain nothing there, and on a busy machine their spin-waiting
-    multiplies the time (the irradiance table, measured at load 4.5 on 2 cores: 6.0 s wall
-    and 2.4 CPU s with OpenBLAS's 2 threads, 1.0 s and 0.35 CPU s with one). The products
-    split their outputs, not their sums, between threads: the same floats either way."""
+    multiplies the time. The products split their outputs, not their sums, between threads:
+    the same floats either way."""
     from threadpoolctl import threadpool_limits
 
     return threadpool_limits(1, user_api="blas")
@@ -646,9 +664,8 @@ def _one_blas_thread():
 def _worker_card(title: str, examples: _Examples) -> Card:
     """:func:`_card` in an atlas worker, with the options it started with: they reach it once,
     inherited by the fork, not pickled with every card, so that its cards share one map object
-    (its irradiance table, and :mod:`~brdfkit.render.environment_quadrature`'s cell averages of it,
-    cached
-    per map object: 0.07 CPU s per card for levels 0 and 1, 0.37 more for level 2)."""
+    (its irradiance table, and :mod:`~brdfkit.render.environment_quadrature`'s cell averages of
+    it, cached per map object)."""
     if _WORKER_OPTIONS is None:
         raise RuntimeError("_worker_card runs in a worker started by _start_worker")
     return _card(title, examples, _WORKER_OPTIONS)
@@ -667,8 +684,8 @@ _CARD_MODULES = (
     "PIL.PngImagePlugin",
     "scipy.stats",
 )
-"""The modules every card imports (its plots, its PNGs, its χ² tests and Sobol' points):
-0.8 CPU s, more than a typical card's own work."""
+"""The modules every card imports (its plots, its PNGs, its χ² tests and Sobol' points), whose
+import costs more than a typical card's own work."""
 
 
 def _import_card_modules() -> None:

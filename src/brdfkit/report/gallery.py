@@ -4,8 +4,8 @@ self-contained HTML page (``brdfkit materials --gallery OUT.html``).
 Every sphere is lit by one directional light (the cheap path: one light sample a pixel, no
 Monte Carlo), from the upper right at 45°, and seen from the front; the spheres of one fit share
 an exposure (the 99th percentile of their luminance maps to white), so that they compare within
-the fit. 1 216 spheres at 32 × 32 pixels take a few seconds, which is why the gallery is its own
-page rather than part of the atlas.
+the fit. A sphere for every preset (over a thousand) is more than the atlas should carry, which
+is why the gallery is its own page.
 """
 
 from __future__ import annotations

@@ -6,7 +6,16 @@ directions point from the surface towards the light. Images are indexed ``[row, 
 rows going *down*, so the y component of a direction is minus the row direction.
 
 Modules: :mod:`~brdfkit.vision.datasets` (DiLiGenT and the classic "psm" course layout),
+:mod:`~brdfkit.vision.synthesis` (images of given normals under distant lights, for any BRDF),
 :mod:`~brdfkit.vision.photometric_stereo` (Lambertian least squares, robust estimators, chrome
-sphere calibration), :mod:`~brdfkit.vision.normal_integration` (normals to
-depth) and :mod:`~brdfkit.vision.metrics` (angular errors as the DiLiGenT benchmark computes them).
+sphere calibration), :mod:`~brdfkit.vision.consensus` and
+:mod:`~brdfkit.vision.bivariate_stereo` (non-Lambertian photometric stereo),
+:mod:`~brdfkit.vision.uncalibrated` (lights and normals from the images alone),
+:mod:`~brdfkit.vision.svbrdf` and :mod:`~brdfkit.vision.visibility` (spatially varying BRDFs,
+shadows and relighting), :mod:`~brdfkit.vision.normal_integration` (normals to depth),
+:mod:`~brdfkit.vision.shape_from_shading` (depth from one image),
+:mod:`~brdfkit.vision.lighting` (illumination from an image),
+:mod:`~brdfkit.vision.separation` (diffuse and specular reflection apart),
+:mod:`~brdfkit.vision.calibration` (linear images, camera response, HDR merging) and
+:mod:`~brdfkit.vision.metrics` (angular errors as the DiLiGenT benchmark computes them).
 """

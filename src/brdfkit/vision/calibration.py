@@ -66,6 +66,13 @@ def linearize(image: ArrayLike, encoding: Encoding) -> np.ndarray:
     References
     ----------
     .. [1] IEC 61966-2-1:1999, §5.2.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> linear = linearize(np.array([0.5, 1.0]), "srgb")
+    >>> linear.dtype, [round(float(value), 4) for value in linear]
+    (dtype('float32'), [0.214, 1.0])
     """
     image = np.asarray(image, dtype=np.float32)
     if encoding == "linear":
@@ -129,6 +136,11 @@ def hat_weights(levels: int = 256) -> np.ndarray:
     References
     ----------
     .. [1] P. E. Debevec and J. Malik, SIGGRAPH 1997, eq. 4.
+
+    Examples
+    --------
+    >>> hat_weights(5).tolist()
+    [0.0, 1.0, 2.0, 1.0, 0.0]
     """
     levels = check_count("levels", levels, 2**16, minimum=3)
     z = np.arange(levels, dtype=np.float64)

@@ -62,8 +62,8 @@ MAX_ITERATIONS = 10_000
 
 _LATLONG_BYTES_PER_PIXEL = 160
 """Peak bytes per lat-long pixel of :meth:`~brdfkit.light.EnvironmentMap.from_mirror_ball`
-(directions, normals and sampling tables), plus 8 per channel: ``tracemalloc`` measured 125 for
-a 512 × 1024 map of 1 or 3 channels."""
+(directions, normals and sampling tables), plus 8 per channel: 125 for a 512 × 1024 map of 1 or
+3 channels, by ``tracemalloc``."""
 
 
 def _check_image_normals(
@@ -234,6 +234,21 @@ def estimate_directional_light(
         is not finite and positive, an empty mask, or an image too dark to fit.
     brdfkit.errors.ResourceError
         ``iterations`` above :data:`MAX_ITERATIONS`.
+
+    Examples
+    --------
+    A Lambertian sphere (albedo 0.6) lit with irradiance 1 from 37° to the right:
+
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> from brdfkit.vision.photometric_stereo import sphere_normals
+    >>> from brdfkit.vision.synthesis import render_brdf
+    >>> normals, inside = sphere_normals((9, 9), centre=(4.0, 4.0), radius=4.5)
+    >>> light = np.array([[0.6, 0.0, 0.8]])
+    >>> image = render_brdf(normals, inside, light, Lambertian(rho=0.6))[0]
+    >>> estimate = estimate_directional_light(image, normals, inside, albedo=0.6)
+    >>> estimate.direction.round(6).tolist(), estimate.irradiance.round(6).tolist()
+    ([0.6, -0.0, 0.8], [1.0])
 
     References
     ----------

@@ -164,6 +164,16 @@ def frankot_chellappa(normals: ArrayLike, mask: ArrayLike | None = None) -> np.n
     References
     ----------
     R. T. Frankot, R. Chellappa, IEEE TPAMI 10(4), 1988.
+
+    Examples
+    --------
+    A tilted plane has no periodic part: under periodic boundaries it integrates to nothing
+    (:func:`poisson_dct` and :func:`least_squares_integration` recover it):
+
+    >>> import numpy as np
+    >>> plane = np.broadcast_to(np.array([0.5, 0.0, 1.0]) / np.sqrt(1.25), (3, 4, 3))
+    >>> frankot_chellappa(plane).round(6).tolist()
+    [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
     """
     normals, mask = _check(normals, mask)
     d_u, d_v = orthographic_gradients(normals, mask)
@@ -193,6 +203,15 @@ def poisson_dct(normals: ArrayLike, mask: ArrayLike | None = None) -> np.ndarray
     References
     ----------
     T. Simchony, R. Chellappa, M. Shao, IEEE TPAMI 12(5), 435-446, 1990.
+
+    Examples
+    --------
+    A plane whose depth grows by half a pixel per column:
+
+    >>> import numpy as np
+    >>> plane = np.broadcast_to(np.array([0.5, 0.0, 1.0]) / np.sqrt(1.25), (3, 4, 3))
+    >>> poisson_dct(plane).round(6).tolist()
+    [[0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5]]
     """
     import scipy.fft
 
@@ -241,6 +260,18 @@ def least_squares_integration(
     ----------
     Y. Quéau, J.-D. Durou, J.-F. Aujol, J. Math. Imaging Vis. 60, 2018, §3 (discrete least
     squares); J.-D. Durou et al., EMMCVPR 2009 (perspective log-depth).
+
+    Examples
+    --------
+    A plane whose depth grows by half a pixel per column, seen through a mask that leaves out
+    one corner (NaN there):
+
+    >>> import numpy as np
+    >>> plane = np.broadcast_to(np.array([0.5, 0.0, 1.0]) / np.sqrt(1.25), (3, 4, 3))
+    >>> mask = np.ones((3, 4), dtype=bool)
+    >>> mask[0, 0] = False
+    >>> least_squares_integration(plane, mask).round(6).tolist()
+    [[nan, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5]]
     """
     import scipy.ndimage
     import scipy.sparse

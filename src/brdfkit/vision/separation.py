@@ -135,6 +135,17 @@ def specular_free(image: ArrayLike, illuminant: ArrayLike | None = None) -> np.n
     ----------
     .. [1] R. T. Tan and K. Ikeuchi, IEEE TPAMI 27(2), 2005, §4 (the specular-free image).
     .. [2] K.-J. Yoon, Y. Choi and I. S. Kweon, ICIP 2006 (the minimum-subtracted form).
+
+    Examples
+    --------
+    A white highlight adds the same to every channel; the minimum takes it away:
+
+    >>> import numpy as np
+    >>> body = np.array([[[0.5, 0.3, 0.2]]])
+    >>> specular_free(body + 0.4).round(12).tolist() == specular_free(body).round(12).tolist()
+    True
+    >>> specular_free(body).round(12).tolist()
+    [[[0.3, 0.1, 0.0]]]
     """
     image = _check_rgb("image", image)
     balance = _white_balance(image, illuminant)
@@ -150,6 +161,12 @@ def max_chromaticity(image: ArrayLike, *, dark: float = 1e-6) -> np.ndarray:
     References
     ----------
     .. [1] R. T. Tan and K. Ikeuchi, IEEE TPAMI 27(2), 2005, eq. 6.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> max_chromaticity(np.array([[[0.5, 0.3, 0.2], [0.0, 0.0, 0.0]]])).round(4).tolist()
+    [[0.5, 0.3333]]
     """
     image = _check_rgb("image", image)
     total = image.sum(axis=-1)

@@ -351,7 +351,7 @@ def _solve_small(
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
     """``a · b`` as a NumPy reduction: BLAS's threaded ``ddot`` on long vectors spins badly when
-    the cores are shared (measured: the whole solve several times slower)."""
+    the cores are shared, and slows the whole solve several times."""
     return float(np.multiply(a, b).sum())
 
 

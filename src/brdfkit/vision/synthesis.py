@@ -65,6 +65,18 @@ def render_brdf(
         side), or a negative irradiance.
     brdfkit.errors.ResourceError
         Images that would not fit in memory.
+
+    Examples
+    --------
+    A Lambertian plane facing the camera, lit head-on and at 60°:
+
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> normals = np.broadcast_to([0.0, 0.0, 1.0], (2, 2, 3))
+    >>> lights = np.array([[0.0, 0.0, 1.0], [np.sqrt(3) / 2, 0.0, 0.5]])
+    >>> images = render_brdf(normals, np.ones((2, 2), bool), lights, Lambertian(rho=0.5))
+    >>> images.shape, (images[:, 0, 0, 0] * np.pi).round(12).tolist()  # ρ cos θ
+    ((2, 2, 2, 1), [0.5, 0.25])
     """
     normals = as_float_array("normals", normals)
     mask = np.asarray(mask, dtype=bool)

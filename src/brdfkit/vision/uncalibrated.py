@@ -113,6 +113,13 @@ def gbr_matrix(mu: float, nu: float, lam: float) -> np.ndarray:
     References
     ----------
     P. N. Belhumeur, D. J. Kriegman, A. L. Yuille, IJCV 35(1), 1999, eq. 3.
+
+    Examples
+    --------
+    The surface ``z`` becomes ``2 z + x``:
+
+    >>> gbr_matrix(mu=-1.0, nu=0.0, lam=2.0).tolist()
+    [[2.0, 0.0, 1.0], [0.0, 2.0, -0.0], [0.0, 0.0, 1.0]]
     """
     if lam == 0 or not np.all(np.isfinite((mu, nu, lam))):
         raise ParameterError(f"GBR needs finite mu, nu and lambda != 0; got {(mu, nu, lam)}")
