@@ -38,6 +38,7 @@ from brdfkit._array import (
     check_finite,
     check_param,
     clamp,
+    colour_science,
     namespace,
     safe_div,
     safe_sqrt,
@@ -172,7 +173,7 @@ def rgb_from_spectrum(wavelengths: Any, values: Any) -> np.ndarray:
     .. [1] CIE 015:2018, *Colorimetry*, 4th ed.; IEC 61966-2-1 (sRGB).
     .. [2] Mitsuba 3, ``src/core/spectrum.cpp``, ``spectrum_list_to_srgb``.
     """
-    import colour
+    colour = colour_science()
 
     wavelengths = np.asarray(wavelengths, dtype=np.float64)
     values = np.asarray(values, dtype=np.float64)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from brdfkit._array import colour_science
 from brdfkit.brdf.base import BRDF
 from brdfkit.light.analytic import DirectionalLight
 from brdfkit.light.base import Light
@@ -70,7 +71,7 @@ def delta_e_2000(rgb_a: np.ndarray, rgb_b: np.ndarray) -> np.ndarray:
     >>> float(delta_e_2000(np.array([0.5, 0.2, 0.1]), np.array([0.5, 0.25, 0.1])).round(2))
     7.11
     """
-    import colour
+    colour = colour_science()
 
     srgb = colour.RGB_COLOURSPACES["sRGB"]
 

@@ -45,7 +45,17 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, clamp, dot, namespace, normalize, safe_div, to_numpy
+from brdfkit._array import (
+    Array,
+    asarray,
+    clamp,
+    colour_science,
+    dot,
+    namespace,
+    normalize,
+    safe_div,
+    to_numpy,
+)
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal, to_world
 from brdfkit.light.base import STRENGTH, Light, LightSample, _batch
@@ -131,7 +141,7 @@ def sun_radiance(turbidity: float, elevation: float, aperture: float = SUN_APERT
     \cdot 467.07 \cdot (1/106.75) / \Omega_{sun}` (``SPEC_TO_RGB_SUN_CONV``,
     ``MI_CIE_Y_NORMALIZATION``).
     """
-    import colour
+    colour = colour_science()
 
     table = _lerp_index(_datasets()["sun_irradiance"], turbidity - 1)  # (elevation, λ)
     index = (math.degrees(elevation) - 2.0) / 3.0

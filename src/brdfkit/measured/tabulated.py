@@ -50,7 +50,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, namespace, safe_sqrt, to_numpy
+from brdfkit._array import Array, asarray, colour_science, namespace, safe_sqrt, to_numpy
 from brdfkit.brdf.base import BRDF, Sample, result_shape, upper_hemisphere
 from brdfkit.brdf.phong import (
     Component,
@@ -81,7 +81,7 @@ rounding below 0 folds to the end of the previous period)."""
 # --------------------------------------------------------------------------- colour
 @functools.cache
 def _spectrum_to_rgb(wavelengths: tuple[float, ...]) -> np.ndarray:
-    import colour
+    colour = colour_science()
 
     basis = colour.MultiSpectralDistributions(np.eye(len(wavelengths)), np.asarray(wavelengths))
     cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
