@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, clamp, namespace, safe_sqrt, to_numpy
-from brdfkit.brdf.base import BRDF, normalized_weights, per_direction, register, upper_hemisphere
+from brdfkit.brdf.base import BRDF, normalized_weights, per_direction, register
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR, FresnelTerm
 from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
@@ -20,7 +20,7 @@ from brdfkit.brdf.random_walk import random_walk_albedo
 from brdfkit.brdf.rough_conductor import RoughConductor
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import spherical_to_cartesian
-from brdfkit.params import Domain, check_domains, param
+from brdfkit.params import Domain, param
 
 COMPENSATED_ROUGHNESS = Domain(0.01, 1.0, hint="GGX roughness α of the tabulated range")
 """The roughness α of :class:`KullaConty`: [0.01, 1], where E(μ) is tabulated to ≤ 2·10⁻⁴
@@ -318,7 +318,7 @@ class KullaConty(MixtureSampled):
     }
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         alphas = np.asarray(to_numpy(self.alpha), dtype=np.float64)
         if alphas.ndim > 1:
             raise ParameterError(
@@ -354,6 +354,10 @@ class KullaConty(MixtureSampled):
         object.__setattr__(self, "_ms_scale", scale)
         object.__setattr__(self, "channels", channels)
 
+    def _channel_values(self) -> dict[str, Any]:
+        """None here: the channels are the single-scattering lobe's (roughness and Fresnel)."""
+        return {}
+
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [
@@ -381,11 +385,9 @@ class KullaConty(MixtureSampled):
         broadcast ``w`` (the fixed ωo of :meth:`eval` in a quadrature ring, a check's samples)."""
         return self.E_ms(w[..., 2:3])
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         single = self._single.eval(wi, wo)
         multiple = self._E_ms_of(wi) * self._E_ms_of(wo) * param(self._ms_scale, wi)
-        multiple = xp.where(upper_hemisphere(wi, wo), multiple, xp.zeros_like(multiple))
         return single + multiple
 
     @per_direction
@@ -409,7 +411,7 @@ class KullaConty(MixtureSampled):
             cosine_component(p_multiple),
         ]
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         single, multiple = self._weights(wo)
         return single + multiple
 

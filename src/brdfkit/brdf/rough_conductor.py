@@ -32,7 +32,7 @@ from brdfkit.brdf.microfacet_reflection import (
     stretched_distribution,
 )
 from brdfkit.errors import ParameterError
-from brdfkit.params import Domain, check_choice, check_domains
+from brdfkit.params import Domain
 
 
 @register("rough_conductor")
@@ -92,11 +92,11 @@ class RoughConductor(MicrofacetReflection):
         "eta": IOR,
         "k": EXTINCTION,
     }
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"distribution": DISTRIBUTIONS}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         fixed = type(self).distribution_name
-        check_choice("distribution", self.distribution, DISTRIBUTIONS)
         if fixed is not None and self.distribution != fixed:
             raise ParameterError(
                 f"distribution must be {fixed!r} for the {type(self).spec_name!r} model; got "

@@ -41,7 +41,7 @@ from brdfkit.brdf.base import BRDF, ROUGHNESS, register
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR
 from brdfkit.brdf.microfacet_reflection import MicrofacetReflection
 from brdfkit.errors import ParameterError
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, channel_count, param
 
 THICKNESS = Domain(0.0, 10_000.0, hint="film thickness in nanometres")
 """The film thickness d: [0, 10⁴] nm (beyond a few µm the colours wash out to the mean)."""
@@ -316,7 +316,7 @@ class ThinFilm(MicrofacetReflection):
     }
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         for name in ("thickness", "film_eta"):
             if np.ndim(to_numpy(getattr(self, name))) > 0 and np.size(getattr(self, name)) > 1:
                 raise ParameterError(
