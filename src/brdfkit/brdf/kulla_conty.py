@@ -175,7 +175,7 @@ def albedo_table(alpha: float) -> tuple[np.ndarray, float]:
     the Chebyshev coefficients of E(μ) (F = 1) as a series in :math:`x = 2\sqrt\mu - 1`, and
     :math:`E_{avg} = 2\int_0^1 E(\mu)\,\mu\,d\mu`.
 
-    E is sampled by :func:`ggx_albedo` at the DEGREE + 1 Chebyshev points (~0.04 s); the
+    E is sampled by :func:`ggx_albedo` at the DEGREE + 1 Chebyshev points; the
     series in √μ follows E's steep rise to 1 at grazing view, where a grid in μ would not.
     """
     coefficients = np.polynomial.chebyshev.chebinterpolate(
@@ -422,8 +422,8 @@ class KullaConty(MixtureSampled):
 def _clenshaw(coefficients: tuple[np.ndarray, ...], mu: Array) -> Array:
     r"""A per-channel Chebyshev series in :math:`x = 2\sqrt\mu - 1` at ``mu`` ``(..., 1)``
     (Clenshaw's recurrence), ``(..., C)``. Each channel runs on ``(..., 1)`` arrays with
-    scalar coefficients, then the channels are joined: NumPy's loops over a trailing axis of
-    length 3 cost ~5× those over the batch. On NumPy arrays the recurrence runs in place
+    scalar coefficients, then the channels are joined, so that the loops run over the batch
+    rather than over a short trailing axis. On NumPy arrays the recurrence runs in place
     (:func:`_clenshaw_numpy`, the same operations in the same order)."""
     xp = namespace(mu)
     x = 2 * safe_sqrt(clamp(mu, 0.0, 1.0)) - 1

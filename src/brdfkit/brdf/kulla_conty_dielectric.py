@@ -170,7 +170,7 @@ def albedo_series(alpha: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
     r"""Chebyshev coefficients, in :math:`x = 2\sqrt\mu - 1`, of the single-scattering flux
     albedo :math:`E(\mu) = R + T` of :func:`single_scattering` seen from outside and from
     inside, each ``(DEGREE + 1,)``; computed by :func:`dielectric_albedo` at the Chebyshev
-    points (~0.3 s) and kept in memory."""
+    points and kept in memory."""
     x = np.cos(math.pi * (np.arange(DEGREE + 1) + 0.5) / (DEGREE + 1))
     mu = ((x + 1) / 2) ** 2
     e = dielectric_albedo(alpha, eta, np.concatenate([mu, -mu])).sum(axis=-1)

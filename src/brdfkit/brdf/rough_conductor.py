@@ -122,7 +122,11 @@ class RoughConductor(MicrofacetReflection):
 @register("ggx")
 @dataclass(frozen=True, eq=False)
 class GGXConductor(RoughConductor):
-    """:class:`RoughConductor` with the GGX distribution: ``ggx(alpha=0.2, material='Au')``."""
+    """:class:`RoughConductor` with the GGX distribution: ``ggx(alpha=0.2, material='Au')``.
+
+    Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
+    rough surfaces).
+    """
 
     distribution_name: ClassVar[str | None] = "ggx"
     distribution: str = "ggx"
@@ -135,7 +139,11 @@ class GGXConductor(RoughConductor):
 @register("beckmann")
 @dataclass(frozen=True, eq=False)
 class BeckmannConductor(RoughConductor):
-    """:class:`RoughConductor` with the Beckmann distribution: ``beckmann(alpha=0.2)``."""
+    """:class:`RoughConductor` with the Beckmann distribution: ``beckmann(alpha=0.2)``.
+
+    Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
+    rough surfaces).
+    """
 
     distribution_name: ClassVar[str | None] = "beckmann"
     distribution: str = "beckmann"

@@ -219,8 +219,8 @@ def xyz_to_linear_srgb() -> tuple[tuple[float, ...], ...]:
     """The 3×3 matrix from XYZ under the equal-energy illuminant E to linear sRGB (D65),
     Bradford-adapted so that a white reflector (XYZ = (1, 1, 1)) is RGB (1, 1, 1), as rows:
     colour-science's ``XYZ_to_RGB(np.eye(3), "sRGB", illuminant=E,
-    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats), as
-    importing colour-science takes ~1 CPU s, a process's every thin-film evaluation paid it
+    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats) so
+    that thin-film evaluation does not import colour-science
     (``tests/brdf/test_thin_film.py`` compares them with colour-science)."""
     return _XYZ_TO_LINEAR_SRGB
 
