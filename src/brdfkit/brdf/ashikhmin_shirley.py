@@ -154,6 +154,17 @@ class AshikhminShirley(MixtureSampled):
            Graphics Forum 13(3), 1994.
     .. [3] J. Löw, J. Kronander, A. Ynnerman, J. Unger, "BRDF models for accurate and
            efficient rendering of glossy surfaces", ACM TOG 31(1), 2012.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import AshikhminShirley
+    >>> f = AshikhminShirley(rd=0.5, rs=0.05, nu=10.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1819])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     rd: Any = 0.5

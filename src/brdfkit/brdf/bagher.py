@@ -81,6 +81,17 @@ class BagherSGD(MixtureSampled):
            using a Shifted Gamma micro-facet distribution", Computer Graphics Forum 31(4),
            1509–1518, 2012.
     .. [2] P. Peers et al., BRDF benchmark ``bbm``: ``bsdfmodel/bagher.h``, ``ndf/sgd.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BagherSGD
+    >>> f = BagherSGD()
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0031])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     energy_conserving = False

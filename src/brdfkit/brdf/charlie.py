@@ -78,6 +78,17 @@ class Charlie(BRDF):
     .. [1] A. C. Estevez, C. Kulla, "Production friendly microfacet sheen BRDF", Sony
            Pictures Imageworks technical report, 2017.
     .. [2] Khronos, glTF ``KHR_materials_sheen`` extension, 2021.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Charlie
+    >>> f = Charlie(color=1.0, roughness=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0087])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     color: Any = 1.0

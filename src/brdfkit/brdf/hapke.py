@@ -139,6 +139,17 @@ class Hapke(MixtureSampled):
     .. [3] B. Hapke, "Bidirectional reflectance spectroscopy 5.", Icarus 157, 523–534, 2002.
     .. [4] P. Helfenstein, J. Veverka, "Photometric properties of lunar terrains derived from
            Hapke's equation", Icarus 72, 342–357, 1987.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Hapke
+    >>> f = Hapke()
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0175])
+    >>> np.round(f.eval(wo, wo), 4)
+    array([0.0577])
     """
 
     energy_conserving = False

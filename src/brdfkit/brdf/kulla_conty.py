@@ -305,6 +305,17 @@ class KullaConty(MixtureSampled):
            BSDFs with the Smith model", ACM TOG 35(4), 2016.
     .. [4] O. Gulbrandsen, "Artist friendly metallic Fresnel", Journal of Computer Graphics
            Techniques 3(4), 2014 (the bounds of η given r behind the table's (r, h)).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import KullaConty
+    >>> f = KullaConty(alpha=1.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3262])
+    >>> np.round(f.albedo(wo), 2)
+    array([1.])
     """
 
     alpha: Any = 0.5

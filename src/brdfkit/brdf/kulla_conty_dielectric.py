@@ -284,6 +284,17 @@ class KullaContyDielectric(BRDF):
            BSDFs with the Smith model", ACM TOG 35(4), 2016.
     .. [3] B. Walter et al., "Microfacet models for refraction through rough surfaces", EGSR
            2007.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import KullaContyDielectric
+    >>> f = KullaContyDielectric(alpha=0.5, eta=1.5, mode='importance')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(n, n), 4)
+    array([0.0131])
+    >>> np.round(f.albedo_estimate(n, hemisphere='both')[0], 2)
+    array([1.])
     """
 
     alpha: Any = 0.5

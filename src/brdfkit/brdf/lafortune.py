@@ -85,6 +85,17 @@ class Lafortune(MixtureSampled):
     ----------
     .. [1] E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, "Non-linear
            approximation of reflectance functions", SIGGRAPH 1997, 117–126.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lafortune
+    >>> f = Lafortune(kd=0.3, cx=[-1.0], cy=[-1.0], cz=[1.0], n=[20.0])
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3199])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     energy_conserving = False

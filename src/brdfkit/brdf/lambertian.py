@@ -31,6 +31,17 @@ class Lambertian(BRDF):
     ----------
     .. [1] J. H. Lambert, *Photometria*, 1760.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §9.2.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> f = Lambertian(rho=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1592])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.5])
     """
 
     rho: Any = 0.5

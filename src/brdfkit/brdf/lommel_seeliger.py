@@ -60,6 +60,17 @@ class LommelSeeliger(MixtureSampled):
     .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., Cambridge
            University Press, 2012, ch. 8.
     .. [3] S. Chandrasekhar, *Radiative Transfer*, Oxford, 1950, ch. I.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LommelSeeliger
+    >>> f = LommelSeeliger(w=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0249])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.0878])
     """
 
     w: Any = 0.5

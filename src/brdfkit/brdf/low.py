@@ -164,6 +164,17 @@ class LowMicrofacet(_ABC):
     ----------
     .. [1] J. Löw et al., ACM TOG 31(1), 2012, eq. 15.
     .. [2] ``bbm``, ``bsdfmodel/lowmicrofacet.h`` and ``bsdfmodel/low.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LowMicrofacet
+    >>> f = LowMicrofacet(A=10.0, B=100.0, C=1.0, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0577])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     @classmethod
@@ -220,6 +231,17 @@ class LowSmooth(_ABC):
     ----------
     .. [1] J. Löw et al., ACM TOG 31(1), 2012, §4 (eqs. 9–11).
     .. [2] ``bbm``, ``bsdfmodel/lowsmooth.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LowSmooth
+    >>> f = LowSmooth(A=10.0, B=100.0, C=1.0, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0279])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     @classmethod

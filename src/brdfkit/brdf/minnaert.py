@@ -54,6 +54,17 @@ class Minnaert(MixtureSampled):
     .. [1] M. Minnaert, "The reciprocity principle in lunar photometry", Astrophysical Journal
            93, 403–410, 1941.
     .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, ch. 12.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Minnaert
+    >>> f = Minnaert(rho=0.5, exponent=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1492])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.559])
     """
 
     energy_conserving = False

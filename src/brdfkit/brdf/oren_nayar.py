@@ -71,6 +71,17 @@ class OrenNayar(MixtureSampled):
     .. [1] M. Oren, S. K. Nayar, "Generalization of Lambert's reflectance model",
            SIGGRAPH 1994, 239–246.
     .. [2] S. Koppal, Computational Photography lecture, "Oren–Nayar model – final expression".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import OrenNayar
+    >>> f = OrenNayar(rho=0.5, sigma=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1421])
+    >>> np.round(OrenNayar(rho=0.5, sigma=0.0).eval(wi, wo), 4)
+    array([0.1592])
     """
 
     energy_conserving = False

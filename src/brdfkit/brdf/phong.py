@@ -228,6 +228,17 @@ class Phong(MixtureSampled):
     .. [1] B. T. Phong, "Illumination for computer generated pictures", Commun. ACM 18(6),
            311–317, 1975.
     .. [2] J. Křivánek, Computer Graphics III lecture "Light reflection, BRDF" (PhongOrig).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Phong
+    >>> f = Phong(kd=0.1, ks=0.1, n=10.0)
+    >>> wi, wo = np.array([0.6, 0.0, 0.8]), np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1134])
+    >>> np.round(f.eval(wo, wi), 4)
+    array([0.1107])
     """
 
     reciprocal = False
@@ -299,6 +310,17 @@ class ModifiedPhong(MixtureSampled):
            physically based rendering", Tech. Rep. CW197, KU Leuven, 1994.
     .. [2] R. R. Lewis, "Making shaders more physically plausible", Computer Graphics Forum
            13(2), 109–120, 1994.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import ModifiedPhong
+    >>> f = ModifiedPhong(kd=0.5, ks=0.3, n=20.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3948])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     kd: Any = 0.5
@@ -461,6 +483,17 @@ class BlinnPhong(MixtureSampled):
            SIGGRAPH 1977.
     .. [2] F. Giesen, "Derivation of Phong and Blinn-Phong BRDF normalization factors", 2009.
     .. [3] T. Akenine-Möller, E. Haines, N. Hoffman, *Real-Time Rendering*, 3rd ed., 2008.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BlinnPhong
+    >>> f = BlinnPhong(kd=0.5, ks=0.3, n=40.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3437])
+    >>> float(np.round(f.pdf(wi, wo), 4))
+    0.4082
     """
 
     kd: Any = 0.5

@@ -335,6 +335,18 @@ class SmoothPlastic(_Plastic):
     .. [1] W. Jakob et al., Mitsuba 3, ``src/bsdfs/plastic.cpp``.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §14.3
            (layered BSDFs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothPlastic
+    >>> f = SmoothPlastic(diffuse_reflectance=0.5, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1602])
+    >>> s = f.sample(np.array([-0.48, -0.36, 0.8]), np.array([0.01, 0.5]))
+    >>> s.wi, np.round(s.weight, 4), bool(s.delta)
+    (array([0.48, 0.36, 0.8 ]), array([0.5219]), True)
     """
 
     diffuse_reflectance: Any = 0.5
@@ -447,6 +459,17 @@ class RoughPlastic(_Plastic):
     .. [1] W. Jakob et al., Mitsuba 3, ``src/bsdfs/roughplastic.cpp``.
     .. [2] C. Kelemen, L. Szirmay-Kalos, Eurographics 2001.
     .. [3] B. Walter et al., EGSR 2007.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughPlastic
+    >>> f = RoughPlastic(alpha=0.1, diffuse_reflectance=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1597])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     alpha: Any = 0.1

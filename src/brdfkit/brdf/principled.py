@@ -158,6 +158,17 @@ class Principled(BRDF):
     .. [3] P. Hanrahan, W. Krueger, "Reflection from layered surfaces due to subsurface
            scattering", SIGGRAPH 1993.
     .. [4] W. Jakob et al., Mitsuba 3, ``src/bsdfs/principled.cpp``, ``principledhelpers.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Principled
+    >>> f = Principled(base_color=[0.9, 0.6, 0.3], metallic=1.0, roughness=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.2437, 0.1625, 0.0813])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     base_color: Any = 0.5

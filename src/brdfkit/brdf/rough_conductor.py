@@ -72,6 +72,18 @@ class RoughConductor(MicrofacetReflection):
     .. [1] B. Walter et al., EGSR 2007.
     .. [2] E. Heitz, JCGT 3(2), 2014; E. Heitz, JCGT 7(4), 2018.
     .. [3] W. Jakob et al., Mitsuba 3, ``roughconductor``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughConductor
+    >>> f = RoughConductor(alpha=0.3, material='Au')
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.5502, 0.4564, 0.1867])
+    >>> s = f.sample(wo, np.array([0.5, 0.5]))
+    >>> np.round(s.wi, 4), np.round(s.weight, 4)
+    (array([0.5028, 0.4682, 0.7266]), array([0.9476, 0.786 , 0.3228]))
     """
 
     alpha: Any = 0.1
@@ -126,6 +138,17 @@ class GGXConductor(RoughConductor):
 
     Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
     rough surfaces).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import GGXConductor
+    >>> f = GGXConductor(alpha=0.3, material='Au')
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.5502, 0.4564, 0.1867])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     distribution_name: ClassVar[str | None] = "ggx"
@@ -143,6 +166,17 @@ class BeckmannConductor(RoughConductor):
 
     Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
     rough surfaces).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BeckmannConductor
+    >>> f = BeckmannConductor(alpha=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.825])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     distribution_name: ClassVar[str | None] = "beckmann"

@@ -96,6 +96,17 @@ class RoughDielectric(BRDF):
     ----------
     .. [1] B. Walter et al., EGSR 2007.
     .. [2] W. Jakob et al., Mitsuba 3, ``roughdielectric``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughDielectric
+    >>> f = RoughDielectric(alpha=0.1, eta=1.5)
+    >>> wo = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(np.array([0.0, 0.0, 1.0]), wo), 4)
+    array([0.3183])
+    >>> np.round(f.eval(np.array([0.0, 0.0, -1.0]), wo), 4)
+    array([122.231])
     """
 
     alpha: Any = 0.1

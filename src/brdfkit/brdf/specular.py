@@ -147,6 +147,15 @@ class Mirror(_DeltaReflection):
     ----------
     .. [1] J. Křivánek, Computer Graphics III lecture, "BRDF of the ideal mirror".
     .. [2] M. Born, E. Wolf, *Principles of Optics*, 7th ed., §1.5, 1999.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Mirror
+    >>> f = Mirror(reflectance=0.9)
+    >>> s = f.sample(np.array([-0.48, -0.36, 0.8]), np.array([0.5, 0.5]))
+    >>> s.wi, s.weight, bool(s.delta)
+    (array([0.48, 0.36, 0.8 ]), array([0.9]), True)
     """
 
     reflectance: Any = 1.0
@@ -201,6 +210,17 @@ class SmoothConductor(_DeltaReflection):
     ----------
     .. [1] M. Born, E. Wolf, *Principles of Optics*, 7th ed., §14.2, 1999.
     .. [2] W. Jakob et al., Mitsuba 3, ``conductor``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothConductor
+    >>> f = SmoothConductor(material='Au')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.albedo(n), 4)
+    array([0.9667, 0.802 , 0.3241])
+    >>> f.eval(n, n)
+    array([0., 0., 0.])
     """
 
     material: str | None = "none"
@@ -256,6 +276,17 @@ class SmoothDielectric(BRDF):
     .. [2] J. Křivánek, Computer Graphics III lecture, "Change of radiance", "Snell's law".
     .. [3] E. Veach, PhD thesis, Stanford, 1997, §5.2.
     .. [4] W. Jakob et al., Mitsuba 3, ``dielectric``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothDielectric
+    >>> f = SmoothDielectric(eta=1.5, mode='importance')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.albedo(n), 4)
+    array([0.04])
+    >>> np.round(f.albedo_estimate(n, hemisphere='both')[0], 4)
+    array([1.])
     """
 
     eta: Any = 1.5

@@ -296,6 +296,17 @@ class ThinFilm(MicrofacetReflection):
     ----------
     .. [1] L. Belcour, P. Barla, ACM TOG 36(4), 2017.
     .. [2] E. Heitz, JCGT 3(2), 2014 (height-correlated Smith masking).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import ThinFilm
+    >>> f = ThinFilm(alpha=0.3, thickness=300.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0244, 0.0091, 0.0068])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     alpha: Any = 0.1

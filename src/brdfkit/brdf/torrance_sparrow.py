@@ -122,6 +122,17 @@ class TorranceSparrow(_WithDiffuse):
     ----------
     .. [1] K. E. Torrance, E. M. Sparrow, JOSA 57(9):1105-1114, 1967.
     .. [2] S. Koppal, Computational Photography lecture, "Torrance–Sparrow model".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import TorranceSparrow
+    >>> f = TorranceSparrow(m=0.2, diffuse=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1308])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     m: Any = 0.2
@@ -179,6 +190,17 @@ class CookTorrance(_WithDiffuse):
     ----------
     .. [1] R. L. Cook, K. E. Torrance, ACM TOG 1(1):7-24, 1982.
     .. [2] J. Křivánek, Computer Graphics III lecture, "Microfacet theory".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import CookTorrance
+    >>> f = CookTorrance(m=0.3, diffuse=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1309])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     m: Any = 0.3
