@@ -273,9 +273,9 @@ class BRDF:
         Every numeric parameter is checked against its declared domain
         (:func:`~brdfkit.params.check_domains`), every string parameter against its
         :attr:`choices`, every ``bool`` field for being a bool; :attr:`channels` is the count
-        the channel-valued parameters imply (:meth:`_channel_values`). A model that has
-        conditions of its own (ρd + ρs ≤ 1) or derived quantities extends this method,
-        calling it first.
+        the channel-valued parameters imply (:meth:`_channel_values`; a model with none keeps
+        its class's). A model that has conditions of its own (ρd + ρs ≤ 1) or derived
+        quantities extends this method, calling it first.
 
         Raises
         ------
@@ -292,7 +292,10 @@ class BRDF:
             if field.type in ("bool", bool):
                 check_flag(field.name, getattr(self, field.name))
         values = self._channel_values()
-        object.__setattr__(self, "channels", channel_count(*values.values(), names=tuple(values)))
+        if values:  # else the class's own channels stand (a measured table, a fixed count)
+            object.__setattr__(
+                self, "channels", channel_count(*values.values(), names=tuple(values))
+            )
 
     def _channel_values(self) -> dict[str, Any]:
         """The channel-valued parameters by name, whose trailing axes give :attr:`channels`:
@@ -510,7 +513,16 @@ def upper_hemisphere(wi: Array, wo: Array) -> Array:
 
 
 def zero_unless(condition: Array, value: Array) -> Array:
-    """``value`` where ``condition`` holds, else 0 (the two broadcast together)."""
+    """``value`` where ``condition`` holds, else 0 (the two broadcast together).
+
+    A NumPy ``value`` that has the joint shape already is copied (keeping its memory layout)
+    and zeroed in place: the same values as ``where`` with no array of zeros to make.
+    """
+    if type(value) is np.ndarray and isinstance(condition, np.ndarray | np.bool_):
+        if value.shape == np.broadcast_shapes(np.shape(condition), value.shape):
+            out = value.copy(order="K")
+            np.copyto(out, 0, where=np.logical_not(condition))
+            return out
     xp = namespace(condition, value)
     return xp.where(condition, value, xp.zeros_like(value))
 

@@ -188,7 +188,8 @@ class MicrofacetReflection(BRDF):
         wi = reflect_about(wo, sample_normal(self.ndf, self.visible, wo, u))
         wi, wo = xp.broadcast_arrays(wi, wo)
         pdf = self.pdf(wi, wo)
-        weight = safe_div(self.eval(wi, wo) * wi[..., 2:3], pdf[..., None])
+        # f·cos θi / p: the unmasked f suffices, the weight is 0 wherever p is (ωi below)
+        weight = safe_div(self._eval(wi, wo) * wi[..., 2:3], pdf[..., None])
         return Sample(wi, weight, pdf, False)
 
     def _sampling_weight(self, wo: Array) -> Array:
