@@ -11,7 +11,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_sqrt, to_numpy
-from brdfkit.brdf.base import ALBEDO, BRDF, EXPONENT, register, upper_hemisphere
+from brdfkit.brdf.base import ALBEDO, BRDF, EXPONENT, register
 from brdfkit.brdf.microfacet import IOR, FresnelTerm
 from brdfkit.brdf.phong import (
     Component,
@@ -22,7 +22,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, param
 
 _DIFFUSE_NORMALIZATION = 28 / (23 * math.pi)
 """28/(23π): makes ∫(1 − (1 − cos θi/2)⁵) cos θi dωi · 28/(23π) = 1 (the integral is 23π/28)."""
@@ -154,6 +154,17 @@ class AshikhminShirley(MixtureSampled):
            Graphics Forum 13(3), 1994.
     .. [3] J. Löw, J. Kronander, A. Ynnerman, J. Unger, "BRDF models for accurate and
            efficient rendering of glossy surfaces", ACM TOG 31(1), 2012.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import AshikhminShirley
+    >>> f = AshikhminShirley(rd=0.5, rs=0.05, nu=10.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1819])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     rd: Any = 0.5
@@ -169,12 +180,6 @@ class AshikhminShirley(MixtureSampled):
         "nv": EXPONENT,
         "eta": IOR,
     }
-
-    def __post_init__(self) -> None:
-        check_domains(self)
-        values = (self.rd, self.rs, self.nu, self._nv, 1.0 if self.eta is None else self.eta)
-        names = ("rd", "rs", "nu", "nv", "eta")
-        object.__setattr__(self, "channels", channel_count(*values, names=names))
 
     @property
     def energy_conserving(self) -> bool:  # type: ignore[override]
@@ -228,13 +233,10 @@ class AshikhminShirley(MixtureSampled):
         value = xp.sqrt((nu + 1) * (nv + 1)) / (8 * math.pi) * lobe * fresnel / safe
         return xp.where(positive, value, xp.zeros_like(value))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         rd, rs = param(self.rd, wi), param(self.rs, wi)
-        upper = upper_hemisphere(wi, wo)
         diffuse = ashikhmin_shirley_diffuse(wi[..., 2:3], wo[..., 2:3], rd, rs)
-        value = diffuse + self.specular(wi, wo)
-        return xp.where(upper, value, xp.zeros_like(value))
+        return diffuse + self.specular(wi, wo)
 
     def _weights(self, wo: Array) -> tuple[Array, Array]:
         """Channel means of the diffuse albedo and of Schlick's F at θo, ``(...,)``."""
@@ -255,11 +257,9 @@ class AshikhminShirley(MixtureSampled):
         diffuse, specular = self._weights(wo)
         return diffuse_and_lobe(wo, diffuse, specular, (self.nu, self._nv), lobe_pdf, lobe_sample)
 
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
+    def _sampling_weight(self, wo: Array) -> Array:
         diffuse, specular = self._weights(wo)
-        value = xp.broadcast_to(diffuse + specular, wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return diffuse + specular
 
 
 __all__ = ["AshikhminShirley"]

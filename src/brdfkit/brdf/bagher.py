@@ -19,7 +19,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
-from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_domains, param
+from brdfkit.params import UNPHYSICAL_MAX, Domain, param
 
 SGD_ALPHA = Domain(1e-6, 10.0, hint="SGD width α")
 SGD_P = Domain(0.0, 10.0, hint="SGD shape p")
@@ -81,6 +81,17 @@ class BagherSGD(MixtureSampled):
            using a Shifted Gamma micro-facet distribution", Computer Graphics Forum 31(4),
            1509–1518, 2012.
     .. [2] P. Peers et al., BRDF benchmark ``bbm``: ``bsdfmodel/bagher.h``, ``ndf/sgd.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BagherSGD
+    >>> f = BagherSGD()
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0031])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     energy_conserving = False
@@ -108,11 +119,10 @@ class BagherSGD(MixtureSampled):
     }
 
     def __post_init__(self) -> None:
-        check_domains(self)
-        names = tuple(self.domains)
-        values = tuple(getattr(self, name) for name in names)
-        object.__setattr__(self, "channels", channel_count(*values, names=names))
-        mean = {n: float(np.mean(to_numpy(getattr(self, n)).astype(np.float64))) for n in names}
+        super().__post_init__()
+        mean = {
+            n: float(np.mean(to_numpy(getattr(self, n)).astype(np.float64))) for n in self.domains
+        }
         object.__setattr__(self, "_sampler", GGX(math.sqrt(mean["alpha"])))
         object.__setattr__(self, "_weight", _albedo_estimate(mean))
 
@@ -152,13 +162,14 @@ class BagherSGD(MixtureSampled):
         visible = (w[..., 2:3] > 0) & (dot(w, wm, keepdims=True) > 0)
         return xp.where(visible, xp.maximum(g, xp.zeros_like(g)), xp.zeros_like(g))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         names = ("ks", "alpha", "p", "f0", "f1")
         ks, alpha, p, f0, f1 = (param(getattr(self, n), wi) for n in names)
         upper = upper_hemisphere(wi, wo)
         h = normalize(wi + wo)
         cos_h = h[..., 2:3]
+        # D and the 1/(cos θi cos θo) divide by cosines: by 1 on masked lanes
         cos2 = xp.where(upper & (cos_h > 0), cos_h * cos_h, xp.ones_like(cos_h))
         tan2 = (h[..., 0:1] ** 2 + h[..., 1:2] ** 2) / cos2
         temp = alpha + tan2 / alpha
@@ -169,15 +180,12 @@ class BagherSGD(MixtureSampled):
         fresnel = xp.maximum(fresnel, xp.zeros_like(fresnel))
         g = self._g1(wi, h) * self._g1(wo, h)
         cos_io = xp.where(upper, wi[..., 2:3] * wo[..., 2:3], xp.ones_like(cos_h))
-        value = ks * d * g * fresnel / (math.pi * cos_io)
-        return xp.where(upper & (cos_h > 0), value, xp.zeros_like(value))
+        return ks * d * g * fresnel / (math.pi * cos_io)
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         """A closed-form estimate of the albedo near normal incidence (from the parameters'
         means, :func:`_albedo_estimate`), the same at every ``wo`` above the surface."""
-        xp = namespace(wo)
-        value = xp.full_like(wo[..., 2], self._weight)
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return namespace(wo).full_like(wo[..., 2], self._weight)
 
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)

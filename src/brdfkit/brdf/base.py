@@ -26,7 +26,17 @@ import numpy as np
 
 from brdfkit._array import Array, asarray, constant, namespace, to_numpy
 from brdfkit.errors import ParameterError
-from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_choice, described, param
+from brdfkit.params import (
+    UNPHYSICAL_MAX,
+    Domain,
+    channel_count,
+    check_choice,
+    check_domains,
+    check_flag,
+    described,
+    param,
+    parameter_domains,
+)
 
 MODELS: dict[str, type[BRDF]] = {}
 """Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
@@ -207,12 +217,30 @@ class Sample:
 
 # --------------------------------------------------------------------------- the protocol
 class BRDF:
-    """Base class of every reflectance model: the protocol of DESIGN.md §3 and composition.
+    r"""Base class of every reflectance model: the protocol of DESIGN.md §3 and composition.
 
-    Subclasses are frozen dataclasses (``@dataclass(frozen=True, eq=False)``) that implement
-    :meth:`eval`, :meth:`pdf`, :meth:`sample` and set :attr:`channels`; :meth:`albedo` has a
-    Monte Carlo default that models with closed forms override. Class attributes state the
-    physics a model claims, and the property tests prove it.
+    A model is a frozen dataclass (``@dataclass(frozen=True, eq=False)``) that declares its
+    parameters (fields, with their :attr:`domains` and :attr:`choices`) and writes its paper's
+    formulas in the hooks :meth:`_eval`, :meth:`_pdf` and :meth:`_sample` (and :meth:`_albedo`,
+    :meth:`_sampling_weight` where it has closed forms). The public methods apply the
+    conventions once, as SciPy's ``rv_continuous.pdf`` validates, broadcasts and masks around a
+    distribution's ``_pdf``:
+
+    - construction validates every parameter against its declared domain or choices and sets
+      :attr:`channels` (:meth:`__post_init__`);
+    - a model that does not :attr:`transmit <transmits>` is one-sided: ``eval`` and ``pdf`` are
+      0 where ``wi.z <= 0`` or ``wo.z <= 0``, and ``sample``, the albedo and the sampling
+      weight are 0 where ``wo.z <= 0``; a transmitting model (a BSDF) handles both sides in
+      its hooks;
+    - results are broadcast to ``batch + (C,)`` (``(...,)`` for densities) in the namespace and
+      dtype of the directions;
+    - a sample whose density is 0 and that is no delta has failed: its weight is 0.
+
+    The hooks see every lane, masked ones included: where a formula would give NaN or ∞ on a
+    lane the public method then zeroes (a direction below the surface, a grazing one), the hook
+    guards it, so that gradients through ``where`` stay finite (PyTorch, JAX). A model that
+    wants full control (measured data, composition) overrides the public methods instead.
+    Class attributes state the physics a model claims, and the property tests prove it.
     """
 
     spec_name: ClassVar[str] = ""
@@ -222,6 +250,9 @@ class BRDF:
     """The :class:`Domain` of each numeric parameter declared by this class (``{"alpha":
     ROUGHNESS}``); :func:`parameter_domains` merges those of the bases, and
     :func:`check_domains` validates against them."""
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {}
+    """The options of each string parameter declared by this class (``{"model":
+    ("qualitative", "full")}``), merged with those of the bases."""
     reciprocal: ClassVar[bool] = True
     """Whether f(wi, wo) = f(wo, wi) for every parameter value (Helmholtz reciprocity)."""
     energy_conserving: ClassVar[bool] = True
@@ -235,24 +266,91 @@ class BRDF:
 
     channels: int = 1
 
+    # -- construction -----------------------------------------------------------------------
+    def __post_init__(self) -> None:
+        """Validate the parameters once and set :attr:`channels`.
+
+        Every numeric parameter is checked against its declared domain
+        (:func:`~brdfkit.params.check_domains`), every string parameter against its
+        :attr:`choices`, every ``bool`` field for being a bool; :attr:`channels` is the count
+        the channel-valued parameters imply (:meth:`_channel_values`; a model with none keeps
+        its class's). A model that has conditions of its own (ρd + ρs ≤ 1) or derived
+        quantities extends this method, calling it first.
+
+        Raises
+        ------
+        brdfkit.errors.ParameterError
+            Naming the first parameter that is invalid, its value and what is allowed.
+        """
+        check_domains(self)
+        declared: dict[str, tuple[str, ...]] = {}
+        for klass in reversed(type(self).__mro__):
+            declared.update(vars(klass).get("choices", {}))
+        for name, options in declared.items():
+            check_choice(name, getattr(self, name), options)
+        for field in dataclasses.fields(self):  # type: ignore[arg-type]
+            if field.type in ("bool", bool):
+                check_flag(field.name, getattr(self, field.name))
+        values = self._channel_values()
+        if values:  # else the class's own channels stand (a measured table, a fixed count)
+            object.__setattr__(
+                self, "channels", channel_count(*values.values(), names=tuple(values))
+            )
+
+    def _channel_values(self) -> dict[str, Any]:
+        """The channel-valued parameters by name, whose trailing axes give :attr:`channels`:
+        by default every numeric parameter with a declared domain that is not ``None``."""
+        return {
+            name: getattr(self, name)
+            for name in parameter_domains(type(self))
+            if getattr(self, name) is not None
+        }
+
     # -- the four methods -------------------------------------------------------------------
     def eval(self, wi: Array, wo: Array) -> Array:
-        """f_r(wi, wo), no cosine; shape ``(..., C)``."""
-        raise NotImplementedError
+        """f_r(wi, wo), no cosine; shape ``(..., C)``: :meth:`_eval` on the model's side(s)
+        of the surface, 0 elsewhere."""
+        value = broadcast_to_shape(self._eval(wi, wo), (*result_shape(wi, wo), self.channels))
+        if self.transmits:
+            return value
+        return zero_unless(upper_hemisphere(wi, wo), value)
 
     def pdf(self, wi: Array, wo: Array) -> Array:
-        """Solid-angle pdf of :meth:`sample` choosing ``wi`` given ``wo``; shape ``(...,)``."""
-        raise NotImplementedError
+        """Solid-angle pdf of :meth:`sample` choosing ``wi`` given ``wo``; shape ``(...,)``:
+        :meth:`_pdf` on the model's side(s) of the surface, 0 elsewhere."""
+        value = self._pdf(wi, wo)
+        if not self.transmits:
+            value = zero_unless(upper_hemisphere(wi, wo)[..., 0], value)
+        return broadcast_to_shape(value, result_shape(wi, wo))
 
     def sample(self, wo: Array, u: Array) -> Sample:
-        """Importance-sample ``wi`` given ``wo`` from uniforms ``u`` of shape ``(..., 2)``."""
-        raise NotImplementedError
+        """Importance-sample ``wi`` given ``wo`` from uniforms ``u`` of shape ``(..., 2)``
+        (``(..., 3)`` for the models that choose between reflection and refraction):
+        :meth:`_sample`, with weight and pdf 0 where it failed (pdf 0 and no delta) or, for a
+        one-sided model, where ``wo`` is not above the surface."""
+        s = self._sample(wo, u)
+        xp = namespace(wo, s.weight, s.pdf)
+        batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1], s.wi.shape[:-1])
+        delta = (
+            s.delta if hasattr(s.delta, "shape") else xp.full_like(s.pdf, s.delta, dtype=xp.bool)
+        )
+        ok = (s.pdf > 0) | delta
+        if not self.transmits:
+            ok = ok & (wo[..., 2] > 0)
+        weight = broadcast_to_shape(s.weight, (*batch, self.channels))
+        return Sample(
+            s.wi,
+            zero_unless(ok[..., None], weight),
+            broadcast_to_shape(zero_unless(ok, s.pdf), batch),
+            broadcast_to_shape(delta, batch),
+        )
 
     def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
         """Directional-hemispherical reflectance ρ(wo) = ∫ f(wi, wo) cos θi dωi, ``(..., C)``.
 
-        The default is a Monte Carlo estimate with ``samples`` scrambled-Sobol importance samples
-        per direction (:meth:`albedo_estimate` gives its standard error); only reflected samples
+        The closed form :meth:`_albedo` where the model has one; else a Monte Carlo estimate
+        with ``samples`` scrambled-Sobol importance samples per direction
+        (:meth:`albedo_estimate` gives its standard error); only reflected samples
         (``wi.z > 0``) count.
         """
         return self.albedo_estimate(wo, samples=samples, seed=seed)[0]
@@ -260,22 +358,35 @@ class BRDF:
     def albedo_estimate(
         self, wo: Array, samples: int = 4096, seed: int = 0, hemisphere: str = "upper"
     ) -> tuple[Array, Array]:
-        r"""Monte Carlo albedo ``(mean, standard_error)``, both ``(..., C)``.
+        r"""The albedo ``(mean, standard_error)``, both ``(..., C)``.
 
-        The mean of the sample weights :math:`f|\cos\theta_i|/p` over ``samples``
-        scrambled-Sobol points per direction. ``hemisphere="upper"`` counts the reflected
-        samples only (``wi.z > 0``): :math:`\int_{H^2_+} f\cos\theta_i\,d\omega_i`;
-        ``"both"`` counts every sample, adding a BSDF's transmittance:
-        :math:`\int_{S^2} f|\cos\theta_i|\,d\omega_i`.
+        Where the model has a closed form (:meth:`_albedo`), that with zero error (``samples``
+        and ``seed`` unused). Otherwise the mean of the sample weights
+        :math:`f|\cos\theta_i|/p` over ``samples`` scrambled-Sobol points per direction.
+        ``hemisphere="upper"`` counts the reflected samples only (``wi.z > 0``):
+        :math:`\int_{H^2_+} f\cos\theta_i\,d\omega_i`; ``"both"`` counts every sample, adding a
+        BSDF's transmittance: :math:`\int_{S^2} f|\cos\theta_i|\,d\omega_i`.
 
         References
         ----------
         .. [1] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §4.3
            (hemispherical-directional reflectance) and §2.1.3 (Monte Carlo estimator).
         """
+        check_hemisphere(hemisphere)
+        exact = self._albedo(wo, hemisphere)
+        if exact is not None:
+            if not self.transmits:
+                exact = zero_unless(wo[..., 2:3] > 0, exact)
+            exact = broadcast_to_shape(exact, (*wo.shape[:-1], self.channels))
+            return exact, namespace(exact).zeros_like(exact)
+        return self._albedo_monte_carlo(wo, samples, seed, hemisphere)
+
+    def _albedo_monte_carlo(
+        self, wo: Array, samples: int, seed: int, hemisphere: str
+    ) -> tuple[Array, Array]:
+        """:meth:`albedo_estimate` by Monte Carlo: the mean weight and its standard error."""
         from scipy.stats import qmc
 
-        check_hemisphere(hemisphere)
         xp = namespace(wo)
         wo = asarray(wo, xp)
         u_np = qmc.Sobol(d=3, scramble=True, seed=seed).random(samples)
@@ -295,9 +406,35 @@ class BRDF:
     def sampling_weight(self, wo: Array) -> Array:
         """A cheap estimate of this lobe's albedo at ``wo`` (grey, ``(...,)``), ≥ 0.
 
-        A sum of lobes chooses which lobe to sample in proportion to it. Models override it with
-        a closed form; the default is a 64-sample Monte Carlo albedo.
+        A sum of lobes chooses which lobe to sample in proportion to it: :meth:`_sampling_weight`,
+        0 where a one-sided model's ``wo`` is not above the surface.
         """
+        value = self._sampling_weight(wo)
+        if not self.transmits:
+            value = zero_unless(wo[..., 2] > 0, value)
+        return broadcast_to_shape(value, wo.shape[:-1])
+
+    # -- the hooks ----------------------------------------------------------------------------
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        """The model's f_r, broadcastable to ``(..., C)``; :meth:`eval` masks and broadcasts."""
+        raise NotImplementedError
+
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        """The density of :meth:`_sample`, broadcastable to ``(...,)``; :meth:`pdf` masks."""
+        raise NotImplementedError
+
+    def _sample(self, wo: Array, u: Array) -> Sample:
+        """A sample per batch element; :meth:`sample` zeroes the failed ones and broadcasts.
+        ``weight`` may be a per-channel constant and ``delta`` a Python bool."""
+        raise NotImplementedError
+
+    def _albedo(self, wo: Array, hemisphere: str) -> Array | None:
+        """The albedo in closed form, broadcastable to ``(..., C)``, or ``None`` (the default:
+        estimated by Monte Carlo). ``hemisphere`` as in :meth:`albedo_estimate`."""
+        return None
+
+    def _sampling_weight(self, wo: Array) -> Array:
+        """The sampling weight before masking; the default is a 64-sample Monte Carlo albedo."""
         xp = namespace(wo)
         return xp.mean(self.albedo(wo, samples=64), axis=-1)
 
@@ -373,6 +510,37 @@ def result_shape(*arrays: Array) -> tuple[int, ...]:
 def upper_hemisphere(wi: Array, wo: Array) -> Array:
     """``(..., 1)`` bool mask: both directions strictly above the surface."""
     return ((wi[..., 2] > 0) & (wo[..., 2] > 0))[..., None]
+
+
+def zero_unless(condition: Array, value: Array) -> Array:
+    """``value`` where ``condition`` holds, else 0 (the two broadcast together).
+
+    A NumPy ``value`` that has the joint shape already is copied (keeping its memory layout)
+    and zeroed in place: the same values as ``where`` with no array of zeros to make.
+    """
+    if type(value) is np.ndarray and isinstance(condition, np.ndarray | np.bool_):
+        if value.shape == np.broadcast_shapes(np.shape(condition), value.shape):
+            out = value.copy(order="K")
+            np.copyto(out, 0, where=np.logical_not(condition))
+            return out
+    xp = namespace(condition, value)
+    return xp.where(condition, value, xp.zeros_like(value))
+
+
+def positive_or_one(x: Array) -> Array:
+    """``x`` where it is > 0, else 1: a divisor or a base of a power that stays finite (and
+    keeps gradients finite) on the lanes the public methods zero."""
+    xp = namespace(x)
+    return xp.where(x > 0, x, xp.ones_like(x))
+
+
+def broadcast_to_shape(value: Array, shape: tuple[int, ...]) -> Array:
+    """``value`` broadcast against ``shape`` (``value`` itself where that changes nothing); a
+    parameter that varies over the batch may give ``value`` axes of its own."""
+    target = np.broadcast_shapes(tuple(value.shape), shape)
+    if tuple(value.shape) == target:
+        return value
+    return namespace(value).broadcast_to(value, target)
 
 
 # --------------------------------------------------------------------------- composition
@@ -582,12 +750,15 @@ __all__ = [
     "Scaled",
     "Sum",
     "broadcast_channels",
+    "broadcast_to_shape",
     "check_brdf",
     "check_hemisphere",
     "mixture_choices",
     "normalized_weights",
+    "positive_or_one",
     "register",
     "result_shape",
     "spec_value",
     "upper_hemisphere",
+    "zero_unless",
 ]

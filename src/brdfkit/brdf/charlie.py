@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, asarray, clamp, namespace, normalize, safe_div
-from brdfkit.brdf.base import ALBEDO, BRDF, Sample, register, result_shape, upper_hemisphere
-from brdfkit.params import Domain, channel_count, check_domains, check_flag, param
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, register
+from brdfkit.params import Domain, param
 from brdfkit.sampling import square_to_uniform_hemisphere, square_to_uniform_hemisphere_pdf
 
 SHEEN_ROUGHNESS = Domain(1e-3, 1.0, hint="sheen roughness r")
@@ -78,6 +78,17 @@ class Charlie(BRDF):
     .. [1] A. C. Estevez, C. Kulla, "Production friendly microfacet sheen BRDF", Sony
            Pictures Imageworks technical report, 2017.
     .. [2] Khronos, glTF ``KHR_materials_sheen`` extension, 2021.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Charlie
+    >>> f = Charlie(color=1.0, roughness=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0087])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     color: Any = 1.0
@@ -85,12 +96,6 @@ class Charlie(BRDF):
     terminator_softening: bool = False
     energy_conserving: ClassVar[bool] = False
     domains: ClassVar[dict[str, Domain]] = {"color": ALBEDO, "roughness": SHEEN_ROUGHNESS}
-
-    def __post_init__(self) -> None:
-        check_domains(self)
-        check_flag("terminator_softening", self.terminator_softening)
-        channels = channel_count(self.color, self.roughness, names=("color", "roughness"))
-        object.__setattr__(self, "channels", channels)
 
     @property
     def reciprocal(self) -> bool:  # type: ignore[override]
@@ -113,8 +118,7 @@ class Charlie(BRDF):
         value = (2 + 1 / r) * sin2 ** (0.5 / r) / (2 * math.pi)
         return xp.where(wh[..., 2:3] > 0, value, xp.zeros_like(value))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         r = param(self.roughness, wi)
         cos_i, cos_o = wi[..., 2:3], wo[..., 2:3]
         lambda_i = charlie_lambda(cos_i, r)
@@ -122,32 +126,23 @@ class Charlie(BRDF):
             lambda_i = lambda_i ** (1 + 2 * (1 - clamp(cos_i, 0.0, 1.0)) ** 8)
         g = 1 / (1 + lambda_i + charlie_lambda(cos_o, r))
         d = self.D(normalize(wi + wo))
-        value = param(self.color, wi) * safe_div(d * g, 4 * cos_i * cos_o)
-        value = xp.broadcast_to(value, (*result_shape(wi, wo), self.channels))
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return param(self.color, wi) * safe_div(d * g, 4 * cos_i * cos_o)
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        p = square_to_uniform_hemisphere_pdf(wi)
-        return xp.where(wo[..., 2] > 0, p, xp.zeros_like(p))
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return square_to_uniform_hemisphere_pdf(wi)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         u = asarray(u, xp, like=wo)
         wi = square_to_uniform_hemisphere(u[..., :2])
         wi, wo = xp.broadcast_arrays(wi, wo)
-        pdf = self.pdf(wi, wo)
-        ok = pdf > 0
-        f = self.eval(wi, wo)
-        weight = f * (wi[..., 2:3] * 2 * math.pi)
-        weight = xp.where(ok[..., None], weight, xp.zeros_like(weight))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        weight = self.eval(wi, wo) * (wi[..., 2:3] * 2 * math.pi)  # f cos θi / (1/2π)
+        return Sample(wi, weight, self.pdf(wi, wo), False)
 
-    def sampling_weight(self, wo: Array) -> Array:
-        """A cheap albedo estimate: 0.3 C̄ above the surface (the lobe's albedo is 0.1–0.7)."""
+    def _sampling_weight(self, wo: Array) -> Array:
+        """A cheap albedo estimate: 0.3 C̄ (the lobe's albedo is 0.1–0.7)."""
         xp = namespace(wo)
-        value = 0.3 * xp.mean(param(self.color, wo), axis=-1) + xp.zeros_like(wo[..., 2])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return 0.3 * xp.mean(param(self.color, wo), axis=-1) + xp.zeros_like(wo[..., 2])
 
 
 __all__ = ["SHEEN_ROUGHNESS", "Charlie", "charlie_lambda"]

@@ -16,7 +16,7 @@ from brdfkit.brdf.phong import (
     diffuse_and_lobe,
     sample_cosine_lobe,
 )
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, param
 
 ASYMMETRY = Domain(-0.95, 0.95, hint="Henyey–Greenstein asymmetry ξ (< 0: backscattering)")
 """The Henyey–Greenstein asymmetry ξ of the particles: [−0.95, 0.95]."""
@@ -139,6 +139,17 @@ class Hapke(MixtureSampled):
     .. [3] B. Hapke, "Bidirectional reflectance spectroscopy 5.", Icarus 157, 523–534, 2002.
     .. [4] P. Helfenstein, J. Veverka, "Photometric properties of lunar terrains derived from
            Hapke's equation", Icarus 72, 342–357, 1987.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Hapke
+    >>> f = Hapke()
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0175])
+    >>> np.round(f.eval(wo, wo), 4)
+    array([0.0577])
     """
 
     energy_conserving = False
@@ -155,14 +166,6 @@ class Hapke(MixtureSampled):
         "h": SURGE_WIDTH,
     }
 
-    def __post_init__(self) -> None:
-        check_domains(self)
-        object.__setattr__(
-            self,
-            "channels",
-            channel_count(self.w, self.xi, self.b0, self.h, names=("w", "xi", "b0", "h")),
-        )
-
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [
@@ -172,10 +175,11 @@ class Hapke(MixtureSampled):
             cls(w=[0.3, 0.25, 0.2], xi=-0.4, b0=2.0, h=0.02),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         w, xi = param(self.w, wi), param(self.xi, wi)
         b0, h = param(self.b0, wi), param(self.h, wi)
+        # H(μ) takes log μ: μ0 = μ = 0 on masked lanes, where it is finite
         upper = upper_hemisphere(wi, wo)
         mu_0, mu = wi[..., 2:3], wo[..., 2:3]
         mu_0 = xp.where(upper, mu_0, xp.zeros_like(mu_0))
@@ -183,8 +187,7 @@ class Hapke(MixtureSampled):
         phase = henyey_greenstein(dot(wi, wo, keepdims=True), xi)
         surge = opposition_surge(tan_half_phase(wi, wo), b0, h)
         multiple = chandrasekhar_h(mu_0, w) * chandrasekhar_h(mu, w) - 1
-        value = safe_div(w / (4 * math.pi) * ((1 + surge) * phase + multiple), mu_0 + mu)
-        return xp.where(upper, value, xp.zeros_like(value))
+        return safe_div(w / (4 * math.pi) * ((1 + surge) * phase + multiple), mu_0 + mu)
 
     def _lobe_exponent(self, wo: Array) -> Array:
         r"""The exponent n of the cosⁿ lobe about ``wo`` whose half maximum lies where the
@@ -206,10 +209,8 @@ class Hapke(MixtureSampled):
             lambda u, n: sample_cosine_lobe(wo, n, u),
         )
 
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        value = xp.broadcast_to(channel_mean(param(self.w, wo)), wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+    def _sampling_weight(self, wo: Array) -> Array:
+        return channel_mean(param(self.w, wo))
 
 
 __all__ = [

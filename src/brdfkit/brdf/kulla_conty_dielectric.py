@@ -78,7 +78,6 @@ from brdfkit.brdf.base import (
     normalized_weights,
     per_direction,
     register,
-    result_shape,
 )
 from brdfkit.brdf.kulla_conty import (
     COMPENSATED_ROUGHNESS,
@@ -93,10 +92,10 @@ from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.brdf.plastic import diffuse_fresnel_reflectance
 from brdfkit.brdf.random_walk import dielectric_random_walk_albedo
 from brdfkit.brdf.rough_dielectric import RoughDielectric
-from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
+from brdfkit.brdf.specular import MODES, check_scalar_eta, interface_sampling_weight
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
-from brdfkit.params import Domain, check_choice, check_domains, param
+from brdfkit.params import Domain, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 ETA_RANGE = (1.1, 2.5)
@@ -171,7 +170,7 @@ def albedo_series(alpha: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
     r"""Chebyshev coefficients, in :math:`x = 2\sqrt\mu - 1`, of the single-scattering flux
     albedo :math:`E(\mu) = R + T` of :func:`single_scattering` seen from outside and from
     inside, each ``(DEGREE + 1,)``; computed by :func:`dielectric_albedo` at the Chebyshev
-    points (~0.3 s) and kept in memory."""
+    points and kept in memory."""
     x = np.cos(math.pi * (np.arange(DEGREE + 1) + 0.5) / (DEGREE + 1))
     mu = ((x + 1) / 2) ** 2
     e = dielectric_albedo(alpha, eta, np.concatenate([mu, -mu])).sum(axis=-1)
@@ -285,6 +284,17 @@ class KullaContyDielectric(BRDF):
            BSDFs with the Smith model", ACM TOG 35(4), 2016.
     .. [3] B. Walter et al., "Microfacet models for refraction through rough surfaces", EGSR
            2007.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import KullaContyDielectric
+    >>> f = KullaContyDielectric(alpha=0.5, eta=1.5, mode='importance')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(n, n), 4)
+    array([0.0131])
+    >>> np.round(f.albedo_estimate(n, hemisphere='both')[0], 2)
+    array([1.])
     """
 
     alpha: Any = 0.5
@@ -295,12 +305,11 @@ class KullaContyDielectric(BRDF):
     transmits = True
     reciprocal = False
     domains: ClassVar[dict[str, Domain]] = {"alpha": COMPENSATED_ROUGHNESS, "eta": COMPENSATED_IOR}
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"split": SPLITS, "mode": MODES}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         check_scalar_eta(self.eta)
-        check_mode(self.mode)
-        check_choice("split", self.split, SPLITS)
         alpha = np.asarray(to_numpy(self.alpha), dtype=np.float64)
         if alpha.size != 1:
             raise ParameterError(
@@ -343,9 +352,12 @@ class KullaContyDielectric(BRDF):
             "_kappa": tuple(kappa),
             "_scales": scales,  # 1/(π A_out), 1/(π η² A_in), 1/(π B_out)
             "_eta": eta,
-            "channels": 1,
         }.items():
             object.__setattr__(self, name, value)
+
+    def _channel_values(self) -> dict[str, Any]:
+        """None: the model is grey (α and η are one number each)."""
+        return {}
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -391,7 +403,7 @@ class KullaContyDielectric(BRDF):
         eta = param(self._eta, w)
         return xp.where(w[..., 2:3] > 0, xp.ones_like(eta), eta * eta)
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         a_i, b_i = self.shares(wi)
         a_o, b_o = self.shares(wo)
@@ -404,8 +416,7 @@ class KullaContyDielectric(BRDF):
         kernel = kernel * self._index_sqr(wi if self.mode == "importance" else wo)
         grazing = (wi[..., 2:3] == 0) | (wo[..., 2:3] == 0)
         kernel = xp.where(grazing, xp.zeros_like(kernel), kernel)
-        value = self._single.eval(wi, wo) + kernel
-        return xp.broadcast_to(value, (*result_shape(wi, wo), 1))
+        return self._single.eval(wi, wo) + kernel
 
     # -- sampling --------------------------------------------------------------------------
     @per_direction
@@ -415,7 +426,7 @@ class KullaContyDielectric(BRDF):
         a, b = self.shares(wo)
         return normalized_weights([self.E(wo)[..., 0], a[..., 0], b[..., 0]])
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
+    def _pdf(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         p_single, p_r, p_t = self._probabilities(wo)
         side = xp.where(wo[..., 2:3] > 0, xp.ones_like(wo[..., 2:3]), -xp.ones_like(wo[..., 2:3]))
@@ -425,8 +436,8 @@ class KullaContyDielectric(BRDF):
             + p_t * square_to_cosine_hemisphere_pdf(-wi * side)  # and on the other
         )
 
-    def sample(self, wo: Array, u: Array) -> Sample:
-        return self._sample(wo, u, one_sided=False)
+    def _sample(self, wo: Array, u: Array) -> Sample:
+        return self._mixture_sample(wo, u, one_sided=False)
 
     def pdf_one_sided(self, wi: Array, wo: Array) -> Array:
         """The density of :meth:`sample_one_sided`: the single lobe's one-sided density and
@@ -443,7 +454,7 @@ class KullaContyDielectric(BRDF):
         render (:mod:`brdfkit.brdf.one_sided`): the single lobe's
         :meth:`~brdfkit.brdf.RoughDielectric.sample_one_sided` or the cosine lobe of the
         added light on that side, the weight f·|cos θi|/p carrying the rest."""
-        return self._sample(wo, u, one_sided=True)
+        return self._mixture_sample(wo, u, one_sided=True)
 
     @per_direction
     def _probabilities_one_sided(self, wo: Array) -> list[Array]:
@@ -452,7 +463,9 @@ class KullaContyDielectric(BRDF):
         added = xp.where(wo[..., 2:3] > 0, a, b)[..., 0]
         return normalized_weights([self.E(wo)[..., 0], added])
 
-    def _sample(self, wo: Array, u: Array, one_sided: bool) -> Sample:
+    def _mixture_sample(self, wo: Array, u: Array, one_sided: bool) -> Sample:
+        """One sample of the mixture of the single lobe and the added cosine lobes (or, with
+        ``one_sided``, of those into the upper hemisphere)."""
         if u.shape[-1] < 3:
             raise ParameterError(
                 "u must have 3 uniforms per sample for kulla_conty_dielectric (the lobe, the "
@@ -486,7 +499,7 @@ class KullaContyDielectric(BRDF):
         pdf = xp.where(ok, pdf, xp.zeros_like(pdf))
         return Sample(wi, weight, pdf, xp.zeros(batch, dtype=xp.bool))
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         return interface_sampling_weight(wo)
 
 

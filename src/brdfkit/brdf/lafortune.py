@@ -15,7 +15,6 @@ from brdfkit.brdf.base import (
     EXPONENT,
     normalized_weights,
     register,
-    upper_hemisphere,
 )
 from brdfkit.brdf.phong import (
     Component,
@@ -27,7 +26,7 @@ from brdfkit.brdf.phong import (
     sample_cosine_lobe,
 )
 from brdfkit.errors import ParameterError
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, param
 
 _LOBE_PARAMS = ("cx", "cy", "cz", "n")
 
@@ -86,6 +85,17 @@ class Lafortune(MixtureSampled):
     ----------
     .. [1] E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, "Non-linear
            approximation of reflectance functions", SIGGRAPH 1997, 117–126.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lafortune
+    >>> f = Lafortune(kd=0.3, cx=[-1.0], cy=[-1.0], cz=[1.0], n=[20.0])
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3199])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     energy_conserving = False
@@ -104,7 +114,11 @@ class Lafortune(MixtureSampled):
     }
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
+        self._check_peaks()
+
+    def _channel_values(self) -> dict[str, Any]:
+        """ρd and each lobe's coefficients and exponent (the lobe axis, first, must be shared)."""
         lobes = {}
         for name in _LOBE_PARAMS:
             shape = np.shape(to_numpy(getattr(self, name)))
@@ -118,14 +132,11 @@ class Lafortune(MixtureSampled):
             raise ParameterError(
                 f"cx, cy, cz and n must have the same number of lobes; got {lobes}"
             )
-        self._check_peaks()
-        values = [self.kd]
-        names = ["kd"]
+        values = {"kd": self.kd}
         for name in _LOBE_PARAMS:
             for k, v in enumerate(to_numpy(getattr(self, name))):
-                values.append(v)
-                names.append(f"{name}[{k}]")
-        object.__setattr__(self, "channels", channel_count(*values, names=tuple(names)))
+                values[f"{name}[{k}]"] = v
+        return values
 
     def _check_peaks(self) -> None:
         """Raise unless every lobe's peak ``max(|C_x|, |C_y|, |C_z|)ⁿ`` is at most
@@ -171,14 +182,13 @@ class Lafortune(MixtureSampled):
             for k in range(self.lobe_count)
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         value = param(self.kd, wi) / math.pi
         product = wi * wo
         for cx, cy, cz, n in self._lobes(wi):
             bracket = cx * product[..., 0:1] + cy * product[..., 1:2] + cz * product[..., 2:3]
             value = value + cosine_power(bracket, n)
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return value
 
     def _lobe_terms(self, wo: Array) -> list[tuple[Array, Array, Array]]:
         """Per lobe: (weight (...,), axis (..., 3), n̄ (...,)) for sampling at ``wo``."""
@@ -210,12 +220,12 @@ class Lafortune(MixtureSampled):
             )
         return components
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         xp = namespace(wo)
         total = xp.broadcast_to(channel_mean(param(self.kd, wo)), wo.shape[:-1])
         for weight, _, _ in self._lobe_terms(wo):
             total = total + weight
-        return xp.where(wo[..., 2] > 0, total, xp.zeros_like(total))
+        return total
 
 
 __all__ = ["Lafortune"]

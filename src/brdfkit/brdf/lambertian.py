@@ -6,17 +6,9 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from brdfkit._array import Array, namespace
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Sample,
-    check_hemisphere,
-    register,
-    result_shape,
-    upper_hemisphere,
-)
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit._array import Array
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, register
+from brdfkit.params import Domain, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 
@@ -39,6 +31,17 @@ class Lambertian(BRDF):
     ----------
     .. [1] J. H. Lambert, *Photometria*, 1760.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §9.2.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Lambertian
+    >>> f = Lambertian(rho=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1592])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.5])
     """
 
     rho: Any = 0.5
@@ -46,51 +49,23 @@ class Lambertian(BRDF):
     spec_aliases: ClassVar[dict[str, str]] = {"albedo": "rho"}
     domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO}
 
-    def __post_init__(self) -> None:
-        check_domains(self)
-        object.__setattr__(self, "channels", channel_count(self.rho, names=("rho",)))
-
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [cls(0.0), cls(0.5), cls(1.0), cls([0.8, 0.5, 0.2])]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        rho = param(self.rho, wi)
-        value = xp.broadcast_to(rho / math.pi, (*result_shape(wi, wo), rho.shape[-1]))
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        return param(self.rho, wi) / math.pi
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        p = square_to_cosine_hemisphere_pdf(wi)
-        return xp.where(wo[..., 2] > 0, p, xp.zeros_like(p))
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return square_to_cosine_hemisphere_pdf(wi)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
-        xp = namespace(wo, u)
+    def _sample(self, wo: Array, u: Array) -> Sample:
         wi = square_to_cosine_hemisphere(u[..., :2])
-        pdf = square_to_cosine_hemisphere_pdf(wi)
-        rho = param(self.rho, wo)
-        ok = ((wo[..., 2] > 0) & (pdf > 0))[..., None]
-        weight = xp.broadcast_to(rho, (*result_shape(wi, wo), rho.shape[-1]))
-        weight = xp.where(ok, weight, xp.zeros_like(weight))
-        pdf = xp.where(ok[..., 0], pdf, xp.zeros_like(pdf))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        return Sample(wi, param(self.rho, wo), square_to_cosine_hemisphere_pdf(wi), False)
 
-    def albedo_estimate(
-        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
-    ) -> tuple[Array, Array]:
-        """Exact: ρ(wo) = ρ for wo above the surface, with zero error (nothing is transmitted,
-        so either ``hemisphere`` gives the same)."""
-        check_hemisphere(hemisphere)
-        xp = namespace(wo)
-        rho = param(self.rho, wo)
-        value = xp.broadcast_to(rho, (*wo.shape[:-1], rho.shape[-1]))
-        value = xp.where((wo[..., 2] > 0)[..., None], value, xp.zeros_like(value))
-        return value, xp.zeros_like(value)
-
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        return xp.mean(self.albedo_estimate(wo)[0], axis=-1)
+    def _albedo(self, wo: Array, hemisphere: str) -> Array:
+        """Exact: ρ(wo) = ρ (nothing is transmitted, so either ``hemisphere`` gives the same)."""
+        return param(self.rho, wo)
 
 
 __all__ = ["Lambertian"]

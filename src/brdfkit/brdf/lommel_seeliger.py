@@ -7,9 +7,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from brdfkit._array import Array, constant, namespace, safe_div
-from brdfkit.brdf.base import ALBEDO, BRDF, check_hemisphere, register, upper_hemisphere
-from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.brdf.base import ALBEDO, BRDF, register
+from brdfkit.brdf.phong import Component, MixtureSampled, cosine_component
+from brdfkit.params import Domain, param
 
 
 def lommel_seeliger_albedo(w: Array, mu: Array) -> Array:
@@ -44,7 +44,7 @@ class LommelSeeliger(MixtureSampled):
     :class:`~brdfkit.brdf.hapke.Hapke`.
 
     **Reciprocal**: yes (symmetric in μ0, μ). **Energy-conserving**: yes for w ≤ 1; the
-    directional albedo is :func:`lommel_seeliger_albedo` ≤ w/2, exact in :meth:`albedo`.
+    directional albedo is :func:`lommel_seeliger_albedo` ≤ w/2, exact in ``albedo``.
 
     Sampled by the cosine-weighted hemisphere (weight :math:`\pi f = w/(4(\mu_0+\mu))`).
 
@@ -60,6 +60,17 @@ class LommelSeeliger(MixtureSampled):
     .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., Cambridge
            University Press, 2012, ch. 8.
     .. [3] S. Chandrasekhar, *Radiative Transfer*, Oxford, 1950, ch. I.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LommelSeeliger
+    >>> f = LommelSeeliger(w=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0249])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.0878])
     """
 
     w: Any = 0.5
@@ -67,40 +78,21 @@ class LommelSeeliger(MixtureSampled):
     spec_aliases: ClassVar[dict[str, str]] = {"single_scattering_albedo": "w"}
     domains: ClassVar[dict[str, Domain]] = {"w": ALBEDO}
 
-    def __post_init__(self) -> None:
-        check_domains(self)
-        object.__setattr__(self, "channels", channel_count(self.w, names=("w",)))
-
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [cls(0.1), cls(0.6), cls(1.0), cls([0.3, 0.2, 0.12])]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        w = param(self.w, wi)
-        upper = upper_hemisphere(wi, wo)
-        value = safe_div(w / (4 * math.pi), wi[..., 2:3] + wo[..., 2:3])
-        return xp.where(upper, value, xp.zeros_like(value))
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        mu_0, mu = wi[..., 2:3], wo[..., 2:3]
+        return safe_div(param(self.w, wi) / (4 * math.pi), mu_0 + mu)
 
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)
         return [cosine_component(xp.ones_like(wo[..., 2]))]
 
-    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
-        """Exact: :func:`lommel_seeliger_albedo` (``samples`` and ``seed`` are not used)."""
+    def _albedo(self, wo: Array, hemisphere: str) -> Array:
+        """Exact: :func:`lommel_seeliger_albedo` (nothing is transmitted)."""
         return lommel_seeliger_albedo(param(self.w, wo), wo[..., 2:3])
-
-    def albedo_estimate(
-        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
-    ) -> tuple[Array, Array]:
-        """Exact (:meth:`albedo`), with zero error; nothing is transmitted, so either
-        ``hemisphere`` gives the same."""
-        check_hemisphere(hemisphere)
-        value = self.albedo(wo)
-        return value, namespace(value).zeros_like(value)
-
-    def sampling_weight(self, wo: Array) -> Array:
-        return channel_mean(self.albedo(wo))
 
 
 __all__ = ["LommelSeeliger", "lommel_seeliger_albedo"]

@@ -33,7 +33,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
-from brdfkit.params import UNPHYSICAL_MAX, Domain, channel_count, check_domains, param
+from brdfkit.params import UNPHYSICAL_MAX, Domain, param
 
 LOW_A = Domain(0.0, UNPHYSICAL_MAX, hint="unnormalised scale A in sr⁻¹")
 """Löw's scale A: [0, 10⁶] sr⁻¹ (the MERL fits reach 5.7·10³)."""
@@ -119,11 +119,6 @@ class _ABC(MixtureSampled):
     eta: Any = 1.5
     domains: ClassVar[dict[str, Domain]] = {"A": LOW_A, "B": LOW_B, "C": LOW_C, "eta": IOR}
 
-    def __post_init__(self) -> None:
-        check_domains(self)
-        values = (self.A, self.B, self.C, self.eta)
-        object.__setattr__(self, "channels", channel_count(*values, names=("A", "B", "C", "eta")))
-
     sampling_b_scale: ClassVar[float] = 1.0
     """The sampling distribution's sharpness over B."""
 
@@ -134,14 +129,11 @@ class _ABC(MixtureSampled):
         """The closed-form albedo near normal incidence over R0 = ((η−1)/(η+1))², ``(..., C)``."""
         raise NotImplementedError
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         """The albedo near normal incidence, R0 times :meth:`_albedo_scale`, channel mean."""
-        xp = namespace(wo)
         eta = param(self.eta, wo)
         r0 = ((eta - 1) / (eta + 1)) ** 2
-        value = xp.mean(r0 * self._albedo_scale(wo), axis=-1)
-        value = xp.broadcast_to(value, wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return namespace(wo).mean(r0 * self._albedo_scale(wo), axis=-1)
 
 
 @register("low_microfacet")
@@ -172,6 +164,17 @@ class LowMicrofacet(_ABC):
     ----------
     .. [1] J. Löw et al., ACM TOG 31(1), 2012, eq. 15.
     .. [2] ``bbm``, ``bsdfmodel/lowmicrofacet.h`` and ``bsdfmodel/low.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LowMicrofacet
+    >>> f = LowMicrofacet(A=10.0, B=100.0, C=1.0, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0577])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     @classmethod
@@ -188,7 +191,7 @@ class LowMicrofacet(_ABC):
         a, b, c = param(self.A, like), param(self.B, like), param(self.C, like)
         return 8 * a * abc_integral(b, c)
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         a, b, c = param(self.A, wi), param(self.B, wi), param(self.C, wi)
         upper = upper_hemisphere(wi, wo)
@@ -196,9 +199,9 @@ class LowMicrofacet(_ABC):
         d = (1 + b * (1 - h[..., 2:3])) ** (-c)
         g = masking_shadowing(None, wi, wo, h, "v_groove")  # type: ignore[arg-type]
         f = FresnelTerm("dielectric", eta=self.eta)(dot(wi, h, keepdims=True))
+        # 1/(cos θi cos θo), by 1 on masked lanes
         cos_io = xp.where(upper, wi[..., 2:3] * wo[..., 2:3], xp.ones_like(wi[..., 2:3]))
-        value = a * d * g * f / (math.pi * cos_io)
-        return xp.where(upper & (h[..., 2:3] > 0), value, xp.zeros_like(value))
+        return a * d * g * f / (math.pi * cos_io)
 
 
 @register("low_smooth")
@@ -228,6 +231,17 @@ class LowSmooth(_ABC):
     ----------
     .. [1] J. Löw et al., ACM TOG 31(1), 2012, §4 (eqs. 9–11).
     .. [2] ``bbm``, ``bsdfmodel/lowsmooth.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import LowSmooth
+    >>> f = LowSmooth(A=10.0, B=100.0, C=1.0, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0279])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     @classmethod
@@ -246,16 +260,14 @@ class LowSmooth(_ABC):
         a, b, c = param(self.A, like), param(self.B, like), param(self.C, like)
         return math.pi * a * abc_integral(b, c)
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         a, b, c = param(self.A, wi), param(self.B, wi), param(self.C, wi)
         plus = wi[..., :2] + wo[..., :2]
         minus = wi[..., :2] - wo[..., :2]
         d_p2 = dot(plus, plus, keepdims=True)
         cos_theta_d = safe_sqrt(1 - 0.25 * dot(minus, minus, keepdims=True))
         s = (1 + b * d_p2) ** (-c)
-        value = a * s * FresnelTerm("dielectric", eta=self.eta)(cos_theta_d)
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return a * s * FresnelTerm("dielectric", eta=self.eta)(cos_theta_d)
 
 
 __all__ = ["LowMicrofacet", "LowSmooth"]

@@ -949,10 +949,10 @@ class FresnelTerm:
         rounding (or a little off, as user input often is) may exceed 1.
 
         The Fresnel function runs with the channel axis moved first (``(C, ...)``) and the
-        result is moved back, a view with the channels as the slowest axis: NumPy broadcasts a
-        ``(..., 1)`` cosine against ``(C,)`` parameters one short channel row at a time
-        (measured ~10× slower per element than a whole-batch loop), and ufuncs keep the
-        channel-major layout in what is computed from the result.
+        result is moved back, a view with the channels as the slowest axis: NumPy would
+        broadcast a ``(..., 1)`` cosine against ``(C,)`` parameters one short channel row at a
+        time instead of in whole-batch loops, and ufuncs keep the channel-major layout in what
+        is computed from the result.
         """
         xp = namespace(cos_theta)
         cos_theta = clamp(cos_theta, -1.0, 1.0)

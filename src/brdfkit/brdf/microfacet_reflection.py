@@ -38,19 +38,13 @@ References
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, constant, dot, namespace, normalize, safe_div
+from brdfkit._array import Array, dot, namespace, normalize, safe_div
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
-from brdfkit.brdf.base import (
-    ALBEDO,
-    BRDF,
-    Sample,
-    result_shape,
-    upper_hemisphere,
-)
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, zero_unless
 from brdfkit.brdf.microfacet import (
     EXTINCTION,
     GGX,
@@ -110,11 +104,11 @@ def stretched_distribution(
 class MicrofacetReflection(BRDF):
     r"""The microfacet BRDF :math:`D F G / (4\cos\theta_i\cos\theta_o)` (module docstring).
 
-    Subclasses are frozen dataclasses that set, in ``__post_init__``, the attributes
+    Subclasses are frozen dataclasses with a field ``masking`` (one of
+    :data:`~brdfkit.brdf.microfacet.MASKINGS`) that set, in ``__post_init__``, the attributes
     ``ndf`` (a :class:`~brdfkit.brdf.microfacet.MicrofacetDistribution`), ``fresnel_term``
-    (a :class:`~brdfkit.brdf.microfacet.FresnelTerm`), ``masking`` (a field, one of
-    :data:`~brdfkit.brdf.microfacet.MASKINGS`) and ``visible`` (whether to sample visible
-    normals), by calling :meth:`_setup`.
+    (a :class:`~brdfkit.brdf.microfacet.FresnelTerm`), ``visible`` (whether to sample visible
+    normals) and the channels they imply, by calling :meth:`_setup`.
 
     Reciprocal: yes (D, G and F(ωi·ωh) = F(ωo·ωh) are symmetric). Energy-conserving for F ≤ 1
     with every masking: G2 ≤ G1(ωo), and the weak white-furnace identity
@@ -127,6 +121,12 @@ class MicrofacetReflection(BRDF):
     fresnel_term: FresnelTerm
     visible: bool
     masking: str
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"masking": MASKINGS}
+
+    def _channel_values(self) -> dict[str, Any]:
+        """None here: the channels follow from the distribution and the Fresnel term, which
+        :meth:`_setup` counts."""
+        return {}
 
     def _setup(
         self,
@@ -135,8 +135,7 @@ class MicrofacetReflection(BRDF):
         visible: bool,
         extra_channels: tuple[Any, ...] = (),
     ) -> None:
-        check_choice("masking", self.masking, MASKINGS)
-        if check_flag("sample_visible", visible) and not distribution.supports_visible_sampling:
+        if visible and not distribution.supports_visible_sampling:
             raise ParameterError(
                 f"sample_visible must be False for the {type(distribution).__name__} "
                 "distribution (it has no visible-normal sampler); got True"
@@ -168,56 +167,35 @@ class MicrofacetReflection(BRDF):
     def params(self) -> dict[str, Any]:
         return defined_params(self)
 
-    def _specular_eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        cos_i, cos_o = wi[..., 2:3], wo[..., 2:3]
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        cos_theta_i, cos_theta_o = wi[..., 2:3], wo[..., 2:3]
         h = normalize(wi + wo)
         d = self.ndf.D(h)
         g = masking_shadowing(self.ndf, wi, wo, h, self.masking, transmission=False)
         f = self.fresnel_term(dot(wi, h, keepdims=True))
-        # D G / (4 cos θi cos θo) and the hemisphere test first: per pair, unless the
-        # roughness is per channel; F (finite, in [0, 1]) multiplies once at the end.
-        dg = safe_div(d * g, 4 * cos_i * cos_o)
-        dg = xp.where(upper_hemisphere(wi, wo), dg, constant(0, dg))
-        value = dg * f
-        shape = np.broadcast_shapes(value.shape, (*result_shape(wi, wo), self.channels))
-        return value if value.shape == shape else xp.broadcast_to(value, shape)
+        # D G / (4 cos θi cos θo) per pair (unless the roughness is per channel), then F
+        return safe_div(d * g, 4 * cos_theta_i * cos_theta_o) * f
 
-    def _specular_pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
         h = normalize(wi + wo)
-        p_h = normal_pdf(self.ndf, self.visible, wo, h)
         wo_h = dot(wo, h)
-        value = safe_div(p_h, 4 * wo_h)
-        ok = (wi[..., 2] > 0) & (wo[..., 2] > 0) & (wo_h > 0)
-        return xp.where(ok, value, xp.zeros_like(value))
+        # p(ωi) = p(ωh) / (4 ωo·ωh): the Jacobian of reflection about ωh
+        p_h = normal_pdf(self.ndf, self.visible, wo, h)
+        return zero_unless(wo_h > 0, safe_div(p_h, 4 * wo_h))
 
-    def _specular_sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
-        h = sample_normal(self.ndf, self.visible, wo, u)
-        wi = reflect_about(wo, h)
-        wi, wo_b = xp.broadcast_arrays(wi, wo)
-        pdf = self._specular_pdf(wi, wo_b)
-        f = self._specular_eval(wi, wo_b)
-        ok = (pdf > 0)[..., None]
-        weight = xp.where(ok, safe_div(f * wi[..., 2:3], pdf[..., None]), xp.zeros_like(f))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        wi = reflect_about(wo, sample_normal(self.ndf, self.visible, wo, u))
+        wi, wo = xp.broadcast_arrays(wi, wo)
+        pdf = self.pdf(wi, wo)
+        # f·cos θi / p: the unmasked f suffices, the weight is 0 wherever p is (ωi below)
+        weight = safe_div(self._eval(wi, wo) * wi[..., 2:3], pdf[..., None])
+        return Sample(wi, weight, pdf, False)
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        return self._specular_eval(wi, wo)
-
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        return self._specular_pdf(wi, wo)
-
-    def sample(self, wo: Array, u: Array) -> Sample:
-        return self._specular_sample(wo, u)
-
-    def sampling_weight(self, wo: Array) -> Array:
-        """Grey Fresnel reflectance at ωo's own angle, ``mean_c F(cos θo)`` (0 below)."""
+    def _sampling_weight(self, wo: Array) -> Array:
+        """Grey Fresnel reflectance at ωo's own angle, ``mean_c F(cos θo)``."""
         xp = namespace(wo)
-        cos_o = wo[..., 2:3]
-        value = xp.mean(self.fresnel_term(xp.abs(cos_o)), axis=-1)
-        return xp.where(cos_o[..., 0] > 0, value, xp.zeros_like(value))
+        return xp.mean(self.fresnel_term(xp.abs(wo[..., 2:3])), axis=-1)
 
 
 FRESNEL_DOMAINS: dict[str, Domain] = {"eta": IOR, "k": EXTINCTION, "f0": ALBEDO}

@@ -6,8 +6,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from brdfkit._array import Array, constant, namespace
-from brdfkit.brdf.base import ALBEDO, BRDF, check_hemisphere, register, upper_hemisphere
+from brdfkit._array import Array, namespace
+from brdfkit.brdf.base import ALBEDO, BRDF, positive_or_one, register, upper_hemisphere
 from brdfkit.brdf.phong import (
     Component,
     MixtureSampled,
@@ -15,7 +15,7 @@ from brdfkit.brdf.phong import (
     cosine_lobe_pdf,
     sample_cosine_lobe,
 )
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, param
 
 MINNAERT_K = Domain(0.0, 10.0, hint="Minnaert exponent k (1: Lambertian)")
 """Minnaert's exponent k: [0, 10]; k = 1 is Lambertian, k = ½ the flat full-Moon disk."""
@@ -54,6 +54,17 @@ class Minnaert(MixtureSampled):
     .. [1] M. Minnaert, "The reciprocity principle in lunar photometry", Astrophysical Journal
            93, 403–410, 1941.
     .. [2] B. Hapke, *Theory of Reflectance and Emittance Spectroscopy*, 2nd ed., 2012, ch. 12.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Minnaert
+    >>> f = Minnaert(rho=0.5, exponent=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1492])
+    >>> np.round(f.albedo(wo), 4)
+    array([0.559])
     """
 
     energy_conserving = False
@@ -63,12 +74,6 @@ class Minnaert(MixtureSampled):
     allow_unphysical: bool = False
     spec_aliases: ClassVar[dict[str, str]] = {"k": "exponent"}
     domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "exponent": MINNAERT_K}
-
-    def __post_init__(self) -> None:
-        check_domains(self)
-        object.__setattr__(
-            self, "channels", channel_count(self.rho, self.exponent, names=("rho", "exponent"))
-        )
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -80,14 +85,13 @@ class Minnaert(MixtureSampled):
             cls([0.4, 0.3, 0.2], 0.6),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         rho, k = param(self.rho, wi), param(self.exponent, wi)
-        upper = upper_hemisphere(wi, wo)
         mu_mu0 = wi[..., 2:3] * wo[..., 2:3]
-        base = xp.where(upper, mu_mu0, xp.ones_like(mu_mu0))
-        value = rho * (k + 1) / (2 * math.pi) * base ** (k - 1)
-        return xp.where(upper, value, xp.zeros_like(value))
+        # the power of a base ≤ 0 (a masked lane) would be ∞ or NaN: 1 there
+        base = xp.where(upper_hemisphere(wi, wo), mu_mu0, xp.ones_like(mu_mu0))
+        return rho * (k + 1) / (2 * math.pi) * base ** (k - 1)
 
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)
@@ -102,25 +106,10 @@ class Minnaert(MixtureSampled):
             )
         ]
 
-    def albedo(self, wo: Array, samples: int = 4096, seed: int = 0) -> Array:
-        r"""Exact: :math:`\rho\,\mu^{k-1}` above the surface (``samples``, ``seed`` unused)."""
-        xp = namespace(wo)
+    def _albedo(self, wo: Array, hemisphere: str) -> Array:
+        r"""Exact: :math:`\rho\,\mu^{k-1}` (nothing is transmitted)."""
         rho, k = param(self.rho, wo), param(self.exponent, wo)
-        mu = wo[..., 2:3]
-        positive = mu > 0
-        value = rho * xp.where(positive, mu, xp.ones_like(mu)) ** (k - 1)
-        return xp.where(positive, value, constant(0, value))
-
-    def albedo_estimate(
-        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
-    ) -> tuple[Array, Array]:
-        """Exact (:meth:`albedo`), with zero error; nothing is transmitted."""
-        check_hemisphere(hemisphere)
-        value = self.albedo(wo)
-        return value, namespace(value).zeros_like(value)
-
-    def sampling_weight(self, wo: Array) -> Array:
-        return channel_mean(self.albedo(wo))
+        return rho * positive_or_one(wo[..., 2:3]) ** (k - 1)
 
 
 __all__ = ["MINNAERT_K", "Minnaert"]

@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 from brdfkit._array import Array, namespace, safe_div, safe_sqrt
 from brdfkit.brdf.base import ALBEDO, BRDF, register, upper_hemisphere
 from brdfkit.brdf.phong import Component, MixtureSampled, channel_mean, cosine_component
-from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
+from brdfkit.params import Domain, param
 
 _MODELS = ("qualitative", "full")
 
@@ -71,6 +71,17 @@ class OrenNayar(MixtureSampled):
     .. [1] M. Oren, S. K. Nayar, "Generalization of Lambert's reflectance model",
            SIGGRAPH 1994, 239–246.
     .. [2] S. Koppal, Computational Photography lecture, "Oren–Nayar model – final expression".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import OrenNayar
+    >>> f = OrenNayar(rho=0.5, sigma=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1421])
+    >>> np.round(OrenNayar(rho=0.5, sigma=0.0).eval(wi, wo), 4)
+    array([0.1592])
     """
 
     energy_conserving = False
@@ -81,13 +92,7 @@ class OrenNayar(MixtureSampled):
     allow_unphysical: bool = False
 
     domains: ClassVar[dict[str, Domain]] = {"rho": ALBEDO, "sigma": SIGMA}
-
-    def __post_init__(self) -> None:
-        check_choice("model", self.model, _MODELS)
-        check_domains(self)
-        object.__setattr__(
-            self, "channels", channel_count(self.rho, self.sigma, names=("rho", "sigma"))
-        )
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"model": _MODELS}
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -99,7 +104,7 @@ class OrenNayar(MixtureSampled):
             cls([0.8, 0.5, 0.2], 1.2, "full"),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         rho, sigma = param(self.rho, wi), param(self.sigma, wi)
         sigma2 = sigma * sigma
@@ -114,6 +119,7 @@ class OrenNayar(MixtureSampled):
         sin_beta = xp.minimum(sin_theta_i, sin_theta_o)
         cos_beta = xp.maximum(cos_theta_i, cos_theta_o)
         cos_alpha = xp.minimum(cos_theta_i, cos_theta_o)
+        # tan β = 0 on masked lanes (where cos β may be ≤ 0)
         upper = upper_hemisphere(wi, wo)
         tan_beta = safe_div(sin_beta, xp.where(upper, cos_beta, xp.zeros_like(cos_beta)))
         if self.model == "qualitative":
@@ -150,16 +156,14 @@ class OrenNayar(MixtureSampled):
             )
             # The published fit dips below 0 at grazing forward pairs for σ ≳ 1: clamp it.
             value = xp.maximum(direct + inter, xp.zeros_like(direct))
-        return xp.where(upper, value, xp.zeros_like(value))
+        return value
 
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)
         return [cosine_component(xp.ones_like(wo[..., 2]))]
 
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        value = xp.broadcast_to(channel_mean(param(self.rho, wo)), wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+    def _sampling_weight(self, wo: Array) -> Array:
+        return channel_mean(param(self.rho, wo))
 
 
 __all__ = ["OrenNayar"]

@@ -46,8 +46,8 @@ from brdfkit.brdf.base import (
     Sample,
     mixture_choices,
     normalized_weights,
+    positive_or_one,
     register,
-    upper_hemisphere,
 )
 from brdfkit.geometry import frame_from_normal, reflect, to_world
 from brdfkit.params import (
@@ -55,7 +55,6 @@ from brdfkit.params import (
     Domain,
     channel_count,
     check_choice,
-    check_domains,
     check_flag,
     param,
 )
@@ -129,10 +128,9 @@ def cosine_component(probability: Array) -> Component:
 class MixtureSampled(BRDF):
     """A BRDF sampled by a ``wo``-dependent mixture of lobes (one-sample MIS, balance heuristic).
 
-    Subclasses implement :meth:`components`; :meth:`pdf` is the exact mixture density and
-    :meth:`sample` picks component k with probability p_k by ``u[..., 0]`` (re-stretched for
-    the component), then returns ``weight = f cos θi / pdf``. Samples below the surface get
-    weight 0.
+    Subclasses implement :meth:`components`; the density is the exact mixture density and
+    a sample picks component k with probability p_k by ``u[..., 0]`` (re-stretched for the
+    component), then has ``weight = f cos θi / pdf``; samples below the surface get weight 0.
 
     References
     ----------
@@ -144,16 +142,14 @@ class MixtureSampled(BRDF):
         """The mixture ``[(probability, pdf, sampler), ...]`` at ``wo``; probabilities sum to 1."""
         raise NotImplementedError
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
         total = None
         for probability, pdf, _ in self.components(wo):
             term = probability * pdf(wi)
             total = term if total is None else total + term
-        ok = (wi[..., 2] > 0) & (wo[..., 2] > 0)
-        return xp.where(ok, total, xp.zeros_like(total))
+        return total
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         u = asarray(u, xp, dtype=wo.dtype)
         components = self.components(wo)
@@ -163,12 +159,9 @@ class MixtureSampled(BRDF):
             w_k = sampler(u_k)
             wi = w_k if wi is None else xp.where(pick[..., None], w_k, wi)
         pdf = self.pdf(wi, wo)
-        f = self.eval(wi, wo)
-        ok = pdf > 0
-        safe_pdf = xp.where(ok, pdf, xp.ones_like(pdf))
-        weight = f * (wi[..., 2] / safe_pdf)[..., None]
-        weight = xp.where(ok[..., None], weight, xp.zeros_like(weight))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        safe_pdf = xp.where(pdf > 0, pdf, xp.ones_like(pdf))
+        weight = self.eval(wi, wo) * (wi[..., 2] / safe_pdf)[..., None]
+        return Sample(wi, weight, pdf, False)
 
 
 PHONG_KD = Domain(0.0, 1 / math.pi, hint="π·kd is the diffuse albedo", unphysical_hi=UNPHYSICAL_MAX)
@@ -235,6 +228,17 @@ class Phong(MixtureSampled):
     .. [1] B. T. Phong, "Illumination for computer generated pictures", Commun. ACM 18(6),
            311–317, 1975.
     .. [2] J. Křivánek, Computer Graphics III lecture "Light reflection, BRDF" (PhongOrig).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Phong
+    >>> f = Phong(kd=0.1, ks=0.1, n=10.0)
+    >>> wi, wo = np.array([0.6, 0.0, 0.8]), np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1134])
+    >>> np.round(f.eval(wo, wi), 4)
+    array([0.1107])
     """
 
     reciprocal = False
@@ -246,12 +250,6 @@ class Phong(MixtureSampled):
     allow_unphysical: bool = False
     domains: ClassVar[dict[str, Domain]] = {"kd": PHONG_KD, "ks": PHONG_KS, "n": EXPONENT}
 
-    def __post_init__(self) -> None:
-        check_domains(self)
-        object.__setattr__(
-            self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
-        )
-
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [
@@ -261,14 +259,10 @@ class Phong(MixtureSampled):
             cls([0.25, 0.15, 0.05], 0.05, 40.0),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         kd, ks, n = param(self.kd, wi), param(self.ks, wi), param(self.n, wi)
-        cos_theta_i = wi[..., 2:3]
-        positive = cos_theta_i > 0
-        safe_cos = xp.where(positive, cos_theta_i, xp.ones_like(cos_theta_i))
-        value = kd + ks * cosine_power(_mirror_cosine(wi, wo), n) / safe_cos
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        cos_theta_r = _mirror_cosine(wi, wo)
+        return kd + ks * cosine_power(cos_theta_r, n) / positive_or_one(wi[..., 2:3])
 
     def _specular_weight(self, wo: Array) -> Array:
         """Mean specular albedo at normal incidence, k_s·2π/(n+1), ``(...,)``-broadcastable."""
@@ -280,11 +274,8 @@ class Phong(MixtureSampled):
         specular = self._specular_weight(wo)
         return diffuse_and_lobe(wo, diffuse, specular, (self.n,), *_mirror_lobe(wo))
 
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        value = channel_mean(math.pi * param(self.kd, wo)) + self._specular_weight(wo)
-        value = xp.broadcast_to(value, wo.shape[:-1])
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+    def _sampling_weight(self, wo: Array) -> Array:
+        return channel_mean(math.pi * param(self.kd, wo)) + self._specular_weight(wo)
 
 
 # --------------------------------------------------------------------------- modified Phong
@@ -319,6 +310,17 @@ class ModifiedPhong(MixtureSampled):
            physically based rendering", Tech. Rep. CW197, KU Leuven, 1994.
     .. [2] R. R. Lewis, "Making shaders more physically plausible", Computer Graphics Forum
            13(2), 109–120, 1994.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import ModifiedPhong
+    >>> f = ModifiedPhong(kd=0.5, ks=0.3, n=20.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3948])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     kd: Any = 0.5
@@ -332,11 +334,8 @@ class ModifiedPhong(MixtureSampled):
         return not self.allow_unphysical
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         check_albedo_sum(self.kd, self.ks, self.allow_unphysical)
-        object.__setattr__(
-            self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
-        )
 
     @classmethod
     def examples(cls) -> list[BRDF]:
@@ -348,19 +347,16 @@ class ModifiedPhong(MixtureSampled):
             cls([0.6, 0.3, 0.1], [0.2, 0.3, 0.4], [10.0, 20.0, 40.0]),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         kd, ks, n = param(self.kd, wi), param(self.ks, wi), param(self.n, wi)
-        value = kd / math.pi + ks * (n + 2) / (2 * math.pi) * cosine_power(
-            _mirror_cosine(wi, wo), n
-        )
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        cos_alpha = _mirror_cosine(wi, wo)
+        return kd / math.pi + ks * (n + 2) / (2 * math.pi) * cosine_power(cos_alpha, n)
 
     def components(self, wo: Array) -> list[Component]:
         kd, ks = channel_mean(param(self.kd, wo)), channel_mean(param(self.ks, wo))
         return diffuse_and_lobe(wo, kd, ks, (self.n,), *_mirror_lobe(wo))
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         return albedo_bound(self.kd, self.ks, wo)
 
 
@@ -399,11 +395,8 @@ def diffuse_and_lobe(
 
 
 def albedo_bound(kd: Any, ks: Any, wo: Array) -> Array:
-    """ρd + ρs (channel mean) above the surface: the albedo at normal incidence, ``(...,)``."""
-    xp = namespace(wo)
-    value = channel_mean(param(kd, wo) + param(ks, wo))
-    value = xp.broadcast_to(value, wo.shape[:-1])
-    return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+    """ρd + ρs (channel mean), the albedo at normal incidence; broadcastable to ``(...,)``."""
+    return channel_mean(param(kd, wo) + param(ks, wo))
 
 
 # --------------------------------------------------------------------------- Blinn–Phong
@@ -490,6 +483,17 @@ class BlinnPhong(MixtureSampled):
            SIGGRAPH 1977.
     .. [2] F. Giesen, "Derivation of Phong and Blinn-Phong BRDF normalization factors", 2009.
     .. [3] T. Akenine-Möller, E. Haines, N. Hoffman, *Real-Time Rendering*, 3rd ed., 2008.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BlinnPhong
+    >>> f = BlinnPhong(kd=0.5, ks=0.3, n=40.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.3437])
+    >>> float(np.round(f.pdf(wi, wo), 4))
+    0.4082
     """
 
     kd: Any = 0.5
@@ -499,13 +503,11 @@ class BlinnPhong(MixtureSampled):
     allow_unphysical: bool = False
     domains: ClassVar[dict[str, Domain]] = ALBEDOS
 
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"normalization": _BLINN_NORMALIZATIONS}
+
     def __post_init__(self) -> None:
-        check_choice("normalization", self.normalization, _BLINN_NORMALIZATIONS)
-        check_domains(self)
+        super().__post_init__()
         check_albedo_sum(self.kd, self.ks, self.allow_unphysical)
-        object.__setattr__(
-            self, "channels", channel_count(self.kd, self.ks, self.n, names=("kd", "ks", "n"))
-        )
 
     @property
     def energy_conserving(self) -> bool:  # type: ignore[override]
@@ -522,12 +524,10 @@ class BlinnPhong(MixtureSampled):
             cls([0.6, 0.3, 0.1], [0.2, 0.3, 0.4], [10.0, 20.0, 40.0]),
         ]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         kd, ks, n = param(self.kd, wi), param(self.ks, wi), param(self.n, wi)
         c = blinn_phong_normalization(n, self.normalization)
-        value = kd / math.pi + ks * c * cosine_power(_half_cosine(wi, wo), n)
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return kd / math.pi + ks * c * cosine_power(_half_cosine(wi, wo), n)
 
     def components(self, wo: Array) -> list[Component]:
         xp = namespace(wo)
@@ -542,7 +542,7 @@ class BlinnPhong(MixtureSampled):
             lambda u, n: reflect_about(wo, sample_cosine_lobe(normal, n, u)),
         )
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         return albedo_bound(self.kd, self.ks, wo)
 
 

@@ -61,15 +61,14 @@ from brdfkit.brdf.base import (
     mixture_choices,
     normalized_weights,
     register,
-    result_shape,
-    upper_hemisphere,
+    zero_unless,
 )
 from brdfkit.brdf.microfacet import MASKINGS, masking_shadowing
 from brdfkit.brdf.microfacet_reflection import DISTRIBUTIONS, stretched_distribution
 from brdfkit.brdf.phong import reflect_about
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel, fresnel_dielectric
-from brdfkit.params import Domain, channel_count, check_choice, check_domains, check_flag, param
+from brdfkit.params import Domain, check_choice, param
 from brdfkit.sampling import (
     square_to_cosine_hemisphere,
     square_to_cosine_hemisphere_pdf,
@@ -252,22 +251,22 @@ class _Plastic(BRDF):
     internal: str
     reciprocal: ClassVar[bool] = True
     energy_conserving: ClassVar[bool] = True
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"internal": INTERNAL}
 
-    def _check(self) -> None:
-        check_domains(self)
-        check_flag("nonlinear", self.nonlinear)
-        check_choice("internal", self.internal, INTERNAL)
+    def __post_init__(self) -> None:
+        super().__post_init__()
         if np.size(to_numpy(self.eta)) != 1:
             raise ParameterError(
                 "eta must be one number (the coating's index, no dispersion); got shape "
                 f"{np.shape(to_numpy(self.eta))}"
             )
-        channels = channel_count(
-            self.diffuse_reflectance,
-            self.specular_reflectance,
-            names=("diffuse_reflectance", "specular_reflectance"),
-        )
-        object.__setattr__(self, "channels", channels)
+
+    def _channel_values(self) -> dict[str, Any]:
+        """The reflectances (η and α are one number each)."""
+        return {
+            "diffuse_reflectance": self.diffuse_reflectance,
+            "specular_reflectance": self.specular_reflectance,
+        }
 
     def _eta(self) -> float:
         return float(np.reshape(to_numpy(self.eta), ()))
@@ -336,6 +335,18 @@ class SmoothPlastic(_Plastic):
     .. [1] W. Jakob et al., Mitsuba 3, ``src/bsdfs/plastic.cpp``.
     .. [2] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §14.3
            (layered BSDFs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothPlastic
+    >>> f = SmoothPlastic(diffuse_reflectance=0.5, eta=1.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1602])
+    >>> s = f.sample(np.array([-0.48, -0.36, 0.8]), np.array([0.01, 0.5]))
+    >>> s.wi, np.round(s.weight, 4), bool(s.delta)
+    (array([0.48, 0.36, 0.8 ]), array([0.5219]), True)
     """
 
     diffuse_reflectance: Any = 0.5
@@ -347,7 +358,7 @@ class SmoothPlastic(_Plastic):
     domains: ClassVar[dict[str, Domain]] = _DOMAINS
 
     def __post_init__(self) -> None:
-        self._check()
+        super().__post_init__()
         eta = self._eta()
         object.__setattr__(
             self, "internal_reflectance", diffuse_fresnel_reflectance(1 / eta, self.internal)
@@ -365,26 +376,20 @@ class SmoothPlastic(_Plastic):
     def _fresnel(self, cos_theta: Array) -> Array:
         return fresnel_dielectric(clamp(cos_theta, 0.0, 1.0), param(self.eta, cos_theta))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         rho = self._rho(wi, self.internal_reflectance)
         eta = param(self.eta, wi)
         t_i = 1 - self._fresnel(wi[..., 2:3])
         t_o = 1 - self._fresnel(wo[..., 2:3])
-        value = rho * (t_i * t_o / (math.pi * eta * eta))
-        value = xp.broadcast_to(value, (*result_shape(wi, wo), self.channels))
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return rho * (t_i * t_o / (math.pi * eta * eta))
 
     def _probability(self, wo: Array) -> Array:
         return self._specular_probability(self._fresnel(wo[..., 2:3])[..., 0], wo)
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        value = (1 - self._probability(wo)) * square_to_cosine_hemisphere_pdf(wi)
-        ok = (wi[..., 2] > 0) & (wo[..., 2] > 0)
-        return xp.where(ok, value, xp.zeros_like(value))
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return (1 - self._probability(wo)) * square_to_cosine_hemisphere_pdf(wi)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         u = asarray(u, xp, like=wo)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
@@ -394,28 +399,23 @@ class SmoothPlastic(_Plastic):
         mirror = xp.concat([-wo[..., 0:1], -wo[..., 1:2], wo[..., 2:3]], axis=-1)
         wi = xp.where(pick_s[..., None], mirror, square_to_cosine_hemisphere(u_d[..., :2]))
         pdf = self.pdf(wi, wo)
+        # a denormal density is a far tail, where f cos θi / p would overflow: failed
         ok = pdf > xp.finfo(pdf.dtype).smallest_normal
         f = self.eval(wi, wo)
-        diffuse_w = xp.where(
-            ok[..., None],
-            f * (wi[..., 2] / xp.where(ok, pdf, xp.ones_like(pdf)))[..., None],
-            xp.zeros_like(f),
-        )
+        diffuse_w = f * (wi[..., 2] / xp.where(ok, pdf, xp.ones_like(pdf)))[..., None]
         specular = param(self.specular_reflectance, wo) * self._fresnel(wo[..., 2:3])
         safe_p = xp.where(p_specular > 0, p_specular, xp.ones_like(p_specular))
         specular_w = xp.broadcast_to(specular / safe_p[..., None], f.shape)
-        specular_w = xp.where((wo[..., 2:3] > 0), specular_w, xp.zeros_like(specular_w))
         weight = xp.where(pick_s[..., None], specular_w, diffuse_w)
         pdf = xp.where(pick_s | ~ok, xp.zeros_like(pdf), pdf)
         return Sample(wi, weight, pdf, pick_s & (wo[..., 2] > 0))
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         xp = namespace(wo)
         f = self._fresnel(wo[..., 2:3])
         s = param(self.specular_reflectance, wo)
         rho = param(self.diffuse_reflectance, wo)
-        value = xp.mean(s * f + (1 - f) * rho, axis=-1)
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return xp.mean(s * f + (1 - f) * rho, axis=-1)
 
 
 @register("rough_plastic")
@@ -459,6 +459,17 @@ class RoughPlastic(_Plastic):
     .. [1] W. Jakob et al., Mitsuba 3, ``src/bsdfs/roughplastic.cpp``.
     .. [2] C. Kelemen, L. Szirmay-Kalos, Eurographics 2001.
     .. [3] B. Walter et al., EGSR 2007.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughPlastic
+    >>> f = RoughPlastic(alpha=0.1, diffuse_reflectance=0.5)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1597])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     alpha: Any = 0.1
@@ -471,12 +482,13 @@ class RoughPlastic(_Plastic):
     masking: str = "smith_separable"
     approximate_g1: bool = False
     domains: ClassVar[dict[str, Domain]] = {**_DOMAINS, "alpha": ROUGHNESS}
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {
+        "distribution": DISTRIBUTIONS,
+        "masking": MASKINGS,
+    }
 
     def __post_init__(self) -> None:
-        self._check()
-        check_choice("distribution", self.distribution, DISTRIBUTIONS)
-        check_choice("masking", self.masking, MASKINGS)
-        check_flag("approximate_g1", self.approximate_g1)
+        super().__post_init__()
         if np.size(to_numpy(self.alpha)) != 1:
             raise ParameterError(
                 "alpha must be one number (the coating's roughness is tabulated); got shape "
@@ -504,43 +516,37 @@ class RoughPlastic(_Plastic):
         return _lerp_table(self.table, cos_theta)
 
     def _specular(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+        """The coating's microfacet reflection, s F D G / (4 cos θi cos θo)."""
         h = normalize(wi + wo)
         d = self.ndf.D(h)
         g = masking_shadowing(self.ndf, wi, wo, h, self.masking)
         f = fresnel_dielectric(clamp(dot(wo, h, keepdims=True), -1.0, 1.0), param(self.eta, wi))
-        value = (
+        return (
             param(self.specular_reflectance, wi)
             * f
             * safe_div(d * g, 4 * wi[..., 2:3] * wo[..., 2:3])
         )
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
         rho = self._rho(wi, self.internal_reflectance)
         eta = param(self.eta, wi)
         t_i = self._transmittance(wi[..., 2:3])
         t_o = self._transmittance(wo[..., 2:3])
         diffuse = rho * (t_i * t_o / (math.pi * eta * eta))
-        value = self._specular(wi, wo) + diffuse
-        value = xp.broadcast_to(value, (*result_shape(wi, wo), self.channels))
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return self._specular(wi, wo) + diffuse
 
     def _probability(self, wo: Array) -> Array:
         return self._specular_probability(1 - self._transmittance(wo[..., 2:3])[..., 0], wo)
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
         p_specular = self._probability(wo)
         h = normalize(wi + wo)
         wo_h = dot(wo, h)
         specular = safe_div(normal_pdf(self.ndf, True, wo, h), 4 * wo_h)
         value = p_specular * specular + (1 - p_specular) * square_to_cosine_hemisphere_pdf(wi)
-        ok = (wi[..., 2] > 0) & (wo[..., 2] > 0) & (wo_h > 0)
-        return xp.where(ok, value, xp.zeros_like(value))
+        return zero_unless(wo_h > 0, value)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         u = asarray(u, xp, like=wo)
         p_specular = self._probability(wo)
@@ -551,20 +557,18 @@ class RoughPlastic(_Plastic):
         wi = xp.where(pick_s[..., None], wi_s, wi_d)
         wi, wo = xp.broadcast_arrays(wi, wo)
         pdf = self.pdf(wi, wo)
+        # a denormal density is a far tail, where f cos θi / p would overflow: failed
         ok = pdf > xp.finfo(pdf.dtype).smallest_normal
-        f = self.eval(wi, wo)
         safe_pdf = xp.where(ok, pdf, xp.ones_like(pdf))
-        weight = xp.where(ok[..., None], f * (wi[..., 2] / safe_pdf)[..., None], xp.zeros_like(f))
-        pdf = xp.where(ok, pdf, xp.zeros_like(pdf))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        weight = self.eval(wi, wo) * (wi[..., 2] / safe_pdf)[..., None]
+        return Sample(wi, weight, xp.where(ok, pdf, xp.zeros_like(pdf)), False)
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         xp = namespace(wo)
         t = self._transmittance(wo[..., 2:3])
         s = param(self.specular_reflectance, wo)
         rho = param(self.diffuse_reflectance, wo)
-        value = xp.mean(s * (1 - t) + t * rho, axis=-1)
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return xp.mean(s * (1 - t) + t * rho, axis=-1)
 
 
 __all__ = [

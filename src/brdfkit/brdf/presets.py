@@ -239,6 +239,17 @@ class Material(BRDF):
     ----------
     .. [1] A. Ngan, F. Durand, W. Matusik, "Experimental analysis of BRDF models", EGSR 2005.
     .. [2] W. Matusik et al., "A data-driven reflectance model", SIGGRAPH 2003.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Material
+    >>> f = Material('alum-bronze', 'ngan_ward')
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0271, 0.0187, 0.0094])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     name: str = "alum-bronze"

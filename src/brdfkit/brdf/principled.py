@@ -28,14 +28,13 @@ from brdfkit.brdf.base import (
     mixture_choices,
     normalized_weights,
     register,
-    result_shape,
-    upper_hemisphere,
+    zero_unless,
 )
 from brdfkit.brdf.microfacet import GGX, masking_shadowing
 from brdfkit.brdf.phong import reflect_about
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel_dielectric
-from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
+from brdfkit.params import Domain, param
 from brdfkit.sampling import square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf
 
 WEIGHT = Domain(0.0, 1.0, hint="a principled weight")
@@ -159,6 +158,17 @@ class Principled(BRDF):
     .. [3] P. Hanrahan, W. Krueger, "Reflection from layered surfaces due to subsurface
            scattering", SIGGRAPH 1993.
     .. [4] W. Jakob et al., Mitsuba 3, ``src/bsdfs/principled.cpp``, ``principledhelpers.h``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Principled
+    >>> f = Principled(base_color=[0.9, 0.6, 0.3], metallic=1.0, roughness=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.2437, 0.1625, 0.0813])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     base_color: Any = 0.5
@@ -201,17 +211,16 @@ class Principled(BRDF):
         "subsurface",
     )
 
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"variant": VARIANTS}
+
     def __post_init__(self) -> None:
-        check_domains(self)
-        check_choice("variant", self.variant, VARIANTS)
+        super().__post_init__()
         for name in self._SCALARS:
-            channel_count(getattr(self, name), names=(name,))
             if np.shape(to_numpy(getattr(self, name)))[-1:] not in ((), (1,)):
                 raise ParameterError(
                     f"{name} must be one weight per point (a trailing axis of 1); got shape "
                     f"{np.shape(to_numpy(getattr(self, name)))}"
                 )
-        object.__setattr__(self, "channels", channel_count(self.base_color, names=("base_color",)))
         roughness, anisotropic = asarrays(self.roughness, self.anisotropic)
         xp = namespace(roughness, anisotropic)
         aspect = xp.sqrt(1 - 0.9 * anisotropic)
@@ -220,6 +229,10 @@ class Principled(BRDF):
         object.__setattr__(
             self, "ndf", GGX(xp.maximum(floor, r2 / aspect), xp.maximum(floor, r2 * aspect))
         )
+
+    def _channel_values(self) -> dict[str, Any]:
+        """The base colour (the weights are one per point)."""
+        return {"base_color": self.base_color}
 
     @property
     def isotropic(self) -> bool:  # type: ignore[override]
@@ -295,7 +308,7 @@ class Principled(BRDF):
     def _clearcoat_alpha(self, like: Array) -> Array:
         return _lerp(0.1, 0.001, param(self.clearcoat_gloss, like))
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         color = param(self.base_color, wi)
         metallic = param(self.metallic, wi)
@@ -329,13 +342,12 @@ class Principled(BRDF):
             if self.variant == "burley2012":
                 f_cc = f_cc * inv_4cos
             value = value + f_cc
-        value = xp.broadcast_to(value, (*result_shape(wi, wo), self.channels))
-        return xp.where(upper_hemisphere(wi, wo), value, xp.zeros_like(value))
+        return value
 
     # -- sampling -----------------------------------------------------------------------------
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         """A cheap grey albedo estimate, ``(...,)``: the diffuse colour, the specular Fresnel
-        and the clearcoat's at θo (no masking), 0 below the surface."""
+        and the clearcoat's at θo (no masking)."""
         xp = namespace(wo)
         color = param(self.base_color, wo)
         cos_o = clamp(wo[..., 2:3], 0.0, 1.0)
@@ -344,8 +356,7 @@ class Principled(BRDF):
         estimate = estimate + self._specular_fresnel(cos_o, color, tint, wo)
         coat = 0.04 + 0.96 * schlick_weight(cos_o)
         estimate = estimate + 0.25 * param(self.clearcoat, wo) * coat
-        value = xp.mean(estimate + xp.zeros_like(cos_o), axis=-1)
-        return xp.where(wo[..., 2] > 0, value, xp.zeros_like(value))
+        return xp.mean(estimate + xp.zeros_like(cos_o), axis=-1)
 
     def _probabilities(self, wo: Array) -> list[Array]:
         """Lobe probabilities (diffuse, specular, clearcoat), ``(...,)`` each, as Mitsuba."""
@@ -355,7 +366,7 @@ class Principled(BRDF):
         clearcoat = 0.25 * param(self.clearcoat, wo)[..., 0] + zero
         return normalized_weights([diffuse, xp.ones_like(diffuse), clearcoat])
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
+    def _pdf(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         p_diffuse, p_specular, p_clearcoat = self._probabilities(wo)
         h = normalize(wi + wo)
@@ -366,10 +377,9 @@ class Principled(BRDF):
         clearcoat = gtr1(h[..., 2], alpha_cc) * h[..., 2] * jacobian
         diffuse = square_to_cosine_hemisphere_pdf(wi)
         value = p_diffuse * diffuse + p_specular * specular + p_clearcoat * clearcoat
-        ok = (wi[..., 2] > 0) & (wo[..., 2] > 0) & (wo_h > 0)
-        return xp.where(ok, value, xp.zeros_like(value))
+        return zero_unless(wo_h > 0, value)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         u = asarray(u, xp, like=wo)  # NumPy uniforms with torch directions compute in torch
         choices = mixture_choices(self._probabilities(wo), u)
@@ -381,12 +391,11 @@ class Principled(BRDF):
         wi = xp.where(pick_d[..., None], wi_d, xp.where(pick_s[..., None], wi_s, wi_c))
         wi, wo_b = xp.broadcast_arrays(wi, wo)
         pdf = self.pdf(wi, wo_b)
-        f = self.eval(wi, wo_b)
+        # a denormal density is a far tail, where f cos θi / p would overflow: failed
         ok = (pdf > xp.finfo(pdf.dtype).smallest_normal) & (wi[..., 2] > 0)
         safe_pdf = xp.where(ok, pdf, xp.ones_like(pdf))
-        weight = xp.where(ok[..., None], f * (wi[..., 2] / safe_pdf)[..., None], xp.zeros_like(f))
-        pdf = xp.where(ok, pdf, xp.zeros_like(pdf))
-        return Sample(wi, weight, pdf, xp.zeros_like(pdf, dtype=xp.bool))
+        weight = self.eval(wi, wo_b) * (wi[..., 2] / safe_pdf)[..., None]
+        return Sample(wi, weight, xp.where(ok, pdf, xp.zeros_like(pdf)), False)
 
 
 __all__ = ["VARIANTS", "Principled", "gtr1", "sample_gtr1", "schlick_weight"]

@@ -32,7 +32,7 @@ from brdfkit.brdf.microfacet_reflection import (
     stretched_distribution,
 )
 from brdfkit.errors import ParameterError
-from brdfkit.params import Domain, check_choice, check_domains
+from brdfkit.params import Domain
 
 
 @register("rough_conductor")
@@ -72,6 +72,18 @@ class RoughConductor(MicrofacetReflection):
     .. [1] B. Walter et al., EGSR 2007.
     .. [2] E. Heitz, JCGT 3(2), 2014; E. Heitz, JCGT 7(4), 2018.
     .. [3] W. Jakob et al., Mitsuba 3, ``roughconductor``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughConductor
+    >>> f = RoughConductor(alpha=0.3, material='Au')
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.5502, 0.4564, 0.1867])
+    >>> s = f.sample(wo, np.array([0.5, 0.5]))
+    >>> np.round(s.wi, 4), np.round(s.weight, 4)
+    (array([0.5028, 0.4682, 0.7266]), array([0.9476, 0.786 , 0.3228]))
     """
 
     alpha: Any = 0.1
@@ -92,11 +104,11 @@ class RoughConductor(MicrofacetReflection):
         "eta": IOR,
         "k": EXTINCTION,
     }
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"distribution": DISTRIBUTIONS}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         fixed = type(self).distribution_name
-        check_choice("distribution", self.distribution, DISTRIBUTIONS)
         if fixed is not None and self.distribution != fixed:
             raise ParameterError(
                 f"distribution must be {fixed!r} for the {type(self).spec_name!r} model; got "
@@ -122,7 +134,22 @@ class RoughConductor(MicrofacetReflection):
 @register("ggx")
 @dataclass(frozen=True, eq=False)
 class GGXConductor(RoughConductor):
-    """:class:`RoughConductor` with the GGX distribution: ``ggx(alpha=0.2, material='Au')``."""
+    """:class:`RoughConductor` with the GGX distribution: ``ggx(alpha=0.2, material='Au')``.
+
+    Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
+    rough surfaces).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import GGXConductor
+    >>> f = GGXConductor(alpha=0.3, material='Au')
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.5502, 0.4564, 0.1867])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
+    """
 
     distribution_name: ClassVar[str | None] = "ggx"
     distribution: str = "ggx"
@@ -135,7 +162,22 @@ class GGXConductor(RoughConductor):
 @register("beckmann")
 @dataclass(frozen=True, eq=False)
 class BeckmannConductor(RoughConductor):
-    """:class:`RoughConductor` with the Beckmann distribution: ``beckmann(alpha=0.2)``."""
+    """:class:`RoughConductor` with the Beckmann distribution: ``beckmann(alpha=0.2)``.
+
+    Reciprocal: yes. Energy-conserving: yes (single scattering: the albedo is ≤ 1, less for
+    rough surfaces).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import BeckmannConductor
+    >>> f = BeckmannConductor(alpha=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.825])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
+    """
 
     distribution_name: ClassVar[str | None] = "beckmann"
     distribution: str = "beckmann"

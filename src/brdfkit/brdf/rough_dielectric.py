@@ -53,13 +53,17 @@ import numpy as np
 
 from brdfkit._array import Array, dot, namespace, normalize, safe_div
 from brdfkit.brdf._microfacet_sampling import normal_pdf, sample_normal
-from brdfkit.brdf.base import BRDF, ROUGHNESS, Sample, register, result_shape
+from brdfkit.brdf.base import BRDF, ROUGHNESS, Sample, register, zero_unless
 from brdfkit.brdf.microfacet import IOR, masking_shadowing
-from brdfkit.brdf.microfacet_reflection import defined_params, stretched_distribution
-from brdfkit.brdf.specular import check_mode, check_scalar_eta, interface_sampling_weight
+from brdfkit.brdf.microfacet_reflection import (
+    DISTRIBUTIONS,
+    defined_params,
+    stretched_distribution,
+)
+from brdfkit.brdf.specular import MODES, check_scalar_eta, interface_sampling_weight
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
-from brdfkit.params import Domain, channel_count, check_choice, check_domains, check_flag, param
+from brdfkit.params import Domain, param
 
 SMITH_MASKINGS = ("smith_separable", "smith_correlated")
 """Masking–shadowing functions defined for transmission."""
@@ -92,6 +96,17 @@ class RoughDielectric(BRDF):
     ----------
     .. [1] B. Walter et al., EGSR 2007.
     .. [2] W. Jakob et al., Mitsuba 3, ``roughdielectric``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import RoughDielectric
+    >>> f = RoughDielectric(alpha=0.1, eta=1.5)
+    >>> wo = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.eval(np.array([0.0, 0.0, 1.0]), wo), 4)
+    array([0.3183])
+    >>> np.round(f.eval(np.array([0.0, 0.0, -1.0]), wo), 4)
+    array([122.231])
     """
 
     alpha: Any = 0.1
@@ -112,20 +127,25 @@ class RoughDielectric(BRDF):
         "alpha_v": ROUGHNESS,
         "eta": IOR,
     }
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {
+        "distribution": DISTRIBUTIONS,
+        "masking": SMITH_MASKINGS,  # defined for transmission
+        "mode": MODES,
+    }
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         ndf = stretched_distribution(
             self.distribution, self.alpha, self.alpha_u, self.alpha_v, self.approximate_g1
         )
         check_scalar_eta(self.eta)
-        check_mode(self.mode)
-        check_choice("masking", self.masking, SMITH_MASKINGS)  # defined for transmission
-        check_flag("sample_visible", self.sample_visible)
         object.__setattr__(self, "ndf", ndf)
-        object.__setattr__(
-            self, "channels", channel_count(ndf.alpha_x, ndf.alpha_y, names=("alpha_u", "alpha_v"))
-        )
+
+    def _channel_values(self) -> dict[str, Any]:
+        """The roughness in use: ``alpha_u`` and ``alpha_v`` where given, else ``alpha``."""
+        if self.alpha_u is None and self.alpha_v is None:
+            return {"alpha": self.alpha}
+        return {"alpha_u": self.alpha_u, "alpha_v": self.alpha_v}
 
     @property
     def isotropic(self) -> bool:  # type: ignore[override]
@@ -160,7 +180,7 @@ class RoughDielectric(BRDF):
         )
         return h, reflect, eta_rel, valid
 
-    def eval(self, wi: Array, wo: Array) -> Array:
+    def _eval(self, wi: Array, wo: Array) -> Array:
         xp = namespace(wi, wo)
         h, reflect, eta_rel, valid = self._geometry(wi, wo)
         cos_i, cos_o = xp.abs(wi[..., 2:3]), xp.abs(wo[..., 2:3])
@@ -173,21 +193,19 @@ class RoughDielectric(BRDF):
         transmission = safe_div((1 - f) * d * g * xp.abs(wi_h * wo_h), cos_i * cos_o * denom**2)
         if self.mode == "importance":
             transmission = transmission * eta_rel**2
-        value = xp.where(reflect, reflection, transmission)
-        value = xp.broadcast_to(
-            value, np.broadcast_shapes(value.shape, (*result_shape(wi, wo), self.channels))
-        )
-        return xp.where(valid, value, xp.zeros_like(value))
+        return zero_unless(valid, xp.where(reflect, reflection, transmission))
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        return self._pdf(wi, wo, one_sided=False)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return self._lobe_pdf(wi, wo, one_sided=False)
 
     def pdf_one_sided(self, wi: Array, wo: Array) -> Array:
         """The density of :meth:`sample_one_sided`: the chosen lobe's without its probability
         (F or 1 − F), 0 below the surface."""
-        return self._pdf(wi, wo, one_sided=True)
+        return self._lobe_pdf(wi, wo, one_sided=True)
 
-    def _pdf(self, wi: Array, wo: Array, one_sided: bool) -> Array:
+    def _lobe_pdf(self, wi: Array, wo: Array, one_sided: bool) -> Array:
+        """The density of reflection chosen with probability F and refraction with 1 − F, or
+        (``one_sided``) of the lobe into the upper hemisphere chosen with probability 1."""
         xp = namespace(wi, wo)
         h, reflect, eta_rel, valid = self._geometry(wi, wo)
         wo_h, wi_h = dot(wo, h, keepdims=True), dot(wi, h, keepdims=True)
@@ -204,13 +222,13 @@ class RoughDielectric(BRDF):
             valid = valid & (wi[..., 2:3] > 0)
         return xp.where(valid, value, xp.zeros_like(value))[..., 0]
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         if u.shape[-1] < 3:
             raise ParameterError(
                 "u must have 3 uniforms per sample for rough_dielectric (2 for the normal, 1 "
                 f"to choose reflection or refraction); got shape {tuple(u.shape)}"
             )
-        return self._sample(wo, u, one_sided=False)
+        return self._lobe_sample(wo, u, one_sided=False)
 
     def sample_one_sided(self, wo: Array, u: Array) -> Sample:
         """:meth:`sample` restricted to the upper hemisphere (``wi.z > 0``, where the lights of
@@ -218,9 +236,11 @@ class RoughDielectric(BRDF):
         refract with probability 1 where the microfacet does not reflect totally; the weight
         f·|cos θi|/p then carries F (or 1 − F) and no sample is wasted below the surface. Two
         uniforms suffice (a third is ignored)."""
-        return self._sample(wo, u, one_sided=True)
+        return self._lobe_sample(wo, u, one_sided=True)
 
-    def _sample(self, wo: Array, u: Array, one_sided: bool) -> Sample:
+    def _lobe_sample(self, wo: Array, u: Array, one_sided: bool) -> Sample:
+        """A microfacet normal from the normals visible from ``wo`` (or D cos θh), then
+        :meth:`_sample_at_normal`."""
         xp = namespace(wo, u)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo = xp.broadcast_to(wo, (*batch, 3))
@@ -230,7 +250,7 @@ class RoughDielectric(BRDF):
     def _sample_at_normal(
         self, wo: Array, h: Array, u: Array, one_sided: bool, fresnel_terms: tuple | None = None
     ) -> Sample:
-        """:meth:`_sample` on from its microfacet normal ``h`` (``wo`` broadcast to the batch
+        """:meth:`_lobe_sample` on from its microfacet normal ``h`` (``wo`` broadcast to the batch
         already): reflect or refract by ``u[..., 2]``, the density and the weight.
         ``fresnel_terms``: :func:`~brdfkit.fresnel.fresnel` of ``wo·h``, where the caller has
         it (:func:`~brdfkit.brdf.kulla_conty_dielectric.dielectric_albedo` samples both
@@ -248,7 +268,7 @@ class RoughDielectric(BRDF):
         wi = xp.where(reflect, reflected, refracted)
         side = wi[..., 2:3] * wo[..., 2:3]
         ok = xp.where(reflect, side > 0, side < 0)
-        pdf = self._pdf(wi, wo, one_sided)
+        pdf = self._lobe_pdf(wi, wo, one_sided)
         ok = ok & (pdf > 0)[..., None]
         value = self.eval(wi, wo)
         weight = safe_div(value * xp.abs(wi[..., 2:3]), pdf[..., None])
@@ -256,7 +276,7 @@ class RoughDielectric(BRDF):
         pdf = xp.where(ok[..., 0], pdf, xp.zeros_like(pdf))
         return Sample(wi, weight, pdf, xp.zeros(batch, dtype=xp.bool))
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         return interface_sampling_weight(wo)
 
 

@@ -34,12 +34,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from brdfkit._array import Array, namespace
-from brdfkit.brdf.base import ALBEDO, BRDF, Sample, check_hemisphere, register, result_shape
+from brdfkit.brdf.base import ALBEDO, BRDF, Sample, register
 from brdfkit.brdf.microfacet import EXTINCTION, IOR, FresnelTerm
 from brdfkit.brdf.microfacet_reflection import defined_params
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel
-from brdfkit.params import Domain, channel_count, check_choice, check_domains, param
+from brdfkit.params import Domain, channel_count, check_choice, param
 
 MODES = ("radiance", "importance")
 """Transport modes of the dielectric BSDFs (which way the η² factor of refraction goes)."""
@@ -76,8 +76,8 @@ def _mirror(wo: Array) -> Array:
 class _DeltaReflection(BRDF):
     """A one-sided delta reflector of reflectance ``reflectance · F(cos θo)``.
 
-    Subclasses set ``fresnel_term`` (via :meth:`_setup`) and the field ``reflectance``, and
-    check their parameters against their domains first (``check_domains``).
+    Subclasses have the field ``reflectance`` and set ``fresnel_term`` and the channels (via
+    :meth:`_setup`) in ``__post_init__``.
     """
 
     has_delta = True
@@ -97,49 +97,29 @@ class _DeltaReflection(BRDF):
             ),
         )
 
+    def _channel_values(self) -> dict[str, Any]:
+        """None here: the channels follow from the reflectance and the Fresnel term, which
+        :meth:`_setup` counts."""
+        return {}
+
     def params(self) -> dict[str, Any]:
         return defined_params(self)
 
-    def _reflectance(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        cos_o = wo[..., 2:3]
-        value = param(self.reflectance, wo) * self.fresnel_term(xp.abs(cos_o))
-        value = xp.broadcast_to(
-            value, np.broadcast_shapes(value.shape, (*wo.shape[:-1], self.channels))
-        )
-        return xp.where(cos_o > 0, value, xp.zeros_like(value))
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        return namespace(wi).zeros_like(param(self.reflectance, wi))  # a delta: no density
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        like = param(self.reflectance, wi)
-        return xp.zeros((*result_shape(wi, wo), self.channels), dtype=like.dtype)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return namespace(wi).zeros_like(wi[..., 2])
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        return xp.zeros(result_shape(wi, wo), dtype=wi.dtype)
-
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
-        wi = _mirror(wo)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
-        wi = xp.broadcast_to(wi, (*batch, 3))
-        weight = self._reflectance(xp.broadcast_to(wo, (*batch, 3)))
-        pdf = xp.zeros(batch, dtype=wi.dtype)
-        return Sample(wi, weight, pdf, xp.ones(batch, dtype=xp.bool))
+        wo = xp.broadcast_to(wo, (*batch, 3))
+        return Sample(_mirror(wo), self._albedo(wo, "upper"), xp.zeros_like(wo[..., 2]), True)
 
-    def albedo_estimate(
-        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
-    ) -> tuple[Array, Array]:
-        """Exact: ρ(ωo) = R·F(cos θo) above the surface, with zero error (nothing is
-        transmitted, so either ``hemisphere`` gives the same)."""
-        check_hemisphere(hemisphere)
-        xp = namespace(wo)
-        value = self._reflectance(wo)
-        return value, xp.zeros_like(value)
-
-    def sampling_weight(self, wo: Array) -> Array:
-        xp = namespace(wo)
-        return xp.mean(self._reflectance(wo), axis=-1)
+    def _albedo(self, wo: Array, hemisphere: str) -> Array:
+        """Exact: ρ(ωo) = R·F(cos θo) (nothing is transmitted)."""
+        return param(self.reflectance, wo) * self.fresnel_term(namespace(wo).abs(wo[..., 2:3]))
 
 
 @register("mirror")
@@ -167,6 +147,15 @@ class Mirror(_DeltaReflection):
     ----------
     .. [1] J. Křivánek, Computer Graphics III lecture, "BRDF of the ideal mirror".
     .. [2] M. Born, E. Wolf, *Principles of Optics*, 7th ed., §1.5, 1999.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import Mirror
+    >>> f = Mirror(reflectance=0.9)
+    >>> s = f.sample(np.array([-0.48, -0.36, 0.8]), np.array([0.5, 0.5]))
+    >>> s.wi, s.weight, bool(s.delta)
+    (array([0.48, 0.36, 0.8 ]), array([0.9]), True)
     """
 
     reflectance: Any = 1.0
@@ -178,7 +167,7 @@ class Mirror(_DeltaReflection):
     domains: ClassVar[dict[str, Domain]] = {"eta": IOR, "k": EXTINCTION, "f0": ALBEDO}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         kind = self.fresnel
         if kind is None:
             kind = "conductor" if self.material is not None else "none"
@@ -221,6 +210,17 @@ class SmoothConductor(_DeltaReflection):
     ----------
     .. [1] M. Born, E. Wolf, *Principles of Optics*, 7th ed., §14.2, 1999.
     .. [2] W. Jakob et al., Mitsuba 3, ``conductor``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothConductor
+    >>> f = SmoothConductor(material='Au')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.albedo(n), 4)
+    array([0.9667, 0.802 , 0.3241])
+    >>> f.eval(n, n)
+    array([0., 0., 0.])
     """
 
     material: str | None = "none"
@@ -230,7 +230,7 @@ class SmoothConductor(_DeltaReflection):
     domains: ClassVar[dict[str, Domain]] = {"eta": IOR, "k": EXTINCTION}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         term = FresnelTerm.for_conductor(self.material, self.eta, self.k)
         self._setup(term)
 
@@ -276,6 +276,17 @@ class SmoothDielectric(BRDF):
     .. [2] J. Křivánek, Computer Graphics III lecture, "Change of radiance", "Snell's law".
     .. [3] E. Veach, PhD thesis, Stanford, 1997, §5.2.
     .. [4] W. Jakob et al., Mitsuba 3, ``dielectric``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import SmoothDielectric
+    >>> f = SmoothDielectric(eta=1.5, mode='importance')
+    >>> n = np.array([0.0, 0.0, 1.0])
+    >>> np.round(f.albedo(n), 4)
+    array([0.04])
+    >>> np.round(f.albedo_estimate(n, hemisphere='both')[0], 4)
+    array([1.])
     """
 
     eta: Any = 1.5
@@ -285,25 +296,23 @@ class SmoothDielectric(BRDF):
     transmits = True
     reciprocal = False
     domains: ClassVar[dict[str, Domain]] = {"eta": IOR}
+    choices: ClassVar[dict[str, tuple[str, ...]]] = {"mode": MODES}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         check_scalar_eta(self.eta)
-        check_mode(self.mode)
 
     @classmethod
     def examples(cls) -> list[BRDF]:
         return [cls(), cls(eta=1.33), cls(eta=2.419, mode="importance"), cls(eta=1 / 1.5)]
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        return xp.zeros((*result_shape(wi, wo), 1), dtype=param(self.eta, wi).dtype)
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        return namespace(wi).zeros_like(param(self.eta, wi))  # deltas: no density
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        xp = namespace(wi, wo)
-        return xp.zeros(result_shape(wi, wo), dtype=wi.dtype)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return namespace(wi).zeros_like(wi[..., 2])
 
-    def sample(self, wo: Array, u: Array) -> Sample:
+    def _sample(self, wo: Array, u: Array) -> Sample:
         xp = namespace(wo, u)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1])
         wo = xp.broadcast_to(wo, (*batch, 3))
@@ -316,7 +325,7 @@ class SmoothDielectric(BRDF):
         scale = self._transmission_scale(eta_ti)
         weight = xp.where(reflect, xp.ones_like(scale), scale)
         weight = xp.where(cos_o != 0, weight, xp.zeros_like(weight))
-        return Sample(wi, weight, xp.zeros(batch, dtype=wi.dtype), xp.ones(batch, dtype=xp.bool))
+        return Sample(wi, weight, xp.zeros(batch, dtype=wi.dtype), True)
 
     def sample_one_sided(self, wo: Array, u: Array) -> Sample:
         r""":meth:`sample` restricted to the upper hemisphere (``wi.z > 0``, where the lights
@@ -345,24 +354,19 @@ class SmoothDielectric(BRDF):
         """Weight of a refracted sample: η_ti² in radiance mode (solid angle compressed), or 1."""
         return eta_ti * eta_ti if self.mode == "radiance" else namespace(eta_ti).ones_like(eta_ti)
 
-    def albedo_estimate(
-        self, wo: Array, samples: int = 0, seed: int = 0, hemisphere: str = "upper"
-    ) -> tuple[Array, Array]:
-        r"""Exact, with zero error: the reflectance back into ωo's hemisphere, F(|cos θo|; η)
-        (1 under TIR); with ``hemisphere="both"`` plus the transmitted part,
-        :math:`F + (1 - F)\,s` with :math:`s = \eta_{ti}^2` in radiance mode, 1 in importance
-        mode (the sample weights).
+    def _albedo(self, wo: Array, hemisphere: str) -> Array:
+        r"""Exact: the reflectance back into ωo's hemisphere, F(|cos θo|; η) (1 under TIR);
+        with ``hemisphere="both"`` plus the transmitted part, :math:`F + (1 - F)\,s` with
+        :math:`s = \eta_{ti}^2` in radiance mode, 1 in importance mode (the sample weights).
         """
-        check_hemisphere(hemisphere)
         xp = namespace(wo)
         f, _, _, eta_ti = fresnel(wo[..., 2:3], param(self.eta, wo))
         value = f
         if hemisphere == "both":
             value = f + (1 - f) * self._transmission_scale(eta_ti)
-        value = xp.where(wo[..., 2:3] != 0, value, xp.zeros_like(value))
-        return value, xp.zeros_like(value)
+        return xp.where(wo[..., 2:3] != 0, value, xp.zeros_like(value))
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         return interface_sampling_weight(wo)
 
 

@@ -41,7 +41,7 @@ from brdfkit.brdf.base import BRDF, ROUGHNESS, register
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR
 from brdfkit.brdf.microfacet_reflection import MicrofacetReflection
 from brdfkit.errors import ParameterError
-from brdfkit.params import Domain, channel_count, check_domains, param
+from brdfkit.params import Domain, channel_count, param
 
 THICKNESS = Domain(0.0, 10_000.0, hint="film thickness in nanometres")
 """The film thickness d: [0, 10⁴] nm (beyond a few µm the colours wash out to the mean)."""
@@ -219,8 +219,8 @@ def xyz_to_linear_srgb() -> tuple[tuple[float, ...], ...]:
     """The 3×3 matrix from XYZ under the equal-energy illuminant E to linear sRGB (D65),
     Bradford-adapted so that a white reflector (XYZ = (1, 1, 1)) is RGB (1, 1, 1), as rows:
     colour-science's ``XYZ_to_RGB(np.eye(3), "sRGB", illuminant=E,
-    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats), as
-    importing colour-science takes ~1 CPU s, a process's every thin-film evaluation paid it
+    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats) so
+    that thin-film evaluation does not import colour-science
     (``tests/brdf/test_thin_film.py`` compares them with colour-science)."""
     return _XYZ_TO_LINEAR_SRGB
 
@@ -296,6 +296,17 @@ class ThinFilm(MicrofacetReflection):
     ----------
     .. [1] L. Belcour, P. Barla, ACM TOG 36(4), 2017.
     .. [2] E. Heitz, JCGT 3(2), 2014 (height-correlated Smith masking).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import ThinFilm
+    >>> f = ThinFilm(alpha=0.3, thickness=300.0)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.0244, 0.0091, 0.0068])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     alpha: Any = 0.1
@@ -316,7 +327,7 @@ class ThinFilm(MicrofacetReflection):
     }
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         for name in ("thickness", "film_eta"):
             if np.ndim(to_numpy(getattr(self, name))) > 0 and np.size(getattr(self, name)) > 1:
                 raise ParameterError(

@@ -38,7 +38,7 @@ from brdfkit.brdf.microfacet_reflection import (
     MicrofacetReflection,
     _fresnel_options,
 )
-from brdfkit.params import Domain, check_domains
+from brdfkit.params import Domain
 
 
 class _WithDiffuse(MicrofacetReflection):
@@ -69,18 +69,18 @@ class _WithDiffuse(MicrofacetReflection):
         # With a diffuse base the two albedos may add beyond 1: measured, not claimed.
         return self.mixture is None
 
-    def eval(self, wi: Array, wo: Array) -> Array:
-        return self._specular_eval(wi, wo) if self.mixture is None else self.mixture.eval(wi, wo)
+    def _eval(self, wi: Array, wo: Array) -> Array:
+        return super()._eval(wi, wo) if self.mixture is None else self.mixture.eval(wi, wo)
 
-    def pdf(self, wi: Array, wo: Array) -> Array:
-        return self._specular_pdf(wi, wo) if self.mixture is None else self.mixture.pdf(wi, wo)
+    def _pdf(self, wi: Array, wo: Array) -> Array:
+        return super()._pdf(wi, wo) if self.mixture is None else self.mixture.pdf(wi, wo)
 
-    def sample(self, wo: Array, u: Array) -> Sample:
-        return self._specular_sample(wo, u) if self.mixture is None else self.mixture.sample(wo, u)
+    def _sample(self, wo: Array, u: Array) -> Sample:
+        return super()._sample(wo, u) if self.mixture is None else self.mixture.sample(wo, u)
 
-    def sampling_weight(self, wo: Array) -> Array:
+    def _sampling_weight(self, wo: Array) -> Array:
         if self.mixture is None:
-            return super().sampling_weight(wo)
+            return super()._sampling_weight(wo)
         return self.mixture.sampling_weight(wo)
 
 
@@ -122,6 +122,17 @@ class TorranceSparrow(_WithDiffuse):
     ----------
     .. [1] K. E. Torrance, E. M. Sparrow, JOSA 57(9):1105-1114, 1967.
     .. [2] S. Koppal, Computational Photography lecture, "Torrance–Sparrow model".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import TorranceSparrow
+    >>> f = TorranceSparrow(m=0.2, diffuse=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1308])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     m: Any = 0.2
@@ -135,7 +146,7 @@ class TorranceSparrow(_WithDiffuse):
     domains: ClassVar[dict[str, Domain]] = {"m": GAUSSIAN_WIDTH, **FRESNEL_DOMAINS}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         self._setup(TorranceSparrowGaussian(self.m), _fresnel_options(self), False, (self.diffuse,))
         self._setup_diffuse()
 
@@ -179,6 +190,17 @@ class CookTorrance(_WithDiffuse):
     ----------
     .. [1] R. L. Cook, K. E. Torrance, ACM TOG 1(1):7-24, 1982.
     .. [2] J. Křivánek, Computer Graphics III lecture, "Microfacet theory".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from brdfkit.brdf import CookTorrance
+    >>> f = CookTorrance(m=0.3, diffuse=0.3)
+    >>> wi, wo = np.array([0.48, 0.36, 0.8]), np.array([-0.6, 0.0, 0.8])
+    >>> np.round(f.eval(wi, wo), 4)
+    array([0.1309])
+    >>> np.allclose(f.eval(wi, wo), f.eval(wo, wi))
+    True
     """
 
     m: Any = 0.3
@@ -193,7 +215,7 @@ class CookTorrance(_WithDiffuse):
     domains: ClassVar[dict[str, Domain]] = {"m": ROUGHNESS, **FRESNEL_DOMAINS}
 
     def __post_init__(self) -> None:
-        check_domains(self)
+        super().__post_init__()
         self._setup(Beckmann(self.m), _fresnel_options(self), self.sample_visible, (self.diffuse,))
         self._setup_diffuse()
 
