@@ -26,11 +26,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import kernel_tools
 from brdfkit.light import EnvironmentMap
 from brdfkit.render._reflection_kernels import BLOCK, map_guides, map_sampler
 
-select = accel._intrinsics()["_select"]
+select = kernel_tools.select()
 
 
 @numba.njit(nogil=True, error_model="numpy")

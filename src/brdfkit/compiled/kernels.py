@@ -53,10 +53,7 @@ from __future__ import annotations
 
 import builtins
 import contextlib
-import functools
 import math
-import os
-import queue
 import re
 import sys
 import threading
@@ -69,8 +66,12 @@ import numpy as np
 
 from brdfkit._array import Array, namespace, to_numpy
 from brdfkit.brdf.base import BRDF, Sample
+from brdfkit.compiled import _numba
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import structure as _structure
+from brdfkit.compiled.jit import FASTMATH, vector_bits
+from brdfkit.compiled.scalar_functions import generated_code_functions
+from brdfkit.compiled.threads import run_blocks
 
 DEFAULT_CHUNK = 1 << 16
 """Batch elements per chunk of :func:`eval_chunked` (a few MB of float32 temporaries).
@@ -80,11 +81,6 @@ machine, 2k–128k swept): with two worker threads 64k is fastest (1.9×10⁷ pa
 16k: 1.0, 8k: 0.7, 128k: 1.8), because every NumPy operation hands the GIL back and forth
 between the threads and short operations make that hand-off dominate; one thread peaks at 32k
 (1.5×10⁷/s), 64k within 4 %."""
-
-_FASTMATH = frozenset({"contract", "arcp", "nsz", "reassoc"})
-"""LLVM fast-math flags of the kernels: fused multiply-add, reciprocal multiplication, no
-signed zeros and reassociation (measured +14 % on the GGX kernel, same float32 error against
-float64). No NaN/infinity assumptions: the models' ``where`` guards rely on both."""
 
 
 # --------------------------------------------------------------------------- scalar symbols
@@ -522,89 +518,6 @@ _BATCH_ONLY = (
     "brdfkit.compiled compiles functions that are elementwise over the batch, with parameters "
     "that do not vary over it (a texture does): use brdfkit.compiled.eval_chunked for those"
 )
-_BLOCK = 1 << 15
-"""Fewest elements per block of work handed to a thread (~200 µs of GGX work)."""
-_BLOCKS_PER_THREAD = 8
-"""Blocks per worker thread of a large batch: enough that a core slowed by other work takes
-fewer of them, few enough that the per-block hand-off (a pool round trip and a numba dispatch
-that both need the GIL, tens of µs) stays small. Measured on the GGX kernel, 10⁷ pairs, 2
-threads: fixed blocks of 32k elements ran at 2.6×10⁸/s, 128k at 2.9×10⁸, 512k at 3.2×10⁸."""
-_POOL: ThreadPoolExecutor | None = None
-
-
-def threads() -> int:
-    """Worker threads of the kernels: the cores this process may use (``BRDFKIT_THREADS``
-    overrides)."""
-    override = os.environ.get("BRDFKIT_THREADS")
-    return len(os.sched_getaffinity(0)) if override is None else int(override)
-
-
-def _run_parallel(
-    function: Callable[..., None],
-    parameters: np.ndarray,
-    arrays: list[np.ndarray],
-    widths: list[int],
-    n: int,
-) -> None:
-    """Run ``function(parameters, *arrays, n)`` over ``n`` elements in blocks, on the calling
-    thread and ``threads() - 1`` pool threads.
-
-    ``arrays`` are flat, holding ``max(width, 1)`` values per element. The kernels release the
-    GIL (``nogil``), so blocks run truly in parallel; :data:`_BLOCKS_PER_THREAD` blocks per
-    thread (at least :data:`_BLOCK` elements each) are taken from a queue, so a core slowed
-    by other work takes fewer of them (a static split into one half per core was measured
-    ~30 % slower on a busy machine). The caller works too instead of waiting for a pool of
-    ``threads()``: one thread fewer to wake per call (GGX, 2 cores, back-to-back calls:
-    1.1 → 2.0×10⁸/s at 4×10⁴ pairs, 3.3 → 4.1×10⁸/s at 10⁶). Two measured choices: numba's
-    own ``prange``, and a loop over ``range(start, stop)``, both defeat LLVM's loop vectoriser
-    on these kernels (it cannot prove the indices non-negative), so each block gets views of
-    its slice and a loop over ``range(n)``.
-    """
-    workers = 1 if n <= _BLOCK else threads()
-    if workers == 1:
-        if n:
-            function(parameters, *arrays, n)
-        return
-    size = max(_BLOCK, -(-n // (workers * _BLOCKS_PER_THREAD)))
-    steps = [(a, max(w, 1)) for a, w in zip(arrays, widths, strict=True)]
-
-    def block(lo: int) -> None:
-        hi = min(lo + size, n)
-        function(parameters, *[a[lo * w : hi * w] for a, w in steps], hi - lo)
-
-    run_tasks(block, range(0, n, size), workers)
-
-
-def run_tasks(task: Callable[[int], None], items: Sequence[int], workers: int) -> None:
-    """``task(item)`` for every item, taken from a queue by the calling thread and
-    ``workers - 1`` threads of one pool kept for the process (starting threads per call costs
-    milliseconds: measured 5 ms per tile of a 256² render). ``task`` must not call this
-    function itself (a pool thread would wait on the pool)."""
-    global _POOL
-    if workers <= 1 or len(items) <= 1:
-        for item in items:
-            task(item)
-        return
-    with _KERNELS_LOCK:
-        if _POOL is None or _POOL._max_workers < workers - 1:
-            _POOL = ThreadPoolExecutor(workers - 1, thread_name_prefix="brdfkit-accel")
-        pool = _POOL
-    pending: queue.SimpleQueue[int] = queue.SimpleQueue()
-    for item in items:
-        pending.put(item)
-
-    def work() -> None:
-        while True:
-            try:
-                item = pending.get_nowait()
-            except queue.Empty:
-                return
-            task(item)
-
-    helpers = [pool.submit(work) for _ in range(min(workers, len(items)) - 1)]
-    work()  # the calling thread takes tasks too
-    for helper in helpers:
-        helper.result()
 
 
 class _OutputPool:
@@ -760,7 +673,7 @@ class Kernel:
             for a, p in zip([*arrays, *outs], ports, strict=True)
             for c in range(max(p.width, 1))
         ]
-        _run_parallel(self._component_code(), self.parameters, columns, [0] * len(columns), n)
+        run_blocks(self._component_code(), self.parameters, columns, [0] * len(columns), n)
         return tuple(outs)
 
     def _built(self, seconds: float) -> Kernel:
@@ -818,7 +731,7 @@ class Kernel:
                     )
         widths = [p.width for p in (*self.inputs, *self.outputs)]
         arrays_flat = [*flat, *(o.reshape(-1) for o in outs)]
-        _run_parallel(self._function, self.parameters, arrays_flat, widths, n)
+        run_blocks(self._function, self.parameters, arrays_flat, widths, n)
         return tuple(outs)
 
 
@@ -1028,310 +941,6 @@ def _by_component_source(source: str, ins: list[_Port], outs: list[_Port]) -> st
     return f"def kernel({', '.join(params)}, n):\n{body}"
 
 
-@functools.cache
-def _intrinsics() -> dict[str, Any]:
-    """Branch-free ``select``, boolean operators and float ``max``/``min`` as numba intrinsics
-    (LLVM ``select``, ``and``, ``or``, ``xor``, ``maximum``, ``minimum``).
-
-    Python's conditional expression and ``and``/``or`` compile to branches; LLVM then sinks
-    the guarded division of a ``safe_div`` into the branch and the loop no longer vectorises
-    (measured: a kernel with one such pattern ran scalar). An explicit ``select`` keeps the
-    body straight-line.
-    """
-    from numba.extending import intrinsic
-
-    def binary(build: Callable[..., Any]) -> Any:
-        @intrinsic
-        def op(typingctx: Any, a: Any, b: Any) -> Any:
-            def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-                return build(builder, *args)
-
-            return a(a, b), codegen
-
-        return op
-
-    @intrinsic
-    def select(typingctx: Any, condition: Any, a: Any, b: Any) -> Any:
-        if a != b:
-            return None
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.select(*args)
-
-        return a(condition, a, b), codegen
-
-    def float_binary(llvm_name: str) -> Any:
-        """The LLVM intrinsic ``llvm_name`` of two floats of one type (``maximum``,
-        ``minimum``: llvmlite declares only some intrinsics itself)."""
-        from llvmlite import ir
-        from numba.core import types
-
-        @intrinsic
-        def op(typingctx: Any, a: Any, b: Any) -> Any:
-            if a != b or not isinstance(a, types.Float):
-                return None
-
-            def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-                t = args[0].type
-                name = f"{llvm_name}.{t.intrinsic_name}"
-                fn = builder.module.globals.get(name)
-                if fn is None:
-                    fn = ir.Function(builder.module, ir.FunctionType(t, [t, t]), name)
-                return builder.call(fn, args)
-
-            return a(a, b), codegen
-
-        return op
-
-    @intrinsic
-    def rsqrt32(typingctx: Any, a: Any) -> Any:
-        """``1/sqrt(a)`` for a positive normal float32 ``a``, with the approximate-function
-        and no-infinity flags on these two instructions alone (see :func:`_floored_square`)."""
-        from llvmlite import ir
-        from numba.core import types
-
-        if a != types.float32:
-            return None
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            t = args[0].type
-            flags = ("afn", "ninf", "arcp", "contract")
-            sqrt = builder.module.globals.get("llvm.sqrt.f32")
-            if sqrt is None:
-                sqrt = ir.Function(builder.module, ir.FunctionType(t, [t]), "llvm.sqrt.f32")
-            root = builder.call(sqrt, args, fastmath=flags)
-            return builder.fdiv(ir.Constant(t, 1.0), root, flags=flags)
-
-        return a(a), codegen
-
-    @intrinsic
-    def not_(typingctx: Any, a: Any) -> Any:
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.not_(args[0])
-
-        return a(a), codegen
-
-    return {
-        "_select": select,
-        "_and": binary(lambda b, x, y: b.and_(x, y)),
-        "_or": binary(lambda b, x, y: b.or_(x, y)),
-        "_xor": binary(lambda b, x, y: b.xor(x, y)),
-        "_not": not_,
-        "_max": float_binary("llvm.maximum"),
-        "_min": float_binary("llvm.minimum"),
-        "_rsqrt32": rsqrt32,
-    }
-
-
-def _exact_jit() -> Callable[[Any], Any]:
-    """numba's decorator for the kernels' helper functions: no fast-math flags (reassociation
-    would undo their argument reductions and Newton steps), NumPy's error model, no GIL."""
-    import numba
-
-    return numba.njit(fastmath=False, error_model="numpy", nogil=True)
-
-
-@functools.cache
-def _trig32() -> dict[str, Any]:
-    """Branch-free float32 ``sin`` and ``cos`` that LLVM vectorises (libm's are scalar calls).
-
-    Cephes' ``sinf``/``cosf``: the octant j = ⌊|x|·4/π⌋ rounded up to even, the reduced
-    argument r = |x| − j·π/4 by Cody and Waite's three-part π/4 (exact products), then a
-    degree-7 odd or degree-8 even polynomial in r on [−π/4, π/4], and the sign of the octant.
-    Measured against float64: at most 2.5 ulp on |x| ≤ 20 and 3.4 ulp on |x| ≤ 8192 (libm's
-    float32: 1.4 ulp), except near zeros of the function, where the reduction's error is
-    absolute (5×10⁻¹⁴ at x = 3π); beyond 8192 the reduction loses accuracy. Compiled apart without
-    fast-math flags, so that reassociation cannot undo the reduction; LLVM inlines them into
-    the kernel's loop. Lambertian + GGX sampling, one core: 2.8 → 6.5×10⁷ samples/s.
-
-    References
-    ----------
-    .. [1] S. L. Moshier, Cephes Math Library, ``sinf.c`` (single precision), 1989.
-    .. [2] W. J. Cody, W. Waite, *Software Manual for the Elementary Functions*, 1980.
-    """
-
-    select = _intrinsics()["_select"]
-    f32 = np.float32
-    four_over_pi = f32(1.27323954473516)
-    dp1, dp2, dp3 = f32(0.78515625), f32(2.4187564849853515625e-4), f32(3.77489497744594108e-8)
-    s0, s1, s2 = f32(-1.9515295891e-4), f32(8.3321608736e-3), f32(-1.6666654611e-1)
-    c0, c1, c2 = f32(2.443315711809948e-5), f32(-1.388731625493765e-3), f32(4.166664568298827e-2)
-    jit = _exact_jit()
-
-    @jit
-    def reduce(x: Any) -> Any:
-        """(|x| reduced to [−π/4, π/4], octant mod 4 ∈ {0, 2}, whether the octant is ≥ 4)."""
-        ax = np.abs(x)
-        j = np.floor(ax * four_over_pi)
-        j = j + (j - f32(2) * np.floor(j * f32(0.5)))  # odd octants round up to even
-        r = ((ax - j * dp1) - j * dp2) - j * dp3
-        octant = j - f32(8) * np.floor(j * f32(0.125))
-        upper = octant > f32(3)
-        return r, select(upper, octant - f32(4), octant), upper
-
-    @jit
-    def polynomials(r: Any) -> Any:
-        z = r * r
-        sine = ((s0 * z + s1) * z + s2) * z * r + r
-        cosine = ((c0 * z + c1) * z + c2) * z * z - f32(0.5) * z + f32(1)
-        return sine, cosine
-
-    @jit
-    def sin32(x: Any) -> Any:
-        r, octant, upper = reduce(x)
-        sine, cosine = polynomials(r)
-        value = select(octant == f32(2), cosine, sine)
-        return select((x < f32(0)) != upper, -value, value)
-
-    @jit
-    def cos32(x: Any) -> Any:
-        r, octant, upper = reduce(x)
-        sine, cosine = polynomials(r)
-        value = select(octant == f32(2), sine, cosine)
-        return select(upper != (octant > f32(1)), -value, value)
-
-    return {"_sin32": sin32, "_cos32": cos32}
-
-
-@functools.cache
-def _erfinv() -> dict[str, Any]:
-    """The inverse error function for the kernels (numba has none; Beckmann sampling needs it).
-
-    float32: Giles' single-precision approximation, w = −ln((1 − x)(1 + x)) and a degree-8
-    polynomial in w − 2.5 (w < 5) or in √w − 3, times x (a few ulp). float64: that value (or
-    the tail's asymptotic form beyond float32's range) as the start of Newton steps on
-    erf(t) = |x|, taken on ln erfc(t) = ln(1 − |x|) where |x| > ½ so that the residual keeps
-    its digits near ±1. ±1 give ±∞ and |x| > 1 NaN, as :func:`scipy.special.erfinv`.
-
-    References
-    ----------
-    .. [1] M. Giles, "Approximating the erfinv function", GPU Computing Gems Jade, 2011.
-    """
-    jit = _exact_jit()
-
-    select = _intrinsics()["_select"]
-    two_over_sqrt_pi = 2 / math.sqrt(math.pi)
-    central = (
-        2.81022636e-08, 3.43273939e-07, -3.5233877e-06, -4.39150654e-06, 0.00021858087,
-        -0.00125372503, -0.00417768164, 0.246640727, 1.50140941,
-    )  # fmt: skip
-    tail = (
-        -0.000200214257, 0.000100950558, 0.00134934322, -0.00367342844, 0.00573950773,
-        -0.0076224613, 0.00943887047, 1.00167406, 2.83297682,
-    )  # fmt: skip
-
-    def giles(dtype: Any) -> Any:
-        c = tuple(dtype(v) for v in central)
-        t = tuple(dtype(v) for v in tail)
-        one, half_five, three = dtype(1), dtype(2.5), dtype(3)
-
-        @jit
-        def approximate(x: Any) -> Any:
-            w = -np.log((one - x) * (one + x))
-            v = w - half_five
-            p = c[0]
-            for k in range(1, 9):
-                p = p * v + c[k]
-            v = np.sqrt(w) - three
-            q = t[0]
-            for k in range(1, 9):
-                q = q * v + t[k]
-            return select(w < dtype(5), p, q) * x
-
-        return approximate
-
-    def edges(dtype: Any) -> Any:
-        one, inf, nan = dtype(1), dtype(np.inf), dtype(np.nan)
-
-        @jit
-        def at_edges(x: Any, value: Any) -> Any:
-            a = np.abs(x)
-            return select(a < one, value, select(a == one, np.copysign(inf, x), nan))
-
-        return at_edges
-
-    giles32, edges32, giles64, edges64 = (
-        giles(np.float32), edges(np.float32), giles(np.float64), edges(np.float64),
-    )  # fmt: skip
-
-    @jit
-    def erfinv32(x: Any) -> Any:
-        return edges32(x, giles32(x))
-
-    @jit
-    def erfinv64(x: Any) -> Any:
-        a = abs(x)
-        # Giles' fit covers float32's range (1 − a ≳ 1e-7); beyond, erfc(t) ≈ exp(−t²)/(t√π)
-        # gives t² = −ln(1 − a) − ln(t√π), within 0.1 % there.
-        w = -math.log(1 - a)
-        asymptotic = math.sqrt(w - math.log(math.sqrt(w * math.pi)))
-        t = select(w > 16.0, asymptotic, giles64(a))
-        for _ in range(_ERFINV_NEWTON_STEPS):
-            slope = two_over_sqrt_pi * math.exp(-t * t)  # erf'(t)
-            tail = math.erfc(t)
-            # Newton on erf(t) = a, or on ln erfc(t) = ln(1 − a) in the tail (nearly
-            # quadratic in t there, and erfc has its digits where erf rounds to 1)
-            central_step = (math.erf(t) - a) / slope
-            tail_step = (math.log(tail) - math.log(1 - a)) * tail / -slope
-            t = t - select(a > 0.5, tail_step, central_step)
-        return edges64(x, math.copysign(t, x))
-
-    return {"_erfinv32": erfinv32, "_erfinv64": erfinv64}
-
-
-_ERFINV_NEWTON_STEPS = 3
-"""Newton steps of the float64 inverse error function (measured: within 3 ulp of
-:func:`scipy.special.erfinv` on [−1 + 2⁻⁵³, 1 − 2⁻⁵³])."""
-
-_KERNEL_FUNCTIONS: dict[str, Callable[[], dict[str, Any]]] = {
-    "_sin32": _trig32,
-    "_cos32": _trig32,
-    "_erfinv32": _erfinv,
-    "_erfinv64": _erfinv,
-}
-"""Functions the generated code may call, by name, and the factories that compile them."""
-
-
-def vector_bits() -> int:
-    """The SIMD width the kernels ask LLVM's vectoriser for, in bits (``BRDFKIT_VECTOR_BITS``
-    overrides; default 512).
-
-    LLVM tunes recent Intel CPUs to prefer 256-bit vectors even where AVX-512 is there (the
-    512-bit units once lowered the clock of a whole core). The kernels are throughput-bound on
-    division and square roots, which 512-bit vectors do at more lanes per cycle: measured on
-    an Intel Xeon (Emerald Rapids) GGX conductor kernel, one thread, 1.5–1.6×10⁸ → 1.7–1.8×10⁸
-    pairs/s. Where AVX-512 is absent the hint has no effect (the widest legal vectors are
-    used), so 512 is safe everywhere; set 256 on a CPU whose clock drops under AVX-512.
-    """
-    bits = os.environ.get("BRDFKIT_VECTOR_BITS", "512")
-    if bits not in ("128", "256", "512"):
-        raise ValueError(f"BRDFKIT_VECTOR_BITS must be 128, 256 or 512; got {bits!r}")
-    return int(bits)
-
-
-@functools.cache
-def _vector_width_hint(bits: int) -> Any:
-    """A numba intrinsic that marks the function calling it ``"prefer-vector-width"="bits"``
-    (what clang's ``-mprefer-vector-width`` does): the width for that kernel alone, not for
-    every numba function of the process as ``NUMBA_CPU_FEATURES`` would."""
-    from numba.core import types
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def prefer_vector_width(typingctx: Any) -> Any:
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            # llvmlite accepts only a fixed list of attribute names, without LLVM's string
-            # attributes; the set underneath renders any attribute it holds. Should a later
-            # llvmlite store them otherwise, the kernel keeps LLVM's default width.
-            with contextlib.suppress(TypeError, AttributeError):
-                set.add(builder.function.attributes, f'"prefer-vector-width"="{bits}"')
-            return context.get_dummy_value()
-
-        return types.none(), codegen
-
-    return prefer_vector_width
-
-
 def _kernel_key(source: str, constants: dict[str, np.generic]) -> str:
     """What a generated kernel's machine code depends on: source, constants, vector width."""
     return f"{vector_bits()}|{source}" + repr(
@@ -1370,18 +979,16 @@ def _numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[...
             "__name__": __name__,  # the module numba's cache re-imports for the globals
             "np": np,
             "math": math,
-            **_intrinsics(),
-            "_prefer_vector_width": _vector_width_hint(bits),
+            **_numba.intrinsics(),
+            "_prefer_vector_width": _numba.vector_width_hint(bits),
             **constants,
+            **generated_code_functions(source),
         }
-        for name, factory in _KERNEL_FUNCTIONS.items():
-            if f"{name}(" in source:
-                namespace.update(factory())
         exec(builtins.compile(source, "<brdfkit.compiled.kernels kernel>", "exec"), namespace)
-        function = numba.njit(fastmath=set(_FASTMATH), error_model="numpy", nogil=True)(
+        function = numba.njit(fastmath=set(FASTMATH), error_model="numpy", nogil=True)(
             namespace["kernel"]
         )
-        _interleave(function)
+        _numba.compile_interleaved(function, _INTERLEAVE)
         kernel_cache.enable(function, _disk_key(source, constants))  # machine code on disk
         _KERNELS[key] = function
         return function
@@ -1400,27 +1007,6 @@ vectorises the remainder of a batch (its last ``2 × lanes − 1`` elements at m
 render tile kernels' blocks of 256) at 4 lanes, down to 3 scalar elements: where scalar and
 vector code round differently, those elements now get the main loop's values (measured:
 Lambertian + GGX sampling, 16 of 10⁶ elements changed, by at most 2×10⁻⁶ relative)."""
-
-
-def _interleave(dispatcher: Any) -> None:
-    """Have numba compile ``dispatcher`` (each signature, also when a tile kernel calls it) with
-    LLVM's ``-force-vector-interleave`` at :data:`_INTERLEAVE`, set under numba's compiler
-    lock, which every compilation of the process holds, and reset to 0 (LLVM's own choice)
-    afterwards: other numba code keeps LLVM's default."""
-    import llvmlite.binding as llvm
-    from numba.core.compiler_lock import global_compiler_lock
-
-    compile_signature = dispatcher.compile
-
-    def compile_interleaved(signature: Any) -> Any:
-        with global_compiler_lock:
-            llvm.set_option("", f"-force-vector-interleave={_INTERLEAVE}")
-            try:
-                return compile_signature(signature)
-            finally:
-                llvm.set_option("", "-force-vector-interleave=0")
-
-    dispatcher.compile = compile_interleaved
 
 
 # --------------------------------------------------------------------------- compiled BRDFs

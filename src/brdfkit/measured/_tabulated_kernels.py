@@ -40,7 +40,6 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 import weakref
 from collections.abc import Callable
@@ -49,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf.base import BRDF, Scaled
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import kernel_tools
 from brdfkit.measured.tabulated import _NODE_TOLERANCE, TabulatedBRDF
 
 _FUNCTIONS: dict[tuple[Any, ...], tuple[Callable[..., None], ...]] = {}
@@ -72,104 +71,6 @@ per pair on a loaded 2-core machine: 110 ns without, 61 / 47 / 40 / 37.5 / 40.5 
 16 / 32 / 64 pairs ahead."""
 
 
-@functools.cache
-def _prefetch() -> Callable[[np.ndarray, int], None]:
-    """A numba intrinsic ``prefetch(array, i)``: LLVM's ``llvm.prefetch`` (read, keep in all
-    cache levels) of element ``i`` of a C-contiguous ``array``; a hint, no effect on values."""
-    from llvmlite import ir
-    from numba.core import cgutils, types
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def prefetch(typingctx: Any, array: Any, index: Any) -> Any:
-        if not (isinstance(array, types.Array) and array.layout == "C"):
-            return None
-        if not isinstance(index, types.Integer):
-            return None
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            data = context.make_array(signature.args[0])(context, builder, args[0]).data
-            offset = context.cast(builder, args[1], signature.args[1], types.intp)
-            # as i8*: one declaration serves arrays of any dtype in a module
-            pointer = builder.bitcast(builder.gep(data, [offset]), ir.IntType(8).as_pointer())
-            i32 = ir.IntType(32)
-            function = cgutils.get_or_insert_function(
-                builder.module,
-                ir.FunctionType(ir.VoidType(), [pointer.type, i32, i32, i32]),
-                "llvm.prefetch.p0",
-            )
-            builder.call(function, [pointer, i32(0), i32(3), i32(1)])
-            return context.get_dummy_value()
-
-        return types.none(array, index), codegen
-
-    return prefetch
-
-
-def _atan2_32() -> Callable[[Any, Any], Any]:
-    """Branch-free float32 ``atan2`` that LLVM vectorises (libm's is a scalar call, the
-    dearest operation of a lookup).
-
-    Cephes' ``atanf`` on z = min(|x|, |y|)/max(|x|, |y|) ∈ [0, 1]: above tan(π/8) the
-    argument is reduced by atan z = π/4 + atan((z − 1)/(z + 1)), then a degree-9 odd
-    polynomial; the octant and quadrant are restored by π/2 − a, π − a and the sign of y.
-    Measured against float64 ``arctan2`` (tests): within a few float32 ulp.
-
-    References
-    ----------
-    .. [1] S. L. Moshier, Cephes Math Library, ``atanf.c`` (single precision), 1989.
-    """
-    select = accel._intrinsics()["_select"]
-    f32 = np.float32
-    p0, p1 = f32(8.05374449538e-2), f32(-1.38776856032e-1)
-    p2, p3 = f32(1.99777106478e-1), f32(-3.33329491539e-1)
-    tan_pi_8 = f32(0.4142135623730950)
-    quarter_pi, half_pi, pi = f32(math.pi / 4), f32(math.pi / 2), f32(math.pi)
-    zero, one = f32(0), f32(1)
-    jit = accel._exact_jit()
-
-    @jit
-    def atan2(y: Any, x: Any) -> Any:
-        ax, ay = np.abs(x), np.abs(y)
-        big, small = max(ax, ay), min(ax, ay)
-        z = small / select(big > zero, big, one)
-        reduced = z > tan_pi_8
-        r = select(reduced, (z - one) / (z + one), z)
-        r2 = r * r
-        a = (((p0 * r2 + p1) * r2 + p2) * r2 + p3) * r2 * r + r
-        a = select(reduced, a + quarter_pi, a)
-        a = select(ay > ax, half_pi - a, a)
-        a = select(x < zero, pi - a, a)
-        return select(y < zero, -a, a)
-
-    return atan2
-
-
-@functools.cache
-def trigonometry(dtype: type) -> tuple[Callable[..., Any], Callable[..., Any], Callable[..., Any]]:
-    """numba ``(atan2, sin, cos)`` for the kernels in ``dtype``: float32 the branch-free ones
-    that LLVM vectorises (:func:`_atan2_32`, :func:`brdfkit.compiled.kernels`'s float32 sine and
-    cosine; a few ulp), float64 libm's (the NumPy path's values)."""
-    if dtype is np.float32:
-        trig = accel._trig32()
-        return _atan2_32(), trig["_sin32"], trig["_cos32"]
-    jit = accel._exact_jit()
-
-    @jit
-    def atan2(y: Any, x: Any) -> Any:
-        return np.arctan2(y, x)
-
-    @jit
-    def sin(x: Any) -> Any:
-        return np.sin(x)
-
-    @jit
-    def cos(x: Any) -> Any:
-        return np.cos(x)
-
-    return atan2, sin, cos
-
-
 def _new_table_functions(
     dtype: type, rank: int, table_channels: int, channels: int, interpolation: str
 ) -> tuple[Callable[..., None], Callable[..., None], Callable[..., None]]:
@@ -177,8 +78,9 @@ def _new_table_functions(
     anisotropic) with ``table_channels`` value channels, scaled to ``channels``.
 
     ``eval`` runs in three loops over the batch: the half/difference angles and the cells'
-    indices and weights branch-free (LLVM vectorises it; float32 with :func:`_atan2_32` and
-    :func:`brdfkit.compiled.kernels`'s float32 sine and cosine), the corners' table rows and
+    indices and weights branch-free (LLVM vectorises it; float32 with the branch-free
+    trigonometry of :func:`~brdfkit.compiled.kernel_tools.trigonometry`), the corners' table
+    rows and
     weights, then the gathers from the table, each pair's rows prefetched :data:`PREFETCH_DISTANCE`
     pairs ahead. The vectorised loops write their node and cell indices as int32 (an axis's
     or the θh marginal's cells: small): with int64 outputs LLVM held them to 4 float32 lanes
@@ -188,19 +90,17 @@ def _new_table_functions(
     does not stay in the caches of a render, so its 2^D corners are cache misses; with the
     prefetches they overlap (measured: 10⁶ random pairs, 0.11 → 0.06 s).
     """
-    import numba
-
-    jit = numba.njit(nogil=True, error_model="numpy")
-    # the vectorised loop: accel's kernels' fast-math flags and vector width
-    vector_jit = numba.njit(nogil=True, error_model="numpy", fastmath=set(accel._FASTMATH))
+    jit = kernel_tools.jit()  # helpers: their caller's flags
+    # the vectorised loops: the fast-math flags and vector width of the traced kernels
+    vector_jit = kernel_tools.vector_jit()
     # no fast-math flags: lookup's corner weights, products in its order
-    corner_jit = numba.njit(nogil=True, error_model="numpy")
-    prefer_vector_width = accel._vector_width_hint(accel.vector_bits())
-    prefetch = _prefetch()
-    select = accel._intrinsics()["_select"]
+    corner_jit = kernel_tools.exact_jit()
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    prefetch = kernel_tools.prefetch()
+    select = kernel_tools.select()
     T = dtype
-    atan2, sin, cos = trigonometry(T)
-    guided_interval = guided_search()
+    atan2, sin, cos = kernel_tools.trigonometry(T)
+    guided_interval = kernel_tools.guided_search()
     zero, one, two, four = T(0), T(1), T(2), T(4)
     pi, half_pi, two_pi = T(math.pi), T(math.pi / 2), T(2 * math.pi)
     quarter_pi = T(math.pi / 4)
@@ -548,56 +448,8 @@ def _new_table_functions(
 
 
 GUIDE_BUCKETS = 4
-"""Buckets of :func:`guide_table` per cell of the θh marginal. Measured (random pairs in
-blocks of 256, one core, 90 × 90 × 180 table): the bisections of a sample (8 steps over the
-θh marginal's 90 cells, 2 over an isotropic table's one column) were ~60 ns of its ~210 ns;
-from the guide the search is a scan of a step or two, and an isotropic table's column is 0."""
-
-
-def guide_table(cdf: np.ndarray, count: int, buckets: int, rows: int = 1) -> np.ndarray:
-    """The guide table of ``rows`` CDFs of ``count`` cells each (``cdf``: their ``count + 1``
-    nodes per row, flat), for :func:`guided_search`: in row r, bucket m of ``buckets`` equal
-    buckets of [0, 1) holds the interval k of u = m / buckets (``cdf[k] <= u < cdf[k + 1]``,
-    clipped to [0, count)), at ``[r · buckets + m]``, ``(rows · buckets,)``: uint16 where
-    ``count`` ≤ 2¹⁶ (a 1k map's column guides in 1 MB instead of 2: fewer cache misses,
-    measured ~5 % of a map sample), else int32.
-
-    References
-    ----------
-    .. [1] H. C. Chen, Y. Asau, "On generating random variates from an empirical
-           distribution", AIIE Transactions 6(2), 1974 (the guide-table method).
-    """
-    nodes = np.asarray(cdf, np.float64).reshape(rows, -1)[:, : count + 1]
-    u = np.arange(buckets) / buckets
-    guide = np.empty((rows, buckets), np.uint16 if count <= 2**16 else np.int32)
-    for r in range(rows):  # a few ms for a 1k map's 512 rows
-        k = np.searchsorted(nodes[r], u, side="right") - 1
-        guide[r] = np.clip(k, 0, count - 1)
-    return guide.ravel()
-
-
-@functools.cache
-def guided_search() -> Callable[..., int]:
-    """The numba ``guided_interval(cdf, base, guide, start, buckets, u, count)``:
-    ``sampling._find_interval`` of one float64 variate u ∈ [0, 1) in the row of ``count``
-    cells at ``cdf[base:]``, the k in ``[0, count)`` with ``cdf[base + k] <= u <
-    cdf[base + k + 1]`` (the last k with ``cdf[base + k] <= u``: bisection's, flat runs
-    included), by a short scan from the row's guide ``guide[start + ⌊u · buckets⌋]``
-    (:func:`guide_table`). The scan goes either way, so the result does not depend on the
-    guide's values, only the number of steps does (rounding of u · buckets included)."""
-    jit = accel._exact_jit()
-
-    @jit
-    def guided_interval(cdf: np.ndarray, base: int, guide: np.ndarray, start: int,
-                        buckets: int, u: float, count: int) -> int:  # fmt: skip
-        k = np.int64(guide[start + min(np.int64(u * buckets), buckets - 1)])
-        while k > 0 and cdf[base + k] > u:
-            k -= 1
-        while k + 1 < count and cdf[base + k + 1] <= u:
-            k += 1
-        return k
-
-    return guided_interval
+"""Buckets of :func:`~brdfkit.compiled.kernel_tools.guide_table` per cell of the θh marginal:
+from the guide a sample's row search is a scan of a step or two instead of a bisection."""
 
 
 EVAL_CHUNK = 4096
@@ -637,7 +489,7 @@ class TableKernels:
             np.ascontiguousarray(half._one_minus_cos, dtype=t),
             int(n_theta),
             int(n_phi),
-            guide_table(marginal, int(n_theta), GUIDE_BUCKETS * int(n_theta)),
+            kernel_tools.guide_table(marginal, int(n_theta), GUIDE_BUCKETS * int(n_theta)),
         )
         self.dtype = t
         self.parameters = np.zeros(0, t)  # the kernels' leading argument; a table has none
@@ -661,9 +513,9 @@ class TableKernels:
                 out[c * lo : c * hi], hi - lo, *self.data,
             )  # fmt: skip
 
-        # on accel's threads (the kernel releases the GIL): the control variate's floor of a
+        # on the kernels' threads (the kernel releases the GIL): the control variate's floor of a
         # 256² render is ~8×10⁵ pairs, ~40 ms on one core
-        accel.run_tasks(run, range(0, n, EVAL_CHUNK), accel.threads())
+        kernel_tools.run_tasks(run, range(0, n, EVAL_CHUNK), kernel_tools.threads())
         return out.reshape(*batch, self.channels)
 
     def built(self) -> bool:

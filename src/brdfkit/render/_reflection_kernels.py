@@ -37,7 +37,7 @@ Lambertian lobes are taken out as :math:`\rho E(n)/\pi` as in ``method="auto"``
 :math:`sF(\theta_o)L(\omega_r)` (:func:`~brdfkit.render.split_mirror`), and so is the
 control variate :math:`k\,E(n)` of the rest (:func:`~brdfkit.render.diffuse_floor`: k
 from the compiled ``eval``, the kernel samples f − k). Blocks run on
-:func:`brdfkit.compiled.kernels.threads`
+:func:`brdfkit.compiled.kernel_tools.threads`
 threads (the kernel releases the GIL).
 
 References
@@ -61,14 +61,14 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit import sampling
+from brdfkit import compiled, sampling
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.compiled import cache as kernel_cache
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import kernel_tools
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap
-from brdfkit.measured import _tabulated_kernels as render_table_kernel
+from brdfkit.measured import table_kernels
 from brdfkit.params import check_choice
 from brdfkit.render.reflection_equation import (
     FLOOR_DIRECTIONS,
@@ -90,11 +90,11 @@ BLOCK = 256
 
 
 _BRDF_KERNELS: weakref.WeakKeyDictionary[
-    BRDF, dict[np.dtype, tuple[accel.CompiledBRDF, tuple[Any, ...]]]
+    BRDF, dict[np.dtype, tuple[compiled.CompiledBRDF, tuple[Any, ...]]]
 ] = weakref.WeakKeyDictionary()
 
 
-def _compiled(model: BRDF, dtype: np.dtype) -> tuple[accel.CompiledBRDF, tuple[Any, ...]]:
+def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tuple[Any, ...]]:
     """``model`` compiled (:func:`brdfkit.compiled.compile`) and the numba functions of its
     ``sample`` (3 uniforms), ``eval`` and ``pdf`` kernels, kept per model object. The
     functions are those of the model's structure (they read the parameter values,
@@ -102,11 +102,11 @@ def _compiled(model: BRDF, dtype: np.dtype) -> tuple[accel.CompiledBRDF, tuple[A
     them and the tile kernel built on them."""
     per_dtype = _BRDF_KERNELS.setdefault(model, {})
     if dtype not in per_dtype:
-        compiled = accel.compile(model, dtype)
+        compiled_model = compiled.compile(model, dtype)
         per_dtype[dtype] = (
-            compiled,
+            compiled_model,
             tuple(
-                compiled._kernel(method, width)._function
+                compiled_model._kernel(method, width)._function
                 for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
             ),
         )
@@ -166,15 +166,15 @@ _GUIDES: weakref.WeakKeyDictionary[sampling.Distribution2D, tuple[np.ndarray, np
 
 
 def map_guides(distribution: sampling.Distribution2D) -> tuple[np.ndarray, np.ndarray]:
-    """The guide tables (:func:`brdfkit.measured._tabulated_kernels.guide_table`) of a map's
+    """The guide tables (:func:`brdfkit.compiled.kernel_tools.guide_table`) of a map's
     :class:`~brdfkit.sampling.Distribution2D`: its marginal's (:data:`ROW_BUCKETS` per row)
     and its rows' conditionals' (:data:`COLUMN_BUCKETS` per column, row after row), built
     once per distribution (kept while it lives: one per map) for :func:`map_sampler`."""
     if distribution not in _GUIDES:
         height, width = distribution.shape
         _GUIDES[distribution] = (
-            render_table_kernel.guide_table(distribution._marginal, height, ROW_BUCKETS * height),
-            render_table_kernel.guide_table(
+            kernel_tools.guide_table(distribution._marginal, height, ROW_BUCKETS * height),
+            kernel_tools.guide_table(
                 distribution._conditional, width, COLUMN_BUCKETS * width, height
             ),
         )
@@ -187,15 +187,13 @@ def map_sampler() -> Callable[..., None]:
     width, nb, rows, cols, base)``: ``Distribution2D.sample``'s texels for ``nb`` float64
     variates ``a`` (column) and ``b`` (row) already clamped below 1, the marginal's row, then
     the row's column (``base``: the row's offset in ``conditional``), each by the guide-table
-    search (:func:`brdfkit.measured._tabulated_kernels.guided_search`, :func:`map_guides`): the rows
+    search (:func:`brdfkit.compiled.kernel_tools.guided_search`, :func:`map_guides`): the rows
     and columns of ``sampling._find_interval``'s bisection, in a scan of a step or two instead
     of its ~10 + ~11 steps (1k map). Loops split so that the guide reads of the block's
     samples overlap, and each column search's CDF nodes are prefetched before the scans."""
-    import numba
-
-    jit = numba.njit(nogil=True, error_model="numpy")
-    guided_interval = render_table_kernel.guided_search()
-    prefetch = render_table_kernel._prefetch()
+    jit = kernel_tools.jit()
+    guided_interval = kernel_tools.guided_search()
+    prefetch = kernel_tools.prefetch()
 
     @jit
     def map_samples(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
@@ -237,16 +235,14 @@ def _new_tile_kernel(
     As soon as a direction's map coordinates are known, its two texel rows and its pdf
     texel are prefetched, so that the reads of the last loops hit the cache (gold scene, 16
     spp, one thread on a loaded machine: ~370 → ~260 ns CPU per pixel-sample, together with
-    the float32 trigonometry of :func:`~brdfkit.measured._tabulated_kernels.trigonometry` and the
+    the float32 trigonometry of :func:`~brdfkit.compiled.kernel_tools.trigonometry` and the
     Sobol' variates computed a block at a time). LLVM vectorises a loop only if it holds no
     gather and no prefetch, so the arithmetic (frames, map coordinates, the map samples'
     directions, the bilinear cells, MIS weights and the running mean) runs in loops of its
     own over arrays along the block, between short scalar loops of reads (gold, 16 spp, two
     threads: 0.094 → 0.062 s per 256² image).
     """
-    import numba
-
-    jit = numba.njit(nogil=True, error_model="numpy")
+    jit = kernel_tools.jit()
     T = dtype
     pi, two_pi, two_pi_sq = T(math.pi), T(2 * math.pi), T(2 * math.pi**2)
     zero, one, half = T(0), T(1), T(0.5)
@@ -256,9 +252,9 @@ def _new_tile_kernel(
     channels = max(brdf_channels, map_channels)
     cb_step = 1 if brdf_channels > 1 else 0
     cl_step = 1 if map_channels > 1 else 0
-    select = accel._intrinsics()["_select"]
-    atan2, sin, cos = render_table_kernel.trigonometry(T)
-    prefetch = render_table_kernel._prefetch()
+    select = kernel_tools.select()
+    atan2, sin, cos = kernel_tools.trigonometry(T)
+    prefetch = kernel_tools.prefetch()
     map_samples = map_sampler()
 
     @jit
@@ -679,7 +675,7 @@ class EnvironmentShader:
         # the BRDF's kernels' trailing arguments (a table's arrays, render_table_kernel)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
-            table = render_table_kernel.table_kernels(self.rest, self.dtype)
+            table = table_kernels(self.rest, self.dtype)
             if table is not None:
                 self._rest, functions, self._data = table, table.functions, table.data
             else:
@@ -813,7 +809,7 @@ class EnvironmentShader:
         kernel = self._kernel
         power = self.heuristic == "power"
 
-        bounds = _task_bounds(pixels.size, accel.threads())
+        bounds = _task_bounds(pixels.size, kernel_tools.threads())
 
         def run(task: int) -> None:
             lo, hi = bounds[task], bounds[task + 1]
@@ -823,7 +819,7 @@ class EnvironmentShader:
                 found_m2[lo:hi], self._data,
             )  # fmt: skip
 
-        accel.run_tasks(run, range(len(bounds) - 1), accel.threads())
+        kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
         mean[pixels], m2[pixels] = found_mean, found_m2
         shape = (*batch, self.channels)
         return mean.reshape(shape), m2.reshape(shape)
@@ -924,19 +920,21 @@ def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None
     or in the disk cache (:mod:`brdfkit.compiled.cache`: loading them compiles nothing), for a
     map of ``map_channels`` channels (``None``: 1 or 3)."""
     dtype = np.dtype(dtype)
-    table = render_table_kernel.table_kernels(model, dtype)
+    table = table_kernels(model, dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
     if table is not None:
         kernels = table.functions
     elif entry is not None:
         kernels = entry[1]
     else:
-        compiled = accel.compile(model, dtype)
+        compiled_model = compiled.compile(model, dtype)
         methods = (("sample", 3), ("eval", 0), ("pdf", 0))
-        if not all(compiled.cached(method, width) for method, width in methods):
+        if not all(compiled_model.cached(method, width) for method, width in methods):
             return False
         # built, or their source and machine code on disk: making them now costs a load
-        kernels = tuple(compiled._kernel(method, width)._function for method, width in methods)
+        kernels = tuple(
+            compiled_model._kernel(method, width)._function for method, width in methods
+        )
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
     if any(t.signatures for t in tiles):
         return True
