@@ -65,7 +65,7 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
     }
     compile_seconds = None
     plan = compiled_shader(scene.brdf, [env], method="auto")
-    if plan is not None:  # where brdfkit.compiled.kernels or render_table_kernel compiles the BRDF
+    if plan is not None:  # where brdfkit.compiled or the table kernels compile the BRDF
         start = time.perf_counter()
         plan[0].build()
         compile_seconds = time.perf_counter() - start

@@ -206,15 +206,20 @@ def test_auto_compiles_only_large_renders_or_models_already_built():
 
 
 def test_a_second_parameter_set_reuses_the_shading_kernels(monkeypatch):
-    import brdfkit.compiled.kernels as accel
+    from brdfkit.compiled import compiled_brdf
+    from brdfkit.compiled import kernel as kernel_module
 
     first = RoughConductor(alpha=0.25, material="Cu", masking="smith_separable")
     second = RoughConductor(alpha=0.6, material="Cu", masking="smith_separable")
     env = _map()
     EnvironmentShader(first, env, dtype=np.float64).build()
     assert kernels_built(second, np.float64)
-    monkeypatch.setattr(accel, "_compile", lambda *a, **k: pytest.fail("compiled again"))
-    monkeypatch.setattr(accel, "_numba_kernel", lambda *a, **k: pytest.fail("compiled again"))
+    monkeypatch.setattr(
+        compiled_brdf, "compile_traced", lambda *a, **k: pytest.fail("compiled again")
+    )
+    monkeypatch.setattr(
+        kernel_module, "numba_kernel", lambda *a, **k: pytest.fail("compiled again")
+    )
     g = gbuffer(Sphere(), None, 12)
     for model in (second, first):
         expected = shade(g, model, env, samples=8, seed=5, compiled=False)

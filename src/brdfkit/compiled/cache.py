@@ -1,6 +1,6 @@
 """An on-disk cache of the compiled kernels, so that building them is paid once per machine.
 
-:mod:`brdfkit.compiled.kernels` traces a model's code with JAX and compiles the generated source
+:mod:`brdfkit.compiled` traces a model's code with JAX and compiles the generated source
 with numba; :mod:`brdfkit.render._reflection_kernels` compiles a tile kernel around those kernels.
 Both cost seconds per model structure, every process. numba's own ``cache=True`` cannot help: it
 keys its files on a function's source file (the generated code has none) and on a pickle of a

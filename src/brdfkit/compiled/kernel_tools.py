@@ -46,7 +46,7 @@ from brdfkit.compiled.jit import (
     without_runtime,
 )
 from brdfkit.compiled.scalar_functions import trigonometry
-from brdfkit.compiled.threads import run_tasks, threads
+from brdfkit.compiled.thread_pool import run_tasks, threads
 
 __all__ = [
     "FASTMATH",

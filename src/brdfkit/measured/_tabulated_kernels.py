@@ -1,6 +1,6 @@
 r"""Tabulated (MERL-layout) BRDFs on the compiled shading path.
 
-:mod:`brdfkit.compiled.kernels` traces array-API code; a table lookup (gathers at computed indices)
+:mod:`brdfkit.compiled` traces array-API code; a table lookup (gathers at computed indices)
 and a CDF search cannot be traced, so this module writes the
 :class:`~brdfkit.measured.TabulatedBRDF`'s ``eval``, ``pdf`` and ``sample`` once as numba
 functions with the calling convention of the kernels :mod:`brdfkit.render._reflection_kernels`'s

@@ -12,7 +12,7 @@ and environment-map sampling,
 (Veach's power heuristic β = 2, or the balance heuristic β = 1) on NumPy arrays of
 pixels × samples. Profiled, about 40 % of its time is the BRDF and 40 % the map: the bilinear
 lookup, the binary searches in its CDFs and the direction ↔ map-coordinate conversions. Those
-cannot be traced by :mod:`brdfkit.compiled.kernels` (indexing, searches), so this module writes
+cannot be traced by :mod:`brdfkit.compiled` (indexing, searches), so this module writes
 them once as small numba functions and calls, from one ``numba.njit(nogil=True)`` loop per block of
 pixels, the BRDF kernels that :func:`brdfkit.compiled.compile` builds from the model's own code:
 
@@ -106,7 +106,7 @@ def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tupl
         per_dtype[dtype] = (
             compiled_model,
             tuple(
-                compiled_model._kernel(method, width)._function
+                compiled_model.kernel(method, width).function
                 for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
             ),
         )
@@ -635,7 +635,7 @@ class EnvironmentShader:
     ------
     ValueError
         For another light, method or heuristic, a per-pixel parameter, or a BRDF that
-        :mod:`brdfkit.compiled.kernels` cannot compile.
+        :mod:`brdfkit.compiled` cannot compile.
     """
 
     def __init__(
@@ -932,9 +932,7 @@ def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None
         if not all(compiled_model.cached(method, width) for method, width in methods):
             return False
         # built, or their source and machine code on disk: making them now costs a load
-        kernels = tuple(
-            compiled_model._kernel(method, width)._function for method, width in methods
-        )
+        kernels = tuple(compiled_model.kernel(method, width).function for method, width in methods)
     tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*kernels, dtype.type)]
     if any(t.signatures for t in tiles):
         return True

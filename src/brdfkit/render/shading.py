@@ -87,7 +87,7 @@ def shade(
     ``compiled`` chooses the compiled path: each tile shaded by the numba kernel of
     :class:`brdfkit.render._reflection_kernels.EnvironmentShader` where it applies (one
     :class:`~brdfkit.light.EnvironmentMap` plus any delta lights, ``method`` ``"auto"`` or
-    ``"mis"``, a BRDF :mod:`brdfkit.compiled.kernels` compiles: see
+    ``"mis"``, a BRDF :mod:`brdfkit.compiled` compiles: see
     :func:`~brdfkit.render._reflection_kernels.compiled_shader`), NumPy elsewhere. ``"auto"``
     (default): float32 kernels when this model's are built already or the render has at least
     :data:`~brdfkit.render._reflection_kernels.AUTO_COMPILE_WORK` pixel-samples (building them costs
