@@ -30,7 +30,8 @@ scalar libm calls.
 
 What tracing cannot express (table lookups, CDF searches, a tile's sampling loop) is written
 for numba by hand beside the code it mirrors, from :mod:`~brdfkit.compiled.kernel_tools`.
-Every use of numba's and llvmlite's internals is in one module, ``compiled/_numba.py``.
+Every use of numba's internals (and of the LLVM binding under it) is in one module,
+``compiled/_numba.py``.
 
 References
 ----------
