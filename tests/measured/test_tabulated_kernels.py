@@ -14,7 +14,7 @@ from brdfkit.brdf.base import Scaled
 from brdfkit.light import EnvironmentMap
 from brdfkit.measured import TabulatedBRDF, table_kernels
 from brdfkit.render import Sphere, gbuffer, shade
-from brdfkit.render._reflection_kernels import compiled_shader, kernels_built
+from brdfkit.render.compiled_shading import compiled_shader, kernels_built
 from brdfkit.sampling import square_to_uniform_sphere
 
 COPPER = RoughConductor(alpha=0.3, material="Cu", masking="smith_separable")

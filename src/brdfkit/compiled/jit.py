@@ -39,6 +39,16 @@ def jit() -> Callable[[Any], Any]:
     return numba.njit(nogil=True, error_model="numpy")
 
 
+def inline_jit() -> Callable[[Any], Any]:
+    """numba's decorator for a step of a kernel: :func:`jit`'s options, and the function's
+    code inlined into its caller's by numba (``inline="always"``), so that the step's loops
+    are optimised where the caller's arrays are known not to overlap (a loop over arrays
+    that might overlap needs run-time checks, which can keep LLVM from vectorising it)."""
+    import numba
+
+    return numba.njit(nogil=True, error_model="numpy", inline="always")
+
+
 def exact_jit() -> Callable[[Any], Any]:
     """numba's decorator for functions that must round as written wherever they are called
     from: no fast-math flags (reassociation would undo argument reductions and Newton
@@ -106,6 +116,7 @@ def without_runtime() -> dict[str, Any]:
 __all__ = [
     "FASTMATH",
     "exact_jit",
+    "inline_jit",
     "jit",
     "prefetch",
     "select",

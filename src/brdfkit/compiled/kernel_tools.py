@@ -8,8 +8,8 @@ Those modules build their functions from this toolkit only:
 
 - decorators: :func:`exact_jit` (rounds as written), :func:`vector_jit` (the
   :data:`FASTMATH` flags of vectorised loops), :func:`jit` (a helper with its caller's
-  flags), :func:`without_runtime` (options for code that passes arrays on without reference
-  counting);
+  flags), :func:`inline_jit` (a step inlined into its caller), :func:`without_runtime`
+  (options for code that passes arrays on without reference counting);
 - intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
   :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function);
 - scalar functions: :func:`trigonometry` (``atan2``, ``sin``, ``cos`` in a dtype);
@@ -37,6 +37,7 @@ from brdfkit.compiled.guide_tables import guide_table, guided_search
 from brdfkit.compiled.jit import (
     FASTMATH,
     exact_jit,
+    inline_jit,
     jit,
     prefetch,
     select,
@@ -53,6 +54,7 @@ __all__ = [
     "exact_jit",
     "guide_table",
     "guided_search",
+    "inline_jit",
     "jit",
     "prefetch",
     "run_tasks",
