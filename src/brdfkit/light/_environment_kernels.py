@@ -22,7 +22,9 @@ test_environment_kernels.py`` holds each pair equal on random inputs):
 
 The numba building blocks come from :mod:`brdfkit.compiled.kernel_tools`, handed in by the
 caller (the compiled layer sits above this package): :func:`lookups` builds the functions once
-per dtype.
+per dtype. They round as written whoever calls them (no fast-math flags); the ones a
+kernel's vectorised loop must see into (``bilinear``, ``sample_point``,
+``sample_direction``) are inlined into it by numba, the rest by LLVM.
 
 References
 ----------
@@ -129,7 +131,7 @@ def unit(dtype: type, tools: Any) -> Callable[..., Any]:
     """:func:`brdfkit._array.normalize` of a vector ``(x, y, z)``: v / max(|v|, tiny)."""
     tiny = dtype(np.finfo(np.float32).tiny)
 
-    @tools.jit()
+    @tools.exact_jit()
     def normalize(x: Any, y: Any, z: Any) -> tuple[Any, Any, Any]:
         length = max(np.sqrt(x * x + y * y + z * z), tiny)
         return x / length, y / length, z / length
@@ -145,7 +147,7 @@ def _map_coordinates(dtype: type, tools: Any) -> Callable[..., Any]:
     atan2, _, _ = tools.trigonometry(dtype)
     zero, pi, two_pi = dtype(0), dtype(math.pi), dtype(2 * math.pi)
 
-    @tools.jit()
+    @tools.exact_jit()
     def map_coordinates(wx: Any, wy: Any, wz: Any, r: tuple) -> tuple[Any, Any, Any]:
         mx = wx * r[0] + wy * r[3] + wz * r[6]
         my = wx * r[1] + wy * r[4] + wz * r[7]
@@ -169,7 +171,7 @@ def _texel_lookup(dtype: type, tools: Any) -> tuple[Callable[..., Any], Callable
     select = tools.select()
     zero, one, half = dtype(0), dtype(1), dtype(0.5)
 
-    @tools.jit()
+    @tools.exact_jit()
     def texel_cell(x: Any, y: Any, height: int, width: int, nc: int) -> tuple:
         row, col = y * dtype(height) - half, x * dtype(width) - half
         r0f, c0f = np.floor(row), np.floor(col)
@@ -209,7 +211,7 @@ def _map_pdf(dtype: type, tools: Any) -> tuple[Callable[..., Any], Callable[...,
     select = tools.select()
     zero, one, two_pi_sq = dtype(0), dtype(1), dtype(2 * math.pi**2)
 
-    @tools.jit()
+    @tools.exact_jit()
     def pdf_texel(x: Any, y: Any, height: int, width: int) -> Any:
         inside = (x >= zero) & (x < one) & (y >= zero) & (y < one)
         col = min(max(np.floor(np.float64(x) * width), 0.0), width - 1.0)
@@ -217,7 +219,7 @@ def _map_pdf(dtype: type, tools: Any) -> tuple[Callable[..., Any], Callable[...,
         index = np.int64(select(inside, row, 0.0)) * width + np.int64(select(inside, col, 0.0))
         return select(inside, index, np.int64(-1))
 
-    @tools.jit()
+    @tools.exact_jit()
     def solid_angle_pdf(pdf_uv: Any, sin_theta: Any) -> Any:
         denominator = two_pi_sq * max(sin_theta, zero)
         ok = denominator != zero
@@ -238,7 +240,7 @@ def _texel_sampler(tools: Any) -> Callable[..., None]:
     guided_interval = tools.guided_search()
     prefetch = tools.prefetch()
 
-    @tools.jit()
+    @tools.exact_jit()
     def sample_texels(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
                       conditional: np.ndarray, row_guide: np.ndarray, col_guide: np.ndarray,
                       height: int, width: int, nb: int, rows: np.ndarray, cols: np.ndarray,

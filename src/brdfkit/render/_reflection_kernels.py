@@ -401,16 +401,16 @@ def _radiance_reads(env: Any, dtype: type) -> Callable[..., None]:
 
 
 def _accumulation(env: Any, dtype: type, brdf_channels: int, map_channels: int) -> Callable:
-    """``accumulate(nb, inverse_count, power, brdf, light, brdf_at_light, controls,
+    r"""``accumulate(nb, inverse_count, power, brdf, light, brdf_at_light, controls,
     radiance_b, radiance_l, mean_b, m2_b)``: one sample's MIS estimate per pixel and channel
     (module docstring), folded into the running mean and sum of squared deviations:
 
     - the weights :math:`w_b` (1 for a delta sample) and :math:`w_l` of the power or balance
       heuristic, ``safe_div(p^β, p^β + q^β)``, with :math:`p_l` at the BRDF's sample from its
       pdf texel (0 outside the map);
-    - the control variate: :math:`(f - k)\\cos\\theta/p_b = w - k\\cos\\theta/p_b` of the
+    - the control variate: :math:`(f - k)\cos\theta/p_b = w - k\cos\theta/p_b` of the
       BRDF's sample (its weight :math:`w`), :math:`(f - k)` at the map's;
-    - Welford's update of the mean and of :math:`\\sum (x - \\bar x)^2` in float64.
+    - Welford's update of the mean and of :math:`\sum (x - \bar x)^2` in float64.
 
     ``brdf = (wi, weight, pdf, delta)`` of the BRDF's samples, ``light = (pdf_l, cos_l,
     density_b, p_texel, sin_b)``, ``brdf_at_light = (f_buf, pbl_buf)``. The loop is
