@@ -90,7 +90,7 @@ def profile_atlas(only: list[str] | None = None) -> dict:
     builds them, its spheres are too small)."""
     from brdfkit.data import default_envmap_path
     from brdfkit.light import EnvironmentMap
-    from brdfkit.render._reflection_kernels import compiled_shader
+    from brdfkit.render.compiled_shading import compiled_shader
     from brdfkit.report.atlas import _registered_defaults, build_card, default_examples
 
     env = EnvironmentMap.from_file(default_envmap_path())

@@ -43,8 +43,8 @@ os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.s
 
 import numpy as np
 
-import brdfkit.compiled.kernels as accel
 from brdfkit.brdf import Lambertian, RoughConductor
+from brdfkit.compiled import DEFAULT_CHUNK, compile, eval_chunked, threads
 from brdfkit.fresnel import conductor
 
 ALPHA = 0.2
@@ -225,8 +225,8 @@ class Runner:
         self.rng = np.random.default_rng(1)
         self.ggx32, self.mix32 = models(np.float32)
         self.ggx64, _ = models(np.float64)
-        self.compiled = accel.compile(self.ggx32)
-        self.compiled_mix = accel.compile(self.mix32)
+        self.compiled = compile(self.ggx32)
+        self.compiled_mix = compile(self.mix32)
         self.mitsuba = Mitsuba() if with_mitsuba else None
         self.rows: list[dict[str, Any]] = []
 
@@ -269,7 +269,7 @@ class Runner:
         check["max_rel_diff_component_major"] = _rel(compiled.eval(wi_c, wo_c), reference)
         out = np.empty_like(reference)
         r, slow = self.repeats, max(1, self.repeats // 2)
-        workers = accel.threads()
+        workers = threads()
         # The head-to-head: brdfkit accel, brdfkit's chunked NumPy path and Mitsuba, interleaved.
         fns: dict[str, tuple[Callable[[], Any], dict[str, Any]]] = {
             "brdfkit accel f32": (
@@ -281,8 +281,8 @@ class Runner:
             # arrays, filled before its timing), and so the result (its Color3f is three too)
             "brdfkit accel f32, component-major": (lambda: compiled.eval(wi_c, wo_c), {}),
             f"brdfkit NumPy f32 chunked ×{workers}": (
-                lambda: accel.eval_chunked(ggx32, wi, wo, workers=workers),
-                {"chunk": accel.DEFAULT_CHUNK},
+                lambda: eval_chunked(ggx32, wi, wo, workers=workers),
+                {"chunk": DEFAULT_CHUNK},
             ),
         }
         if self.mitsuba is not None:
@@ -297,7 +297,7 @@ class Runner:
         if n <= 1_000_000:  # one call allocates ~200 bytes per pair: 2 GB at 1e7
             # Another parameter set of the same structure: no trace, no compile (its first
             # call's extra time is the binding of its values only).
-            other = accel.compile(dataclasses.replace(ggx32, alpha=np.float32(0.35)))
+            other = compile(dataclasses.replace(ggx32, alpha=np.float32(0.35)))
             self.add(
                 "eval",
                 n,
@@ -312,11 +312,11 @@ class Runner:
                 "eval",
                 n,
                 "brdfkit NumPy f32 chunked ×1",
-                lambda: accel.eval_chunked(ggx32, wi, wo),
+                lambda: eval_chunked(ggx32, wi, wo),
                 slow,
             )
-        check["max_rel_diff_numpy_f32"] = _rel(reference, accel.eval_chunked(ggx32, wi, wo))
-        check["max_rel_diff_numpy_f64"] = _rel(reference, accel.eval_chunked(ggx64, wi64, wo64))
+        check["max_rel_diff_numpy_f32"] = _rel(reference, eval_chunked(ggx32, wi, wo))
+        check["max_rel_diff_numpy_f64"] = _rel(reference, eval_chunked(ggx64, wi64, wo64))
         if n <= 1_000_000:
             import jax
             import jax.numpy as jnp

@@ -4,8 +4,8 @@ The tile kernel's map sample finds, per variate pair, the row of the marginal CD
 column of that row's conditional CDF. The peer is a fixed-step bisection run in lock step over
 a block of 256 variates (``sampling._find_interval``'s ~10 + ~11 steps on a 1k map: the
 ``lockstep`` baseline below, what the kernel did before guide tables); the kernel scans from
-guide tables (Chen & Asau 1974; :func:`brdfkit.render._reflection_kernels.map_sampler`,
-:func:`brdfkit.render._reflection_kernels.map_guides`). Both run here on the same variates in
+guide tables (Chen & Asau 1974; the ``sample_texels`` of
+:func:`brdfkit.light.environment.compiled_lookups`). Both run here on the same variates in
 blocks of 256, alternating, best of ``--repeats``; the texels they find are checked equal. Run
 single-threaded (the kernels are serial anyway):
 
@@ -26,11 +26,12 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import kernel_tools
 from brdfkit.light import EnvironmentMap
-from brdfkit.render._reflection_kernels import BLOCK, map_guides, map_sampler
+from brdfkit.light.environment import compiled_lookups
+from brdfkit.render.compiled_shading import BLOCK
 
-select = accel._intrinsics()["_select"]
+select = kernel_tools.select()
 
 
 @numba.njit(nogil=True, error_model="numpy")
@@ -110,8 +111,9 @@ def measure(args: argparse.Namespace, map_name: str) -> dict:
             for _ in range(2))  # fmt: skip
     n = args.samples
     steps = (max(1, math.ceil(math.log2(height))) + 1, max(1, math.ceil(math.log2(width))) + 1)
-    guides = map_guides(d)
-    guided = _guided(map_sampler())
+    lookups = compiled_lookups(np.float32, kernel_tools)
+    guides = lookups.tables(env)[-2:]
+    guided = _guided(lookups.sample_texels)
     out = {name: (np.empty(n, np.int64), np.empty(n, np.int64)) for name in ("lockstep", "guide")}
     calls = {
         "lockstep": lambda: _lockstep(

@@ -7,7 +7,7 @@ the same camera, the same map at its own texel nodes and the matching BSDF (see
 :mod:`brdfkit.interop.mitsuba`).
 
 Per scene and spp (16, 64), brdfkit's :func:`~brdfkit.render.render_sphere` (``compiled=True``:
-the float32 kernel of :mod:`brdfkit.render._reflection_kernels`, where the BRDF compiles; the NumPy
+the float32 kernel of :mod:`brdfkit.render.compiled_shading`, where the BRDF compiles; the NumPy
 path where it does not, or with ``--numpy`` as well) and Mitsuba's ``mi.render`` alternate
 ``--repeats`` times with fresh seeds. Reported: seconds per image (the minimum; the kernels'
 build time apart, "compile s"), the relative RMSE against the renderer's *own* reference at
@@ -40,7 +40,7 @@ import numpy as np
 from brdfkit.interop import mitsuba as ms
 from brdfkit.light import EnvironmentMap
 from brdfkit.render import interior_mask, render_sphere
-from brdfkit.render._reflection_kernels import compiled_shader
+from brdfkit.render.compiled_shading import compiled_shader
 
 RESOLUTION = 256
 SPPS = (16, 64)
@@ -65,7 +65,7 @@ def bench_scene(mi: Any, scene: ms.Scene, env: EnvironmentMap, args: argparse.Na
     }
     compile_seconds = None
     plan = compiled_shader(scene.brdf, [env], method="auto")
-    if plan is not None:  # where brdfkit.compiled.kernels or render_table_kernel compiles the BRDF
+    if plan is not None:  # where brdfkit.compiled or the table kernels compile the BRDF
         start = time.perf_counter()
         plan[0].build()
         compile_seconds = time.perf_counter() - start

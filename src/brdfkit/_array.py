@@ -178,7 +178,7 @@ def normalize(a: Array) -> Array:
 
     The squared norm is floored at float32's smallest normal number before its square root
     (so vectors shorter than 1.1e-19 come out shorter than unit, never NaN): a division by a
-    square root, which the compiled path (:mod:`brdfkit.compiled.kernels`) turns into a
+    square root, which the compiled path (:mod:`brdfkit.compiled`) turns into a
     multiplication by a reciprocal square root."""
     xp = namespace(a)
     squared = dot(a, a, keepdims=True)

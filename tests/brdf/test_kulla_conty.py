@@ -22,7 +22,7 @@ from brdfkit.brdf.kulla_conty import (
 )
 from brdfkit.brdf.microfacet import FresnelTerm
 from brdfkit.brdf.random_walk import random_walk_albedo
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import compile
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import CONDUCTORS
 from brdfkit.geometry import spherical_to_cartesian
@@ -190,7 +190,7 @@ def test_compiled_path_matches_numpy():
     rng = np.random.default_rng(4)
     wi = spherical_to_cartesian(rng.random(500) * 1.55, rng.random(500) * 6)
     wo = spherical_to_cartesian(rng.random(500) * 1.55, rng.random(500) * 6)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-9, atol=1e-12)
     u = rng.random((500, 2))

@@ -217,14 +217,14 @@ def test_the_shipped_split_table_is_what_its_recipe_computes():
 
 @pytest.mark.slow  # numba compiles eval, pdf and sample: ~1-3 min on two busy cores
 def test_compiled_path_matches_numpy():
-    from brdfkit.compiled import kernels as accel
+    from brdfkit.compiled import compile
     from brdfkit.geometry import spherical_to_cartesian
 
     model = KullaContyDielectric(alpha=0.4, eta=1.5)
     rng = np.random.default_rng(4)
     wi = spherical_to_cartesian(rng.random(500) * 3.1, rng.random(500) * 6)
     wo = spherical_to_cartesian(rng.random(500) * 3.1, rng.random(500) * 6)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-9, atol=1e-12)
     u = rng.random((500, 3))

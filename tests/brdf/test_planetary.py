@@ -15,7 +15,7 @@ import pytest
 from brdfkit.brdf import Hapke, Lambertian, LommelSeeliger, Minnaert
 from brdfkit.brdf.hapke import chandrasekhar_h, henyey_greenstein
 from brdfkit.brdf.lommel_seeliger import lommel_seeliger_albedo
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import compile
 from brdfkit.geometry import spherical_to_cartesian
 from brdfkit.light import DirectionalLight
 from brdfkit.render import render_sphere
@@ -169,7 +169,7 @@ def test_compiled_path_matches_numpy(model):
     rng = np.random.default_rng(4)
     wi = spherical_to_cartesian(rng.random(500) * 1.55, rng.random(500) * 6)
     wo = spherical_to_cartesian(rng.random(500) * 1.55, rng.random(500) * 6)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-10)
     np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-10)
     u = rng.random((500, 2))

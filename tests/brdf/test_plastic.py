@@ -194,12 +194,12 @@ def test_parameters_are_checked():
 def test_compiled_path_matches_numpy():
     """(~1 min: numba compiles eval, pdf and sample of both models; the table lookup traces as
     63 ramps.)"""
-    from brdfkit.compiled import kernels as accel
+    from brdfkit.compiled import compile
 
     wi, wo = _upper(512, 8), _upper(512, 9)
     u = np.random.default_rng(10).random((512, 3))
     for model in (SmoothPlastic(**SMOOTH[0]), RoughPlastic(**ROUGH[0])):
-        compiled = accel.compile(model, dtype=np.float64)
+        compiled = compile(model, dtype=np.float64)
         np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-12)
         np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-12)
         ours, reference = compiled.sample(wo, u), model.sample(wo, u)

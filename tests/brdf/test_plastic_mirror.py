@@ -60,7 +60,7 @@ def test_equals_plain_mis_in_expectation(scene):
 
 def test_compiled_float64_equals_numpy(scene):
     pytest.importorskip("numba")
-    from brdfkit.render._reflection_kernels import reflected_radiance as compiled_radiance
+    from brdfkit.render.compiled_shading import reflected_radiance as compiled_radiance
 
     env, wo, n, t = scene
     model = SmoothPlastic(diffuse_reflectance=0.5)

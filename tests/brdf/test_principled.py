@@ -241,12 +241,12 @@ def test_lobes_switch_off():
 @pytest.mark.slow
 def test_compiled_path_matches_numpy():
     """(~20 s: numba compiles eval, pdf and sample.)"""
-    from brdfkit.compiled import kernels as accel
+    from brdfkit.compiled import compile
 
     model = Principled(**PARAMETER_SETS[-1])
     wi, wo = _upper(512, 8), _upper(512, 9)
     u = np.random.default_rng(10).random((512, 3))
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-12)
     np.testing.assert_allclose(compiled.pdf(wi, wo), model.pdf(wi, wo), rtol=1e-12)
     ours, reference = compiled.sample(wo, u), model.sample(wo, u)

@@ -7,7 +7,7 @@ import pytest
 
 from brdfkit.brdf import RoughConductor, ThinFilm
 from brdfkit.brdf.thin_film import airy_reflectance, belcour_barla_xyz, xyz_to_linear_srgb
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import compile
 from brdfkit.fresnel import fresnel_conductor
 from brdfkit.geometry import spherical_to_cartesian
 
@@ -212,7 +212,7 @@ def test_compiled_path_matches_numpy(wavelengths):
     rng = np.random.default_rng(4)
     wi = spherical_to_cartesian(rng.random(400) * 1.55, rng.random(400) * 6)
     wo = spherical_to_cartesian(rng.random(400) * 1.55, rng.random(400) * 6)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     np.testing.assert_allclose(compiled.eval(wi, wo), model.eval(wi, wo), rtol=1e-9, atol=1e-14)
 
 

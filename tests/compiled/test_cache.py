@@ -108,11 +108,11 @@ _PROCESS = textwrap.dedent(
     import json, sys
     import numpy as np
     from brdfkit.compiled import cache as kernel_cache
-    from brdfkit.compiled import kernels as accel
+    from brdfkit import compiled
     from brdfkit.brdf import MODELS
     wi = np.array([[0.3, 0.2, 0.9]]) / np.linalg.norm([0.3, 0.2, 0.9])
     wo = np.array([[-0.4, 0.1, 0.8]]) / np.linalg.norm([-0.4, 0.1, 0.8])
-    f = accel.compile(MODELS["ggx"](alpha=0.37, material="Au")).eval(wi, wo)
+    f = compiled.compile(MODELS["ggx"](alpha=0.37, material="Au")).eval(wi, wo)
     print(json.dumps({"stats": dict(kernel_cache.STATS), "f": f.tolist()}))
     """
 )

@@ -1,4 +1,4 @@
-"""The compiled path (brdfkit.compiled.kernels) reproduces the models' own NumPy values, and the
+"""The compiled path (brdfkit.compiled) reproduces the models' own NumPy values, and the
 chunked NumPy path is the model's eval with bounded memory. No timing here: see benchmarks/."""
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ pytest.importorskip("numba")
 
 from scipy import special
 
-import brdfkit.compiled.kernels as accel
 from brdfkit._array import erfinv, namespace, normalize, safe_div, safe_sqrt
 from brdfkit.brdf import (
     BeckmannConductor,
@@ -26,6 +25,8 @@ from brdfkit.brdf import (
     TorranceSparrow,
     Ward,
 )
+from brdfkit.compiled import compile, compile_function, compiled_brdf, eval_chunked
+from brdfkit.compiled import kernel as kernel_module
 from brdfkit.fresnel import conductor, fresnel_conductor
 
 
@@ -65,7 +66,7 @@ def test_eval_and_pdf_match_numpy_float64(make) -> None:
     model = make()
     rng = np.random.default_rng(0)
     wi, wo = directions(rng, 4000), directions(rng, 4000)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     # FMA contraction changes rounding at the 1e-16 level only.
     assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
     assert_close(compiled.pdf(wi, wo), model.pdf(wi, wo), 1e-12)
@@ -87,7 +88,7 @@ def test_sample_matches_numpy_float64(make) -> None:
     rng = np.random.default_rng(1)
     wo = directions(rng, 4000)
     u = rng.random((4000, 2))
-    ours = accel.compile(model, dtype=np.float64).sample(wo, u)
+    ours = compile(model, dtype=np.float64).sample(wo, u)
     theirs = model.sample(wo, u)
     assert_close(ours.wi, theirs.wi, 1e-12)
     assert_close(ours.weight, theirs.weight, 1e-10)
@@ -100,7 +101,7 @@ def test_float32_values_match_the_numpy_float32_path() -> None:
     model = gold_ggx(np.float32, masking="smith_separable")
     rng = np.random.default_rng(2)
     wi, wo = directions(rng, 20000, np.float32), directions(rng, 20000, np.float32)
-    compiled = accel.compile(model)
+    compiled = compile(model)
     ours = compiled.eval(wi, wo)
     theirs = model.eval(wi, wo)
     assert ours.dtype == theirs.dtype == np.float32
@@ -119,9 +120,9 @@ def test_vector_width_changes_the_code_not_the_values(bits, monkeypatch) -> None
     model = gold_ggx(np.float32, masking="smith_separable")
     rng = np.random.default_rng(4)
     wi, wo = directions(rng, 3000, np.float32), directions(rng, 3000, np.float32)
-    compiled = accel.compile(model)
+    compiled = compile(model)
     assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 64 * float(np.finfo(np.float32).eps))
-    kernel = compiled._kernel("eval")._function
+    kernel = compiled.kernel("eval").function
     assembly = kernel.inspect_asm(kernel.signatures[0])
     if "avx512f" in Path("/proc/cpuinfo").read_text():  # mostly 512-bit (zmm) or 256-bit (ymm)
         wide = assembly.count("zmm") > assembly.count("ymm")
@@ -133,7 +134,7 @@ def test_vector_width_setting_is_checked(monkeypatch) -> None:
     with pytest.raises(
         ValueError, match=r"BRDFKIT_VECTOR_BITS must be 128, 256 or 512; got '1024'"
     ):
-        accel.compile(gold_ggx(np.float32)).eval(np.array([0.0, 0.0, 1.0]), np.array([0, 0, 1.0]))
+        compile(gold_ggx(np.float32)).eval(np.array([0.0, 0.0, 1.0]), np.array([0, 0, 1.0]))
 
 
 def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
@@ -151,7 +152,7 @@ def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
         xp = namespace(v)
         return xp.sin(v), xp.cos(v)
 
-    kernel = accel.compile_function(sin_and_cos, (0,), np.float32)
+    kernel = compile_function(sin_and_cos, (0,), np.float32)
     sine, cosine = kernel(x)
     for ours, exact in (
         (sine, np.sin(x.astype(np.float64))),
@@ -162,7 +163,7 @@ def test_float32_sin_and_cos_are_within_4_ulp_and_vectorise() -> None:
         scale = np.maximum(np.abs(exact), 1e-3).astype(np.float32)
         assert np.max(np.abs(ours - exact) / np.spacing(scale)) <= 3.5
     assert "_sin32(" in kernel.source and "_cos32(" in kernel.source
-    assembly = kernel._function.inspect_asm(kernel._function.signatures[0])
+    assembly = kernel.function.inspect_asm(kernel.function.signatures[0])
     assert "sinf" not in assembly and "cosf" not in assembly  # no scalar libm calls
 
 
@@ -181,7 +182,7 @@ def test_max_and_min_propagate_nan_as_numpy_does(dtype) -> None:
         clamped = xp.clip(u, -1.0, 1.0)
         return xp.maximum(u, v), xp.minimum(u, v), clamped, xp.max(x, axis=-1)
 
-    kernel = accel.compile_function(ops, (2,), dtype)
+    kernel = compile_function(ops, (2,), dtype)
     high, low, clamped, reduced = kernel(pairs)
     np.testing.assert_array_equal(high, np.maximum(a, b))
     np.testing.assert_array_equal(low, np.minimum(a, b))
@@ -203,7 +204,7 @@ def test_guarded_division_and_root_compile_to_one_select_each(dtype) -> None:
             lambda x: safe_div(x[..., 0], x[..., 1]),
             lambda x: safe_sqrt(x[..., 0] * x[..., 1]),
         ):
-            kernel = accel.compile_function(fn, (2,), dtype)
+            kernel = compile_function(fn, (2,), dtype)
             (ours,) = kernel(pairs)
             np.testing.assert_array_equal(ours, fn(pairs))
             assert kernel.source.count("_select(") == 1
@@ -215,7 +216,7 @@ def test_integer_max_keeps_numbas_maximum() -> None:
         i = xp.astype(x, xp.int32)
         return xp.astype(xp.maximum(i[..., 0], i[..., 1]), x.dtype)
 
-    kernel = accel.compile_function(ops, (2,), np.float32)
+    kernel = compile_function(ops, (2,), np.float32)
     (high,) = kernel(np.array([[3.0, -4.0], [-1, 2]]))
     np.testing.assert_array_equal(high, [3.0, 2.0])
     assert "np.maximum(" in kernel.source and "_max(" not in kernel.source
@@ -228,7 +229,7 @@ def test_normalize_divides_by_a_reciprocal_square_root_in_float32_only(dtype) ->
     rng = np.random.default_rng(21)
     scales = 10.0 ** rng.uniform(-15, 15, (20_003, 1))
     v = np.concatenate([rng.normal(size=(20_003, 3)) * scales, np.zeros((5, 3))]).astype(dtype)
-    kernel = accel.compile_function(normalize, (3,), dtype)
+    kernel = compile_function(normalize, (3,), dtype)
     (ours,) = kernel(v)
     exact = (
         v.astype(np.float64)
@@ -251,7 +252,7 @@ def test_inverse_error_function_is_within_a_few_ulp(dtype, ulps) -> None:
             -1 + np.logspace(-16 if dtype == np.float64 else -7, -1, 1000),
         ]
     ).astype(dtype)
-    kernel = accel.compile_function(lambda v: (erfinv(v),), (0,), dtype)
+    kernel = compile_function(lambda v: (erfinv(v),), (0,), dtype)
     (ours,) = kernel(x)
     exact = special.erfinv(x.astype(np.float64))
     scale = np.maximum(np.abs(exact), np.finfo(dtype).tiny).astype(dtype)
@@ -276,7 +277,7 @@ def _assert_float32_sampling_budget(model32, model64, n: int, seed: int, quantil
     wo[:, 2] = np.abs(wo[:, 2])
     u = rng.random((n, 3), dtype=np.float32)
     exact = model64.sample(wo.astype(np.float64), u.astype(np.float64)).wi
-    ours = accel.compile(model32).sample(wo, u).wi
+    ours = compile(model32).sample(wo, u).wi
     theirs = model32.sample(wo, u).wi
     eps = float(np.finfo(np.float32).eps)
     for q in quantiles:
@@ -301,7 +302,7 @@ def test_albedo_matches_the_models_estimator() -> None:
     model = gold_ggx()
     wo = directions(np.random.default_rng(3), 5)
     wo[:, 2] = np.abs(wo[:, 2])
-    ours = accel.compile(model, dtype=np.float64).albedo(wo, samples=1024, chunk=2000)
+    ours = compile(model, dtype=np.float64).albedo(wo, samples=1024, chunk=2000)
     assert_close(ours, model.albedo(wo, samples=1024), 1e-10)
 
 
@@ -309,7 +310,7 @@ def test_results_reuse_memory_only_once_nothing_refers_to_it() -> None:
     """Kernels hand out pooled output memory again only when no array, view or buffer export
     of an earlier result is alive: a result never changes under its holder."""
     model = gold_ggx(np.float32)
-    compiled = accel.compile(model)
+    compiled = compile(model)
     rng = np.random.default_rng(9)
     wi, wo = directions(rng, 5000, np.float32), directions(rng, 5000, np.float32)
     wi2 = directions(rng, 5000, np.float32)
@@ -342,7 +343,7 @@ def test_component_major_arrays_are_read_and_written_in_place() -> None:
     fast-math contractions may differ by float32 rounding), results laid out the same way, an
     ``out=`` of that layout filled, and a mix of layouts served by the row-major kernel."""
     model = Lambertian([0.8, 0.5, 0.2]) + gold_ggx(np.float32)
-    compiled = accel.compile(model)
+    compiled = compile(model)
     rng = np.random.default_rng(12)
     n = 100_003  # several blocks on several threads, and a remainder
     wi, wo = directions(rng, n, np.float32), directions(rng, n, np.float32)
@@ -372,7 +373,7 @@ def test_concurrent_calls_from_several_threads_give_each_its_own_values() -> Non
     """Calls from several threads share the worker pool (and the output pool) safely."""
     from concurrent.futures import ThreadPoolExecutor
 
-    compiled = accel.compile(gold_ggx(np.float32))
+    compiled = compile(gold_ggx(np.float32))
     rng = np.random.default_rng(11)
     pairs = [
         (directions(rng, 100_000, np.float32), directions(rng, 100_000, np.float32))
@@ -391,7 +392,7 @@ def test_broadcasting_and_batch_shapes() -> None:
     rng = np.random.default_rng(4)
     wi = directions(rng, 60).reshape(3, 4, 5, 3)
     wo = directions(rng, 1)[0]
-    ours = accel.compile(model, dtype=np.float64).eval(wi, wo)
+    ours = compile(model, dtype=np.float64).eval(wi, wo)
     assert ours.shape == (3, 4, 5, 3)
     assert_close(ours, model.eval(wi, np.broadcast_to(wo, wi.shape)), 1e-12)
 
@@ -400,7 +401,7 @@ def test_out_argument_receives_the_values() -> None:
     model = gold_ggx()
     rng = np.random.default_rng(5)
     wi, wo = directions(rng, 100, np.float32), directions(rng, 100, np.float32)
-    compiled = accel.compile(model)
+    compiled = compile(model)
     out = np.full((100, 3), np.nan, dtype=np.float32)
     result = compiled.eval(wi, wo, out=out)
     assert result is out
@@ -417,7 +418,7 @@ def test_compile_function_on_a_plain_array_api_function() -> None:
         return fresnel_conductor(w[..., 2:3], eta, k)
 
     w = directions(np.random.default_rng(6), 500)
-    kernel = accel.compile_function(fresnel, (3,), np.float64)
+    kernel = compile_function(fresnel, (3,), np.float64)
     (ours,) = kernel(w)
     assert_close(ours, fresnel(w), 1e-12)
     assert "def kernel" in kernel.source
@@ -426,7 +427,7 @@ def test_compile_function_on_a_plain_array_api_function() -> None:
 
 def test_spatially_varying_parameters_are_rejected() -> None:
     texture = np.full((4, 5, 3), 0.5)
-    compiled = accel.compile(Lambertian(texture))
+    compiled = compile(Lambertian(texture))
     w = np.array([0.0, 0.0, 1.0])
     with pytest.raises(ValueError, match="do not vary over it"):
         compiled.eval(w, w)
@@ -436,15 +437,15 @@ def test_unsupported_primitive_is_named() -> None:
     import jax.numpy as jnp
 
     with pytest.raises(ValueError, match="'cumsum' is not supported"):
-        accel.compile_function(lambda w: jnp.cumsum(w, axis=-1), (3,), np.float32)
+        compile_function(lambda w: jnp.cumsum(w, axis=-1), (3,), np.float32)
 
 
 def test_bad_arguments() -> None:
     with pytest.raises(ValueError, match="model must be a brdfkit BRDF"):
-        accel.compile(object())
+        compile(object())
     with pytest.raises(ValueError, match="dtype must be float32 or float64"):
-        accel.compile(Lambertian(), dtype=np.int32)
-    compiled = accel.compile(Lambertian())
+        compile(Lambertian(), dtype=np.int32)
+    compiled = compile(Lambertian())
     with pytest.raises(ValueError, match="wi must have a last axis of length 3"):
         compiled.eval(np.zeros((4, 2)), np.zeros((4, 3)))
     with pytest.raises(ValueError, match="u must have a last axis of length 2 or 3"):
@@ -460,12 +461,12 @@ def test_eval_chunked_equals_eval_and_keeps_float32() -> None:
     wi, wo = directions(rng, 10_001, np.float32), directions(rng, 10_001, np.float32)
     expected = model.eval(wi, wo)
     for workers in (1, 2):
-        got = accel.eval_chunked(model, wi, wo, chunk=1000, workers=workers)
+        got = eval_chunked(model, wi, wo, chunk=1000, workers=workers)
         assert got.dtype == np.float32
         np.testing.assert_array_equal(got, expected)
     wo_one = wo[0]
     np.testing.assert_array_equal(
-        accel.eval_chunked(model, wi, wo_one, chunk=777), model.eval(wi, wo_one)
+        eval_chunked(model, wi, wo_one, chunk=777), model.eval(wi, wo_one)
     )
 
 
@@ -481,7 +482,7 @@ def test_eval_chunked_memory_is_bounded_by_the_chunk() -> None:
         out = np.empty((n, 3), dtype=np.float32)
         tracemalloc.start()
         try:
-            accel.eval_chunked(model, wi, wo, chunk=chunk, out=out)
+            eval_chunked(model, wi, wo, chunk=chunk, out=out)
             peaks.append(tracemalloc.get_traced_memory()[1])
         finally:
             tracemalloc.stop()
@@ -494,11 +495,11 @@ def test_eval_chunked_bad_arguments() -> None:
     model = Lambertian()
     w = np.zeros((10, 3))
     with pytest.raises(ValueError, match="chunk must be >= 1"):
-        accel.eval_chunked(model, w, w, chunk=0)
+        eval_chunked(model, w, w, chunk=0)
     with pytest.raises(ValueError, match="workers must be >= 1"):
-        accel.eval_chunked(model, w, w, workers=0)
+        eval_chunked(model, w, w, workers=0)
     with pytest.raises(ValueError, match="out must be a C-contiguous array"):
-        accel.eval_chunked(model, w, w, out=np.empty((10, 2)))
+        eval_chunked(model, w, w, out=np.empty((10, 2)))
 
 
 def _no_second_build(*args, **kwargs):
@@ -517,14 +518,14 @@ def test_a_second_parameter_set_of_one_structure_reuses_the_kernels(dtype, monke
     rng = np.random.default_rng(7)
     wi, wo = directions(rng, 3000, dtype), directions(rng, 3000, dtype)
     u = rng.random((3000, 2)).astype(dtype)
-    a = accel.compile(first, dtype)
+    a = compile(first, dtype)
     a.eval(wi, wo), a.pdf(wi, wo), a.sample(wo, u)
-    b = accel.compile(second, dtype)
+    b = compile(second, dtype)
     assert all(b.built(m, w) for m, w in (("eval", 0), ("pdf", 0), ("sample", 2)))
     assert b.shares("eval") and b.shares("sample", 2)
-    monkeypatch.setattr(accel, "_compile", _no_second_build)
-    monkeypatch.setattr(accel, "_numba_kernel", _no_second_build)
-    assert b._kernel("eval")._function is a._kernel("eval")._function
+    monkeypatch.setattr(compiled_brdf, "compile_traced", _no_second_build)
+    monkeypatch.setattr(kernel_module, "numba_kernel", _no_second_build)
+    assert b.kernel("eval").function is a.kernel("eval").function
     assert b.compile_seconds == 0
     rtol = 1e-11 if dtype == np.float64 else 64 * float(np.finfo(np.float32).eps)
     for compiled, model in ((b, second), (a, first)):
@@ -543,7 +544,7 @@ def test_a_constructor_that_needs_values_bakes_them_in() -> None:
     model = CookTorrance(m=0.25, diffuse=0.2)  # which terms it has depends on diffuse's value
     rng = np.random.default_rng(8)
     wi, wo = directions(rng, 1000), directions(rng, 1000)
-    compiled = accel.compile(model, dtype=np.float64)
+    compiled = compile(model, dtype=np.float64)
     assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
-    assert compiled._kernel("eval").parameters.size == 0  # values baked in
+    assert compiled.kernel("eval").parameters.size == 0  # values baked in
     assert not compiled.shares("eval")

@@ -167,13 +167,13 @@ def test_the_fit_evaluates_compiled_where_one_kernel_serves_every_parameter_set(
     """Once :func:`~brdfkit.fit.analytic.build_kernels` has run, Lambertian + GGX by its compiled
     kernel (the same values to rounding); Cook–Torrance, whose constructor reads ``diffuse``'s value
     (a kernel per parameter set), by NumPy."""
-    from brdfkit.compiled import kernels as accel
+    from brdfkit import compiled
 
     wi, wo = hemisphere_pairs(3000, 3)
     model = parse(spec)
     fitting.build_kernels(model)
     ours, theirs = fitting._evaluated(model, wi, wo), np.asarray(model.eval(wi, wo))
-    if accel.compile(model, np.float64).shares("eval"):
+    if compiled.compile(model, np.float64).shares("eval"):
         assert spec == MODEL
         np.testing.assert_allclose(ours, theirs, rtol=1e-13, atol=0)
     else:

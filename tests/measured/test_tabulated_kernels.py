@@ -12,10 +12,9 @@ pytest.importorskip("numba")
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.brdf.base import Scaled
 from brdfkit.light import EnvironmentMap
-from brdfkit.measured import TabulatedBRDF
-from brdfkit.measured._tabulated_kernels import _atan2_32, _prefetch, table_kernels
+from brdfkit.measured import TabulatedBRDF, table_kernels
 from brdfkit.render import Sphere, gbuffer, shade
-from brdfkit.render._reflection_kernels import compiled_shader, kernels_built
+from brdfkit.render.compiled_shading import compiled_shader, kernels_built
 from brdfkit.sampling import square_to_uniform_sphere
 
 COPPER = RoughConductor(alpha=0.3, material="Cu", masking="smith_separable")
@@ -119,52 +118,6 @@ def test_scaled_table_scales_values_and_weights(table):
     assert table_kernels(COPPER, np.float64) is None
 
 
-def test_float32_atan2_within_a_few_ulp():
-    rng = np.random.default_rng(4)
-    y, x = (
-        (rng.standard_normal(100_000) * 10.0 ** rng.integers(-3, 3, 100_000)).astype(np.float32)
-        for _ in range(2)
-    )
-    x[:8] = [0, -0.0, 1, -1, 0, 1e-30, -3, 2]
-    y[:8] = [0, 1, 0, 0, -2, 1e-30, 0, -0.0]
-    import numba
-
-    atan2 = _atan2_32()
-
-    @numba.njit
-    def each(a, b, out):
-        for i in range(a.size):
-            out[i] = atan2(a[i], b[i])
-
-    found = np.empty_like(y)
-    each(y, x, found)
-    exact = np.arctan2(y.astype(np.float64), x.astype(np.float64))
-    ulp = np.spacing(np.abs(exact).astype(np.float32)).astype(np.float64)
-    assert np.max(np.abs(found - exact) / np.maximum(ulp, 1e-45)) < 4
-
-
-def test_prefetch_is_llvm_prefetch_and_leaves_values_alone():
-    import numba
-
-    prefetch = _prefetch()
-
-    @numba.njit
-    def total(values, rows):
-        s = 0.0
-        for j in range(rows.size):
-            if j + 2 < rows.size:
-                prefetch(values, rows[j + 2])
-            s += values[rows[j]]
-        return s
-
-    values = np.arange(1000, dtype=np.float32).reshape(250, 4).reshape(-1)
-    rows = np.array([3, 999, 0, 512, 7])
-    assert total(values, rows) == float(values[rows].sum())
-    assert "llvm.prefetch" in total.inspect_llvm(total.signatures[0])
-    with pytest.raises(numba.TypingError):  # a strided view: no element pointer arithmetic
-        total(values[::2], rows)
-
-
 def test_sampler_is_unbiased(table):
     """E[weight] = ∫ f cos θi dω (the directional albedo), by quadrature of the NumPy eval."""
     wo = np.array([math.sin(0.9), 0.0, math.cos(0.9)])
@@ -225,7 +178,7 @@ def test_render_converges_to_the_numpy_reference(table):
 
 def test_broadcast_eval_in_chunks_equals_one_kernel_call(table):
     """``TableKernels.eval`` (the control variate's floor) runs in chunks of EVAL_CHUNK pairs
-    on accel's threads: over several chunks and a partial one, bit-identical to one call
+    on the kernels' threads: over several chunks and a partial one, bit-identical to one call
     over all pairs."""
     from brdfkit.measured._tabulated_kernels import EVAL_CHUNK
 

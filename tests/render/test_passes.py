@@ -11,7 +11,7 @@ import pytest
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.light import EnvironmentMap
 from brdfkit.render import Pass, Sphere, gbuffer, progressive, progressive_sphere, shade
-from brdfkit.render._reflection_kernels import kernels_built
+from brdfkit.render.compiled_shading import kernels_built
 from brdfkit.render.passes import _pass_seed
 from brdfkit.render.reflection_equation import FLOOR_DIRECTIONS
 

@@ -18,16 +18,12 @@ from brdfkit.render import (
     render_sphere,
     shade,
 )
-from brdfkit.render._reflection_kernels import (
-    COLUMN_BUCKETS,
-    ROW_BUCKETS,
+from brdfkit.render.compiled_shading import (
     EnvironmentShader,
     compiled_shader,
     kernels_built,
-    map_guides,
-    map_sampler,
 )
-from brdfkit.render._reflection_kernels import reflected_radiance as compiled_radiance
+from brdfkit.render.compiled_shading import reflected_radiance as compiled_radiance
 
 GOLD = RoughConductor(alpha=0.2, material="Au", masking="smith_separable")
 
@@ -206,15 +202,20 @@ def test_auto_compiles_only_large_renders_or_models_already_built():
 
 
 def test_a_second_parameter_set_reuses_the_shading_kernels(monkeypatch):
-    import brdfkit.compiled.kernels as accel
+    from brdfkit.compiled import compiled_brdf
+    from brdfkit.compiled import kernel as kernel_module
 
     first = RoughConductor(alpha=0.25, material="Cu", masking="smith_separable")
     second = RoughConductor(alpha=0.6, material="Cu", masking="smith_separable")
     env = _map()
     EnvironmentShader(first, env, dtype=np.float64).build()
     assert kernels_built(second, np.float64)
-    monkeypatch.setattr(accel, "_compile", lambda *a, **k: pytest.fail("compiled again"))
-    monkeypatch.setattr(accel, "_numba_kernel", lambda *a, **k: pytest.fail("compiled again"))
+    monkeypatch.setattr(
+        compiled_brdf, "compile_traced", lambda *a, **k: pytest.fail("compiled again")
+    )
+    monkeypatch.setattr(
+        kernel_module, "numba_kernel", lambda *a, **k: pytest.fail("compiled again")
+    )
     g = gbuffer(Sphere(), None, 12)
     for model in (second, first):
         expected = shade(g, model, env, samples=8, seed=5, compiled=False)
@@ -254,82 +255,12 @@ def test_render_sphere_keeps_the_set_up_of_the_most_recent_inputs(monkeypatch):
     np.testing.assert_array_equal(render_sphere(GOLD, env, 16, seed=4, **kwargs), again)
 
 
-def _map_texels(distribution, a, b, guides):
-    """The compiled map sample's rows and columns (render_kernel.map_sampler)."""
-    n = a.size
-    height, width = distribution.shape
-    rows, cols, base = (np.empty(n, np.int64) for _ in range(3))
-    map_sampler()(
-        a, b, distribution._marginal, distribution._conditional, *guides, height, width, n,
-        rows, cols, base,
-    )  # fmt: skip
-    np.testing.assert_array_equal(base, rows * (width + 1))
-    return rows, cols
-
-
-def test_guide_table_map_sample_finds_the_bisection_texels():
-    """The guide-table search of a map sample finds the NumPy bisection's row and column
-    (sampling._find_interval, Distribution2D.sample's) for every variate: empty rows (the
-    first and the last included), empty texels at the start, end and inside rows, variates on
-    CDF nodes, 0 and just below 1; and it does so from any guide (only the scan length
-    depends on it)."""
-    rng = np.random.default_rng(7)
-    image = rng.random((24, 40)) ** 3
-    image[[0, 5, 6, 11, -1]] = 0.0  # empty rows: flat runs of the marginal
-    image[:, [0, 1, 17, 18, 19, -1]] = 0.0  # empty first, inner and last texels of each row
-    image[3, 2:30] = 0.0
-    image[7, :] = 0.0
-    image[7, 20] = 4.0  # a row with one texel
-    distribution = sampling.Distribution2D(image)
-    marginal, conditional = distribution._marginal, distribution._conditional
-    height, width = distribution.shape
-    below_one = 1 - np.finfo(np.float64).eps / 2
-    n = 20_000
-    a, b = rng.random(n), rng.random(n)
-    b[: height + 1] = np.minimum(marginal, below_one)  # on the marginal's nodes
-    rows_on_nodes = np.flatnonzero(np.diff(marginal) > 0)
-    b[height + 1 : 2 * height + 1] = 0.5 * (marginal[rows_on_nodes[0]]
-                                            + marginal[rows_on_nodes[0] + 1])  # fmt: skip
-    a[height + 1 : 2 * height + 1] = rng.random(height)
-    # each row's conditional nodes, with b in that row
-    for i, row in enumerate(rows_on_nodes):
-        at = slice(1000 + i * (width + 1), 1000 + (i + 1) * (width + 1))
-        b[at] = marginal[row] + 0.5 * (marginal[row + 1] - marginal[row])
-        a[at] = np.minimum(conditional[row * (width + 1) : (row + 1) * (width + 1)], below_one)
-    a[-4:], b[-4:] = [0.0, below_one, 0.0, below_one], [0.0, 0.0, below_one, below_one]
-    expected_rows = sampling._find_interval(marginal, np.zeros(n, np.int64), b, height)
-    expected_cols = sampling._find_interval(conditional, expected_rows * (width + 1), a, width)
-    assert np.all(image[expected_rows, expected_cols] > 0)
-    rows, cols = _map_texels(distribution, a, b, map_guides(distribution))
-    np.testing.assert_array_equal(rows, expected_rows)
-    np.testing.assert_array_equal(cols, expected_cols)
-    for row_buckets, col_buckets in ((1, 1), (7, 3), (4 * height, 8)):
-        guides = (
-            rng.integers(0, height, row_buckets).astype(np.int32),
-            rng.integers(0, width, height * col_buckets).astype(np.int32),
-        )
-        rows, cols = _map_texels(distribution, a, b, guides)
-        np.testing.assert_array_equal(rows, expected_rows)
-        np.testing.assert_array_equal(cols, expected_cols)
-
-
-def test_map_guides_are_built_once_per_map():
-    env = _map()
-    distribution = env.compensated._distribution  # the shader's MIS samples the compensated map
-    row_guide, col_guide = map_guides(distribution)
-    height, width = distribution.shape
-    assert row_guide.shape == (ROW_BUCKETS * height,)
-    assert col_guide.shape == (COLUMN_BUCKETS * width * height,)
-    shader = EnvironmentShader(GOLD, env)
-    assert shader._tables[-2] is row_guide and shader._tables[-1] is col_guide
-
-
 @pytest.mark.parametrize("count", [1, 255, 1024, 1025, 7300, 9472])
 @pytest.mark.parametrize("workers", [1, 2, 3])
 def test_task_bounds_split_a_tile_evenly(count, workers):
     """The thread pool's tasks over a tile: contiguous, covering it, at most _CHUNK pixels
     each, a multiple of the workers in number, and equal in size to within a pixel."""
-    from brdfkit.render._reflection_kernels import _CHUNK, _task_bounds
+    from brdfkit.render.compiled_shading import _CHUNK, _task_bounds
 
     bounds = np.array(_task_bounds(count, workers))
     sizes = np.diff(bounds)

@@ -578,7 +578,7 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
     of safeguarded Newton steps on :math:`\log(1-\mathrm{CDF})` in :math:`-\log\cos^2\theta`
     (:meth:`_invert_cdf`), three on a 12-point CDF (relative error ≤ 2e-6), then two on the
     exact 24-point one (one and one in float32); the CDF error is at rounding (≤ 6e-15 in
-    float64, ≤ 3e-7 in float32), and the sampler compiles (:mod:`brdfkit.compiled.kernels`). There
+    float64, ≤ 3e-7 in float32), and the sampler compiles (:mod:`brdfkit.compiled`). There
     is no visible-normal sampler.
 
     Parameters
@@ -685,7 +685,7 @@ class TorranceSparrowGaussian(MicrofacetDistribution):
         integral (which keeps θ's relative precision as u → 0), above it from the tail, so that
         h is accurate to rounding where it matters. The steps (:data:`_GAUSSIAN_NEWTON_STEPS`)
         run on the 12-point CDF first, then on the 24-point one; with no data-dependent exit,
-        the iteration traces to one branch-free expression for :mod:`brdfkit.compiled.kernels`.
+        the iteration traces to one branch-free expression for :mod:`brdfkit.compiled`.
         """
         xp = namespace(m, u)
         eps = float(xp.finfo(u.dtype).eps)

@@ -1,24 +1,26 @@
 """An on-disk cache of the compiled kernels, so that building them is paid once per machine.
 
-:mod:`brdfkit.compiled.kernels` traces a model's code with JAX and compiles the generated source
-with numba; :mod:`brdfkit.render._reflection_kernels` compiles a tile kernel around those kernels.
-Both cost seconds per model structure, every process. numba's own ``cache=True`` cannot help: it
-keys its files on a function's source file (the generated code has none) and on a pickle of a
-closure's cells (a compiled function pickles with a random id, so it never matches in the next
-process). This module gives a numba dispatcher a cache keyed instead by a string the caller
-computes from everything the machine code depends on (the generated source, its constants,
-the tile's options), under a folder that names the version of brdfkit's code, numba and
-Python; numba adds the CPU (its own "magic tuple") to each entry. It also keeps small JSON
-records (the generated source of a model structure's kernel), so that a warm process does not
-even trace.
+:mod:`brdfkit.compiled` traces a model's code with JAX and compiles the generated source with
+numba; the render's tile kernel (``render/_reflection_kernels.py``) is compiled around those
+kernels. Both cost seconds per model structure, every process. numba's own ``cache=True``
+cannot help: it keys its files on a function's source file (the generated code has none) and
+on a pickle of a closure's cells (a compiled function pickles with a random id, so it never
+matches in the next process). This module gives a numba dispatcher a cache keyed instead by a
+string the caller computes from everything the machine code depends on (the generated
+source, its constants, the tile's options), under a folder that names the version of
+brdfkit's code, numba and Python; numba adds the CPU (its own "magic tuple") to each entry.
+It also keeps small JSON records (the generated source of a model structure's kernel), so
+that a warm process does not even trace.
 
 The folder is ``$BRDFKIT_CACHE_DIR`` if set (empty: no disk cache), else
 ``platformdirs.user_cache_dir("brdfkit")``, then ``kernels/<version>``. Files are written
 atomically (numba's own temporary-and-rename; :func:`brdfkit.io.atomic_write` for records), so
 processes building the same kernel at once are safe. A folder that cannot be written, or an
-entry that cannot be read (corrupt, truncated, another numba), degrades to compiling in memory
-with no error; :data:`STATS` counts what happened. Version folders of this cache unused for
-:data:`STALE_DAYS` are removed (only folders holding this cache's marker file).
+entry that cannot be read (corrupt, truncated, another numba), degrades to compiling in
+memory with no error; :data:`STATS` counts what happened. numba's cache classes are
+subclassed in ``compiled/_numba.py``, which warns where they have changed. Version folders of
+this cache unused for :data:`STALE_DAYS` are removed (only folders holding this cache's
+marker file).
 
 References
 ----------
@@ -39,9 +41,10 @@ import threading
 import time
 import weakref
 from collections.abc import Callable
-from importlib import metadata
 from pathlib import Path
 from typing import Any
+
+from brdfkit.compiled import _numba
 
 ENV = "BRDFKIT_CACHE_DIR"
 """Environment variable overriding the cache folder (an empty value turns the cache off)."""
@@ -60,22 +63,21 @@ _KEYS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
 
 
 _APPLICATION = frozenset(
-    {"cli", "explore", "vision", "distributed", "report.py", "plot.py", "fit.py", "fit_select.py"}
+    {"cli", "explore", "report", "distributed", "fit", "vision", "interop", "checks", "plot.py"}
 )
-"""brdfkit's application layers (first path component in the package): code no kernel's
-trace or template reaches, left out of :func:`version` so that editing them keeps the cache."""
+"""brdfkit's packages and modules (first path component) that no kernel's trace or source
+reaches, left out of :func:`version` so that editing them keeps the cache."""
 
 
 @functools.cache
 def version() -> str:
     """A hash of everything the cached kernels depend on besides their key: the source of
-    every module of brdfkit but its application layers (the models, the tracer, the kernels'
-    templates: :data:`_APPLICATION`), numba, llvmlite and Python. The versions come from the
-    installed packages' metadata: importing numba only to read its version cost ~0.3 s in
-    each of the atlas's worker processes."""
-    numba, llvmlite = metadata.version("numba"), metadata.version("llvmlite")
-    digest = hashlib.sha256(f"{numba}|{llvmlite}|{sys.version}".encode())
-    package = Path(__file__).parent
+    every module of brdfkit but those of :data:`_APPLICATION` (the models, the tracer, the
+    hand-written kernels), the numba toolchain's versions and Python's. The versions are read
+    from the installed packages' metadata, so that a process asking for the cache's version
+    (the atlas's workers) does not import numba."""
+    digest = hashlib.sha256(f"{_numba.toolchain()}|{sys.version}".encode())
+    package = Path(__file__).parents[1]
     for path in sorted(package.rglob("*.py")):
         relative = path.relative_to(package)
         if relative.parts[0] in _APPLICATION:
@@ -161,17 +163,22 @@ def key_of(dispatcher: Any) -> str | None:
 
 def enable(dispatcher: Any, cache_key: str) -> bool:
     """Give a numba dispatcher (not yet compiled) the disk cache of ``cache_key``; ``False``
-    (and nothing changed) where the cache is off or cannot be written."""
+    (and nothing changed) where the cache is off or cannot be written, or where numba's
+    cache could not be installed (:func:`brdfkit.compiled._numba.install_keyed_cache` warns
+    then)."""
     path = _entry(cache_key)
     if path is None:
         return False
-    try:
-        dispatcher._cache = _keyed_cache_class()(dispatcher.py_func, cache_key, path)
-    except Exception:  # numba's internals changed: compile in memory
+    if not _numba.install_keyed_cache(dispatcher, cache_key, path, _count):
         STATS["errors"] += 1
         return False
     _KEYS[dispatcher] = cache_key
     return True
+
+
+def _count(event: str) -> None:
+    """One more ``event`` of the numba entries in :data:`STATS`."""
+    STATS[event] += 1
 
 
 def njit(py_func: Callable[..., Any], cache_key: str, **options: Any) -> Any:
@@ -181,80 +188,6 @@ def njit(py_func: Callable[..., Any], cache_key: str, **options: Any) -> Any:
     dispatcher = numba.njit(**options)(py_func)
     enable(dispatcher, cache_key)
     return dispatcher
-
-
-@functools.cache
-def _keyed_cache_class() -> type:
-    """numba's per-function cache, keyed by our key and stored in our folder (a subclass of
-    its ``FunctionCache`` that needs no source file and does not pickle closures)."""
-    from numba.core.caching import (
-        CompileResultCacheImpl,
-        FunctionCache,
-        IndexDataCacheFile,
-        _CacheLocator,
-    )
-
-    class Locator(_CacheLocator):
-        def __init__(self, path: Path) -> None:
-            self._path = str(path)
-            self._py_file = "<brdfkit kernel>"
-
-        def get_cache_path(self) -> str:
-            return self._path
-
-        def get_source_stamp(self) -> str:
-            return "brdfkit"  # the key (the folder's name) already says what the code is
-
-        def get_disambiguator(self) -> str:
-            return ""
-
-        @classmethod
-        def from_function(cls, py_func: Any, py_file: str) -> None:
-            return None
-
-    class Impl(CompileResultCacheImpl):
-        def __init__(self, py_func: Any, path: Path) -> None:
-            self._lineno = py_func.__code__.co_firstlineno
-            self._locator = Locator(path)
-            self._filename_base = self.get_filename_base("kernel", getattr(sys, "abiflags", ""))
-
-    class KeyedCache(FunctionCache):
-        def __init__(self, py_func: Any, cache_key: str, path: Path) -> None:
-            self._name = repr(py_func)
-            self._py_func = py_func
-            self._key = cache_key
-            self._impl = Impl(py_func, path)
-            self._cache_path = str(path)
-            self._cache_file = IndexDataCacheFile(
-                cache_path=str(path),
-                filename_base=self._impl.filename_base,
-                source_stamp=self._impl.locator.get_source_stamp(),
-            )
-            self.enable()
-
-        def _index_key(self, sig: Any, codegen: Any) -> tuple[Any, ...]:
-            return (sig, codegen.magic_tuple(), self._key)
-
-        def load_overload(self, sig: Any, target_context: Any) -> Any:
-            try:
-                data = super().load_overload(sig, target_context)
-            except Exception:  # a corrupt or foreign entry: compile, then overwrite it
-                STATS["errors"] += 1
-                return None
-            STATS["hits" if data is not None else "misses"] += 1
-            return data
-
-        def save_overload(self, sig: Any, data: Any) -> None:
-            try:
-                super().save_overload(sig, data)
-            except Exception:
-                try:  # an unreadable index: a fresh one, then the entry
-                    self._cache_file.flush()
-                    super().save_overload(sig, data)
-                except Exception:  # unwritable (disk full, permissions): kept in memory
-                    STATS["errors"] += 1
-
-    return KeyedCache
 
 
 # --------------------------------------------------------------------------- JSON records

@@ -364,7 +364,7 @@ class Session:
         the map's tables and the compiled kernels of the very BRDF objects the page's
         messages resolve to (:meth:`brdf` keeps them by spec; kernels are kept per object).
         In a fresh process the first passes otherwise run on NumPy while the kernels build."""
-        from brdfkit.render._reflection_kernels import compiled_shader
+        from brdfkit.render.compiled_shading import compiled_shader
 
         for spec in specs or ["lambertian + ggx"]:
             try:

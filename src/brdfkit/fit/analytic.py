@@ -3,7 +3,7 @@ r"""Fitting analytic BRDF models to measured data.
 Any registered model, or a sum of them (``"lambertian + cook_torrance"``), is fitted to any
 measured BRDF (:mod:`brdfkit.measured`) or set of samples by nonlinear least squares
 (:func:`scipy.optimize.least_squares`, trust-region reflective with bounds, finite-difference
-Jacobian, float64; the model evaluated by its :mod:`brdfkit.compiled.kernels` kernel where one
+Jacobian, float64; the model evaluated by its :mod:`brdfkit.compiled` kernel where one
 serves all its parameter values, by NumPy otherwise).
 Objectives, with :math:`c_i = \cos\theta_i` and the measured/model values :math:`f, \hat f`
 per sample and channel:
@@ -388,11 +388,11 @@ def _evaluated(model: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     A fit evaluates its model hundreds of times, and its errors on all the measurements: NumPy
     runs a model one operation at a time, each writing a full-size temporary array, where the
     kernel makes one pass. The values differ by 10⁻¹⁵–10⁻¹³ relative (the kernels' fast-math
-    contractions and reassociation, :data:`brdfkit.compiled.kernels._FASTMATH`).
+    contractions and reassociation, :data:`brdfkit.compiled.jit.FASTMATH`).
     """
-    from brdfkit.compiled import kernels as accel
+    from brdfkit.compiled import compile
 
-    compiled = accel.compile(model, np.float64)
+    compiled = compile(model, np.float64)
     try:
         if compiled.cached("eval") and compiled.shares("eval"):
             return compiled.eval(wi, wo)
@@ -410,12 +410,12 @@ def build_kernels(model: BRDF | str) -> None:
     kernels cannot compile, is recorded as such and stays on NumPy.
     """
     from brdfkit.brdf import parse
-    from brdfkit.compiled import kernels as accel
+    from brdfkit.compiled import compile
 
     model = parse(model) if isinstance(model, str) else model
     for candidate in (model, *(lobe.inner for lobe in _lobes(model))):
         try:
-            accel.compile(candidate, np.float64).shares("eval")
+            compile(candidate, np.float64).shares("eval")
         except ValueError:  # a primitive the kernels do not take: NumPy
             pass
 

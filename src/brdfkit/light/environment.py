@@ -348,6 +348,17 @@ def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> tuple[np.ndarray
     return moments.astype(np.float32), per_cell(np.ones(height * width)).astype(np.float32)
 
 
+def compiled_lookups(dtype: Any, tools: Any) -> Any:
+    """This module's lookups as numba functions for compiled kernels in ``dtype``: the map
+    coordinates of a direction, the bilinear radiance, the pdf and the map's sampling, and
+    ``tables(env)``, the arrays they read (``light/_environment_kernels.py``; tests bind each
+    function to the code here). ``tools`` is :mod:`brdfkit.compiled.kernel_tools`, handed in
+    by the caller (the compiled layer sits above this one)."""
+    from brdfkit.light import _environment_kernels
+
+    return _environment_kernels.lookups(np.dtype(dtype).type, tools)
+
+
 def _clamped_sum(normals: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """Σ_c max(n·v_c, 0) for each of ``normals`` ``(N, 3)`` over ``vectors`` ``(3, cells)``."""
     dots = normals @ vectors
@@ -399,4 +410,5 @@ def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndar
 
 __all__ = [
     "EnvironmentMap",
+    "compiled_lookups",
 ]

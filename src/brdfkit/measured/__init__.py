@@ -20,6 +20,7 @@ import os
 from pathlib import Path
 
 from brdfkit.errors import FormatError
+from brdfkit.measured._tabulated_kernels import TableKernels, table_kernels
 from brdfkit.measured.cornell import read_cornell, read_cornell_samples
 from brdfkit.measured.merl import MERL_SCALE, MERL_SHAPE, merl_values, read_merl, write_merl
 from brdfkit.measured.rgl import RGLBRDF, read_rgl, read_tensor_file
@@ -79,6 +80,7 @@ __all__ = [
     "RGLBRDF",
     "CosineSampled",
     "MeasuredSamples",
+    "TableKernels",
     "TabulatedBRDF",
     "lookup",
     "merl_values",
@@ -89,5 +91,6 @@ __all__ = [
     "read_rgl",
     "read_tensor_file",
     "spectrum_to_rgb_matrix",
+    "table_kernels",
     "write_merl",
 ]

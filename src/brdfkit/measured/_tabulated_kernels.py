@@ -1,32 +1,41 @@
-r"""Tabulated (MERL-layout) BRDFs on the compiled shading path.
+r"""A tabulated (MERL-layout) BRDF's ``eval``, ``pdf`` and ``sample`` as numba kernels.
 
-:mod:`brdfkit.compiled.kernels` traces array-API code; a table lookup (gathers at computed indices)
-and a CDF search cannot be traced, so this module writes the
-:class:`~brdfkit.measured.TabulatedBRDF`'s ``eval``, ``pdf`` and ``sample`` once as numba
-functions with the calling convention of the kernels :mod:`brdfkit.render._reflection_kernels`'s
-tile kernel calls (flat buffers of a block of pixels, then the table's arrays as trailing
-arguments: the table is a kernel *input*, never a compile-time constant, so one compilation
-serves every table of the same rank, channel count and interpolation).
+:func:`brdfkit.compiled.compile` traces array-API code; a table lookup (gathers at computed
+indices) and a CDF search cannot be traced, so this module writes the
+:class:`~brdfkit.measured.TabulatedBRDF`'s methods once for numba, with the calling
+convention of the BRDF kernels the render's tile kernel calls
+(:mod:`brdfkit.render.compiled_shading`): ``fn(parameters, *inputs, *outputs, n, *data)`` on
+flat buffers of a block of pixels, the table's arrays trailing (``data``: the table is a
+kernel *input*, never a compile-time constant, so one compilation serves every table of the
+same rank, channel count and interpolation). :func:`table_kernels` gives them, with their
+arguments, for a table or a constant multiple of one.
 
-Each function re-expresses, operation by operation and in the kernel's dtype, the NumPy code
-that stays the reference (tests hold them equal: float64 to rounding, float32 to float32
+Each function restates, operation by operation and in the kernel's dtype, the NumPy code of
+``measured/tabulated.py``, which stays the reference (``tests/measured/
+test_tabulated_kernels.py`` holds them equal: float64 to rounding, float32 to float32
 precision):
 
-- ``eval``: :func:`brdfkit.geometry.to_half_diff` (the two rotations by −φh and −θh written
-  with :math:`\cos\varphi_h = h_x/\sin\theta_h`, :math:`\sin\theta_h = |h_{xy}|`,
+- ``eval`` (:func:`_table_cells`, :func:`_corner_cells`, :func:`_gathers`):
+  :func:`brdfkit.geometry.to_half_diff` (the rotations by −φh and −θh written with
+  :math:`\cos\varphi_h = h_x/\sin\theta_h`, :math:`\sin\theta_h = |h_{xy}|`,
   :math:`\cos\theta_h = h_z` instead of trigonometric calls: equal to rounding),
   :meth:`TabulatedBRDF._continuous_index` and :func:`brdfkit.measured.tabulated.lookup`
-  (``"bin"``, ``"nearest"``, ``"linear"``: the 2^D corners in the same order), the renormalised
-  measured weight and the upper-hemisphere mask;
-- ``pdf`` and ``sample``: the one-sample mixture of the cosine hemisphere and the table's
-  half-vector marginal (:class:`~brdfkit.measured.tabulated.HalfVectorSampling`, its
-  :class:`~brdfkit.sampling.Distribution2D` searched in float64 by the same bisection), as
-  :class:`~brdfkit.brdf.phong.MixtureSampled` combines them. The sampler is the NumPy path's,
-  so it is unbiased for the same reason: the mixture density is positive wherever
+  (``"bin"``, ``"nearest"``, ``"linear"``: the 2^D corners in the same order), the
+  renormalised measured weight and the upper-hemisphere mask;
+- ``pdf`` and ``sample`` (:func:`_mixture_pdf`, :func:`_mixture_sample`): the one-sample
+  mixture of the cosine hemisphere and the table's half-vector marginal
+  (:class:`~brdfkit.measured.tabulated.HalfVectorSampling`, its
+  :class:`~brdfkit.sampling.Distribution2D` searched in float64 for bisection's intervals),
+  as :class:`~brdfkit.brdf.phong.MixtureSampled` combines them. The sampler is the NumPy
+  path's, so it is unbiased for the same reason: the mixture density is positive wherever
   :math:`f\cos\theta_i` is (the cosine lobe keeps at least 10 %), and the weight is
   :math:`f\cos\theta_i/p` of the sampled direction.
 
-A :class:`~brdfkit.brdf.base.Scaled` table (constant k) multiplies ``eval`` and the weights by k.
+The loops over a block are split so that LLVM vectorises the arithmetic (a loop holding a
+gather runs scalar), with node and cell indices as int32 so that the vectorised loops keep
+the float32 width; the table's rows are prefetched ahead of their gathers. A
+:class:`~brdfkit.brdf.base.Scaled` table (constant k) multiplies ``eval`` and the weights by
+k.
 
 References
 ----------
@@ -40,16 +49,15 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 import weakref
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from brdfkit.brdf.base import BRDF, Scaled
-from brdfkit.compiled import kernels as accel
+from brdfkit.compiled import kernel_tools
 from brdfkit.measured.tabulated import _NODE_TOLERANCE, TabulatedBRDF
 
 _FUNCTIONS: dict[tuple[Any, ...], tuple[Callable[..., None], ...]] = {}
@@ -66,180 +74,89 @@ def _table_functions(
 
 
 PREFETCH_DISTANCE = 16
-"""Pairs ahead whose table rows :func:`_new_table_functions`' ``eval`` prefetches. Measured
-on the 90 × 90 × 180 RGB benchmark table, random pairs in blocks of 256 (the render's), CPU
-per pair on a loaded 2-core machine: 110 ns without, 61 / 47 / 40 / 37.5 / 40.5 ns at 4 / 8 /
-16 / 32 / 64 pairs ahead."""
-
-
-@functools.cache
-def _prefetch() -> Callable[[np.ndarray, int], None]:
-    """A numba intrinsic ``prefetch(array, i)``: LLVM's ``llvm.prefetch`` (read, keep in all
-    cache levels) of element ``i`` of a C-contiguous ``array``; a hint, no effect on values."""
-    from llvmlite import ir
-    from numba.core import cgutils, types
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def prefetch(typingctx: Any, array: Any, index: Any) -> Any:
-        if not (isinstance(array, types.Array) and array.layout == "C"):
-            return None
-        if not isinstance(index, types.Integer):
-            return None
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            data = context.make_array(signature.args[0])(context, builder, args[0]).data
-            offset = context.cast(builder, args[1], signature.args[1], types.intp)
-            # as i8*: one declaration serves arrays of any dtype in a module
-            pointer = builder.bitcast(builder.gep(data, [offset]), ir.IntType(8).as_pointer())
-            i32 = ir.IntType(32)
-            function = cgutils.get_or_insert_function(
-                builder.module,
-                ir.FunctionType(ir.VoidType(), [pointer.type, i32, i32, i32]),
-                "llvm.prefetch.p0",
-            )
-            builder.call(function, [pointer, i32(0), i32(3), i32(1)])
-            return context.get_dummy_value()
-
-        return types.none(array, index), codegen
-
-    return prefetch
-
-
-def _atan2_32() -> Callable[[Any, Any], Any]:
-    """Branch-free float32 ``atan2`` that LLVM vectorises (libm's is a scalar call, the
-    dearest operation of a lookup).
-
-    Cephes' ``atanf`` on z = min(|x|, |y|)/max(|x|, |y|) ∈ [0, 1]: above tan(π/8) the
-    argument is reduced by atan z = π/4 + atan((z − 1)/(z + 1)), then a degree-9 odd
-    polynomial; the octant and quadrant are restored by π/2 − a, π − a and the sign of y.
-    Measured against float64 ``arctan2`` (tests): within a few float32 ulp.
-
-    References
-    ----------
-    .. [1] S. L. Moshier, Cephes Math Library, ``atanf.c`` (single precision), 1989.
-    """
-    select = accel._intrinsics()["_select"]
-    f32 = np.float32
-    p0, p1 = f32(8.05374449538e-2), f32(-1.38776856032e-1)
-    p2, p3 = f32(1.99777106478e-1), f32(-3.33329491539e-1)
-    tan_pi_8 = f32(0.4142135623730950)
-    quarter_pi, half_pi, pi = f32(math.pi / 4), f32(math.pi / 2), f32(math.pi)
-    zero, one = f32(0), f32(1)
-    jit = accel._exact_jit()
-
-    @jit
-    def atan2(y: Any, x: Any) -> Any:
-        ax, ay = np.abs(x), np.abs(y)
-        big, small = max(ax, ay), min(ax, ay)
-        z = small / select(big > zero, big, one)
-        reduced = z > tan_pi_8
-        r = select(reduced, (z - one) / (z + one), z)
-        r2 = r * r
-        a = (((p0 * r2 + p1) * r2 + p2) * r2 + p3) * r2 * r + r
-        a = select(reduced, a + quarter_pi, a)
-        a = select(ay > ax, half_pi - a, a)
-        a = select(x < zero, pi - a, a)
-        return select(y < zero, -a, a)
-
-    return atan2
-
-
-@functools.cache
-def trigonometry(dtype: type) -> tuple[Callable[..., Any], Callable[..., Any], Callable[..., Any]]:
-    """numba ``(atan2, sin, cos)`` for the kernels in ``dtype``: float32 the branch-free ones
-    that LLVM vectorises (:func:`_atan2_32`, :func:`brdfkit.compiled.kernels`'s float32 sine and
-    cosine; a few ulp), float64 libm's (the NumPy path's values)."""
-    if dtype is np.float32:
-        trig = accel._trig32()
-        return _atan2_32(), trig["_sin32"], trig["_cos32"]
-    jit = accel._exact_jit()
-
-    @jit
-    def atan2(y: Any, x: Any) -> Any:
-        return np.arctan2(y, x)
-
-    @jit
-    def sin(x: Any) -> Any:
-        return np.sin(x)
-
-    @jit
-    def cos(x: Any) -> Any:
-        return np.cos(x)
-
-    return atan2, sin, cos
+"""Pairs ahead whose table rows ``eval`` prefetches (:func:`_gathers`): far enough that a
+table larger than the caches has its rows there when they are read, near enough that they
+are not evicted again first."""
 
 
 def _new_table_functions(
     dtype: type, rank: int, table_channels: int, channels: int, interpolation: str
 ) -> tuple[Callable[..., None], Callable[..., None], Callable[..., None]]:
     """The numba ``sample``, ``eval`` and ``pdf`` of a table of ``rank`` (3: isotropic, 4:
-    anisotropic) with ``table_channels`` value channels, scaled to ``channels``.
+    anisotropic) with ``table_channels`` value channels, scaled to ``channels``, composed of
+    the factories below (their helpers made afresh for each set: a numba function keeps the
+    floating-point flags of its first caller)."""
+    scalars = _scalars(dtype)
+    cells = _table_cells(dtype, rank, interpolation, scalars)
+    corners = _corner_cells(dtype, rank, table_channels, interpolation)
+    evaluate = _gathers(dtype, rank, table_channels, channels, interpolation, cells, corners)
+    pdf_fn = _mixture_pdf(dtype, rank, scalars)
+    sample_fn = _mixture_sample(dtype, rank, channels, scalars, evaluate, pdf_fn)
+    return sample_fn, _eval_kernel(evaluate), pdf_fn
 
-    ``eval`` runs in three loops over the batch: the half/difference angles and the cells'
-    indices and weights branch-free (LLVM vectorises it; float32 with :func:`_atan2_32` and
-    :func:`brdfkit.compiled.kernels`'s float32 sine and cosine), the corners' table rows and
-    weights, then the gathers from the table, each pair's rows prefetched :data:`PREFETCH_DISTANCE`
-    pairs ahead. The vectorised loops write their node and cell indices as int32 (an axis's
-    or the θh marginal's cells: small): with int64 outputs LLVM held them to 4 float32 lanes
-    (the width of 4 int64 in AVX2), with int32 to 8 (measured, one core, blocks of 256:
-    eval 65 → 56, pdf 15 → 12, sample 144 → 115 ns per pair, values bit-equal).
-    A 90 × 90 × 180 RGB table (its value channels and the measured flag: 23 MB in float32)
-    does not stay in the caches of a render, so its 2^D corners are cache misses; with the
-    prefetches they overlap (measured: 10⁶ random pairs, 0.11 → 0.06 s).
-    """
-    import numba
 
-    jit = numba.njit(nogil=True, error_model="numpy")
-    # the vectorised loop: accel's kernels' fast-math flags and vector width
-    vector_jit = numba.njit(nogil=True, error_model="numpy", fastmath=set(accel._FASTMATH))
-    # no fast-math flags: lookup's corner weights, products in its order
-    corner_jit = numba.njit(nogil=True, error_model="numpy")
-    prefer_vector_width = accel._vector_width_hint(accel.vector_bits())
-    prefetch = _prefetch()
-    select = accel._intrinsics()["_select"]
-    T = dtype
-    atan2, sin, cos = trigonometry(T)
-    guided_interval = guided_search()
-    zero, one, two, four = T(0), T(1), T(2), T(4)
-    pi, half_pi, two_pi = T(math.pi), T(math.pi / 2), T(2 * math.pi)
-    quarter_pi = T(math.pi / 4)
-    tiny = T(np.finfo(np.float32).tiny)
-    covered_min = T(1e-12)
-    nudge = T(_NODE_TOLERANCE)
-    below_one_64 = 1 - np.finfo(np.float64).eps / 2
-    below_one = T(1 - np.finfo(T).eps / 2)
-    stretch_max = T(1.0 - 1e-7)
-    corners = 2**rank if interpolation == "linear" else 1
-    isotropic = rank == 3
-    cstep = 1 if table_channels > 1 else 0
-    linear = interpolation == "linear"
-    bin_mode = interpolation == "bin"
-    width = table_channels + 1
+class _Scalars(NamedTuple):
+    """Branch-free scalar helpers of the table's kernels (:func:`_scalars`)."""
+
+    clamp0: Callable[[Any], Any]
+    unit: Callable[..., tuple[Any, Any, Any]]
+    remainder: Callable[[Any, Any], Any]
+    integer: Callable[[Any], Any]
+
+
+def _scalars(dtype: type) -> _Scalars:
+    """``clamp0`` (max(x, 0), NaN giving 0 as ``safe_sqrt``'s fmax), ``unit``
+    (:func:`brdfkit._array.normalize`), ``remainder`` (``np.remainder(x, period)`` for x in
+    [−period, period], angles from atan2) and ``integer`` (int64 of a float index, NaN
+    reading index 0, by way of int32: AVX2 converts floats to int32 in vectors, to int64 only
+    one by one); all branch-free, with their caller's flags."""
+    jit = kernel_tools.jit()
+    select = kernel_tools.select()
+    zero, tiny = dtype(0), dtype(np.finfo(np.float32).tiny)
 
     @jit
     def clamp0(x: Any) -> Any:
-        """max(x, 0), branch-free (NaN gives 0, as ``safe_sqrt``'s fmax)."""
         return select(x > zero, x, zero)
 
     @jit
     def unit(x: Any, y: Any, z: Any) -> tuple[Any, Any, Any]:
-        """:func:`brdfkit._array.normalize`."""
         length = np.sqrt(x * x + y * y + z * z)
         length = select(length > tiny, length, tiny)
         return x / length, y / length, z / length
 
     @jit
     def remainder(x: Any, period: Any) -> Any:
-        """np.remainder(x, period) for x ∈ [−period, period] (angles from atan2)."""
         wrapped = select(x < zero, x + period, x)
         return select(wrapped >= period, zero, wrapped)
 
     @jit
     def integer(x: Any) -> Any:
-        """int64 of a float index (NaN, from degenerate input, reads index 0), by way of
-        int32: AVX2 converts floats to int32 in vectors, to int64 only one by one."""
-        return np.int64(np.int32(select(np.abs(x) < T(1e9), x, zero)))
+        return np.int64(np.int32(select(np.abs(x) < dtype(1e9), x, zero)))
+
+    return _Scalars(clamp0, unit, remainder, integer)
+
+
+def _table_cells(dtype: type, rank: int, interpolation: str, s: _Scalars) -> Callable[..., None]:
+    r"""``cells(wi, wo, n, sizes, upper, low, high, weight)``: per pair, whether both
+    directions are above the surface, :func:`brdfkit.geometry.to_half_diff` and
+    :meth:`TabulatedBRDF._continuous_index`, then ``lookup``'s nodes per axis: the lower and
+    upper node (or the one node of "bin" and "nearest" in ``low``) and the upper node's
+    weight, at ``[axis · n + j]`` (axis-major, int32: the loop over the pairs reads and
+    writes them contiguously, and LLVM vectorises it at the float32 width).
+
+    The rotations of ``to_half_diff`` by −φh about z and −θh about y take the cosines and
+    sines of the angles from h itself, :math:`\cos\varphi_h = h_x/\sin\theta_h`,
+    :math:`\sin\theta_h = |h_{xy}|`, :math:`\cos\theta_h = h_z` (φh = 0 where
+    sin θh = 0), instead of trigonometric calls: equal to rounding."""
+    jit = kernel_tools.jit()
+    select = kernel_tools.select()
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    atan2, _, _ = kernel_tools.trigonometry(dtype)
+    clamp0, unit, remainder, integer = s
+    zero, one = dtype(0), dtype(1)
+    pi, half_pi, two_pi = dtype(math.pi), dtype(math.pi / 2), dtype(2 * math.pi)
+    nudge = dtype(_NODE_TOLERANCE)
+    isotropic, linear, bin_mode = rank == 3, interpolation == "linear", interpolation == "bin"
 
     @jit
     def wrap(index: Any, size: Any, periodic: bool) -> Any:
@@ -254,9 +171,6 @@ def _new_table_functions(
     @jit
     def axis(u: Any, size: Any, periodic: bool, a: int, j: int, n: int, low: np.ndarray,
              high: np.ndarray, weight: np.ndarray) -> None:  # fmt: skip
-        """One axis of ``lookup``: its lower and upper node (or the one node of "bin" and
-        "nearest" in ``low``) and the upper node's weight, at ``[a · n + j]`` (axis-major:
-        the loops over the pairs read and write them contiguously, so LLVM vectorises them)."""
         at = a * n + j
         if linear:
             floor = np.floor(u)
@@ -267,10 +181,9 @@ def _new_table_functions(
             rounded = np.floor(u + nudge) if bin_mode else np.rint(u)
             low[at] = wrap(integer(rounded), size, periodic)
 
-    @vector_jit
+    @kernel_tools.vector_jit()
     def cells(wi: np.ndarray, wo: np.ndarray, n: int, sizes: np.ndarray, upper: np.ndarray,
               low: np.ndarray, high: np.ndarray, weight: np.ndarray) -> None:  # fmt: skip
-        """``to_half_diff`` and ``_continuous_index`` per pair, then :func:`axis`."""
         n0, n_last = sizes[0], sizes[rank - 1]
         n_td, n_ph = sizes[rank - 2], sizes[1]
         prefer_vector_width()
@@ -283,8 +196,6 @@ def _new_table_functions(
             hx, hy, hz = unit(wx + vx, wy + vy, wz + vz)
             sin_h = np.sqrt(clamp0(hx * hx + hy * hy))
             theta_h = atan2(sin_h, hz)
-            # to_half_diff's rotations by −φh about z and −θh about y, with the cosines and
-            # sines of the angles from h itself (φh = atan2(hy, hx) = 0 when sin θh = 0)
             has_phi = sin_h != zero
             safe = select(has_phi, sin_h, one)
             cp, sp = select(has_phi, hx / safe, one), select(has_phi, hy / safe, zero)
@@ -292,22 +203,36 @@ def _new_table_functions(
             dx, dy, dz = hz * x1 - sin_h * wz, y1, sin_h * x1 + hz * wz
             theta_d = atan2(np.sqrt(clamp0(dx * dx + dy * dy)), dz)
             phi_d = atan2(dy, dx)
-            u_th = np.sqrt(clamp0(theta_h) / half_pi) * T(n0)
-            u_td = clamp0(theta_d) / half_pi * T(n_td)
-            u_pd = remainder(phi_d, pi) / pi * T(n_last)
+            u_th = np.sqrt(clamp0(theta_h) / half_pi) * dtype(n0)
+            u_td = clamp0(theta_d) / half_pi * dtype(n_td)
+            u_pd = remainder(phi_d, pi) / pi * dtype(n_last)
             axis(u_th, n0, False, 0, j, n, low, high, weight)
             if not isotropic:
-                u_ph = remainder(atan2(hy, hx), two_pi) / two_pi * T(n_ph)
+                u_ph = remainder(atan2(hy, hx), two_pi) / two_pi * dtype(n_ph)
                 axis(u_ph, n_ph, True, 1, j, n, low, high, weight)
             axis(u_td, n_td, False, rank - 2, j, n, low, high, weight)
             axis(u_pd, n_last, True, rank - 1, j, n, low, high, weight)
 
-    @corner_jit
+    return cells
+
+
+def _corner_cells(
+    dtype: type, rank: int, table_channels: int, interpolation: str
+) -> Callable[..., None]:
+    """``corner_cells(low, high, weight, sizes, n, flat, corner_weight)``: ``lookup``'s 2^D
+    corners per pair, in its order: their rows of the flattened table and their multilinear
+    weights (one corner of weight 1 for "bin" and "nearest"), at ``[corner · n + j]``
+    (corner-major: a vectorised loop over the pairs per corner). No fast-math flags: the
+    weights' products in ``lookup``'s order."""
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    one = dtype(1)
+    linear = interpolation == "linear"
+    corners = 2**rank if linear else 1
+    width = table_channels + 1
+
+    @kernel_tools.exact_jit()
     def corner_cells(low: np.ndarray, high: np.ndarray, weight: np.ndarray, sizes: np.ndarray,
                      n: int, flat: np.ndarray, corner_weight: np.ndarray) -> None:  # fmt: skip
-        """``lookup``'s corners per pair, in its order: their rows of the flattened table
-        and their multilinear weights (one corner of weight 1 for "bin" and "nearest"), at
-        ``[corner · n + j]`` (corner-major: a vectorised loop over the pairs per corner)."""
         for corner in range(corners):
             prefer_vector_width()
             for j in range(n):
@@ -321,26 +246,47 @@ def _new_table_functions(
                 flat[corner * n + j] = index * width
                 corner_weight[corner * n + j] = w
 
-    @jit
+    return corner_cells
+
+
+def _gathers(
+    dtype: type,
+    rank: int,
+    table_channels: int,
+    channels: int,
+    interpolation: str,
+    cells: Callable[..., None],
+    corner_cells: Callable[..., None],
+) -> Callable[..., None]:
+    """``evaluate(wi, wo, n, table, sizes, k, out)``: ``k · TabulatedBRDF.eval`` of n pairs
+    into ``out`` (n × channels): the cells, the corners, then the gathers from the table, the
+    renormalised measured weight and the upper-hemisphere mask. Each pair's rows are
+    prefetched :data:`PREFETCH_DISTANCE` pairs ahead: a table larger than the caches (a
+    90 × 90 × 180 RGB table with its measured flag is 23 MB in float32) makes a pair's reads
+    a few cache misses, and the loop body is too long for the core to run far enough ahead
+    on its own."""
+    prefetch = kernel_tools.prefetch()
+    zero, covered_min = dtype(0), dtype(1e-12)
+    corners = 2**rank if interpolation == "linear" else 1
+    cstep = 1 if table_channels > 1 else 0
+    width = table_channels + 1
+
+    @kernel_tools.jit()
     def evaluate(wi: np.ndarray, wo: np.ndarray, n: int, table: np.ndarray,
                  sizes: np.ndarray, k: np.ndarray, out: np.ndarray) -> None:  # fmt: skip
-        """``k · TabulatedBRDF.eval`` of n pairs into ``out`` (n × channels): the cells,
-        then the gathers, each pair's rows prefetched :data:`PREFETCH_DISTANCE` pairs ahead
-        (a pair's reads are a few cache misses in a table larger than the cache; the loop
-        body is too long for the core to run far enough ahead on its own)."""
         upper = np.empty(n, np.bool_)
         low = np.empty(n * rank, np.int32)
         high = np.empty(n * rank, np.int32)
-        weight = np.empty(n * rank, T)
+        weight = np.empty(n * rank, dtype)
         flat = np.empty(n * corners, np.int64)
-        corner_weight = np.empty(n * corners, T)
+        corner_weight = np.empty(n * corners, dtype)
         cells(wi, wo, n, sizes, upper, low, high, weight)
         corner_cells(low, high, weight, sizes, n, flat, corner_weight)
         values = table.reshape(-1)
         for j in range(min(n, PREFETCH_DISTANCE)):
             for corner in range(corners):
                 prefetch(values, flat[corner * n + j])
-        found = np.empty(width, T)
+        found = np.empty(width, dtype)
         for j in range(n):
             ahead = j + PREFETCH_DISTANCE
             if ahead < n:
@@ -368,6 +314,38 @@ def _new_table_functions(
                 v = found[c * cstep] / measured if measured > covered_min else zero
                 out[j * channels + c] = k[c] * v if upper[j] else zero
 
+    return evaluate
+
+
+def _eval_kernel(evaluate: Callable[..., None]) -> Callable[..., None]:
+    """``evaluate`` with the calling convention of the BRDF kernels (module docstring)."""
+
+    @kernel_tools.jit()
+    def eval_fn(params: np.ndarray, wi: np.ndarray, wo: np.ndarray, out: np.ndarray, n: int,
+                table: np.ndarray,
+                sizes: np.ndarray, k: np.ndarray, share: Any, density: np.ndarray,
+                marginal: np.ndarray, conditional: np.ndarray, one_minus_cos: np.ndarray,
+                n_theta: int, n_phi: int, guide: np.ndarray) -> None:  # fmt: skip
+        evaluate(wi, wo, n, table, sizes, k, out)
+
+    return eval_fn
+
+
+def _mixture_pdf(dtype: type, rank: int, s: _Scalars) -> Callable[..., None]:
+    r"""The mixture's pdf ``pdf_fn`` (the BRDF kernels' calling convention):
+    ``MixtureSampled.pdf``, :math:`(1 - s)\cos\theta_i/\pi + s\,p_h(h)/(4\,\omega_o
+    \cdot h)`, with ``HalfVectorSampling.pdf``'s half-vector density read at h's cell of
+    its density table. Three loops: the half vectors' cells (vectorised), the density reads
+    (a gather keeps LLVM from vectorising a loop), the mixture (vectorised)."""
+    jit = kernel_tools.jit()
+    select = kernel_tools.select()
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    atan2, _, _ = kernel_tools.trigonometry(dtype)
+    _, unit, remainder, integer = s
+    zero, one, four = dtype(0), dtype(1), dtype(4)
+    pi, half_pi, two_pi = dtype(math.pi), dtype(math.pi / 2), dtype(2 * math.pi)
+    isotropic = rank == 3
+
     @jit
     def half_vector_cell(i0: Any, i1: Any, i2: Any, o0: Any, o1: Any, o2: Any, n_theta: int,
                          n_phi: int) -> tuple[Any, Any, Any]:  # fmt: skip
@@ -376,19 +354,18 @@ def _new_table_functions(
         hx, hy, hz = unit(i0 + o0, i1 + o1, i2 + o2)
         wo_dot_h = o0 * hx + o1 * hy + o2 * hz
         theta = atan2(np.sqrt(hx * hx + hy * hy), hz)
-        row = min(max(np.floor(np.sqrt(theta / half_pi) * T(n_theta)), zero), T(n_theta - 1))
+        row = min(max(np.floor(np.sqrt(theta / half_pi) * dtype(n_theta)), zero),
+                  dtype(n_theta - 1))  # fmt: skip
         index = integer(row) * n_phi
         if not isotropic:
             phi = remainder(atan2(hy, hx), two_pi)
-            col = min(max(np.floor(phi / two_pi * T(n_phi)), zero), T(n_phi - 1))
+            col = min(max(np.floor(phi / two_pi * dtype(n_phi)), zero), dtype(n_phi - 1))
             index += integer(col)
         return index, wo_dot_h, hz
 
     @jit
     def mixture_pdf(i2: Any, o2: Any, share: Any, density_h: Any, wo_dot_h: Any,
                     hz: Any) -> Any:  # fmt: skip
-        """``MixtureSampled.pdf``: (1 − s) cos θi/π + s p_h(h)/(4 wo·h), the half-vector
-        density ``HalfVectorSampling.pdf`` (``reflected_pdf``) read at h's cell."""
         p_h = select(hz > zero, density_h, zero)
         term = select(wo_dot_h > zero, p_h / (four * select(wo_dot_h > zero, wo_dot_h, one)),
                       zero)  # fmt: skip
@@ -396,73 +373,13 @@ def _new_table_functions(
         total = select(share > zero, total + share * term, total)
         return select((i2 > zero) & (o2 > zero), total, zero)
 
-    @vector_jit
-    def find_intervals(cdf: np.ndarray, base: np.ndarray, u: np.ndarray, count: int, n: int,
-                       out: np.ndarray) -> None:  # fmt: skip
-        """``sampling._find_interval`` for n variates in lock step (the same bisection
-        steps, each over all of them: a vectorisable inner loop); into ``out``."""
-        hi = np.empty(n, np.int64)
-        for j in range(n):
-            out[j], hi[j] = 0, count
-        for _ in range(max(1, math.ceil(math.log2(count))) + 1):
-            prefer_vector_width()
-            for j in range(n):
-                mid = (out[j] + hi[j]) >> 1
-                right = cdf[base[j] + mid] <= u[j]
-                out[j], hi[j] = select(right, mid, out[j]), select(right, hi[j], mid)
-
-    @jit
-    def cell_point(u0: float, u1: float, row: int, col: int, m0: float, m1: float, c0: float,
-                   c1: float, n_theta: int, n_phi: int) -> tuple[Any, Any, Any]:  # fmt: skip
-        """``HalfVectorSampling.sample``'s first part for float64 uniforms (u0: φh, u1: θh,
-        clamped below 1) in the row and column the CDF searches found (m0, m1 and c0, c1: its
-        CDF nodes): the point's x (φh / 2π), y · N_θh and θh cell."""
-        x = T((col + (u0 - c0) / (c1 - c0)) / n_phi)
-        x = select(x < below_one, x, below_one)
-        y = T((row + (u1 - m0) / (m1 - m0)) / n_theta)
-        y = select(y < below_one, y, below_one)
-        scaled = y * T(n_theta)
-        cell = np.floor(scaled)
-        return x, scaled, select(cell < T(n_theta - 1), clamp0(cell), T(n_theta - 1))
-
-    @jit
-    def half_vector(x: Any, scaled: Any, cell: Any, lo: Any, hi: Any) -> tuple[Any, Any, Any]:
-        """``HalfVectorSampling.sample``'s half vector at the point of :func:`cell_point`,
-        lo and hi the 1 − cos θ of its θh cell's edges."""
-        omc = lo + (scaled - cell) * (hi - lo)
-        sin_theta = np.sqrt(clamp0(omc * (two - omc)))
-        phi = x * two_pi
-        return sin_theta * cos(phi), sin_theta * sin(phi), one - omc
-
-    @jit
-    def cosine_sample(a: Any, b: Any) -> tuple[Any, Any, Any]:
-        """``square_to_cosine_hemisphere``: the concentric disk lifted (Malley)."""
-        p, q = two * a - one, two * b - one
-        flip = np.abs(p) < np.abs(q)
-        r, other = select(flip, q, p), select(flip, p, q)
-        phi = quarter_pi * select(r != zero, other / select(r != zero, r, one), zero)
-        phi = select(flip, half_pi - phi, phi)
-        x, y = r * cos(phi), r * sin(phi)
-        return x, y, np.sqrt(max(one - (x * x + y * y), zero))
-
-    @jit
-    def eval_fn(params: np.ndarray, wi: np.ndarray, wo: np.ndarray, out: np.ndarray, n: int,
-                table: np.ndarray,
-                sizes: np.ndarray, k: np.ndarray, share: Any, density: np.ndarray,
-                marginal: np.ndarray, conditional: np.ndarray, one_minus_cos: np.ndarray,
-                n_theta: int, n_phi: int, guide: np.ndarray) -> None:  # fmt: skip
-        evaluate(wi, wo, n, table, sizes, k, out)
-
-    @vector_jit
+    @kernel_tools.vector_jit()
     def pdf_fn(params: np.ndarray, wi: np.ndarray, wo: np.ndarray, out: np.ndarray, n: int,
                table: np.ndarray,
                sizes: np.ndarray, k: np.ndarray, share: Any, density: np.ndarray,
                marginal: np.ndarray, conditional: np.ndarray, one_minus_cos: np.ndarray,
                n_theta: int, n_phi: int, guide: np.ndarray) -> None:  # fmt: skip
-        """The mixture's pdf in three loops: the half vectors' cells (vectorised), the
-        density reads (a gather keeps LLVM from vectorising a loop), the mixture
-        (vectorised)."""
-        index, wo_dot_h, hz = np.empty(n, np.int32), np.empty(n, T), np.empty(n, T)
+        index, wo_dot_h, hz = np.empty(n, np.int32), np.empty(n, dtype), np.empty(n, dtype)
         prefer_vector_width()
         for j in range(n):
             index[j], wo_dot_h[j], hz[j] = half_vector_cell(
@@ -475,17 +392,41 @@ def _new_table_functions(
             out[j] = mixture_pdf(wi[3 * j + 2], wo[3 * j + 2], share, out[j], wo_dot_h[j],
                                  hz[j])  # fmt: skip
 
-    @jit
+    return pdf_fn
+
+
+def _mixture_sample(
+    dtype: type,
+    rank: int,
+    channels: int,
+    s: _Scalars,
+    evaluate: Callable[..., None],
+    pdf_fn: Callable[..., None],
+) -> Callable[..., None]:
+    r"""The mixture's sampler ``sample_fn`` (the BRDF kernels' calling convention):
+    ``MixtureSampled.sample`` with ``mixture_choices`` on the first two uniforms, the cosine
+    lobe or ``HalfVectorSampling.sample``'s half vector (:func:`_half_vector_sampling`)
+    reflected, then the mixture's pdf and the weight :math:`f\cos\theta_i/p`. The
+    half-vector lobe runs in several loops: the gathers of the cells' CDF nodes and edges in
+    their own (scalar) loops, the arithmetic between and after them vectorised."""
+    select = kernel_tools.select()
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    guided_interval = kernel_tools.guided_search()
+    find_intervals, cell_point, half_vector = _half_vector_sampling(dtype, s)
+    cosine_sample = _cosine_sampling(dtype)
+    integer = s.integer
+    zero, one, two = dtype(0), dtype(1), dtype(2)
+    below_one_64 = 1 - np.finfo(np.float64).eps / 2
+    stretch_max = dtype(1.0 - 1e-7)
+    isotropic = rank == 3
+
+    @kernel_tools.jit()
     def sample_fn(params: np.ndarray, wo: np.ndarray, u: np.ndarray, wi: np.ndarray,
                   weight: np.ndarray,
                   pdf: np.ndarray, delta: np.ndarray, n: int, table: np.ndarray,
                   sizes: np.ndarray, k: np.ndarray, share: Any, density: np.ndarray,
                   marginal: np.ndarray, conditional: np.ndarray, one_minus_cos: np.ndarray,
                   n_theta: int, n_phi: int, guide: np.ndarray) -> None:  # fmt: skip
-        """``MixtureSampled.sample`` (mixture_choices on the first two uniforms). The
-        half-vector lobe in four loops: the gathers of the cells' CDF nodes and edges in
-        their own (scalar) loops, the arithmetic between and after them vectorised (one loop
-        with the gathers ran scalar: ~40 of a sample's ~145 ns per pair)."""
         cosine_share = one - share
         span = select(cosine_share > zero, cosine_share, one)
         half_span = select(share > zero, share, one)
@@ -494,8 +435,8 @@ def _new_table_functions(
         rows, cols, base = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
         m0, m1 = np.empty(n, np.float64), np.empty(n, np.float64)
         c0, c1 = np.empty(n, np.float64), np.empty(n, np.float64)
-        x, scaled, cell = np.empty(n, T), np.empty(n, T), np.empty(n, T)
-        lo, hi = np.empty(n, T), np.empty(n, T)
+        x, scaled, cell = np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype)
+        lo, hi = np.empty(n, dtype), np.empty(n, dtype)
         prefer_vector_width()
         for j in range(n):  # the cosine lobe where chosen, the half vector's variates
             u0, u1 = u[3 * j], u[3 * j + 1]
@@ -544,75 +485,100 @@ def _new_table_functions(
             for c in range(channels):
                 weight[j * channels + c] = select(p > zero, weight[j * channels + c] * ratio, zero)
 
-    return sample_fn, eval_fn, pdf_fn
+    return sample_fn
+
+
+def _half_vector_sampling(
+    dtype: type, s: _Scalars
+) -> tuple[Callable[..., None], Callable[..., Any], Callable[..., Any]]:
+    """``HalfVectorSampling.sample`` in three parts: ``find_intervals(cdf, base, u, count,
+    n, out)``, ``sampling._find_interval`` for n variates in lock step (the same bisection
+    steps, each over all of them: a vectorisable inner loop); ``cell_point(u0, u1, row, col,
+    m0, m1, c0, c1, n_theta, n_phi)``, the point in the found row and column for float64
+    uniforms (u0: φh, u1: θh, clamped below 1; m0, m1 and c0, c1 their CDF nodes): its x
+    (φh / 2π), y · N_θh and θh cell; and ``half_vector(x, scaled, cell, lo, hi)``, the half
+    vector at that point, lo and hi the 1 − cos θ of its θh cell's edges."""
+    jit = kernel_tools.jit()
+    select = kernel_tools.select()
+    prefer_vector_width = kernel_tools.vector_width_hint()
+    _, sin, cos = kernel_tools.trigonometry(dtype)
+    clamp0 = s.clamp0
+    one, two, two_pi = dtype(1), dtype(2), dtype(2 * math.pi)
+    below_one = dtype(1 - np.finfo(dtype).eps / 2)
+
+    @kernel_tools.vector_jit()
+    def find_intervals(cdf: np.ndarray, base: np.ndarray, u: np.ndarray, count: int, n: int,
+                       out: np.ndarray) -> None:  # fmt: skip
+        hi = np.empty(n, np.int64)
+        for j in range(n):
+            out[j], hi[j] = 0, count
+        for _ in range(max(1, math.ceil(math.log2(count))) + 1):
+            prefer_vector_width()
+            for j in range(n):
+                mid = (out[j] + hi[j]) >> 1
+                right = cdf[base[j] + mid] <= u[j]
+                out[j], hi[j] = select(right, mid, out[j]), select(right, hi[j], mid)
+
+    @jit
+    def cell_point(u0: float, u1: float, row: int, col: int, m0: float, m1: float, c0: float,
+                   c1: float, n_theta: int, n_phi: int) -> tuple[Any, Any, Any]:  # fmt: skip
+        x = dtype((col + (u0 - c0) / (c1 - c0)) / n_phi)
+        x = select(x < below_one, x, below_one)
+        y = dtype((row + (u1 - m0) / (m1 - m0)) / n_theta)
+        y = select(y < below_one, y, below_one)
+        scaled = y * dtype(n_theta)
+        cell = np.floor(scaled)
+        return x, scaled, select(cell < dtype(n_theta - 1), clamp0(cell), dtype(n_theta - 1))
+
+    @jit
+    def half_vector(x: Any, scaled: Any, cell: Any, lo: Any, hi: Any) -> tuple[Any, Any, Any]:
+        omc = lo + (scaled - cell) * (hi - lo)
+        sin_theta = np.sqrt(clamp0(omc * (two - omc)))
+        phi = x * two_pi
+        return sin_theta * cos(phi), sin_theta * sin(phi), one - omc
+
+    return find_intervals, cell_point, half_vector
+
+
+def _cosine_sampling(dtype: type) -> Callable[..., Any]:
+    """``cosine_sample(a, b)``: ``square_to_cosine_hemisphere``, the concentric disk (Shirley
+    and Chiu) lifted to the hemisphere (Malley), branch-free."""
+    select = kernel_tools.select()
+    _, sin, cos = kernel_tools.trigonometry(dtype)
+    zero, one, two = dtype(0), dtype(1), dtype(2)
+    quarter_pi, half_pi = dtype(math.pi / 4), dtype(math.pi / 2)
+
+    @kernel_tools.jit()
+    def cosine_sample(a: Any, b: Any) -> tuple[Any, Any, Any]:
+        p, q = two * a - one, two * b - one
+        flip = np.abs(p) < np.abs(q)
+        r, other = select(flip, q, p), select(flip, p, q)
+        phi = quarter_pi * select(r != zero, other / select(r != zero, r, one), zero)
+        phi = select(flip, half_pi - phi, phi)
+        x, y = r * cos(phi), r * sin(phi)
+        return x, y, np.sqrt(max(one - (x * x + y * y), zero))
+
+    return cosine_sample
 
 
 GUIDE_BUCKETS = 4
-"""Buckets of :func:`guide_table` per cell of the θh marginal. Measured (random pairs in
-blocks of 256, one core, 90 × 90 × 180 table): the bisections of a sample (8 steps over the
-θh marginal's 90 cells, 2 over an isotropic table's one column) were ~60 ns of its ~210 ns;
-from the guide the search is a scan of a step or two, and an isotropic table's column is 0."""
-
-
-def guide_table(cdf: np.ndarray, count: int, buckets: int, rows: int = 1) -> np.ndarray:
-    """The guide table of ``rows`` CDFs of ``count`` cells each (``cdf``: their ``count + 1``
-    nodes per row, flat), for :func:`guided_search`: in row r, bucket m of ``buckets`` equal
-    buckets of [0, 1) holds the interval k of u = m / buckets (``cdf[k] <= u < cdf[k + 1]``,
-    clipped to [0, count)), at ``[r · buckets + m]``, ``(rows · buckets,)``: uint16 where
-    ``count`` ≤ 2¹⁶ (a 1k map's column guides in 1 MB instead of 2: fewer cache misses,
-    measured ~5 % of a map sample), else int32.
-
-    References
-    ----------
-    .. [1] H. C. Chen, Y. Asau, "On generating random variates from an empirical
-           distribution", AIIE Transactions 6(2), 1974 (the guide-table method).
-    """
-    nodes = np.asarray(cdf, np.float64).reshape(rows, -1)[:, : count + 1]
-    u = np.arange(buckets) / buckets
-    guide = np.empty((rows, buckets), np.uint16 if count <= 2**16 else np.int32)
-    for r in range(rows):  # a few ms for a 1k map's 512 rows
-        k = np.searchsorted(nodes[r], u, side="right") - 1
-        guide[r] = np.clip(k, 0, count - 1)
-    return guide.ravel()
-
-
-@functools.cache
-def guided_search() -> Callable[..., int]:
-    """The numba ``guided_interval(cdf, base, guide, start, buckets, u, count)``:
-    ``sampling._find_interval`` of one float64 variate u ∈ [0, 1) in the row of ``count``
-    cells at ``cdf[base:]``, the k in ``[0, count)`` with ``cdf[base + k] <= u <
-    cdf[base + k + 1]`` (the last k with ``cdf[base + k] <= u``: bisection's, flat runs
-    included), by a short scan from the row's guide ``guide[start + ⌊u · buckets⌋]``
-    (:func:`guide_table`). The scan goes either way, so the result does not depend on the
-    guide's values, only the number of steps does (rounding of u · buckets included)."""
-    jit = accel._exact_jit()
-
-    @jit
-    def guided_interval(cdf: np.ndarray, base: int, guide: np.ndarray, start: int,
-                        buckets: int, u: float, count: int) -> int:  # fmt: skip
-        k = np.int64(guide[start + min(np.int64(u * buckets), buckets - 1)])
-        while k > 0 and cdf[base + k] > u:
-            k -= 1
-        while k + 1 < count and cdf[base + k + 1] <= u:
-            k += 1
-        return k
-
-    return guided_interval
+"""Buckets of :func:`~brdfkit.compiled.kernel_tools.guide_table` per cell of the θh marginal:
+from the guide a sample's row search is a scan of a step or two instead of a bisection."""
 
 
 EVAL_CHUNK = 4096
 """Pairs per call (and per task of the threads) of the ``eval`` kernel in
-:meth:`TableKernels.eval` (elementwise: the values do not depend on it). One call over a
-whole image's control-variate pairs (~10⁶) streams its per-pair scratch arrays through
-memory; measured ~2× slower."""
+:meth:`TableKernels.eval` (elementwise: the values do not depend on it), so that its
+per-pair scratch arrays stay in cache."""
 
 
 class TableKernels:
     """A (scaled) table's numba ``sample``/``eval``/``pdf`` and their array arguments.
 
-    ``functions`` follow :mod:`brdfkit.render._reflection_kernels`'s calling convention with
-    ``data`` appended; :meth:`eval` evaluates broadcast direction arrays (the control variate's
-    floor).
+    ``functions`` (``sample``, ``eval``, ``pdf``) follow the BRDF kernels' calling convention
+    (module docstring) with ``data`` appended; ``parameters`` is their leading argument (a
+    table has none); :meth:`eval` evaluates broadcast direction arrays (the control
+    variate's floor) on the kernels' threads.
     """
 
     def __init__(self, table: TabulatedBRDF, k: np.ndarray, channels: int, dtype: Any) -> None:
@@ -637,7 +603,7 @@ class TableKernels:
             np.ascontiguousarray(half._one_minus_cos, dtype=t),
             int(n_theta),
             int(n_phi),
-            guide_table(marginal, int(n_theta), GUIDE_BUCKETS * int(n_theta)),
+            kernel_tools.guide_table(marginal, int(n_theta), GUIDE_BUCKETS * int(n_theta)),
         )
         self.dtype = t
         self.parameters = np.zeros(0, t)  # the kernels' leading argument; a table has none
@@ -661,9 +627,8 @@ class TableKernels:
                 out[c * lo : c * hi], hi - lo, *self.data,
             )  # fmt: skip
 
-        # on accel's threads (the kernel releases the GIL): the control variate's floor of a
-        # 256² render is ~8×10⁵ pairs, ~40 ms on one core
-        accel.run_tasks(run, range(0, n, EVAL_CHUNK), accel.threads())
+        # on the kernels' threads (the kernel releases the GIL)
+        kernel_tools.run_tasks(run, range(0, n, EVAL_CHUNK), kernel_tools.threads())
         return out.reshape(*batch, self.channels)
 
     def built(self) -> bool:

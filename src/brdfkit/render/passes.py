@@ -225,7 +225,7 @@ def _background_build(
 ) -> threading.Thread | None:
     """A thread building the compiled shader while the first passes run on NumPy, or ``None``
     where it is built already (``kwargs["compiled"]`` then becomes ``True``)."""
-    from brdfkit.render._reflection_kernels import compiled_shader
+    from brdfkit.render.compiled_shading import compiled_shader
 
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     method = kwargs["method"]

@@ -3,7 +3,7 @@
 :func:`shade` evaluates the reflection equation
 (:func:`brdfkit.render.reflection_equation.reflected_radiance`) at every covered pixel, in tiles
 of rows so that memory stays bounded, with per-pixel BRDF parameters sliced per tile. Under an
-environment map it takes the compiled path (:mod:`brdfkit.render._reflection_kernels`) when its
+environment map it takes the compiled path (:mod:`brdfkit.render.compiled_shading`) when its
 kernels are built or the work is worth building them. Direct lighting only: no shadows from
 other geometry and no interreflection.
 
@@ -94,12 +94,12 @@ def shade(
     ``progress(done, total)`` is called after each tile.
 
     ``compiled`` chooses the compiled path: each tile shaded by the numba kernel of
-    :class:`brdfkit.render._reflection_kernels.EnvironmentShader` where it applies (one
+    :class:`brdfkit.render.compiled_shading.EnvironmentShader` where it applies (one
     :class:`~brdfkit.light.EnvironmentMap` plus any delta lights, ``method`` ``"auto"`` or
-    ``"mis"``, a BRDF :mod:`brdfkit.compiled.kernels` compiles: see
-    :func:`~brdfkit.render._reflection_kernels.compiled_shader`), NumPy elsewhere. ``"auto"``
+    ``"mis"``, a BRDF :mod:`brdfkit.compiled` compiles: see
+    :func:`~brdfkit.render.compiled_shading.compiled_shader`), NumPy elsewhere. ``"auto"``
     (default): float32 kernels when this model's are built already or the render has at least
-    :data:`~brdfkit.render._reflection_kernels.AUTO_COMPILE_WORK` pixel-samples (building them costs
+    :data:`~brdfkit.render.compiled_shading.AUTO_COMPILE_WORK` pixel-samples (building them costs
     seconds); ``True``: float32 kernels wherever they apply; ``"float64"``: float64 kernels
     (the image then equals the NumPy one to rounding); ``False``: NumPy. Same tiles, seeds and
     uniforms on both paths (float32 kernels: equal to float32 precision).
@@ -153,7 +153,7 @@ def _shade(
     plus its first row in the image. ``cache`` (a dict kept across calls on the same
     G-buffer, BRDF and lights: :func:`progressive`'s passes) keeps the compiled plan and each
     tile's sample-independent work
-    (:meth:`~brdfkit.render._reflection_kernels.EnvironmentShader.prepare`,
+    (:meth:`~brdfkit.render.compiled_shading.EnvironmentShader.prepare`,
     the delta lights)."""
     want_stderr = stderr
     height, width = g.shape
@@ -262,7 +262,7 @@ def _compiled_plan(
         )
     if compiled is False:
         return None
-    from brdfkit.render._reflection_kernels import AUTO_COMPILE_WORK, compiled_shader
+    from brdfkit.render.compiled_shading import AUTO_COMPILE_WORK, compiled_shader
 
     dtype = np.float64 if compiled == "float64" else np.float32
     build = compiled != "auto" or work >= AUTO_COMPILE_WORK
@@ -343,7 +343,7 @@ def _recent_work(
     options: dict[str, Any],
 ) -> tuple[GBuffer, dict[Any, Any]]:
     """The unit sphere's G-buffer and :func:`_shade`'s ``cache`` of its sample-independent
-    work (each tile's :meth:`~brdfkit.render._reflection_kernels.EnvironmentShader.prepare` and
+    work (each tile's :meth:`~brdfkit.render.compiled_shading.EnvironmentShader.prepare` and
     delta lights), kept for the most recent inputs: the same model, light and camera objects
     (immutable, held by the entry so that their ids stay theirs), shape, ``method`` and
     tiling options. Per call the compiled plan is decided afresh (kernels may have been

@@ -293,14 +293,14 @@ def env_sphere(
     add nothing), 12× less work than 32 spp for the same values to rounding. The compiled
     kernels render it where they apply and are built already (in this process or in
     :mod:`brdfkit.compiled.cache`), or where the most work it may take is worth their build
-    (:data:`~brdfkit.render._reflection_kernels.AUTO_COMPILE_WORK`; built once per machine, as
+    (:data:`~brdfkit.render.compiled_shading.AUTO_COMPILE_WORK`; built once per machine, as
     :mod:`brdfkit.compiled.cache` keeps them). With ``quadrature`` (default), a model
     :func:`~brdfkit.render.quadrature_sphere` applies to is rendered by it instead,
     noise-free, to an estimated relative RMSE of ``noise`` (``None``:
     :data:`~brdfkit.render.environment_quadrature.GOAL`). Returns the linear image and the samples
     per pixel spent (the quadrature: ``"quadrature, N nodes"``, its BRDF evaluations)."""
     from brdfkit.light.environment import EnvironmentMap
-    from brdfkit.render._reflection_kernels import AUTO_COMPILE_WORK, compiled_shader
+    from brdfkit.render.compiled_shading import AUTO_COMPILE_WORK, compiled_shader
     from brdfkit.render.environment_quadrature import GOAL, quadrature_sphere, split_quadrature
     from brdfkit.render.passes import progressive_sphere
     from brdfkit.render.scene import interior_mask

@@ -19,7 +19,7 @@ reference), with the pixels split over the cores (``numba.prange``); per pixel:
 - a rejected Levenberg–Marquardt step keeps ``J^T J`` and ``J^T r`` for the next try (the
   normal did not move), and a pixel stops when its step is below a tolerance;
 - the per-pixel work (a block's pixels, the fits, the Jacobian products, the solvers) is
-  compiled without numba's runtime (``_nrt=False``): the arrays it passes on per pixel and
+  compiled without numba's runtime: the arrays it passes on per pixel and
   call are not reference-counted (atomic increments and decrements, on counts that the threads
   share, were a quarter of the time); the parallel kernels allocate each block's work arrays
   and hand the block to it;
@@ -50,6 +50,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from brdfkit.compiled.kernel_tools import without_runtime
 from brdfkit.vision._photometric_stereo_kernels import _FASTMATH, _tangents
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH)
@@ -57,8 +58,12 @@ _inline = numba.njit(
     cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, inline="always"
 )
 _pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, parallel=True)
-_hot = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, _nrt=False)
-_strict = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=False, _nrt=False)
+_hot = numba.njit(
+    cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH, **without_runtime()
+)
+_strict = numba.njit(
+    cache=True, nogil=True, error_model="numpy", fastmath=False, **without_runtime()
+)
 """Without floating-point licences (named: a callee inherits its caller's otherwise)."""
 _exact_pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=False, parallel=True)
 """Without floating-point licences: :func:`order_statistics` rounds as NumPy does (no fused

@@ -1,0 +1,424 @@
+"""Every use of numba's and llvmlite's internals in brdfkit, each behind a small function.
+
+The compiled back end needs a few things numba offers no public API for:
+
+- LLVM instructions as numba intrinsics (:func:`intrinsics`, :func:`prefetch`): a branch-free
+  ``select``, the boolean operators, NaN-propagating ``maximum``/``minimum``, an approximate
+  float32 reciprocal square root and a cache prefetch;
+- a function attribute that llvmlite's list of known names refuses (:func:`vector_width_hint`:
+  ``"prefer-vector-width"``, what clang's ``-mprefer-vector-width`` sets);
+- an LLVM option set for one dispatcher's compilations only (:func:`compile_interleaved`:
+  ``-force-vector-interleave``);
+- numba's per-function disk cache keyed by a string instead of a source file
+  (:func:`install_keyed_cache`: numba's cache classes subclassed, the dispatcher's cache
+  replaced);
+- compiling without numba's reference-counting runtime (:func:`no_runtime_options`).
+
+Each hook says what happens where numba's internals have changed under it: the intrinsics
+are required (a kernel cannot be built without them) and raise; the speed hooks (vector width,
+interleave, disk cache, no runtime) fall back to numba's defaults, which give the same values
+(the interleave: to rounding in a batch's last few elements) at lower speed, and warn once
+with a :class:`RuntimeWarning` that names the hook and the installed versions, so that an
+upgrade is never a silent performance cliff. ``tests/compiled/test_numba_internals.py``
+fails when any hook stops working.
+
+Tested with numba 0.68.1 and llvmlite 0.50.0; ``pyproject.toml`` allows numba from 0.60 (the
+project's oldest supported release) to below 0.69 (the first minor release not yet tested).
+numba is imported only when a hook is used, so that reading :func:`toolchain` (the kernel
+cache's version) costs no import.
+
+References
+----------
+.. [1] S. K. Lam, A. Pitrou, S. Seibert, "Numba: a LLVM-based Python JIT compiler", LLVM-HPC
+       2015.
+.. [2] Numba documentation, "Notes on Caching" and "High-level extension API: intrinsic".
+.. [3] LLVM Language Reference Manual: ``select``, ``llvm.maximum``, ``llvm.prefetch``,
+       function attributes.
+"""
+
+from __future__ import annotations
+
+import functools
+import pickle
+import sys
+import threading
+import warnings
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+TESTED = "numba 0.68.1, llvmlite 0.50.0"
+"""The versions the hooks of this module are tested with."""
+
+_WARNED: set[str] = set()
+_WARNED_LOCK = threading.Lock()
+
+
+def toolchain() -> str:
+    """The installed numba and llvmlite versions, read from their packages' metadata (no
+    import: the kernel cache's version needs them in processes that never compile)."""
+    return f"numba {metadata.version('numba')}, llvmlite {metadata.version('llvmlite')}"
+
+
+def warn_once(hook: str, consequence: str, error: BaseException) -> None:
+    """One :class:`RuntimeWarning` per hook and process: ``hook`` could not be installed on
+    the installed numba, with the ``consequence`` and the ``error`` that said so."""
+    with _WARNED_LOCK:
+        if hook in _WARNED:
+            return
+        _WARNED.add(hook)
+    warnings.warn(
+        f"brdfkit.compiled: {hook} could not be installed on {toolchain()} (tested with "
+        f"{TESTED}): {type(error).__name__}: {error}; {consequence}",
+        RuntimeWarning,
+        stacklevel=3,
+    )
+
+
+# --------------------------------------------------------------------------- intrinsics
+@functools.cache
+def intrinsics() -> dict[str, Any]:
+    """numba intrinsics of single LLVM instructions, by the names the generated kernels use:
+    ``_select(c, a, b)`` (``select``), ``_and``, ``_or``, ``_xor``, ``_not`` (bitwise on
+    booleans), ``_max``, ``_min`` (``llvm.maximum``/``llvm.minimum``: NaN-propagating as
+    ``np.maximum``), ``_rsqrt32`` (``1/sqrt`` of a positive normal float32 with the
+    approximate-function flag: LLVM's reciprocal-square-root estimate and a Newton step).
+
+    Python's conditional expression and ``and``/``or`` compile to branches, which keep LLVM
+    from vectorising a loop; these keep a kernel's body straight-line.
+
+    Raises
+    ------
+    RuntimeError
+        Where numba's intrinsic API or llvmlite's IR builder has changed: no kernel can be
+        built without them.
+    """
+    try:
+        from llvmlite import ir
+        from numba.core import types
+        from numba.extending import intrinsic
+    except ImportError as error:
+        raise RuntimeError(
+            f"brdfkit.compiled needs numba's intrinsic API and llvmlite's IR builder; "
+            f"{toolchain()} (tested with {TESTED}) lacks them: {error}"
+        ) from error
+
+    def binary(build: Callable[..., Any]) -> Any:
+        @intrinsic
+        def op(typingctx: Any, a: Any, b: Any) -> Any:
+            def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+                return build(builder, *args)
+
+            return a(a, b), codegen
+
+        return op
+
+    @intrinsic
+    def select(typingctx: Any, condition: Any, a: Any, b: Any) -> Any:
+        if a != b:
+            return None
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.select(*args)
+
+        return a(condition, a, b), codegen
+
+    def float_binary(llvm_name: str) -> Any:
+        """The LLVM intrinsic ``llvm_name`` of two floats of one type (llvmlite declares only
+        some intrinsics itself)."""
+
+        @intrinsic
+        def op(typingctx: Any, a: Any, b: Any) -> Any:
+            if a != b or not isinstance(a, types.Float):
+                return None
+
+            def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+                t = args[0].type
+                function = _declare(builder, f"{llvm_name}.{t.intrinsic_name}", t, 2)
+                return builder.call(function, args)
+
+            return a(a, b), codegen
+
+        return op
+
+    @intrinsic
+    def rsqrt32(typingctx: Any, a: Any) -> Any:
+        if a != types.float32:
+            return None
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            t = args[0].type
+            flags = ("afn", "ninf", "arcp", "contract")
+            root = builder.call(_declare(builder, "llvm.sqrt.f32", t, 1), args, fastmath=flags)
+            return builder.fdiv(ir.Constant(t, 1.0), root, flags=flags)
+
+        return a(a), codegen
+
+    @intrinsic
+    def not_(typingctx: Any, a: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.not_(args[0])
+
+        return a(a), codegen
+
+    return {
+        "_select": select,
+        "_and": binary(lambda b, x, y: b.and_(x, y)),
+        "_or": binary(lambda b, x, y: b.or_(x, y)),
+        "_xor": binary(lambda b, x, y: b.xor(x, y)),
+        "_not": not_,
+        "_max": float_binary("llvm.maximum"),
+        "_min": float_binary("llvm.minimum"),
+        "_rsqrt32": rsqrt32,
+    }
+
+
+def _declare(builder: Any, name: str, t: Any, arity: int) -> Any:
+    """The LLVM function ``name`` of ``arity`` arguments of type ``t``, returning ``t``,
+    declared once in the builder's module."""
+    from llvmlite import ir
+
+    function = builder.module.globals.get(name)
+    if function is None:
+        function = ir.Function(builder.module, ir.FunctionType(t, [t] * arity), name)
+    return function
+
+
+@functools.cache
+def prefetch() -> Callable[..., None]:
+    """The numba intrinsic ``prefetch(array, i)``: LLVM's ``llvm.prefetch`` (read, keep in all
+    cache levels) of element ``i`` of a C-contiguous ``array``; a hint, no effect on values.
+    A strided array is a typing error (no element pointer to compute).
+
+    Raises
+    ------
+    RuntimeError
+        As :func:`intrinsics`.
+    """
+    intrinsics()  # the same imports, and their error
+    from llvmlite import ir
+    from numba.core import cgutils, types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def prefetch_element(typingctx: Any, array: Any, index: Any) -> Any:
+        if not (isinstance(array, types.Array) and array.layout == "C"):
+            return None
+        if not isinstance(index, types.Integer):
+            return None
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            data = context.make_array(signature.args[0])(context, builder, args[0]).data
+            offset = context.cast(builder, args[1], signature.args[1], types.intp)
+            # as i8*: one declaration serves arrays of any dtype in a module
+            pointer = builder.bitcast(builder.gep(data, [offset]), ir.IntType(8).as_pointer())
+            i32 = ir.IntType(32)
+            function = cgutils.get_or_insert_function(
+                builder.module,
+                ir.FunctionType(ir.VoidType(), [pointer.type, i32, i32, i32]),
+                "llvm.prefetch.p0",
+            )
+            builder.call(function, [pointer, i32(0), i32(3), i32(1)])
+            return context.get_dummy_value()
+
+        return types.none(array, index), codegen
+
+    return prefetch_element
+
+
+# --------------------------------------------------------------------------- speed hooks
+@functools.cache
+def vector_width_hint(bits: int) -> Any:
+    """A numba intrinsic ``prefer_vector_width()`` that marks the function calling it
+    ``"prefer-vector-width"="bits"`` (what clang's ``-mprefer-vector-width`` does): the SIMD
+    width for that function alone, not for every numba function of the process as
+    ``NUMBA_CPU_FEATURES`` would.
+
+    llvmlite accepts only a fixed list of attribute names, without LLVM's string attributes;
+    the set underneath renders any attribute it holds, so the attribute is added to the set
+    itself. Where a later llvmlite stores attributes otherwise, the function keeps LLVM's
+    default width (same values, fewer lanes where AVX-512 is there) and a warning says so.
+    """
+    intrinsics()
+    from numba.core import types
+    from numba.extending import intrinsic
+
+    attribute = f'"prefer-vector-width"="{bits}"'
+
+    @intrinsic
+    def prefer_vector_width(typingctx: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            try:
+                set.add(builder.function.attributes, attribute)
+            except (TypeError, AttributeError) as error:
+                warn_once("the vector-width attribute", "kernels use LLVM's default width", error)
+            return context.get_dummy_value()
+
+        return types.none(), codegen
+
+    return prefer_vector_width
+
+
+def compile_interleaved(dispatcher: Any, interleave: int) -> None:
+    """Have numba compile ``dispatcher`` (each signature, also when another function calls
+    it) with LLVM's ``-force-vector-interleave=interleave``: set under numba's compiler lock,
+    which every compilation of the process holds, and reset to 0 (LLVM's own choice)
+    afterwards, so that other numba code keeps LLVM's default.
+
+    Where numba's compiler lock or llvmlite's option setter is gone, ``dispatcher`` compiles
+    with LLVM's own interleave (the same values but in a batch's last few elements, which
+    may round differently; slower) and a warning says so.
+    """
+    try:
+        import llvmlite.binding as llvm
+        from numba.core.compiler_lock import global_compiler_lock
+
+        set_option = llvm.set_option
+        compile_signature = dispatcher.compile
+    except (ImportError, AttributeError) as error:
+        warn_once("the vector-interleave option", "kernels use LLVM's own interleave", error)
+        return
+
+    def compile_with_interleave(signature: Any) -> Any:
+        with global_compiler_lock:
+            set_option("", f"-force-vector-interleave={interleave}")
+            try:
+                return compile_signature(signature)
+            finally:
+                set_option("", "-force-vector-interleave=0")
+
+    dispatcher.compile = compile_with_interleave
+
+
+def no_runtime_options() -> dict[str, Any]:
+    """``numba.njit`` options that compile a function without numba's runtime (no reference
+    counting of the arrays it passes on: atomic updates of counts that threads share).
+
+    Where numba no longer has the option, ``{}`` (the function compiles with the runtime:
+    the same values, slower) and a warning says so."""
+    try:
+        from numba.core.cpu import CPUTargetOptions
+
+        if not hasattr(CPUTargetOptions, "_nrt"):
+            raise AttributeError("CPUTargetOptions has no _nrt option")
+    except (ImportError, AttributeError) as error:
+        warn_once("compiling without numba's runtime", "kernels count references", error)
+        return {}
+    return {"_nrt": False}
+
+
+# --------------------------------------------------------------------------- disk cache
+_UNREADABLE = (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError, KeyError)
+"""What reading a corrupt or truncated cache entry raises (pickle's and numba's rebuild)."""
+
+
+def install_keyed_cache(
+    dispatcher: Any, cache_key: str, path: Path, count: Callable[[str], None]
+) -> bool:
+    """Give a numba dispatcher (not yet compiled) numba's disk cache in folder ``path``,
+    keyed by ``cache_key`` instead of a source file and its closure's cells (which a
+    generated kernel lacks, and whose pickles differ in every process). ``count(event)`` is
+    told of each ``"hits"``, ``"misses"`` and ``"errors"`` (an entry that could not be read
+    or written: compiled, and written again where possible).
+
+    Returns whether the cache is installed. Where numba's cache classes have changed, the
+    dispatcher compiles in memory in every process (seconds per kernel) and a warning says
+    so.
+    """
+    try:
+        dispatcher._cache = _keyed_cache_class()(dispatcher.py_func, cache_key, path, count)
+    except (ImportError, AttributeError, TypeError) as error:
+        warn_once("the kernels' disk cache", "kernels compile in every process", error)
+        return False
+    return True
+
+
+@functools.cache
+def _keyed_cache_class() -> type:
+    """numba's per-function cache, keyed by our key and stored in our folder (a subclass of
+    its ``FunctionCache`` that needs no source file and does not pickle closures)."""
+    from numba.core.caching import (
+        CompileResultCacheImpl,
+        FunctionCache,
+        IndexDataCacheFile,
+        _CacheLocator,
+    )
+
+    class Locator(_CacheLocator):
+        def __init__(self, path: Path) -> None:
+            self._path = str(path)
+            self._py_file = "<brdfkit kernel>"
+
+        def get_cache_path(self) -> str:
+            return self._path
+
+        def get_source_stamp(self) -> str:
+            return "brdfkit"  # the key (the folder's name) already says what the code is
+
+        def get_disambiguator(self) -> str:
+            return ""
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> None:
+            return None
+
+    class Impl(CompileResultCacheImpl):
+        def __init__(self, py_func: Any, path: Path) -> None:
+            self._lineno = py_func.__code__.co_firstlineno
+            self._locator = Locator(path)
+            self._filename_base = self.get_filename_base("kernel", getattr(sys, "abiflags", ""))
+
+    class KeyedCache(FunctionCache):
+        def __init__(
+            self, py_func: Any, cache_key: str, path: Path, count: Callable[[str], None]
+        ) -> None:
+            self._name = repr(py_func)
+            self._py_func = py_func
+            self._key = cache_key
+            self._count = count
+            self._impl = Impl(py_func, path)
+            self._cache_path = str(path)
+            self._cache_file = IndexDataCacheFile(
+                cache_path=str(path),
+                filename_base=self._impl.filename_base,
+                source_stamp=self._impl.locator.get_source_stamp(),
+            )
+            self.enable()
+
+        def _index_key(self, sig: Any, codegen: Any) -> tuple[Any, ...]:
+            return (sig, codegen.magic_tuple(), self._key)
+
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            try:
+                data = super().load_overload(sig, target_context)
+            except _UNREADABLE:  # a corrupt entry: compile, then overwrite it
+                self._count("errors")
+                return None
+            self._count("hits" if data is not None else "misses")
+            return data
+
+        def save_overload(self, sig: Any, data: Any) -> None:
+            try:
+                super().save_overload(sig, data)
+            except _UNREADABLE:
+                try:  # an unreadable index: a fresh one, then the entry
+                    self._cache_file.flush()
+                    super().save_overload(sig, data)
+                except OSError:  # unwritable (disk full, permissions): kept in memory
+                    self._count("errors")
+
+    return KeyedCache
+
+
+__all__ = [
+    "TESTED",
+    "compile_interleaved",
+    "install_keyed_cache",
+    "intrinsics",
+    "no_runtime_options",
+    "prefetch",
+    "toolchain",
+    "vector_width_hint",
+    "warn_once",
+]

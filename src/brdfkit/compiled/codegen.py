@@ -1,0 +1,231 @@
+r"""A function traced by JAX and written out as the Python source of a numba kernel.
+
+:func:`generate` runs the function once under :func:`jax.make_jaxpr` on a batch of *one*
+(``(1, w)`` per input of width ``w``; the models are written against the array API, so they
+run on JAX unchanged), checks that every output follows the batch (a batch of two gives
+``(2, ...)``), and interprets the jaxpr on scalar symbols (:mod:`brdfkit.compiled.scalar_code`).
+The result is the source of one function
+
+.. code-block:: python
+
+    def kernel(prm, in0, in1, out0, n):
+        _prefer_vector_width()
+        p0 = prm[0]                    # the parameters, and what depends on them alone
+        t3 = np.float32(p0 * k1)
+        for i in range(n):             # the batch
+            a0_0 = in0[i * 3 + 0]      # loads
+            t7 = np.float32(a0_0 * t3) # the live straight-line body
+            out0[i * 3 + 0] = t7       # stores
+
+over flat buffers holding ``max(w, 1)`` values per element, which numba compiles and LLVM
+vectorises across the loop's iterations; :func:`by_component_source` rewrites it for arrays
+laid out component by component. The parameters of a model are inputs, not constants, so
+one source serves every parameter set of a model's structure.
+
+References
+----------
+.. [1] R. Frostig, M. J. Johnson, C. Leary, "Compiling machine learning programs via
+       high-level tracing", SysML 2018 (JAX and its jaxpr).
+.. [2] W. Jakob, S. Speierer, N. Roussel, D. Vicini, "Dr.Jit: a just-in-time compiler for
+       differentiable rendering", ACM TOG 41(4), 2022 (the same trace-then-compile idea).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from brdfkit.compiled.scalar_code import Emitter, Sym, run_jaxpr
+
+BATCH_ONLY = (
+    "brdfkit.compiled compiles functions that are elementwise over the batch, with parameters "
+    "that do not vary over it (a texture does): use brdfkit.compiled.eval_chunked for those"
+)
+
+
+@dataclass(frozen=True)
+class Port:
+    """One input or output of a kernel: per-element width (0 for a scalar) and dtype."""
+
+    width: int
+    dtype: np.dtype
+
+
+@dataclass(frozen=True, eq=False)
+class Generated:
+    """A generated kernel: its ``source``, the ``constants`` it reads as globals, its input
+    and output ports and the number of ``parameters`` it reads from ``prm``."""
+
+    source: str
+    constants: dict[str, np.generic]
+    inputs: list[Port]
+    outputs: list[Port]
+    parameters: int
+
+    def to_record(self) -> dict[str, Any]:
+        """The kernel as JSON (constants as their exact bytes)."""
+        return {
+            "source": self.source,
+            "constants": [[k, v.dtype.str, v.tobytes().hex()] for k, v in self.constants.items()],
+            "ins": [[p.width, p.dtype.str] for p in self.inputs],
+            "outs": [[p.width, p.dtype.str] for p in self.outputs],
+            "parameters": self.parameters,
+        }
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> Generated:
+        """:meth:`to_record`'s inverse.
+
+        Raises
+        ------
+        KeyError, TypeError, ValueError
+            For a record of another form.
+        """
+        constants = {
+            name: np.frombuffer(bytes.fromhex(data), dtype=np.dtype(code))[0]
+            for name, code, data in record["constants"]
+        }
+        ins = [Port(int(w), np.dtype(d)) for w, d in record["ins"]]
+        outs = [Port(int(w), np.dtype(d)) for w, d in record["outs"]]
+        return cls(str(record["source"]), constants, ins, outs, int(record["parameters"]))
+
+
+def generate(
+    fn: Callable[..., Any],
+    widths: Sequence[int],
+    dtype: np.dtype,
+    parameter_shapes: Sequence[tuple[int, ...]],
+) -> Generated:
+    """The kernel of ``fn(*parameters, *inputs)``: parameters of ``parameter_shapes`` (read
+    from ``prm``, flattened in order), inputs of ``widths``, all of ``dtype``.
+
+    Raises
+    ------
+    ValueError
+        When ``fn`` cannot be traced on a batch of one, an output does not follow the batch
+        (a parameter varying over it), or ``fn`` uses a primitive without a scalar form.
+    """
+    import jax
+
+    closed = _trace(fn, widths, dtype, parameter_shapes)
+    em = Emitter()
+    args, uniform_loads = [], []
+    for shape in parameter_shapes:
+        syms = np.empty(tuple(shape), dtype=object)
+        for c in range(syms.size):
+            name = f"p{len(uniform_loads)}"
+            syms.flat[c] = Sym(name, dtype)
+            em.uniform.add(name)
+            uniform_loads.append((name, f"prm[{len(uniform_loads)}]"))
+        args.append(syms)
+    ins = [Port(w, dtype) for w in widths]
+    loads = []
+    for j, port in enumerate(ins):
+        count = max(port.width, 1)
+        syms = np.empty((1, count) if port.width else (1,), dtype=object)
+        for c in range(count):
+            name = f"a{j}_{c}"
+            syms.flat[c] = Sym(name, dtype)
+            index = f"i * {port.width} + {c}" if port.width else "i"
+            loads.append((name, f"in{j}[{index}]"))
+        args.append(syms)
+    with jax.enable_x64(dtype == np.float64):
+        results = run_jaxpr(em, closed, args)
+    outs = [
+        Port(r.shape[1] if r.ndim == 2 else 0, np.dtype(a.dtype))
+        for r, a in zip(results, closed.out_avals, strict=True)
+    ]
+    source = _source(em, uniform_loads, loads, results, outs, len(ins))
+    return Generated(source, em.constants, ins, outs, len(uniform_loads))
+
+
+def _trace(
+    fn: Callable[..., Any],
+    widths: Sequence[int],
+    dtype: np.dtype,
+    parameter_shapes: Sequence[tuple[int, ...]],
+) -> Any:
+    """The closed jaxpr of ``fn`` on a batch of one, its outputs checked to follow the
+    batch."""
+    import jax
+
+    def flat_fn(*args: Any) -> tuple[Any, ...]:
+        out = fn(*args)
+        return tuple(out) if isinstance(out, tuple | list) else (out,)
+
+    def example(batch: int) -> list[Any]:
+        params = [jax.ShapeDtypeStruct(tuple(s), dtype) for s in parameter_shapes]
+        return params + [jax.ShapeDtypeStruct((batch, w) if w else (batch,), dtype) for w in widths]
+
+    with jax.enable_x64(dtype == np.float64):
+        try:
+            closed = jax.make_jaxpr(flat_fn)(*example(1))
+            wider = jax.eval_shape(flat_fn, *example(2))
+        except (ValueError, TypeError) as error:
+            raise ValueError(
+                f"the function could not be traced on a batch of one ({error}); {BATCH_ONLY}"
+            ) from error
+    for k, (one, two) in enumerate(zip(closed.out_avals, wider, strict=True)):
+        ok = len(one.shape) in (1, 2) and one.shape[0] == 1 and two.shape == (2, *one.shape[1:])
+        if not ok:
+            raise ValueError(
+                f"output {k} of the traced function has shape {one.shape} for a batch of one "
+                f"and does not follow the batch; {BATCH_ONLY}"
+            )
+    return closed
+
+
+def _source(
+    em: Emitter,
+    uniform_loads: list[tuple[str, str]],
+    loads: list[tuple[str, str]],
+    results: list[np.ndarray],
+    outs: list[Port],
+    n_inputs: int,
+) -> str:
+    """The kernel's Python source: the parameters and what depends on them alone, then the
+    loop of loads, the live straight-line body and stores."""
+    stores = []
+    for j, (r, port) in enumerate(zip(results, outs, strict=True)):
+        for c, value in enumerate(r.reshape(-1)):
+            index = f"i * {port.width} + {c}" if port.width else "i"
+            stores.append((f"out{j}[{index}]", em.ref(value)))
+    live = {ref for _, ref in stores}
+    body = []
+    for target, code, uses in reversed(em.lines):
+        if target in live:
+            body.append((target, code))
+            live.update(uses)
+    body.reverse()
+    params = ["prm"] + [f"in{j}" for j in range(n_inputs)] + [f"out{j}" for j in range(len(outs))]
+    lines = [f"def kernel({', '.join(params)}, n):", "    _prefer_vector_width()"]
+    lines += [f"    {name} = {code}" for name, code in uniform_loads if name in live]
+    lines += [f"    {target} = {code}" for target, code in body if target in em.uniform]
+    lines.append("    for i in range(n):")
+    lines += [f"        {name} = {code}" for name, code in loads if name in live]
+    lines += [f"        {target} = {code}" for target, code in body if target not in em.uniform]
+    lines += [f"        {target} = {ref}" for target, ref in stores]
+    return "\n".join(lines) + "\n"
+
+
+def by_component_source(source: str, ins: list[Port], outs: list[Port]) -> str:
+    """The kernel ``source`` of :func:`_source` for arrays laid out component by component:
+    each component of a vector port is an array of its own (``in0[i * 3 + 1]`` becomes
+    ``in0_1[i]``), so that LLVM loads and stores whole vectors of one component."""
+
+    def names(kind: str, j: int, port: Port) -> list[str]:
+        return [f"{kind}{j}_{c}" for c in range(port.width)] if port.width else [f"{kind}{j}"]
+
+    params = ["prm"]
+    params += [name for j, p in enumerate(ins) for name in names("in", j, p)]
+    params += [name for j, p in enumerate(outs) for name in names("out", j, p)]
+    body = source.split("\n", 1)[1]
+    body = re.sub(r"\b(in|out)(\d+)\[i \* \d+ \+ (\d+)\]", r"\1\2_\3[i]", body)
+    return f"def kernel({', '.join(params)}, n):\n{body}"
+
+
+__all__ = ["BATCH_ONLY", "Generated", "Port", "by_component_source", "generate"]

@@ -1,0 +1,68 @@
+"""What a hand-written numba kernel needs, in one place.
+
+Most compiled code is generated from the models' own code (:func:`brdfkit.compiled.compile`).
+What tracing cannot express (table lookups, searches in a CDF, a tile's sampling loop) is
+written for numba by hand, beside the code it mirrors (``measured/_tabulated_kernels.py``,
+``render/_reflection_kernels.py``, ``light/_environment_kernels.py``, the vision kernels).
+Those modules build their functions from this toolkit only:
+
+- decorators: :func:`exact_jit` (rounds as written), :func:`vector_jit` (the
+  :data:`FASTMATH` flags of vectorised loops), :func:`jit` (a helper with its caller's
+  flags), :func:`inline_jit` (a step inlined into its caller), :func:`without_runtime`
+  (options for code that passes arrays on without reference counting);
+- intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
+  :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function);
+- scalar functions: :func:`trigonometry` (``atan2``, ``sin``, ``cos`` in a dtype);
+- CDF searches: :func:`guide_table` and :func:`guided_search`;
+- threads: :func:`threads` and :func:`run_tasks`.
+
+A layer below :mod:`brdfkit.compiled` (the environment map's kernels in :mod:`brdfkit.light`)
+is handed this module by its caller rather than importing it.
+
+Examples
+--------
+>>> import numpy as np
+>>> from brdfkit.compiled import kernel_tools
+>>> select = kernel_tools.select()
+>>> @kernel_tools.exact_jit()
+... def clamp0(x):
+...     return select(x > 0.0, x, 0.0)
+>>> float(clamp0(-2.5)), float(clamp0(1.5))
+(0.0, 1.5)
+"""
+
+from __future__ import annotations
+
+from brdfkit.compiled.guide_tables import guide_table, guided_search
+from brdfkit.compiled.jit import (
+    FASTMATH,
+    exact_jit,
+    inline_jit,
+    jit,
+    prefetch,
+    select,
+    vector_bits,
+    vector_jit,
+    vector_width_hint,
+    without_runtime,
+)
+from brdfkit.compiled.scalar_functions import trigonometry
+from brdfkit.compiled.thread_pool import run_tasks, threads
+
+__all__ = [
+    "FASTMATH",
+    "exact_jit",
+    "guide_table",
+    "guided_search",
+    "inline_jit",
+    "jit",
+    "prefetch",
+    "run_tasks",
+    "select",
+    "threads",
+    "trigonometry",
+    "vector_bits",
+    "vector_jit",
+    "vector_width_hint",
+    "without_runtime",
+]

@@ -1,0 +1,456 @@
+r"""Compiled shading under an environment map: the driver of the tile kernel.
+
+:class:`EnvironmentShader` computes what :func:`brdfkit.render.reflected_radiance` computes
+with ``method`` ``"auto"`` or ``"mis"``, at compiled speed: the exact parts as the NumPy path
+has them (Lambertian lobes as :math:`\rho E(n)/\pi`, :func:`~brdfkit.render.split_diffuse`; a
+smooth plastic's mirror as :math:`sF(\theta_o)L(\omega_r)`,
+:func:`~brdfkit.render.split_mirror`; the control variate :math:`k\,E(n)` of the rest,
+:func:`~brdfkit.render.diffuse_floor`, k from the compiled ``eval``), and the MIS estimate of
+the rest by the numba tile kernel (``render/_reflection_kernels.py``), whose BRDF kernels
+:func:`brdfkit.compiled.compile` builds from the model's own code, or
+:func:`brdfkit.measured.table_kernels` for a tabulated BRDF. Its tasks (sets of pixels) run
+on the kernels' threads (:func:`brdfkit.compiled.kernel_tools.run_tasks`; the kernel releases
+the GIL).
+
+The uniforms are those of the NumPy path (the same generator calls in the same order: per
+pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
+:func:`brdfkit.sampling.scrambled_sobol`, or i.i.d. uniforms), so with ``dtype=float64`` the
+image equals :func:`~brdfkit.render.shade`'s to rounding, and with float32 to float32
+precision away from the rare samples whose texel flips. :func:`compiled_shader` decides
+where the compiled path applies; :func:`kernels_built` whether it costs no compilation.
+
+References
+----------
+.. [1] E. Veach, L. Guibas, "Optimally combining sampling techniques for Monte Carlo
+       rendering", SIGGRAPH 1995.
+.. [2] S. K. Lam, A. Pitrou, S. Seibert, "Numba: a LLVM-based Python JIT compiler", 2015.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from brdfkit import compiled, sampling
+from brdfkit.brdf.base import BRDF
+from brdfkit.brdf.one_sided import one_sided_view
+from brdfkit.compiled import kernel_tools
+from brdfkit.light.base import Light
+from brdfkit.light.environment import EnvironmentMap, compiled_lookups
+from brdfkit.measured import table_kernels
+from brdfkit.params import check_choice
+from brdfkit.render._reflection_kernels import BLOCK, tile_kernel, tile_kernel_built
+from brdfkit.render.reflection_equation import (
+    FLOOR_DIRECTIONS,
+    Estimate,
+    _floor_directions,
+    _mirror_envmap,
+    _Uniforms,
+    diffuse_envmap_radiance,
+    local_frames,
+    split_diffuse,
+    split_mirror,
+    uniform_seeds,
+)
+
+HEURISTICS = ("power", "balance")
+METHODS = ("auto", "mis")
+
+
+_BRDF_KERNELS: weakref.WeakKeyDictionary[
+    BRDF, dict[np.dtype, tuple[compiled.CompiledBRDF, tuple[Any, ...]]]
+] = weakref.WeakKeyDictionary()
+
+
+def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tuple[Any, ...]]:
+    """``model`` compiled (:func:`brdfkit.compiled.compile`) and the numba functions of its
+    ``sample`` (3 uniforms), ``eval`` and ``pdf`` kernels, kept per model object. The
+    functions are those of the model's structure (they read the parameter values,
+    ``compiled.parameters``, at each call), so a model that differs in values only reuses
+    them and the tile kernel built on them."""
+    per_dtype = _BRDF_KERNELS.setdefault(model, {})
+    if dtype not in per_dtype:
+        compiled_model = compiled.compile(model, dtype)
+        per_dtype[dtype] = (
+            compiled_model,
+            tuple(
+                compiled_model.kernel(method, width).function
+                for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
+            ),
+        )
+    return per_dtype[dtype]
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """Queries made ready by :meth:`EnvironmentShader.prepare`: their batch shape, the exact
+    part of their value ``batch + (C,)``, and for the kernel the indices of the pixels it
+    shades, the flat ``wo`` ``(n, 3)`` and frames ``(n, 3, 3)`` in its dtype and the control
+    variate's k ``(n, C)``."""
+
+    batch: tuple[int, ...]
+    value: np.ndarray
+    pixels: np.ndarray | None = None
+    wo: np.ndarray | None = None
+    frame: np.ndarray | None = None
+    control: np.ndarray | None = None
+
+
+class EnvironmentShader:
+    r"""A compiled MIS shader for one BRDF under one :class:`~brdfkit.light.EnvironmentMap`.
+
+    Calling it equals :func:`brdfkit.render.reflected_radiance` with ``method`` ``"auto"``
+    or ``"mis"`` and ``heuristic`` ``"power"`` or ``"balance"``, same uniforms (module
+    docstring), at compiled speed. The BRDF's non-Lambertian part must be compilable by
+    :func:`brdfkit.compiled.compile` (its parameters may not vary per pixel; the albedo of its
+    Lambertian lobes, ``method="auto"``, neither) or be a tabulated BRDF, alone or scaled by
+    a constant (:func:`brdfkit.measured.table_kernels`, the table an input of the kernel).
+
+    Parameters
+    ----------
+    brdf : the surface's reflectance.
+    light : the environment map (or a sequence holding only it).
+    method : ``"auto"`` (Lambertian lobes as ρE(n)/π, the rest by MIS of f − k with the
+        control variate k·E(n), :func:`~brdfkit.render.diffuse_floor`) or ``"mis"``.
+    heuristic : ``"power"`` (β = 2) or ``"balance"`` (β = 1).
+    dtype : float32 (fastest) or float64 (the NumPy path's precision) for the arithmetic.
+
+    Raises
+    ------
+    ValueError
+        For another light, method or heuristic, a per-pixel parameter, or a BRDF that
+        :mod:`brdfkit.compiled` cannot compile.
+    """
+
+    def __init__(
+        self,
+        brdf: BRDF,
+        light: Light | Sequence[Light],
+        *,
+        method: str = "auto",
+        heuristic: str = "power",
+        dtype: Any = np.float32,
+    ) -> None:
+        lights = [light] if isinstance(light, Light) else list(light)
+        if len(lights) != 1 or not isinstance(lights[0], EnvironmentMap):
+            raise ValueError(f"light must be one EnvironmentMap; got {light!r}")
+        check_choice("method", method, METHODS)
+        check_choice("heuristic", heuristic, HEURISTICS)
+        self.env: EnvironmentMap = lights[0]
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.float32, np.float64):
+            raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
+        self.heuristic = heuristic
+        self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+        # a smooth plastic's mirror exactly, its base sampled (split_mirror)
+        self.mirror, self.rest = split_mirror(self.rest) if method == "auto" else (None, self.rest)
+        if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
+            self.rest = one_sided_view(self.rest)
+        if self.rho is not None and np.ndim(self.rho) > 1:
+            raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
+        self.channels = max(brdf.channels, self.env.channels)
+        self._kernel: Callable[..., None] | None = None
+        # the control variate k(wo)·E(n) of method="auto" (diffuse_floor)
+        self.control = (
+            method == "auto"
+            and self.rest is not None
+            and (self.mirror is not None or not self.rest.has_delta)
+        )
+        # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
+        self._data: tuple[Any, ...] = ()
+        if self.rest is not None:
+            table = table_kernels(self.rest, self.dtype)
+            if table is not None:
+                self._rest, functions, self._data = table, table.functions, table.data
+            else:
+                self._rest, functions = _compiled(self.rest, self.dtype)
+            self._kernel = tile_kernel(
+                *functions,
+                self.dtype.type,
+                self.rest.channels,
+                self.env.channels,
+            )
+        # the map's arrays for the kernel, its sampling as the NumPy path's MIS
+        lookups = compiled_lookups(self.dtype, kernel_tools)
+        self._tables = lookups.tables(self.env.compensated)
+
+    def __call__(
+        self,
+        wo: Any,
+        normal: Any | None = None,
+        point: Any | None = None,
+        tangent: Any | None = None,
+        *,
+        samples: int = 256,
+        seed: Any = 0,
+        sequence: str = "random",
+        first_sample: int = 0,
+        mask: np.ndarray | None = None,
+    ) -> Estimate:
+        """Reflected radiance towards ``wo`` (arguments as
+        :func:`~brdfkit.render.reflected_radiance`, ``first_sample`` included); ``mask``
+        (the batch's shape) skips the Monte Carlo of pixels it marks False (their value is
+        then the exact parts alone: Lambertian lobes, a plastic's mirror) without changing
+        the others (beyond their last bit: a pixel's place in a vectorised block of the BRDF
+        kernels can change its rounding).
+        Returns float64 ``value`` and ``stderr``. The same as :meth:`shade` of
+        :meth:`prepare`."""
+        prepared = self.prepare(wo, normal, point, tangent, mask=mask)
+        return self.shade(
+            prepared, samples=samples, seed=seed, sequence=sequence, first_sample=first_sample
+        )
+
+    def prepare(
+        self,
+        wo: Any,
+        normal: Any | None = None,
+        point: Any | None = None,
+        tangent: Any | None = None,
+        *,
+        mask: np.ndarray | None = None,
+    ) -> Prepared:
+        """What does not depend on the samples, for any number of :meth:`shade` calls on
+        these queries (progressive passes): the local frames, and the exact terms (the
+        Lambertian lobes' ρE(n)/π and the control variate's k·E(n))."""
+        _, point, frame, wo_local, batch = local_frames(np.asarray(wo), normal, point, tangent)
+        value = np.zeros((*batch, self.channels))
+        if self.rho is not None:
+            value = value + diffuse_envmap_radiance(self.rho, self.env, frame, wo_local)
+        if self.mirror is not None:
+            value = value + _mirror_envmap(self.mirror, self.env, point, frame, wo_local)
+        if self._kernel is None:
+            return Prepared(batch, value)
+        n = math.prod(batch)
+        keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
+        control = np.zeros((n, self.rest.channels), self.dtype)
+        if self.control:
+            control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
+            k = control.reshape(*batch, self.rest.channels).astype(np.float64)
+            value = value + diffuse_envmap_radiance(k * math.pi, self.env, frame, wo_local)
+        t = self.dtype
+        wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
+        frame_flat = np.ascontiguousarray(
+            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
+            dtype=t,
+        )
+        return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control)
+
+    def shade(
+        self,
+        prepared: Prepared,
+        *,
+        samples: int = 256,
+        seed: Any = 0,
+        sequence: str = "random",
+        first_sample: int = 0,
+    ) -> Estimate:
+        """:meth:`__call__` on queries made ready by :meth:`prepare`."""
+        if samples < 1:
+            raise ValueError(f"samples must be >= 1; got {samples}")
+        if sequence not in ("random", "sobol"):
+            raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
+        batch, value = prepared.batch, prepared.value
+        stderr2 = np.zeros((*batch, self.channels))
+        if self._kernel is not None:
+            mean, m2 = self._monte_carlo(prepared, samples, seed, sequence, first_sample)
+            value = value + mean
+            stderr2 = m2 / samples / samples
+        return Estimate(value, np.sqrt(stderr2))
+
+    def build(self) -> EnvironmentShader:
+        """Compile the kernels now (numba compiles on first call) with a one-pixel call."""
+        self(np.array([[0.0, 0.0, 1.0]]), samples=1)
+        return self
+
+    def _floor(self, wo_local: np.ndarray) -> np.ndarray:
+        """:func:`~brdfkit.render.diffuse_floor` of the sampled part by its compiled
+        ``eval``, ``(n, C)``."""
+        directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
+        f = self._rest.eval(directions, wo_local[:, None, :].astype(self.dtype))
+        median = np.partition(f, FLOOR_DIRECTIONS // 2, axis=-2)[:, FLOOR_DIRECTIONS // 2]
+        return np.maximum(median, 0)
+
+    def _monte_carlo(
+        self, prepared: Prepared, samples: int, seed: Any, sequence: str, first_sample: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per-pixel mean and Σ(x − mean)² of the MIS terms, ``batch + (C,)`` each."""
+        batch, pixels = prepared.batch, prepared.pixels
+        wo_flat, frame_flat, control = prepared.wo, prepared.frame, prepared.control
+        brdf_uniforms, map_uniforms, seeds = _uniforms(seed, sequence, batch, samples, first_sample)
+        n = math.prod(batch)
+        mean = np.zeros((n, self.channels))
+        m2 = np.zeros((n, self.channels))
+        found_mean = np.empty((pixels.size, self.channels))
+        found_m2 = np.empty((pixels.size, self.channels))
+        kernel = self._kernel
+        power = self.heuristic == "power"
+
+        bounds = _task_bounds(pixels.size, kernel_tools.threads())
+
+        def run(task: int) -> None:
+            lo, hi = bounds[task], bounds[task + 1]
+            kernel(
+                self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *brdf_uniforms,
+                *map_uniforms, seeds, *self._tables, power, control, found_mean[lo:hi],
+                found_m2[lo:hi], self._data,
+            )  # fmt: skip
+
+        kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
+        mean[pixels], m2[pixels] = found_mean, found_m2
+        shape = (*batch, self.channels)
+        return mean.reshape(shape), m2.reshape(shape)
+
+
+_CHUNK = 512
+"""Pixels per task of the thread pool, at most."""
+
+
+def _task_bounds(count: int, workers: int) -> list[int]:
+    """Bounds of the thread pool's tasks over ``count`` pixels: at most :data:`_CHUNK` each,
+    their number a multiple of ``workers`` and their sizes equal to within a pixel, so that
+    the workers finish a tile together (with tasks of :data:`_CHUNK` and a short last one,
+    one thread would wait on the other for part of a task per tile)."""
+    tasks = -(-max(count, 1) // _CHUNK)
+    tasks = -(-tasks // workers) * workers
+    return [count * i // tasks for i in range(tasks + 1)]
+
+
+def _uniforms(
+    seed: Any, sequence: str, batch: tuple[int, ...], samples: int, first_sample: int
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """The NumPy path's uniforms (``reflection_equation._Uniforms``: the same generator calls)
+    of the BRDF's (3-D, stream 0) and the map's (2-D, stream 1) samples, without their
+    pixels × samples array for Sobol: per strategy ``(points, digits)``, then the pixels'
+    seeds. For ``"random"`` the i.i.d. ``points`` ``(n, N, d)`` (digits and seeds empty), for
+    ``"sobol"`` the sequence's bit-reversed digits ``(N, d)`` and the pixels' 64-bit seeds
+    ``(n,)`` (:func:`~brdfkit.render.reflection_equation.uniform_seeds`), from which the kernel
+    hashes the scramble keys of each stream itself (``sampling.scramble_keys``), on its
+    threads."""
+    n = math.prod(batch)
+    uniforms = _Uniforms(seed, sequence, first_sample)
+    result = []
+    for dim in (3, 2):
+        if sequence == "random":
+            points = uniforms.draw(batch, samples, dim).reshape(n, samples, dim)
+            digits = np.empty((0, dim), np.uint32)
+        else:
+            points = np.empty((0, 0, dim))
+            integers = sampling.sobol_integers(first_sample, samples, dim)
+            digits = np.ascontiguousarray(sampling.reverse_bits(integers))
+        result.append((points, digits))
+    if sequence == "random":
+        seeds = np.empty(0, np.uint64)
+    else:
+        seeds = np.ascontiguousarray(uniform_seeds(seed, batch).reshape(n), dtype=np.uint64)
+    return result[0], result[1], seeds
+
+
+AUTO_COMPILE_WORK = 4_000_000
+"""Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
+trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes seconds
+per model structure, about what the NumPy path takes for this many MIS pixel-samples of a
+GGX conductor. Below it, the NumPy path unless the kernels are built already, for any model
+of the same structure (:func:`kernels_built`): once one parameter set is built, every other
+set of that structure shades compiled at no build cost, in this process or from the disk
+cache in the next."""
+
+
+def compiled_shader(
+    brdf: BRDF,
+    lights: Sequence[Light],
+    *,
+    method: str,
+    dtype: Any = np.float32,
+    build: bool = True,
+) -> tuple[EnvironmentShader, list[Light]] | None:
+    """The compiled shader for ``brdf`` under ``lights`` and the lights it leaves to the NumPy
+    path, or ``None`` where the compiled path does not apply.
+
+    It applies to exactly one :class:`~brdfkit.light.EnvironmentMap` plus any delta lights
+    (directional, point: evaluated exactly, no samples, by the NumPy path), ``method``
+    ``"auto"`` or ``"mis"``, a BRDF whose non-Lambertian part :func:`brdfkit.compiled.compile`
+    compiles (no per-pixel parameters), with numba and JAX installed, or whose non-Lambertian
+    part is a (constant-scaled) tabulated BRDF (:func:`brdfkit.measured.table_kernels`).
+    With ``build=False`` it is returned only when it costs no compilation: the model's
+    kernels are built already, or the BRDF is Lambertian (no Monte Carlo).
+    """
+    maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
+    others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
+    if method not in METHODS or len(maps) != 1 or not all(lt.delta for lt in others):
+        return None
+    dtype = np.dtype(dtype)
+    try:  # without numba, a table's kernels_built raises ImportError as the shader does
+        if not build:
+            _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+            _, rest = split_mirror(rest) if method == "auto" else (None, rest)
+            view = None if rest is None else one_sided_view(rest)
+            if view is not None and not kernels_built(view, dtype, maps[0].channels):
+                return None
+        return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
+    except (ValueError, ImportError):
+        return None
+
+
+def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None = None) -> bool:
+    """Whether compiled shading kernels for this model exist in this process (for its
+    structure: any model that differs from it in parameter values only, or for the object)
+    or in the disk cache (:mod:`brdfkit.compiled.cache`: loading them compiles nothing), for a
+    map of ``map_channels`` channels (``None``: 1 or 3)."""
+    dtype = np.dtype(dtype)
+    table = table_kernels(model, dtype)
+    entry = _BRDF_KERNELS.get(model, {}).get(dtype)
+    if table is not None:
+        kernels = table.functions
+    elif entry is not None:
+        kernels = entry[1]
+    else:
+        compiled_model = compiled.compile(model, dtype)
+        methods = (("sample", 3), ("eval", 0), ("pdf", 0))
+        if not all(compiled_model.cached(method, width) for method, width in methods):
+            return False
+        # built, or their source and machine code on disk: making them now costs a load
+        kernels = tuple(compiled_model.kernel(method, width).function for method, width in methods)
+    return tile_kernel_built(kernels, dtype.type, model.channels, map_channels)
+
+
+def reflected_radiance(
+    brdf: BRDF,
+    light: Light | Sequence[Light],
+    wo: Any,
+    normal: Any | None = None,
+    point: Any | None = None,
+    tangent: Any | None = None,
+    *,
+    method: str = "auto",
+    samples: int = 256,
+    heuristic: str = "power",
+    seed: Any = 0,
+    sequence: str = "random",
+    first_sample: int = 0,
+    dtype: Any = np.float32,
+) -> Estimate:
+    """:func:`brdfkit.render.reflected_radiance` under one environment map, compiled (see
+    :class:`EnvironmentShader`, which builds the kernel once for many calls)."""
+    shader = EnvironmentShader(brdf, light, method=method, heuristic=heuristic, dtype=dtype)
+    return shader(
+        wo, normal, point, tangent, samples=samples, seed=seed, sequence=sequence,
+        first_sample=first_sample,
+    )  # fmt: skip
+
+
+__all__ = [
+    "AUTO_COMPILE_WORK",
+    "BLOCK",
+    "HEURISTICS",
+    "METHODS",
+    "EnvironmentShader",
+    "Prepared",
+    "compiled_shader",
+    "kernels_built",
+    "reflected_radiance",
+]

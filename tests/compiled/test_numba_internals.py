@@ -1,0 +1,231 @@
+"""Every hook into numba's and llvmlite's internals (brdfkit.compiled._numba) works on the
+installed numba, and a hook that cannot be installed says so.
+
+These tests are the alarm for a numba upgrade: each hook's failure would otherwise be a silent
+loss of speed (no disk cache, narrower vectors, no interleave, reference counting)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+import numba
+
+from brdfkit.compiled import _numba, kernel_tools
+from brdfkit.compiled import cache as kernel_cache
+
+
+@pytest.fixture(autouse=True)
+def _no_warnings_yet(monkeypatch):
+    """Each test starts with no hook warned about (the warnings are once per process)."""
+    monkeypatch.setattr(_numba, "_WARNED", set())
+
+
+def _quiet(function, *args):
+    """``function(*args)``, failing on any RuntimeWarning (a hook that fell back)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        return function(*args)
+
+
+_PROCESS = textwrap.dedent(
+    """
+    import json, sys, warnings
+    warnings.simplefilter("error", RuntimeWarning)
+    from brdfkit.compiled import cache as kernel_cache
+    namespace = {"__name__": "brdfkit.compiled.cache"}
+    exec("def kernel(x):\\n    return x * 3.0 - 1.0\\n", namespace)
+    kernel = kernel_cache.njit(namespace["kernel"], sys.argv[1], nogil=True)
+    value = kernel(2.5)
+    print(json.dumps({"value": value, "key": kernel_cache.key_of(kernel),
+                      "stats": dict(kernel_cache.STATS)}))
+    """
+)
+
+
+def _process(cache: Path, key: str) -> dict:
+    env = {**os.environ, kernel_cache.ENV: str(cache)}
+    src = str(Path(kernel_cache.__file__).parents[2])
+    env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
+    done = subprocess.run(
+        [sys.executable, "-c", _PROCESS, key], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_the_keyed_disk_cache_writes_machine_code_and_a_fresh_process_loads_it(tmp_path):
+    key = kernel_cache.key("internals", time.time_ns())
+    cold = _process(tmp_path / "cache", key)
+    assert cold["key"] == key and cold["value"] == 6.5
+    assert cold["stats"].get("misses") == 1 and not cold["stats"].get("hits")
+    assert list((tmp_path / "cache").rglob(f"{key}/*.nbc"))  # machine code on disk
+    warm = _process(tmp_path / "cache", key)
+    assert warm["stats"].get("hits") == 1 and not warm["stats"].get("misses")
+    assert not warm["stats"].get("errors") and warm["value"] == cold["value"]
+
+
+def test_a_cache_that_cannot_be_installed_warns_once_and_compiles_in_memory(tmp_path, monkeypatch):
+    def changed():
+        raise AttributeError("FunctionCache has no attribute '_impl'")
+
+    monkeypatch.setattr(_numba, "_keyed_cache_class", changed)
+    monkeypatch.setenv(kernel_cache.ENV, str(tmp_path / "cache"))
+    namespace: dict = {"__name__": "brdfkit.compiled.cache"}
+    exec("def kernel(x):\n    return x + 1.0\n", namespace)
+    with pytest.warns(RuntimeWarning, match=r"the kernels' disk cache .* numba 0\.\d+"):
+        kernel = kernel_cache.njit(namespace["kernel"], "k1", nogil=True)
+    assert kernel_cache.key_of(kernel) is None and kernel(1.0) == 2.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # once per process
+        kernel_cache.njit(namespace["kernel"], "k2", nogil=True)
+
+
+@pytest.mark.parametrize("bits", ["256", "512"])
+def test_the_vector_width_attribute_reaches_the_llvm_ir(bits, monkeypatch):
+    monkeypatch.setenv("BRDFKIT_VECTOR_BITS", bits)
+    prefer_vector_width = kernel_tools.vector_width_hint()
+
+    @kernel_tools.vector_jit()
+    def scale(x, out):
+        prefer_vector_width()
+        for i in range(x.size):
+            out[i] = x[i] * np.float32(2)
+
+    x = np.arange(64, dtype=np.float32)
+    out = np.empty_like(x)
+    _quiet(scale, x, out)
+    np.testing.assert_array_equal(out, 2 * x)
+    assert f'"prefer-vector-width"="{bits}"' in scale.inspect_llvm(scale.signatures[0])
+
+
+_LOOP = "def loop(x, out):\n    for i in range(x.size):\n        out[i] = x[i] * x[i] + 1.0\n"
+
+
+def _loop(interleave: int | None):
+    """A fresh dispatcher of a vectorisable loop, compiled with ``interleave`` (or LLVM's own
+    choice); the number of vector multiplications in its optimised IR."""
+    namespace: dict = {}
+    exec(_LOOP, namespace)
+    loop = numba.njit(nogil=True, fastmath=True)(namespace["loop"])
+    if interleave is not None:
+        _quiet(_numba.compile_interleaved, loop, interleave)
+    x = np.arange(100, dtype=np.float32)
+    out = np.empty_like(x)
+    loop(x, out)
+    np.testing.assert_array_equal(out, x * x + 1)
+    return loop.inspect_llvm(loop.signatures[0]).count("fmul fast <")
+
+
+def test_the_interleave_option_reaches_llvm_for_that_dispatcher_alone():
+    default = _loop(None)
+    assert _loop(4) > _loop(1) >= 1  # four vectors in flight per iteration against one
+    assert _loop(None) == default  # reset afterwards: other numba code keeps LLVM's choice
+
+
+def test_an_interleave_that_cannot_be_set_warns(monkeypatch):
+    import llvmlite.binding
+
+    monkeypatch.delattr(llvmlite.binding, "set_option")
+    namespace: dict = {}
+    exec(_LOOP, namespace)
+    loop = numba.njit(namespace["loop"])
+    with pytest.warns(RuntimeWarning, match="the vector-interleave option"):
+        _numba.compile_interleaved(loop, 2)
+    x = np.ones(8)
+    out = np.empty_like(x)
+    loop(x, out)  # compiles with LLVM's own interleave
+    np.testing.assert_array_equal(out, 2 * x)
+
+
+def test_the_intrinsics_compile_to_their_instructions():
+    ops = _quiet(_numba.intrinsics)
+    select, maximum, minimum = ops["_select"], ops["_max"], ops["_min"]
+    both, either, differ, negate = ops["_and"], ops["_or"], ops["_xor"], ops["_not"]
+    rsqrt32 = ops["_rsqrt32"]
+
+    @numba.njit
+    def apply(a, b, choose, low, high, logic, root):
+        for i in range(a.size):
+            choose[i] = select(a[i] > b[i], a[i], b[i])
+            low[i], high[i] = minimum(a[i], b[i]), maximum(a[i], b[i])
+            p, q = a[i] > 0, b[i] > 0
+            logic[i, 0], logic[i, 1] = both(p, q), either(p, q)
+            logic[i, 2], logic[i, 3] = differ(p, q), negate(p)
+            root[i] = rsqrt32(np.float32(abs(a[i]) + 1))
+
+    rng = np.random.default_rng(1)
+    a, b = rng.standard_normal(200), rng.standard_normal(200)
+    a[0], b[1] = np.nan, np.nan
+    choose, low, high = np.empty(200), np.empty(200), np.empty(200)
+    logic, root = np.empty((200, 4), bool), np.empty(200, np.float32)
+    apply(a, b, choose, low, high, logic, root)
+    np.testing.assert_array_equal(choose[2:], np.where(a > b, a, b)[2:])
+    np.testing.assert_array_equal(low, np.minimum(a, b))  # NaN-propagating, as NumPy's
+    np.testing.assert_array_equal(high, np.maximum(a, b))
+    p, q = a > 0, b > 0
+    np.testing.assert_array_equal(logic, np.stack([p & q, p | q, p ^ q, ~p], axis=1))
+    exact = 1 / np.sqrt(np.abs(a).astype(np.float32).astype(np.float64) + 1)
+    ulp = np.spacing(exact.astype(np.float32)).astype(np.float64)
+    assert np.max(np.abs(root - exact)[1:] / ulp[1:]) <= 2
+    ir = apply.inspect_llvm(apply.signatures[0])
+    assert "llvm.maximum.f64" in ir and "llvm.minimum.f64" in ir and "llvm.sqrt.f32" in ir
+
+
+def test_the_prefetch_intrinsic_compiles_to_llvm_prefetch():
+    prefetch = _quiet(kernel_tools.prefetch)
+
+    @numba.njit
+    def total(values):
+        s = 0.0
+        for j in range(values.size):
+            prefetch(values, min(j + 4, values.size - 1))
+            s += values[j]
+        return s
+
+    values = np.arange(50, dtype=np.float64)
+    assert total(values) == values.sum()
+    assert "llvm.prefetch" in total.inspect_llvm(total.signatures[0])
+
+
+def test_kernels_compile_without_numbas_runtime():
+    options = _quiet(kernel_tools.without_runtime)
+    assert options  # the installed numba has the option: no fallback
+
+    @numba.njit(**options)
+    def norm(v):
+        return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+    @numba.njit(**options)
+    def allocate(n):
+        return np.empty(n)
+
+    assert norm(np.array([3.0, 4.0, 12.0])) == 13.0
+    with pytest.raises(numba.core.errors.NumbaError):  # no runtime: no array to allocate
+        allocate(3)
+
+
+def test_without_the_runtime_option_kernels_compile_with_it_and_warn(monkeypatch):
+    import numba.core.cpu
+
+    monkeypatch.setattr(numba.core.cpu, "CPUTargetOptions", type("Options", (), {}))
+    with pytest.warns(RuntimeWarning, match="compiling without numba's runtime"):
+        assert kernel_tools.without_runtime() == {}
+
+
+def test_toolchain_names_the_installed_versions():
+    import llvmlite
+
+    assert _numba.toolchain() == f"numba {numba.__version__}, llvmlite {llvmlite.__version__}"
