@@ -57,7 +57,7 @@ MIN_NZ = 1e-2
 """Smallest ``|n_z|`` used in orthographic slopes ``-n_x / n_z``: caps a slope at 100 (89.4°)."""
 
 
-def _check(normals: ArrayLike, mask: ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
+def check_normals(normals: ArrayLike, mask: ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
     """Validate ``(H, W, 3)`` normals and an ``(H, W)`` mask with pixels; zero normals outside.
 
     Raises
@@ -83,6 +83,25 @@ def _check(normals: ArrayLike, mask: ArrayLike | None) -> tuple[np.ndarray, np.n
     return np.where(mask[..., None], normals, 0.0), mask
 
 
+def check_camera(camera: ArrayLike) -> np.ndarray:
+    """Validate intrinsics ``K``: a finite (3, 3) matrix with positive focal lengths.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Naming what is wrong.
+    """
+    camera = as_float_array("camera", camera, finite=False)
+    if camera.shape != (3, 3) or not np.all(np.isfinite(camera)):
+        raise ParameterError(f"camera must be a finite (3, 3) intrinsics matrix K, got {camera!r}")
+    if not (camera[0, 0] > 0 and camera[1, 1] > 0):
+        raise ParameterError(
+            "camera focal lengths K[0,0], K[1,1] must be positive, "
+            f"got {camera[0, 0]}, {camera[1, 1]}"
+        )
+    return camera
+
+
 def orthographic_gradients(
     normals: ArrayLike, mask: ArrayLike | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -94,7 +113,7 @@ def orthographic_gradients(
     ----------
     Y. Quéau, J.-D. Durou, J.-F. Aujol, J. Math. Imaging Vis. 60, 2018, §2.
     """
-    normals, mask = _check(normals, mask)
+    normals, mask = check_normals(normals, mask)
     n_z = normals[..., 2]
     n_z = np.where(n_z < 0, -1.0, 1.0) * np.maximum(np.abs(n_z), MIN_NZ)
     d_u = np.where(mask, normals[..., 0] / n_z, 0.0)
@@ -116,15 +135,9 @@ def perspective_gradients(
     ----------
     J.-D. Durou, J.-F. Aujol, F. Courteille, EMMCVPR 2009; Y. Quéau et al., JMIV 60, 2018, §2.2.
     """
-    normals, mask = _check(normals, mask)
-    camera = as_float_array("camera", camera, finite=False)
-    if camera.shape != (3, 3) or not np.all(np.isfinite(camera)):
-        raise ParameterError(f"camera must be a finite (3, 3) intrinsics matrix K, got {camera!r}")
+    normals, mask = check_normals(normals, mask)
+    camera = check_camera(camera)
     f_x, f_y, c_x, c_y = camera[0, 0], camera[1, 1], camera[0, 2], camera[1, 2]
-    if not (f_x > 0 and f_y > 0):
-        raise ParameterError(
-            f"camera focal lengths K[0,0], K[1,1] must be positive, got {f_x}, {f_y}"
-        )
     rows, columns = np.indices(mask.shape, dtype=np.float64)
     r_x, r_y = (columns - c_x) / f_x, (rows - c_y) / f_y
     m_x, m_y, m_z = normals[..., 0], -normals[..., 1], -normals[..., 2]
@@ -175,7 +188,7 @@ def frankot_chellappa(normals: ArrayLike, mask: ArrayLike | None = None) -> np.n
     >>> frankot_chellappa(plane).round(6).tolist()
     [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
     """
-    normals, mask = _check(normals, mask)
+    normals, mask = check_normals(normals, mask)
     d_u, d_v = orthographic_gradients(normals, mask)
     height, width = d_u.shape
     omega_u = 2 * np.pi * np.fft.fftfreq(width)[None, :]
@@ -215,7 +228,7 @@ def poisson_dct(normals: ArrayLike, mask: ArrayLike | None = None) -> np.ndarray
     """
     import scipy.fft
 
-    normals, mask = _check(normals, mask)
+    normals, mask = check_normals(normals, mask)
     d_u, d_v = orthographic_gradients(normals, mask)
     height, width = d_u.shape
     # Gradients at the half-pixel edges (mean of the two pixels), zero across the border.
@@ -277,7 +290,7 @@ def least_squares_integration(
     import scipy.sparse
     import scipy.sparse.linalg
 
-    normals, mask = _check(normals, mask)
+    normals, mask = check_normals(normals, mask)
     if camera is None:
         d_u, d_v = orthographic_gradients(normals, mask)
     else:
