@@ -1,0 +1,90 @@
+"""``brdfkit integrate``: depth and a mesh from a normal map."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from brdfkit.cli._app import app, console, fail, progress, shown
+from brdfkit.cli._output import OutputFolder
+
+_METHODS = ("bilateral", "least_squares", "poisson_dct", "frankot_chellappa")
+"""The keys of :data:`brdfkit.vision.depth_from_normals.METHODS` (kept here so that
+``--help`` needs no NumPy)."""
+_OUTPUTS = ("depth.npy", "depth.exr", "mesh.ply")
+
+_Normals = Annotated[
+    Path,
+    typer.Argument(
+        metavar="NORMALS",
+        help="A normal-map image (or .npy), or a folder with normal_map.png, mask.png, K.txt.",
+    ),
+]
+_Mask = Annotated[
+    Path | None,
+    typer.Option("--mask", metavar="FILE", help="Object mask image (white = object)."),
+]
+_Camera = Annotated[
+    Path | None,
+    typer.Option("--K", "-K", metavar="FILE", help="3x3 intrinsics K (text): perspective."),
+]
+_Method = Annotated[
+    str,
+    typer.Option("--method", "-m", metavar="METHOD", help=f"One of: {', '.join(_METHODS)}."),
+]
+_Output = Annotated[
+    Path,
+    typer.Option(
+        "--output", "-o", metavar="FOLDER", help="Folder for depth.npy, depth.exr and mesh.ply."
+    ),
+]
+_Json = Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")]
+
+
+@app.command("integrate")
+def integrate_command(
+    normals: _Normals,
+    mask: _Mask = None,
+    camera: _Camera = None,
+    method: _Method = "bilateral",
+    output: _Output = Path("integrate"),
+    as_json: _Json = False,
+) -> None:
+    """Integrate a normal map into depth, keeping depth discontinuities (bilateral by default).
+
+    Normal maps are encoded as n = 2 v / v_max - 1 per channel, red = x (right), green = y
+    (up), blue = z (towards the camera). A folder may hold mask.png and K.txt, which --mask and
+    --K replace. Writes depth.npy and depth.exr (depth along the optical axis, NaN outside the
+    mask: pixel units without K, up to scale with it) and mesh.ply.
+    """
+    import numpy as np
+
+    from brdfkit.io import write_image
+    from brdfkit.vision.depth_from_normals import integrate_normal_map, read_normal_map_input
+
+    if method not in _METHODS:
+        fail(f"--method must be one of {', '.join(_METHODS)}; got {method!r}")
+    folder = OutputFolder(output, _OUTPUTS, inputs=(normals, mask, camera))
+    data = read_normal_map_input(normals, mask, camera)
+    if data.camera is not None and method not in ("bilateral", "least_squares"):
+        fail(f"--method {method} is orthographic only; with K use bilateral or least_squares")
+    with progress() as bar:
+        task = bar.add_task(f"integrating ({method})", total=None)
+        surface = integrate_normal_map(
+            data, method, callback=lambda done, total: bar.update(task, completed=done, total=total)
+        )
+    mesh = surface.mesh
+    folder.write("depth.npy", lambda path: np.save(path, surface.depth))
+    folder.write("depth.exr", lambda path: write_image(path, surface.depth.astype(np.float32)))
+    folder.write("mesh.ply", lambda path: mesh.export(path, file_type="ply"))
+    summary = {**surface.summary(), "output": shown(output), "files": list(_OUTPUTS)}
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
+        return
+    console.print(
+        f"wrote {shown(output)}/ ({summary['projection']} depth of {summary['pixels']} pixels, "
+        f"{method})"
+    )

@@ -1,0 +1,212 @@
+"""From a normal-map file to depth and a mesh: what ``brdfkit integrate`` runs.
+
+Input: a normal-map image (or ``.npy``) or a folder in the layout of the bilateral
+normal-integration project (Cao et al. 2022): ``normal_map.png``, and optionally ``mask.png``
+and ``K.txt``. Its encoding, checked against that project's reader: the 8- or 16-bit RGB
+channels are ``n = 2 v / v_max - 1`` with red = x (right), green = y (up), blue = z (towards
+the camera), no axis flipped (the frame of :mod:`brdfkit.vision`). ``K.txt`` is the 3 × 3
+intrinsics matrix (OpenCV convention: pixels, ``c_x`` a column, ``c_y`` a row); without it
+the view is orthographic. The normals are renormalised inside the mask.
+
+Output: depth along the optical axis away from the camera, NaN outside the mask (orthographic:
+pixel units, nearest pixel 0; perspective: known up to scale, geometric mean 1 per connected
+part of the mask), and a triangle mesh of the masked pixels
+(:func:`brdfkit.vision.reconstruction.depth_mesh`).
+
+References
+----------
+.. [1] X. Cao, H. Santo, B. Shi, F. Okura, Y. Matsushita, "Bilateral normal integration",
+   ECCV 2022.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from brdfkit.errors import FormatError, ParameterError
+from brdfkit.vision import normal_integration
+from brdfkit.vision.bilateral_integration import bilateral_integration
+
+if TYPE_CHECKING:
+    import trimesh
+
+Progress = Callable[[int, int], None]
+
+DEFAULT_METHOD = "bilateral"
+"""The integrator :func:`integrate_normal_map` uses unless told otherwise: it keeps depth
+discontinuities and matches the authors' accuracy on DiLiGenT (``benchmarks/``)."""
+
+PERSPECTIVE_METHODS = ("bilateral", "least_squares")
+"""The methods that take intrinsics ``K``."""
+
+
+def _bilateral(normals, mask, camera=None, *, callback: Progress | None = None) -> np.ndarray:
+    return bilateral_integration(normals, mask, camera, callback=callback).depth
+
+
+METHODS: dict[str, Callable[..., np.ndarray]] = {
+    "bilateral": _bilateral,
+    **normal_integration.METHODS,
+}
+"""The integrators by name (the ``--method`` choices of ``brdfkit integrate``)."""
+
+
+@dataclass(frozen=True)
+class NormalMap:
+    """A normal map ready to integrate.
+
+    Attributes
+    ----------
+    normals : (H, W, 3) unit normals inside the mask (x right, y up, z towards the camera).
+    mask : (H, W) bool.
+    camera : (3, 3) intrinsics ``K``, or None (orthographic).
+    name : the file or folder it was read from.
+    """
+
+    normals: np.ndarray
+    mask: np.ndarray
+    camera: np.ndarray | None
+    name: str
+
+
+def _read_camera(path: Path) -> np.ndarray:
+    """``K`` from a text file, refused with the file's name unless a finite 3 × 3 matrix with
+    positive focal lengths."""
+    from brdfkit.vision.reconstruction import read_intrinsics
+
+    camera = read_intrinsics(path)
+    try:
+        return normal_integration.check_camera(camera)
+    except ParameterError as error:
+        raise FormatError(path, str(error).replace("camera ", "", 1)) from None
+
+
+def read_normal_map_input(
+    normals: str | os.PathLike,
+    mask: str | os.PathLike | None = None,
+    camera: str | os.PathLike | None = None,
+) -> NormalMap:
+    """Read a normal map, its mask and its intrinsics.
+
+    Parameters
+    ----------
+    normals : a normal-map image or ``.npy``, or a folder holding ``normal_map.png`` (and
+        maybe ``mask.png``, ``K.txt``, used unless ``mask`` or ``camera`` is given).
+    mask : a mask image (white = object); every pixel when omitted and the folder has none.
+    camera : a text file of the 3 × 3 intrinsics ``K``; orthographic when omitted and the
+        folder has none.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file: missing or unreadable, a mask of another size or empty, a zero normal
+        inside the mask, or ``K`` not a finite 3 × 3 matrix with positive focal lengths.
+    """
+    from brdfkit._array import normalize
+    from brdfkit.vision.datasets import read_mask, read_normal_map
+
+    source = Path(normals)
+    if source.is_dir():
+        folder, source = source, source / "normal_map.png"
+        mask = (
+            mask if mask is not None or not (folder / "mask.png").is_file() else folder / "mask.png"
+        )
+        camera = (
+            camera if camera is not None or not (folder / "K.txt").is_file() else folder / "K.txt"
+        )
+    values = read_normal_map(source)
+    if mask is None:
+        pixels = np.ones(values.shape[:2], dtype=bool)
+    else:
+        pixels = read_mask(mask)
+        if pixels.shape != values.shape[:2]:
+            raise FormatError(
+                mask, f"the mask is {pixels.shape}, the normal map {values.shape[:2]}"
+            )
+        if not pixels.any():
+            raise FormatError(mask, "the mask has no pixels set")
+    if np.any(np.linalg.norm(values[pixels], axis=-1) < 1e-6):
+        raise FormatError(source, "a normal inside the mask is zero (no direction)")
+    unit = np.where(pixels[..., None], normalize(values), 0.0)
+    intrinsics = None if camera is None else _read_camera(Path(camera))
+    return NormalMap(unit, pixels, intrinsics, str(normals))
+
+
+@dataclass(frozen=True)
+class IntegratedSurface:
+    """The depth of a :class:`NormalMap` and how it was found.
+
+    Attributes
+    ----------
+    depth : (H, W) depth along the optical axis away from the camera, NaN outside the mask.
+    mask : (H, W) bool.
+    camera : (3, 3) intrinsics ``K`` or None (orthographic).
+    method : the integrator's name (a key of :data:`METHODS`).
+    """
+
+    depth: np.ndarray
+    mask: np.ndarray
+    camera: np.ndarray | None
+    method: str
+
+    @property
+    def mesh(self) -> trimesh.Trimesh:
+        """One vertex per mask pixel, two triangles per 2 × 2 block of mask pixels."""
+        from brdfkit.vision.reconstruction import depth_mesh
+
+        return depth_mesh(self.depth, self.mask, self.camera)
+
+    def summary(self) -> dict[str, Any]:
+        """What ``brdfkit integrate --json`` reports: method, projection, pixels, depth range."""
+        inside = self.depth[self.mask]
+        return {
+            "method": self.method,
+            "projection": "orthographic" if self.camera is None else "perspective",
+            "pixels": int(self.mask.sum()),
+            "height": int(self.mask.shape[0]),
+            "width": int(self.mask.shape[1]),
+            "depth_min": float(inside.min()),
+            "depth_max": float(inside.max()),
+        }
+
+
+def integrate_normal_map(
+    data: NormalMap, method: str = DEFAULT_METHOD, *, callback: Progress | None = None
+) -> IntegratedSurface:
+    """Integrate ``data`` into depth with ``method`` (a key of :data:`METHODS`).
+
+    ``callback(done, total)`` reports the iterations of the bilateral method.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        An unknown method, or intrinsics with a method that is orthographic only.
+
+    Examples
+    --------
+    A plane whose depth grows by half a pixel per column, integrated by the default method:
+
+    >>> import numpy as np
+    >>> normals = np.broadcast_to(np.array([0.5, 0.0, 1.0]) / np.sqrt(1.25), (3, 4, 3))
+    >>> data = NormalMap(normals, np.ones((3, 4), bool), None, "plane")
+    >>> integrate_normal_map(data).depth.round(6).tolist()
+    [[0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5]]
+    """
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+    if data.camera is not None and method not in PERSPECTIVE_METHODS:
+        raise ParameterError(
+            f"method {method!r} is orthographic only; intrinsics K need one of "
+            f"{', '.join(PERSPECTIVE_METHODS)}"
+        )
+    arguments: dict[str, Any] = {} if data.camera is None else {"camera": data.camera}
+    if method == "bilateral":
+        arguments["callback"] = callback
+    depth = METHODS[method](data.normals, data.mask, **arguments)
+    return IntegratedSurface(depth, data.mask, data.camera, method)
