@@ -1,0 +1,95 @@
+"""``brdfkit integrate``: the three files from a folder in the bilateral-integration layout,
+NaN outside the mask, the library's depth; bad input refused in one line, nothing written."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from brdfkit.cli import app
+from brdfkit.cli.integrate import _METHODS
+from brdfkit.io import read_image, write_image
+from brdfkit.vision import datasets
+from brdfkit.vision.bilateral_integration import bilateral_integration
+from brdfkit.vision.depth_from_normals import METHODS
+
+runner = CliRunner()
+CAMERA = np.array([[40.0, 0.0, 10.0], [0.0, 40.0, 8.0], [0.0, 0.0, 1.0]])
+
+
+def _invoke(*args):
+    return runner.invoke(app, ["integrate", *(str(a) for a in args)])
+
+
+@pytest.fixture
+def folder(tmp_path):
+    """A hemisphere in front of the camera: normal_map.png (16-bit), mask.png and K.txt."""
+    rows, columns = np.indices((16, 20)).astype(np.float64)
+    x, y = (columns - 9.5) / 7.0, -(rows - 7.5) / 7.0
+    mask = x**2 + y**2 < 0.8
+    normals = np.stack([x, y, np.sqrt(np.clip(1 - x**2 - y**2, 0, None))], -1)
+    normals = np.where(mask[..., None], normals, 0.0)
+    path = tmp_path / "sphere"
+    path.mkdir()
+    datasets.write_normal_map(path / "normal_map.png", normals)
+    write_image(path / "mask.png", mask.astype(np.float64), srgb=False)
+    np.savetxt(path / "K.txt", CAMERA)
+    return path
+
+
+def test_writes_depth_exr_and_mesh_from_a_folder(folder, tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    out = tmp_path / "out"
+    result = _invoke(folder, "-o", out, "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert summary["projection"] == "perspective" and summary["method"] == "bilateral"
+    depth = np.load(out / "depth.npy")
+    mask = datasets.read_mask(folder / "mask.png")
+    assert np.isnan(depth[~mask]).all() and np.isfinite(depth[mask]).all()
+    assert summary["pixels"] == mask.sum()
+    normals = datasets.read_normal_map(folder / "normal_map.png")
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    expected = bilateral_integration(normals, mask, CAMERA).depth
+    assert np.allclose(depth, expected, equal_nan=True)
+    exr = read_image(out / "depth.exr")[..., 0]
+    assert np.allclose(exr, depth.astype(np.float32), equal_nan=True)
+    mesh = trimesh.load(out / "mesh.ply", process=False)
+    assert len(mesh.vertices) == mask.sum() and len(mesh.faces) > 0
+    # the sphere bulges towards the camera: its centre is nearer than its rim, by about
+    # (1 - sqrt(0.2)) 7/40 ≈ 10 % of the depth (rim at x² + y² = 0.8, radius 7 px, f = 40)
+    assert np.nanmax(depth) - depth[8, 10] > 0.05 * depth[8, 10]
+
+
+def test_a_bad_k_file_is_refused_in_one_line_naming_it(folder, tmp_path):
+    out = tmp_path / "out"
+    bad = tmp_path / "K.txt"
+    bad.write_text("1 2 3\n")
+    result = _invoke(
+        folder / "normal_map.png", "--mask", folder / "mask.png", "--K", bad, "-o", out
+    )
+    assert result.exit_code == 2
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and str(bad) in lines[0]
+    assert not out.exists()
+
+
+def test_orthographic_only_methods_refuse_k_and_unknown_methods(folder, tmp_path):
+    out = tmp_path / "out"
+    result = _invoke(folder, "--method", "poisson_dct", "-o", out)
+    assert result.exit_code == 2 and "orthographic only" in result.stderr
+    assert _invoke(folder, "--method", "magic", "-o", out).exit_code == 2
+    assert not out.exists()
+
+
+def test_orthographic_without_k_and_the_method_list(folder, tmp_path):
+    out = tmp_path / "out"
+    image = folder / "normal_map.png"
+    result = _invoke(image, "--mask", folder / "mask.png", "-m", "least_squares", "-o", out)
+    assert result.exit_code == 0, result.output
+    depth = np.load(out / "depth.npy")
+    assert np.nanmin(depth) == 0.0  # orthographic: nearest pixel at 0, pixel units
+    assert set(_METHODS) == set(METHODS)
