@@ -555,6 +555,26 @@ def vision_accuracy(r: dict) -> str:
     )
 
 
+def normal_integration(r: dict) -> str:
+    body = [
+        [name, f"{o['pixels']:,}", f"{o['brdfkit_made_mm']:.3f}", f"{o['bini_made_mm']:.3f}",
+         f"{o['least_squares_made_mm']:.3f}", f"{o['brdfkit_seconds']:.2f}",
+         f"{o['bini_seconds']:.2f}"]
+        for name, o in r["objects"].items()
+    ]  # fmt: skip
+    s = r["summary"]
+    body.append(
+        ["**all**", "", f"{s['brdfkit_mean_made_mm']:.3f} (mean)", f"{s['bini_mean_made_mm']:.3f}",
+         "", f"{s['brdfkit_total_seconds']:.2f} (total)", f"{s['bini_total_seconds']:.2f}"]
+    )  # fmt: skip
+    header = ["object", "pixels", f"brdfkit {r['method']} MADE mm", "BiNI MADE mm",
+              "least squares MADE mm", "brdfkit s", "BiNI s"]  # fmt: skip
+    return (
+        f"{rows(header, body, 'lrrrrrr')}\n\nbrdfkit's MADE at most BiNI's on "
+        f"{s['brdfkit_made_at_most_bini']} of {s['objects']} objects."
+    )
+
+
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
@@ -572,6 +592,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "photometric_stereo": photometric_stereo,
     "ps_materials": ps_materials,
     "vision_accuracy": vision_accuracy,
+    "normal_integration": normal_integration,
     "sfs": sfs,
     "relighting": relighting,
 }

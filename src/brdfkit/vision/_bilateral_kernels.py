@@ -4,8 +4,10 @@ Each iteration of the bilateral integration solves a weighted graph Laplacian ``
 (one unknown per mask pixel, five entries per row) to a loose relative tolerance, started from
 the previous depth. SciPy's ``cg`` spends more time in its Python loop than in arithmetic at
 this size (50k unknowns, thousands of iterations per integration); here the whole solve is one
-compiled loop, each step one pass over the vectors. The kernel is compiled on first use and
-cached on disk (``cache=True``).
+compiled loop, each step three passes over the vectors. The matrix is stored by pixel, not as
+CSR: a pixel's row neighbours are the next and previous unknowns, so only its column
+neighbours are looked up. The kernel is compiled on first use and cached on disk
+(``cache=True``).
 
 References
 ----------
@@ -27,41 +29,53 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMAT
 
 
 @_jit
-def jacobi_cg(
-    indptr, indices, data, inverse_diagonal, rhs, x, rtol, max_iterations
-):  # pragma: no cover
-    """Jacobi-preconditioned conjugate gradients on the CSR matrix ``(data, indices, indptr)``,
-    in place on ``x`` (the start); stops when ``|r| <= rtol |rhs|``. Returns the iterations.
+def _apply(degree, c_right, c_left, c_up, c_down, up, down, x, out):  # pragma: no cover
+    """``out = L x`` for the five-point graph Laplacian: pixel ``i``'s neighbours are
+    ``i ± 1`` in its row (weight 0 where absent) and ``up[i]``, ``down[i]``; returns ``x.Lx``."""
+    n = len(x)
+    dot = 0.0
+    for i in range(n):
+        s = degree[i] * x[i] - c_up[i] * x[up[i]] - c_down[i] * x[down[i]]
+        if i + 1 < n:
+            s -= c_right[i] * x[i + 1]
+        if i > 0:
+            s -= c_left[i] * x[i - 1]
+        out[i] = s
+        dot += x[i] * s
+    return dot
 
-    Saad's Algorithm 9.1 with ``M = diag(L)``: three passes per iteration (the product with
-    its dot ``p.Lp``; the updates of ``x``, ``r`` and the preconditioned residual with their
-    dots; the new direction).
-    """
+
+@_jit
+def stencil_cg(
+    degree, c_right, c_left, c_up, c_down, up, down, rhs, x, rtol, max_iterations
+):  # pragma: no cover
+    """Jacobi-preconditioned conjugate gradients on the five-point Laplacian of
+    :func:`_apply`, in place on ``x`` (the start); stops when ``|r| <= rtol |rhs|``. Returns
+    the iterations.
+
+    Saad's Algorithm 9.1 with ``M = diag(L)`` (the diagonal kept at least 1e-5, as the
+    authors' code does): three passes per iteration (the product with its dot ``p.Lp``; the
+    updates of ``x``, ``r`` and the preconditioned residual with their dots; the new
+    direction)."""
     n = len(rhs)
     r = np.empty(n)
     z = np.empty(n)
     p = np.empty(n)
     lp = np.empty(n)
+    inverse_diagonal = np.empty(n)
+    _apply(degree, c_right, c_left, c_up, c_down, up, down, x, lp)
     rhs_norm2 = 0.0
     rz = 0.0
     for i in range(n):
-        s = 0.0
-        for j in range(indptr[i], indptr[i + 1]):
-            s += data[j] * x[indices[j]]
-        r[i] = rhs[i] - s
+        inverse_diagonal[i] = 1.0 / max(degree[i], 1e-5)
+        r[i] = rhs[i] - lp[i]
         z[i] = inverse_diagonal[i] * r[i]
         p[i] = z[i]
         rz += r[i] * z[i]
         rhs_norm2 += rhs[i] * rhs[i]
     limit = rtol * rtol * rhs_norm2
     for iteration in range(max_iterations):
-        p_lp = 0.0
-        for i in range(n):
-            s = 0.0
-            for j in range(indptr[i], indptr[i + 1]):
-                s += data[j] * p[indices[j]]
-            lp[i] = s
-            p_lp += p[i] * s
+        p_lp = _apply(degree, c_right, c_left, c_up, c_down, up, down, p, lp)
         if p_lp <= 0.0:
             return iteration
         alpha = rz / p_lp

@@ -110,28 +110,28 @@ class _Edges:
 
 
 class _Laplacian:
-    """``L = D^T diag(c) D`` for the edges' difference operator ``D`` (``z_q - z_p``), in CSR
-    form with a fixed pattern: :meth:`update` writes new edge weights ``c`` in place."""
+    """``L = D^T diag(c) D`` for the edges' difference operator ``D`` (``z_q - z_p``), stored by
+    pixel: its diagonal (the degree) and the weights of the edges to its four neighbours, the
+    row neighbours being the next and previous pixel (the mask is numbered row by row).
+    :meth:`update` writes new edge weights ``c`` in place."""
 
     def __init__(self, edges: _Edges, n: int) -> None:
-        m = len(edges.p)
-        rows = np.concatenate([edges.p, edges.q, np.arange(n)])
-        columns = np.concatenate([edges.q, edges.p, np.arange(n)])
-        order = np.lexsort((columns, rows))
-        self.indices = columns[order].astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
-        self.indptr = self.indptr.astype(np.int32)
-        source = np.concatenate([np.arange(m), np.arange(m), np.full(n, -1)])[order]
-        self._off = np.flatnonzero(source >= 0)
-        self._edge = source[self._off]
-        self.diagonal_at = np.flatnonzero(source < 0)
-        self.data = np.zeros(len(order))
-        self._p, self._q, self._n = edges.p, edges.q, n
+        h = edges.horizontal
+        self.up = np.arange(n, dtype=np.int32)  # itself where there is no neighbour (weight 0)
+        self.up[edges.p[h:]] = edges.q[h:]
+        self.down = np.arange(n, dtype=np.int32)
+        self.down[edges.q[h:]] = edges.p[h:]
+        self.weights = np.zeros((4, n))  # right, left, up, down
+        self.degree = np.zeros(n)
+        self._edges, self._n = edges, n
 
     def update(self, c: np.ndarray) -> None:
-        self.data[self._off] = -c[self._edge]
-        degree = np.bincount(self._p, c, self._n) + np.bincount(self._q, c, self._n)
-        self.data[self.diagonal_at] = degree
+        e, h = self._edges, self._edges.horizontal
+        self.weights[0, e.p[:h]] = c[:h]
+        self.weights[1, e.q[:h]] = c[:h]
+        self.weights[2, e.p[h:]] = c[h:]
+        self.weights[3, e.q[h:]] = c[h:]
+        self.degree = np.bincount(e.p, c, self._n) + np.bincount(e.q, c, self._n)
 
 
 def _coefficients(
@@ -231,20 +231,17 @@ def _solve(
     rhs: np.ndarray,
     z: np.ndarray,
     rtol: float,
-    prior: tuple[np.ndarray, float] | None,
+    prior: np.ndarray | None,
 ) -> int:
-    """Conjugate gradients on ``L (+ λ M) z = rhs`` in place on ``z``; returns the steps."""
-    from brdfkit.vision._bilateral_kernels import jacobi_cg
+    """Conjugate gradients on ``(L + diag(prior)) z = rhs`` in place on ``z``; returns the
+    steps."""
+    from brdfkit.vision._bilateral_kernels import stencil_cg
 
-    data = laplacian.data
-    if prior is not None:
-        known, weight = prior
-        data = data.copy()
-        data[laplacian.diagonal_at] += weight * known
-    inverse_diagonal = 1.0 / np.clip(data[laplacian.diagonal_at], 1e-5, None)
+    degree = laplacian.degree if prior is None else laplacian.degree + prior
+    right, left, up, down = laplacian.weights
     return int(
-        jacobi_cg(
-            laplacian.indptr, laplacian.indices, data, inverse_diagonal, rhs, z, rtol,
+        stencil_cg(
+            degree, right, left, up, down, laplacian.up, laplacian.down, rhs, z, rtol,
             CG_MAX_ITERATIONS,
         )
     )  # fmt: skip
@@ -371,7 +368,7 @@ def bilateral_integration(
             known = np.isfinite(z_prior)
             z += np.mean(z_prior[known] - z[known])
             rhs = rhs + prior_weight * np.where(known, z_prior, 0.0)
-            prior = (known.astype(np.float64), prior_weight)
+            prior = prior_weight * known
         steps += _solve(problem.laplacian, rhs, z, solver_tolerance, prior)
         previous, (w_u, w_v, energy) = energy, problem.reweight(z, k)
         energies.append(energy)
