@@ -63,19 +63,17 @@ def integrate_command(
     import numpy as np
 
     from brdfkit.io import write_image
-    from brdfkit.vision.depth_from_normals import integrate_normal_map, read_normal_map_input
+    from brdfkit.vision.depth_from_normals import integrate_normal_file
 
     if method not in _METHODS:
         fail(f"--method must be one of {', '.join(_METHODS)}; got {method!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(normals, mask, camera))
-    data = read_normal_map_input(normals, mask, camera)
-    if data.camera is not None and method not in ("bilateral", "least_squares"):
-        fail(f"--method {method} is orthographic only; with K use bilateral or least_squares")
     with progress() as bar:
         task = bar.add_task(f"integrating ({method})", total=None)
-        surface = integrate_normal_map(
-            data, method, callback=lambda done, total: bar.update(task, completed=done, total=total)
-        )
+        surface = integrate_normal_file(
+            normals, mask, camera, method,
+            callback=lambda done, total: bar.update(task, completed=done, total=total),
+        )  # fmt: skip
     mesh = surface.mesh
     folder.write("depth.npy", lambda path: np.save(path, surface.depth))
     folder.write("depth.exr", lambda path: write_image(path, surface.depth.astype(np.float32)))

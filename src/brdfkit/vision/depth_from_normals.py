@@ -210,3 +210,27 @@ def integrate_normal_map(
         arguments["callback"] = callback
     depth = METHODS[method](data.normals, data.mask, **arguments)
     return IntegratedSurface(depth, data.mask, data.camera, method)
+
+
+def integrate_normal_file(
+    normals: str | os.PathLike,
+    mask: str | os.PathLike | None = None,
+    camera: str | os.PathLike | None = None,
+    method: str = DEFAULT_METHOD,
+    *,
+    callback: Progress | None = None,
+) -> IntegratedSurface:
+    """:func:`read_normal_map_input` then :func:`integrate_normal_map`: the pipeline of
+    ``brdfkit integrate``.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        A file that cannot be read (named).
+    brdfkit.errors.ParameterError
+        An unknown method, or intrinsics with a method that is orthographic only.
+    """
+    if method not in METHODS:
+        raise ParameterError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+    data = read_normal_map_input(normals, mask, camera)
+    return integrate_normal_map(data, method, callback=callback)
