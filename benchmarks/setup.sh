@@ -14,6 +14,7 @@ if ! ls /usr/lib/x86_64-linux-gnu/libLLVM.so.19* >/dev/null 2>&1; then
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y libllvm19
 fi
 python -m pip install "mitsuba>=3.6" jax numba
+python -m pip install pyvista tqdm  # the bilateral normal-integration peer of bench_normal_integration.py
 
 export DRJIT_LIBLLVM_PATH="${DRJIT_LIBLLVM_PATH:-$(ls /usr/lib/x86_64-linux-gnu/libLLVM.so.19* | head -1)}"
 python - <<'PY'

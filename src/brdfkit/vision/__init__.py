@@ -12,7 +12,9 @@ sphere calibration), :mod:`~brdfkit.vision.consensus` and
 :mod:`~brdfkit.vision.bivariate_stereo` (non-Lambertian photometric stereo),
 :mod:`~brdfkit.vision.uncalibrated` (lights and normals from the images alone),
 :mod:`~brdfkit.vision.svbrdf` and :mod:`~brdfkit.vision.visibility` (spatially varying BRDFs,
-shadows and relighting), :mod:`~brdfkit.vision.normal_integration` (normals to depth),
+shadows and relighting), :mod:`~brdfkit.vision.normal_integration` and
+:mod:`~brdfkit.vision.bilateral_integration` (normals to depth; the pipeline of ``brdfkit
+integrate`` in :mod:`~brdfkit.vision.depth_from_normals`),
 :mod:`~brdfkit.vision.shape_from_shading` (depth from one image),
 :mod:`~brdfkit.vision.lighting` (illumination from an image),
 :mod:`~brdfkit.vision.separation` (diffuse and specular reflection apart),

@@ -29,8 +29,9 @@ edge, its two equations summed); ``z`` fixed, the weights are updated; until the
 by less than ``tolerance`` (relative). ``k`` sets how readily a step is kept (0: least squares).
 Each linear solve is Jacobi-preconditioned conjugate gradients to a relative residual of
 ``solver_tolerance`` started from the previous depth, as in the authors' implementation: its
-inexact steps are part of the method (solving every step exactly lands in other, worse local
-minima on the DiLiGenT objects).
+inexact steps are part of the method: solving every step exactly lands in other, worse local
+minima on the DiLiGenT objects (mean absolute depth error 0.50 mm rather than 0.33 on bear,
+0.10 rather than 0.074 on cat), and so does solving the last weighted system exactly.
 
 A depth prior ``d_0`` (e.g. from a depth sensor) adds :math:`\lambda \sum_{p \in M} (z_p -
 z_{0,p})^2` over the pixels ``M`` where it is known, after moving ``z`` onto the prior's mean.
@@ -56,7 +57,7 @@ from brdfkit.errors import ParameterError
 from brdfkit.vision.normal_integration import check_camera, check_normals
 
 MAX_ITERATIONS = 10_000
-"""Most reweighting iterations (and most conjugate-gradient steps per solve ×)."""
+"""Largest ``max_iterations`` accepted (reweighting iterations)."""
 
 CG_MAX_ITERATIONS = 5000
 """Most conjugate-gradient steps of one linear solve (the authors' ``cg_max_iter``)."""
@@ -317,8 +318,10 @@ def bilateral_integration(
     Notes
     -----
     Claims, tested: a depth step is kept where least squares smears it (orthographic and
-    perspective); ``k = 0`` is least squares; a plane is recovered exactly. On the DiLiGenT
-    objects the mean absolute depth error is the authors' (``benchmarks/``).
+    perspective); a plane is recovered (exactly orthographic, to the finite differences' error
+    in perspective); a prior sets the offset and units; on DiLiGenT cow the mean absolute depth
+    error is the authors' (0.058 mm). On the seven DiLiGenT objects it matches the authors' code
+    to 1e-3 mm, about four times faster (``benchmarks/bench_normal_integration.py``).
 
     References
     ----------
