@@ -52,12 +52,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from brdfkit._checks import as_float_array, check_count
+from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import ParameterError
 from brdfkit.vision.normal_integration import check_camera, check_normals
 
 MAX_ITERATIONS = 10_000
 """Largest ``max_iterations`` accepted (reweighting iterations)."""
+
+BYTES_PER_PIXEL = 400
+"""Peak memory per mask pixel (edges, equations, weights, solver vectors), estimated."""
 
 CG_MAX_ITERATIONS = 5000
 """Most conjugate-gradient steps of one linear solve (the authors' ``cg_max_iter``)."""
@@ -314,6 +317,8 @@ def bilateral_integration(
         Normals not (H, W, 3) or not finite in the mask, a mask of another shape or empty, a
         camera that is not a (3, 3) matrix with positive focal lengths, a prior of another
         shape, empty or not positive (perspective), or an option out of its range.
+    brdfkit.errors.ResourceError
+        More mask pixels than the memory available holds.
 
     Notes
     -----
@@ -358,6 +363,8 @@ def bilateral_integration(
         raise ParameterError(f"prior_weight must be a finite number > 0, got {prior_weight}")
     check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     z_prior = _check_prior(depth_prior, mask, camera)
+    pixels = int(mask.sum())
+    check_memory(f"bilateral integration of {pixels} pixels", BYTES_PER_PIXEL * pixels)
     problem = _Problem(normals, mask, camera)
     z = np.zeros(problem.n)
     w_u = w_v = np.full(problem.n, 0.5)
