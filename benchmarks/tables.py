@@ -557,14 +557,14 @@ def vision_accuracy(r: dict) -> str:
 
 def normal_integration(r: dict) -> str:
     body = [
-        [name, f"{o['pixels']:,}", f"{o['brdfkit_made_mm']:.3f}", f"{o['bini_made_mm']:.3f}",
+        [name, f"{o['pixels']:,}", f"{o['brdfkit_made_mm']:.4f}", f"{o['bini_made_mm']:.4f}",
          f"{o['least_squares_made_mm']:.3f}", f"{o['brdfkit_seconds']:.2f}",
          f"{o['bini_seconds']:.2f}"]
         for name, o in r["objects"].items()
     ]  # fmt: skip
     s = r["summary"]
     body.append(
-        ["**all**", "", f"{s['brdfkit_mean_made_mm']:.3f} (mean)", f"{s['bini_mean_made_mm']:.3f}",
+        ["**all**", "", f"{s['brdfkit_mean_made_mm']:.4f} (mean)", f"{s['bini_mean_made_mm']:.4f}",
          "", f"{s['brdfkit_total_seconds']:.2f} (total)", f"{s['bini_total_seconds']:.2f}"]
     )  # fmt: skip
     header = ["object", "pixels", f"brdfkit {r['method']} MADE mm", "BiNI MADE mm",
