@@ -34,7 +34,7 @@ _TOKEN = re.compile(
     |(?P<comment>//[^\n]*|/\*.*?\*/)
     |(?P<number>(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?[fF]?(?![\w.]))
     |(?P<name>[A-Za-z_]\w*)
-    |(?P<op>\+\+|--|\+=|-=|\*=|/=|==|!=|<=|>=|&&|\|\||\^\^|[-+*/%<>=!?:;,.(){}\[\]])
+    |(?P<op>\+\+|--|\+=|-=|\*=|/=|==|!=|<=|>=|&&|\|\||\^\^|<<|>>|[-+*/%<>=!?:;,.(){}\[\]&|^~])
     """,
     re.VERBOSE | re.DOTALL,
 )
@@ -101,10 +101,11 @@ def _scan(lines: list[tuple[int, str]], path: str) -> list[Token]:
         if text[position] == "\n":
             row, position = row + 1, position + 1
             continue
+        if text.startswith("/*", position) and "*/" not in text[position + 2 :]:
+            raise refuse(path, numbers[row], "unterminated comment")
         match = _TOKEN.match(text, position)
         if match is None:
-            what = "unterminated comment" if text.startswith("/*", position) else None
-            raise refuse(path, numbers[row], what or f"unexpected character {text[position]!r}")
+            raise refuse(path, numbers[row], f"unexpected character {text[position]!r}")
         if match.lastgroup in ("number", "name", "op"):
             tokens.append(Token(match.lastgroup, match.group(), numbers[row]))
         row += match.group().count("\n")

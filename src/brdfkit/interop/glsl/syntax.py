@@ -507,6 +507,8 @@ class _Parser:
             return Unary(token.text, self.unary(), token.line)
         if token.kind == "op" and token.text in ("++", "--"):
             raise self.error(f"unsupported construct '{token.text}' inside an expression")
+        if token.kind == "op" and token.text == "~":
+            raise self.error("unsupported construct bitwise operator '~'")
         return self.postfix(self.primary())
 
     def postfix(self, value: Any) -> Any:
