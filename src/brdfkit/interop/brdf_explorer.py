@@ -288,9 +288,9 @@ def parse_brdf_explorer(text: str, path: str) -> ExplorerShader:
             sections[current].append((number, line))
     if current:
         raise _line_error(path, opened, f"section '{current}' has no '::end {current}'")
+    parameters = _parameters(sections.get("parameters", []), path)
     if "shader" not in sections:
         raise FormatError(path, "has no '::begin shader' … '::end shader' section")
-    parameters = _parameters(sections.get("parameters", []), path)
     return ExplorerShader(path, parameters, _program(sections["shader"], parameters, path))
 
 
