@@ -276,3 +276,22 @@ def test_a_shader_without_a_usable_brdf_function_is_refused(tmp_path, shader, re
 def test_the_constructs_file_loads_with_its_declared_parameters():
     brdf = read_brdf_explorer(CONSTRUCTS)
     assert brdf.params() == {"which": 0.0, "gain": 1.5, "flip": False, "tint": (0.2, 0.4, 0.6)}
+
+
+# --------------------------------------------------------------------------- brdfkit's own models
+def test_walter_equals_brdfkits_ggx_with_separable_smith_masking(explorer):
+    from brdfkit.brdf import parse
+
+    shader = read_brdf_explorer(explorer / "walter.brdf", Kd=0.0, Ks=1.0, alphaG=0.3)
+    ggx = parse("ggx(alpha=0.3, material='none', masking='smith_separable')")
+    expected = np.broadcast_to(ggx.eval(WI, WO), (64, 3))
+    np.testing.assert_allclose(shader.eval(WI, WO), expected, rtol=1e-12)
+
+
+def test_cook_torrances_fresnel_equals_brdfkits_dielectric_fresnel(explorer):
+    from brdfkit.fresnel import fresnel_dielectric
+
+    shader = read_brdf_explorer(explorer / "f_cooktorrance.brdf", ior=1.7)
+    h = (WI + WO) / np.linalg.norm(WI + WO, axis=-1, keepdims=True)
+    expected = fresnel_dielectric(np.sum(WI * h, axis=-1), 1.7)
+    np.testing.assert_allclose(shader.eval(WI, WO)[:, 0], expected, rtol=1e-12)

@@ -92,8 +92,9 @@ class ExplorerParameter:
                     f"{self.name} must be a number or 3 values (r, g, b); got shape {array.shape}"
                 )
             return _COLOUR.check(self.name, value)
-        assert self.lo is not None and self.hi is not None
-        slider = Domain(self.lo, self.hi, hint=f"the slider range {Path(path).name} declares")
+        slider = Domain(
+            float(self.lo), float(self.hi), hint=f"the slider range {Path(path).name} declares"
+        )
         return slider.check(self.name, value)
 
 
@@ -128,6 +129,7 @@ class ExplorerBRDF(CosineSampled):
     isotropic: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         declared = {p.name: p for p in self.shader.parameters}
         unknown = sorted(set(self.values) - set(declared))
         if unknown:
