@@ -555,6 +555,25 @@ def vision_accuracy(r: dict) -> str:
     )
 
 
+def brdf_explorer(r: dict) -> str:
+    files = rows(
+        ["file", "parameters", "eval ms", "finite", "reciprocity", "max albedo"],
+        [[x["file"], x["parameters"], f"{x['eval_ms']:.1f}", pct(x["finite"]),
+          f"{x['reciprocity']:.1e}", f"{x['max_albedo']:.3f}"] for x in r["files"]],
+        "lrrrrr",
+    )  # fmt: skip
+    peers = rows(
+        ["file", "brdfkit model", "max relative difference", "shader ms", "brdfkit ms"],
+        [[x["file"], f"`{x['peer']}`", f"{x['max_relative_difference']:.1e}",
+          f"{x['shader_ms']:.1f}", f"{x['native_ms']:.1f}"] for x in r["peers"]],
+        "llrrr",
+    )  # fmt: skip
+    return (
+        f"One `eval` of {r['pairs']:,} direction pairs, default parameters:\n\n{files}\n\n"
+        f"The translated shader against brdfkit's own code for its formula:\n\n{peers}"
+    )
+
+
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
@@ -574,6 +593,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "vision_accuracy": vision_accuracy,
     "sfs": sfs,
     "relighting": relighting,
+    "brdf_explorer": brdf_explorer,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 
