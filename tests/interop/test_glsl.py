@@ -146,6 +146,16 @@ def test_a_uniform_declared_in_glsl_takes_the_value_given():
         run(program, "f", [Value("float", (x,))], {}, x)
 
 
+def test_names_that_begin_like_refused_types_and_prototypes_are_fine():
+    program = translate(
+        "float scaled(float x);\n"
+        "float scaled(float x) { float material = 2.0, imageScale = 3.0, uintish = 4.0;\n"
+        "  return material * imageScale * uintish * x; }"
+    )
+    x = np.array([0.5])
+    assert float(run(program, "scaled", [Value("float", (x,))], {}, x).parts[0][0]) == 12.0
+
+
 REFUSED = [
     ("float f(float x) {\n  while (x > 0.0) x -= 1.0;\n  return x; }", 2, "'while' loop"),
     ("float f(float x) {\n  mat3 m;\n  return x; }", 2, "unsupported type 'mat3'"),

@@ -10,8 +10,9 @@ construct of the language is refused by name with its line.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from brdfkit.interop.glsl.lexer import Token, refuse, tokenize
@@ -56,8 +57,10 @@ _REFUSED_WORDS = {
     "precision": "'precision' statement",
     "layout": "'layout' qualifier",
 }
-_REFUSED_TYPE_PREFIXES = ("mat", "dmat", "ivec", "bvec", "uvec", "dvec", "sampler", "image")
-_REFUSED_TYPES = ("uint", "double", "atomic_uint")
+_REFUSED_TYPES = re.compile(
+    r"d?mat[234](x[234])?|[ibud]vec[234]|uint|double|atomic_uint"
+    r"|[iu]?(sampler|image)(1D|2D|3D|Cube|2DRect|Buffer)\w*"
+)
 _ASSIGNMENTS = ("=", "+=", "-=", "*=", "/=")
 _BINARY_LEVELS = (("||",), ("^^",), ("&&",), ("==", "!="), ("<", ">", "<=", ">="), ("+", "-"))
 _MULTIPLICATIVE = ("*", "/", "%")
@@ -242,7 +245,6 @@ class Program:
     functions: dict[str, Function]
     globals: tuple[Declaration, ...]
     path: str
-    prototypes: frozenset[str] = field(default_factory=frozenset)
 
 
 # --------------------------------------------------------------------------- the parser
@@ -292,9 +294,7 @@ class _Parser:
     def check_word(self, token: Token) -> None:
         if token.kind == "name" and token.text in _REFUSED_WORDS:
             raise self.error(f"unsupported construct {_REFUSED_WORDS[token.text]}", token)
-        if token.kind == "name" and (
-            token.text in _REFUSED_TYPES or token.text.startswith(_REFUSED_TYPE_PREFIXES)
-        ):
+        if token.kind == "name" and _REFUSED_TYPES.fullmatch(token.text):
             raise self.error(f"unsupported type '{token.text}'", token)
 
     def is_type(self) -> bool:
@@ -310,7 +310,6 @@ class _Parser:
     def program(self) -> Program:
         functions: dict[str, Function] = {}
         declarations: list[Declaration] = []
-        prototypes: set[str] = set()
         while self.token.kind != "end":
             if self.accept(";"):
                 continue
@@ -321,15 +320,14 @@ class _Parser:
             name = self.name("a name")
             if self.token.text == "(" and not qualifier:
                 function = self.function(type_, name, line)
-                if function is None:
-                    prototypes.add(name)
-                elif name in functions:
+                if function is None:  # a prototype: the definition follows
+                    continue
+                if name in functions:
                     raise self.error(f"function '{name}' defined twice (overloading)", name_token)
-                else:
-                    functions[name] = function
+                functions[name] = function
             else:
                 declarations.append(self.declaration_rest(type_, name, qualifier, line))
-        return Program(functions, tuple(declarations), self.path, frozenset(prototypes))
+        return Program(functions, tuple(declarations), self.path)
 
     def qualifier(self) -> str:
         for word in ("const", "uniform"):
