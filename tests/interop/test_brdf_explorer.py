@@ -295,3 +295,15 @@ def test_cook_torrances_fresnel_equals_brdfkits_dielectric_fresnel(explorer):
     h = (WI + WO) / np.linalg.norm(WI + WO, axis=-1, keepdims=True)
     expected = fresnel_dielectric(np.sum(WI * h, axis=-1), 1.7)
     np.testing.assert_allclose(shader.eval(WI, WO)[:, 0], expected, rtol=1e-12)
+
+
+def test_an_importance_sampling_section_is_ignored_as_brdf_explorer_has_its_own(tmp_path):
+    path = tmp_path / "with_is.brdf"
+    path.write_text(
+        "analytic\n::begin parameters\nfloat k 0 1 0.5\n::end parameters\n"
+        f"::begin shader\n{GOOD_SHADER}\n::end shader\n"
+        "::begin isFunc\nvec3 sample(float u, float v) { return mat3(1) * vec3(u); }\n"
+        "::end isFunc\n"
+    )
+    brdf = read_brdf_explorer(path)
+    np.testing.assert_array_equal(brdf.eval(WI, WO), 0.5)
