@@ -556,11 +556,17 @@ def vision_accuracy(r: dict) -> str:
 
 
 def brdf_explorer(r: dict) -> str:
+    def opengl(x: dict) -> list[str]:
+        if "opengl_error" not in x:
+            return ["–", "–"]
+        return [f"{x['opengl_error']:.1e}", pct(x["opengl_nonfinite"], 1)]
+
     files = rows(
-        ["file", "parameters", "eval ms", "finite", "reciprocity", "max albedo"],
+        ["file", "parameters", "eval ms", "finite", "reciprocity", "max albedo",
+         "OpenGL difference", "OpenGL NaN"],
         [[x["file"], x["parameters"], f"{x['eval_ms']:.1f}", pct(x["finite"]),
-          f"{x['reciprocity']:.1e}", f"{x['max_albedo']:.3f}"] for x in r["files"]],
-        "lrrrrr",
+          f"{x['reciprocity']:.1e}", f"{x['max_albedo']:.3f}", *opengl(x)] for x in r["files"]],
+        "lrrrrrrr",
     )  # fmt: skip
     peers = rows(
         ["file", "brdfkit model", "max relative difference", "shader ms", "brdfkit ms"],
