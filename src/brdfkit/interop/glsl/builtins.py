@@ -3,8 +3,8 @@
 Each is the definition of the OpenGL Shading Language 4.10, §8 (angle and trigonometry §8.1,
 exponential §8.2, common §8.3, geometric §8.5), computed component-wise in the array namespace
 of the evaluation. Where GLSL leaves a result undefined (``pow`` of a negative base, ``acos``
-outside [-1, 1], ``normalize`` of a zero vector) the array library's IEEE result stands (NaN
-or ∞), as on most GPUs.
+outside [-1, 1], ``normalize`` of a zero vector) the array library's result stands: NaN or ∞,
+except ``pow`` of a negative base with a whole exponent, which is finite (GPUs give NaN).
 """
 
 from __future__ import annotations
