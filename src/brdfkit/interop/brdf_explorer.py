@@ -25,12 +25,13 @@ image-based renderers clamp it to ``max(BRDF(…), vec3(0))``, its plots do not,
 directions below the horizon. :class:`ExplorerBRDF` follows the renderers and this library's
 contract (DESIGN §1): :meth:`~brdfkit.brdf.base.BRDF.eval` is the shader's value clamped
 below at 0 above the surface and 0 where ``wi.z <= 0`` or ``wo.z <= 0``;
-:meth:`ExplorerBRDF.shader_value` is the shader's value itself, everywhere. Where GLSL leaves a result undefined the array
-library's stands: ``pow`` of a negative base is finite for a whole exponent (``dAniso.brdf``,
-``edwards06.brdf`` take such powers; OpenGL on Mesa gives NaN there) and NaN otherwise, and NaN
-stays NaN. Elsewhere the values are OpenGL's to float32 accuracy (the tests run the shaders in
-Mesa's OpenGL). An ``isFunc`` section (BRDF Explorer's own
-importance-sampling function) is ignored: brdfkit samples the cosine-weighted hemisphere.
+:meth:`ExplorerBRDF.shader_value` is the shader's value itself, everywhere. Where GLSL
+leaves a result undefined the array library's stands: ``pow`` of a negative base is finite
+for a whole exponent (``dAniso.brdf`` and ``edwards06.brdf`` take such powers; OpenGL on Mesa
+gives NaN there) and NaN otherwise, and NaN stays NaN. Elsewhere the values are OpenGL's to
+float32 accuracy (the tests run the shaders in Mesa's OpenGL). An ``isFunc`` section (BRDF
+Explorer's own importance-sampling function) is ignored: brdfkit samples the cosine-weighted
+hemisphere.
 Files of type ``bparam`` and BRDF Explorer's measured formats are refused.
 
 References
