@@ -575,6 +575,31 @@ def normal_integration(r: dict) -> str:
     )
 
 
+def brdf_explorer(r: dict) -> str:
+    def opengl(x: dict) -> list[str]:
+        if "opengl_error" not in x:
+            return ["–", "–"]
+        return [f"{x['opengl_error']:.1e}", pct(x["opengl_nonfinite"], 1)]
+
+    files = rows(
+        ["file", "parameters", "eval ms", "finite", "reciprocity", "max albedo",
+         "OpenGL difference", "OpenGL NaN"],
+        [[x["file"], x["parameters"], f"{x['eval_ms']:.1f}", pct(x["finite"]),
+          f"{x['reciprocity']:.1e}", f"{x['max_albedo']:.3f}", *opengl(x)] for x in r["files"]],
+        "lrrrrrrr",
+    )  # fmt: skip
+    peers = rows(
+        ["file", "brdfkit model", "max relative difference", "shader ms", "brdfkit ms"],
+        [[x["file"], f"`{x['peer']}`", f"{x['max_relative_difference']:.1e}",
+          f"{x['shader_ms']:.1f}", f"{x['native_ms']:.1f}"] for x in r["peers"]],
+        "llrrr",
+    )  # fmt: skip
+    return (
+        f"One `eval` of {r['pairs']:,} direction pairs, default parameters:\n\n{files}\n\n"
+        f"The translated shader against brdfkit's own code for its formula:\n\n{peers}"
+    )
+
+
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
@@ -595,6 +620,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "normal_integration": normal_integration,
     "sfs": sfs,
     "relighting": relighting,
+    "brdf_explorer": brdf_explorer,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 

@@ -7,11 +7,21 @@ the light, ``wo`` towards the viewer, directions ``(..., 3)`` in and values ``(.
 units.
 """
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
+from typing import Any
 
 try:
     __version__ = version("brdfkit")
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+__all__ = ["__version__", "load"]
+
+
+def __getattr__(name: str) -> Any:
+    """``brdfkit.load`` (:func:`brdfkit.interop.load.load`), imported on first use (PEP 562)
+    so that ``import brdfkit`` stays cheap; the root package is no layer of its own."""
+    if name == "load":
+        return import_module("brdfkit.interop.load").load
+    raise AttributeError(f"module 'brdfkit' has no attribute {name!r}")

@@ -141,6 +141,30 @@ def _root(
     """brdfkit: radiometry, reflectance, light, rendering and physics-based vision."""
 
 
+MODEL_HELP = (
+    'a model spec ("ggx(alpha=0.2)"), a measured file (MERL .binary, RGL .bsdf, Cornell '
+    ".brdf), a fit.json of brdfkit fit, or a BRDF Explorer .brdf file"
+)
+"""What a command's model argument may be (:func:`load_model`), for its help text."""
+
+
+def load_model(source: str | os.PathLike) -> Any:
+    """The BRDF a command's model argument names (:func:`brdfkit.load`): any of
+    :data:`MODEL_HELP`; the loader's errors propagate as one line."""
+    from brdfkit.interop.load import load
+
+    return load(source)
+
+
+def model_label(model: Any, source: str | os.PathLike) -> str:
+    """How a command names a loaded model: its spec, or (data, a shader) the file's name."""
+    from brdfkit.interop.load import is_file_source
+
+    if is_file_source(source):
+        return os.path.basename(os.fspath(source))
+    return str(model.to_spec())
+
+
 def unwind_on_termination() -> None:
     """Make SIGTERM unwind the program like an interrupt (``finally`` blocks run, so temporary
     files are removed on the way out) instead of killing it where it stands."""

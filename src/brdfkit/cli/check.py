@@ -8,13 +8,13 @@ from typing import Annotated
 import typer
 from rich.text import Text
 
-from brdfkit.cli._app import CHECK_FAILED, app, console, status
+from brdfkit.cli._app import CHECK_FAILED, MODEL_HELP, app, console, load_model, status
 
 _Spec = Annotated[
     str,
     typer.Argument(
-        metavar="SPEC",
-        help='Model spec, e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)" or "phong(n=20)".',
+        metavar="MODEL",
+        help=f'The model: {MODEL_HELP}; e.g. "lambertian(albedo=0.8) + ggx(alpha=0.2)".',
     ),
 ]
 _Json = Annotated[bool, typer.Option("--json", help="Print the report as JSON.")]
@@ -32,10 +32,9 @@ def check_command(spec: _Spec, as_json: _Json = False, seed: _Seed = 0) -> None:
     not to be reciprocal, as the original Phong model does), 1 when a check contradicts a
     claim, 2 on a bad spec and 3 on an internal error.
     """
-    from brdfkit.brdf.spec import parse
     from brdfkit.checks.properties import check
 
-    brdf = parse(spec)
+    brdf = load_model(spec)
     with status.status("checking…") as spinner:
         report = check(brdf, seed=seed, progress=lambda name: spinner.update(f"checking {name}…"))
     if as_json:

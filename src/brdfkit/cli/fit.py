@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.text import Text
 
-from brdfkit.cli._app import app, console, fail, progress, shown, status
+from brdfkit.cli._app import app, console, fail, load_model, progress, shown, status
 from brdfkit.cli._output import OutputFolder
 
 if TYPE_CHECKING:
@@ -163,10 +163,11 @@ def fit_command(
     folder = None if output is None else OutputFolder(output, _OUTPUTS, inputs=(file,))
     if model.strip() in (AUTO, BIVARIATE) and fix:
         fail(f"--fix does not apply to --model {model.strip()}; got --fix {', '.join(fix)}")
+    data = load_model(file)  # measured data, or any BRDF a model argument may name
     with progress() as bar:
         task = bar.add_task("fitting", total=1)
         fitted = fit_measured(
-            file, model, fixed=fix, seed=seed, spheres=None if folder is None else resolution,
+            data, model, fixed=fix, seed=seed, spheres=None if folder is None else resolution,
             envmap=envmap, **options,
             progress=lambda done, total, text: bar.update(
                 task, completed=done, total=total, description=f"fitting: {text}"

@@ -8,7 +8,16 @@ from typing import Annotated, Any
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, progress, shown
+from brdfkit.cli._app import (
+    MODEL_HELP,
+    app,
+    console,
+    fail,
+    load_model,
+    model_label,
+    progress,
+    shown,
+)
 from brdfkit.cli._output import light_files, output_file
 
 _BYTES_PER_PIXEL = 300
@@ -26,8 +35,8 @@ _Brdf = Annotated[
     typer.Option(
         "--brdf",
         "-b",
-        metavar="SPEC",
-        help="Model spec, e.g. \"ggx(alpha=0.3, material='Au')\".",
+        metavar="MODEL",
+        help=f"The model: {MODEL_HELP}; e.g. \"ggx(alpha=0.3, material='Au')\".",
     ),
 ]
 _Lights = Annotated[
@@ -91,7 +100,6 @@ def render_command(
     import numpy as np
 
     from brdfkit._array import check_param
-    from brdfkit.brdf import parse
     from brdfkit.io import write_image
     from brdfkit.light.spec import parse_light
     from brdfkit.render.shading import shade
@@ -102,7 +110,7 @@ def render_command(
         suffixes=(".png", ".hdr", ".exr"),
     )
     check_param("--exposure", exposure, -64.0, 64.0)
-    model = parse(brdf)
+    model = load_model(brdf)
     lights = [parse_light(spec) for spec in light]
     g = _gbuffer(shape, mask, resolution)
     height = g.shape[0]
@@ -121,7 +129,7 @@ def render_command(
     write_image(
         output, image.astype(np.float32), exposure=exposure if output.suffix == ".png" else 0.0
     )
-    console.print(f"wrote {shown(output)} ({g.shape[1]}×{height}, {model.to_spec()})")
+    console.print(f"wrote {shown(output)} ({g.shape[1]}×{height}, {model_label(model, brdf)})")
 
 
 def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:

@@ -152,20 +152,17 @@ def light_set(spec: str) -> np.ndarray:
 
 
 def read_brdf(spec: str) -> Any:
-    """The BRDF of a spec: a measured file by its suffix, else a model spec.
+    """The BRDF of a spec, a measured file, a fit.json or a BRDF Explorer file
+    (:func:`brdfkit.load`).
 
     Examples
     --------
     >>> type(read_brdf("lambertian(rho=0.5)")).__name__
     'Lambertian'
     """
-    if Path(spec).suffix.lower() in MEASURED_SUFFIXES:
-        from brdfkit.measured import read
+    from brdfkit.interop.load import load
 
-        return read(spec)
-    from brdfkit.brdf import parse
-
-    return parse(spec)
+    return load(spec)
 
 
 def check(task: SynthTask) -> None:

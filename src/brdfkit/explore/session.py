@@ -98,14 +98,14 @@ class Session:
 
     def add_file(self, path: str | os.PathLike, name: str | None = None) -> str:
         """Read the measured BRDF at ``path`` now (its errors propagate) and return its name."""
-        from brdfkit.measured import read
+        from brdfkit.interop.load import load
 
         path = Path(path)
         if path.suffix.lower() not in MEASURED_SUFFIXES:
             raise FormatError(path, f"must end in one of {', '.join(MEASURED_SUFFIXES)}")
         if len(self._paths) >= MAX_FILES:
             raise ProtocolError(f"a session holds at most {MAX_FILES} files")
-        brdf = read(path)
+        brdf = load(path)
         base = name or path.name
         key, n = base, 1
         while key in self._paths:

@@ -445,7 +445,7 @@ def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str,
     >>> [(title, len(examples)) for title, examples in default_cards(["ggx(alpha=0.2)"])]
     [('ggx(alpha=0.2)', 1)]
     """
-    from brdfkit.brdf import parse
+    from brdfkit.interop.load import is_file_source, load
 
     if not models:
         return [(name, default_examples(name)) for name in _registered_defaults()]
@@ -453,15 +453,8 @@ def default_cards(models: Sequence[str | BRDF] | None = None) -> list[tuple[str,
     for item in models:
         if isinstance(item, BRDF):
             cards.append((item.to_spec(), [item]))
-        elif Path(item).suffix.lower() in (".binary", ".bsdf", ".brdf"):
-            from brdfkit import measured
-
-            if not Path(item).is_file():
-                raise FileNotFoundError(f"measured BRDF file not found: {item}")
-            cards.append((Path(item).name, [measured.read(item)]))
         else:
-            model = parse(item)
-            cards.append((item, [model]))
+            cards.append((Path(item).name if is_file_source(item) else item, [load(item)]))
     return cards
 
 
