@@ -58,7 +58,7 @@ def test_reflectance_limits_and_monotonicity():
 
 
 def test_bad_arguments_are_named():
-    with pytest.raises(ParameterError, match="^albedo must"):
+    with pytest.raises(ParameterError, match=r"^albedo must"):
         chandrasekhar_reflectance(1.0, 1.5)
-    with pytest.raises(ParameterError, match="^mu must"):
+    with pytest.raises(ParameterError, match=r"^mu must"):
         h_function(-0.2, 0.5)

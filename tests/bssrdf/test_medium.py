@@ -22,7 +22,7 @@ from brdfkit.errors import ParameterError
     ],
 )
 def test_bad_parameters_are_refused_by_name(kwargs, name):
-    with pytest.raises(ParameterError, match=f"^{name} must"):
+    with pytest.raises(ParameterError, match=rf"^{name} must"):
         Medium(**kwargs)
 
 
@@ -30,7 +30,7 @@ def test_mean_free_path_is_the_reciprocal_of_extinction():
     medium = Medium.from_mean_free_path([0.9, 0.5], [0.5, 2.0], g=0.3, eta=1.4)
     np.testing.assert_allclose(medium.sigma_t, [2.0, 0.5])
     np.testing.assert_allclose(medium.mean_free_path, [0.5, 2.0])
-    with pytest.raises(ParameterError, match="^mean_free_path must"):
+    with pytest.raises(ParameterError, match=r"^mean_free_path must"):
         Medium.from_mean_free_path(0.5, 0.0)
 
 
