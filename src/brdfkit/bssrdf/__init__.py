@@ -10,7 +10,8 @@
   classical and better dipoles, photon beam diffusion and Christensen–Burley's normalized
   diffusion as radial profiles, with their albedo inversion;
 - :mod:`~brdfkit.bssrdf.profile_sampling`: sampling of radii and of exit points by axis
-  projection.
+  projection;
+- :mod:`~brdfkit.bssrdf.sphere`: a BSSRDF sphere beside the BRDF sphere of the same albedo.
 """
 
 from brdfkit.bssrdf.chandrasekhar import chandrasekhar_reflectance, h_function
@@ -32,6 +33,7 @@ from brdfkit.bssrdf.random_walk import (
     random_walk_profile,
     random_walk_reflectance,
 )
+from brdfkit.bssrdf.sphere import subsurface_spheres
 
 __all__ = [
     "BetterDipole",
@@ -53,4 +55,5 @@ __all__ = [
     "random_walk_profile",
     "random_walk_reflectance",
     "sample_henyey_greenstein",
+    "subsurface_spheres",
 ]

@@ -6,12 +6,17 @@ The profile is a sum of two exponentials whose integral is the surface albedo A 
     R_d(r) = A\,s\,\frac{e^{-s r/\ell} + e^{-s r/(3\ell)}}{8\pi\,\ell\,r},\qquad
     2\pi\int_0^\infty R_d(r)\,r\,dr = A,
 
-with ℓ the medium's diffuse mean free path :math:`\ell_d = 1/\sigma_{tr}`,
-:math:`\sigma_{tr} = \sqrt{3\sigma_a\sigma_t'}`, and the shape factor Christensen and Burley
-fitted to Monte Carlo references of a searchlight (collimated light at normal incidence) for
-that length: :math:`s = 1.85 - A + 7\,\lvert A - 0.8\rvert^3`. The radial density
+with ℓ a length of the medium and s a shape factor Christensen and Burley fitted to Monte
+Carlo references of a searchlight (collimated light at normal incidence). Here
+:math:`s = 3.5 + 100\,(A - 0.33)^4` (their searchlight fit) with the diffusion length
+:math:`\ell = 1/\sigma_{tr}`, :math:`\sigma_{tr} = \sqrt{3\sigma_a\sigma_t'}`: measured against
+brdfkit's random walk (``benchmarks/bench_bssrdf.py``) this pairing puts at most about 10 %
+of the power at the wrong radius for ω from 0.3 to 0.99, while the paper's fit for its
+"diffuse mean free path", :math:`s = 1.85 - A + 7\lvert A - 0.8\rvert^3`, with the same
+length misplaces up to half of it at high albedo (the papers' length conventions differ).
+The radial density
 :math:`2\pi r R_d(r)/A = \tfrac14\,\tfrac{s}{\ell}e^{-sr/\ell} + \tfrac34\,\tfrac{s}{3\ell}
-e^{-sr/(3\ell)}` is a mixture of two exponentials, so a radius is sampled exactly.
+e^{-sr/(3\ell)}` is a mixture of two exponentials.
 
 The model has no medium of its own: A is a colour. :class:`NormalizedDiffusion` takes it from
 a :class:`~brdfkit.bssrdf.Medium` through a physical model's total reflectance (photon beam
@@ -37,8 +42,8 @@ from brdfkit.bssrdf.medium import ALBEDO
 
 
 def shape_factor(albedo: Any) -> np.ndarray:
-    r"""Christensen and Burley's fit :math:`s(A) = 3.5 + 100\,(A - 0.33)^4` for a searchlight
-    and ℓ the mean free path.
+    r"""Christensen and Burley's searchlight fit :math:`s(A) = 3.5 + 100\,(A - 0.33)^4`
+    (applied here with ℓ = 1/σtr, module docstring).
 
     Examples
     --------
