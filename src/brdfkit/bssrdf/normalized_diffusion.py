@@ -11,7 +11,7 @@ Carlo references of a searchlight (collimated light at normal incidence). Here
 :math:`s = 3.5 + 100\,(A - 0.33)^4` (their searchlight fit) with the diffusion length
 :math:`\ell = 1/\sigma_{tr}`, :math:`\sigma_{tr} = \sqrt{3\sigma_a\sigma_t'}`: measured against
 brdfkit's random walk (``benchmarks/bench_bssrdf.py``, A from photon beam diffusion) this
-pairing puts 2–11 % of the power at the wrong radius for η ∈ {1.33, 1.5} and
+pairing puts 4–11 % of the power at the wrong radius for η ∈ {1.33, 1.5} and
 ω ∈ [0.1, 0.99] (up to 18 % at η = 1, ω = 0.99), while the paper's fit for its "diffuse mean
 free path", :math:`s = 1.85 - A + 7\lvert A - 0.8\rvert^3`, with the same length misplaces
 up to half of it at high albedo (the papers' length conventions differ).
