@@ -3,7 +3,7 @@
 Three parts, all under collimated light at normal incidence on a half-space with isotropic
 scattering (lengths in mean free paths):
 
-1. the random walk (:func:`brdfkit.bssrdf.random_walk`) against Chandrasekhar's exact
+1. the random walk (:func:`brdfkit.bssrdf.tally_walks`) against Chandrasekhar's exact
    reflectance at an index-matched boundary, ω ∈ {0.5, 0.9, 0.99}, μ₀ ∈ {1, 0.5};
 2. each diffusion model against the walk for ω ∈ {0.1, 0.3, 0.5, 0.7, 0.9, 0.99} and
    η ∈ {1.0, 1.33, 1.5}: the relative error of the total diffuse reflectance, the profile's
@@ -34,7 +34,7 @@ from brdfkit.bssrdf import (
     NormalizedDiffusion,
     PhotonBeamDiffusion,
     chandrasekhar_reflectance,
-    random_walk,
+    tally_walks,
 )
 from brdfkit.bssrdf.random_walk import entry
 from brdfkit.fresnel import fresnel_dielectric
@@ -65,7 +65,7 @@ def chandrasekhar_rows() -> list[dict]:
     rows = []
     for albedo in (0.5, 0.9, 0.99):
         for mu in (1.0, 0.5):
-            value, stderr = random_walk(albedo, 1.0, mu, WALKS, seed=1).reflectance()
+            value, stderr = tally_walks(albedo, 1.0, mu, WALKS, seed=1).reflectance()
             exact = float(chandrasekhar_reflectance(mu, albedo))
             rows.append(
                 {"albedo": albedo, "mu": mu, "walk": value, "stderr": stderr, "exact": exact}
@@ -74,7 +74,7 @@ def chandrasekhar_rows() -> list[dict]:
 
 
 def model_errors(albedo: float, eta: float, seed: int) -> dict:
-    tally = random_walk(albedo, eta, 1.0, WALKS, seed=seed, edges=EDGES)
+    tally = tally_walks(albedo, eta, 1.0, WALKS, seed=seed, edges=EDGES)
     walk_total, walk_stderr = tally.reflectance()
     t_i, _ = entry(1.0, eta)
     walk_bins = t_i * tally.counts / tally.samples  # the last bin reaches to infinity
@@ -141,7 +141,7 @@ def mitsuba_slab() -> dict | None:
         float(np.mean(ms.render(mi, scene, MITSUBA_SPP, seed=seed))) for seed in range(MITSUBA_RUNS)
     ]
     seconds = time.perf_counter() - start
-    walk, walk_stderr = random_walk(MITSUBA_ALBEDO, MITSUBA_ETA, 1.0, WALKS, seed=3).reflectance()
+    walk, walk_stderr = tally_walks(MITSUBA_ALBEDO, MITSUBA_ETA, 1.0, WALKS, seed=3).reflectance()
     specular = float(fresnel_dielectric(1.0, MITSUBA_ETA))
     return {
         "variant": variant,

@@ -14,7 +14,7 @@ from brdfkit.bssrdf import (
     PhotonBeamDiffusion,
     fresnel_moment,
     invert_albedo,
-    random_walk,
+    tally_walks,
 )
 from brdfkit.bssrdf.diffusion import RADII
 from brdfkit.bssrdf.random_walk import entry
@@ -92,7 +92,7 @@ def test_normalized_diffusion_keeps_its_colour():
 @pytest.fixture(scope="module")
 def absorbing_walk():
     """A strongly absorbing medium under a water-like boundary (ω = 0.3, η = 1.33)."""
-    return random_walk(0.3, 1.33, 1.0, 200_000, seed=8, edges=[0.0, 0.05, 0.5, 1.0, 2.0])
+    return tally_walks(0.3, 1.33, 1.0, 200_000, seed=8, edges=[0.0, 0.05, 0.5, 1.0, 2.0])
 
 
 def test_the_classical_dipole_fails_at_high_absorption_and_near_the_source(absorbing_walk):

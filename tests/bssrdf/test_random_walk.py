@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from brdfkit.bssrdf import chandrasekhar_reflectance, random_walk, random_walk_reflectance
+from brdfkit.bssrdf import chandrasekhar_reflectance, random_walk_reflectance, tally_walks
 from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.fresnel import fresnel_dielectric
 
@@ -44,7 +44,7 @@ def test_an_absorbing_slab_bounces_as_fresnel_says():
     between its faces (internal reflectance F each), so T = Ti a (1−F)/(1 − a²F²) leaves the
     bottom and Ti a² F (1−F)/(1 − a²F²) the top."""
     eta, mu_i, d = 1.5, 0.8, 0.4
-    tally = random_walk(0.0, eta, mu_i, 40_000, seed=3, thickness=d)
+    tally = tally_walks(0.0, eta, mu_i, 40_000, seed=3, thickness=d)
     mu_t = math.sqrt(1 - (1 - mu_i**2) / eta**2)
     t_i = 1 - float(fresnel_dielectric(mu_i, eta))
     a, f = math.exp(-d / mu_t), float(fresnel_dielectric(-mu_t, eta))
@@ -56,17 +56,17 @@ def test_an_absorbing_slab_bounces_as_fresnel_says():
 
 
 def test_a_thick_slab_is_a_half_space_and_a_thin_one_lets_light_through():
-    thick = random_walk(0.9, 1.33, 1.0, 20_000, seed=5, thickness=60.0)
-    half = random_walk(0.9, 1.33, 1.0, 20_000, seed=5)
+    thick = tally_walks(0.9, 1.33, 1.0, 20_000, seed=5, thickness=60.0)
+    half = tally_walks(0.9, 1.33, 1.0, 20_000, seed=5)
     assert thick.reflectance() == pytest.approx(half.reflectance(), abs=1e-12)
-    thin = random_walk(0.9, 1.33, 1.0, 20_000, seed=5, thickness=1.0)
+    thin = tally_walks(0.9, 1.33, 1.0, 20_000, seed=5, thickness=1.0)
     assert thin.transmittance()[0] > 0.3 > half.transmittance()[0] == 0.0
     assert thin.reflectance()[0] < half.reflectance()[0]
 
 
 def test_the_profile_bins_the_walks_that_leave_the_top():
     edges = np.array([0.0, 0.5, 1.0, 2.0, 4.0, np.inf])
-    profile = random_walk(0.95, 1.33, 1.0, 20_000, seed=6, edges=edges).profile()
+    profile = tally_walks(0.95, 1.33, 1.0, 20_000, seed=6, edges=edges).profile()
     area = np.pi * np.diff(edges**2)
     assert profile.exitance[-1] == 0.0  # an infinite annulus: no density
     assert np.all(np.diff(profile.exitance[:-1]) < 0)  # falls off with the radius
@@ -76,11 +76,11 @@ def test_the_profile_bins_the_walks_that_leave_the_top():
 
 
 def test_the_same_seed_gives_the_same_walks_on_any_path():
-    compiled = random_walk(0.8, 1.2, 0.6, 3000, seed=9, g=0.4, edges=[0, 1, 3])
-    reference = random_walk(0.8, 1.2, 0.6, 3000, seed=9, g=0.4, edges=[0, 1, 3], compiled=False)
+    compiled = tally_walks(0.8, 1.2, 0.6, 3000, seed=9, g=0.4, edges=[0, 1, 3])
+    reference = tally_walks(0.8, 1.2, 0.6, 3000, seed=9, g=0.4, edges=[0, 1, 3], compiled=False)
     assert compiled.reflected == reference.reflected
     np.testing.assert_array_equal(compiled.counts, reference.counts)
-    other = random_walk(0.8, 1.2, 0.6, 3000, seed=10, g=0.4)
+    other = tally_walks(0.8, 1.2, 0.6, 3000, seed=10, g=0.4)
     assert other.reflected != compiled.reflected
 
 
@@ -102,4 +102,4 @@ def test_the_same_seed_gives_the_same_walks_on_any_path():
 def test_bad_arguments_are_refused_by_name(kwargs, error, name):
     arguments = {"albedo": 0.5, "eta": 1.0, "cos_theta_i": 1.0, "samples": 100} | kwargs
     with pytest.raises(error, match=rf"^{name} must"):
-        random_walk(**arguments)
+        tally_walks(**arguments)

@@ -29,9 +29,9 @@ from brdfkit.bssrdf.profile_sampling import Probe, RadialSampler
 from brdfkit.bssrdf.random_walk import (
     RadialProfile,
     WalkTally,
-    random_walk,
     random_walk_profile,
     random_walk_reflectance,
+    tally_walks,
 )
 from brdfkit.bssrdf.sphere import subsurface_spheres
 
@@ -51,9 +51,9 @@ __all__ = [
     "h_function",
     "henyey_greenstein",
     "invert_albedo",
-    "random_walk",
     "random_walk_profile",
     "random_walk_reflectance",
     "sample_henyey_greenstein",
     "subsurface_spheres",
+    "tally_walks",
 ]

@@ -219,7 +219,7 @@ class WalkTally:
 
 
 # --------------------------------------------------------------------------- the pipeline
-def random_walk(
+def tally_walks(
     albedo: float,
     eta: float,
     cos_theta_i: float,
@@ -252,7 +252,7 @@ def random_walk(
 
     Examples
     --------
-    >>> tally = random_walk(0.9, 1.0, 1.0, 2000, seed=1, edges=[0.0, 1.0, 2.0])
+    >>> tally = tally_walks(0.9, 1.0, 1.0, 2000, seed=1, edges=[0.0, 1.0, 2.0])
     >>> value, stderr = tally.reflectance()
     >>> 0.35 < value < 0.48 and stderr < 0.02
     True
@@ -307,7 +307,7 @@ def random_walk_reflectance(
     g: float = 0.0,
     thickness: float = math.inf,
 ) -> tuple[float, float]:
-    """The diffuse reflectance of collimated light and its standard error, by :func:`random_walk`
+    """The diffuse reflectance of collimated light and its standard error, by :func:`tally_walks`
     (the specular reflection at the boundary not included).
 
     Examples
@@ -316,7 +316,7 @@ def random_walk_reflectance(
     >>> abs(value - 0.1152) < 4 * stderr
     True
     """
-    return random_walk(
+    return tally_walks(
         albedo, eta, cos_theta_i, samples, seed, g=g, thickness=thickness
     ).reflectance()
 
@@ -332,7 +332,7 @@ def random_walk_profile(
     thickness: float = math.inf,
 ) -> RadialProfile:
     """The radial exitance profile R(r) at the bins ``edges`` (mean free paths), with the total
-    diffuse reflectance, by :func:`random_walk`.
+    diffuse reflectance, by :func:`tally_walks`.
 
     Examples
     --------
@@ -340,7 +340,7 @@ def random_walk_profile(
     >>> bool(profile.exitance[0] > profile.exitance[-1])
     True
     """
-    tally = random_walk(
+    tally = tally_walks(
         albedo, eta, cos_theta_i, samples, seed, g=g, thickness=thickness, edges=edges
     )
     return tally.profile()
@@ -357,9 +357,9 @@ __all__ = [
     "RadialProfile",
     "WalkTally",
     "entry",
-    "random_walk",
     "random_walk_profile",
     "random_walk_reflectance",
+    "tally_walks",
     "uniforms",
     "walk_reference",
 ]
