@@ -140,6 +140,49 @@ def atlas(r: dict) -> str:
     return "\n\n".join(out)
 
 
+def _walk_against_exact(c: dict) -> list[Any]:
+    """A row of the random walk against Chandrasekhar's reflectance."""
+    difference = c["walk"] - c["exact"]
+    return [
+        c["albedo"],
+        c["mu"],
+        f"{c['walk']:.5f} ± {c['stderr']:.5f}",
+        f"{c['exact']:.5f}",
+        f"{difference / c['stderr']:+.2f} σ, {pct(difference / c['exact'], 3)}",
+    ]
+
+
+def bssrdf(r: dict) -> str:
+    exact = rows(
+        ["ω", "μ₀", "random walk", "Chandrasekhar", "difference"],
+        [_walk_against_exact(c) for c in r["chandrasekhar"]],
+        "rrrrr",
+    )
+    models = list(r["cases"][0]["errors"])
+    parts = [f"Random walk against the exact reflectance (η = 1, {r['walks']:,} walks):\n\n{exact}"]
+    for key, title in (
+        ("total", "Relative error of the total diffuse reflectance"),
+        ("profile", "Profile shape error (fraction of the power at the wrong radius)"),
+        ("near", f"Relative error of the power within {r['near_radius']} mean free path (r → 0)"),
+    ):
+        body = [
+            [c["eta"], c["albedo"]] + [pct(c["errors"][m][key], 1) for m in models]
+            for c in r["cases"]
+        ]
+        parts.append(f"{title}:\n\n" + rows(["η", "ω", *models], body, "rr" + "r" * len(models)))
+    m = r.get("mitsuba")
+    if m:
+        difference = m["mitsuba"] - m["walk_plus_specular"]
+        parts.append(
+            f"Mitsuba 3 `volpath` ({m['variant']}, {m['spp']:,} paths) on a thick slab, ω = "
+            f"{m['albedo']}, η = {m['eta']}: reflectance {m['mitsuba']:.4f} ± "
+            f"{m['mitsuba_stderr']:.4f}; random walk + specular F(1): "
+            f"{m['walk_plus_specular']:.4f} ± {m['walk_stderr']:.4f}; difference "
+            f"{pct(difference / m['walk_plus_specular'])}."
+        )
+    return "\n\n".join(parts)
+
+
 def brdf(r: dict) -> str:
     data = r["rows"]
     peer = {(x["workload"], x["n"]): x for x in data if x["impl"].startswith("Mitsuba")}
@@ -621,6 +664,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "sfs": sfs,
     "relighting": relighting,
     "brdf_explorer": brdf_explorer,
+    "bssrdf": bssrdf,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 
