@@ -36,12 +36,12 @@ ERFINV_NEWTON_STEPS = 3
 
 @functools.cache
 def sin_cos32() -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
-    """Branch-free float32 ``(sin, cos)`` that LLVM vectorises.
+    r"""Branch-free float32 ``(sin, cos)`` that LLVM vectorises.
 
-    Cephes' ``sinf``/``cosf``: the octant j = ⌊|x|·4/π⌋ rounded up to even, the reduced
-    argument r = |x| − j·π/4 by Cody and Waite's three-part π/4 (exact products), then a
+    Cephes' ``sinf``/``cosf``: the octant j = ⌊\|x\|·4/π⌋ rounded up to even, the reduced
+    argument r = \|x\| − j·π/4 by Cody and Waite's three-part π/4 (exact products), then a
     degree-7 odd or degree-8 even polynomial in r on [−π/4, π/4], and the sign of the octant.
-    Against float64: at most 2.5 ulp on |x| ≤ 20 and 3.4 ulp on |x| ≤ 8192 (libm's float32:
+    Against float64: at most 2.5 ulp on \|x\| ≤ 20 and 3.4 ulp on \|x\| ≤ 8192 (libm's float32:
     1.4 ulp), except near zeros of the function, where the reduction's error is absolute
     (5×10⁻¹⁴ at x = 3π); beyond 8192 the reduction loses accuracy.
     """
@@ -90,9 +90,9 @@ def sin_cos32() -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
 
 @functools.cache
 def atan2_32() -> Callable[[Any, Any], Any]:
-    """Branch-free float32 ``atan2(y, x)`` that LLVM vectorises.
+    r"""Branch-free float32 ``atan2(y, x)`` that LLVM vectorises.
 
-    Cephes' ``atanf`` on z = min(|x|, |y|)/max(|x|, |y|) ∈ [0, 1]: above tan(π/8) the
+    Cephes' ``atanf`` on z = min(\|x\|, \|y\|)/max(\|x\|, \|y\|) ∈ [0, 1]: above tan(π/8) the
     argument is reduced by atan z = π/4 + atan((z − 1)/(z + 1)), then a degree-9 odd
     polynomial; the octant and quadrant are restored by π/2 − a, π − a and the sign of y.
     Within a few float32 ulp of float64 ``arctan2`` (tested).
@@ -152,13 +152,13 @@ def _trigonometry(dtype: type) -> tuple[Callable[..., Any], Callable[..., Any], 
 
 @functools.cache
 def erfinv() -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
-    """The inverse error function ``(erfinv32, erfinv64)`` for the kernels.
+    r"""The inverse error function ``(erfinv32, erfinv64)`` for the kernels.
 
     float32: Giles' single-precision approximation, w = −ln((1 − x)(1 + x)) and a degree-8
     polynomial in w − 2.5 (w < 5) or in √w − 3, times x (a few ulp). float64: that value (or
     the tail's asymptotic form beyond float32's range) as the start of
-    :data:`ERFINV_NEWTON_STEPS` Newton steps on erf(t) = |x|, taken on ln erfc(t) = ln(1 − |x|)
-    where |x| > ½ so that the residual keeps its digits near ±1. ±1 give ±∞ and |x| > 1 NaN,
+    :data:`ERFINV_NEWTON_STEPS` Newton steps on erf(t) = \|x\|, taken on ln erfc(t) = ln(1 − \|x\|)
+    where \|x\| > ½ so that the residual keeps its digits near ±1. ±1 give ±∞ and \|x\| > 1 NaN,
     as :func:`scipy.special.erfinv`.
     """
     jit = exact_jit()
