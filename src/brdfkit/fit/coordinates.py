@@ -134,7 +134,7 @@ def coordinate_bounds(
     Examples
     --------
     >>> low, high = coordinate_bounds([0.0, 0.0], [1.0, np.inf])
-    >>> np.round(constrained(low, [0.0, 0.0], [1.0, np.inf]), 12).tolist(), np.round(high, 3).tolist()
+    >>> constrained(low, [0.0, 0.0], [1.0, np.inf]).round(12).tolist(), high.round(3).tolist()
     ([1e-09, 1e-09], [20.723, inf])
     """
     lower, upper, log = _broadcast(lower, upper, log)
