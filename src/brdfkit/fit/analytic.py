@@ -1066,16 +1066,10 @@ class _Coordinates:
     def __init__(self, lobes: list[_Lobe], free: list[_Free]):
         self.lower = np.concatenate([np.full(p.size, p.lower) for p in free])
         self.upper = np.concatenate([np.full(p.size, p.upper) for p in free])
-        self.log = np.concatenate(
-            [
-                np.full(p.size, getattr(parameter_domains(type(lobes[p.lobe].inner)).get(p.name),
-                                        "log", False))
-                for p in free
-            ]
-        )  # fmt: skip
-        offsets = np.cumsum([0] + [p.size for p in free])
+        self.log = np.concatenate([np.full(p.size, _log_scaled(lobes[p.lobe], p)) for p in free])
+        offsets = np.cumsum([0] + [p.size for p in free])[:-1]
         self.limits = []
-        for p, start in zip(free, offsets, strict=False):
+        for p, start in zip(free, offsets, strict=True):
             limit = JOINT_LIMITS.get((lobes[p.lobe].inner.spec_name, p.name))
             if limit is not None:
                 entries = np.arange(start, start + p.size)
@@ -1120,6 +1114,13 @@ class _Coordinates:
             down[i] -= h
             jacobian[:, c] = (self.values(up) - self.values(down)) / (2 * h)
         return jacobian
+
+
+def _log_scaled(lobe: _Lobe, p: _Free) -> bool:
+    """Whether the model declares parameter ``p`` best varied on a log scale
+    (:attr:`brdfkit.params.Domain.log`: roughness, exponents)."""
+    domain = parameter_domains(type(lobe.inner)).get(p.name)
+    return domain is not None and domain.log
 
 
 def _lafortune_exponent_limit(
