@@ -10,7 +10,7 @@ import pytest
 from brdfkit.brdf import MODELS, parse
 from brdfkit.brdf.base import Scaled, Sum
 from brdfkit.fit import fit, fit_data, fit_errors
-from brdfkit.measured import MeasuredSamples, read_cornell
+from brdfkit.measured import MeasuredSamples, read_cornell_samples
 from brdfkit.params import parameter_domains
 
 SAMPLES = 120
@@ -24,7 +24,7 @@ of them in ``brdfkit fit`` (as the fit of every Cornell file by every model show
 @pytest.fixture(scope="module")
 def cornell(shared_data) -> MeasuredSamples:
     """A seeded subset of the Cornell acrylic blue paint (a diffuse body under a gloss)."""
-    data = fit_data(read_cornell(shared_data / "measured" / "cornell" / "acryl_blue.brdf"))
+    data = fit_data(read_cornell_samples(shared_data / "measured" / "cornell" / "acryl_blue.brdf"))
     rows = np.sort(np.random.default_rng(0).choice(data.wi.shape[0], SAMPLES, replace=False))
     return MeasuredSamples(data.wi[rows], data.wo[rows], data.values[rows], name="acryl_blue")
 
