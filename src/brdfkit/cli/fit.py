@@ -206,6 +206,8 @@ def _report(
                 f"chosen: {selection.chosen}; held-out RMS residual ({result.objective}): "
                 + ", ".join(f"{k} {v:.4g}" for k, v in selection.held_out.items())
             )
+        if fitted.kinds:
+            console.print(f"result: {result.spec:.60} (its spheres look closer to the data's)")
         for kind, entry in fitted.kinds_record().items():
             console.print(
                 f"{kind.replace('_', '-')}: {entry['spec']}; held-out RMS residual "
