@@ -36,8 +36,9 @@ _Models = Annotated[
         "-m",
         metavar="SPEC",
         help="Model spec; parameters written in it stay fixed, e.g. 'lambertian + ggx'; "
-        "'bivariate' (the data-driven (θh, θd) table), or 'auto' (the candidate with the "
-        "least held-out error). Repeatable: a batch.",
+        "'bivariate' (the data-driven (θh, θd) table), or 'auto' (default: the candidate with "
+        "the least held-out error, reporting the best analytic and the data-driven fit; in a "
+        "batch, every analytic candidate). Repeatable: a batch.",
     ),
 ]
 _Objective = Annotated[
@@ -121,7 +122,7 @@ _Scheduler = Annotated[
 @app.command("fit")
 def fit_command(
     files: _Files,
-    models: _Models = ("lambertian + cook_torrance",),
+    models: _Models = ("auto",),
     objective: _Objective = "cube_root",
     loss: _Loss = "soft_l1",
     loss_scale: _LossScale = 0.5,
@@ -153,7 +154,7 @@ def fit_command(
         if envmap:
             fail("--envmap renders spheres of a single fit; a batch writes fit.json only")
         options.update(fixed=sorted(fix), seed=seed)  # the order of the batch's records
-        run_batch(files, models, options, output, workers, scheduler, as_json)
+        run_batch(files, _batch_models(models), options, output, workers, scheduler, as_json)
         return
     file, model = files[0], models[0]
     if not file.is_file():
@@ -183,6 +184,16 @@ def fit_command(
     _report(file, title, fitted, folder, as_json)
 
 
+def _batch_models(models: list[str]) -> list[str]:
+    """A batch's models: ``"auto"`` stands for every analytic candidate of the selection."""
+    from brdfkit.fit.measured_fit import AUTO
+    from brdfkit.fit.select import BIVARIATE, CANDIDATES
+
+    analytic = [spec for spec in CANDIDATES if spec != BIVARIATE]
+    expanded = [spec for m in models for spec in (analytic if m.strip() == AUTO else [m])]
+    return list(dict.fromkeys(expanded))
+
+
 def _report(
     file: Path, title: str, fitted: MeasuredFit, folder: OutputFolder | None, as_json: bool
 ) -> None:
@@ -196,10 +207,19 @@ def _report(
                 f"chosen: {selection.chosen}; held-out RMS residual ({result.objective}): "
                 + ", ".join(f"{k} {v:.4g}" for k, v in selection.held_out.items())
             )
+        if fitted.kinds:
+            console.print(f"result: {result.spec:.60} (its spheres look closer to the data's)")
+        for kind, entry in fitted.kinds_record().items():
+            console.print(
+                f"{kind.replace('_', '-')}: {entry['spec']}; held-out RMS residual "
+                f"{entry['held_out_rms']:.4g}; spheres CIEDE2000 mean "
+                f"{entry['delta_e_directional']['mean']:.1f}"
+            )
     summary = {"file": shown(file), **result.to_dict()}
     if selection is not None:
         summary["chosen"] = selection.chosen
         summary["held_out_rms"] = selection.held_out
+        summary.update(fitted.kinds_record())
     if folder is not None:
         _write_outputs(folder, fitted)
         summary.update({f"delta_e_{light}": d.to_dict() for light, d in fitted.spheres.items()})

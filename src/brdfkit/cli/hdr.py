@@ -27,6 +27,15 @@ _Response = Annotated[
         help="Also write the recovered ln f⁻¹ per code (CSV, 256 rows).",
     ),
 ]
+_Method = Annotated[
+    str,
+    typer.Option(
+        "--method",
+        metavar="NAME",
+        help="Response recovery: debevec (Debevec & Malik 1997), robertson (Robertson et al. "
+        "2003), mitsunaga_nayar (Mitsunaga & Nayar 1999) or emor (a low-dimensional prior).",
+    ),
+]
 _Smoothness = Annotated[
     float, typer.Option("--smoothness", metavar="LAMBDA", min=0.0, help="Smoothness λ.")
 ]
@@ -57,16 +66,20 @@ def hdr_command(
     times: _Times,
     output: _Output = Path("merged.exr"),
     response: _Response = None,
+    method: _Method = "debevec",
     smoothness: _Smoothness = 50.0,
     samples: _Samples = 200,
     fallback_mask: _FallbackMask = None,
 ) -> None:
-    """Recover the camera response (Debevec & Malik 1997) and merge the stack to radiance."""
+    """Recover the camera response (--method; --smoothness is Debevec & Malik's) and merge
+    the stack to radiance."""
     import numpy as np
 
     from brdfkit._array import check_param
     from brdfkit.io import atomic_write, write_image
+    from brdfkit.params import check_choice
     from brdfkit.vision.calibration import merge_hdr, recover_response
+    from brdfkit.vision.response import METHODS, calibrate_response
 
     output = output_file(output, inputs=images, suffixes=(".exr", ".hdr"))
     if response is not None:
@@ -76,9 +89,14 @@ def hdr_command(
             fallback_mask, inputs=images, option="--fallback-mask", suffixes=(".png",)
         )
     check_param("--smoothness", smoothness, 0.0)
+    check_choice("--method", method, METHODS)
     exposure_times = _exposure_times(times, len(images))
     stack = _read_stack(images)
-    g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
+    if method == "debevec":
+        g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
+    else:
+        calibrated = calibrate_response(stack, exposure_times, method, samples=samples, bootstrap=0)
+        g = calibrated.log_inverse()
     radiance, fell_back = merge_hdr(stack, exposure_times, g, return_mask=True)
     write_image(output, radiance)  # atomic
     if response is not None:

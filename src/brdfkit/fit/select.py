@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,11 +47,17 @@ HOLDOUT = 0.2
 @dataclass(frozen=True, eq=False)
 class Selection:
     """The outcome of :func:`select_model`: the chosen candidate, every candidate's held-out
-    RMS residual, and the chosen candidate refitted on all measurements."""
+    RMS residual, and the chosen candidate refitted on all measurements; where the candidates
+    hold both kinds, also the best analytic one (``analytic``) and the data-driven table
+    (``data_driven``), each refitted on all measurements (one of them is ``result``), and the
+    best analytic candidate's name (``analytic_candidate``)."""
 
     chosen: str
     held_out: dict[str, float]
     result: FitResult
+    analytic: FitResult | None = None
+    data_driven: FitResult | None = None
+    analytic_candidate: str | None = None
 
 
 def _split(data: MeasuredSamples, rng: np.random.Generator) -> tuple[MeasuredSamples, ...]:
@@ -131,6 +138,12 @@ def select_model(
     ('lambertian + ggx', ['lambertian', 'lambertian + ggx'])
     >>> round(selection.result.params["1.ggx.alpha"], 6)
     0.3
+
+    With the data-driven table among the candidates, the best of each kind comes back:
+
+    >>> both = select_model(data, ("lambertian + ggx", "bivariate"), starts=1)
+    >>> both.analytic.spec.startswith("lambertian"), both.data_driven.spec.startswith("bivariate")
+    (True, True)
     """
     if not candidates:
         raise ParameterError("candidates must name at least one model")
@@ -144,8 +157,24 @@ def select_model(
         r = residuals(model, test, objective)
         held_out[spec] = float(np.sqrt(np.mean(r * r)))
     chosen = min(held_out, key=held_out.__getitem__)
-    result = fit_any(data, chosen, objective=objective, seed=seed, **options)
-    return Selection(chosen, held_out, dataclasses.replace(result, objective=objective))
+    analytic = [spec for spec in held_out if spec.strip() != BIVARIATE]
+    both = analytic and len(analytic) < len(held_out)  # both kinds: the best of each
+    best = min(analytic, key=held_out.__getitem__) if both else None
+    refits = {
+        spec: dataclasses.replace(
+            fit_any(data, spec, objective=objective, seed=seed, **options), objective=objective
+        )
+        for spec in ({chosen, best, _bivariate(held_out)} if both else {chosen})
+    }
+    if not both:
+        return Selection(chosen, held_out, refits[chosen])
+    data_driven = refits[_bivariate(held_out)]
+    return Selection(chosen, held_out, refits[chosen], refits[best], data_driven, best)
+
+
+def _bivariate(candidates: Collection[str]) -> str:
+    """The data-driven candidate's name as ``candidates`` spell it."""
+    return next(spec for spec in candidates if spec.strip() == BIVARIATE)
 
 
 __all__ = ["BIVARIATE", "CANDIDATES", "HOLDOUT", "Selection", "fit_any", "select_model"]

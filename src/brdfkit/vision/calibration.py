@@ -193,7 +193,27 @@ def _check_stack(
             f"images must be 8-bit codes (uint8, as a camera writes them); got dtype "
             f"{stack.dtype}: linear or HDR images need no response recovery"
         )
+    _check_equal_times(stack, times)
     return stack, times
+
+
+SAME_EXPOSURE_CODES = 1.0
+"""How far (in codes) the mean codes of two images of one exposure time may differ: repeated
+shots differ by noise, which averages out over the image; a mislabelled time shifts the mean
+by tens of codes."""
+
+
+def _check_equal_times(stack: np.ndarray, times: np.ndarray) -> None:
+    """Raise unless images with equal exposure times show the same exposure."""
+    means = stack.reshape(stack.shape[0], -1).mean(axis=1)
+    for j in range(times.size):
+        for k in range(j):
+            if times[j] == times[k] and abs(means[j] - means[k]) > SAME_EXPOSURE_CODES:
+                raise ParameterError(
+                    f"times gives images {k} and {j} the same exposure time {times[j]:g} s, but "
+                    f"their mean codes differ ({means[k]:.1f} vs {means[j]:.1f}): equal times "
+                    "must show equal exposures (is a time mislabelled?)"
+                )
 
 
 def sample_pixels(
