@@ -120,7 +120,7 @@ def test_written_file_loads_with_load_file(mi, tmp_path):
 
 
 def test_a_model_without_counterpart_is_refused_by_name():
-    with pytest.raises(ParameterError, match="Phong has no Mitsuba 3 counterpart.*RGL"):
+    with pytest.raises(ParameterError, match=r"Phong has no Mitsuba 3 counterpart.*RGL"):
         to_mitsuba_dict(Phong())
 
 
@@ -137,7 +137,7 @@ def test_inexact_options_are_refused_unless_approximating():
 
 
 def test_sums_beyond_mitsubas_reflectance_bound_are_refused():
-    with pytest.raises(ParameterError, match="add to 1.4 > 1"):
+    with pytest.raises(ParameterError, match=r"add to 1\.4 > 1"):
         to_mitsuba_dict(Lambertian([0.9, 0.1, 0.1]) + Lambertian([0.1, 0.5, 0.1]))
 
 
