@@ -54,7 +54,7 @@ Examples
 >>> spec = to_mitsuba_dict(Lambertian(0.3) + gold)
 >>> spec["type"], spec["weight"], spec["a"]
 ('blendbsdf', 0.5, {'type': 'diffuse', 'reflectance': 0.6})
->>> print(to_mitsuba_xml(Lambertian([0.2, 0.5, 0.8])))
+>>> print(to_mitsuba_xml(Lambertian([0.2, 0.5, 0.8])), end="")
 <bsdf type="diffuse" version="3.0.0">
   <rgb name="reflectance" value="0.2, 0.5, 0.8"/>
 </bsdf>
