@@ -69,7 +69,6 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from brdfkit._array import to_numpy
 from brdfkit.brdf import (
     BRDF,
     Lambertian,
@@ -85,7 +84,10 @@ from brdfkit.brdf import (
     Sum,
 )
 from brdfkit.errors import ParameterError
+from brdfkit.interop._lobes import flattened, values
 from brdfkit.io import atomic_write
+
+TOOL = "Mitsuba 3"
 
 PRINCIPLED_NAMES = {
     "base_color": "base_color",
@@ -190,7 +192,7 @@ class _Exporter:
         :math:`p_i` and exported times :math:`1/p_i`. Mitsuba refuses RGB reflectances above 1,
         so each :math:`p_i` is at least the largest RGB reflectance :math:`B_i` of its lobe
         (:math:`p_i = B_i + (1 - \\sum B)/n`); a sum with :math:`\\sum B > 1` is refused."""
-        lobes = _flattened(brdf, scale)
+        lobes = flattened(brdf, scale, TOOL)
         if len(lobes) == 1:
             return self.bsdf(*lobes[0])
         bounds = np.array([_rgb_bound(self.bsdf(lobe, s)) for lobe, s in lobes])
@@ -219,7 +221,10 @@ class _Exporter:
 
     # ------------------------------------------------------------------- lobes
     def lambertian(self, brdf: Lambertian, scale: np.ndarray) -> dict[str, Any]:
-        return {"type": "diffuse", "reflectance": _texture(_values(brdf, "rho", brdf.rho) * scale)}
+        return {
+            "type": "diffuse",
+            "reflectance": _texture(values(brdf, "rho", brdf.rho, TOOL) * scale),
+        }
 
     def rough_conductor(self, brdf: RoughConductor, scale: np.ndarray) -> dict[str, Any]:
         spec = {"type": "roughconductor", **self._microfacet(brdf)}
@@ -249,8 +254,8 @@ class _Exporter:
                 f"a scaled {type(brdf).__name__} with nonlinear=True has no Mitsuba 3 "
                 "counterpart (the internal scattering is not linear in the reflectances)"
             )
-        diffuse = _values(brdf, "diffuse_reflectance", brdf.diffuse_reflectance) * scale
-        specular = _values(brdf, "specular_reflectance", brdf.specular_reflectance) * scale
+        diffuse = values(brdf, "diffuse_reflectance", brdf.diffuse_reflectance, TOOL) * scale
+        specular = values(brdf, "specular_reflectance", brdf.specular_reflectance, TOOL) * scale
         return {
             **spec,
             **_indices(brdf),
@@ -269,7 +274,7 @@ class _Exporter:
             self.differs(brdf, "variant", brdf.variant, "its own variant ('mitsuba')")
         spec: dict[str, Any] = {"type": "principled"}
         for ours, theirs in PRINCIPLED_NAMES.items():
-            spec[theirs] = _texture(_values(brdf, ours, getattr(brdf, ours)))
+            spec[theirs] = _texture(values(brdf, ours, getattr(brdf, ours), TOOL))
         return spec
 
     # ------------------------------------------------------------------- shared options
@@ -296,14 +301,14 @@ class _Exporter:
         if term.kind == "none":
             spec["material"] = "none"
         elif term.kind == "conductor":
-            spec["eta"] = _texture(_values(brdf, "eta", term.eta))
-            spec["k"] = _texture(_values(brdf, "k", term.k))
+            spec["eta"] = _texture(values(brdf, "eta", term.eta, TOOL))
+            spec["k"] = _texture(values(brdf, "k", term.k, TOOL))
         else:
             raise ParameterError(
                 f"{type(brdf).__name__} with a {term.kind!r} Fresnel term has no Mitsuba 3 "
                 "counterpart (its conductors take eta and k)"
             )
-        specular = _values(brdf, "reflectance", reflectance) * scale
+        specular = values(brdf, "reflectance", reflectance, TOOL) * scale
         if not np.all(specular == 1):
             spec["specular_reflectance"] = _texture(specular)
         return spec
@@ -326,26 +331,6 @@ _EXPORTERS = (
 
 
 # --------------------------------------------------------------------------- values
-def _values(model: BRDF, name: str, value: Any) -> np.ndarray:
-    """A parameter as 1 or 3 floats; spatially varying or spectral values are refused."""
-    array = np.asarray(to_numpy(value), dtype=np.float64)
-    if array.ndim > 1 or array.size not in (1, 3):
-        raise ParameterError(
-            f"{type(model).__name__} {name} of shape {array.shape} has no Mitsuba 3 "
-            "counterpart here: export one number or an RGB triple per parameter"
-        )
-    return array.reshape(-1)
-
-
-def _flattened(brdf: BRDF, scale: np.ndarray) -> list[tuple[BRDF, np.ndarray]]:
-    """The lobes of nested sums and products, each with the product of its scales."""
-    if isinstance(brdf, Scaled):
-        return _flattened(brdf.inner, scale * _values(brdf, "k", brdf.k))
-    if isinstance(brdf, Sum):
-        return [pair for lobe in brdf.lobes for pair in _flattened(lobe, scale)]
-    return [(brdf, scale)]
-
-
 BOUNDED = (
     "reflectance",
     "diffuse_reflectance",
@@ -368,7 +353,7 @@ def _rgb_bound(spec: dict[str, Any]) -> float:
 
 
 def _scalar(model: BRDF, name: str, value: Any) -> float:
-    array = _values(model, name, value)
+    array = values(model, name, value, TOOL)
     if array.size != 1 and not np.all(array == array[0]):
         raise ParameterError(
             f"{type(model).__name__} {name}={array.tolist()}: Mitsuba 3 takes one number"
@@ -376,11 +361,11 @@ def _scalar(model: BRDF, name: str, value: Any) -> float:
     return float(array[0])
 
 
-def _texture(values: np.ndarray) -> float | dict[str, Any]:
+def _texture(channels: np.ndarray) -> float | dict[str, Any]:
     """A float, or an RGB dict where the channels differ."""
-    if values.size == 1 or np.all(values == values[0]):
-        return float(values[0])
-    return {"type": "rgb", "value": [float(v) for v in values]}
+    if channels.size == 1 or np.all(channels == channels[0]):
+        return float(channels[0])
+    return {"type": "rgb", "value": [float(v) for v in channels]}
 
 
 def _indices(brdf: SmoothDielectric | RoughDielectric | SmoothPlastic | RoughPlastic) -> dict:
