@@ -104,7 +104,20 @@ def export(
         from brdfkit.measured import write_rgl
 
         return Exported(write_rgl(brdf, path, description=_description(brdf)))
-    raise ParameterError(f"format {name!r} is not available in this build")
+    from brdfkit.interop.pbr import pbr_material
+
+    notes = list(pbr_material(brdf).approximations)
+    if name == "gltf":
+        from brdfkit.interop.gltf import write_gltf
+
+        return Exported(write_gltf(brdf, path), notes)
+    if name == "mtlx":
+        from brdfkit.interop.materialx import write_materialx
+
+        return Exported(write_materialx(brdf, path), notes)
+    from brdfkit.interop.usd import write_usd
+
+    return Exported(write_usd(brdf, path), notes)
 
 
 def _description(brdf: BRDF) -> str:
