@@ -23,8 +23,8 @@ Examples
 ...     path = write_gltf(Principled(base_color=[0.8, 0.2, 0.1], clearcoat=1.0),
 ...                       Path(folder) / "ball.glb")
 ...     document = gltf_document(Principled(base_color=[0.8, 0.2, 0.1], clearcoat=1.0))
->>> sorted(document.extensionsUsed)
-['KHR_materials_clearcoat', 'KHR_materials_ior', 'KHR_materials_specular']
+>>> document.extensionsUsed
+['KHR_materials_clearcoat']
 >>> document.materials[0].pbrMetallicRoughness.baseColorFactor
 [0.8, 0.2, 0.1, 1.0]
 """
@@ -74,7 +74,7 @@ def gltf_material(material: PBRMaterial) -> tuple[dict[str, Any], list[str]]:
         "roughnessFactor": float(material.roughness),
     }
     extensions: dict[str, dict[str, Any]] = {}
-    if material.ior != GLTF_IOR:
+    if not math.isclose(material.ior, GLTF_IOR, rel_tol=1e-9):
         extensions["KHR_materials_ior"] = {"ior": float(material.ior)}
     if material.specular_weight != 1 or np.any(material.specular_color != 1):
         extensions["KHR_materials_specular"] = {

@@ -68,6 +68,7 @@ from brdfkit.brdf import (
 )
 from brdfkit.brdf.microfacet_reflection import MicrofacetReflection
 from brdfkit.errors import ParameterError
+from brdfkit.fresnel import f0_from_ior
 from brdfkit.interop._lobes import flattened, values
 from brdfkit.io import luminance
 
@@ -100,6 +101,14 @@ def ior_from_f0(f0: float) -> float:
     :func:`brdfkit.fresnel.f0_from_ior`)."""
     root = math.sqrt(min(max(f0, 0.0), 0.99))
     return (1 + root) / (1 - root)
+
+
+def dielectric_f0(material: PBRMaterial) -> np.ndarray:
+    r"""The dielectric layer's normal-incidence reflectance per channel,
+    :math:`\min(((\eta - 1)/(\eta + 1))^2 \cdot` ``specular_color`` :math:`, 1) \cdot`
+    ``specular_weight`` (glTF's KHR_materials_specular)."""
+    f0 = f0_from_ior(np.asarray(material.ior, dtype=np.float64))
+    return np.minimum(f0 * material.specular_color, 1.0) * material.specular_weight
 
 
 def pbr_material(brdf: BRDF) -> PBRMaterial:
@@ -289,4 +298,4 @@ def _principled(lobe: Principled, scale: np.ndarray) -> PBRMaterial:
 _SINGLE = {"plastic": _plastic, "dielectric": _dielectric, "principled": _principled}
 
 
-__all__ = ["GLTF_IOR", "PBRMaterial", "ior_from_f0", "pbr_material"]
+__all__ = ["GLTF_IOR", "PBRMaterial", "dielectric_f0", "ior_from_f0", "pbr_material"]
