@@ -3,26 +3,25 @@ r"""brdfkit models as Mitsuba 3 BSDFs: a dict for ``mi.load_dict`` and a ``<bsdf
 The one place that knows which Mitsuba 3 plugin, with which options, equals which brdfkit model
 (the oracle tests and the benchmarks build their Mitsuba twins here):
 
-=============================================  ==============================================
-brdfkit                                        Mitsuba 3
-=============================================  ==============================================
-:class:`~brdfkit.brdf.Lambertian`              ``diffuse``
-:class:`~brdfkit.brdf.RoughConductor` (GGX,    ``roughconductor`` (``distribution``, ``alpha``
-Beckmann, anisotropic)                         or ``alpha_u``/``alpha_v``, ``eta``/``k``)
-:class:`~brdfkit.brdf.SmoothConductor`,        ``conductor``
-:class:`~brdfkit.brdf.Mirror` (F = 1 or
-conductor Fresnel)
-:class:`~brdfkit.brdf.SmoothDielectric`        ``dielectric``
-:class:`~brdfkit.brdf.RoughDielectric`         ``roughdielectric``
-:class:`~brdfkit.brdf.SmoothPlastic`           ``plastic`` (``nonlinear``)
-:class:`~brdfkit.brdf.RoughPlastic`            ``roughplastic``
-:class:`~brdfkit.brdf.Principled`              ``principled`` (``specular_tint`` →
-                                               ``spec_tint``, ``subsurface`` → ``flatness``)
-``a + b + …`` (:class:`~brdfkit.brdf.Sum`)     nested ``blendbsdf``: Mitsuba has no sum, so
-                                               n lobes become :math:`\tfrac1n(n a) +
-                                               \tfrac{n-1}{n}\bigl(\tfrac{n}{n-1}(b + …)\bigr)`
-``k * a`` (:class:`~brdfkit.brdf.Scaled`)      the lobe's reflectance options times k
-=============================================  ==============================================
+==============================================  ==============================================
+brdfkit                                         Mitsuba 3
+==============================================  ==============================================
+:class:`~brdfkit.brdf.Lambertian`               ``diffuse``
+:class:`~brdfkit.brdf.RoughConductor`           ``roughconductor`` (``distribution``, ``alpha``
+                                                or ``alpha_u``/``alpha_v``, ``eta``/``k``), its
+                                                GGX, Beckmann and anisotropic forms
+:class:`~brdfkit.brdf.SmoothConductor`          ``conductor``
+:class:`~brdfkit.brdf.Mirror`                   ``conductor`` (F = 1 or a conductor Fresnel)
+:class:`~brdfkit.brdf.SmoothDielectric`         ``dielectric``
+:class:`~brdfkit.brdf.RoughDielectric`          ``roughdielectric``
+:class:`~brdfkit.brdf.SmoothPlastic`            ``plastic`` (``nonlinear``)
+:class:`~brdfkit.brdf.RoughPlastic`             ``roughplastic``
+:class:`~brdfkit.brdf.Principled`               ``principled`` (``specular_tint`` →
+                                                ``spec_tint``, ``subsurface`` → ``flatness``)
+``a + b + …`` (:class:`~brdfkit.brdf.Sum`)      nested ``blendbsdf``: lobe i drawn with chance
+                                                :math:`p_i` and exported times :math:`1/p_i`
+``k * a`` (:class:`~brdfkit.brdf.Scaled`)       the lobe's reflectance options times k
+==============================================  ==============================================
 
 Conventions. brdfkit's ``eval(wi, wo)`` is :math:`f_r` without the cosine; Mitsuba's
 ``bsdf.eval(ctx, si, v)`` with ``si.wi`` = brdfkit's ``wo`` (towards the viewer) and ``v`` =

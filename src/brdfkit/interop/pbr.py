@@ -12,14 +12,14 @@ mixes a Lambertian ``base_color`` under a specular layer,
 brdfkit                                metallic-roughness
 =====================================  ===========================================================
 :class:`~brdfkit.brdf.Lambertian`      base colour ρ, specular weight 0 (exact)
-a GGX/Beckmann lobe alone (conductor)  metallic 1, base colour :math:`F(\theta=0)`, roughness
+one GGX or Beckmann lobe (a metal)     metallic 1, base colour :math:`F(\theta=0)`, roughness
                                        :math:`\sqrt{\alpha}`
-Lambertian + one GGX/Beckmann lobe     dielectric: base colour ρ, roughness :math:`\sqrt\alpha`,
-(the usual fit)                        ior η (dielectric Fresnel) or 1.5 with ``specular_color``
-                                       :math:`= F_0/0.04`
-:class:`~brdfkit.brdf.SmoothPlastic`,  dielectric: base colour = diffuse reflectance, ior η,
-:class:`~brdfkit.brdf.RoughPlastic`    roughness :math:`\sqrt\alpha` (0 when smooth)
-smooth / rough dielectric              transmission 1, ior η, roughness :math:`\sqrt\alpha`
+Lambertian + a GGX or Beckmann lobe    the usual fit, a dielectric: base colour ρ, roughness
+                                       :math:`\sqrt\alpha`, ior η (dielectric Fresnel) or 1.5
+                                       with ``specular_color`` :math:`= F_0/0.04`
+smooth or rough plastic                dielectric: base colour = diffuse reflectance, ior η,
+                                       roughness :math:`\sqrt\alpha` (0 when smooth)
+smooth or rough dielectric             transmission 1, ior η, roughness :math:`\sqrt\alpha`
 :class:`~brdfkit.brdf.Principled`      base colour, metallic, roughness as they are; ior from
                                        Burley's :math:`F_0 = 0.08\,` ``specular``; specular colour
                                        the tint :math:`\mathrm{mix}(1, C_{tint},` ``specular_tint``
