@@ -3,7 +3,10 @@
 :mod:`~brdfkit.interop.mitsuba`: Mitsuba 3 scenes that see exactly what brdfkit's sphere
 renders see (the oracle of the rendering tests and the peer of the benchmarks).
 :mod:`~brdfkit.interop.mitsuba_export`: brdfkit models as Mitsuba 3 BSDFs (dict and XML).
-:mod:`~brdfkit.interop.export`: one entry point that writes any export format.
+:mod:`~brdfkit.interop.pbr`: the metallic-roughness conversion that
+:mod:`~brdfkit.interop.gltf` (glTF 2.0), :mod:`~brdfkit.interop.materialx` (OpenPBR) and
+:mod:`~brdfkit.interop.usd` (UsdPreviewSurface) write. :mod:`~brdfkit.interop.export`: one
+entry point for every format, RGL tables (:func:`brdfkit.measured.write_rgl`) included.
 """
 
 from brdfkit.interop.export import FORMATS, Exported, check_format, export
