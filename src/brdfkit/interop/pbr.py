@@ -264,7 +264,7 @@ def _dielectric_roughness(lobe: RoughDielectric, notes: list[str]) -> float:
 def _principled(lobe: Principled, scale: np.ndarray) -> PBRMaterial:
     notes = [
         "Burley's GTR1 clearcoat as a GGX coat, his sheen as the Charlie sheen, his lobes "
-        "(added) as glTF's layers"
+        "(added) as the layers of a metallic-roughness material"
     ]
     p = {name: values(lobe, name, getattr(lobe, name), TOOL) for name in (
         "base_color", "metallic", "roughness", "anisotropic", "specular", "specular_tint",
