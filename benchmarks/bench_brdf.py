@@ -46,6 +46,7 @@ import numpy as np
 from brdfkit.brdf import Lambertian, RoughConductor
 from brdfkit.compiled import DEFAULT_CHUNK, compile, eval_chunked, threads
 from brdfkit.fresnel import conductor
+from brdfkit.interop import to_mitsuba_dict
 
 ALPHA = 0.2
 MATERIAL = "Au"
@@ -128,24 +129,9 @@ class Mitsuba:
 
         mi.set_variant("llvm_ad_rgb")
         self.dr, self.mi = dr, mi
-        eta, k = conductor(MATERIAL)
-        spec = {
-            "type": "roughconductor",
-            "distribution": "ggx",
-            "alpha": ALPHA,
-            "sample_visible": True,
-            "eta": {"type": "rgb", "value": [float(v) for v in eta]},
-            "k": {"type": "rgb", "value": [float(v) for v in k]},
-        }
-        self.ggx = mi.load_dict(spec)
-        self.mix = mi.load_dict(
-            {
-                "type": "blendbsdf",
-                "weight": 0.5,
-                "a": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 2 * DIFFUSE}},
-                "b": spec,
-            }
-        )
+        ggx, mix = models(np.float64)
+        self.ggx = mi.load_dict(to_mitsuba_dict(ggx))
+        self.mix = mi.load_dict(to_mitsuba_dict(mix))
         self.ctx = mi.BSDFContext()
         self.version = f"mitsuba {mi.__version__}, drjit {dr.__version__}"
 

@@ -665,6 +665,25 @@ def brdf_explorer(r: dict) -> str:
         f"One `eval` of {r['pairs']:,} direction pairs, default parameters:\n\n{files}\n\n"
         f"The translated shader against brdfkit's own code for its formula:\n\n{peers}"
     )
+def export(r: dict) -> str:
+    mitsuba = rows(
+        ["model (Mitsuba 3 XML)", "pairs", "p99 relative error", "largest"],
+        [
+            [x["model"], f"{x['pairs']:,}", f"{x['p99']:.1e}", f"{x['max']:.1e}"]
+            for x in r["mitsuba"]
+        ],
+        "lrrr",
+    )
+    rgl = rows(
+        ["model (RGL table)", "sample square", "write s", "MB", "median", "p90", "p99",
+         "reader vs Mitsuba"],
+        [[x["model"], f"{x['resolution']}²", f"{x['seconds']:.1f}", f"{x['bytes'] / 1e6:.1f}",
+          pct(x["median"]), pct(x["p90"], 1), pct(x["p99"], 1),
+          f"{x['reader_vs_mitsuba_max']:.1e}" if "reader_vs_mitsuba_max" in x else "–"]
+         for x in r["rgl"]],
+        "lrrrrrrr",
+    )  # fmt: skip
+    return "\n\n".join(t for t in (mitsuba if r["mitsuba"] else "", rgl) if t)
 
 
 TABLES: dict[str, Callable[[dict], str]] = {
@@ -690,6 +709,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "brdf_explorer": brdf_explorer,
     "bssrdf": bssrdf,
     "hdr": hdr,
+    "export": export,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 

@@ -1,4 +1,5 @@
-"""Mitsuba 3 (``scalar_rgb``) as an oracle for the diffuse, microfacet and smooth models.
+"""Mitsuba 3 (``scalar_rgb``) as an oracle for the diffuse, microfacet and smooth models, each
+built by the exporter (:func:`brdfkit.interop.to_mitsuba_dict`).
 
 Mitsuba's ``si.wi`` is our ``wo`` (towards the viewer) and its ``bsdf.eval(ctx, si, v)`` is
 f·|cos θ_v|; Mitsuba evaluates separable Smith masking and, for Beckmann, Walter's rational G1,
@@ -19,6 +20,7 @@ from brdfkit.brdf import (
     SmoothDielectric,
 )
 from brdfkit.fresnel import conductor
+from brdfkit.interop import to_mitsuba_dict
 
 mi = pytest.importorskip("mitsuba")
 pytestmark = pytest.mark.oracle
@@ -63,10 +65,8 @@ def _upper(n: int, seed: int) -> np.ndarray:
 
 
 def test_diffuse():
-    bsdf = mi.load_dict(
-        {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.2, 0.5, 0.8]}}
-    )
     ours = Lambertian([0.2, 0.5, 0.8])
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     for wi, wo in zip(_upper(N_PAIRS, 1), _upper(N_PAIRS, 2), strict=True):
         value, _ = _mitsuba_eval_pdf(bsdf, wi, wo)
         _assert_close(ours.eval(wi, wo), value, rtol=RTOL, atol=ATOL)
@@ -81,37 +81,18 @@ def test_conductor_presets_are_mitsubas(name):
 
 
 ROUGH_CONDUCTORS = [
-    ({"distribution": "ggx", "alpha": 0.3, "material": "Au"}, {"alpha": 0.3, "material": "Au"}),
-    (
-        {"distribution": "beckmann", "alpha": 0.25, "material": "Cu"},
-        {"alpha": 0.25, "distribution": "beckmann", "material": "Cu"},
-    ),
-    (
-        {"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.5, "material": "Au"},
-        {"alpha_u": 0.1, "alpha_v": 0.5, "material": "Au"},
-    ),
-    (
-        {"distribution": "beckmann", "alpha_u": 0.4, "alpha_v": 0.15, "material": "Ag"},
-        {"alpha_u": 0.4, "alpha_v": 0.15, "distribution": "beckmann", "material": "Ag"},
-    ),
-    (
-        {
-            "distribution": "ggx",
-            "alpha": 0.6,
-            "eta": {"type": "rgb", "value": [0.2, 0.9, 1.1]},
-            "k": {"type": "rgb", "value": [3.9, 2.4, 2.1]},
-        },
-        {"alpha": 0.6, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
-    ),
+    {"alpha": 0.3, "material": "Au"},
+    {"alpha": 0.25, "distribution": "beckmann", "material": "Cu"},
+    {"alpha_u": 0.1, "alpha_v": 0.5, "material": "Au"},
+    {"alpha_u": 0.4, "alpha_v": 0.15, "distribution": "beckmann", "material": "Ag"},
+    {"alpha": 0.6, "eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
 ]
 
 
-@pytest.mark.parametrize(
-    ("mitsuba", "kwargs"), ROUGH_CONDUCTORS, ids=[str(m) for m, _ in ROUGH_CONDUCTORS]
-)
-def test_roughconductor(mitsuba, kwargs):
-    bsdf = mi.load_dict({"type": "roughconductor", **mitsuba})
+@pytest.mark.parametrize("kwargs", ROUGH_CONDUCTORS, ids=[str(k) for k in ROUGH_CONDUCTORS])
+def test_roughconductor(kwargs):
     ours = RoughConductor(**kwargs, masking="smith_separable", approximate_g1=True)
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     nonzero = 0
     for wi, wo in zip(_upper(N_PAIRS, 3), _upper(N_PAIRS, 4), strict=True):
         value, pdf = _mitsuba_eval_pdf(bsdf, wi, wo)
@@ -122,29 +103,18 @@ def test_roughconductor(mitsuba, kwargs):
 
 
 ROUGH_DIELECTRICS = [
-    (
-        {"distribution": "ggx", "alpha": 0.3, "int_ior": 1.5, "ext_ior": 1.0},
-        {"alpha": 0.3, "eta": 1.5},
-    ),
-    (
-        {"distribution": "beckmann", "alpha": 0.2, "int_ior": 1.33, "ext_ior": 1.0},
-        {"alpha": 0.2, "eta": 1.33, "distribution": "beckmann"},
-    ),
-    (
-        {"distribution": "ggx", "alpha_u": 0.1, "alpha_v": 0.4, "int_ior": 2.0, "ext_ior": 1.2},
-        {"alpha_u": 0.1, "alpha_v": 0.4, "eta": 2.0 / 1.2},
-    ),
+    {"alpha": 0.3, "eta": 1.5},
+    {"alpha": 0.2, "eta": 1.33, "distribution": "beckmann"},
+    {"alpha_u": 0.1, "alpha_v": 0.4, "eta": 2.0 / 1.2},
 ]
 
 
 @pytest.mark.parametrize("mode", ["radiance", "importance"])
-@pytest.mark.parametrize(
-    ("mitsuba", "kwargs"), ROUGH_DIELECTRICS, ids=[str(m) for m, _ in ROUGH_DIELECTRICS]
-)
-def test_roughdielectric(mitsuba, kwargs, mode):
+@pytest.mark.parametrize("kwargs", ROUGH_DIELECTRICS, ids=[str(k) for k in ROUGH_DIELECTRICS])
+def test_roughdielectric(kwargs, mode):
     """Reflection and transmission, from both sides, at pairs drawn by our own sampler."""
-    bsdf = mi.load_dict({"type": "roughdielectric", **mitsuba})
     ours = RoughDielectric(**kwargs, approximate_g1=True, mode=mode)
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     transport = mi.TransportMode.Radiance if mode == "radiance" else mi.TransportMode.Importance
     ctx = mi.BSDFContext(transport)
     wo = _upper(N_PAIRS, 5)
@@ -170,22 +140,12 @@ def _mitsuba_sample(bsdf, wo: np.ndarray, u0: float, component: int | None = Non
 
 
 @pytest.mark.parametrize(
-    ("mitsuba", "kwargs"),
-    [
-        ({"material": "Au"}, {"material": "Au"}),
-        ({"material": "Al"}, {"material": "Al"}),
-        (
-            {
-                "eta": {"type": "rgb", "value": [0.2, 0.9, 1.1]},
-                "k": {"type": "rgb", "value": [3.9, 2.4, 2.1]},
-            },
-            {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]},
-        ),
-    ],
+    "kwargs",
+    [{"material": "Au"}, {"material": "Al"}, {"eta": [0.2, 0.9, 1.1], "k": [3.9, 2.4, 2.1]}],
 )
-def test_smooth_conductor_fresnel(mitsuba, kwargs):
-    bsdf = mi.load_dict({"type": "conductor", **mitsuba})
+def test_smooth_conductor_fresnel(kwargs):
     ours = SmoothConductor(**kwargs)
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     wo = _upper(N_PAIRS, 7)
     s = ours.sample(wo, np.full((N_PAIRS, 2), 0.5))
     assert np.all(s.delta)
@@ -201,8 +161,8 @@ def test_smooth_conductor_fresnel(mitsuba, kwargs):
 def test_smooth_dielectric_fresnel(int_ior, ext_ior, mode):
     """F and 1 − F (with the η² radiance scaling) from Mitsuba's single-component sample
     weights; the lobe choice and the combined weights for the same uniform."""
-    bsdf = mi.load_dict({"type": "dielectric", "int_ior": int_ior, "ext_ior": ext_ior})
     ours = SmoothDielectric(eta=int_ior / ext_ior, mode=mode)
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     transport = mi.TransportMode.Radiance if mode == "radiance" else mi.TransportMode.Importance
     wo = _upper(N_PAIRS, 8)
     wo[N_PAIRS // 2 :, 2] *= -1

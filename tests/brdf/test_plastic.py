@@ -1,9 +1,10 @@
-"""Plastics: Mitsuba 3's ``plastic`` and ``roughplastic`` as oracles (with
-``internal="mitsuba"``, which reproduces Mitsuba's internal-reflectance numerics), and the
-physics of the default ``internal="exact"``: the diffuse albedo ρ(1 − F(θo)) of the smooth
-coating, the interface identities, and how far Mitsuba's numerics are from the integrals.
+"""Plastics: Mitsuba 3's ``plastic`` and ``roughplastic`` as oracles (built by the exporter,
+:func:`brdfkit.interop.to_mitsuba_dict`, with ``internal="mitsuba"``, which reproduces
+Mitsuba's internal-reflectance numerics), and the physics of the default ``internal="exact"``:
+the diffuse albedo ρ(1 − F(θo)) of the smooth coating, the interface identities, and how far
+Mitsuba's numerics are from the integrals.
 
-Mitsuba's default ``ext_ior`` is air (1.000277): the oracle is given ``ext_ior = 1``.
+Mitsuba's default ``ext_ior`` is air (1.000277): the exporter gives ``ext_ior = 1``.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from brdfkit.brdf import RoughPlastic, SmoothPlastic
 from brdfkit.brdf.plastic import diffuse_fresnel_reflectance, rough_coating
 from brdfkit.errors import ParameterError
 from brdfkit.fresnel import fresnel_dielectric
+from brdfkit.interop import to_mitsuba_dict
 
 RTOL = 1e-4
 N_PAIRS = 300
@@ -25,10 +27,6 @@ def _upper(n: int, seed: int) -> np.ndarray:
     v /= np.linalg.norm(v, axis=1, keepdims=True)
     v[:, 2] = np.abs(v[:, 2])
     return v
-
-
-def _texture(value):
-    return {"type": "rgb", "value": value} if isinstance(value, list) else value
 
 
 def _interaction(mi, wo):
@@ -61,21 +59,13 @@ SMOOTH = [
 ]
 
 
-def _mitsuba_plastic(mi, kind: str, params: dict, **extra):
-    spec = {"type": kind, "int_ior": params.get("eta", 1.49), "ext_ior": 1.0, **extra}
-    for name in ("diffuse_reflectance", "specular_reflectance", "nonlinear"):
-        if name in params:
-            spec[name] = _texture(params[name])
-    return mi.load_dict(spec)
-
-
 @pytest.mark.oracle
 @pytest.mark.parametrize("params", SMOOTH, ids=[str(p) for p in SMOOTH])
 def test_mitsuba_plastic(params):
     mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
-    bsdf = _mitsuba_plastic(mi, "plastic", params)
     ours = SmoothPlastic(**params, internal="mitsuba")
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     wi, wo = _upper(N_PAIRS, 1), _upper(N_PAIRS, 2)
     _compare(mi, bsdf, ours, wi, wo)
     # The delta lobe: Mitsuba's sample with u0 = 0 picks the mirror; so does ours.
@@ -109,9 +99,8 @@ ROUGH = [
 def test_mitsuba_roughplastic(params):
     mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
-    extra = {"distribution": params["distribution"], "alpha": params["alpha"]}
-    bsdf = _mitsuba_plastic(mi, "roughplastic", params, **extra)
     ours = RoughPlastic(**params, internal="mitsuba", approximate_g1=True)
+    bsdf = mi.load_dict(to_mitsuba_dict(ours))
     wo = _upper(N_PAIRS, 3)
     wi = _upper(N_PAIRS, 4)
     drawn = ours.sample(wo, np.random.default_rng(5).random((N_PAIRS, 3)))

@@ -1,6 +1,6 @@
-"""The principled BRDF: Mitsuba 3's ``principled`` as the oracle of the default variant, Burley's
-reference code (``disney.brdf``, transcribed literally below) as that of ``burley2012``, and
-the claims its docstring makes (not energy-conserving: measured).
+"""The principled BRDF: Mitsuba 3's ``principled`` (built by the exporter) as the oracle of the
+default variant, Burley's reference code (``disney.brdf``, transcribed literally below) as that
+of ``burley2012``, and the claims its docstring makes (not energy-conserving: measured).
 
 Mitsuba's ``si.wi`` is our ``wo``; its ``eval`` is f·|cos θ| of its own ``wo`` (our ``wi``).
 Mitsuba computes in float32: agreement is to 1e-4 relative (p99 and max reported).
@@ -15,6 +15,7 @@ import pytest
 
 from brdfkit.brdf import Principled
 from brdfkit.errors import ParameterError
+from brdfkit.interop import to_mitsuba_dict
 
 RTOL = 1e-4
 N_PAIRS = 300
@@ -53,7 +54,6 @@ PARAMETER_SETS = [
         "subsurface": 0.4,
     },
 ]
-MITSUBA_NAMES = {"specular_tint": "spec_tint", "subsurface": "flatness"}
 
 
 def _upper(n: int, seed: int) -> np.ndarray:
@@ -64,11 +64,7 @@ def _upper(n: int, seed: int) -> np.ndarray:
 
 
 def _mitsuba_bsdf(mi, params: dict):
-    spec = {"type": "principled"}
-    for name, value in params.items():
-        key = MITSUBA_NAMES.get(name, name)
-        spec[key] = {"type": "rgb", "value": value} if isinstance(value, list) else value
-    return mi.load_dict(spec)
+    return mi.load_dict(to_mitsuba_dict(Principled(**params)))
 
 
 def _relative_errors(ours: np.ndarray, theirs: np.ndarray, floor: float) -> np.ndarray:

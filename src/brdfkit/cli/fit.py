@@ -15,6 +15,7 @@ from brdfkit.cli._app import app, console, fail, load_model, progress, shown, st
 from brdfkit.cli._output import OutputFolder
 
 if TYPE_CHECKING:
+    from brdfkit.brdf import BRDF
     from brdfkit.fit.analytic import FitResult
     from brdfkit.fit.measured_fit import MeasuredFit
 
@@ -100,6 +101,15 @@ _Json = Annotated[
     bool,
     typer.Option("--json", help="Print the fit (and the spheres' differences with -o) as JSON."),
 ]
+_Export = Annotated[
+    str | None,
+    typer.Option(
+        "--export",
+        metavar="mitsuba|rgl|gltf|mtlx|usd",
+        help="Also write the fitted model as material.<ext> into the -o folder (brdfkit "
+        "export); Mitsuba gets the nearest plugin where the model has no exact one.",
+    ),
+]
 _Workers = Annotated[
     int | None,
     typer.Option(
@@ -134,6 +144,7 @@ def fit_command(
     envmap: _Envmap = False,
     seed: _Seed = 0,
     as_json: _Json = False,
+    export: _Export = None,
     workers: _Workers = None,
     scheduler: _Scheduler = None,
 ) -> None:
@@ -151,8 +162,8 @@ def fit_command(
     if len(files) > 1 or len(models) > 1 or workers is not None or scheduler is not None:
         from brdfkit.cli._fit_batch import run_batch
 
-        if envmap:
-            fail("--envmap renders spheres of a single fit; a batch writes fit.json only")
+        if envmap or export:
+            fail("--envmap and --export take a single fit; a batch writes fit.json only")
         options.update(fixed=sorted(fix), seed=seed)  # the order of the batch's records
         run_batch(files, _batch_models(models), options, output, workers, scheduler, as_json)
         return
@@ -161,7 +172,9 @@ def fit_command(
         fail(f"file {shown(file)!r} does not exist")
     if file.suffix.lower() not in _SUFFIXES:
         fail(f"file must end in {', '.join(_SUFFIXES)}; got {shown(file.name)!r}")
-    folder = None if output is None else OutputFolder(output, _OUTPUTS, inputs=(file,))
+    material = None if export is None else _material_name(export, output)
+    outputs = _OUTPUTS if material is None else (*_OUTPUTS, material)
+    folder = None if output is None else OutputFolder(output, outputs, inputs=(file,))
     if model.strip() in (AUTO, BIVARIATE) and fix:
         fail(f"--fix does not apply to --model {model.strip()}; got --fix {', '.join(fix)}")
     data = load_model(file)  # measured data, or any BRDF a model argument may name
@@ -182,6 +195,31 @@ def fit_command(
         )
     title = f"{shown(file.name)}: {model} ({objective}, {loss}, {mode})"
     _report(file, title, fitted, folder, as_json)
+    if material is not None:
+        _export(fitted.result.model, export, folder, material)
+
+
+def _material_name(export: str, output: Path | None) -> str:
+    """``material.<ext>`` for ``--export FORMAT``, which needs ``-o``."""
+    from brdfkit.interop import FORMATS, check_format
+
+    if output is None:
+        fail("--export writes material.<ext> into the -o folder; give -o FOLDER")
+    return "material" + FORMATS[check_format(export)][0]
+
+
+def _export(model: BRDF, export: str, folder: OutputFolder, material: str) -> None:
+    """Write the fitted model as ``material`` (the nearest Mitsuba plugin, notes on stderr)."""
+    from brdfkit.interop import export as write
+
+    notes = []
+    folder.write(
+        material,
+        lambda path: notes.extend(write(model, export, path, approximate=True).approximations),
+    )
+    for note in notes:
+        status.print(f"note: {shown(note)}", soft_wrap=True)
+    status.print(f"wrote {shown(folder.path / material)}", soft_wrap=True)
 
 
 def _batch_models(models: list[str]) -> list[str]:

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf import BRDF, Lambertian, RoughConductor
-from brdfkit.fresnel import conductor
+from brdfkit.interop.mitsuba_export import to_mitsuba_dict
 from brdfkit.light.environment import EnvironmentMap
 
 LLVM_DEFAULT = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
@@ -57,22 +57,6 @@ class Scene:
     envmap: str
 
 
-def _rgb(values: Any) -> dict[str, Any]:
-    return {"type": "rgb", "value": [float(v) for v in np.broadcast_to(values, (3,))]}
-
-
-def _ggx(alpha: float, eta: Any, k: Any, **extra: Any) -> dict[str, Any]:
-    return {
-        "type": "roughconductor",
-        "distribution": "ggx",
-        "alpha": alpha,
-        "sample_visible": True,
-        "eta": _rgb(eta),
-        "k": _rgb(k),
-        **extra,
-    }
-
-
 def benchmark_scenes(tabulated: bool = True) -> list[Scene]:
     """The scenes of ``benchmarks/bench_render.py``, each brdfkit's model and Mitsuba's twin.
 
@@ -80,40 +64,26 @@ def benchmark_scenes(tabulated: bool = True) -> list[Scene]:
       under Poly Haven's ``royal_esplanade_1k``;
     - ``plastic``: Lambertian ρ = (0.5, 0.1, 0.1) + GGX α = 0.1 with a dielectric Fresnel
       (η = 1.5, k = 0) under ``studio_small_03_1k``; Mitsuba has no sum of BSDFs, so it gets
-      :math:`\tfrac12(2a) + \tfrac12(2b)`: a ``blendbsdf`` of ``diffuse`` 2ρ and
-      ``roughconductor`` with ``specular_reflectance`` 2;
+      the exporter's ``blendbsdf`` of the two lobes, each divided by its chance;
     - ``tabulated`` (with ``tabulated=True``; it takes seconds to build): a MERL-layout
       :class:`~brdfkit.measured.TabulatedBRDF` (90×90×180) of GGX α = 0.3 copper under
       ``royal_esplanade_1k``. Mitsuba 3 has no MERL plugin: it renders the analytic copper.
     """
 
-    au, cu = conductor("Au"), conductor("Cu")
-    rho = np.array([0.5, 0.1, 0.1])
+    gold = RoughConductor(alpha=0.2, material="Au", masking="smith_separable")
+    plastic = Lambertian([0.5, 0.1, 0.1]) + RoughConductor(
+        alpha=0.1, eta=1.5, k=0.0, masking="smith_separable"
+    )
     scenes = [
-        Scene(
-            "gold",
-            RoughConductor(alpha=0.2, material="Au", masking="smith_separable"),
-            _ggx(0.2, *au),
-            "royal_esplanade_1k.hdr",
-        ),
-        Scene(
-            "plastic",
-            Lambertian(rho) + RoughConductor(alpha=0.1, eta=1.5, k=0.0, masking="smith_separable"),
-            {
-                "type": "blendbsdf",
-                "weight": 0.5,
-                "a": {"type": "diffuse", "reflectance": _rgb(2 * rho)},
-                "b": _ggx(0.1, 1.5, 0.0, specular_reflectance={"type": "uniform", "value": 2.0}),
-            },
-            "studio_small_03_1k.hdr",
-        ),
+        Scene("gold", gold, to_mitsuba_dict(gold), "royal_esplanade_1k.hdr"),
+        Scene("plastic", plastic, to_mitsuba_dict(plastic), "studio_small_03_1k.hdr"),
     ]
     if tabulated:
         from brdfkit.measured import TabulatedBRDF
 
         copper = RoughConductor(alpha=0.3, material="Cu", masking="smith_separable")
         table = TabulatedBRDF.from_brdf(copper, (90, 90, 180), channels=3)
-        scenes.append(Scene("tabulated", table, _ggx(0.3, *cu), "royal_esplanade_1k.hdr"))
+        scenes.append(Scene("tabulated", table, to_mitsuba_dict(copper), "royal_esplanade_1k.hdr"))
     return scenes
 
 

@@ -9,7 +9,7 @@ Every reader either returns a BRDF whose ``eval`` is finite and non-negative or 
 
 - :func:`read_merl` / :func:`write_merl` — MERL ``.binary`` (Matusik et al. 2003), bit-exact.
 - :func:`read_rgl` — RGL ``.bsdf`` tensor files (Dupuy & Jakob 2018), evaluated as Mitsuba 3's
-  ``measured`` plugin does.
+  ``measured`` plugin does; :func:`write_rgl` tabulates any BRDF as one.
 - :func:`read_cornell` — Cornell ``.brdf`` spectral samples, converted to linear sRGB.
 - :func:`read` — any of the three, chosen by the file's extension.
 - :class:`TabulatedBRDF` — a regular half/difference grid (isotropic 3-D or anisotropic 4-D),
@@ -24,6 +24,7 @@ from brdfkit.measured._tabulated_kernels import TableKernels, table_kernels
 from brdfkit.measured.cornell import read_cornell, read_cornell_samples
 from brdfkit.measured.merl import MERL_SCALE, MERL_SHAPE, merl_values, read_merl, write_merl
 from brdfkit.measured.rgl import RGLBRDF, read_rgl, read_tensor_file
+from brdfkit.measured.rgl_writer import write_rgl, write_tensor_file
 from brdfkit.measured.tabulated import (
     INTERPOLATIONS,
     CosineSampled,
@@ -93,4 +94,6 @@ __all__ = [
     "spectrum_to_rgb_matrix",
     "table_kernels",
     "write_merl",
+    "write_rgl",
+    "write_tensor_file",
 ]
