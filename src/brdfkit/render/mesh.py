@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf.base import BRDF
-from brdfkit.errors import FormatError
+from brdfkit.errors import FormatError, ParameterError
 from brdfkit.geometry import frame_from_normal
 from brdfkit.light.base import Light
 from brdfkit.render.reflection_equation import Visibility
@@ -97,13 +97,15 @@ class MeshScene:
     def __post_init__(self) -> None:
         v, f, n = self.vertices, self.faces, self.vertex_normals
         if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
-            raise FormatError(f"mesh vertices must be finite (V, 3); got shape {v.shape}")
+            raise ParameterError(f"mesh vertices must be finite (V, 3); got shape {v.shape}")
         if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
-            raise FormatError(f"mesh faces must be (F, 3) triangles, F > 0; got {f.shape}")
+            raise ParameterError(f"mesh faces must be (F, 3) triangles, F > 0; got {f.shape}")
         if f.min() < 0 or f.max() >= len(v):
-            raise FormatError(f"mesh faces index vertices 0…{len(v) - 1}; got {f.min()}…{f.max()}")
+            raise ParameterError(
+                f"mesh faces index vertices 0…{len(v) - 1}; got {f.min()}…{f.max()}"
+            )
         if n.shape != v.shape:
-            raise FormatError(f"mesh vertex normals must be {v.shape}; got {n.shape}")
+            raise ParameterError(f"mesh vertex normals must be {v.shape}; got {n.shape}")
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> MeshScene:
@@ -117,23 +119,27 @@ class MeshScene:
         """Read an OBJ, PLY, STL or glTF/GLB file (all its meshes, in the scene's frame).
 
         Raises :class:`~brdfkit.errors.FormatError` naming the file for an unknown type, an
-        unreadable file or one without triangles.
+        unreadable file, one without triangles or with invalid ones.
         """
         import trimesh
 
         path = Path(path)
         if path.suffix.lower() not in MESH_SUFFIXES:
             raise FormatError(
-                f"{path}: a mesh file must be one of {', '.join(MESH_SUFFIXES)}; "
-                f"got {path.suffix or 'no suffix'!r}"
+                path,
+                f"a mesh file must be one of {', '.join(MESH_SUFFIXES)}; "
+                f"got {path.suffix or 'no suffix'!r}",
             )
         try:
             mesh = trimesh.load(path, force="mesh", process=False)
         except (ValueError, KeyError, IndexError, OSError) as error:
-            raise FormatError(f"{path}: cannot read the mesh ({error})") from error
+            raise FormatError(path, f"cannot read the mesh ({error})") from error
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            raise FormatError(f"{path}: the file holds no triangles")
-        return cls.from_trimesh(mesh)
+            raise FormatError(path, "the file holds no triangles")
+        try:
+            return cls.from_trimesh(mesh)
+        except ParameterError as error:
+            raise FormatError(path, str(error)) from error
 
     @functools.cached_property
     def rays(self) -> Any:
