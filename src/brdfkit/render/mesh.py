@@ -246,6 +246,28 @@ def render_mesh(
     return image.reshape(height, k, width, k, -1).mean(axis=(1, 3))
 
 
+def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
+    """A torus (radii 0.6 and 0.25, ``sections`` × ``sections``/2 quads, tilted by ``tilt``
+    radians about +x) over a 6 × 6 ground square at y = 0, in Mitsuba's world frame (+y up):
+    a ``trimesh.Trimesh`` with self- and cast shadows under light from above.
+
+    Examples
+    --------
+    >>> mesh = torus_over_plane(sections=8)
+    >>> len(mesh.faces), mesh.bounds[0].round(2).tolist()
+    (66, [-3.0, 0.0, -3.0])
+    """
+    import trimesh
+
+    torus = trimesh.creation.torus(0.6, 0.25, major_sections=sections, minor_sections=sections // 2)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(tilt - np.pi / 2, [1, 0, 0]))
+    torus.apply_translation([0.0, 0.6, 0.0])
+    corners = [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]]
+    up = np.tile([0.0, 1.0, 0.0], (4, 1))
+    ground = trimesh.Trimesh(corners, [[0, 2, 1], [0, 3, 2]], vertex_normals=up, process=False)
+    return trimesh.util.concatenate([torus, ground])
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
@@ -324,4 +346,11 @@ def _batches(*arrays: np.ndarray):
         yield (*(np.ascontiguousarray(p, dtype=np.float32) for p in part[:2]), *part[2:])
 
 
-__all__ = ["MESH_SUFFIXES", "RAY_EPSILON", "MeshGBuffer", "MeshScene", "render_mesh"]
+__all__ = [
+    "MESH_SUFFIXES",
+    "RAY_EPSILON",
+    "MeshGBuffer",
+    "MeshScene",
+    "render_mesh",
+    "torus_over_plane",
+]
