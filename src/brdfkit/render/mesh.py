@@ -1,11 +1,10 @@
 r"""Triangle meshes seen through a G-buffer, lit with shadows.
 
 :class:`MeshScene` holds a triangle mesh (read by trimesh from OBJ, PLY, STL, glTF/GLB) and
-casts rays against it through Embree (``embreex``, the ``mesh`` extra; trimesh's own ray engine
-without it, slower). Primary rays give a :class:`MeshGBuffer`: per pixel the hit point
-(barycentric interpolation of the triangle), the shading normal (interpolated vertex normals,
-from the file or computed by trimesh), the geometric normal (the triangle's, by its winding) and
-the tangent of Duff et al.'s frame around the shading normal (Mitsuba's frame without UVs).
+casts rays against it through Embree (``embreex``, the ``mesh`` extra). Primary rays give a
+:class:`MeshGBuffer`: per pixel the hit point (barycentric interpolation of the triangle), the
+shading normal (interpolated vertex normals, from the file or computed by trimesh), the
+geometric normal (the triangle's, by its winding) and the tangent of Duff et al.'s frame around the shading normal (Mitsuba's frame without UVs).
 Shadow rays give the visibility factor of the reflection equation
 
 .. math:: L_o(x, \omega_o) = \int_{H^2} V(x, \omega_i)\,L_i(\omega_i)\,
@@ -131,19 +130,26 @@ class MeshScene:
                 f"got {path.suffix or 'no suffix'!r}",
             )
         try:
-            mesh = trimesh.load(path, force="mesh", process=False)
+            loaded = trimesh.load_scene(path, process=False)
         except (ValueError, KeyError, IndexError, OSError) as error:
             raise FormatError(path, f"cannot read the mesh ({error})") from error
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        parts = list(_placed_meshes(loaded))
+        if not parts:
             raise FormatError(path, "the file holds no triangles")
+        offsets = np.cumsum([0] + [len(v) for v, _, _ in parts[:-1]])
         try:
-            return cls.from_trimesh(mesh)
+            return cls(
+                np.concatenate([v for v, _, _ in parts]),
+                np.concatenate([f + o for (_, f, _), o in zip(parts, offsets, strict=True)]),
+                np.concatenate([n for _, _, n in parts]),
+            )
         except ParameterError as error:
             raise FormatError(path, str(error)) from error
 
     @functools.cached_property
     def rays(self) -> Any:
-        """The ray engine: Embree through ``embreex`` when installed, else trimesh's."""
+        """The ray engine: Embree through ``embreex`` (a
+        :class:`~brdfkit.errors.ParameterError` naming the ``mesh`` extra without it)."""
         return _ray_engine(self.vertices, self.faces)
 
     @property
@@ -268,6 +274,23 @@ def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
     return trimesh.util.concatenate([torus, ground])
 
 
+def _placed_meshes(scene: Any):
+    """Each triangle mesh of a ``trimesh.Scene`` placed by its node's transform: its vertices,
+    faces and unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
+    drops them)."""
+    import trimesh
+
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        mesh = scene.geometry[name]
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            continue
+        normals = np.asarray(mesh.vertex_normals, dtype=float)
+        vertices = trimesh.transform_points(np.asarray(mesh.vertices, dtype=float), transform)
+        linear = np.linalg.inv(transform[:3, :3]).T  # normals turn by the inverse transpose
+        yield vertices, np.asarray(mesh.faces, dtype=np.int64), _unit(normals @ linear.T)
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
@@ -275,8 +298,10 @@ def _unit(v: np.ndarray) -> np.ndarray:
 def _ray_engine(vertices: np.ndarray, faces: np.ndarray) -> Any:
     try:
         from embreex import mesh_construction, rtcore_scene
-    except ImportError:
-        return _TrimeshRays(vertices, faces)
+    except ImportError as error:
+        raise ParameterError(
+            f"rendering a mesh needs Embree ({error}); install it with: pip install 'brdfkit[mesh]'"
+        ) from None
     return _EmbreeRays(vertices, faces, rtcore_scene, mesh_construction)
 
 
@@ -304,39 +329,6 @@ class _EmbreeRays:
             t = np.minimum(t, np.finfo(np.float32).max).astype(np.float32)
             out.append(self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0)
         return np.concatenate(out)
-
-
-class _TrimeshRays:
-    """Rays against a mesh by trimesh's own engine (no ``embreex``: slower, same answers)."""
-
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray):
-        import trimesh
-
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        self.engine = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
-        self.mesh = mesh
-
-    def intersect(self, origins: np.ndarray, directions: np.ndarray):
-        import trimesh
-
-        face = np.full(len(origins), -1, dtype=np.int64)
-        u, v = np.zeros(len(origins)), np.zeros(len(origins))
-        tri, ray, where = self.engine.intersects_id(
-            origins, directions, multiple_hits=False, return_locations=True
-        )
-        if len(tri):
-            bary = trimesh.triangles.points_to_barycentric(self.mesh.triangles[tri], where)
-            face[ray], u[ray], v[ray] = tri, bary[:, 1], bary[:, 2]
-        return face, u, v
-
-    def occluded(self, origins: np.ndarray, directions: np.ndarray, far: np.ndarray):
-        _, ray, where = self.engine.intersects_id(
-            origins, directions, multiple_hits=False, return_locations=True
-        )
-        blocked = np.zeros(len(origins), dtype=bool)
-        reach = np.linalg.norm(where - origins[ray], axis=-1)
-        blocked[ray[reach < far[ray]]] = True
-        return blocked
 
 
 def _batches(*arrays: np.ndarray):
