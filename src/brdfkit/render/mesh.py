@@ -5,7 +5,8 @@ casts rays against it through Embree (``embreex``, the ``mesh`` extra). Primary 
 :class:`MeshGBuffer`: per pixel the hit point (barycentric interpolation of the triangle), the
 shading normal (interpolated vertex normals, from the file or computed by trimesh), the
 geometric normal (the triangle's, by its winding) and the tangent of Duff et al.'s frame
-around the shading normal (Mitsuba's frame without UVs). Shadow rays give the visibility factor of the reflection equation
+around the shading normal (Mitsuba's frame without UVs). Shadow rays give the visibility factor of
+the reflection equation
 
 .. math:: L_o(x, \omega_o) = \int_{H^2} V(x, \omega_i)\,L_i(\omega_i)\,
           f_r(\omega_i, \omega_o)\cos\theta_i\,d\omega_i,
