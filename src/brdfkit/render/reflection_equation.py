@@ -152,7 +152,8 @@ def reflected_radiance(
         successive blocks of one sequence, whose union is again a scrambled net.
     visibility : ``V(points, wi, distance) -> bool`` (``(...,)``: nothing blocks the segment
         from ``points`` along the world direction ``wi`` up to ``distance``, inf for distant
-        lights), e.g. shadow rays against a mesh (:class:`brdfkit.render.mesh.Occluders`).
+        lights; a distance of 0 marks a sample whose term is 0 anyway), e.g. shadow rays
+        against a mesh (:meth:`brdfkit.render.mesh.MeshScene.visibility`).
         ``"auto"`` then samples every lobe by MIS (the noise-free Lambertian part assumes an
         unoccluded map); ``"quadrature"`` does not take it.
 
@@ -405,9 +406,11 @@ def delta_radiance(
 
 
 def _shadowed(term: Array, visibility: Visibility, points: Array, wi: Array, distance) -> Array:
-    """``term`` (``(..., C)``) where ``visibility`` sees the light, else 0."""
+    """``term`` (``(..., C)``) where ``visibility`` sees the light, else 0; a zero term asks
+    for no ray (its distance is given as 0)."""
     xp = namespace(term)
     distance = xp.broadcast_to(asarray(distance, xp, like=term), wi.shape[:-1])
+    distance = xp.where(xp.any(term != 0, axis=-1), distance, xp.zeros_like(distance))
     visible = asarray(visibility(points, wi, distance), xp, like=term)
     return term * visible[..., None]
 
