@@ -15,7 +15,7 @@ renderer's *own* converged reference (``--reference`` spp, in process), the effi
 with 4×4 shading points per pixel, Mitsuba's box filter): mean ratio and relative RMSE after
 a one-pixel Gaussian blur.
 
-    python benchmarks/bench_mesh.py [--data ../shared/data] [--repeats 2] [--reference 1024]
+    python benchmarks/bench_mesh.py [--data ../shared/data] [--repeats 2] [--reference 512]
 
 Results go to ``benchmarks/results/mesh.json`` and a Markdown table on stdout.
 """
@@ -172,7 +172,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", default=os.environ.get("BRDFKIT_DATA", "../shared/data"))
     parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--reference", type=int, default=1024)
+    parser.add_argument("--reference", type=int, default=512)
     parser.add_argument("--out", help="results file (default: benchmarks/results/mesh.json)")
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()

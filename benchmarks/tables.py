@@ -497,6 +497,28 @@ def render(r: dict) -> str:
     return text
 
 
+def mesh(r: dict) -> str:
+    body = [
+        [x["model"], x["spp"], f"{x['brdfkit']['seconds']:.2f}", f"{x['brdfkit']['rel_rmse']:.4f}",
+         f"{x['mitsuba']['seconds']:.2f}", f"{x['mitsuba']['rel_rmse']:.4f}",
+         f"**{x['efficiency_ratio']:.2f}**", f"{x['reference_mean_ratio']:.4f}",
+         f"{x['reference_blurred_rel_rmse']:.4f}"]
+        for x in r["rows"]
+    ]  # fmt: skip
+    height, width = r["size"]
+    return (
+        f"Torus over a plane, {width}×{height}, `{r['envmap']}` + sun; fresh processes (read, "
+        f"render, write), best of {r['repeats']}; error against each renderer's own "
+        f"{r['reference_spp']}-spp reference; Mitsuba {r['mitsuba']}:\n\n"
+        + rows(
+            ["model", "spp", "brdfkit s", "brdfkit error", "Mitsuba s", "Mitsuba error",
+             "efficiency ÷ Mitsuba", "converged mean ratio", "converged blurred error"],
+            body,
+            "lrrrrrrrr",
+        )
+    )  # fmt: skip
+
+
 def sfs(r: dict) -> str:
     return rows(
         ["size", "solver", "pixels", "wall s", "CPU s", "evaluations", "error ° (mean / median)"],
@@ -558,6 +580,7 @@ def vision_accuracy(r: dict) -> str:
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
+    "mesh": mesh,
     "env_sampling": env_sampling,
     "mis": mis,
     "sh": sh,
