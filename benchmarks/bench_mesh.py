@@ -8,7 +8,8 @@ by ``look_at((0, 2.2, 3.2), (0, 0.4, 0), +y)`` with a 40° horizontal fov, 128×
 Per model (gold GGX α = 0.3, a Lambertian clay), each renderer runs at 64 spp as a fresh
 process that reads the mesh and the map, renders and writes an EXR: ``brdfkit render`` (the
 NumPy path with Embree shadow rays) and a Python script that loads the same scene into
-Mitsuba (``llvm_ad_rgb`` where it loads, else ``scalar_rgb``) and writes its image. Reported:
+Mitsuba (``llvm_ad_rgb`` where it loads, else ``scalar_rgb``; the map read by brdfkit and
+given at Mitsuba's texel nodes, as in the oracle tests) and writes its image. Reported:
 the process's wall time (best of ``--repeats``), the relative RMSE of its image against the
 renderer's *own* converged reference (``--reference`` spp, in process), the efficiency
 1/(time·error²) and its ratio to Mitsuba's, and how far the converged images differ (brdfkit
@@ -64,10 +65,13 @@ MITSUBA_SCRIPT = """
 import sys, json
 sys.path.insert(0, {src!r})
 from brdfkit.interop import mitsuba as ms
+from brdfkit.light import EnvironmentMap
+from brdfkit.render.mitsuba_frame import mitsuba_oriented
 mi, variant = ms.load_mitsuba()
 args = json.loads(sys.argv[1])
+env = mitsuba_oriented(EnvironmentMap.from_file(args["map"]))
 emitters = {{
-    "sky": {{"type": "envmap", "filename": args["map"]}},
+    "sky": ms.envmap_emitter(mi, env),
     "sun": {{"type": "directional", "direction": args["direction"],
              "irradiance": {{"type": "rgb", "value": args["irradiance"]}}}},
 }}
@@ -76,6 +80,8 @@ scene = ms.mesh_scene(mi, args["mesh"], args["bsdf"], emitters, args["look_at"],
 mi.util.write_bitmap(args["out"], mi.render(scene, spp=args["spp"], seed=args["seed"]))
 print(variant)
 """
+"""The Mitsuba process: brdfkit reads the map and gives Mitsuba its values at Mitsuba's own
+texel nodes (:func:`brdfkit.interop.mitsuba.envmap_emitter`), so both see the same light."""
 
 
 def brdfkit_command(mesh: Path, envmap: Path, spec: str, out: Path, spp: int) -> list[str]:
@@ -128,7 +134,7 @@ def references(mi, mesh: Path, env: EnvironmentMap, envmap: Path, name: str, spp
         scene, parse(spec), lights, camera, SIZE, supersample=4, samples=max(spp // 16, 1)
     )
     emitters = {
-        "sky": {"type": "envmap", "filename": str(envmap)},
+        "sky": ms.envmap_emitter(mi, mitsuba_oriented(env)),
         "sun": ms.directional_emitter(DirectionalLight(*SUN)),
     }
     mi_scene = ms.mesh_scene(mi, mesh, bsdf, emitters, LOOK_AT, FOV, SIZE)
