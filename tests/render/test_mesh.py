@@ -12,7 +12,14 @@ import trimesh
 from brdfkit.brdf import Lambertian
 from brdfkit.errors import FormatError, ParameterError
 from brdfkit.light import DirectionalLight, EnvironmentMap, PointLight, UniformSky
-from brdfkit.render import Sphere, gbuffer, interior_mask, reflected_radiance
+from brdfkit.render import (
+    Sphere,
+    gbuffer,
+    interior_mask,
+    progressive,
+    reflected_radiance,
+    shade,
+)
 from brdfkit.render.mesh import MeshScene, render_mesh, torus_over_plane
 from brdfkit.render.mitsuba_frame import look_at_camera
 
@@ -174,3 +181,20 @@ def test_without_embree_the_error_names_the_extra(monkeypatch):
     scene = MeshScene.from_trimesh(_square())
     with pytest.raises(ParameterError, match=r"brdfkit\[mesh\]"):
         scene.gbuffer(look_at_camera(*FRONT), 4)
+
+
+def test_progressive_passes_carry_the_shadows():
+    """Passes of a mesh render (with their noise estimate) converge to the one-shot image."""
+    scene = MeshScene.from_trimesh(torus_over_plane(sections=12))
+    camera = look_at_camera((0.0, 2.2, 3.2), (0.0, 0.4, 0.0), (0.0, 1.0, 0.0), 40.0, (6, 8))
+    g = scene.gbuffer(camera, (6, 8))
+    lights = [EnvironmentMap(np.ones((8, 16, 1))), DirectionalLight((0.5, 1.0, 0.3))]
+    passes = list(
+        progressive(g, Lambertian(0.5), lights, max_samples=16, visibility=scene.visibility(g))
+    )
+    once = render_mesh(scene, Lambertian(0.5), lights, camera, (6, 8), samples=16)
+    last = passes[-1]
+    assert last.samples == 16 and last.error is not None
+    assert np.all(np.abs(last.image - once) <= 5 * last.error + 0.05)
+    unshadowed = shade(g, Lambertian(0.5), lights, samples=16, compiled=False)
+    assert np.abs(last.image - unshadowed).max() > 0.1  # the shadows are there
