@@ -16,7 +16,11 @@ renderer's *own* converged reference (``--reference`` spp, in process), the effi
 with 4×4 shading points per pixel, Mitsuba's box filter): mean ratio and relative RMSE after
 a one-pixel Gaussian blur.
 
+Then a torus of 100k triangles at 512² (gold), the scene kept in process (brdfkit's G-buffer
+and Embree scene, Mitsuba's loaded scene), 8 spp, against each renderer's own 64-spp image.
+
     python benchmarks/bench_mesh.py [--data ../shared/data] [--repeats 2] [--reference 512]
+        [--large-reference 64]
 
 Results go to ``benchmarks/results/mesh.json`` and a Markdown table on stdout.
 """
@@ -39,6 +43,7 @@ from brdfkit.fresnel import conductor
 from brdfkit.interop import mitsuba as ms
 from brdfkit.io import read_image
 from brdfkit.light import DirectionalLight, EnvironmentMap
+from brdfkit.render import shade
 from brdfkit.render.mesh import MeshScene, render_mesh, torus_over_plane
 from brdfkit.render.mitsuba_frame import look_at_camera, mitsuba_oriented
 
@@ -47,6 +52,9 @@ SPP = 64
 LOOK_AT = ((0.0, 2.2, 3.2), (0.0, 0.4, 0.0), (0.0, 1.0, 0.0))
 FOV = 40.0
 SUN = ((0.5, 1.0, 0.3), 3.0)
+LARGE_SECTIONS = 320  # 320 × 160 quads: 102 400 triangles, and the ground's 2
+LARGE_PIXELS = 512
+LARGE_SPP = 8
 MAP = "royal_esplanade_1k.hdr"
 ETA, K = (np.broadcast_to(x, 3).tolist() for x in conductor("Au"))
 MODELS = {
@@ -174,11 +182,54 @@ def bench_model(mi, name: str, paths: dict[str, Path], env, args) -> dict:
     return row
 
 
+def bench_large(mi, env: EnvironmentMap, tmp: Path, args) -> dict:
+    """A torus of about 100k triangles over the plane at 512², gold, the scene kept in
+    process: brdfkit's G-buffer and Embree scene built once, Mitsuba's scene loaded once; the
+    best of ``--repeats`` renders at ``LARGE_SPP`` against each renderer's own
+    ``--large-reference``-spp image."""
+    spec, bsdf = MODELS["gold"]
+    mesh = tmp / "large.ply"
+    large = torus_over_plane(sections=LARGE_SECTIONS)
+    large.export(mesh, vertex_normal=True)
+    size = (LARGE_PIXELS, LARGE_PIXELS)
+    scene = MeshScene.from_file(mesh)
+    camera = look_at_camera(*LOOK_AT, fov=FOV, size=size)
+    g = scene.gbuffer(camera, size)  # kept: the scene's per-view work
+    lights = [mitsuba_oriented(env), DirectionalLight(*SUN)]
+    model, visibility = parse(spec), scene.visibility(g)
+    emitters = {
+        "sky": ms.envmap_emitter(mi, mitsuba_oriented(env)),
+        "sun": ms.directional_emitter(DirectionalLight(*SUN)),
+    }
+    mi_scene = ms.mesh_scene(mi, mesh, bsdf, emitters, LOOK_AT, FOV, size)
+    renderers = {
+        "brdfkit": lambda spp, seed: shade(
+            g, model, lights, samples=spp, seed=seed, visibility=visibility
+        ),
+        "mitsuba": lambda spp, seed: ms.render(mi, mi_scene, spp, seed),
+    }
+    row: dict = {"model": "gold", "triangles": len(large.faces), "size": list(size)}
+    for who, render in renderers.items():
+        reference = render(args.large_reference, 99)
+        seconds, errors = [], []
+        for repeat in range(args.repeats):
+            start = time.perf_counter()
+            image = render(LARGE_SPP, repeat + 1)
+            seconds.append(time.perf_counter() - start)
+            errors.append(relative_rmse(image, reference))
+        t, error = min(seconds), float(np.sqrt(np.mean(np.square(errors))))
+        row[who] = {"seconds": t, "rel_rmse": error, "efficiency": 1 / (t * error**2)}
+    row["spp"], row["reference_spp"] = LARGE_SPP, args.large_reference
+    row["efficiency_ratio"] = row["brdfkit"]["efficiency"] / row["mitsuba"]["efficiency"]
+    return row
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", default=os.environ.get("BRDFKIT_DATA", "../shared/data"))
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--reference", type=int, default=512)
+    parser.add_argument("--large-reference", type=int, default=64)
     parser.add_argument("--out", help="results file (default: benchmarks/results/mesh.json)")
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()
@@ -204,6 +255,13 @@ def main() -> None:
                 f"{r['reference_mean_ratio']:.4f} | {r['reference_blurred_rel_rmse']:.4f} |",
                 flush=True,
             )
+        large = bench_large(mi, env, Path(tmp), args)
+    b, m = large["brdfkit"], large["mitsuba"]
+    print(
+        f"\n{large['triangles']} triangles at {LARGE_PIXELS}², scene kept, {LARGE_SPP} spp: "
+        f"brdfkit {b['seconds']:.2f} s (error {b['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s "
+        f"(error {m['rel_rmse']:.4f}): efficiency brdfkit/Mitsuba {large['efficiency_ratio']:.2f}"
+    )
     from _machine import write_results
 
     record = {
@@ -213,6 +271,7 @@ def main() -> None:
         "envmap": MAP,
         "mitsuba": f"{mi.__version__} {variant}",
         "rows": rows,
+        "large": large,
     }
     write_results(__file__, record, args.out, packages=("mitsuba", "drjit", "trimesh", "embreex"))
 

@@ -506,7 +506,7 @@ def mesh(r: dict) -> str:
         for x in r["rows"]
     ]  # fmt: skip
     height, width = r["size"]
-    return (
+    text = (
         f"Torus over a plane, {width}×{height}, `{r['envmap']}` + sun; fresh processes (read, "
         f"render, write), best of {r['repeats']}; error against each renderer's own "
         f"{r['reference_spp']}-spp reference; Mitsuba {r['mitsuba']}:\n\n"
@@ -517,6 +517,17 @@ def mesh(r: dict) -> str:
             "lrrrrrrrr",
         )
     )  # fmt: skip
+    if "large" in r:
+        x = r["large"]
+        b, m = x["brdfkit"], x["mitsuba"]
+        text += (
+            f"\n\nA torus of {x['triangles']} triangles over the plane at {x['size'][1]}², "
+            f"{x['model']}, the scene kept in process, {x['spp']} spp against each renderer's own "
+            f"{x['reference_spp']}-spp image: brdfkit {b['seconds']:.2f} s (error "
+            f"{b['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s (error {m['rel_rmse']:.4f}); "
+            f"efficiency ÷ Mitsuba **{x['efficiency_ratio']:.2f}**."
+        )
+    return text
 
 
 def sfs(r: dict) -> str:

@@ -15,7 +15,15 @@ the reflection equation
 meets no triangle: attached shadows come from the cosine and the BRDF, cast shadows from
 :math:`V`. Rays leave the surface offset along the geometric normal, on the side of their
 direction, by :math:`(1 + \max_k |x_k|)\cdot 1500\cdot 2^{-24}` (Mitsuba 3's ``spawn_ray``).
+Light samples test the segment up to the sampled point on the light; BRDF samples the whole ray
+(lights do not report where a direction meets them), so a surface *behind* an area light
+shadows it along BRDF-sampled directions.
 Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`).
+
+Claims (tested): the estimator stays unbiased with the visibility factor (white-out on a convex
+mesh, nothing inside a closed box); cast shadows are the occluder's projection, without acne;
+converged images agree with Mitsuba 3's ``direct`` integrator on the same scene (mean within
+1 %, relative RMSE after a one-pixel blur within 3 %).
 
 References
 ----------

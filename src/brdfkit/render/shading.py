@@ -4,8 +4,8 @@
 (:func:`brdfkit.render.reflection_equation.reflected_radiance`) at every covered pixel, in tiles
 of rows so that memory stays bounded, with per-pixel BRDF parameters sliced per tile. Under an
 environment map it takes the compiled path (:mod:`brdfkit.render.compiled_shading`) when its
-kernels are built or the work is worth building them. Direct lighting only: no shadows from
-other geometry and no interreflection.
+kernels are built or the work is worth building them. Direct lighting only: no interreflection,
+and shadows only through a visibility factor (meshes, :mod:`brdfkit.render.mesh`).
 
 References
 ----------
