@@ -564,6 +564,39 @@ def render(r: dict) -> str:
     return text
 
 
+def mesh(r: dict) -> str:
+    body = [
+        [x["model"], x["spp"], f"{x['brdfkit']['seconds']:.2f}", f"{x['brdfkit']['rel_rmse']:.4f}",
+         f"{x['mitsuba']['seconds']:.2f}", f"{x['mitsuba']['rel_rmse']:.4f}",
+         f"**{x['efficiency_ratio']:.2f}**", f"{x['reference_mean_ratio']:.4f}",
+         f"{x['reference_blurred_rel_rmse']:.4f}"]
+        for x in r["rows"]
+    ]  # fmt: skip
+    height, width = r["size"]
+    text = (
+        f"Torus over a plane, {width}×{height}, `{r['envmap']}` + sun; fresh processes (read, "
+        f"render, write), best of {r['repeats']}; error against each renderer's own "
+        f"{r['reference_spp']}-spp reference; Mitsuba {r['mitsuba']}:\n\n"
+        + rows(
+            ["model", "spp", "brdfkit s", "brdfkit error", "Mitsuba s", "Mitsuba error",
+             "efficiency ÷ Mitsuba", "converged mean ratio", "converged blurred error"],
+            body,
+            "lrrrrrrrr",
+        )
+    )  # fmt: skip
+    if "large" in r:
+        x = r["large"]
+        b, m = x["brdfkit"], x["mitsuba"]
+        text += (
+            f"\n\nA torus of {x['triangles']} triangles over the plane at {x['size'][1]}², "
+            f"{x['model']}, the scene kept in process, {x['spp']} spp against each renderer's own "
+            f"{x['reference_spp']}-spp image: brdfkit {b['seconds']:.2f} s (error "
+            f"{b['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s (error {m['rel_rmse']:.4f}); "
+            f"efficiency ÷ Mitsuba **{x['efficiency_ratio']:.2f}**."
+        )
+    return text
+
+
 def sfs(r: dict) -> str:
     return rows(
         ["size", "solver", "pixels", "wall s", "CPU s", "evaluations", "error ° (mean / median)"],
@@ -665,6 +698,8 @@ def brdf_explorer(r: dict) -> str:
         f"One `eval` of {r['pairs']:,} direction pairs, default parameters:\n\n{files}\n\n"
         f"The translated shader against brdfkit's own code for its formula:\n\n{peers}"
     )
+
+
 def export(r: dict) -> str:
     mitsuba = rows(
         ["model (Mitsuba 3 XML)", "pairs", "p99 relative error", "largest"],
@@ -689,6 +724,7 @@ def export(r: dict) -> str:
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
+    "mesh": mesh,
     "env_sampling": env_sampling,
     "mis": mis,
     "sh": sh,

@@ -1,8 +1,10 @@
-"""``brdfkit render``: render a sphere, plane, cylinder or normal map with a model under a light
-(:func:`brdfkit.render.shading.shade` of a G-buffer)."""
+"""``brdfkit render``: render a sphere, plane, cylinder, normal map or mesh with a model under a
+light (:func:`brdfkit.render.shading.shade` of a G-buffer; meshes with shadows,
+:func:`brdfkit.render.mesh.render_mesh`, in Mitsuba 3's world frame)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -27,7 +29,9 @@ up)."""
 _Shape = Annotated[
     str,
     typer.Argument(
-        metavar="SHAPE", help="sphere, plane, cylinder, or a normal map (.npy/.png/.exr)."
+        metavar="SHAPE",
+        help="sphere, plane, cylinder, a normal map (.npy/.png/.exr), or a mesh "
+        "(.obj/.ply/.stl/.gltf/.glb: Mitsuba 3's world frame, shadows).",
     ),
 ]
 _Brdf = Annotated[
@@ -79,6 +83,39 @@ _Exposure = Annotated[
     float,
     typer.Option("--exposure", metavar="STOPS", help="Exposure in stops for PNG output."),
 ]
+_LookAt = Annotated[
+    str | None,
+    typer.Option(
+        "--look-at",
+        metavar="ORIGIN:TARGET:UP",
+        help="Mesh camera as Mitsuba's look_at, e.g. 0,2,3:0,0,0:0,1,0 (default: the mesh's "
+        "centre seen from +z, up +y).",
+    ),
+]
+_Fov = Annotated[
+    float | None,
+    typer.Option(
+        "--fov",
+        metavar="DEGREES",
+        help="Mesh camera's horizontal field of view (default: orthographic, [-1, 1] wide).",
+    ),
+]
+_Size = Annotated[
+    str | None,
+    typer.Option(
+        "--size", metavar="WIDTHxHEIGHT", help="Image size of a mesh render (default: square)."
+    ),
+]
+_Supersample = Annotated[
+    int,
+    typer.Option(
+        "--supersample",
+        metavar="K",
+        min=1,
+        max=8,
+        help="Mesh renders: K×K shading points per pixel (antialiased edges).",
+    ),
+]
 _Mask = Annotated[
     Path | None,
     typer.Option("--mask", metavar="FILE", help="Mask image for a normal-map input."),
@@ -95,12 +132,13 @@ def render_command(
     samples: _Samples = 64,
     exposure: _Exposure = 0.0,
     mask: _Mask = None,
+    look_at: _LookAt = None,
+    fov: _Fov = None,
+    size: _Size = None,
+    supersample: _Supersample = 1,
 ) -> None:
     """Render what a surface looks like (direct lighting, linear radiance)."""
-    import numpy as np
-
     from brdfkit._array import check_param
-    from brdfkit.io import write_image
     from brdfkit.light.spec import parse_light
     from brdfkit.render.shading import shade
 
@@ -112,6 +150,13 @@ def render_command(
     check_param("--exposure", exposure, -64.0, 64.0)
     model = load_model(brdf)
     lights = [parse_light(spec) for spec in light]
+    if _is_mesh(shape):
+        camera = _MeshCamera(look_at, fov, _image_size(size, resolution), supersample)
+        image = _render_mesh(Path(shape), model, lights, camera, samples)
+        _write(output, image, exposure, model_label(model, brdf))
+        return
+    if (look_at, fov, size, supersample) != (None, None, None, 1):
+        fail("--look-at, --fov, --size and --supersample apply to mesh files only")
     g = _gbuffer(shape, mask, resolution)
     height = g.shape[0]
     with progress() as bar:
@@ -123,13 +168,23 @@ def render_command(
             samples=samples,
             progress=lambda done, total: bar.update(task, completed=done),
         )
+    _write(output, image, exposure, model_label(model, brdf))
+
+
+def _write(output: Path, image: Any, exposure: float, label: str) -> None:
+    """Write ``image`` (grey becomes RGB) atomically and say so, naming the model ``label``."""
+    import numpy as np
+
+    from brdfkit.io import write_image
+
     if image.shape[-1] == 1:
         image = np.repeat(image, 3, axis=-1)
     # write_image is atomic: it never leaves a half-written file.
     write_image(
         output, image.astype(np.float32), exposure=exposure if output.suffix == ".png" else 0.0
     )
-    console.print(f"wrote {shown(output)} ({g.shape[1]}×{height}, {model_label(model, brdf)})")
+    height, width = image.shape[:2]
+    console.print(f"wrote {shown(output)} ({width}×{height}, {label})")
 
 
 def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:
@@ -160,3 +215,80 @@ def _shape_file(shape: str) -> Path | None:
     """The normal-map file that ``shape`` names, or ``None`` for a built-in shape."""
     path = Path(shape)
     return path if path.is_file() else None
+
+
+def _is_mesh(shape: str) -> bool:
+    from brdfkit.render.mesh import MESH_SUFFIXES
+
+    return Path(shape).suffix.lower() in MESH_SUFFIXES
+
+
+@dataclass(frozen=True)
+class _MeshCamera:
+    """The mesh camera's options as given: ``look_at`` text, ``fov`` (degrees or ``None``),
+    ``size`` ``(height, width)`` and the supersampling."""
+
+    look_at: str | None
+    fov: float | None
+    size: tuple[int, int]
+    supersample: int
+
+
+def _image_size(size: str | None, resolution: int) -> tuple[int, int]:
+    """``(height, width)`` from ``--size WIDTHxHEIGHT``, else ``--resolution`` squared."""
+    if size is None:
+        return resolution, resolution
+    width, sep, height = size.lower().partition("x")
+    if not (sep and width.isdigit() and height.isdigit()):
+        fail(f"--size must be WIDTHxHEIGHT in pixels, e.g. 64x48; got {shown(size)!r}")
+    if not (8 <= int(width) <= 8192 and 8 <= int(height) <= 8192):
+        fail(f"--size must be 8 to 8192 pixels each way; got {shown(size)!r}")
+    return int(height), int(width)
+
+
+def _look_at(text: str | None, mesh: Any) -> tuple[Any, Any, Any]:
+    """``(origin, target, up)`` from ``--look-at``, or the default view of ``mesh``."""
+    import numpy as np
+
+    if text is None:
+        low, high = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        centre = (low + high) / 2
+        distance = 2 * float(np.linalg.norm(high - low))
+        return centre + np.array([0.0, 0.0, distance]), centre, (0, 1, 0)
+    parts = text.split(":")
+    try:
+        vectors = [[float(x) for x in part.split(",")] for part in parts]
+    except ValueError:
+        vectors = []
+    if len(vectors) != 3 or any(len(v) != 3 or not np.all(np.isfinite(v)) for v in vectors):
+        fail(
+            "--look-at must be ORIGIN:TARGET:UP, three points of three finite numbers "
+            f"(e.g. 0,2,3:0,0,0:0,1,0); got {shown(text)!r}"
+        )
+    return vectors[0], vectors[1], vectors[2]
+
+
+def _render_mesh(path: Path, model: Any, lights: list[Any], camera: _MeshCamera, samples: int):
+    """Read the mesh at ``path`` and render it with shadows, progress on stderr."""
+    from brdfkit._checks import check_memory
+    from brdfkit.errors import ParameterError
+    from brdfkit.render.mesh import MeshScene, render_mesh
+    from brdfkit.render.mitsuba_frame import look_at_camera, mitsuba_oriented
+
+    if not path.is_file():
+        fail(f"SHAPE: no mesh file {shown(str(path))!r}")
+    mesh = MeshScene.from_file(path)
+    height, width = camera.size
+    k = camera.supersample
+    check_memory(f"rendering {width}×{height} pixels", _BYTES_PER_PIXEL * width * height * k * k)
+    try:
+        view = look_at_camera(*_look_at(camera.look_at, mesh), fov=camera.fov, size=camera.size)
+    except ValueError as error:  # the camera's own checks: a zero view, up along it
+        raise ParameterError(f"--look-at / --fov: {error}") from error
+    lights = [mitsuba_oriented(light) for light in lights]
+    with progress() as bar:
+        task = bar.add_task(f"rendering {width}×{height}", total=height * k)
+        return render_mesh(
+            mesh, model, lights, view, (height, width), supersample=k, samples=samples,
+            progress=lambda done, total: bar.update(task, completed=done),
+        )  # fmt: skip

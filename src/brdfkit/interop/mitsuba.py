@@ -38,12 +38,14 @@ import numpy as np
 
 from brdfkit.brdf import BRDF, Lambertian, RoughConductor
 from brdfkit.interop.mitsuba_export import to_mitsuba_dict
+from brdfkit.light.analytic import DirectionalLight
 from brdfkit.light.environment import EnvironmentMap
+from brdfkit.render.mitsuba_frame import MITSUBA_ENVMAP_ROTATION
 
 LLVM_DEFAULT = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 """Dr.Jit's llvm variants need LLVM ≥ 16 (``benchmarks/setup.sh`` installs 19)."""
 
-MAP_TO_MITSUBA = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
+MAP_TO_MITSUBA = MITSUBA_ENVMAP_ROTATION
 """P: brdfkit map directions (pole +z) to Mitsuba envmap-local ones (pole +y)."""
 
 
@@ -157,6 +159,58 @@ def sphere_scene(mi: Any, bsdf: dict[str, Any], env: EnvironmentMap, resolution:
     )
 
 
+def directional_emitter(light: DirectionalLight) -> dict[str, Any]:
+    """A Mitsuba ``directional`` emitter dict equal to ``light`` (its ``direction`` is the
+    light's travel, minus brdfkit's direction towards the light)."""
+    return {
+        "type": "directional",
+        "direction": (-np.asarray(light.direction, dtype=float)).tolist(),
+        "irradiance": {
+            "type": "rgb",
+            "value": [float(v) for v in np.broadcast_to(light.irradiance, (3,))],
+        },
+    }
+
+
+def mesh_scene(
+    mi: Any,
+    mesh_file: str,
+    bsdf: dict[str, Any],
+    emitters: dict[str, dict[str, Any]],
+    look_at: tuple[Any, Any, Any],
+    fov: float,
+    size: tuple[int, int],
+):
+    """A loaded Mitsuba scene: the mesh file (PLY/OBJ) with ``bsdf`` under ``emitters``, seen by
+    a ``perspective`` sensor with ``to_world=look_at(*look_at)``, horizontal ``fov`` degrees and
+    ``size`` ``(height, width)``: what :func:`brdfkit.render.mesh.render_mesh` sees with
+    :func:`brdfkit.render.mitsuba_frame.look_at_camera` (box filter: supersample it)."""
+    origin, target, up = ([float(x) for x in v] for v in look_at)
+    kind = "ply" if str(mesh_file).endswith(".ply") else "obj"
+    return mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "direct", "hide_emitters": True},
+            "sensor": {
+                "type": "perspective",
+                "fov": fov,
+                "fov_axis": "x",
+                "to_world": mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up),
+                "film": {
+                    "type": "hdrfilm",
+                    "width": size[1],
+                    "height": size[0],
+                    "pixel_format": "rgb",
+                    "rfilter": {"type": "box"},
+                },
+                "sampler": {"type": "independent"},
+            },
+            "mesh": {"type": kind, "filename": str(mesh_file), "bsdf": bsdf},
+            **emitters,
+        }
+    )
+
+
 def render(mi: Any, scene: Any, spp: int, seed: int = 0) -> np.ndarray:
     """Mitsuba's linear RGB image of ``scene``, ``(H, W, 3)`` float64."""
     return np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
@@ -171,9 +225,11 @@ def relative_rmse(image: np.ndarray, reference: np.ndarray, mask: np.ndarray) ->
 __all__ = [
     "Scene",
     "benchmark_scenes",
+    "directional_emitter",
     "envmap_emitter",
     "envmap_texels",
     "load_mitsuba",
+    "mesh_scene",
     "relative_rmse",
     "render",
     "sphere_scene",

@@ -4,7 +4,9 @@ A render is two steps: a G-buffer from a shape seen by a camera (:mod:`~brdfkit.
 then the reflection equation (:mod:`~brdfkit.render.reflection_equation`) at every covered pixel
 (:mod:`~brdfkit.render.shading`), at once or in refining passes
 (:mod:`~brdfkit.render.passes`). Spheres under an environment map can also be rendered without
-noise by deterministic quadrature (:mod:`~brdfkit.render.environment_quadrature`).
+noise by deterministic quadrature (:mod:`~brdfkit.render.environment_quadrature`). Triangle
+meshes (:mod:`~brdfkit.render.mesh`) are traced by Embree, with shadows, in Mitsuba 3's frame
+(:mod:`~brdfkit.render.mitsuba_frame`).
 """
 
 from brdfkit.render.environment_quadrature import (
@@ -12,6 +14,8 @@ from brdfkit.render.environment_quadrature import (
     quadrature_sphere,
     split_quadrature,
 )
+from brdfkit.render.mesh import MeshScene, render_mesh
+from brdfkit.render.mitsuba_frame import look_at_camera
 from brdfkit.render.passes import (
     Pass,
     progressive,
@@ -47,6 +51,7 @@ __all__ = [
     "Cylinder",
     "Estimate",
     "GBuffer",
+    "MeshScene",
     "Pass",
     "Plane",
     "QuadratureImage",
@@ -56,11 +61,13 @@ __all__ = [
     "gbuffer",
     "hemispherical_reflectance",
     "interior_mask",
+    "look_at_camera",
     "normal_map_gbuffer",
     "progressive",
     "progressive_sphere",
     "quadrature_sphere",
     "reflected_radiance",
+    "render_mesh",
     "render_sphere",
     "shade",
     "slice_brdf",

@@ -122,7 +122,9 @@ def progressive(
             user_progress(done, total)
 
     kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
-    builder = _background_build(brdf, lights, kwargs) if kwargs["compiled"] == "auto" else None
+    # with shadows (``visibility``) every pass takes the NumPy path: no kernels to build
+    compiles = kwargs["compiled"] == "auto" and kwargs["visibility"] is None
+    builder = _background_build(brdf, lights, kwargs) if compiles else None
 
     cache: dict[Any, Any] = {}  # the plan and each tile's sample-independent work
 

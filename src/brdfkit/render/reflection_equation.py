@@ -22,7 +22,7 @@ import dataclasses
 import functools
 import math
 import operator
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -59,6 +59,10 @@ class Estimate:
 
     value: Array
     stderr: Array
+
+
+Visibility = Callable[[Array, Array, Array], Array]
+"""``V(points, wi, distance)``: whether nothing blocks each segment, ``(...,)`` bool."""
 
 
 def _as_lights(light: Light | Sequence[Light]) -> list[Light]:
@@ -105,8 +109,13 @@ def reflected_radiance(
     seed: int | Array | None = 0,
     sequence: Literal["random", "sobol"] = "random",
     first_sample: int = 0,
+    visibility: Visibility | None = None,
 ) -> Estimate:
     """Reflected radiance L_o towards ``wo`` from a surface at ``point`` with ``normal``.
+
+    With ``visibility`` the integrand carries the visibility factor :math:`V(x, \\omega_i)`
+    (shadows: :math:`L_o = \\int V L_i f_r \\cos\\theta_i\\,d\\omega_i`), each light and BRDF
+    sample, and each delta light, tested by ``visibility(points, wi, distance)``.
 
     Parameters
     ----------
@@ -141,6 +150,12 @@ def reflected_radiance(
     first_sample : with ``"sobol"``, the index in each query's sequence of its first sample:
         calls with the same seeds and ``first_sample`` 0, N, 2N, … (N a power of two) draw
         successive blocks of one sequence, whose union is again a scrambled net.
+    visibility : ``V(points, wi, distance) -> bool`` (``(...,)``: nothing blocks the segment
+        from ``points`` along the world direction ``wi`` up to ``distance``, inf for distant
+        lights; a distance of 0 marks a sample whose term is 0 anyway), e.g. shadow rays
+        against a mesh (:meth:`brdfkit.render.mesh.MeshScene.visibility`).
+        ``"auto"`` then samples every lobe by MIS (the noise-free Lambertian part assumes an
+        unoccluded map); ``"quadrature"`` does not take it.
 
     Returns
     -------
@@ -177,6 +192,8 @@ def reflected_radiance(
     if sequence not in ("random", "sobol"):
         raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
     check_choice("heuristic", heuristic, HEURISTICS)
+    if visibility is not None and method == "quadrature":
+        raise ValueError("visibility needs a Monte Carlo method; got method='quadrature'")
     if heuristic == "optimal" and brdf.has_delta:
         raise ValueError(
             "heuristic='optimal' needs a BRDF without delta lobes (their pdf is not a density); "
@@ -187,7 +204,7 @@ def reflected_radiance(
     rho, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
     value = stderr2 = None
     for lt in _as_lights(light):
-        if method == "auto" and isinstance(lt, EnvironmentMap):
+        if method == "auto" and isinstance(lt, EnvironmentMap) and visibility is None:
             v, e2 = 0.0, None
             if rho is not None:
                 v = diffuse_envmap_radiance(rho, lt, frame, wo_local)
@@ -207,14 +224,15 @@ def reflected_radiance(
                 if k is not None:
                     v = v + diffuse_envmap_radiance(k * math.pi, lt, frame, wo_local)
         elif lt.delta:
-            v, e2 = delta_radiance(brdf, lt, point, frame, wo_local), None
+            v, e2 = delta_radiance(brdf, lt, point, frame, wo_local, visibility), None
         elif method == "quadrature":
             v, e2 = _quadrature(brdf, lt, point, frame, wo_local, theta_steps, phi_steps), None
         else:
             strategy = "mis" if method == "auto" else method
             v, e2 = _monte_carlo(
-                brdf, lt, point, frame, wo_local, samples, strategy, heuristic, rng
-            )
+                brdf, lt, point, frame, wo_local, samples, strategy, heuristic, rng,
+                visibility=visibility,
+            )  # fmt: skip
         value = v if value is None else value + v
         if e2 is not None:
             stderr2 = e2 if stderr2 is None else stderr2 + e2
@@ -371,10 +389,30 @@ def _light_term(
     return f * ls.value * cos_theta_i[..., None], wi_local
 
 
-def delta_radiance(brdf: BRDF, light: Light, point: Array, frame, wo_local: Array) -> Array:
+def delta_radiance(
+    brdf: BRDF,
+    light: Light,
+    point: Array,
+    frame,
+    wo_local: Array,
+    visibility: Visibility | None = None,
+) -> Array:
     """The radiance a delta light (directional, point) reflects towards ``wo_local``:
-    :math:`f(\\omega_i, \\omega_o)\\,E_\\perp\\cos\theta_i`, ``(..., C)``."""
-    return _light_term(brdf, light.sample(point, None), frame, wo_local)[0]
+    :math:`V\\,f(\\omega_i, \\omega_o)\\,E_\\perp\\cos\\theta_i`, ``(..., C)`` (V = 1 without
+    ``visibility``)."""
+    ls = light.sample(point, None)
+    term = _light_term(brdf, ls, frame, wo_local)[0]
+    return term if visibility is None else _shadowed(term, visibility, point, ls.wi, ls.distance)
+
+
+def _shadowed(term: Array, visibility: Visibility, points: Array, wi: Array, distance) -> Array:
+    """``term`` (``(..., C)``) where ``visibility`` sees the light, else 0; a zero term asks
+    for no ray (its distance is given as 0)."""
+    xp = namespace(term)
+    distance = xp.broadcast_to(asarray(distance, xp, like=term), wi.shape[:-1])
+    distance = xp.where(xp.any(term != 0, axis=-1), distance, xp.zeros_like(distance))
+    visible = asarray(visibility(points, wi, distance), xp, like=term)
+    return term * visible[..., None]
 
 
 def _polar_nodes(steps: int) -> tuple[np.ndarray, np.ndarray]:
@@ -456,7 +494,17 @@ def diffuse_floor(brdf: BRDF, wo_local: Array) -> Array:
 
 
 def _monte_carlo(
-    brdf, light, point, frame, wo_local, samples, strategy, heuristic, rng, control=None
+    brdf,
+    light,
+    point,
+    frame,
+    wo_local,
+    samples,
+    strategy,
+    heuristic,
+    rng,
+    control=None,
+    visibility: Visibility | None = None,
 ):
     xp = namespace(wo_local)
     # only wi above the surface count: a BSDF samples its lobe into that hemisphere alone
@@ -481,6 +529,8 @@ def _monte_carlo(
             cos_over_p = safe_div(s.wi[..., 2], s.pdf)[..., None]
             weight = weight - control[..., None, :] * cos_over_p
         c_b = xp.where(upper, weight * radiance, xp.zeros_like(weight * radiance))
+        if visibility is not None:
+            c_b = _shadowed(c_b, visibility, point_n, wi_world, math.inf)
         if strategy == "brdf":
             contributions = c_b
         else:
@@ -490,6 +540,8 @@ def _monte_carlo(
         u = asarray(rng.draw(batch, samples, 2), xp, like=wo_local)
         ls = light.sample(point_n, u)
         c_l, wi_local = _light_term(brdf, ls, frame_n, wo_n, control)
+        if visibility is not None:
+            c_l = _shadowed(c_l, visibility, point_n, ls.wi, ls.distance)
         if strategy == "light":
             contributions = c_l
         else:

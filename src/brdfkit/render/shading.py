@@ -4,8 +4,8 @@
 (:func:`brdfkit.render.reflection_equation.reflected_radiance`) at every covered pixel, in tiles
 of rows so that memory stays bounded, with per-pixel BRDF parameters sliced per tile. Under an
 environment map it takes the compiled path (:mod:`brdfkit.render.compiled_shading`) when its
-kernels are built or the work is worth building them. Direct lighting only: no shadows from
-other geometry and no interreflection.
+kernels are built or the work is worth building them. Direct lighting only: no interreflection,
+and shadows only through a visibility factor (meshes, :mod:`brdfkit.render.mesh`).
 
 References
 ----------
@@ -26,7 +26,12 @@ import numpy as np
 from brdfkit._array import to_numpy
 from brdfkit.brdf.base import BRDF, Scaled, Sum
 from brdfkit.light.base import Light
-from brdfkit.render.reflection_equation import FLOOR_DIRECTIONS, Estimate, reflected_radiance
+from brdfkit.render.reflection_equation import (
+    FLOOR_DIRECTIONS,
+    Estimate,
+    Visibility,
+    reflected_radiance,
+)
 from brdfkit.render.scene import Camera, GBuffer, Sphere, gbuffer
 from brdfkit.sampling import query_seeds
 
@@ -78,6 +83,7 @@ def shade(
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
     compiled: bool | str = "auto",
+    visibility: Callable[[slice], Visibility] | None = None,
 ) -> np.ndarray:
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
 
@@ -104,6 +110,11 @@ def shade(
     (the image then equals the NumPy one to rounding); ``False``: NumPy. Same tiles, seeds and
     uniforms on both paths (float32 kernels: equal to float32 precision).
 
+    ``visibility(rows)`` gives the visibility factor of the image's ``rows`` (shadow rays:
+    :meth:`brdfkit.render.mesh.MeshScene.visibility`), which
+    :func:`~brdfkit.render.reflected_radiance` applies to every light and BRDF sample; such
+    renders take the NumPy path.
+
     Examples
     --------
     A plane facing the camera, lit head-on with irradiance π, reflects ρ everywhere:
@@ -120,7 +131,7 @@ def shade(
     return _shade(
         g, brdf, lights, method=method, samples=samples, seed=seed, sequence=sequence,
         max_evaluations=max_evaluations, background=background, progress=progress,
-        compiled=compiled, stderr=False,
+        compiled=compiled, stderr=False, visibility=visibility,
     )[0]  # fmt: skip
 
 
@@ -142,6 +153,7 @@ def _shade(
     first_row: int = 0,
     first_sample: int = 0,
     cache: dict[Any, Any] | None = None,
+    visibility: Callable[[slice], Visibility] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`shade`'s image and its per-pixel standard error (0 outside the mask; ``None``
     unless ``stderr``); ``work`` (pixel-samples) decides ``compiled="auto"`` when given.
@@ -163,7 +175,9 @@ def _shade(
     stderr = np.zeros((height, width, channels)) if want_stderr else None
     if work is None:
         work = np.count_nonzero(g.mask) * samples
-    if cache is not None and ("plan", compiled) in cache:
+    if visibility is not None:
+        plan = None  # the compiled kernels know no visibility
+    elif cache is not None and ("plan", compiled) in cache:
         plan = cache["plan", compiled]
     else:
         plan = _compiled_plan(brdf, light_list, method, compiled, work)
@@ -224,6 +238,7 @@ def _shade(
                     seed=tile_seed,
                     sequence=sequence,
                     first_sample=first_sample,
+                    visibility=None if visibility is None else visibility(rows),
                 )
             value = to_numpy(estimate.value)
             image[rows] = np.where(m[..., None], value, background)

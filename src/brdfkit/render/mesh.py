@@ -1,0 +1,357 @@
+r"""Triangle meshes seen through a G-buffer, lit with shadows.
+
+:class:`MeshScene` holds a triangle mesh (read by trimesh from OBJ, PLY, STL, glTF/GLB) and
+casts rays against it through Embree (``embreex``, the ``mesh`` extra). Primary rays give a
+:class:`MeshGBuffer`: per pixel the hit point (barycentric interpolation of the triangle), the
+shading normal (interpolated vertex normals, from the file or computed by trimesh), the
+geometric normal (the triangle's, by its winding) and the tangent of Duff et al.'s frame
+around the shading normal (Mitsuba's frame without UVs). Shadow rays give the visibility factor of
+the reflection equation
+
+.. math:: L_o(x, \omega_o) = \int_{H^2} V(x, \omega_i)\,L_i(\omega_i)\,
+          f_r(\omega_i, \omega_o)\cos\theta_i\,d\omega_i,
+
+:math:`V = 1` where the segment from :math:`x` towards the light (up to the light's distance)
+meets no triangle: attached shadows come from the cosine and the BRDF, cast shadows from
+:math:`V`. Rays leave the surface offset along the geometric normal, on the side of their
+direction, by :math:`(1 + \max_k |x_k|)\cdot 1500\cdot 2^{-24}` (Mitsuba 3's ``spawn_ray``).
+Light samples test the segment up to the sampled point on the light; BRDF samples the whole ray
+(lights do not report where a direction meets them), so a surface *behind* an area light
+shadows it along BRDF-sampled directions.
+Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`).
+
+Claims (tested): the estimator stays unbiased with the visibility factor (white-out on a convex
+mesh, nothing inside a closed box); cast shadows are the occluder's projection, without acne;
+converged images agree with Mitsuba 3's ``direct`` integrator on the same scene (mean within
+1 %, relative RMSE after a one-pixel blur within 3 %).
+
+References
+----------
+.. [1] M. Pharr, W. Jakob, G. Humphreys, *Physically Based Rendering*, 4th ed., §6.5, §6.8.6
+       (triangles, robust spawned rays).
+.. [2] I. Wald, S. Woop, C. Benthin, G. S. Johnson, M. Ernst, "Embree: a kernel framework for
+       efficient CPU ray tracing", ACM TOG 33(4), 2014.
+.. [3] T. Duff et al., "Building an orthonormal basis, revisited", JCGT 6(1), 2017.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from brdfkit.brdf.base import BRDF
+from brdfkit.errors import FormatError, ParameterError
+from brdfkit.geometry import frame_from_normal
+from brdfkit.light.base import Light
+from brdfkit.render.reflection_equation import Visibility
+from brdfkit.render.scene import Camera, GBuffer
+from brdfkit.render.shading import shade
+
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".gltf", ".glb")
+"""File types :meth:`MeshScene.from_file` reads."""
+
+RAY_EPSILON = 1500 * 2.0**-24
+"""Relative offset of spawned rays (Mitsuba 3's ``math::RayEpsilon`` in single precision)."""
+
+_RAY_BATCH = 1 << 20
+"""Rays per call of the ray engine (bounds its float32 copies)."""
+
+
+@dataclass(frozen=True, eq=False)
+class MeshGBuffer(GBuffer):
+    """A :class:`~brdfkit.render.GBuffer` of a mesh, plus each pixel's geometric normal
+    ``(H, W, 3)`` (the triangle's, by its winding)."""
+
+    geometric_normals: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class MeshScene:
+    """A triangle mesh to trace: ``vertices`` ``(V, 3)``, ``faces`` ``(F, 3)`` vertex indices and
+    unit ``vertex_normals`` ``(V, 3)`` (the shading normals, interpolated across each face).
+
+    Examples
+    --------
+    A square in the plane z = 0 facing +z, seen from above, and a smaller one above it; a
+    directional light towards (1, 0, 1) (irradiance π√2) makes a Lambertian ρ = 0.5 reflect
+    0.5, except where the upper square casts its shadow (the top left of the image):
+
+    >>> import numpy as np
+    >>> import trimesh
+    >>> from brdfkit.brdf import Lambertian
+    >>> from brdfkit.light import DirectionalLight
+    >>> from brdfkit.render.mitsuba_frame import look_at_camera
+    >>> square = trimesh.Trimesh([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+    ...                          [[0, 1, 2], [0, 2, 3]])
+    >>> roof = square.copy()
+    >>> roof = roof.apply_scale(0.5).apply_translation([0.5, 0.5, 1.0])
+    >>> scene = MeshScene.from_trimesh(trimesh.util.concatenate([square, roof]))
+    >>> camera = look_at_camera((0, 0, 5), (0, 0, 0), (0, 1, 0))
+    >>> sun = DirectionalLight((1.0, 0.0, 1.0), irradiance=np.pi * np.sqrt(2))
+    >>> image = render_mesh(scene, Lambertian(rho=0.5), sun, camera, resolution=(4, 4))
+    >>> image[..., 0].round(6).tolist()
+    [[0.0, 0.0, 0.5, 0.5], [0.0, 0.0, 0.5, 0.5], [0.5, 0.5, 0.5, 0.5], [0.5, 0.5, 0.5, 0.5]]
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    vertex_normals: np.ndarray
+
+    def __post_init__(self) -> None:
+        v, f, n = self.vertices, self.faces, self.vertex_normals
+        if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
+            raise ParameterError(f"mesh vertices must be finite (V, 3); got shape {v.shape}")
+        if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+            raise ParameterError(f"mesh faces must be (F, 3) triangles, F > 0; got {f.shape}")
+        if f.min() < 0 or f.max() >= len(v):
+            raise ParameterError(
+                f"mesh faces index vertices 0…{len(v) - 1}; got {f.min()}…{f.max()}"
+            )
+        if n.shape != v.shape:
+            raise ParameterError(f"mesh vertex normals must be {v.shape}; got {n.shape}")
+
+    @classmethod
+    def from_trimesh(cls, mesh: Any) -> MeshScene:
+        """The scene of a ``trimesh.Trimesh``: its vertex normals (the file's where it had
+        them, else trimesh's, averaged over the faces around each vertex)."""
+        normals = np.asarray(mesh.vertex_normals, dtype=float)
+        return cls(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), normals)
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> MeshScene:
+        """Read an OBJ, PLY, STL or glTF/GLB file (all its meshes, in the scene's frame).
+
+        Raises :class:`~brdfkit.errors.FormatError` naming the file for an unknown type, an
+        unreadable file, one without triangles or with invalid ones.
+        """
+        import trimesh
+
+        path = Path(path)
+        if path.suffix.lower() not in MESH_SUFFIXES:
+            raise FormatError(
+                path,
+                f"a mesh file must be one of {', '.join(MESH_SUFFIXES)}; "
+                f"got {path.suffix or 'no suffix'!r}",
+            )
+        try:
+            loaded = trimesh.load_scene(path, process=False)
+        except (ValueError, KeyError, IndexError, OSError) as error:
+            raise FormatError(path, f"cannot read the mesh ({error})") from error
+        parts = list(_placed_meshes(loaded))
+        if not parts:
+            raise FormatError(path, "the file holds no triangles")
+        offsets = np.cumsum([0] + [len(v) for v, _, _ in parts[:-1]])
+        try:
+            return cls(
+                np.concatenate([v for v, _, _ in parts]),
+                np.concatenate([f + o for (_, f, _), o in zip(parts, offsets, strict=True)]),
+                np.concatenate([n for _, _, n in parts]),
+            )
+        except ParameterError as error:
+            raise FormatError(path, str(error)) from error
+
+    @functools.cached_property
+    def rays(self) -> Any:
+        """The ray engine: Embree through ``embreex`` (a
+        :class:`~brdfkit.errors.ParameterError` naming the ``mesh`` extra without it)."""
+        return _ray_engine(self.vertices, self.faces)
+
+    @property
+    def epsilon(self) -> float:
+        """The offset of spawned rays (the mesh's largest coordinate, relative)."""
+        return float((1 + np.abs(self.vertices).max()) * RAY_EPSILON)
+
+    def gbuffer(self, camera: Camera, resolution: int | tuple[int, int]) -> MeshGBuffer:
+        """Trace one ray per pixel centre of ``camera`` to the mesh (``resolution`` is
+        ``(H, W)`` or one size for both)."""
+        height, width = (resolution, resolution) if isinstance(resolution, int) else resolution
+        origins, directions = camera.rays(height, width)
+        face, u, v = self.rays.intersect(origins.reshape(-1, 3), directions.reshape(-1, 3))
+        hit = face >= 0
+        corners = self.vertices[self.faces[face[hit]]]  # (n, 3 corners, 3)
+        weights = np.stack([1 - u[hit] - v[hit], u[hit], v[hit]], axis=-1)[..., None]
+        normals_at = self.vertex_normals[self.faces[face[hit]]]
+        facing = -directions.reshape(-1, 3)
+        points = np.zeros_like(facing)
+        points[hit] = np.sum(weights * corners, axis=1)
+        normals, geometric = facing.copy(), facing.copy()
+        normals[hit] = _unit(np.sum(weights * normals_at, axis=1))
+        edges = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        geometric[hit] = _unit(edges)
+        tangents = np.asarray(frame_from_normal(normals)[0])
+        shape = (height, width, 3)
+        return MeshGBuffer(
+            points.reshape(shape), normals.reshape(shape), tangents.reshape(shape),
+            facing.reshape(shape), hit.reshape(height, width), geometric.reshape(shape),
+        )  # fmt: skip
+
+    def unoccluded(
+        self, points: np.ndarray, normals: np.ndarray, wi: np.ndarray, distance: np.ndarray
+    ) -> np.ndarray:
+        """Whether the segments from ``points`` (geometric ``normals``) along ``wi`` up to
+        ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True)."""
+        shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
+        points, normals, wi = (
+            np.broadcast_to(a, shape).reshape(-1, 3) for a in (points, normals, wi)
+        )
+        distance = np.broadcast_to(distance, shape[:-1]).ravel()
+        visible = np.ones(len(distance), dtype=bool)
+        active = distance > 0
+        eps = self.epsilon
+        side = np.sign(np.sum(normals[active] * wi[active], axis=-1))[:, None]
+        origins = points[active] + (eps * side) * normals[active]
+        far = np.maximum(distance[active] - 2 * eps, 0.0)
+        visible[active] = ~self.rays.occluded(origins, wi[active], far)
+        return visible.reshape(shape[:-1])
+
+    def visibility(self, g: MeshGBuffer) -> Callable[[slice], Visibility]:
+        """:func:`~brdfkit.render.shade`'s ``visibility``: for the image's rows of ``g``, the
+        visibility factor by shadow rays against this mesh (pixels outside ``g.mask`` need
+        none)."""
+
+        def of_rows(rows: slice) -> Visibility:
+            normals, mask = g.geometric_normals[rows], g.mask[rows]
+
+            def visible(points: Any, wi: Any, distance: Any) -> np.ndarray:
+                extra = np.ndim(points) - normals.ndim  # a sample axis
+                n = normals.reshape(normals.shape[:-1] + (1,) * extra + (3,))
+                m = mask.reshape(mask.shape + (1,) * extra)
+                d = np.where(m, distance, 0.0)
+                return self.unoccluded(np.asarray(points), n, np.asarray(wi), d)
+
+            return visible
+
+        return of_rows
+
+
+def render_mesh(
+    scene: MeshScene,
+    brdf: BRDF,
+    lights: Light | Sequence[Light],
+    camera: Camera,
+    resolution: int | tuple[int, int] = 256,
+    *,
+    supersample: int = 1,
+    **kwargs: Any,
+) -> np.ndarray:
+    """Linear radiance ``(H, W, C)`` of ``scene`` seen by ``camera``, with shadows.
+
+    The G-buffer (:meth:`MeshScene.gbuffer`) is shaded by :func:`~brdfkit.render.shade` with
+    the visibility factor of :meth:`MeshScene.visibility` (keyword arguments go to
+    :func:`~brdfkit.render.shade`; ``samples`` per shading point). With ``supersample`` k each
+    pixel is the mean of k×k shading points on a regular grid inside it: the box filter of
+    Mitsuba's film, so silhouettes are antialiased (give ``samples`` / k² to keep the work).
+    Background pixels are 0 (``background``).
+
+    Examples
+    --------
+    See :class:`MeshScene`.
+    """
+    height, width = (resolution, resolution) if isinstance(resolution, int) else resolution
+    if not isinstance(supersample, int) or supersample < 1:
+        raise ValueError(f"supersample must be an integer >= 1; got {supersample!r}")
+    k = supersample
+    g = scene.gbuffer(camera, (height * k, width * k))
+    image = shade(g, brdf, lights, visibility=scene.visibility(g), **kwargs)
+    return image.reshape(height, k, width, k, -1).mean(axis=(1, 3))
+
+
+def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
+    """A torus (radii 0.6 and 0.25, ``sections`` × ``sections``/2 quads, tilted by ``tilt``
+    radians about +x) over a 6 × 6 ground square at y = 0, in Mitsuba's world frame (+y up):
+    a ``trimesh.Trimesh`` with self- and cast shadows under light from above.
+
+    Examples
+    --------
+    >>> mesh = torus_over_plane(sections=8)
+    >>> len(mesh.faces), mesh.bounds[0].round(2).tolist()
+    (66, [-3.0, 0.0, -3.0])
+    """
+    import trimesh
+
+    torus = trimesh.creation.torus(0.6, 0.25, major_sections=sections, minor_sections=sections // 2)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(tilt - np.pi / 2, [1, 0, 0]))
+    torus.apply_translation([0.0, 0.6, 0.0])
+    corners = [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]]
+    up = np.tile([0.0, 1.0, 0.0], (4, 1))
+    ground = trimesh.Trimesh(corners, [[0, 2, 1], [0, 3, 2]], vertex_normals=up, process=False)
+    return trimesh.util.concatenate([torus, ground])
+
+
+def _placed_meshes(scene: Any):
+    """Each triangle mesh of a ``trimesh.Scene`` placed by its node's transform: its vertices,
+    faces and unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
+    drops them)."""
+    import trimesh
+
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        mesh = scene.geometry[name]
+        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+            continue
+        normals = np.asarray(mesh.vertex_normals, dtype=float)
+        vertices = trimesh.transform_points(np.asarray(mesh.vertices, dtype=float), transform)
+        linear = np.linalg.inv(transform[:3, :3]).T  # normals turn by the inverse transpose
+        yield vertices, np.asarray(mesh.faces, dtype=np.int64), _unit(normals @ linear.T)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+
+def _ray_engine(vertices: np.ndarray, faces: np.ndarray) -> Any:
+    try:
+        from embreex import mesh_construction, rtcore_scene
+    except ImportError as error:
+        raise ParameterError(
+            f"rendering a mesh needs Embree ({error}); install it with: pip install 'brdfkit[mesh]'"
+        ) from None
+    return _EmbreeRays(vertices, faces, rtcore_scene, mesh_construction)
+
+
+class _EmbreeRays:
+    """Rays against a mesh in an Embree scene (single precision, like Embree itself)."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, rtcore: Any, build: Any):
+        self.scene = rtcore.EmbreeScene()
+        build.TriangleMesh(self.scene, vertices.astype(np.float32), faces.astype(np.int32))
+
+    def intersect(self, origins: np.ndarray, directions: np.ndarray):
+        """First hits: face index (−1 for none) and barycentric ``u``, ``v`` of each ray."""
+        face, u, v = [], [], []
+        for o, d in _batches(origins, directions):
+            hits = self.scene.run(o, d, output=1)
+            face.append(hits["primID"].astype(np.int64))
+            u.append(hits["u"].astype(float))
+            v.append(hits["v"].astype(float))
+        return np.concatenate(face), np.concatenate(u), np.concatenate(v)
+
+    def occluded(self, origins: np.ndarray, directions: np.ndarray, far: np.ndarray):
+        """Whether each ray meets a triangle before ``far``."""
+        out = [np.zeros(0, dtype=bool)]
+        for o, d, t in _batches(origins, directions, far):
+            t = np.minimum(t, np.finfo(np.float32).max).astype(np.float32)
+            out.append(self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0)
+        return np.concatenate(out)
+
+
+def _batches(*arrays: np.ndarray):
+    """Slices of :data:`_RAY_BATCH` rays, as contiguous float32 arrays (the last: as given)."""
+    for start in range(0, len(arrays[0]), _RAY_BATCH):
+        part = [a[start : start + _RAY_BATCH] for a in arrays]
+        yield (*(np.ascontiguousarray(p, dtype=np.float32) for p in part[:2]), *part[2:])
+
+
+__all__ = [
+    "MESH_SUFFIXES",
+    "RAY_EPSILON",
+    "MeshGBuffer",
+    "MeshScene",
+    "render_mesh",
+    "torus_over_plane",
+]

@@ -1,0 +1,200 @@
+"""Meshes: reading, primary rays, shadow rays and the visibility factor."""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+from brdfkit.brdf import Lambertian
+from brdfkit.errors import FormatError, ParameterError
+from brdfkit.light import DirectionalLight, EnvironmentMap, PointLight, UniformSky
+from brdfkit.render import (
+    Sphere,
+    gbuffer,
+    interior_mask,
+    progressive,
+    reflected_radiance,
+    shade,
+)
+from brdfkit.render.mesh import MeshScene, render_mesh, torus_over_plane
+from brdfkit.render.mitsuba_frame import look_at_camera
+
+FRONT = ((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
+def _square(size: float = 1.0, height: float = 0.0) -> trimesh.Trimesh:
+    """A square of half-width ``size`` at z = ``height``, facing +z."""
+    corners = [[-size, -size, height], [size, -size, height], [size, size, height]]
+    corners.append([-size, size, height])
+    return trimesh.Trimesh(corners, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".glb"])
+def test_every_format_reads_the_same_surface(suffix, tmp_path):
+    torus = torus_over_plane(sections=12)
+    path = tmp_path / f"scene{suffix}"
+    torus.export(path)
+    scene = MeshScene.from_file(path)
+    triangles = scene.vertices[scene.faces]
+    area = np.linalg.norm(
+        np.cross(*(triangles[:, 1:] - triangles[:, :1]).transpose(1, 0, 2)), axis=-1
+    )
+    assert len(scene.faces) == len(torus.faces)
+    assert math.isclose(area.sum() / 2, torus.area, rel_tol=1e-6)
+    assert np.allclose(np.linalg.norm(scene.vertex_normals, axis=-1), 1.0)
+
+
+def test_the_files_normals_are_kept(tmp_path):
+    square = _square()
+    tilted = np.tile([0.6, 0.0, 0.8], (4, 1))
+    trimesh.Trimesh(square.vertices, square.faces, vertex_normals=tilted, process=False).export(
+        tmp_path / "square.ply", vertex_normal=True
+    )
+    scene = MeshScene.from_file(tmp_path / "square.ply")
+    assert np.allclose(scene.vertex_normals, tilted)
+    g = scene.gbuffer(look_at_camera(*FRONT), 4)
+    assert np.allclose(g.normals[g.mask], [0.6, 0.0, 0.8], atol=1e-6)
+    assert np.allclose(g.geometric_normals[g.mask], [0.0, 0.0, 1.0])
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "expected"),
+    [
+        ("mesh.txt", b"", "must be one of"),
+        ("mesh.ply", b"not a ply file", "cannot read"),
+        ("mesh.obj", b"v 0 0 0\nv 1 0 0\n", "no triangles"),
+    ],
+)
+def test_bad_files_raise_errors_naming_them(name, content, expected, tmp_path):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(FormatError, match=expected) as error:
+        MeshScene.from_file(path)
+    assert name in str(error.value)
+
+
+def test_gbuffer_of_a_sphere_mesh_matches_the_analytic_sphere():
+    ball = trimesh.creation.icosphere(subdivisions=5)
+    scene = MeshScene.from_trimesh(ball)
+    camera = look_at_camera((10.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))
+    mesh, exact = scene.gbuffer(camera, 32), gbuffer(Sphere(), camera, 32)
+    both = mesh.mask & exact.mask
+    assert np.count_nonzero(mesh.mask ^ exact.mask) <= 0.02 * both.sum()  # the silhouette
+    inner = both & interior_mask(32, margin=0.2)  # the depth of grazing hits varies more
+    assert np.allclose(mesh.points[inner], exact.points[inner], atol=2e-3)
+    assert np.allclose(mesh.normals[inner], exact.normals[inner], atol=2e-3)
+    assert np.allclose(mesh.wo, exact.wo)
+    frame_dot = np.sum(mesh.tangents * mesh.normals, axis=-1)
+    assert np.allclose(frame_dot, 0.0, atol=1e-9)
+
+
+def test_fov_spans_the_image_width():
+    size = (30, 20)  # portrait: the width is the smaller side
+    camera = look_at_camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), 50.0, size)
+    _, directions = camera.rays(*size)
+    # the outer pixel centres lie half a pixel inside the edges of the horizontal fov
+    left, right = directions[15, 0], directions[15, -1]
+    half_width = math.tan(math.radians(25)) * (1 - 1 / size[1])
+    assert math.isclose(right[0] / -right[2], half_width, rel_tol=1e-9)
+    assert math.isclose(left[0] / -left[2], -half_width, rel_tol=1e-9)
+
+
+def test_cast_shadow_is_the_occluders_projection():
+    """A roof at z = 1 over the floor, light towards (1, 0, 1): its shadow on the floor is
+    the roof shifted by −1 in x; every other floor pixel reflects exactly ρE cos/π."""
+    roof = _square(0.5, 1.0).apply_translation([0.5, 0.0, 0.0])
+    scene = MeshScene.from_trimesh(trimesh.util.concatenate([_square(2.0), roof]))
+    sun = DirectionalLight((1.0, 0.0, 1.0), irradiance=math.pi * math.sqrt(2))
+    camera = look_at_camera((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    image = render_mesh(scene, Lambertian(0.5), sun, camera, 40)[..., 0]
+    x = ((np.arange(40) + 0.5) / 20 - 1)[None, :] + 0 * image
+    y = (1 - (np.arange(40) + 0.5) / 20)[:, None] + 0 * image
+    in_shadow = (x > -1) & (x < 0) & (np.abs(y) < 0.5)
+    assert np.all(image[in_shadow] == 0.0)
+    assert np.allclose(image[~in_shadow], 0.5, rtol=1e-12)  # no shadow acne
+
+
+def test_point_lights_are_shadowed_only_by_what_lies_before_them():
+    roof = _square(3.0, 2.0)
+    scene = MeshScene.from_trimesh(trimesh.util.concatenate([_square(), roof]))
+    camera = look_at_camera((0.0, 0.0, 1.5), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 60.0)
+    below = PointLight((0.0, 0.0, 1.0), intensity=1.0)  # under the roof: it lights the floor
+    above = PointLight((0.0, 0.0, 3.0), intensity=1.0)  # over the roof: the floor is dark
+    lit = render_mesh(scene, Lambertian(0.5), below, camera, 8)
+    dark = render_mesh(scene, Lambertian(0.5), above, camera, 8)
+    assert np.all(lit > 0) and np.all(dark == 0)
+
+
+def test_a_closed_box_keeps_out_every_light_and_brdf_sample():
+    """Inside a closed box the floor sees no sky: every MIS sample is occluded."""
+    box = trimesh.creation.box((4.0, 4.0, 4.0))
+    box.invert()  # faces inwards, towards the camera inside
+    box.unmerge_vertices()  # flat walls: vertex normals are the faces' (no light leaks)
+    scene = MeshScene.from_trimesh(trimesh.util.concatenate([box, _square(1.0, -1.0)]))
+    camera = look_at_camera((0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), 60.0)
+    env = EnvironmentMap(np.ones((8, 16, 1)))
+    image = render_mesh(scene, Lambertian(0.5), [env, UniformSky(1.0)], camera, 8, samples=8)
+    assert np.all(image == 0.0)
+
+
+def test_white_out_holds_on_a_convex_mesh():
+    """Nothing occludes a convex object's upper hemisphere: under a uniform map a Lambertian
+    icosphere (flat faces) reflects ρL (MIS with the visibility factor stays unbiased)."""
+    ball = trimesh.creation.icosphere(subdivisions=2)
+    ball.unmerge_vertices()  # vertex normals are the faces': no direction is half-hidden
+    scene = MeshScene.from_trimesh(ball)
+    camera = look_at_camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    uniform = EnvironmentMap(np.full((8, 16, 1), 2.0))
+    image = render_mesh(scene, Lambertian(0.5), uniform, camera, 8, samples=256)
+    mask = scene.gbuffer(camera, 8).mask
+    assert mask.sum() >= 16
+    assert np.allclose(image[mask, 0], 1.0, atol=0.03)
+
+
+def test_visibility_true_everywhere_changes_nothing_and_false_blacks_out():
+    rng = np.random.default_rng(1)
+    wo = rng.normal(size=(6, 3)) + np.array([0.0, 0.0, 2.0])
+    env = EnvironmentMap(rng.random((8, 16, 3)))
+    lights = [env, DirectionalLight((0.3, 0.2, 1.0), irradiance=2.0)]
+    options = {"method": "mis", "samples": 16, "seed": 3}
+    plain = reflected_radiance(Lambertian(0.5), lights, wo, **options).value
+    seen = reflected_radiance(
+        Lambertian(0.5), lights, wo, **options,
+        visibility=lambda p, wi, d: np.ones(np.shape(wi)[:-1], dtype=bool),
+    ).value  # fmt: skip
+    hidden = reflected_radiance(
+        Lambertian(0.5), lights, wo, **options,
+        visibility=lambda p, wi, d: np.zeros(np.shape(wi)[:-1], dtype=bool),
+    ).value  # fmt: skip
+    assert np.array_equal(plain, seen)
+    assert np.all(hidden == 0) and np.all(plain > 0)
+    with pytest.raises(ValueError, match="quadrature"):
+        reflected_radiance(Lambertian(0.5), env, wo, method="quadrature", visibility=np.ones)
+
+
+def test_without_embree_the_error_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "embreex", None)  # import embreex now fails
+    scene = MeshScene.from_trimesh(_square())
+    with pytest.raises(ParameterError, match=r"brdfkit\[mesh\]"):
+        scene.gbuffer(look_at_camera(*FRONT), 4)
+
+
+def test_progressive_passes_carry_the_shadows():
+    """Passes of a mesh render (with their noise estimate) converge to the one-shot image."""
+    scene = MeshScene.from_trimesh(torus_over_plane(sections=12))
+    camera = look_at_camera((0.0, 2.2, 3.2), (0.0, 0.4, 0.0), (0.0, 1.0, 0.0), 40.0, (6, 8))
+    g = scene.gbuffer(camera, (6, 8))
+    lights = [EnvironmentMap(np.ones((8, 16, 1))), DirectionalLight((0.5, 1.0, 0.3))]
+    passes = list(
+        progressive(g, Lambertian(0.5), lights, max_samples=16, visibility=scene.visibility(g))
+    )
+    once = render_mesh(scene, Lambertian(0.5), lights, camera, (6, 8), samples=16)
+    last = passes[-1]
+    assert last.samples == 16 and last.error is not None
+    assert np.all(np.abs(last.image - once) <= 5 * last.error + 0.05)
+    unshadowed = shade(g, Lambertian(0.5), lights, samples=16, compiled=False)
+    assert np.abs(last.image - unshadowed).max() > 0.1  # the shadows are there
