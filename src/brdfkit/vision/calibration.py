@@ -163,7 +163,7 @@ def _check_stack(
     ------
     brdfkit.errors.ParameterError
         Images of different shapes, not 8-bit, fewer than 2 or empty; times not one finite,
-        positive number per image.
+        positive number per image, or all equal for images that differ.
     """
     if not isinstance(images, np.ndarray):
         shapes = [np.shape(image) for image in images]
@@ -187,6 +187,11 @@ def _check_stack(
         raise ParameterError(
             f"times must be {stack.shape[0]} finite, positive exposure times (one per image); "
             f"got {times.tolist()}"
+        )
+    if np.all(times == times[0]) and np.any(stack != stack[0]):
+        raise ParameterError(
+            f"times are all {times[0]:g} s but the images differ: a stack needs the exposure "
+            "time of each image, at least two of them different"
         )
     if stack.dtype != np.uint8:
         raise ParameterError(
