@@ -39,6 +39,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import errno
 import io as _io
 import os
 import sys
@@ -51,7 +52,7 @@ import numpy as np
 
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
 from brdfkit._checks import check_memory
-from brdfkit.errors import FormatError, ResourceError
+from brdfkit.errors import BrdfkitError, FormatError, OutputError, ResourceError
 
 __all__ = [
     "MAX_IMAGE_PIXELS",
@@ -631,7 +632,8 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     The temporary has a plain ASCII name that keeps ``path``'s extension (encoders choose the
     format from it), is removed on every way out if ``write_fn`` fails, and gets the mode the
     umask gives a new file (not ``mkstemp``'s 0600); so ``path`` is either the old file or the
-    complete new one. Missing parent folders are created. Returns ``path``.
+    complete new one. Missing parent folders are created. Returns ``path``. A failure to write
+    (a full disk, say) raises :class:`~brdfkit.errors.OutputError` naming ``path``.
 
     References
     ----------
@@ -657,10 +659,27 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
         write_fn(tmp)
         os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
+    except OSError as error:
+        tmp.unlink(missing_ok=True)
+        if isinstance(error, BrdfkitError) or not _about_the_output(error, tmp):
+            raise  # it names its own file (an input the work read, say)
+        reason = error.strerror or str(error)
+        raise OutputError(f"{path} could not be written: {reason}") from error
     except BaseException:
         tmp.unlink(missing_ok=True)  # only our temporary: after the rename the name is not ours
         raise
     return path
+
+
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EROFS})
+"""The errors of a write that fails for its place: full disk or quota, file too large, a
+failing or read-only device."""
+
+
+def _about_the_output(error: OSError, tmp: Path) -> bool:
+    """Whether ``error`` is the output's: a failed write of it, or an error naming its
+    temporary (and so naming a path the user never gave)."""
+    return error.errno in _WRITE_ERRNOS or error.filename == str(tmp)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
