@@ -106,6 +106,10 @@ def messages(draw: st.DrawFn) -> str:
 def channel():
     """One connection to a served session, kept through the campaign; afterwards it must still
     render, and no worker may have died."""
+    import scipy.stats  # noqa: F401  (the albedo worker's lazy import, done here first: a
+    # first import on a worker thread beside pytest's import hook on this one can fail, a race
+    # of CPython 3.11's ast module that no user of the server meets)
+
     session = Session()
     session.warm_up = lambda specs: session.warmed.set()  # no kernels built ahead: not tested here
     server = ExplorerServer(session, []).start()

@@ -110,6 +110,22 @@ def _run(call: Any) -> int:
     return code
 
 
+_NOT_JSON = "Out of range float values are not JSON compliant"
+
+
+def _reason(error: Exception) -> str:
+    """The error line's text: the error's message, or what a result that holds NaN or
+    infinity means (``json.dumps(..., allow_nan=False)`` refusing it names nothing)."""
+    text = str(error) or type(error).__name__
+    if text.startswith(_NOT_JSON):
+        value = text.removeprefix(_NOT_JSON).strip(": ") or "NaN or infinity"
+        return (
+            f"the result holds {value}, which no output may: an input holds values the "
+            "computation cannot use (NaN, infinity, or too large); nothing was written"
+        )
+    return text
+
+
 def _outcome(call: Any) -> int:
     from brdfkit.errors import BrdfkitError
 
@@ -138,7 +154,7 @@ def _outcome(call: Any) -> int:
     except (BrdfkitError, ValueError, OSError) as error:
         if os.environ.get("BRDFKIT_TRACEBACK"):
             raise
-        _error_line(str(error) or type(error).__name__)
+        _error_line(_reason(error))
         return BAD_INPUT
     except Exception as error:
         if os.environ.get("BRDFKIT_TRACEBACK"):
