@@ -1,4 +1,4 @@
-"""The command line and the explorer under faults: the probe's own checks, at full size.
+"""The command line and the explorer under faults: hostile inputs and interrupts, at full size.
 
 - **Interrupts**: ``brdfkit atlas`` is started in a session of its own, and once its card
   workers run, SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal):
