@@ -7,6 +7,7 @@ import struct
 import zlib
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from brdfkit.cli import app
@@ -60,3 +61,17 @@ def test_hdr_refuses_a_png_bomb_naming_it(tmp_path):
     result = runner.invoke(app, ["hdr", *images[:2], str(bomb), "-t", "1,2,4", "-o", str(out)])
     _refused(result, "bomb.png", "MAX_IMAGE_PIXELS")
     assert not out.exists()
+
+
+def test_an_environment_map_holding_nan_is_refused_naming_it(tmp_path):
+    """A NaN or negative EXR map gave "image must hold finite, non-negative radiance values"
+    without the file."""
+    from brdfkit.errors import FormatError
+    from brdfkit.light.environment import EnvironmentMap
+
+    image = np.ones((4, 8, 3), np.float32)
+    image[1, 2, 0] = np.nan
+    path = tmp_path / "sky.exr"
+    write_image(path, image)
+    with pytest.raises(FormatError, match=r"sky\.exr.*NaN"):
+        EnvironmentMap.from_file(path)
