@@ -123,3 +123,14 @@ def test_an_interrupt_drops_the_queued_kernel_tasks():
         run_tasks(task, range(200), workers=2)
     time.sleep(0.05)
     assert len(done) < 40  # the helper stopped after the item in its hands, not 199 items
+
+
+def test_stop_workers_spares_the_resource_tracker():
+    """Killed, multiprocessing's tracker was started again on the way out of an interrupted
+    Dask batch and printed a traceback per semaphore (49 lines after "interrupted")."""
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    tracker = resource_tracker._resource_tracker._pid
+    _app.stop_workers()
+    assert psutil.pid_exists(tracker) and psutil.Process(tracker).status() != psutil.STATUS_ZOMBIE

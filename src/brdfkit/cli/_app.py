@@ -16,6 +16,7 @@ ends itself.
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.resource_tracker
 import os
 import signal
 import sys
@@ -267,7 +268,10 @@ def stop_workers() -> None:
         pids = [child.pid for child in multiprocessing.active_children()]
     else:
         pids = [child.pid for child in psutil.Process().children(recursive=True)]
-    for pid in pids:
+    # multiprocessing's resource tracker is no worker: killed, it would be started again on the
+    # way out, and print a traceback for every semaphore then released
+    tracker = getattr(multiprocessing.resource_tracker._resource_tracker, "_pid", None)
+    for pid in set(pids) - {tracker}:
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:  # it ended meanwhile
