@@ -1,7 +1,8 @@
 """The command line and the explorer under faults: hostile inputs and interrupts, at full size.
 
-- **Interrupts**: ``brdfkit atlas`` is started in a session of its own, and once its card
-  workers run, SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal):
+- **Interrupts**: ``brdfkit atlas``, and ``brdfkit fit`` of 4 tables × 2 models on a local
+  Dask cluster of 2 workers, are started in a session of their own, and once their workers
+  run, SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal):
   seconds from the first to the exit, the exit status, the stderr lines, the processes of the
   session left a second later and the temporaries left in the output folder.
 - **A PNG bomb**: a valid 20000 × 20000 RGB PNG (1.2 MB) given to ``brdfkit hdr``: the exit
@@ -23,6 +24,7 @@ Run ``python benchmarks/bench_faults.py`` (a few minutes; needs the ``explore``,
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import signal
@@ -67,39 +69,64 @@ def _children(pid: int) -> int:
         return 0
 
 
+def _merl_files(folder: Path, count: int) -> list[str]:
+    """MERL-layout tables of random values (the fits' inputs)."""
+    rng = np.random.default_rng(0)
+    paths = []
+    for k in range(count):
+        values = rng.uniform(0.001, 0.05, 3 * 90 * 90 * 180)
+        paths.append(str(folder / f"table{k}.binary"))
+        header = np.asarray((90, 90, 180), "<i4").tobytes()
+        Path(paths[-1]).write_bytes(header + values.astype("<f8").tobytes())
+    return paths
+
+
 def interrupts(folder: Path, repeats: int) -> list[dict[str, Any]]:
+    """Two Ctrl-C on the atlas and on a Dask batch fit, ``repeats`` times each."""
+    tables = _merl_files(folder, 4)
+    commands = {
+        "atlas": ["atlas", "-r", "32", "-s", "4", "-o"],
+        "fit batch (Dask)": ["fit", *tables, "-m", "ggx", "-m", "beckmann", "--workers", "2", "-o"],
+    }
     records = []
-    for k in range(repeats):
-        out = folder / f"atlas{k}"
-        process = subprocess.Popen(
-            [*BRDFKIT, "atlas", "-o", str(out), "-r", "32", "-s", "4"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True,
-            env=ENV,
-        )  # fmt: skip
-        while _children(process.pid) == 0 and process.poll() is None:
-            time.sleep(0.05)
-        time.sleep(1.0)  # the workers busy with cards
-        start = time.perf_counter()
-        os.killpg(process.pid, signal.SIGINT)
-        time.sleep(0.4)
-        try:
-            os.killpg(process.pid, signal.SIGINT)
-        except ProcessLookupError:
-            pass
-        try:
-            _, stderr = process.communicate(timeout=30)
-            seconds = time.perf_counter() - start
-        except subprocess.TimeoutExpired:
-            os.killpg(process.pid, signal.SIGKILL)
-            _, stderr = process.communicate()
-            seconds = None
-        time.sleep(1.0)
-        records.append({
-            "seconds": seconds, "status": process.returncode, "stderr": stderr.splitlines(),
-            "processes_left": _session_processes(process.pid),
-            "temporaries_left": len([p for p in out.rglob(".brdfkit-*")]) if out.exists() else 0,
-        })  # fmt: skip
+    for (label, args), k in itertools.product(commands.items(), range(repeats)):
+        records.append(
+            {"command": label, **_interrupted([*args, str(folder / f"out{k}{label[:3]}")])}
+        )
     return records
+
+
+def _interrupted(args: list[str]) -> dict[str, Any]:
+    """Start ``brdfkit ARGS`` in a session of its own; once its workers have run a second,
+    SIGINT to the group twice, 0.4 s apart."""
+    out = Path(args[-1])
+    process = subprocess.Popen(
+        [*BRDFKIT, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        start_new_session=True, env=ENV,
+    )  # fmt: skip
+    while _children(process.pid) == 0 and process.poll() is None:
+        time.sleep(0.05)
+    time.sleep(3.0)  # the workers busy
+    start = time.perf_counter()
+    os.killpg(process.pid, signal.SIGINT)
+    time.sleep(0.4)
+    try:
+        os.killpg(process.pid, signal.SIGINT)
+    except ProcessLookupError:
+        pass
+    try:
+        _, stderr = process.communicate(timeout=30)
+        seconds = time.perf_counter() - start
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        _, stderr = process.communicate()
+        seconds = None
+    time.sleep(1.0)
+    return {
+        "seconds": seconds, "status": process.returncode, "stderr": stderr.splitlines(),
+        "processes_left": _session_processes(process.pid),
+        "temporaries_left": len(list(out.rglob(".brdfkit-*"))) if out.exists() else 0,
+    }  # fmt: skip
 
 
 def _png(width: int, height: int) -> bytes:

@@ -560,7 +560,8 @@ def faults(r: dict) -> str:
         return " / ".join(run.get("stderr", [])) or "–"
 
     ctrl_c = [
-        [f"{x['seconds']:.2f}" if x["seconds"] is not None else "hung", x["status"],
+        [x.get("command", "atlas"), f"{x['seconds']:.2f}" if x["seconds"] is not None else "hung",
+         x["status"],
          x["processes_left"], x["temporaries_left"], line(x)]
         for x in r["interrupts"]
     ]  # fmt: skip
@@ -579,9 +580,9 @@ def faults(r: dict) -> str:
     f = r["protocol_fuzz"]
     replies = ", ".join(f"{k} {v}" for k, v in sorted(f["replies"].items(), key=lambda i: -i[1]))
     return "\n\n".join([
-        "Two Ctrl-C on `brdfkit atlas` (its workers busy):",
-        rows(["s to exit", "status", "processes left", "temporaries left", "stderr"], ctrl_c,
-             "rrrrl"),
+        "Two Ctrl-C on a command whose workers are busy:",
+        rows(["command", "s to exit", "status", "processes left", "temporaries left", "stderr"],
+             ctrl_c, "lrrrrl"),
         "Hostile inputs on the command line:",
         rows(["input", "status", "peak MiB", "stderr"], inputs, "lrrl"),
         f"The explorer's server, one connection (its peak memory {e['peak_mib_before']:.0f} MiB "
