@@ -1,6 +1,6 @@
 """The command line and the explorer under faults: hostile inputs and interrupts, at full size.
 
-- **Interrupts**: ``brdfkit atlas``, and ``brdfkit fit`` of 4 tables × 2 models on a local
+- **Interrupts**: ``brdfkit atlas``, and ``brdfkit fit`` of 8 tables × 3 models on a local
   Dask cluster of 2 workers, are started in a session of their own, and once their workers
   run, SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal):
   seconds from the first to the exit, the exit status, the stderr lines, the processes of the
@@ -83,10 +83,10 @@ def _merl_files(folder: Path, count: int) -> list[str]:
 
 def interrupts(folder: Path, repeats: int) -> list[dict[str, Any]]:
     """Two Ctrl-C on the atlas and on a Dask batch fit, ``repeats`` times each."""
-    tables = _merl_files(folder, 4)
+    tables = _merl_files(folder, 8)
     commands = {
         "atlas": ["atlas", "-r", "32", "-s", "4", "-o"],
-        "fit batch (Dask)": ["fit", *tables, "-m", "ggx", "-m", "beckmann", "--workers", "2", "-o"],
+        "fit batch (Dask)": ["fit", *tables, "-m", "ggx", "-m", "beckmann", "-m", "ward", "--workers", "2", "-o"],
     }
     records = []
     for (label, args), k in itertools.product(commands.items(), range(repeats)):
@@ -94,6 +94,11 @@ def interrupts(folder: Path, repeats: int) -> list[dict[str, Any]]:
             {"command": label, **_interrupted([*args, str(folder / f"out{k}{label[:3]}")])}
         )
     return records
+
+
+def temporaries(folder: Path) -> list[Path]:
+    """brdfkit's temporary files under ``folder`` (its manifests are no temporaries)."""
+    return [p for p in folder.rglob(".brdfkit-*") if p.name != ".brdfkit-outputs.json"]
 
 
 def _interrupted(args: list[str]) -> dict[str, Any]:
@@ -106,7 +111,7 @@ def _interrupted(args: list[str]) -> dict[str, Any]:
     )  # fmt: skip
     while _children(process.pid) == 0 and process.poll() is None:
         time.sleep(0.05)
-    time.sleep(3.0)  # the workers busy
+    time.sleep(1.0)  # the workers busy
     start = time.perf_counter()
     os.killpg(process.pid, signal.SIGINT)
     time.sleep(0.4)
@@ -125,7 +130,7 @@ def _interrupted(args: list[str]) -> dict[str, Any]:
     return {
         "seconds": seconds, "status": process.returncode, "stderr": stderr.splitlines(),
         "processes_left": _session_processes(process.pid),
-        "temporaries_left": len(list(out.rglob(".brdfkit-*"))) if out.exists() else 0,
+        "temporaries_left": len(temporaries(out)),
     }  # fmt: skip
 
 
