@@ -63,10 +63,14 @@ def _session_processes(session: int) -> int:
 
 
 def _children(pid: int) -> int:
-    try:
-        return len(Path(f"/proc/{pid}/task/{pid}/children").read_text().split())
-    except OSError:
-        return 0
+    """The child processes of ``pid``, started from any of its threads."""
+    count = 0
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            count += len((task / "children").read_text().split())
+        except OSError:
+            continue
+    return count
 
 
 def _merl_files(folder: Path, count: int) -> list[str]:
@@ -84,9 +88,10 @@ def _merl_files(folder: Path, count: int) -> list[str]:
 def interrupts(folder: Path, repeats: int) -> list[dict[str, Any]]:
     """Two Ctrl-C on the atlas and on a Dask batch fit, ``repeats`` times each."""
     tables = _merl_files(folder, 8)
+    models = ["-m", "ggx", "-m", "beckmann", "-m", "ward"]
     commands = {
         "atlas": ["atlas", "-r", "32", "-s", "4", "-o"],
-        "fit batch (Dask)": ["fit", *tables, "-m", "ggx", "-m", "beckmann", "-m", "ward", "--workers", "2", "-o"],
+        "fit batch (Dask)": ["fit", *tables, *models, "--workers", "2", "-o"],
     }
     records = []
     for (label, args), k in itertools.product(commands.items(), range(repeats)):

@@ -58,3 +58,9 @@ def test_directions_of_two_components_are_a_parameter_error(name):
         model.pdf(WI, WO[:2])
     with pytest.raises(ParameterError, match="wo must be directions"):
         model.sample(WO[:2], np.full(3, 0.5))
+
+
+def test_a_nan_direction_is_a_parameter_error_not_an_index_error():
+    """A NaN direction in rough_plastic gave an IndexError."""
+    with pytest.raises(ParameterError, match="finite"):
+        parse("rough_plastic").eval(np.array([np.nan, 0.0, 1.0]), WO)
