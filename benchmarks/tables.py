@@ -721,6 +721,44 @@ def export(r: dict) -> str:
     return "\n\n".join(t for t in (mitsuba if r["mitsuba"] else "", rgl) if t)
 
 
+def faults(r: dict) -> str:
+    def line(run: dict) -> str:
+        return " / ".join(run.get("stderr", [])) or "–"
+
+    ctrl_c = [
+        [x.get("command", "atlas"), f"{x['seconds']:.2f}" if x["seconds"] is not None else "hung",
+         x["status"],
+         x["processes_left"], x["temporaries_left"], line(x)]
+        for x in r["interrupts"]
+    ]  # fmt: skip
+    inputs = [
+        [label, r[key]["status"], f"{r[key]['peak_mib']:.0f}", line(r[key])]
+        for label, key in (
+            (f"PNG bomb, 20000 × 20000 ({r['png_bomb_bytes'] / 1e6:.1f} MB)", "png_bomb"),
+            ("hdr -t 1,1,1, three different exposures", "equal_times"),
+            ("fit of a MERL file with one 1e308 entry", "merl_1e308"),
+        )
+    ]
+    e = r["explorer"]
+    steps = [
+        [x["message"], x["answer"], x["entry_errors"], f"{x['seconds']:.2f}"] for x in e["steps"]
+    ]
+    f = r["protocol_fuzz"]
+    replies = ", ".join(f"{k} {v}" for k, v in sorted(f["replies"].items(), key=lambda i: -i[1]))
+    return "\n\n".join([
+        "Two Ctrl-C on a command whose workers are busy:",
+        rows(["command", "s to exit", "status", "processes left", "temporaries left", "stderr"],
+             ctrl_c, "lrrrrl"),
+        "Hostile inputs on the command line:",
+        rows(["input", "status", "peak MiB", "stderr"], inputs, "lrrl"),
+        f"The explorer's server, one connection (its peak memory {e['peak_mib_before']:.0f} MiB "
+        f"before, {e['peak_mib_after']:.0f} MiB after):",
+        rows(["message", "answer", "entries refused", "s"], steps, "llrr"),
+        f"The protocol fuzzed: {f['messages']:,} messages in {f['seconds']:.0f} s; replies: "
+        f"{replies}; {'no message unanswered, no worker dead' if f['passed'] else 'FAILED'}.",
+    ])  # fmt: skip
+
+
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
@@ -746,6 +784,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "bssrdf": bssrdf,
     "hdr": hdr,
     "export": export,
+    "faults": faults,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 

@@ -440,6 +440,53 @@ def test_header_beyond_the_pixel_limit_is_an_image_read_error(tmp_path, name, da
         io.read_image(path)
 
 
+def _exr_declaring(tmp_path: Path, width: int, height: int) -> bytes:
+    """A small EXR whose dataWindow is rewritten to ``width`` × ``height``."""
+    import struct
+
+    io.write_image(tmp_path / "small.exr", np.ones((2, 2, 3), np.float32))
+    data = (tmp_path / "small.exr").read_bytes()
+    at = data.index(b"dataWindow\0box2i\0") + len(b"dataWindow\0box2i\0") + 4
+    return data[:at] + struct.pack("<4i", 0, 0, width - 1, height - 1) + data[at + 16 :]
+
+
+@pytest.mark.parametrize(
+    ("name", "declared"),
+    [
+        ("bomb.png", lambda tmp: _png_header(20_000, 20_000)),  # Pillow's own limit
+        ("big.png", lambda tmp: _png_header(12_000, 12_000)),
+        ("bomb.hdr", lambda tmp: b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 20000 +X 20000\n"),
+        ("bomb.exr", lambda tmp: _exr_declaring(tmp, 20_000, 20_000)),
+    ],
+)
+def test_an_image_bomb_is_refused_before_decoding_naming_the_file(
+    tmp_path, monkeypatch, name, declared
+):
+    """A 1.2 MB PNG declaring 20000 × 20000 pixels was decoded (10.4 GB) before any refusal."""
+    from brdfkit.errors import ResourceError
+
+    path = tmp_path / name
+    path.write_bytes(declared(tmp_path))
+
+    def never(path, data):
+        raise AssertionError("decoded")
+
+    monkeypatch.setitem(io._READERS, path.suffix, never)
+    with pytest.raises(io.ImageTooLargeError, match=f"{name}.*MAX_IMAGE_PIXELS") as info:
+        io.read_image(path)
+    assert isinstance(info.value, ResourceError)
+
+
+def test_an_image_beyond_the_memory_available_is_refused(tmp_path, monkeypatch):
+    import brdfkit._checks
+
+    monkeypatch.setattr(brdfkit._checks, "available_memory", lambda: 1000)
+    path = tmp_path / "photo.png"
+    path.write_bytes(_png_header(100, 100))
+    with pytest.raises(io.ImageTooLargeError, match=r"photo\.png: decoding its 100 × 100 × 3"):
+        io.read_image(path)
+
+
 @pytest.mark.data
 def test_truncated_exr_prints_nothing(shared_data, tmp_path, capfd):
     """OpenEXR's own diagnostics (30+ lines) are captured; the error says it in one line."""

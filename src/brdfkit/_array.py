@@ -444,6 +444,8 @@ def check_param(
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"{left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+    if is_numpy(xp) and values.dtype.kind not in "biuf":  # 10**400 is an object array
+        raise ParameterError(f"{name} must be a number in {allowed}; got {str(value)[:40]}")
     finite = xp.isfinite(values)
     below = values <= low if lo_open else values < low
     above = values >= high if hi_open else values > high
@@ -454,6 +456,51 @@ def check_param(
         extra = f" ({hint})" if hint else ""
         raise ParameterError(f"{name} must be {expected}; got {first:g}{extra}")
     return value
+
+
+def check_directions(**named: Any) -> None:
+    """Refuse direction arguments that are not arrays of shape ``(..., 3)``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Naming the argument and the shape it has.
+    """
+    for name, value in named.items():
+        shape = getattr(value, "shape", None)
+        if shape is None or len(shape) == 0 or shape[-1] != 3:
+            got = f"shape {tuple(shape)}" if shape is not None else type(value).__name__
+            raise ParameterError(f"{name} must be directions of shape (..., 3); got {got}")
+
+
+def in_backend_of(values: Any, *arrays: Array) -> tuple[Array, ...]:
+    """``arrays`` in the backend :func:`namespace` gives them together with ``values`` (a
+    model's parameters, say): NumPy arrays beside a tensor become tensors of its backend, as
+    the module promises; all-NumPy input is returned as it is. Float16 arrays are widened to
+    float32 (:func:`_no_half`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import torch
+    >>> (w,) = in_backend_of([torch.tensor(0.3)], np.array([0.0, 0.0, 1.0]))
+    >>> type(w).__name__, w.dtype
+    ('Tensor', torch.float64)
+    """
+    xp = namespace(*arrays, *values)
+    if not is_numpy(xp):
+        arrays = tuple(a if namespace(a) is xp else asarray(a, xp) for a in arrays)
+    return tuple(_no_half(a) for a in arrays)
+
+
+def _no_half(a: Array) -> Array:
+    """``a`` widened to float32 if it is float16: the models' arithmetic (a Blinn-Phong
+    exponent of 10⁴, a thin film's phases) overflows half precision, so half-precision input
+    computes, and returns, in float32."""
+    if str(getattr(a, "dtype", "")).endswith("float16"):
+        xp = namespace(a)
+        return xp.astype(a, xp.float32)
+    return a
 
 
 def to_numpy(x: Any) -> np.ndarray:

@@ -15,7 +15,10 @@ Reading
 A missing, truncated or corrupt file raises :class:`ImageReadError` (a
 :class:`~brdfkit.errors.FormatError`, hence a ``ValueError``) naming the file and the reason.
 Files are read into memory in Python and decoded from there (and encoded to memory and written
-from Python), so no path ever reaches a native decoder.
+from Python), so no path ever reaches a native decoder. Before decoding, the size the header
+declares (width × height × channels) is checked against :data:`MAX_IMAGE_PIXELS` and the memory
+available: a small file that declares a huge image (a "decompression bomb") raises
+:class:`ImageTooLargeError` naming the file, having allocated nothing.
 
 Writing
 -------
@@ -36,6 +39,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import errno
 import io as _io
 import os
 import sys
@@ -47,13 +51,16 @@ from typing import Any
 import numpy as np
 
 from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
-from brdfkit.errors import FormatError
+from brdfkit._checks import check_memory
+from brdfkit.errors import BrdfkitError, FormatError, OutputError, ResourceError
 
 __all__ = [
+    "MAX_IMAGE_PIXELS",
     "READ_EXTENSIONS",
     "WRITE_EXTENSIONS",
     "ImageNotFoundError",
     "ImageReadError",
+    "ImageTooLargeError",
     "atomic_write",
     "atomic_write_bytes",
     "data_path",
@@ -72,6 +79,10 @@ READ_EXTENSIONS = (".hdr", ".exr", ".png", ".tif", ".tiff", ".jpg", ".jpeg", ".t
 WRITE_EXTENSIONS = (".exr", ".hdr", ".png")
 """File extensions :func:`write_image` understands."""
 
+MAX_IMAGE_PIXELS = 2**27
+"""Most pixels (width × height) :func:`read_image` decodes: a 16384 × 8192 light probe, 1.5 GiB
+as float32 RGB."""
+
 REC709_WEIGHTS = (0.2126, 0.7152, 0.0722)
 """Rec. 709 / sRGB luminance weights of linear R, G, B."""
 
@@ -89,6 +100,11 @@ class ImageReadError(FormatError):
 
 class ImageNotFoundError(ImageReadError, FileNotFoundError):
     """The image file does not exist (both a ``FormatError`` and a ``FileNotFoundError``)."""
+
+
+class ImageTooLargeError(ImageReadError, ResourceError):
+    """The image's header declares more pixels than :data:`MAX_IMAGE_PIXELS` or than the memory
+    available holds (an ``ImageReadError`` and a :class:`~brdfkit.errors.ResourceError`)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -426,10 +442,96 @@ def _decode(path: Path) -> np.ndarray:
     if not path.is_file():
         raise ImageNotFoundError(path, "no such file")
     try:
+        _affordable(path, "reading it", path.stat().st_size)
         data = path.read_bytes()
     except OSError as error:
         raise ImageReadError(path, f"cannot be read ({error.strerror or error})") from error
+    _check_declared_size(path, data)
     return _READERS[suffix](path, data)
+
+
+def _check_declared_size(path: Path, data: bytes) -> None:
+    """Refuse an image whose header declares more than :data:`MAX_IMAGE_PIXELS` pixels, or
+    more than the memory available, before anything is decoded. A header that cannot be read
+    is left to the decoder, which reports it."""
+    declared = _declared_size(path, data)
+    if declared is None:
+        return
+    width, height, channels = declared
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ImageTooLargeError(
+            path,
+            f"its header declares {width} × {height} pixels; at most MAX_IMAGE_PIXELS = "
+            f"{MAX_IMAGE_PIXELS} are read",
+        )
+    # the decoder's array (up to 4 bytes a sample) and the float32 image made from it
+    nbytes = width * height * channels * 8
+    _affordable(path, f"decoding its {width} × {height} × {channels} samples", nbytes)
+
+
+def _affordable(path: Path, what: str, nbytes: int) -> None:
+    try:
+        check_memory(what, nbytes)
+    except ResourceError as error:
+        raise ImageTooLargeError(path, str(error)) from None
+
+
+def _declared_size(path: Path, data: bytes) -> tuple[int, int, int] | None:
+    """(width, height, channels) as the file's header declares them, read without decoding."""
+    suffix = path.suffix.lower()
+    if suffix == ".exr":
+        return _exr_declared_size(data)
+    if suffix == ".hdr":
+        return _radiance_declared_size(data)
+    return _pillow_declared_size(path, data)
+
+
+def _exr_declared_size(data: bytes) -> tuple[int, int, int] | None:
+    import OpenEXR
+
+    try:
+        with _native_output_captured():
+            header = OpenEXR.File(_io.BytesIO(data), header_only=True).header()
+        low, high = header["dataWindow"]
+        return int(high[0] - low[0]) + 1, int(high[1] - low[1]) + 1, len(header["channels"])
+    except Exception:  # the bindings raise RuntimeError, ValueError, KeyError, ...: see _read_exr
+        return None
+
+
+def _radiance_declared_size(data: bytes) -> tuple[int, int, int] | None:
+    """The resolution line that follows a Radiance header's blank line, e.g. ``-Y 512 +X 1024``
+    (Ward [2]_)."""
+    end = data.find(b"\n\n", 0, 1 << 16)
+    if end < 0:
+        return None
+    fields = data[end + 2 : end + 2 + 64].split(b"\n", 1)[0].split()
+    if len(fields) != 4 or not (fields[1].isdigit() and fields[3].isdigit()):
+        return None
+    first, second = int(fields[1]), int(fields[3])
+    rows_first = fields[0].endswith(b"Y")
+    return (second, first, 3) if rows_first else (first, second, 3)
+
+
+def _pillow_declared_size(path: Path, data: bytes) -> tuple[int, int, int] | None:
+    """Pillow opens a PNG, TIFF, JPEG, TGA or BMP lazily: its header, not its pixels."""
+    import warnings
+
+    from PIL import Image
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # its notes on odd headers: the decoder reports
+            with Image.open(_io.BytesIO(data)) as image:
+                width, height = image.size
+                return width, height, len(image.getbands())
+    except Image.DecompressionBombError:  # Pillow's own limit, above MAX_IMAGE_PIXELS
+        raise ImageTooLargeError(
+            path,
+            f"its header declares more than {2 * Image.MAX_IMAGE_PIXELS} pixels; at most "
+            f"MAX_IMAGE_PIXELS = {MAX_IMAGE_PIXELS} are read",
+        ) from None
+    except Exception:  # Pillow raises OSError, SyntaxError, ValueError, ...: the decoder reports
+        return None
 
 
 def read_image_codes(path: str | os.PathLike) -> np.ndarray:
@@ -530,7 +632,8 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     The temporary has a plain ASCII name that keeps ``path``'s extension (encoders choose the
     format from it), is removed on every way out if ``write_fn`` fails, and gets the mode the
     umask gives a new file (not ``mkstemp``'s 0600); so ``path`` is either the old file or the
-    complete new one. Missing parent folders are created. Returns ``path``.
+    complete new one. Missing parent folders are created. Returns ``path``. A failure to write
+    (a full disk, say) raises :class:`~brdfkit.errors.OutputError` naming ``path``.
 
     References
     ----------
@@ -556,10 +659,27 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
         write_fn(tmp)
         os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
+    except OSError as error:
+        tmp.unlink(missing_ok=True)
+        if isinstance(error, BrdfkitError) or not _about_the_output(error, tmp):
+            raise  # it names its own file (an input the work read, say)
+        reason = error.strerror or str(error)
+        raise OutputError(f"{path} could not be written: {reason}") from error
     except BaseException:
         tmp.unlink(missing_ok=True)  # only our temporary: after the rename the name is not ours
         raise
     return path
+
+
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EROFS})
+"""The errors of a write that fails for its place: full disk or quota, file too large, a
+failing or read-only device."""
+
+
+def _about_the_output(error: OSError, tmp: Path) -> bool:
+    """Whether ``error`` is the output's: a failed write of it, or an error naming its
+    temporary (and so naming a path the user never gave)."""
+    return error.errno in _WRITE_ERRNOS or error.filename == str(tmp)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:

@@ -249,7 +249,8 @@ def param(value: Any, like: Array) -> Array:
     if type(value) is float and type(like) is np.ndarray and like.dtype.kind == "f":
         return np.array([value], dtype=like.dtype)  # the common case, before the general rules
     xp = namespace(like, value)
-    floating = hasattr(like, "dtype") and xp.isdtype(like.dtype, "real floating")
+    native = hasattr(like, "dtype") and namespace(like) is xp  # not NumPy beside a tensor
+    floating = native and xp.isdtype(like.dtype, "real floating")
     arr = asarray(value, xp, like=like, dtype=like.dtype if floating else None)
     return xp.reshape(arr, (1,)) if arr.ndim == 0 else arr
 

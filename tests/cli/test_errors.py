@@ -166,3 +166,17 @@ def test_no_runtime_warning_reaches_the_terminal(tmp_path):
                      tmp_path / "r.png", "-l", "directional:0,0,1")  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "Warning" not in result.output
+
+
+def test_a_result_holding_nan_is_refused_in_one_line(monkeypatch):
+    """``fit --json`` of a degenerate input failed with "Out of range float values are not JSON
+    compliant: inf" and wrote that as the whole story."""
+    import json
+
+    import brdfkit.checks.properties
+
+    def degenerate(*args, **kwargs):
+        return json.dumps({"rmse": float("inf")}, allow_nan=False)
+
+    monkeypatch.setattr(brdfkit.checks.properties, "check", degenerate)
+    _one_error_line(_invoke("check", "lambertian"), "the result holds", "nothing was written")

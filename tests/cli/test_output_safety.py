@@ -280,3 +280,46 @@ def test_a_file_that_appears_during_the_work_is_not_replaced(tmp_path):
     with pytest.raises(OutputError, match="did not write"):
         folder.write("result.txt", lambda path: path.write_text("ours"))
     assert (tmp_path / "out" / "result.txt").read_text() == "written by someone else meanwhile"
+
+
+@pytest.mark.parametrize(
+    "foreign", ["my notes, not JSON", '{"files": {"a.txt": "x"}}', "[1, 2]", '{"written_by": 3}']
+)
+def test_a_manifest_brdfkit_did_not_write_is_kept(tmp_path, foreign):
+    """A user's own .brdfkit-outputs.json (not JSON) was overwritten with brdfkit's manifest."""
+    from brdfkit.cli._output import OutputFolder
+    from brdfkit.errors import OutputError
+
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / MANIFEST).write_text(foreign)
+    with pytest.raises(OutputError, match=f"holds {MANIFEST}, which brdfkit did not write"):
+        OutputFolder(tmp_path / "out", ("result.txt",))
+    assert (tmp_path / "out" / MANIFEST).read_text() == foreign
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [MANIFEST]
+
+
+def test_a_manifest_that_appears_during_the_work_is_kept(tmp_path):
+    from brdfkit.cli._output import OutputFolder
+    from brdfkit.errors import OutputError
+
+    folder = OutputFolder(tmp_path / "out", ("a.txt", "b.txt"))
+    folder.write("a.txt", lambda path: path.write_text("ours"))
+    (tmp_path / "out" / MANIFEST).write_text("someone else's")
+    with pytest.raises(OutputError, match="did not write"):
+        folder.write("b.txt", lambda path: path.write_text("ours too"))
+    assert (tmp_path / "out" / MANIFEST).read_text() == "someone else's"
+
+
+def test_a_full_disk_error_names_the_output(tmp_path):
+    """A full disk gave "[Errno 28] No space left on device" without the output's name."""
+    import errno
+
+    from brdfkit.errors import OutputError
+    from brdfkit.io import atomic_write
+
+    def full(path):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with pytest.raises(OutputError, match=r"result\.exr.*No space left on device"):
+        atomic_write(tmp_path / "result.exr", full)
+    assert list(tmp_path.iterdir()) == []

@@ -1,9 +1,14 @@
-"""The explorer server's guard (token, Host, Origin) and its handling of bad messages."""
+"""The explorer server's guard (token, Host, Origin), its handling of bad messages, and its
+faults: every message answered, the connection kept, memory bounded, uploads named as the page
+knows them."""
 
 from __future__ import annotations
 
 import json
+import logging
+import threading
 import urllib.error
+import urllib.parse
 import urllib.request
 
 import pytest
@@ -12,9 +17,9 @@ pytest.importorskip("starlette")
 pytest.importorskip("uvicorn")
 websockets_sync = pytest.importorskip("websockets.sync.client")
 
-from brdfkit.explore.protocol import MAX_MESSAGE_BYTES, decode_frame  # noqa: E402
+from brdfkit.explore.protocol import MAX_MESSAGE_BYTES, decode_frame, parse_object  # noqa: E402
 from brdfkit.explore.server import ExplorerServer  # noqa: E402
-from brdfkit.explore.session import Session  # noqa: E402
+from brdfkit.explore.session import MAX_ENTRY_VALUES, Session, entry_values  # noqa: E402
 
 RENDER = {
     "type": "render",
@@ -220,3 +225,161 @@ def test_an_upload_over_64_mib_is_refused_with_its_size(server):
     message = json.loads(sent[1]["body"])["error"]
     assert f"holds more than {MAX_UPLOAD_BYTES} bytes; an upload holds at most 64 MiB" in message
     assert session.files == []
+
+
+# -- faults ----------------------------------------------------------------------------------------
+
+HUGE = "1" + "0" * 400  # a 400-digit integer: valid JSON, beyond every float
+
+
+def _render(seq: int, entries: list, resolution: int = 64) -> dict:
+    return {
+        "type": "render",
+        "seq": seq,
+        "state": {"entries": entries, "view": {"theta_i": 30, "resolution": resolution}},
+    }
+
+
+GGX = [{"id": "a", "source": {"spec": "ggx(alpha=0.3)"}}]
+
+
+def _connect(server):
+    return websockets_sync.connect(
+        f"ws://127.0.0.1:{server.port}/{server.token}/ws",
+        origin=f"http://127.0.0.1:{server.port}",
+        max_size=2**26,
+        open_timeout=30,
+    )
+
+
+def _answer(ws, seq: int) -> dict:
+    """The reply to message ``seq`` (a frame, checks or error), skipping albedo and env."""
+    while True:
+        header = decode_frame(ws.recv(timeout=30))[0]
+        if header["type"] in ("frame", "checks", "error") and header["seq"] in (seq, 0):
+            return header
+
+
+@pytest.mark.parametrize(
+    "message",
+    [
+        # in a model tree: OverflowError in model_tree._literal killed the render worker
+        '{"type": "render", "seq": 5, "state": {"entries": [{"id": "a", "source": {"tree": '
+        '{"model": "ggx", "params": {"alpha": ' + HUGE + "}}}}]}}",
+        # in the view: the connection dropped without a close code
+        '{"type": "render", "seq": 5, "state": {"view": {"theta_i": ' + HUGE + "}}}",
+        '{"type": "render", "seq": 5, "state": {"view": {"theta_i": 1e400}}}',
+        '{"type": "render", "seq": 5, "state": {"view": {"theta_i": NaN}}}',
+    ],
+)
+def test_a_number_no_float_holds_is_an_error_and_the_next_render_is_answered(server, message):
+    with _connect(server) as ws:
+        ws.send(message)
+        reply = _answer(ws, 5)
+        assert reply["type"] == "error"
+        assert "finite" in reply["message"] or "2**53" in reply["message"]
+        ws.send(json.dumps(_render(6, GGX)))
+        assert _answer(ws, 6)["type"] == "frame"
+
+
+def test_a_failing_worker_answers_logs_and_serves_on(server, monkeypatch, caplog):
+    """A MemoryError in the render worker killed it with no reply and no log line."""
+    calls = []
+
+    def exhausted(message, stale):
+        calls.append(message.seq)
+        if len(calls) == 1:
+            raise MemoryError
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(server.session, "render", exhausted)
+    with caplog.at_level(logging.ERROR, logger="brdfkit.explore.session"), _connect(server) as ws:
+        ws.send(json.dumps(_render(1, GGX)))
+        assert "not enough memory" in _answer(ws, 1)["message"]
+        ws.send(json.dumps(_render(2, GGX)))
+        assert "internal error (RuntimeError)" in _answer(ws, 2)["message"]
+        monkeypatch.undo()
+        ws.send(json.dumps(_render(3, GGX)))
+        assert _answer(ws, 3)["type"] == "frame"
+    logged = [r.getMessage() for r in caplog.records]
+    assert "explorer message 1: out of memory" in logged
+    assert "explorer message 2 failed" in logged
+
+
+def test_entries_beyond_the_memory_budget_are_refused_and_the_rest_rendered(server):
+    """Eight entries of 2000 channels at 512 px took the server past 16 GB."""
+    wide = "ggx(alpha=[" + ", ".join(["0.1"] * 2000) + "])"
+    entries = [{"id": f"w{k}", "source": {"spec": wide}} for k in range(3)]
+    with _connect(server) as ws:
+        ws.send(json.dumps(_render(9, [*entries, GGX[0]], resolution=512)))
+        header = _answer(ws, 9)
+    errors = {e["id"]: e.get("error", "") for e in header["entries"]}
+    assert all("2000 channels at 512 px" in errors[f"w{k}"] for k in range(3))
+    assert set(header["views"]) == {"a"}  # the affordable entry is drawn
+
+
+def test_the_budget_takes_eight_rgb_entries_at_512_px():
+    assert 8 * entry_values(3, 512) <= 8 * MAX_ENTRY_VALUES
+    assert entry_values(3, 512) <= MAX_ENTRY_VALUES < entry_values(2000, 64)
+
+
+def test_the_session_keeps_a_bounded_number_of_view_bytes(monkeypatch):
+    import brdfkit.explore.session as session_module
+
+    monkeypatch.setattr(session_module, "MAX_CACHED_BYTES", 10 * 64 * 64 * 4)
+    session = Session()
+    for k in range(6):
+        spec = f"lambertian(albedo={0.1 + 0.1 * k})"
+        message = parse_object(_render(k, [{"id": "a", "source": {"spec": spec}}]))
+        assert session.render(message) is not None
+    assert session._cached_bytes <= 10 * 64 * 64 * 4
+    assert session._cached_bytes == sum(a.nbytes for v in session._views.values() for a in v)
+
+
+def _upload(server, name: str, data: bytes) -> tuple[int, dict]:
+    request = urllib.request.Request(
+        server.url + "upload?" + urllib.parse.urlencode({"name": name}),
+        headers={"Origin": f"http://127.0.0.1:{server.port}"},
+        data=data,
+    )
+    try:
+        with urllib.request.urlopen(request, timeout=60) as response:
+            return response.status, json.loads(response.read())
+    except urllib.error.HTTPError as error:
+        return error.code, json.loads(error.read())
+
+
+def test_a_long_upload_name_keeps_its_suffix_and_errors_show_no_server_path(server):
+    """A name over ~60 characters was cut through its suffix ("….binar: must end in …") and
+    the message showed the server's temporary path."""
+    name = "a-rather-long-name-of-a-measured-material-from-a-lab-" * 2 + ".binary"
+    code, reply = _upload(server, name, b"not a MERL table")
+    assert code == 400
+    assert "must end in" not in reply["error"]  # the suffix was kept: read, and refused as such
+    assert ".binary" in reply["error"] and "brdfkit-explore-" not in reply["error"]
+    assert "/tmp" not in reply["error"] and "dimensions" in reply["error"]
+
+
+def test_two_uploads_of_one_name_at_once_get_distinct_files(monkeypatch):
+    import brdfkit.measured
+    from brdfkit.brdf import Lambertian
+
+    monkeypatch.setattr(brdfkit.measured, "read", lambda path: Lambertian())  # any table
+    session = Session()
+    data = b"a measured table"
+    names: list[str] = []
+    threads = [
+        threading.Thread(target=lambda: names.append(session.add_upload("x.binary", data)))
+        for _ in range(2)
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    try:
+        assert sorted(names) == ["x-2.binary", "x.binary"]
+        paths = [session._paths[n] for n in names]
+        assert paths[0] != paths[1] and all(p.read_bytes() == data for p in paths)
+        assert paths[0].parent == paths[1].parent
+    finally:
+        session.close()

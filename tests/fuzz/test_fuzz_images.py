@@ -82,3 +82,51 @@ def test_image_readers_take_any_bytes(suffix):
 @given(data=st.binary(max_size=256), suffix=st.sampled_from(sorted(SEEDS)))
 def test_image_readers_take_random_bytes(data, suffix):
     _read(data, suffix)
+
+
+def _declaring(data: bytes, suffix: str, width: int, height: int) -> bytes:
+    """A seed with the size its header declares rewritten to ``width`` × ``height``."""
+    import struct
+    import zlib
+
+    if suffix == ".png":
+        ihdr = data[12:16] + struct.pack(">II", width, height) + data[24:29]
+        crc = struct.pack(">I", zlib.crc32(ihdr) & 0xFFFFFFFF)
+        return data[:12] + ihdr + crc + data[33:]
+    if suffix == ".hdr":
+        head, _, rest = data.partition(b"\n\n")
+        return (
+            head + b"\n\n" + f"-Y {height} +X {width}".encode() + b"\n" + rest.partition(b"\n")[2]
+        )
+    key = b"dataWindow\0box2i\0"
+    at = data.index(key) + len(key) + 4
+    return data[:at] + struct.pack("<4i", 0, 0, width - 1, height - 1) + data[at + 16 :]
+
+
+_SIDES = st.one_of(st.integers(1, 64), st.integers(12_000, 2**31 - 1))
+"""Sides small enough to decode at once, or large enough that no image of them is read."""
+
+
+@pytest.mark.parametrize("suffix", [".png", ".hdr", ".exr"])
+def test_image_headers_declaring_any_size(suffix):
+    """A header declaring a huge image is refused before decoding (ImageTooLargeError); one
+    declaring a small image reads or raises a documented error."""
+    from brdfkit.io import MAX_IMAGE_PIXELS, ImageReadError, ImageTooLargeError
+
+    # OpenEXR refuses some such headers itself (an offset table it cannot hold), unread
+    refused = ImageReadError if suffix == ".exr" else ImageTooLargeError
+
+    @fuzz_settings(ci_cases=40)
+    @given(seed=st.sampled_from(SEEDS[suffix][:2]), width=_SIDES, height=_SIDES)
+    def check(seed: bytes, width: int, height: int) -> None:
+        data = _declaring(seed, suffix, width, height)
+        if width * height <= MAX_IMAGE_PIXELS:
+            _read(data, suffix)
+            return
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / f"declared{suffix}"
+            path.write_bytes(data)
+            with pytest.raises(refused, match="declared"):
+                read_image(path)
+
+    check()

@@ -139,6 +139,32 @@ def test_non_finite_values_raise_with_their_offset(merl_file, tmp_path, bad_valu
     assert "bad.binary" in str(info.value) and f"byte {12 + 8 * index}" in str(info.value)
 
 
+@pytest.mark.parametrize("bad_value", [1e308, -1e16])
+def test_values_that_would_overflow_a_fit_raise_naming_file_and_entry(
+    merl_file, tmp_path, bad_value
+):
+    """A 1e308 entry was read, and ``fit`` printed ``rmse inf``, ``relative_l2 nan``."""
+    data = bytearray(merl_file.read_bytes())
+    index = 2 * 90 * 90 * 180 + (3 * 90 + 4) * 180 + 5  # blue, θh bin 3, θd bin 4, φd bin 5
+    data[12 + 8 * index : 12 + 8 * index + 8] = np.float64(bad_value).tobytes()
+    bad = tmp_path / "huge.binary"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(FormatError, match=r"huge\.binary.*exceeds.*entry B\[3, 4, 5\]"):
+        read_merl(bad)
+
+
+def test_write_refuses_what_read_would_refuse(tmp_path):
+    from brdfkit.errors import ParameterError
+    from brdfkit.measured import MERL_SCALE, TabulatedBRDF
+
+    values = np.zeros((90, 90, 180, 3))
+    values[0, 0, 0, 0] = np.nan
+    nan_table = TabulatedBRDF(values, scale=MERL_SCALE, name="nan")
+    with pytest.raises(ParameterError, match="not finite"):
+        write_merl(tmp_path / "nan.binary", nan_table)
+    assert not (tmp_path / "nan.binary").exists()
+
+
 @pytest.mark.parametrize(
     "dims", [(2**31 - 1, 2**31 - 1, 2**31 - 1), (-90, 90, 180), (90, 180, 90), (0, 0, 0)]
 )

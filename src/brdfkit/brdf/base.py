@@ -18,13 +18,23 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, constant, namespace, to_numpy
+from brdfkit._array import (
+    Array,
+    asarray,
+    check_directions,
+    constant,
+    in_backend_of,
+    namespace,
+    to_numpy,
+)
+from brdfkit._checks import check_count, check_memory
 from brdfkit.errors import ParameterError
 from brdfkit.params import (
     UNPHYSICAL_MAX,
@@ -54,6 +64,10 @@ def register(name: str) -> Callable[[type[BRDF]], type[BRDF]]:
 
     return decorate
 
+
+MAX_ALBEDO_SAMPLES = 1 << 24
+"""Most Monte Carlo samples per direction :meth:`BRDF.albedo_estimate` takes (its standard
+error is then below 3·10⁻⁴ of a unit albedo's spread)."""
 
 HEMISPHERES = ("upper", "both")
 """What :meth:`BRDF.albedo_estimate` integrates over: reflection only, or reflection and
@@ -306,10 +320,20 @@ class BRDF:
             if getattr(self, name) is not None
         }
 
+    def _directions(self, **named: Array) -> tuple[Array, ...]:
+        """The arguments ``named`` (directions, and ``u``) checked (last axis 3 for the
+        directions) and put in the backend of the model's parameters and theirs
+        (:func:`~brdfkit._array.in_backend_of`: NumPy directions for torch parameters compute
+        in torch)."""
+        check_directions(**{k: v for k, v in named.items() if k != "u"})
+        values = [v for v in self.params().values() if hasattr(v, "shape")]  # arrays only
+        return in_backend_of(values, *named.values())
+
     # -- the four methods -------------------------------------------------------------------
     def eval(self, wi: Array, wo: Array) -> Array:
         """f_r(wi, wo), no cosine; shape ``(..., C)``: :meth:`_eval` on the model's side(s)
         of the surface, 0 elsewhere."""
+        wi, wo = self._directions(wi=wi, wo=wo)
         value = broadcast_to_shape(self._eval(wi, wo), (*result_shape(wi, wo), self.channels))
         if self.transmits:
             return value
@@ -318,6 +342,7 @@ class BRDF:
     def pdf(self, wi: Array, wo: Array) -> Array:
         """Solid-angle pdf of :meth:`sample` choosing ``wi`` given ``wo``; shape ``(...,)``:
         :meth:`_pdf` on the model's side(s) of the surface, 0 elsewhere."""
+        wi, wo = self._directions(wi=wi, wo=wo)
         value = self._pdf(wi, wo)
         if not self.transmits:
             value = zero_unless(upper_hemisphere(wi, wo)[..., 0], value)
@@ -328,6 +353,7 @@ class BRDF:
         (``(..., 3)`` for the models that choose between reflection and refraction):
         :meth:`_sample`, with weight and pdf 0 where it failed (pdf 0 and no delta) or, for a
         one-sided model, where ``wo`` is not above the surface."""
+        wo, u = self._directions(wo=wo, u=u)
         s = self._sample(wo, u)
         xp = namespace(wo, s.weight, s.pdf)
         batch = np.broadcast_shapes(wo.shape[:-1], u.shape[:-1], s.wi.shape[:-1])
@@ -361,8 +387,11 @@ class BRDF:
         r"""The albedo ``(mean, standard_error)``, both ``(..., C)``.
 
         Where the model has a closed form (:meth:`_albedo`), that with zero error (``samples``
-        and ``seed`` unused). Otherwise the mean of the sample weights
-        :math:`f|\cos\theta_i|/p` over ``samples`` scrambled-Sobol points per direction.
+        and ``seed`` unused; ``samples`` is checked all the same: an integer from 1 to
+        :data:`MAX_ALBEDO_SAMPLES`, else :class:`~brdfkit.errors.ParameterError`, or
+        :class:`~brdfkit.errors.ResourceError` above it or beyond the memory available).
+        Otherwise the mean of the sample weights :math:`f|\cos\theta_i|/p` over ``samples``
+        scrambled-Sobol points per direction.
         ``hemisphere="upper"`` counts the reflected samples only (``wi.z > 0``):
         :math:`\int_{H^2_+} f\cos\theta_i\,d\omega_i`; ``"both"`` counts every sample, adding a
         BSDF's transmittance: :math:`\int_{S^2} f|\cos\theta_i|\,d\omega_i`.
@@ -373,6 +402,8 @@ class BRDF:
            (hemispherical-directional reflectance) and §2.1.3 (Monte Carlo estimator).
         """
         check_hemisphere(hemisphere)
+        (wo,) = self._directions(wo=wo)
+        samples = check_count("samples", samples, MAX_ALBEDO_SAMPLES)
         exact = self._albedo(wo, hemisphere)
         if exact is not None:
             if not self.transmits:
@@ -389,6 +420,8 @@ class BRDF:
 
         xp = namespace(wo)
         wo = asarray(wo, xp)
+        values = math.prod(wo.shape[:-1]) * samples * (self.channels + 6)
+        check_memory(f"the albedo of {math.prod(wo.shape[:-1])} directions", 8 * 4 * values)
         u_np = qmc.Sobol(d=3, scramble=True, seed=seed).random(samples)
         u = asarray(u_np, xp, like=wo)
         batch = wo.shape[:-1]
@@ -743,6 +776,7 @@ __all__ = [
     "BRDF",
     "EXPONENT",
     "HEMISPHERES",
+    "MAX_ALBEDO_SAMPLES",
     "MODELS",
     "ROUGHNESS",
     "SCALE",

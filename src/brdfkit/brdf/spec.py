@@ -51,6 +51,7 @@ import dataclasses
 import difflib
 import functools
 import math
+import threading
 from typing import Any
 
 import numpy as np
@@ -67,6 +68,12 @@ MAX_CHAIN = 2000
 """The most operands one sum or product of a spec may chain (``a + b + …``)."""
 
 _QUOTED = 80  # characters of a spec quoted in an error message
+
+
+_PARSING = threading.Lock()
+"""One :func:`ast.parse` at a time: CPython 3.11's is not thread-safe (two threads parsing at
+once can raise ``SystemError: AST constructor recursion depth mismatch``), and the explorer's
+workers parse specs side by side."""
 
 
 def parse(spec: str) -> BRDF:
@@ -105,7 +112,8 @@ def parse(spec: str) -> BRDF:
         )
     text = spec.strip()
     try:
-        tree = ast.parse(text, mode="eval")
+        with _PARSING:
+            tree = ast.parse(text, mode="eval")
     except SyntaxError as error:
         raise SpecError(
             f"spec {_quote(spec)} is not a valid model expression: {error.msg}"

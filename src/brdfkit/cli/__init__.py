@@ -7,11 +7,26 @@ inside their command functions, so that ``brdfkit --help`` stays fast.
 
 from __future__ import annotations
 
-import importlib
-import inspect
-import pkgutil
+import os
+import signal
+import sys
 
-from brdfkit.cli._app import app, unwind_on_termination
+
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C or SIGTERM before the command has started: nothing to clean up yet."""
+    os.write(2, b"error: interrupted\n")
+    os._exit(130)
+
+
+if os.path.basename(sys.argv[0]) == "brdfkit":  # the console script, not a library import
+    for _signal in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_signal, _interrupted_while_starting)
+
+import importlib  # noqa: E402  (after the handler: these imports take a second or two)
+import inspect  # noqa: E402
+import pkgutil  # noqa: E402
+
+from brdfkit.cli._app import app, stop_on_interrupt  # noqa: E402
 
 
 def _reflowed(doc: str) -> str:
@@ -30,7 +45,7 @@ for _command in app.registered_commands:
 
 def main() -> None:
     """Entry point of the ``brdfkit`` console script."""
-    unwind_on_termination()
+    stop_on_interrupt()
     app()
 
 

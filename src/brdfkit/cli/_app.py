@@ -5,13 +5,22 @@ any :class:`~brdfkit.errors.BrdfkitError`, ``ValueError`` or ``OSError`` raised 
 input); 3 an internal error (a bug: please report it); 130 interrupted. Every error is one line
 on standard error; user text is never read as Rich markup; set ``BRDFKIT_TRACEBACK=1`` to see the
 traceback of an internal error.
+
+The first Ctrl-C (SIGINT) or SIGTERM ends the command at once (:func:`stop_on_interrupt`): every
+process it started is stopped, queued work is dropped, the program unwinds (so that temporary
+files are removed), prints one ``interrupted`` line and exits with status 130; a second signal
+changes nothing, and if the unwinding takes longer than :data:`UNWIND_DEADLINE_S` the process
+ends itself.
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import multiprocessing.resource_tracker
 import os
 import signal
 import sys
+import threading
 import warnings
 from typing import Any, NoReturn
 
@@ -28,6 +37,10 @@ CHECK_FAILED = 1
 """Exit status of a check that contradicts a claim."""
 INTERNAL_ERROR = 3
 """Exit status of an unexpected failure: a bug in brdfkit."""
+INTERRUPTED = 130
+"""Exit status of a command ended by Ctrl-C or SIGTERM (128 + SIGINT, as shells report it)."""
+UNWIND_DEADLINE_S = 2.0
+"""Seconds an interrupted command may take to unwind before the process ends itself."""
 
 console = Console(markup=False, highlight=False)
 """Results (tables, "wrote …" lines) on standard output; text is never read as markup."""
@@ -50,6 +63,9 @@ def shown(text: Any) -> str:
 
 
 def _error_line(message: str, label: str = "error") -> None:
+    if _interrupting:  # the failure is the interrupt's doing (a pool whose workers were stopped)
+        _report_interrupted()
+        return
     line = " ".join(shown(message).split())  # one line, whatever the message held
     status.print(Text(f"{label}: ", style="bold red") + Text(line), soft_wrap=True)
 
@@ -70,20 +86,58 @@ class _Group(TyperGroup):
                 # here: results are checked for NaN and errors are reported as such.
                 warnings.simplefilter("ignore")
             code = _run(lambda: super(_Group, self).main(*args, standalone_mode=False, **kwargs))
+        if standalone_mode and _interrupting:
+            _exit_unwound()
         if standalone_mode:
             sys.exit(code)
         return code
 
 
+def _exit_unwound() -> NoReturn:
+    """End an interrupted command that has unwound (its ``finally`` blocks ran, its temporaries
+    are gone) without the interpreter's exit handlers, which would wait for the threads of the
+    abandoned work (a pool's manager, an import under way)."""
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    os._exit(INTERRUPTED)
+
+
 def _run(call: Any) -> int:
     """Run the command line; return its exit status, having printed any error as one line."""
+    code = _outcome(call)
+    if _interrupting:  # whatever became of the Interrupted raised (a library may swallow it)
+        _report_interrupted()
+        return INTERRUPTED
+    return code
+
+
+_NOT_JSON = "Out of range float values are not JSON compliant"
+
+
+def _reason(error: Exception) -> str:
+    """The error line's text: the error's message, or what a result that holds NaN or
+    infinity means (``json.dumps(..., allow_nan=False)`` refusing it names nothing)."""
+    text = str(error) or type(error).__name__
+    if text.startswith(_NOT_JSON):
+        value = text.removeprefix(_NOT_JSON).strip(": ") or "NaN or infinity"
+        return (
+            f"the result holds {value}, which no output may: an input holds values the "
+            "computation cannot use (NaN, infinity, or too large); nothing was written"
+        )
+    return text
+
+
+def _outcome(call: Any) -> int:
     from brdfkit.errors import BrdfkitError
 
     try:
         code = call()
-    except typer.Abort:
-        _error_line("aborted")
-        return 130
+    except Interrupted:
+        return INTERRUPTED  # reported by _run
+    except typer.Abort as error:  # click's own answer to KeyboardInterrupt and EOF
+        by_ctrl_c = isinstance(error.__context__, KeyboardInterrupt)
+        _error_line("interrupted" if by_ctrl_c else "aborted")
+        return INTERRUPTED
     except typer.TyperException as error:  # click's usage errors (typer vendors click)
         hint = ""
         context = getattr(error, "ctx", None)
@@ -94,14 +148,14 @@ def _run(call: Any) -> int:
         return getattr(error, "exit_code", BAD_INPUT)
     except KeyboardInterrupt:
         _error_line("interrupted")
-        return 130
+        return INTERRUPTED
     except MemoryError:
         _error_line("out of memory: use a smaller size option (-r, --samples, --height, …)")
         return BAD_INPUT
     except (BrdfkitError, ValueError, OSError) as error:
         if os.environ.get("BRDFKIT_TRACEBACK"):
             raise
-        _error_line(str(error) or type(error).__name__)
+        _error_line(_reason(error))
         return BAD_INPUT
     except Exception as error:
         if os.environ.get("BRDFKIT_TRACEBACK"):
@@ -165,7 +219,84 @@ def model_label(model: Any, source: str | os.PathLike) -> str:
     return str(model.to_spec())
 
 
-def unwind_on_termination() -> None:
-    """Make SIGTERM unwind the program like an interrupt (``finally`` blocks run, so temporary
-    files are removed on the way out) instead of killing it where it stands."""
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+class Interrupted(BaseException):
+    """Raised in the main thread by the first Ctrl-C or SIGTERM once :func:`stop_on_interrupt`
+    is in force. A ``BaseException`` (as ``KeyboardInterrupt``) that click does not catch, so
+    ``finally`` blocks run on the way out and no ``except Exception`` stops it."""
+
+
+_command_pid: int | None = None
+_interrupting = False
+_interrupt_reported = threading.Lock()
+
+
+def stop_on_interrupt() -> None:
+    """Make the first SIGINT or SIGTERM end the command at once (see the module's docstring).
+
+    The handler, in the command's own process: stops every process it started
+    (:func:`stop_workers`), sets an alarm that ends the process after :data:`UNWIND_DEADLINE_S`
+    whatever the unwinding waits for (a signal, not a thread: a forking command must stay
+    single-threaded), and raises :class:`Interrupted`. A later signal is ignored. A worker
+    forked by the command inherits the handler and exits at once, silently: the command's
+    process owns the work and its temporaries.
+    """
+    global _command_pid
+    _command_pid = os.getpid()
+    signal.signal(signal.SIGINT, _on_interrupt)
+    signal.signal(signal.SIGTERM, _on_interrupt)
+    default_hook = sys.unraisablehook
+
+    def quiet(unraisable: Any) -> None:  # raised where Python can only report it (a callback)
+        if not isinstance(unraisable.exc_value, Interrupted):
+            default_hook(unraisable)
+
+    sys.unraisablehook = quiet
+
+
+def _on_interrupt(signum: int, frame: Any) -> None:
+    global _interrupting
+    if os.getpid() != _command_pid:
+        os._exit(INTERRUPTED)  # a forked worker: nothing of its own to clean up
+    if _interrupting:
+        return
+    _interrupting = True
+    signal.signal(signal.SIGALRM, _end_now)
+    signal.setitimer(signal.ITIMER_REAL, UNWIND_DEADLINE_S)
+    stop_workers()
+    raise Interrupted
+
+
+def _report_interrupted() -> None:
+    """Print the ``interrupted`` line, once, whichever of the unwinding and the alarm is first."""
+    if _interrupt_reported.acquire(blocking=False):
+        os.write(sys.stderr.fileno(), b"error: interrupted\n")
+
+
+def _end_now(signum: int, frame: Any) -> None:
+    stop_workers()
+    _report_interrupted()
+    os._exit(INTERRUPTED)
+
+
+def stop_workers() -> None:
+    """Kill every process this one started, and theirs (a pool's workers, a local Dask
+    cluster's nannies and workers): the work they hold is abandoned with the command.
+
+    The descendants are listed by psutil where it is installed (it comes with the ``dask``
+    extra), else the children :mod:`multiprocessing` started; SIGKILL, because a worker busy
+    in compiled code would not run a Python handler for SIGTERM before it returned.
+    """
+    try:
+        import psutil
+    except ImportError:
+        pids = [child.pid for child in multiprocessing.active_children()]
+    else:
+        pids = [child.pid for child in psutil.Process().children(recursive=True)]
+    # multiprocessing's resource tracker is no worker: killed, it would be started again on the
+    # way out, and print a traceback for every semaphore then released
+    tracker = getattr(multiprocessing.resource_tracker._resource_tracker, "_pid", None)
+    for pid in set(pids) - {tracker}:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:  # it ended meanwhile
+            pass

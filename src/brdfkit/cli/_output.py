@@ -8,7 +8,8 @@ A command names its outputs and its inputs *before* it starts working, and these
 - the place can be written (a probe file is created and removed in the nearest existing folder);
 - in an output folder, an existing file of the same name as one the command writes is replaced
   only if this command wrote it before (the folder's :data:`MANIFEST` records each file it wrote
-  with its SHA-256); anything else in the folder is never touched.
+  with its SHA-256); anything else in the folder is never touched, and a file of the
+  manifest's name that brdfkit did not write makes the folder an error, so that it is kept.
 
 Each file is then written atomically (:func:`brdfkit.io.atomic_write`: a temporary beside it,
 renamed when complete, with the umask's mode). A file named directly with ``-o`` is what the
@@ -157,11 +158,39 @@ class OutputFolder:
             )
 
     def _manifest(self) -> dict[str, str]:
+        """The files brdfkit wrote here, from the folder's :data:`MANIFEST` (none if absent).
+
+        Raises
+        ------
+        OutputError
+            The folder holds a file of that name that brdfkit did not write (not a manifest of
+            brdfkit's form): it is never replaced.
+        """
+        path = self.path / MANIFEST
+        if not path.exists():
+            return {}
         try:
-            record = json.loads((self.path / MANIFEST).read_text(encoding="utf-8"))
+            record = json.loads(path.read_text(encoding="utf-8"))
+            if record.get("written_by") != "brdfkit":
+                raise ValueError("not brdfkit's")
             return {str(k): str(v) for k, v in record["files"].items()}
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
-            return {}
+            raise OutputError(
+                f"{self.option} {shown(self.path)} already holds {MANIFEST}, which brdfkit did "
+                "not write (brdfkit records its outputs in a file of that name); choose a new "
+                "or empty folder so that it is kept"
+            ) from None
+
+    def _record(self, name: str, target: Path) -> None:
+        """Add ``name`` to the folder's :data:`MANIFEST`, having checked that the manifest is
+        still brdfkit's (a file put there meanwhile is kept)."""
+        from brdfkit.io import atomic_write
+
+        self._written = {**self._manifest(), **self._written, name: _digest(target)}
+        record = {"written_by": "brdfkit", "files": dict(sorted(self._written.items()))}
+        atomic_write(
+            self.path / MANIFEST, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
+        )
 
     def write(self, name: str, write_fn: Callable[[Path], object]) -> Path:
         """Write the file ``name`` atomically with ``write_fn(path)`` and record it."""
@@ -173,11 +202,7 @@ class OutputFolder:
         target = self.path / name
         # Each encoder writes to the path it is given: the temporary, renamed when complete.
         atomic_write(target, write_fn)
-        self._written[name] = _digest(target)
-        record = {"written_by": "brdfkit", "files": dict(sorted(self._written.items()))}
-        atomic_write(
-            self.path / MANIFEST, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
-        )
+        self._record(name, target)
         return target
 
     def write_folder(self, name: str, write_fn: Callable[[Path], object]) -> Path:
@@ -200,13 +225,7 @@ class OutputFolder:
             os.replace(tmp / "new", target)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)  # our temporary, and the version we replaced
-        self._written[name] = _digest(target)
-        record = {"written_by": "brdfkit", "files": dict(sorted(self._written.items()))}
-        from brdfkit.io import atomic_write
-
-        atomic_write(
-            self.path / MANIFEST, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n")
-        )
+        self._record(name, target)
         return target
 
 

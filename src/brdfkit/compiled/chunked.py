@@ -97,8 +97,11 @@ def eval_chunked(
         for start in starts:
             run(start)
     else:
-        with ThreadPoolExecutor(workers) as pool:
+        pool = ThreadPoolExecutor(workers)
+        try:
             list(pool.map(run, starts))
+        finally:  # on an error or an interrupt, the chunks not started are dropped
+            pool.shutdown(wait=True, cancel_futures=True)
     return out
 
 

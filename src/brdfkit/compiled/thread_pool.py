@@ -61,9 +61,22 @@ def run_tasks(task: Callable[[int], None], items: Sequence[int], workers: int) -
             task(item)
 
     helpers = [pool.submit(work) for _ in range(min(workers, len(items)) - 1)]
-    work()  # the calling thread takes tasks too
-    for helper in helpers:
-        helper.result()
+    try:
+        work()  # the calling thread takes tasks too
+        for helper in helpers:
+            helper.result()
+    except BaseException:  # an error or an interrupt: the helpers take no further item
+        _drain(pending)
+        raise
+
+
+def _drain(pending: queue.SimpleQueue[int]) -> None:
+    """Empty ``pending``, so that each thread stops after the item in its hands."""
+    while True:
+        try:
+            pending.get_nowait()
+        except queue.Empty:
+            return
 
 
 def run_blocks(

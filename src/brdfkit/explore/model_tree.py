@@ -146,7 +146,7 @@ def _literal(value: Any) -> str:
         return str(value)
     if isinstance(value, str):
         return repr(value)
-    if isinstance(value, int | float) and math.isfinite(value):
+    if isinstance(value, int | float) and _finite_float(value) is not None:
         return repr(float(value))
     if (
         isinstance(value, list)
@@ -158,6 +158,16 @@ def _literal(value: Any) -> str:
         f"a parameter value must be a finite number, a list of them, a string, a bool "
         f"or null; got {type(value).__name__} {str(value)[:40]}"
     )
+
+
+def _finite_float(value: int | float) -> float | None:
+    """``float(value)`` when finite; ``None`` for NaN, infinity or an integer beyond the float
+    range (``float(10**400)`` overflows)."""
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
 
 
 def brdf_of(tree: Any) -> BRDF:

@@ -39,6 +39,10 @@ MAX_MESSAGE_BYTES = 1 << 20
 MAX_ENTRIES = 8
 """The most BRDFs shown at once."""
 
+MAX_INTEGER = 2**53
+"""The largest integer a message may hold: every integer up to it is exactly a float (a 400-digit
+integer, valid JSON, overflowed every float conversion after it)."""
+
 RESOLUTIONS = (64, 128, 256, 512)
 """Sphere resolutions the front end may ask for."""
 
@@ -81,8 +85,9 @@ def parse_message(data: str | bytes) -> Message:
     Raises
     ------
     ProtocolError
-        Naming the field and what it must be; for a message over :data:`MAX_MESSAGE_BYTES` or
-        that is not a JSON object.
+        Naming the field and what it must be; for a message over :data:`MAX_MESSAGE_BYTES`,
+        that is not a JSON object, or that holds a number no float can hold (an integer beyond
+        :data:`MAX_INTEGER`, ``1e400``, ``NaN``).
 
     Examples
     --------
@@ -94,14 +99,45 @@ def parse_message(data: str | bytes) -> Message:
     Traceback (most recent call last):
     ...
     brdfkit.explore.protocol.ProtocolError: seq must be a non-negative integer
+    >>> parse_message('{"type": "render", "seq": 1' + "0" * 400 + '}')  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.explore.protocol.ProtocolError: numbers in a message are at most 2**53 in ...
     """
     if len(data) > MAX_MESSAGE_BYTES:
         raise ProtocolError(f"message holds {len(data)} bytes; at most {MAX_MESSAGE_BYTES}")
     try:
-        raw = json.loads(data)
+        raw = json.loads(
+            data, parse_int=_integer, parse_float=_finite, parse_constant=_not_a_number
+        )
+    except ProtocolError:
+        raise
     except (ValueError, RecursionError) as error:
         raise ProtocolError(f"message is not JSON: {str(error)[:80]}") from None
     return parse_object(raw)
+
+
+def _integer(text: str) -> int:
+    """A JSON integer, refused beyond :data:`MAX_INTEGER` (its digits counted before any
+    conversion)."""
+    digits = text.lstrip("-")
+    if len(digits) > 16 or int(digits) > MAX_INTEGER:
+        raise ProtocolError(
+            f"numbers in a message are at most 2**53 in magnitude; got an integer of "
+            f"{len(digits)} digits ({text[:20]}…)"
+        )
+    return int(text)
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ProtocolError(f"numbers in a message must be finite floats; got {text[:40]}")
+    return value
+
+
+def _not_a_number(text: str) -> float:
+    raise ProtocolError(f"numbers in a message must be finite floats; got {text}")
 
 
 def parse_object(raw: Any) -> Message:
@@ -176,14 +212,9 @@ def _view(raw: Any) -> ViewState:
 
 
 def _number(name: str, value: Any, lo: float, hi: float) -> float:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | float)
-        or not math.isfinite(value)
-        or not lo <= value <= hi
-    ):
+    if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
         raise ProtocolError(f"{name} must be a number in [{lo}, {hi}]; got {str(value)[:40]}")
-    return float(value)
+    return float(value)  # within [lo, hi]: finite
 
 
 def array_table(arrays: list[np.ndarray]) -> tuple[list[dict[str, Any]], list[bytes]]:
@@ -238,6 +269,7 @@ def decode_frame(frame: bytes) -> tuple[dict[str, Any], list[np.ndarray]]:
 
 __all__ = [
     "MAX_ENTRIES",
+    "MAX_INTEGER",
     "MAX_MESSAGE_BYTES",
     "RESOLUTIONS",
     "Entry",

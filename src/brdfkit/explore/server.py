@@ -36,7 +36,7 @@ from brdfkit.explore.protocol import (
     encode_frame,
     parse_message,
 )
-from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply, fit_spec
+from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply, fit_spec, guarded
 
 if TYPE_CHECKING:
     from starlette.requests import Request
@@ -239,15 +239,14 @@ class _Channel:
                 self.wakes["env"].set()
 
     async def _run(self, kind: str, message: Message) -> Any:
-        """The reply to ``message`` of ``kind`` (``None`` when a newer one made it stale)."""
+        """The reply to ``message`` of ``kind`` (``None`` when a newer one made it stale); an
+        error reply for whatever the work raised (:func:`~brdfkit.explore.session.guarded`)."""
         run = {"render": self.session.render, "albedo": self.session.albedo}.get(kind)
-        try:
-            if run is None:
-                return await asyncio.to_thread(self.session.checks, message)
-            stale = lambda: self.pending[kind] is not None  # noqa: E731
-            return await asyncio.to_thread(run, message, stale)
-        except (BrdfkitError, ValueError) as error:
-            return error_reply(message.seq, error)
+        if run is None:
+            work = functools.partial(self.session.checks, message)
+        else:
+            work = functools.partial(run, message, lambda: self.pending[kind] is not None)
+        return await asyncio.to_thread(guarded, message.seq, work)
 
     async def _work(self, wake: asyncio.Event, kinds: tuple[str, ...]) -> None:
         """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo."""
@@ -278,10 +277,13 @@ class _Channel:
             cancel = self.cancel = threading.Event()
             passes = self.session.environment(message, cancel)
             while not cancel.is_set():
-                result = await asyncio.to_thread(next, passes, None)
+                step = functools.partial(next, passes, None)
+                result = await asyncio.to_thread(guarded, message.seq, step)
                 if result is None or cancel.is_set():
                     break
                 await self._reply([result])
+                if result[0]["type"] == "error":
+                    break  # the passes failed: answered, and this worker serves on
 
 
 async def _stopped(workers: list[asyncio.Task]) -> None:

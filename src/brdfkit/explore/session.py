@@ -8,6 +8,9 @@ Every reply is ``(header, arrays)``: :mod:`brdfkit.explore.protocol` frames it.
 
 from __future__ import annotations
 
+import itertools
+import logging
+import math
 import os
 import shutil
 import tempfile
@@ -23,7 +26,7 @@ import numpy as np
 
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.spec import parse
-from brdfkit.errors import BrdfkitError, FormatError
+from brdfkit.errors import BrdfkitError, FormatError, ResourceError
 from brdfkit.explore import views
 from brdfkit.explore.model_tree import brdf_of, controls_of, tree_of
 from brdfkit.explore.protocol import Entry, Message, ProtocolError, array_table
@@ -40,6 +43,17 @@ MAX_FILES = 32
 
 MAX_FIT_BYTES = 1 << 20
 """The largest ``fit.json`` (:command:`brdfkit fit`'s result) the explorer reads."""
+
+MAX_ENTRY_VALUES = 1 << 22
+"""The most values (channels × points) one entry's views may take: its sphere (resolution²
+points), θh×θd slice, lobe and curves (:func:`entry_values`), and its albedo curves. A render
+costs some 30–70 bytes per value at its peak, so an entry takes at most about 300 MB; RGB at
+512 px takes 0.9 M values, 2000 channels take 28 M already at 64 px (refused)."""
+
+MAX_CACHED_BYTES = 256 << 20
+"""The most bytes of views a session keeps to redraw without recomputing."""
+
+_log = logging.getLogger(__name__)
 
 Reply = tuple[dict[str, Any], list[np.ndarray]]
 """A reply to the page: its JSON header and the arrays sent after it as binary frames."""
@@ -87,6 +101,8 @@ class Session:
         self._views: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
         self._lock = threading.Lock()
         self._uploads: Path | None = None
+        self._upload_numbers = itertools.count()
+        self._cached_bytes = 0
         self.warmed = threading.Event()
         """Set once :meth:`warm_up` has run."""
 
@@ -107,11 +123,12 @@ class Session:
             raise ProtocolError(f"a session holds at most {MAX_FILES} files")
         brdf = load(path)
         base = name or path.name
-        key, n = base, 1
-        while key in self._paths:
-            n += 1
-            key = f"{Path(base).stem}-{n}{Path(base).suffix}"
-        self._paths[key], self._brdfs[key] = path, brdf
+        with self._lock:  # two uploads of one name at once get distinct keys
+            key, n = base, 1
+            while key in self._paths:
+                n += 1
+                key = f"{Path(base).stem}-{n}{Path(base).suffix}"
+            self._paths[key], self._brdfs[key] = path, brdf
         return key
 
     def add_upload(self, name: str, data: bytes) -> str:
@@ -125,16 +142,20 @@ class Session:
             raise ProtocolError(
                 f"uploaded file holds {len(data)} bytes; at most {MAX_UPLOAD_BYTES}"
             )
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(name).name)[:64]
+        safe = _safe_name(name)
         with self._lock:
             if self._uploads is None:
                 self._uploads = Path(tempfile.mkdtemp(prefix="brdfkit-explore-"))
-            path = self._uploads / f"{len(self._paths)}-{safe}"
-            path.write_bytes(data)
+            path = self._uploads / f"{next(self._upload_numbers)}-{safe}"
+        path.write_bytes(data)
         try:
             return self.add_file(path, name=safe)
-        except BrdfkitError:
+        except BrdfkitError as error:
             path.unlink()
+            if isinstance(error, FormatError):  # named as the page knows it, not our path
+                raise FormatError(
+                    safe, error.reason, field=error.field, offset=error.offset
+                ) from None
             raise
 
     def close(self) -> None:
@@ -202,6 +223,7 @@ class Session:
             if not entry.visible:
                 continue
             try:
+                affordable(brdf.channels, state.resolution)
                 key = info.get("spec") or f"file:{info['file']}"
                 sphere, theta_v, lobe = self._cached(
                     (key, state.theta_i, state.phi_i, state.resolution, state.irradiance),
@@ -219,8 +241,8 @@ class Session:
                     "slice": put(slice_),
                     "lobe": put(lobe),
                 }
-            except (BrdfkitError, ValueError, FloatingPointError) as error:
-                entries[-1]["error"] = f"cannot evaluate: {error}"
+            except (BrdfkitError, ValueError, FloatingPointError, MemoryError) as error:
+                entries[-1]["error"] = f"cannot evaluate: {error or 'out of memory'}"
         table, _ = array_table(arrays)
         light = state.light().direction
         header = {
@@ -248,8 +270,10 @@ class Session:
         result = compute()
         with self._lock:
             self._views[key] = result
-            while len(self._views) > 32:
-                self._views.popitem(last=False)
+            self._cached_bytes += sum(a.nbytes for a in result)
+            while len(self._views) > 32 or self._cached_bytes > MAX_CACHED_BYTES:
+                _, dropped = self._views.popitem(last=False)
+                self._cached_bytes -= sum(a.nbytes for a in dropped)
         return result
 
     @staticmethod
@@ -281,6 +305,7 @@ class Session:
                 continue
             try:
                 brdf, info = self.brdf(entry)
+                affordable(brdf.channels, message.view.resolution)
                 key = info.get("spec") or f"file:{info['file']}"
                 if key not in self._albedo:
                     self._albedo[key] = views.albedo(brdf)[1:]
@@ -320,8 +345,11 @@ class Session:
             if entry.visible:
                 try:
                     brdf, _ = self.brdf(entry)
+                    affordable(brdf.channels, resolution)
                 except (BrdfkitError, ValueError):
                     continue
+                if brdf.channels not in (1, self.envmap.channels):
+                    continue  # a spectral BRDF under an RGB map: no environment-lit sphere
                 passes = views.environment_passes(brdf, self.envmap, resolution, cancel)
                 runs.append((entry.id, passes))
                 diffuse = views.diffuse_term(brdf, self.envmap, resolution)
@@ -397,23 +425,86 @@ class Session:
 
     def handle(self, message: Message) -> list[Reply]:
         """Every reply to one message, in turn (the notebook widget's synchronous path): a
-        render is followed by its albedo curves."""
+        render is followed by its albedo curves; a failure is an error reply (:func:`guarded`)."""
         if message.type == "checks":
-            return [self.checks(message)]
-        replies = [self.render(message), self.albedo(message)]
+            works = [partial(self.checks, message)]
+        else:
+            works = [partial(self.render, message), partial(self.albedo, message)]
+        replies = [guarded(message.seq, work) for work in works]
         return [r for r in replies if r is not None]
 
 
-def error_reply(seq: int, error: Exception) -> Reply:
+def error_reply(seq: int, error: Exception | str) -> Reply:
     """The reply to a message that could not be acted on."""
     return {"type": "error", "seq": seq, "message": str(error)[:500], "arrays": []}, []
 
 
+def guarded(seq: int, work: Callable[[], Reply | None]) -> Reply | None:
+    """``work()``, or the error reply to message ``seq`` for whatever it raised: the page is
+    always answered and its connection keeps serving. Bad input is reported as itself; anything
+    else (a bug, memory exhausted) is logged with its traceback and reported as such."""
+    try:
+        return work()
+    except (BrdfkitError, ValueError) as error:
+        return error_reply(seq, error)
+    except MemoryError:
+        _log.error("explorer message %d: out of memory", seq)
+        return error_reply(seq, "not enough memory for this view: show fewer channels or pixels")
+    except Exception as error:  # logged and answered, never dropped
+        _log.error("explorer message %d failed", seq, exc_info=error)
+        return error_reply(seq, f"internal error ({type(error).__name__}); see the server's log")
+
+
+def entry_values(channels: int, resolution: int) -> int:
+    """The values (channels × points) of one entry's views at ``resolution``: its sphere, the
+    θh×θd slice, the lobe, four curves and the albedo curves' samples."""
+    points = (
+        resolution**2
+        + views.SLICE_RESOLUTION**2
+        + math.prod(views.LOBE_GRID)
+        + 3 * views.CURVE_SAMPLES
+        + views.ALBEDO_ANGLES * views.ALBEDO_SAMPLES
+    )
+    return channels * points
+
+
+def affordable(channels: int, resolution: int) -> None:
+    """Refuse an entry whose views would exceed :data:`MAX_ENTRY_VALUES`, before computing.
+
+    Raises
+    ------
+    brdfkit.errors.ResourceError
+        Naming the channels, the resolution and the limit.
+    """
+    values = entry_values(channels, resolution)
+    if values > MAX_ENTRY_VALUES:
+        raise ResourceError(
+            f"{channels} channels at {resolution} px need {values} values; an entry may take "
+            f"at most {MAX_ENTRY_VALUES} (lower the resolution or the number of channels)"
+        )
+
+
+def _safe_name(name: str) -> str:
+    """An uploaded file's name made safe for a path: its characters, cut to 64 with its suffix
+    kept (a long name cut through its suffix was refused for the suffix it lost)."""
+    base = Path(name).name
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in base)
+    if len(safe) <= 64:
+        return safe
+    stem, suffix = Path(safe).stem, Path(safe).suffix
+    return stem[: 64 - len(suffix)] + suffix
+
+
 __all__ = [
+    "MAX_CACHED_BYTES",
+    "MAX_ENTRY_VALUES",
     "MAX_FIT_BYTES",
     "MAX_UPLOAD_BYTES",
     "MEASURED_SUFFIXES",
     "Session",
+    "affordable",
+    "entry_values",
     "error_reply",
     "fit_spec",
+    "guarded",
 ]

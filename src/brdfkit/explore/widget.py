@@ -13,6 +13,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import threading
@@ -25,9 +26,14 @@ import traitlets
 
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.spec import parse
-from brdfkit.errors import BrdfkitError
 from brdfkit.explore.protocol import ProtocolError, array_table, parse_object
-from brdfkit.explore.session import MEASURED_SUFFIXES, Session, error_reply, fit_spec
+from brdfkit.explore.session import (
+    MEASURED_SUFFIXES,
+    Session,
+    error_reply,
+    fit_spec,
+    guarded,
+)
 
 _STATIC = Path(__file__).with_name("static")
 
@@ -92,11 +98,13 @@ class Explorer(anywidget.AnyWidget):
     def handle(self, content: Any) -> list[tuple[dict[str, Any], list[bytes]]]:
         """The replies (header, buffers) to one message from the front end."""
         seq = content.get("seq", 0) if isinstance(content, dict) else 0
+        seq = seq if isinstance(seq, int) and not isinstance(seq, bool) else 0
         try:
             message = parse_object(content)
-            replies = self.session.handle(message)
-        except (ProtocolError, BrdfkitError, ValueError) as error:
-            replies = [error_reply(seq if isinstance(seq, int) else 0, error)]
+        except ProtocolError as error:
+            replies = [error_reply(seq, error)]
+        else:
+            replies = self.session.handle(message)  # every failure an error reply
         out = []
         for header, arrays in replies:
             _, buffers = array_table(arrays)
@@ -115,8 +123,12 @@ class Explorer(anywidget.AnyWidget):
             return
         if message.type != "render":
             return
-        for header, arrays in self.session.environment(message, cancel):
+        passes = self.session.environment(message, cancel)
+        while (reply := guarded(message.seq, functools.partial(next, passes, None))) is not None:
+            header, arrays = reply
             yield header, array_table(arrays)[1]
+            if header["type"] == "error":
+                return  # the passes failed: answered
 
     def _receive(self, _widget: Any, content: Any, _buffers: list[Any]) -> None:
         self._cancel.set()  # a newer message stops the passes under way

@@ -30,7 +30,7 @@ from brdfkit._array import (
     safe_div,
     to_numpy,
 )
-from brdfkit.errors import ParameterError
+from brdfkit.errors import FormatError, ParameterError
 from brdfkit.geometry import (
     cartesian_to_spherical,
     spherical_to_cartesian,
@@ -181,6 +181,8 @@ class EnvironmentMap(Light):
             from brdfkit.io import srgb_decode
 
             image = srgb_decode(image)
+        if not np.all(np.isfinite(image) & (image >= 0)):
+            raise FormatError(path, "holds NaN, infinite or negative values; a map holds radiance")
         return cls(image[..., :3], scale=scale, rotation=rotation)
 
     @classmethod

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.brdf.base import BRDF
-from brdfkit.errors import FormatError
+from brdfkit.errors import FormatError, ParameterError
 from brdfkit.io import atomic_write
 from brdfkit.measured.tabulated import TabulatedBRDF
 
@@ -40,6 +40,12 @@ MERL_SHAPE = (90, 90, 180)
 
 MERL_SCALE = (1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0)
 """Per-channel factors from stored values to BRDF values (sr⁻¹), as in ``BRDFRead.cpp``."""
+
+MERL_MAX_VALUE = 1e15
+"""Largest stored value :func:`read_merl` accepts. A mirror that sends all light into the
+table's smallest half-vector bin (θh below (π/2)/90², 1.9·10⁻⁴ rad) has f_r of the order of
+10⁶ sr⁻¹ at normal incidence and 10⁸ near grazing, 10⁹–10¹¹ stored; a larger value is a
+corrupt entry, whose square summed over the table would overflow a fit's residuals."""
 
 _HEADER = np.dtype("<i4")
 _VALUE = np.dtype("<f8")
@@ -69,7 +75,8 @@ def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedB
     ------
     FormatError
         Naming the file, when the header is not ``(90, 90, 180)``, the file is truncated or
-        longer than the header says, or a value is NaN or infinite (with its byte offset).
+        longer than the header says, or a value is NaN, infinite or beyond
+        :data:`MERL_MAX_VALUE` (with its byte offset and table entry).
 
     References
     ----------
@@ -94,16 +101,25 @@ def read_merl(path: str | os.PathLike, interpolation: str = "bin") -> TabulatedB
     raw = path.read_bytes()
     _check_layout(path, raw)
     data = np.frombuffer(raw, _VALUE, offset=_HEADER_BYTES)
-    bad = np.flatnonzero(~np.isfinite(data))
+    bad = np.flatnonzero(~(np.abs(data) <= MERL_MAX_VALUE))  # NaN compares False
     if bad.size:
+        value = data[bad[0]]
+        reason = "is not finite" if not np.isfinite(value) else f"exceeds {MERL_MAX_VALUE:g}"
         raise FormatError(
             path,
-            f"value {data[bad[0]]} is not finite ({bad.size} such values in the file)",
+            f"value {value} {reason} ({bad.size} such values in the file; entry "
+            f"{_entry(int(bad[0]))})",
             field="values",
             offset=_HEADER_BYTES + int(bad[0]) * _VALUE.itemsize,
         )
     values = np.moveaxis(data.reshape(3, *MERL_SHAPE), 0, -1).astype(np.float64)
     return TabulatedBRDF(values, scale=MERL_SCALE, interpolation=interpolation, name=path.name)
+
+
+def _entry(index: int) -> str:
+    """The table entry of the ``index``-th stored value: channel and (θh, θd, φd) bins."""
+    channel, *bins = np.unravel_index(index, (3, *MERL_SHAPE))
+    return f"{'RGB'[channel]}[{', '.join(str(int(b)) for b in bins)}]"
 
 
 def _check_layout(path: Path, raw: bytes) -> None:
@@ -162,14 +178,26 @@ def write_merl(path: str | os.PathLike, brdf: BRDF) -> Path:
 
     References
     ----------
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``brdf`` has NaN, infinite or larger values than :data:`MERL_MAX_VALUE` (stored).
+
+    References
+    ----------
     .. [1] W. Matusik et al., SIGGRAPH 2003; ``BRDFRead.cpp``.
     """
     path = Path(path)
     values = merl_values(brdf)
+    if not np.all(np.abs(values) <= MERL_MAX_VALUE):  # NaN compares False
+        raise ParameterError(
+            f"brdf has values that are not finite or exceed MERL_MAX_VALUE = {MERL_MAX_VALUE:g} "
+            f"(stored); {path.name} would not be read back"
+        )
     header = np.asarray(MERL_SHAPE, dtype=_HEADER).tobytes()
     body = np.ascontiguousarray(np.moveaxis(values, -1, 0), dtype=_VALUE).tobytes()
     atomic_write(path, lambda tmp: tmp.write_bytes(header + body))
     return path
 
 
-__all__ = ["MERL_SCALE", "MERL_SHAPE", "merl_values", "read_merl", "write_merl"]
+__all__ = ["MERL_MAX_VALUE", "MERL_SCALE", "MERL_SHAPE", "merl_values", "read_merl", "write_merl"]
