@@ -176,8 +176,6 @@ def write_merl(path: str | os.PathLike, brdf: BRDF) -> Path:
     ``brdf`` is a table read by :func:`read_merl` (written back bit for bit) or any BRDF
     (tabulated at the MERL nodes first, see :func:`merl_values`).
 
-    References
-    ----------
     Raises
     ------
     brdfkit.errors.ParameterError
