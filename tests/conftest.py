@@ -94,9 +94,3 @@ def _kernel_cache(tmp_path_factory):
         os.environ.pop("BRDFKIT_CACHE_DIR", None)
     else:
         os.environ["BRDFKIT_CACHE_DIR"] = saved
-
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The documentation build first: it is the longest test (minutes), and CI's two workers
-    (``pytest -n 2 --dist loadfile``) finish soonest when the longest work starts first."""
-    items.sort(key=lambda item: item.path.name != "test_docs.py")
