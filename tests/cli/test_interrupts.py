@@ -80,6 +80,24 @@ def test_two_ctrl_c_end_the_atlas_and_its_workers_at_once(tmp_path):
     assert not [p for p in tmp_path.rglob("*") if p.name.startswith(".brdfkit-")]
 
 
+@pytest.mark.slow
+def test_sigterm_to_the_atlas_ends_it_and_its_workers(tmp_path):
+    """SIGTERM ended the parent with a traceback ("Exception ignored in atexit callback …
+    os.waitpid") and left its pool workers alive under PID 1."""
+    process = _start(
+        "atlas", "-o", str(tmp_path / "atlas"), "-m", "lambertian", "-r", "16", "-s", "1",
+        "--no-checks",
+    )  # fmt: skip
+    _wait_for_workers(process)
+    workers = psutil.Process(process.pid).children(recursive=True)
+    process.send_signal(signal.SIGTERM)  # as `kill PID`: the parent alone
+    _, stderr = process.communicate(timeout=5)
+    assert (process.returncode, stderr) == (130, "error: interrupted\n")
+    _, alive = psutil.wait_procs(workers, timeout=2)
+    assert alive == []
+    assert not [p for p in tmp_path.rglob("*") if p.name.startswith(".brdfkit-")]
+
+
 def test_stop_workers_kills_the_processes_the_command_started():
     import multiprocessing
 
