@@ -85,8 +85,8 @@ def test_sigterm_to_the_atlas_ends_it_and_its_workers(tmp_path):
     """SIGTERM ended the parent with a traceback ("Exception ignored in atexit callback …
     os.waitpid") and left its pool workers alive under PID 1."""
     process = _start(
-        "atlas", "-o", str(tmp_path / "atlas"), "-m", "lambertian", "-r", "16", "-s", "1",
-        "--no-checks",
+        "atlas", "-o", str(tmp_path / "atlas"), "-m", "lambertian", "-m", "ggx(alpha=0.3)",
+        "-r", "16", "-s", "1", "--no-checks",
     )  # fmt: skip
     _wait_for_workers(process)
     workers = psutil.Process(process.pid).children(recursive=True)
