@@ -749,7 +749,8 @@ def faults(r: dict) -> str:
         starts = (
             f"A Ctrl-C while `brdfkit atlas --help` starts ({start['starts']} starts per delay; "
             f"the interpreter alone takes {start['interpreter_ms']:.0f} ms to start, and "
-            f"{start['to_guard_ms']:.0f} ms to reach brdfkit's guard):\n\n{starts}"
+            f"{start['to_guard_ms']:.0f} ms to reach brdfkit's guard, so a traceback is the "
+            f"interpreter's own, before brdfkit's first line runs):\n\n{starts}"
         )
     e = r["explorer"]
     steps = [
