@@ -25,7 +25,10 @@ Writing
 :func:`write_image` writes ``.exr`` (float32 or half), ``.hdr`` (RGBE) and ``.png`` (8 or 16 bits,
 sRGB-encoded from linear values by default) atomically: the data goes to a temporary file in the
 destination folder, which is then renamed over the destination, so a reader never sees a
-half-written image.
+half-written image. An image holding NaN or infinity is refused, naming the file, before
+anything is written (``nan_marks_missing=True`` lets an EXR mark pixels that have no value);
+every failure to write, a full disk or a short write included, names the file too
+(:func:`output_failure`).
 
 References
 ----------
