@@ -1,10 +1,18 @@
 """The command line and the explorer under faults: hostile inputs and interrupts, at full size.
 
 - **Interrupts**: ``brdfkit atlas``, and ``brdfkit fit`` of 8 tables × 3 models on a local
-  Dask cluster of 2 workers, are started in a session of their own, and once their workers
-  run, SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal):
-  seconds from the first to the exit, the exit status, the stderr lines, the processes of the
-  session left a second later and the temporaries left in the output folder.
+  Dask cluster of 2 workers, are started in a session of their own through the console script
+  pip writes for ``[project.scripts]``, and once their workers have run a second (or, for the
+  Dask batch, as soon as its first worker process exists: the workers are still importing),
+  SIGINT goes twice to the whole group, 0.4 s apart (two Ctrl-C at a terminal): seconds from
+  the first to the exit, the exit status, the stderr lines, the processes of the session left
+  a second later and the temporaries left in the output folder.
+- **A Ctrl-C while starting**: ``brdfkit atlas --help`` through the console script gets SIGINT
+  10, 30, 60, 100 and 200 ms after it was started, ``--starts`` times each: how it ended
+  (brdfkit's ``interrupted`` line and 130, finished, killed before the interpreter had a
+  handler, or Python's traceback); beside it the median time the interpreter takes to start
+  (``python -c pass``) and to reach brdfkit's guard (``python -c "import re, brdfkit"``: pip's
+  script imports ``re``, then brdfkit, whose ``brdfkit.cli`` guards first).
 - **A PNG bomb**: a valid 20000 × 20000 RGB PNG (1.2 MB) given to ``brdfkit hdr``: the exit
   status, the error line and the command's peak resident memory (``wait4``'s ``ru_maxrss``).
 - **Degenerate inputs**: ``hdr -t 1,1,1`` on three different exposures, and ``fit`` of a
@@ -42,10 +50,28 @@ import numpy as np
 from _machine import write_results
 
 ROOT = Path(__file__).resolve().parents[1]
-MAIN = "import sys; sys.argv[0] = 'brdfkit'; from brdfkit.cli import main; main()"
-BRDFKIT = [sys.executable, "-c", MAIN]
-"""``brdfkit`` from this tree (its early signal handling included)."""
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+
+
+def console_script(folder: Path) -> list[str]:
+    """``brdfkit`` from this tree: the script pip writes for ``[project.scripts]`` (its
+    template), in ``folder``, run by this interpreter."""
+    import tomllib
+
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    module, function = pyproject["project"]["scripts"]["brdfkit"].split(":")
+    script = folder / "brdfkit"
+    script.write_text(
+        f"#!{sys.executable}\nimport re\nimport sys\nfrom {module} import {function}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({function}())\n"
+    )
+    return [sys.executable, str(script)]
+
+
+BRDFKIT: list[str] = []
+"""``brdfkit`` (:func:`console_script`), set by :func:`main`."""
 
 
 def _session_processes(session: int) -> int:
@@ -90,14 +116,17 @@ def interrupts(folder: Path, repeats: int) -> list[dict[str, Any]]:
     tables = _merl_files(folder, 8)
     models = ["-m", "ggx", "-m", "beckmann", "-m", "ward"]
     commands = {
-        "atlas": ["atlas", "-r", "32", "-s", "4", "-o"],
-        "fit batch (Dask)": ["fit", *tables, *models, "--workers", "2", "-o"],
+        "atlas": (["atlas", "-r", "32", "-s", "4", "-o"], 1.0),
+        "fit batch (Dask)": (["fit", *tables, *models, "--workers", "2", "-o"], 1.0),
+        "fit batch (Dask), workers starting": (
+            ["fit", *tables, *models, "--workers", "2", "-o"],
+            0.0,
+        ),
     }
     records = []
-    for (label, args), k in itertools.product(commands.items(), range(repeats)):
-        records.append(
-            {"command": label, **_interrupted([*args, str(folder / f"out{k}{label[:3]}")])}
-        )
+    for (label, (args, busy)), k in itertools.product(commands.items(), range(repeats)):
+        out = str(folder / f"out{k}{label.replace(' ', '')[:12]}")
+        records.append({"command": label, **_interrupted([*args, out], busy)})
     return records
 
 
@@ -106,9 +135,9 @@ def temporaries(folder: Path) -> list[Path]:
     return [p for p in folder.rglob(".brdfkit-*") if p.name != ".brdfkit-outputs.json"]
 
 
-def _interrupted(args: list[str]) -> dict[str, Any]:
-    """Start ``brdfkit ARGS`` in a session of its own; once its workers have run a second,
-    SIGINT to the group twice, 0.4 s apart."""
+def _interrupted(args: list[str], busy: float) -> dict[str, Any]:
+    """Start ``brdfkit ARGS`` in a session of its own; once its workers have run ``busy``
+    seconds, SIGINT to the group twice, 0.4 s apart."""
     out = Path(args[-1])
     process = subprocess.Popen(
         [*BRDFKIT, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
@@ -116,7 +145,7 @@ def _interrupted(args: list[str]) -> dict[str, Any]:
     )  # fmt: skip
     while _children(process.pid) == 0 and process.poll() is None:
         time.sleep(0.05)
-    time.sleep(1.0)  # the workers busy
+    time.sleep(busy)
     start = time.perf_counter()
     os.killpg(process.pid, signal.SIGINT)
     time.sleep(0.4)
@@ -137,6 +166,53 @@ def _interrupted(args: list[str]) -> dict[str, Any]:
         "processes_left": _session_processes(process.pid),
         "temporaries_left": len(temporaries(out)),
     }  # fmt: skip
+
+
+def _median_seconds(command: list[str], repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        subprocess.run(command, env=ENV, check=True)
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def _start_outcome(delay: float) -> str:
+    process = subprocess.Popen(
+        [*BRDFKIT, "atlas", "--help"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        text=True, env=ENV,
+    )  # fmt: skip
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    if "Traceback" in stderr or "Fatal Python error" in stderr:
+        return "Python's traceback"
+    if process.returncode == 130 and stderr == "error: interrupted\n":
+        return "interrupted, 130"
+    if process.returncode == 0 and not stderr:
+        return "finished, 0"
+    if process.returncode == -signal.SIGINT and not stderr:
+        return "killed before the interpreter's handler"
+    return f"status {process.returncode}: {stderr.strip()}"
+
+
+def start(starts: int) -> dict[str, Any]:
+    """A SIGINT 10–200 ms into ``brdfkit atlas --help``, ``starts`` times per delay."""
+    outcomes = {}
+    for delay in (0.01, 0.03, 0.06, 0.1, 0.2):
+        counts: dict[str, int] = {}
+        for _ in range(starts):
+            outcome = _start_outcome(delay)
+            counts[outcome] = counts.get(outcome, 0) + 1
+        outcomes[f"{delay * 1000:.0f}"] = counts
+    return {
+        "starts": starts,
+        "outcomes_by_ms": outcomes,
+        "interpreter_ms": round(1000 * _median_seconds([sys.executable, "-c", "pass"], 9), 1),
+        "to_guard_ms": round(
+            1000 * _median_seconds([sys.executable, "-c", "import re, brdfkit"], 9), 1
+        ),
+    }
 
 
 def _png(width: int, height: int) -> bytes:
@@ -232,16 +308,6 @@ def _answer(ws: Any) -> dict[str, Any]:
             return header
 
 
-def _answer(ws: Any) -> dict[str, Any]:
-    """The frame or error that answers the message just sent (albedo replies skipped)."""
-    from brdfkit.explore.protocol import decode_frame
-
-    while True:
-        header = decode_frame(ws.recv(timeout=120))[0]
-        if header["type"] in ("frame", "error"):
-            return header
-
-
 def explorer() -> dict[str, Any]:
     from websockets.sync.client import connect
 
@@ -282,7 +348,13 @@ def explorer() -> dict[str, Any]:
             record["peak_mib_after"] = _high_water(server.pid)
     finally:
         server.stdin.close()
-        server.wait(timeout=120)
+        start = time.perf_counter()
+        try:
+            server.wait(timeout=120)
+        except subprocess.TimeoutExpired:  # on a loaded machine; the record says so
+            server.kill()
+            server.wait()
+        record["server_stop_seconds"] = round(time.perf_counter() - start, 1)
     return record
 
 
@@ -303,12 +375,15 @@ def protocol_fuzz(messages: int, folder: Path) -> dict[str, Any]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--messages", type=int, default=10_000, help="fuzzed protocol messages")
-    parser.add_argument("--repeats", type=int, default=3, help="interrupted atlas runs")
+    parser.add_argument("--repeats", type=int, default=3, help="interrupted runs per command")
+    parser.add_argument("--starts", type=int, default=10, help="interrupted starts per delay")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
+        BRDFKIT[:] = console_script(folder)
         records = {
             "interrupts": interrupts(folder, args.repeats),
+            "start": start(args.starts),
             **bomb_and_degenerate(folder),
             "explorer": explorer(),
             "protocol_fuzz": protocol_fuzz(args.messages, folder),

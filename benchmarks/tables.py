@@ -739,6 +739,19 @@ def faults(r: dict) -> str:
             ("fit of a MERL file with one 1e308 entry", "merl_1e308"),
         )
     ]
+    start = r.get("start")
+    if start:
+        kinds = sorted({k for counts in start["outcomes_by_ms"].values() for k in counts})
+        starts = rows(["SIGINT after (ms)", *kinds], [
+            [ms, *(counts.get(k, 0) for k in kinds)]
+            for ms, counts in start["outcomes_by_ms"].items()
+        ], "r" + "r" * len(kinds))  # fmt: skip
+        starts = (
+            f"A Ctrl-C while `brdfkit atlas --help` starts ({start['starts']} starts per delay; "
+            f"the interpreter alone takes {start['interpreter_ms']:.0f} ms to start, and "
+            f"{start['to_guard_ms']:.0f} ms to reach brdfkit's guard, so a traceback is the "
+            f"interpreter's own, before brdfkit's first line runs):\n\n{starts}"
+        )
     e = r["explorer"]
     steps = [
         [x["message"], x["answer"], x["entry_errors"], f"{x['seconds']:.2f}"] for x in e["steps"]
@@ -749,6 +762,7 @@ def faults(r: dict) -> str:
         "Two Ctrl-C on a command whose workers are busy:",
         rows(["command", "s to exit", "status", "processes left", "temporaries left", "stderr"],
              ctrl_c, "lrrrrl"),
+        *([starts] if start else []),
         "Hostile inputs on the command line:",
         rows(["input", "status", "peak MiB", "stderr"], inputs, "lrrl"),
         f"The explorer's server, one connection (its peak memory {e['peak_mib_before']:.0f} MiB "

@@ -282,6 +282,85 @@ def test_write_rejects_bad_input(tmp_path, name, image, kwargs, message):
     assert not os.listdir(tmp_path)
 
 
+@pytest.mark.parametrize("name", ["a.exr", "a.hdr", "a.png"])
+@pytest.mark.parametrize(
+    ("bad", "exposure", "shown"), [(np.nan, 0.0, "nan"), (np.inf, 0.0, "inf"), (1e300, 100, "inf")]
+)
+def test_no_output_holds_nan_or_infinity(tmp_path, name, bad, exposure, shown):
+    """write_image wrote NaN and infinity into EXR files (and 1e300 at +100 stops overflowed)."""
+    from brdfkit.errors import ParameterError
+
+    image = np.full((3, 4, 3), 0.5)
+    image[1, 2, 0] = bad
+    with pytest.raises(ParameterError, match=rf"a\.{name[2:]}: .* holds {shown} at pixel "):
+        io.write_image(tmp_path / name, image, exposure=exposure)
+    assert not os.listdir(tmp_path)
+
+
+def test_nan_marks_missing_pixels_in_exr_only(tmp_path):
+    from brdfkit.errors import ParameterError
+
+    depth = np.where(np.eye(3, dtype=bool), np.nan, 2.0)
+    path = io.write_image(tmp_path / "depth.exr", depth, nan_marks_missing=True)
+    np.testing.assert_array_equal(io.read_image(path)[..., 0], depth.astype(np.float32))
+    with pytest.raises(ParameterError, match=r"depth\.png: .* holds nan"):
+        io.write_image(tmp_path / "depth.png", depth, nan_marks_missing=True)
+    with pytest.raises(ParameterError, match=r"depth\.exr: .* holds -inf"):
+        io.write_image(tmp_path / "depth.exr", -np.full((2, 2), np.inf), nan_marks_missing=True)
+    assert sorted(os.listdir(tmp_path)) == ["depth.exr"]
+
+
+def test_half_floats_refuse_values_beyond_their_range(tmp_path):
+    from brdfkit.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"a\.exr: .*70000.*largest half float"):
+        io.write_image(tmp_path / "a.exr", np.full((2, 2), 7e4), half=True)
+    assert not os.listdir(tmp_path)
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs Linux's /dev/full")
+def test_a_short_write_names_the_output(tmp_path):
+    """NumPy's short write on a full disk ("32640 requested and 21488 written") is an OSError
+    with no errno and no file name: it named nothing."""
+    from brdfkit.errors import OutputError
+
+    def short(tmp: Path) -> None:
+        with open("/dev/full", "wb") as full:  # a device that is always full
+            np.zeros(4080).tofile(full)
+
+    path = tmp_path / "depth.npy"
+    with pytest.raises(OutputError, match=r"depth\.npy could not be written: 4080 requested"):
+        io.atomic_write(path, short)
+
+    def full(tmp: Path) -> None:
+        with open("/dev/full", "wb") as device:
+            np.save(device, np.zeros(4080))
+
+    with pytest.raises(OutputError, match=r"depth\.npy could not be written: No space left"):
+        io.atomic_write(path, full)
+    assert not os.listdir(tmp_path)
+
+
+def test_a_failure_naming_another_file_keeps_its_name(tmp_path):
+    """An input the writer reads is named by its own error, not blamed on the output."""
+
+    def reads_an_input(tmp: Path) -> None:
+        tmp.write_bytes((tmp_path / "missing.txt").read_bytes())
+
+    with pytest.raises(FileNotFoundError, match=r"missing\.txt") as raised:
+        io.atomic_write(tmp_path / "out.txt", reads_an_input)
+    assert type(raised.value) is FileNotFoundError
+    assert not os.listdir(tmp_path)
+
+
+def test_an_output_folder_that_cannot_be_made_is_named(tmp_path):
+    from brdfkit.errors import OutputError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OutputError, match=r"file/out\.txt could not be written"):
+        io.atomic_write(tmp_path / "file" / "out.txt", lambda tmp: tmp.write_text("y"))
+
+
 # -------------------------------------------------------------------------------- colour
 
 

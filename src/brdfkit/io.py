@@ -25,7 +25,10 @@ Writing
 :func:`write_image` writes ``.exr`` (float32 or half), ``.hdr`` (RGBE) and ``.png`` (8 or 16 bits,
 sRGB-encoded from linear values by default) atomically: the data goes to a temporary file in the
 destination folder, which is then renamed over the destination, so a reader never sees a
-half-written image.
+half-written image. An image holding NaN or infinity is refused, naming the file, before
+anything is written (``nan_marks_missing=True`` lets an EXR mark pixels that have no value);
+every failure to write, a full disk or a short write included, names the file too
+(:func:`output_failure`).
 
 References
 ----------
@@ -50,9 +53,15 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+from brdfkit._array import Array, asarray, namespace, to_numpy
 from brdfkit._checks import check_memory
-from brdfkit.errors import BrdfkitError, FormatError, OutputError, ResourceError
+from brdfkit.errors import (
+    BrdfkitError,
+    FormatError,
+    OutputError,
+    ParameterError,
+    ResourceError,
+)
 
 __all__ = [
     "MAX_IMAGE_PIXELS",
@@ -65,6 +74,7 @@ __all__ = [
     "atomic_write_bytes",
     "data_path",
     "luminance",
+    "output_failure",
     "read_image",
     "read_image_codes",
     "srgb_decode",
@@ -650,9 +660,12 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
     notes.txt hello ['notes.txt']
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     suffix = path.suffix if path.suffix.isascii() and path.suffix.isprintable() else ""
-    handle, name = tempfile.mkstemp(prefix=".brdfkit-", suffix=suffix, dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, name = tempfile.mkstemp(prefix=".brdfkit-", suffix=suffix, dir=path.parent)
+    except OSError as error:
+        raise OutputError(f"{path} could not be written: {_reason(error)}") from error
     os.close(handle)
     tmp = Path(name)
     try:
@@ -661,10 +674,7 @@ def atomic_write(path: str | Path, write_fn: Callable[[Path], None]) -> Path:
         os.replace(tmp, path)
     except OSError as error:
         tmp.unlink(missing_ok=True)
-        if isinstance(error, BrdfkitError) or not _about_the_output(error, tmp):
-            raise  # it names its own file (an input the work read, say)
-        reason = error.strerror or str(error)
-        raise OutputError(f"{path} could not be written: {reason}") from error
+        raise output_failure(path, error, tmp) from error
     except BaseException:
         tmp.unlink(missing_ok=True)  # only our temporary: after the rename the name is not ours
         raise
@@ -676,10 +686,37 @@ _WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, e
 failing or read-only device."""
 
 
-def _about_the_output(error: OSError, tmp: Path) -> bool:
-    """Whether ``error`` is the output's: a failed write of it, or an error naming its
-    temporary (and so naming a path the user never gave)."""
-    return error.errno in _WRITE_ERRNOS or error.filename == str(tmp)
+def output_failure(path: str | Path, error: OSError, temporary: Path) -> OSError:
+    """The error to raise for ``error``, met while ``path`` was written through ``temporary``
+    (a file or folder): an :class:`~brdfkit.errors.OutputError` naming ``path`` when the
+    failure is the output's, else ``error`` itself (it names its own file: an input the work
+    read, say).
+
+    The failure is the output's when it is a failed write (a full disk or quota, a file too
+    large, a failing or read-only device), names the temporary or a file inside it (a path the
+    user never gave), or names no file at all, such as NumPy's short write on a full disk
+    ("32640 requested and 21488 written", with no errno).
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> short = OSError("32640 requested and 21488 written")
+    >>> print(output_failure("out/depth.npy", short, Path("out/.brdfkit-x1.npy")))
+    out/depth.npy could not be written: 32640 requested and 21488 written
+    """
+    if isinstance(error, BrdfkitError):
+        return error
+    named = None if error.filename is None else Path(os.fsdecode(error.filename))
+    ours = named is None or named == temporary or temporary in named.parents
+    if error.errno not in _WRITE_ERRNOS and not ours:
+        return error
+    return OutputError(f"{path} could not be written: {_reason(error)}")
+
+
+def _reason(error: OSError) -> str:
+    """What went wrong, without the temporary's name: the system's words for an errno, else
+    the message (a short write's counts), else the error's type."""
+    return error.strerror or str(error) or type(error).__name__
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
@@ -700,6 +737,17 @@ def _encode_exr(image: np.ndarray, half: bool) -> bytes:
     return stream.getvalue()
 
 
+def _check_values(path: Path, pixels: np.ndarray, *, nan_allowed: bool) -> None:
+    """Refuse, naming ``path``, an image holding infinity, or NaN unless ``nan_allowed``."""
+    bad = np.isinf(pixels) if nan_allowed else ~np.isfinite(pixels)
+    if bad.any():
+        row, column, channel = np.argwhere(bad)[0]
+        raise ParameterError(
+            f"{path}: the image must be finite; it holds {pixels[row, column, channel]} at pixel "
+            f"(row {row}, column {column}, channel {channel}); nothing was written"
+        )
+
+
 def _encode_opencv(suffix: str, image: np.ndarray) -> bytes:
     cv2 = _cv2()
     ok, encoded = cv2.imencode(suffix, np.ascontiguousarray(_swap_red_blue(image)))
@@ -716,6 +764,7 @@ def write_image(
     bit_depth: int = 8,
     srgb: bool = True,
     half: bool = False,
+    nan_marks_missing: bool = False,
 ) -> Path:
     r"""Write a linear image to ``.exr``, ``.hdr`` or ``.png``, atomically.
 
@@ -748,11 +797,23 @@ def write_image(
         sRGB-encode PNG colour channels.
     half : bool
         Store EXR channels as 16-bit half floats.
+    nan_marks_missing : bool
+        ``.exr`` only: NaN marks pixels that have no value (outside a mask) and is written as
+        it is. Otherwise, and in every other format, NaN is refused.
 
     Returns
     -------
     pathlib.Path
         ``path``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        The image holds NaN (unless ``nan_marks_missing``) or infinity, after ``exposure``
+        too, or a value beyond the half-float range with ``half=True``: no file holds a value
+        its reader cannot use. The message names ``path``; nothing is written.
+    brdfkit.errors.OutputError
+        The file could not be written (:func:`atomic_write`).
 
     References
     ----------
@@ -772,6 +833,13 @@ def write_image(
     ...     pixel = read_image(path)[0, 0]
     >>> pixel.dtype, pixel.tolist()
     (dtype('float32'), [0.5, 0.0, 0.0])
+
+    NaN is refused, naming the file, and nothing is written:
+
+    >>> write_image("broken.exr", np.full((2, 2, 3), np.nan))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    brdfkit.errors.ParameterError: broken.exr: the image must be finite; it holds nan at ...
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -795,13 +863,19 @@ def write_image(
         )
     if not np.issubdtype(pixels.dtype, np.number) or np.iscomplexobj(pixels):
         raise ValueError(f"image must hold real numbers; got dtype {pixels.dtype}")
-    pixels = pixels.astype(np.float64) * 2.0**exposure
-
+    with np.errstate(over="ignore"):  # an overflow is refused by the check that follows
+        pixels = pixels.astype(np.float64) * 2.0**exposure
+    _check_values(path, pixels, nan_allowed=nan_marks_missing and suffix == ".exr")
     if suffix == ".exr":
+        largest = np.abs(pixels[~np.isnan(pixels)]).max(initial=0.0)
+        if half and largest > np.finfo(np.float16).max:
+            raise ParameterError(
+                f"{path}: the image holds {largest:.6g}, beyond the largest half float "
+                f"({np.finfo(np.float16).max:g}); write it without half=True; nothing was written"
+            )
         atomic_write_bytes(path, _encode_exr(pixels, half))
         return path
 
-    check_finite("image", pixels)
     if suffix == ".hdr":
         if (pixels < 0).any():
             raise ValueError(

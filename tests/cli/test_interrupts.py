@@ -3,6 +3,7 @@ left, no temporary file, however many times the signal comes."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -79,6 +80,24 @@ def test_two_ctrl_c_end_the_atlas_and_its_workers_at_once(tmp_path):
     assert not [p for p in tmp_path.rglob("*") if p.name.startswith(".brdfkit-")]
 
 
+@pytest.mark.slow
+def test_sigterm_to_the_atlas_ends_it_and_its_workers(tmp_path):
+    """SIGTERM ended the parent with a traceback ("Exception ignored in atexit callback …
+    os.waitpid") and left its pool workers alive under PID 1."""
+    process = _start(
+        "atlas", "-o", str(tmp_path / "atlas"), "-m", "lambertian", "-m", "ggx(alpha=0.3)",
+        "-r", "16", "-s", "1", "--no-checks",
+    )  # fmt: skip
+    _wait_for_workers(process)
+    workers = psutil.Process(process.pid).children(recursive=True)
+    process.send_signal(signal.SIGTERM)  # as `kill PID`: the parent alone
+    _, stderr = process.communicate(timeout=5)
+    assert (process.returncode, stderr) == (130, "error: interrupted\n")
+    _, alive = psutil.wait_procs(workers, timeout=2)
+    assert alive == []
+    assert not [p for p in tmp_path.rglob("*") if p.name.startswith(".brdfkit-")]
+
+
 def test_stop_workers_kills_the_processes_the_command_started():
     import multiprocessing
 
@@ -134,3 +153,109 @@ def test_stop_workers_spares_the_resource_tracker():
     tracker = resource_tracker._resource_tracker._pid
     _app.stop_workers()
     assert psutil.pid_exists(tracker) and psutil.Process(tracker).status() != psutil.STATUS_ZOMBIE
+
+
+# ------------------------------------------------------------------- from the first moment
+
+
+def _console_script(folder: Path) -> Path:
+    """The ``brdfkit`` script pip writes for ``[project.scripts]`` (its template), in
+    ``folder``."""
+    import tomllib
+
+    pyproject = Path(_app.__file__).parents[3] / "pyproject.toml"
+    module, function = tomllib.loads(pyproject.read_text())["project"]["scripts"]["brdfkit"].split(
+        ":"
+    )
+    script = folder / "brdfkit"
+    script.write_text(
+        f"#!{sys.executable}\nimport re\nimport sys\nfrom {module} import {function}\n"
+        "if __name__ == '__main__':\n"
+        "    sys.argv[0] = re.sub(r'(-script\\.pyw|\\.exe)?$', '', sys.argv[0])\n"
+        f"    sys.exit({function}())\n"
+    )
+    return script
+
+
+def _run_script(script: Path, *args: str, **options) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(Path(_app.__file__).parents[2]))
+    return subprocess.Popen(
+        [sys.executable, *options.pop("flags", ()), str(script), *args],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, **options,
+    )  # fmt: skip
+
+
+def test_importing_brdfkit_costs_next_to_nothing():
+    """The root package is all that runs before the command's Ctrl-C guard: no package
+    metadata, no NumPy."""
+    code = "import sys, brdfkit; print(sorted(set(sys.modules) & {'importlib.metadata', 'numpy'}))"
+    env = dict(os.environ, PYTHONPATH=str(Path(_app.__file__).parents[2]))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.stdout.strip() == "[]", done.stderr
+
+
+def test_a_ctrl_c_at_any_moment_of_the_start_prints_one_line(tmp_path):
+    """A Ctrl-C in the first tens of ms of ``brdfkit`` could show Python's traceback. From the
+    moment brdfkit's entry module is imported (``-X importtime`` reports it), a SIGINT 10, 30,
+    60 or 100 ms later, in the imports or in the command, ends it with one line and 130."""
+    script = _console_script(tmp_path)
+    outcomes = {}
+
+    def interrupt(delay: float) -> None:
+        process = _run_script(script, "atlas", "--help", flags=("-X", "importtime"))
+        for line in process.stderr:
+            if line.rstrip().endswith("brdfkit.cli._entry"):
+                break
+        time.sleep(delay)
+        process.send_signal(signal.SIGINT)
+        _, rest = process.communicate(timeout=60)
+        outcomes[delay] = (process.returncode, [
+            line for line in rest.splitlines() if not line.startswith("import time:")
+        ])  # fmt: skip
+
+    threads = [threading.Thread(target=interrupt, args=(d,)) for d in (0.01, 0.03, 0.06, 0.1)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for delay, (status, lines) in outcomes.items():
+        assert (status, lines) in ((130, ["error: interrupted"]), (0, [])), (delay, lines)
+    assert any(status == 130 for status, _ in outcomes.values())
+
+
+def test_a_worker_that_runs_the_script_again_takes_no_guard(monkeypatch):
+    """A worker that multiprocessing spawns runs the console script again (as __mp_main__);
+    with the guard, each printed an "interrupted" line of its own on a SIGTERM."""
+    from brdfkit.cli import _entry
+
+    monkeypatch.setattr(sys, "argv", ["/usr/bin/brdfkit", "fit"])
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "/usr/bin/brdfkit", "fit"])
+    assert _entry.is_console_script()
+    spawned = [sys.executable, "-c", "from multiprocessing.spawn import spawn_main; spawn_main()"]
+    monkeypatch.setattr(sys, "orig_argv", [*spawned, "--multiprocessing-fork"])
+    assert not _entry.is_console_script()
+    monkeypatch.setattr(sys, "argv", ["-c"])
+    monkeypatch.setattr(sys, "orig_argv", [sys.executable, "-c", "import brdfkit.cli"])
+    assert not _entry.is_console_script()  # a library import
+
+
+@pytest.mark.slow
+def test_a_dask_batch_interrupted_while_its_workers_start_prints_one_line(tmp_path):
+    """Two Ctrl-C while its Dask workers started: a batch printed their KeyboardInterrupt
+    tracebacks (66 lines) and multiprocessing's warning of leaked semaphores."""
+    pytest.importorskip("distributed", reason="needs the dask extra")
+    out = tmp_path / "sets"
+    process = _run_script(
+        _console_script(tmp_path), "synth", "-s", "sphere:16", "-o", str(out), "--workers", "2",
+        start_new_session=True,
+    )  # fmt: skip
+    _wait_for_workers(process)
+    os.killpg(process.pid, signal.SIGINT)  # the workers are starting: importing their modules
+    time.sleep(0.3)
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=10)
+    assert (process.returncode, stderr) == (130, "error: interrupted\n")
+    time.sleep(0.3)
+    assert _session_processes(process.pid) == []
+    assert not [p for p in tmp_path.rglob(".brdfkit-*") if p.name != ".brdfkit-outputs.json"]

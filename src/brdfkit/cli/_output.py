@@ -12,7 +12,8 @@ A command names its outputs and its inputs *before* it starts working, and these
   manifest's name that brdfkit did not write makes the folder an error, so that it is kept.
 
 Each file is then written atomically (:func:`brdfkit.io.atomic_write`: a temporary beside it,
-renamed when complete, with the umask's mode). A file named directly with ``-o`` is what the
+renamed when complete, with the umask's mode); any failure to write it (a full disk, a short
+write) names the file and leaves no temporary. A file named directly with ``-o`` is what the
 user asked for, so it is replaced, unless it is an input.
 """
 
@@ -211,6 +212,8 @@ class OutputFolder:
         (which brdfkit wrote, see :meth:`write`) is moved aside first and removed after."""
         import shutil
 
+        from brdfkit.io import output_failure
+
         if name not in self.files:
             raise AssertionError(f"{name!r} is not among the declared outputs {self.files}")
         self._check_ours(name)
@@ -223,6 +226,8 @@ class OutputFolder:
             if target.exists():
                 os.replace(target, old)
             os.replace(tmp / "new", target)
+        except OSError as error:
+            raise output_failure(target, error, tmp) from error
         finally:
             shutil.rmtree(tmp, ignore_errors=True)  # our temporary, and the version we replaced
         self._record(name, target)

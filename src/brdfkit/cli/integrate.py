@@ -76,7 +76,10 @@ def integrate_command(
         )  # fmt: skip
     mesh = surface.mesh
     folder.write("depth.npy", lambda path: np.save(path, surface.depth))
-    folder.write("depth.exr", lambda path: write_image(path, surface.depth.astype(np.float32)))
+    folder.write(
+        "depth.exr",
+        lambda path: write_image(path, surface.depth.astype(np.float32), nan_marks_missing=True),
+    )
     folder.write("mesh.ply", lambda path: mesh.export(path, file_type="ply"))
     summary = {**surface.summary(), "output": shown(output), "files": list(_OUTPUTS)}
     if as_json:

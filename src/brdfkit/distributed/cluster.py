@@ -4,14 +4,20 @@ References
 ----------
 .. [1] Dask.distributed documentation, "LocalCluster" and "Client"
    (https://distributed.dask.org).
+.. [2] CPython, ``Lib/multiprocessing/resource_tracker.py``,
+   ``ResourceTracker.ensure_running``: the tracker is started behind a mask that blocks
+   SIGINT and SIGTERM (bpo-33613).
 """
 
 from __future__ import annotations
 
 import logging
+import signal
+import sys
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, TypeVar
 
 from brdfkit.errors import ParameterError
 
@@ -130,7 +136,10 @@ def local_cluster(
     (the core count when omitted) with :data:`WORKER_CONFIG`, no dashboard and quiet logs.
 
     ``memory_limit`` is per worker (Dask's ``"auto"`` when omitted); ``keep_memory``: the
-    workers keep freed memory for their next task (:data:`KEEP_MEMORY_CONFIG`).
+    workers keep freed memory for their next task (:data:`KEEP_MEMORY_CONFIG`). The workers
+    take no Ctrl-C (:func:`started_deaf_to_ctrl_c`): the process that started them ends them,
+    and multiprocessing's resource tracker does not warn of the semaphores it then removes
+    (:func:`quiet_resource_tracker`).
     """
     require_dask()
     import os
@@ -146,15 +155,74 @@ def local_cluster(
             for key, value in KEEP_MEMORY_CONFIG.items()
             if key.rsplit(".", 1)[1] not in os.environ
         )
+    quiet_resource_tracker()
     with dask.config.set(config):  # read when each nanny is made
-        return LocalCluster(
-            n_workers=workers or os.cpu_count() or 1,
-            threads_per_worker=1,
-            processes=True,
-            memory_limit=memory_limit if memory_limit is not None else "auto",
-            dashboard_address=None,
-            silence_logs=logging.CRITICAL,
+        return started_deaf_to_ctrl_c(
+            lambda: LocalCluster(
+                n_workers=workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                memory_limit=memory_limit if memory_limit is not None else "auto",
+                dashboard_address=None,
+                silence_logs=logging.CRITICAL,
+            )
         )
+
+
+_Made = TypeVar("_Made")
+
+
+def started_deaf_to_ctrl_c(make: Callable[[], _Made]) -> _Made:
+    """``make()``, run in a thread that blocks SIGINT, so that every thread it starts (Dask's
+    event loop, the threads that start worker processes) and every process those start (the
+    workers, whose blocked signals are inherited through ``fork`` and ``exec``) take no Ctrl-C.
+
+    A terminal sends Ctrl-C to its whole foreground process group: a worker still importing
+    its modules would die of it printing a ``KeyboardInterrupt`` traceback, while the command
+    that owns the workers ends them itself (``brdfkit``'s commands kill every process they
+    started at the first Ctrl-C). The calling thread keeps taking the signal, so an interrupt
+    while the workers start ends the wait at once (the start then carries on unobserved until
+    the process ends). Where threads have no signal masks (Windows), ``make()`` runs here.
+    CPython starts its resource tracker behind the same mask, for the same race
+    (bpo-33613 [2]_).
+    """
+    if not hasattr(signal, "pthread_sigmask"):
+        return make()
+    outcome: dict[str, Any] = {}
+
+    def run() -> None:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            outcome["made"] = make()
+        except BaseException as error:  # handed to the caller below
+            outcome["error"] = error
+
+    thread = threading.Thread(target=run, name="brdfkit: start deaf to Ctrl-C", daemon=True)
+    thread.start()
+    thread.join()  # interruptible: the signal is the calling thread's
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["made"]
+
+
+def quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker, if it is not running yet, with its warnings
+    off.
+
+    The tracker removes the named semaphores that a process left behind when it ended, and
+    warns of each ("There appear to be 9 leaked semaphore objects to clean up at shutdown"):
+    after an interrupt, the command ends without closing its cluster, and the removal is the
+    intended clean-up, not a leak to report. The tracker gets the warning options of the
+    interpreter that starts it (``sys.warnoptions``), so they are set for that start only.
+    """
+    from multiprocessing import resource_tracker
+
+    quiet = "ignore::UserWarning"
+    sys.warnoptions.append(quiet)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        sys.warnoptions.remove(quiet)
 
 
 def completed(

@@ -1,0 +1,61 @@
+"""The ``brdfkit`` console script's entry point: a Ctrl-C is answered from the first moment.
+
+A command spends its first second or so importing (typer, NumPy, its modules); a Ctrl-C or
+SIGTERM then would end it in a ``KeyboardInterrupt`` traceback. :func:`guard_the_start` is the
+first thing :mod:`brdfkit.cli` runs (the console script's import reaches it before any other
+module of brdfkit's but the root package's): from then on either signal prints the one
+``error: interrupted`` line and exits with status 130, as a command does once it runs. Then
+:func:`main` puts the command's own handling in place
+(:func:`brdfkit.cli._app.stop_on_interrupt`: workers stopped, temporaries removed).
+
+This module imports nothing but :mod:`os`, :mod:`signal` and :mod:`sys`.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+
+INTERRUPTED = 130
+"""Exit status of a command ended by Ctrl-C or SIGTERM (128 + SIGINT, as shells report it)."""
+
+
+def is_console_script() -> bool:
+    """Whether this process runs the ``brdfkit`` command: not a library import, and not a
+    worker process that multiprocessing's *spawn* started for the command.
+
+    Such a worker runs the console script again (as ``__mp_main__``, with the command's
+    ``sys.argv``) but has the command's process to end it: it must not answer a signal with
+    an ``interrupted`` line of its own. Its interpreter was started with
+    ``--multiprocessing-fork`` (:data:`sys.orig_argv`).
+    """
+    return (
+        os.path.basename(sys.argv[0]) == "brdfkit" and "--multiprocessing-fork" not in sys.orig_argv
+    )
+
+
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C or SIGTERM before the command has started: nothing to clean up yet."""
+    os.write(2, b"error: interrupted\n")
+    os._exit(INTERRUPTED)
+
+
+def guard_the_start() -> None:
+    """In the ``brdfkit`` command's own process (:func:`is_console_script`), make SIGINT and
+    SIGTERM print ``error: interrupted`` and exit with status 130 until :func:`main` replaces
+    the handler; elsewhere, do nothing."""
+    if is_console_script():
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, _interrupted_while_starting)
+
+
+def main() -> None:
+    """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
+    from brdfkit.cli._app import app, stop_on_interrupt
+
+    stop_on_interrupt()
+    app()
+
+
+__all__ = ["INTERRUPTED", "guard_the_start", "is_console_script", "main"]
