@@ -24,7 +24,7 @@ pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-BUILD_TIMEOUT = 1200  # seconds; about one minute on two cores
+BUILD_TIMEOUT = 1200  # seconds; about six minutes on one core
 
 for _module in ("sphinx", "numpydoc", "sphinx_gallery", "sphinxcontrib.katex"):
     pytest.importorskip(_module, reason=f"{_module} is not installed (pip install -e '.[docs]')")
