@@ -12,14 +12,13 @@ analog simulation of light transport, traced from the camera:
    refracted otherwise (:func:`brdfkit.geometry.refract`);
 2. inside, a free path :math:`s = -\ln u/\sigma_t` is drawn; a path that reaches the boundary
    first meets it there (step 1), else it scatters by the phase function
-   (:func:`~brdfkit.bssrdf.medium.sample_henyey_greenstein`) and its weight is multiplied by
-   the albedo ω (absorption as a weight, as Mitsuba's ``volpath``);
-3. a path leaving the sphere in direction ω carries its weight times the light's
-   :math:`L(\omega)`.
+   (:func:`~brdfkit.bssrdf.medium.sample_henyey_greenstein`) with probability ω and is
+   absorbed (its value 0) otherwise;
+3. a path leaving the sphere in direction ω carries the light's :math:`L(\omega)`.
 
 The pixel value is the mean over its paths and its standard error their spread over
 :math:`\sqrt{n}`: an unbiased estimate of the radiance (paths still inside after
-:data:`MAX_EVENTS` events are counted as dark; with ω < 1 their weight is negligible). This is
+:data:`MAX_EVENTS` events are counted as dark; only ω ≈ 1 sees paths that long). This is
 what Mitsuba 3's ``volpath`` integrator computes for a ``dielectric`` sphere with a
 ``homogeneous`` interior, the image the diffusion models of :mod:`brdfkit.bssrdf` approximate.
 
@@ -32,8 +31,6 @@ References
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import numpy as np
 
@@ -129,23 +126,23 @@ def _walk(
     rng: np.random.Generator,
 ) -> None:
     """Steps 1–3 of the module docstring for paths just refracted into the sphere; adds each
-    leaving path's weighted radiance to ``value[path]``."""
+    leaving path's radiance to ``value[path]``."""
     albedo, sigma_t = float(medium.albedo), float(medium.sigma_t)
     g, eta = float(medium.g), float(medium.eta)
-    weight = np.ones(path.size)
     for _ in range(MAX_EVENTS):
         if path.size == 0:
             return
         b = np.sum(position * direction, -1)
         to_boundary = -b + np.sqrt(np.maximum(b * b - np.sum(position * position, -1) + 1, 0))
         free = -np.log1p(-rng.random(path.size)) / sigma_t
-        scatters = free < to_boundary
-        step = np.where(scatters, free, to_boundary)
+        collides = free < to_boundary
+        step = np.where(collides, free, to_boundary)
         position = position + step[:, None] * direction
-        weight = np.where(scatters, weight * albedo, weight)
+        absorbed = collides & (rng.random(path.size) >= albedo)
+        scatters = collides & ~absorbed
         direction = direction.copy()
         direction[scatters] = _scatter(direction[scatters], g, rng)
-        at_boundary = np.flatnonzero(~scatters)
+        at_boundary = np.flatnonzero(~collides)
         normal = position[at_boundary] / np.linalg.norm(position[at_boundary], axis=-1)[:, None]
         position[at_boundary] = normal  # back onto the sphere, against rounding
         cosine = np.sum(direction[at_boundary] * normal, -1)
@@ -155,15 +152,10 @@ def _walk(
         out = at_boundary[~stays]
         leaving, _ = refract(-direction[out], eta, normal[~stays])
         radiance = light.incident_radiance(position[out], leaving)
-        np.add.at(value, path[out], weight[out, None] * radiance)
-        keep = np.ones(path.size, bool)
+        np.add.at(value, path[out], radiance)
+        keep = ~absorbed
         keep[out] = False
-        path, position, direction, weight = (
-            path[keep],
-            position[keep],
-            direction[keep],
-            weight[keep],
-        )
+        path, position, direction = path[keep], position[keep], direction[keep]
 
 
 def _scatter(direction: np.ndarray, g: float, rng: np.random.Generator) -> np.ndarray:

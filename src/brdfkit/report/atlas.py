@@ -563,12 +563,15 @@ def card_html(card: Card) -> str:
     return "\n".join(parts)
 
 
-def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
-    """The whole page."""
+def atlas_html(
+    cards: Sequence[Card], envmap_name: str, sections: Sequence[tuple[str, str]] = ()
+) -> str:
+    """The whole page; ``sections`` (title, HTML) follow the cards."""
     import brdfkit
 
-    toc = " · ".join(f'<a href="#{html.escape(c.title)}">{html.escape(c.title)}</a>' for c in cards)
-    body = "\n".join(card_html(c) for c in cards)
+    titles = [c.title for c in cards] + [title for title, _ in sections]
+    toc = " · ".join(f'<a href="#{html.escape(t)}">{html.escape(t)}</a>' for t in titles)
+    body = "\n".join([card_html(c) for c in cards] + [part for _, part in sections])
     return (
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
         f"<title>brdfkit atlas</title><style>{_CSS}</style><script>{_SCRIPT}</script></head><body>"
@@ -759,6 +762,7 @@ def build_atlas(
     from brdfkit.data import default_envmap_path
     from brdfkit.io import atomic_write
     from brdfkit.light.environment import EnvironmentMap
+    from brdfkit.report import subsurface  # the default atlas's BSSRDF section
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     # one BLAS thread: the map's sampling weights and irradiance table, the workers it forks
@@ -779,7 +783,8 @@ def build_atlas(
             "max_samples": max_samples,
         }
         cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
-    page = atlas_html(cards, envmap_path.name)
+    sections = [] if models else [(subsurface.TITLE, subsurface.subsurface_section())]
+    page = atlas_html(cards, envmap_path.name, sections)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
 
 
