@@ -12,16 +12,25 @@ scattering (lengths in mean free paths):
    of the power leaving within 0.1 mean free path of the point of entry (r → 0). Models give
    the exitance per unit power that entered; they are compared after the walk's boundary
    transmittance :math:`1 - F(\\mu_i)`;
-3. Mitsuba 3's ``volpath`` (``scalar_rgb``) on a thick slab (ω = 0.9, η = 1.33) under a
-   constant unit environment, seen at normal incidence: by reciprocity its radiance is the
-   slab's total reflectance at normal incidence, the specular F(1) included.
+3. Mitsuba 3's ``volpath`` (``llvm_ad_rgb``) on a slab 40 × 40 × 20 mean free paths (ω = 0.9,
+   η = 1.33): its total reflectance at normal incidence (under a constant unit environment, by
+   reciprocity, the specular F(1) included) and its radial profile by reciprocity (a sensor
+   over a small square looking down, unit diffuse light from one ring of texels just above the
+   surface at a time: the share of pencil-beam power leaving over that ring; the walk
+   estimates the same number, see :func:`mitsuba_profile`);
+4. a translucent unit sphere (ω = 0.9, η = 1.33, mean free paths of 0.1 and 0.02 radii) under a
+   soft lobe of sky, 64², rendered by Mitsuba's ``volpath``, by brdfkit's reference walk
+   (:func:`brdfkit.bssrdf.sphere_walk.random_walk_sphere`) and by each diffusion model's
+   separable BSSRDF (:func:`brdfkit.bssrdf.sphere.diffusion_sphere`).
 
-``python benchmarks/bench_bssrdf.py``; results go to ``benchmarks/results/bssrdf.json``.
+``python benchmarks/bench_bssrdf.py`` (``--spheres-only``: part 4 alone, the rest of the
+results file kept); results go to ``benchmarks/results/bssrdf.json``.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
@@ -37,7 +46,11 @@ from brdfkit.bssrdf import (
     tally_walks,
 )
 from brdfkit.bssrdf.random_walk import entry
+from brdfkit.bssrdf.sphere import diffusion_sphere
+from brdfkit.bssrdf.sphere_walk import random_walk_sphere
 from brdfkit.fresnel import fresnel_dielectric
+from brdfkit.light import EnvironmentMap
+from brdfkit.light.spherical_harmonics import latlong_directions
 
 WALKS = 1_000_000
 ALBEDOS = (0.1, 0.3, 0.5, 0.7, 0.9, 0.99)
@@ -50,6 +63,12 @@ SLAB_SIDE, SLAB_DEPTH = 40.0, 20.0
 RINGS = np.array([0.0, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0])
 REACH, TEXELS, GAP, SENSOR = 6.0, 512, 1e-3, 0.05
 PROFILE_RUNS, PROFILE_SPP = 4, 1024
+SPHERE_MEDIA = {  # ω, σt, η; mean free paths of 0.1 and 0.02 sphere radii
+    "soft": (0.9, 10.0, 1.33),
+    "dense": (0.9, 50.0, 1.33),
+}
+SPHERE_RESOLUTION, SPHERE_RUNS, SPHERE_SPP, SPHERE_WALKS, BLOCK = 64, 8, 64, 128, 4
+SKY_TOWARDS = (0.3, 1.0, 0.5)
 MITSUBA_ALBEDO, MITSUBA_ETA = 0.9, 1.33
 
 
@@ -279,24 +298,151 @@ def walk_rings(rings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return value, stderr
 
 
-def mitsuba_comparisons() -> dict:
-    """The slab's total reflectance and radial profile against Mitsuba (``None`` each without
-    Mitsuba)."""
+def lobe_sky() -> EnvironmentMap:
+    """The sphere's light: a soft lobe around SKY_TOWARDS on a faint floor,
+    L(ω) = 0.05 + 4 max(ω·l, 0)⁴, as a 32 × 64 lat-long map."""
+    towards = np.asarray(SKY_TOWARDS) / np.linalg.norm(SKY_TOWARDS)
+    radiance = 0.05 + 4 * np.maximum(latlong_directions(32, 64) @ towards, 0) ** 4
+    return EnvironmentMap(np.repeat(radiance[..., None], 3, -1))
+
+
+def blocks(image: np.ndarray, stderr: np.ndarray, mask: np.ndarray) -> tuple:
+    """Means and standard errors of BLOCK × BLOCK pixel blocks wholly on the sphere."""
+    side = image.shape[0] // BLOCK
+    inner = mask.reshape(side, BLOCK, side, BLOCK).all(axis=(1, 3))
+    mean = image.reshape(side, BLOCK, side, BLOCK, -1).mean(axis=(1, 3))
+    spread = np.sqrt((stderr**2).reshape(side, BLOCK, side, BLOCK, -1).sum(axis=(1, 3)))
+    return mean[inner], spread[inner] / BLOCK**2
+
+
+def mitsuba_sphere(mi, ms, medium_values: tuple, table_errors: dict) -> dict:
+    """A translucent sphere (``medium_values``: ω, σt, η; radius 1) under :func:`lobe_sky`:
+    Mitsuba's ``volpath`` against brdfkit's reference walk (within noise: z-scores of 4 × 4
+    pixel blocks against the combined standard error) and the diffusion models' separable BSSRDF
+    renders
+    (relative error of the mean and relative RMSE of the blocks) beside each model's error in
+    the table (``table_errors``: the half-space at normal incidence)."""
+    sky = lobe_sky()
+    albedo, sigma_t, eta = medium_values
+    transform = mi.ScalarTransform4f()
+    sensor = looking_down(mi, 1.0, SPHERE_RESOLUTION)
+    sensor["to_world"] = transform.look_at(origin=[10, 0, 0], target=[0, 0, 0], up=[0, 0, 1])
+    scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "volpath", "max_depth": -1, "hide_emitters": True},
+            "sensor": sensor,
+            "sphere": {
+                "type": "sphere",
+                "bsdf": {"type": "dielectric", "int_ior": eta, "ext_ior": 1.0},
+                "interior": {
+                    "type": "homogeneous",
+                    "albedo": {"type": "rgb", "value": albedo},
+                    "sigma_t": sigma_t,
+                    "phase": {"type": "isotropic"},
+                },
+            },
+            "light": ms.envmap_emitter(mi, sky),
+        }
+    )
+    start = time.perf_counter()
+    runs = np.stack([ms.render(mi, scene, SPHERE_SPP, seed=seed) for seed in range(SPHERE_RUNS)])[
+        ..., :1
+    ]  # a grey scene: the channels are one path's
+    mitsuba_seconds = time.perf_counter() - start
+    mitsuba = runs.mean(0)
+    mitsuba_stderr = runs.std(0, ddof=1) / math.sqrt(SPHERE_RUNS)
+    medium = Medium(albedo, sigma_t, eta=eta)
+    start = time.perf_counter()
+    walk, walk_stderr = random_walk_sphere(medium, sky, SPHERE_RESOLUTION, SPHERE_WALKS, seed=7)
+    walk_seconds = time.perf_counter() - start
+    walk, walk_stderr = walk[..., :1], walk_stderr[..., :1]
+    centres = (np.arange(SPHERE_RESOLUTION) + 0.5) / SPHERE_RESOLUTION * 2 - 1
+    corner = (np.abs(centres) + 1 / SPHERE_RESOLUTION) ** 2
+    on_sphere = corner[:, None] + corner[None, :] < 1  # pixels wholly on the sphere
+    reference, reference_stderr = blocks(mitsuba, mitsuba_stderr, on_sphere)
+    walk_blocks, walk_block_stderr = blocks(walk, walk_stderr, on_sphere)
+    z = (walk_blocks - reference) / np.hypot(reference_stderr, walk_block_stderr)
+    models = {}
+    for model_type in MODELS:
+        image = diffusion_sphere(model_type(medium), sky, SPHERE_RESOLUTION, 256)[..., :1]
+        mean, _ = blocks(image, np.zeros_like(image), on_sphere)
+        models[model_type.name] = {
+            "documented": table_errors[model_type.name]["total"],
+            "mean": float(mean.mean() / reference.mean() - 1),
+            "block_rmse": float(np.sqrt(np.mean((mean - reference) ** 2) / np.mean(reference**2))),
+        }
+    return {
+        "medium": {"albedo": albedo, "sigma_t": sigma_t, "eta": eta, "radius": 1.0},
+        "resolution": SPHERE_RESOLUTION,
+        "mitsuba_spp": SPHERE_RUNS * SPHERE_SPP,
+        "walk_spp": SPHERE_WALKS,
+        "blocks": int(z.size),
+        "walk_z_mean": float(z.mean()),
+        "walk_z_std": float(z.std()),
+        "walk_max_abs_z": float(np.abs(z).max()),
+        "walk_mean_ratio": float(walk_blocks.mean() / reference.mean()),
+        "models": models,
+        "mitsuba_blocks": reference.ravel().tolist(),
+        "mitsuba_seconds": mitsuba_seconds,
+        "walk_seconds": walk_seconds,
+    }
+
+
+def mitsuba_comparisons(cases: list[dict]) -> dict:
+    """The slab's total reflectance and radial profile and the spheres against Mitsuba
+    (``None`` each without Mitsuba)."""
     try:
         from brdfkit.interop import mitsuba as ms
 
         mi, variant = ms.load_mitsuba(("llvm_ad_rgb", "scalar_rgb"))
     except ImportError:
-        return {"mitsuba": None, "mitsuba_profile": None}
+        return {"mitsuba": None, "mitsuba_profile": None, "mitsuba_spheres": None}
     return {
         "mitsuba": mitsuba_slab(mi, ms, variant),
         "mitsuba_profile": mitsuba_profile(mi, ms, variant),
+        "mitsuba_spheres": {
+            name: mitsuba_sphere(mi, ms, values, documented(cases, values))
+            for name, values in SPHERE_MEDIA.items()
+        },
     }
+
+
+def documented(cases: list[dict], medium_values: tuple) -> dict:
+    """The table's errors of the case with the sphere medium's ω and η."""
+    albedo, _, eta = medium_values
+    return next(c for c in cases if c["albedo"] == albedo and c["eta"] == eta)["errors"]
+
+
+def spheres_only() -> None:
+    """Rerun part 4 alone (``--spheres-only``), keeping parts 1–3 of the results file (their
+    machine record kept as ``machine_of_parts_1_to_3``)."""
+    import json
+
+    from _machine import results_path, write_results
+
+    record = json.loads(results_path(__file__).read_text(encoding="utf-8"))
+    earlier = record.pop("machine_of_parts_1_to_3", record["machine"])
+    for key in ("benchmark", "command", "machine"):
+        record.pop(key)
+    from brdfkit.interop import mitsuba as ms
+
+    mi, _ = ms.load_mitsuba(("llvm_ad_rgb", "scalar_rgb"))
+    record["mitsuba_spheres"] = {
+        name: mitsuba_sphere(mi, ms, values, documented(record["cases"], values))
+        for name, values in SPHERE_MEDIA.items()
+    }
+    record["machine_of_parts_1_to_3"] = earlier
+    print(f"wrote {write_results(__file__, record, packages=('mitsuba',))}")
+    print(record["mitsuba_spheres"])
 
 
 def main() -> None:
     from _machine import write_results
 
+    if "--spheres-only" in sys.argv[1:]:
+        spheres_only()
+        return
     start = time.perf_counter()
     chandrasekhar = chandrasekhar_rows()
     cases = [
@@ -311,7 +457,7 @@ def main() -> None:
         "chandrasekhar": chandrasekhar,
         "cases": cases,
         "walk_seconds": walk_seconds,
-        **mitsuba_comparisons(),
+        **mitsuba_comparisons(cases),
     }
     path = write_results(__file__, record, packages=("mitsuba",))
     print(f"wrote {path}")
@@ -322,7 +468,7 @@ def main() -> None:
     for case in cases:
         totals = "  ".join(f"{n}: {e['total']:+.3f}" for n, e in case["errors"].items())
         print(f"η={case['eta']} ω={case['albedo']}: {totals}")
-    for key in ("mitsuba", "mitsuba_profile"):
+    for key in ("mitsuba", "mitsuba_profile", "mitsuba_spheres"):
         print(key, record[key])
 
 

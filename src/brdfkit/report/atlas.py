@@ -745,6 +745,18 @@ def _build_cards(
     return [results[k] for k in range(len(entries))]
 
 
+def _subsurface_html() -> str:
+    """The default atlas's last section: :mod:`brdfkit.report.subsurface`'s spheres."""
+    from brdfkit.report import subsurface
+
+    title = html.escape(subsurface.TITLE)
+    image = _img(_image_png(subsurface.subsurface_spheres_row()), subsurface.CAPTION)
+    return (
+        f'<section class="card" id="{title}"><h2>{title}</h2>'
+        f"<p>{html.escape(subsurface.SUMMARY)}</p>{image}</section>"
+    )
+
+
 def build_atlas(
     output: Path,
     models: Sequence[str | BRDF] | None = None,
@@ -762,7 +774,7 @@ def build_atlas(
     from brdfkit.data import default_envmap_path
     from brdfkit.io import atomic_write
     from brdfkit.light.environment import EnvironmentMap
-    from brdfkit.report import subsurface  # the default atlas's BSSRDF section
+    from brdfkit.report import subsurface
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     # one BLAS thread: the map's sampling weights and irradiance table, the workers it forks
@@ -783,7 +795,7 @@ def build_atlas(
             "max_samples": max_samples,
         }
         cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
-    sections = [] if models else [(subsurface.TITLE, subsurface.subsurface_section())]
+    sections = [] if models else [(subsurface.TITLE, _subsurface_html())]
     page = atlas_html(cards, envmap_path.name, sections)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
 

@@ -2,10 +2,10 @@
 
 The lectures close the BRDF's family with the BSSRDF — light "arriving at a point" leaves
 elsewhere — and show it as a BRDF and a BSSRDF rendering side by side: subsurface scattering
-makes surfaces look softer. :func:`subsurface_section` renders that pair with
+makes surfaces look softer. :func:`subsurface_spheres_row` renders that pair with
 :func:`brdfkit.bssrdf.subsurface_spheres` (a Lambertian sphere and Christensen–Burley's
 normalized diffusion of the same skin-like diffuse colour, red light travelling farthest, under
-one directional light) as one HTML section of the atlas page.
+one directional light) for the last section of the atlas page.
 
 References
 ----------
@@ -17,13 +17,10 @@ References
 
 from __future__ import annotations
 
-import html
-
 import numpy as np
 
 from brdfkit.bssrdf import Medium, NormalizedDiffusion, subsurface_spheres
 from brdfkit.plot import encode_spheres
-from brdfkit.report.atlas import _image_png, _img
 
 TITLE = "Beyond the BRDF: subsurface scattering"
 """The section's heading (and its anchor in the atlas's table of contents)."""
@@ -38,33 +35,36 @@ LIGHT = (0.2, 1.0, 0.5)
 """The direction towards the light (world; the camera on +x, z up)."""
 
 
-def subsurface_section(resolution: int = 64, samples: int = 16) -> str:
-    """The section's HTML: the two spheres side by side and what they show.
+def subsurface_spheres_row(resolution: int = 64, samples: int = 16) -> np.ndarray:
+    """The two spheres side by side, 8-bit sRGB ``(resolution, 2·resolution + 4, 3)``.
 
     Examples
     --------
-    >>> page = subsurface_section(resolution=16, samples=4)
-    >>> page.startswith('<section class="card"') and "BSSRDF" in page
-    True
+    >>> row = subsurface_spheres_row(resolution=16, samples=4)
+    >>> row.shape, row.dtype.name
+    ((16, 36, 3), 'uint8')
     """
     medium = Medium(0.9, sigma_t=np.asarray(SIGMA_T), eta=1.4)
     model = NormalizedDiffusion(medium, surface_albedo=COLOUR)
     brdf, bssrdf = subsurface_spheres(model, light=LIGHT, resolution=resolution, samples=samples)
     gap = np.zeros((resolution, 4, 3), np.uint8)
     left, right = encode_spheres([np.pi * brdf, np.pi * bssrdf])
-    row = _image_png(np.concatenate([left, gap, right], axis=1))
-    caption = "BRDF (Lambertian) · BSSRDF (normalized diffusion), the same diffuse colour"
-    return (
-        f'<section class="card" id="{html.escape(TITLE)}"><h2>{html.escape(TITLE)}</h2>'
-        "<p>A BRDF sends light out where it arrived; a BSSRDF lets it enter, scatter under the "
-        "surface and leave elsewhere, so the surface looks softer: where the light is uniform "
-        "the two spheres agree, at the terminator the translucent one bleeds light into the "
-        "shadow, reddest where it travelled farthest. Left: Lambertian, diffuse colour "
-        f"{COLOUR}; right: <code>NormalizedDiffusion</code> of the same colour, mean free path "
-        f"{', '.join(f'{1 / s:g}' for s in SIGMA_T)} sphere radii (red, green, blue). See "
-        "<code>brdfkit.bssrdf</code>: a random-walk reference, four diffusion models and "
-        f"their errors.</p>{_img(row, caption)}</section>"
-    )
+    return np.concatenate([left, gap, right], axis=1)
 
 
-__all__ = ["COLOUR", "LIGHT", "SIGMA_T", "TITLE", "subsurface_section"]
+CAPTION = "BRDF (Lambertian) · BSSRDF (normalized diffusion), the same diffuse colour"
+"""The row's caption."""
+
+SUMMARY = (
+    "A BRDF sends light out where it arrived; a BSSRDF lets it enter, scatter under the surface "
+    "and leave elsewhere, so the surface looks softer: where the light is uniform the two "
+    "spheres agree, at the terminator the translucent one bleeds light into the shadow, reddest "
+    f"where it travelled farthest. Left: Lambertian, diffuse colour {COLOUR}; right: "
+    "NormalizedDiffusion of the same colour, mean free paths "
+    f"{', '.join(f'{1 / s:g}' for s in SIGMA_T)} sphere radii (red, green, blue). See "
+    "brdfkit.bssrdf: a random-walk reference, four diffusion models and their errors."
+)
+"""The section's text (plain; the atlas escapes it)."""
+
+
+__all__ = ["CAPTION", "COLOUR", "LIGHT", "SIGMA_T", "SUMMARY", "TITLE", "subsurface_spheres_row"]
