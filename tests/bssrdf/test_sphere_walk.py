@@ -8,7 +8,7 @@ import pytest
 
 from brdfkit.bssrdf import Medium
 from brdfkit.bssrdf.sphere_walk import random_walk_sphere
-from brdfkit.errors import ParameterError
+from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.light import DirectionalLight, EnvironmentMap
 
 SKY = EnvironmentMap(np.ones((4, 8, 1)))
@@ -41,8 +41,10 @@ def test_light_is_scattered_not_lost_and_absorption_darkens():
     assert np.all(dark[3:5, 3:5] < 0.9)
 
 
-def test_a_delta_light_or_a_coloured_medium_is_refused():
+def test_a_delta_light_a_coloured_medium_or_too_many_paths_are_refused():
     with pytest.raises(ParameterError, match="light"):
         random_walk_sphere(Medium(0.5), DirectionalLight((0.0, 0.0, 1.0)), 4, 4)
     with pytest.raises(ParameterError, match="albedo"):
         random_walk_sphere(Medium([0.5, 0.6, 0.7]), SKY, 4, 4)
+    with pytest.raises(ResourceError, match="paths"):
+        random_walk_sphere(Medium(0.5), SKY, 2048, 1 << 16)

@@ -36,7 +36,7 @@ import numpy as np
 
 from brdfkit._checks import check_count
 from brdfkit.bssrdf.medium import Medium, sample_henyey_greenstein
-from brdfkit.errors import ParameterError
+from brdfkit.errors import ParameterError, ResourceError
 from brdfkit.fresnel import fresnel_dielectric
 from brdfkit.geometry import frame_from_normal, reflect, refract, to_world
 from brdfkit.light.base import Light
@@ -46,6 +46,10 @@ MAX_EVENTS = 100_000
 
 CHUNK = 1 << 17
 """Paths traced together (memory: a few hundred bytes each)."""
+
+MAX_PATHS = 1 << 26
+"""The most paths (pixels × samples) one render traces (each path's value is kept for the
+standard error: 8 bytes per channel)."""
 
 
 def random_walk_sphere(
@@ -81,6 +85,11 @@ def random_walk_sphere(
         raise ParameterError("light must have no delta (a path can never hit one)")
     resolution = check_count("resolution", resolution, 2048)
     samples = check_count("samples", samples, 1 << 16, minimum=2)
+    if resolution * resolution * samples > MAX_PATHS:
+        raise ResourceError(
+            f"resolution² × samples must be at most {MAX_PATHS:,} paths; got "
+            f"{resolution}² × {samples}"
+        )
     for name in ("albedo", "sigma_t", "g", "eta"):
         if np.size(getattr(medium, name)) != 1:
             raise ParameterError(f"medium.{name} must be one value (a grey medium)")
@@ -167,4 +176,4 @@ def _scatter(direction: np.ndarray, g: float, rng: np.random.Generator) -> np.nd
     return to_world(local, frame_from_normal(direction))
 
 
-__all__ = ["CHUNK", "MAX_EVENTS", "random_walk_sphere"]
+__all__ = ["CHUNK", "MAX_EVENTS", "MAX_PATHS", "random_walk_sphere"]
