@@ -24,3 +24,4 @@ def test_the_section_follows_the_cards_and_is_in_the_table_of_contents():
     page = atlas_html([], "test", [(subsurface.TITLE, section)])
     assert f'href="#{subsurface.TITLE}"' in page
     assert section in page and "data:image/png;base64," in section
+    assert 'class="card"' not in section  # not one of the models' cards

@@ -462,9 +462,9 @@ _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2rem auto;max-width:1150px;
 color:#222;background:#fafafa}
 h1{margin-bottom:.2rem} .sub{color:#666;margin-top:0}
-.card{background:#fff;border:1px solid #ddd;border-radius:10px;padding:1rem 1.4rem;margin:1.4rem 0;
-box-shadow:0 1px 3px rgba(0,0,0,.06)}
-.card h2{margin:.2rem 0 .6rem;font-family:ui-monospace,monospace}
+.card,.subsurface{background:#fff;border:1px solid #ddd;border-radius:10px;
+padding:1rem 1.4rem;margin:1.4rem 0;box-shadow:0 1px 3px rgba(0,0,0,.06)}
+.card h2,.subsurface h2{margin:.2rem 0 .6rem;font-family:ui-monospace,monospace}
 .row{display:flex;flex-wrap:wrap;gap:1rem;align-items:flex-start}
 figure{margin:0} figcaption{font-size:.8rem;color:#666}
 pre{white-space:pre-wrap;font-size:.82rem;background:#f4f4f4;padding:.6rem;border-radius:6px}
@@ -752,7 +752,7 @@ def _subsurface_html() -> str:
     title = html.escape(subsurface.TITLE)
     image = _img(_image_png(subsurface.subsurface_spheres_row()), subsurface.CAPTION)
     return (
-        f'<section class="card" id="{title}"><h2>{title}</h2>'
+        f'<section class="subsurface" id="{title}"><h2>{title}</h2>'
         f"<p>{html.escape(subsurface.SUMMARY)}</p>{image}</section>"
     )
 
