@@ -180,6 +180,55 @@ def bssrdf(r: dict) -> str:
             f"{m['walk_plus_specular']:.4f} ± {m['walk_stderr']:.4f}; difference "
             f"{pct(difference / m['walk_plus_specular'])}."
         )
+    if r.get("mitsuba_profile"):
+        parts.append(_bssrdf_profile(r["mitsuba_profile"]))
+    if r.get("mitsuba_spheres"):
+        parts.append(_bssrdf_spheres(r["mitsuba_spheres"]))
+    earlier = r.get("machine_of_parts_1_to_3")
+    if earlier:
+        parts.append(
+            f"The tables above the spheres come from the full run (brdfkit at "
+            f"{earlier['commit']}, {earlier['date']}, load average {earlier['load_average'][0]}); "
+            "the spheres from the `--spheres-only` run of the machine line below."
+        )
+    return "\n\n".join(parts)
+
+
+def _bssrdf_profile(p: dict) -> str:
+    edges = p["ring_edges"] + ["∞"]
+    body = [
+        [f"{edges[i]}–{edges[i + 1]}", f"{m:.5f} ± {ms:.5f}", f"{w:.5f} ± {ws:.5f}", f"{z:+.2f}"]
+        for i, (m, ms, w, ws, z) in enumerate(
+            zip(p["mitsuba"], p["mitsuba_stderr"], p["walk"], p["walk_stderr"], p["z"], strict=True)
+        )
+    ]
+    return (
+        f"Radial profile by reciprocity, Mitsuba 3 `volpath` ({p['variant']}, "
+        f"{p['spp_per_ring']:,} paths per ring) against the random walk (share of pencil-beam "
+        f"power leaving over each ring of radii, mean free paths, the first with F(1)); "
+        f"χ² = {p['chi2']:.1f} over {p['rings']} rings:\n\n"
+        + rows(["ring", "Mitsuba", "random walk", "z"], body, "lrrr")
+    )
+
+
+def _bssrdf_spheres(spheres: dict) -> str:
+    parts = []
+    for name, s in spheres.items():
+        m = s["medium"]
+        models = s["models"]
+        body = [
+            [n, pct(e["documented"], 1), pct(e["mean"], 1), pct(e["block_rmse"], 1)]
+            for n, e in models.items()
+        ]
+        parts.append(
+            f"Translucent sphere ({name}: ω = {m['albedo']}, σt = {m['sigma_t']} per radius, "
+            f"η = {m['eta']}; {s['resolution']}², {s['blocks']} blocks of 4×4 pixels): reference "
+            f"walk ({s['walk_spp']} spp) against Mitsuba `volpath` ({s['mitsuba_spp']} spp): "
+            f"block z mean {s['walk_z_mean']:+.2f}, sd {s['walk_z_std']:.2f}, max "
+            f"|z| {s['walk_max_abs_z']:.2f}, mean ratio {s['walk_mean_ratio']:.4f}. Diffusion "
+            "models' separable BSSRDF against Mitsuba:\n\n"
+            + rows(["model", "table error", "mean error", "block RMSE"], body, "lrrr")
+        )
     return "\n\n".join(parts)
 
 

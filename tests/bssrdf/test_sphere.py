@@ -6,9 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brdfkit.bssrdf import Medium, NormalizedDiffusion
-from brdfkit.bssrdf.sphere import subsurface_spheres
+from brdfkit.bssrdf import BetterDipole, Medium, NormalizedDiffusion
+from brdfkit.bssrdf.sphere import diffusion_sphere, subsurface_spheres
 from brdfkit.errors import ParameterError, ResourceError
+from brdfkit.fresnel import fresnel_dielectric
+from brdfkit.light import DirectionalLight, EnvironmentMap
 
 
 @pytest.fixture(scope="module")
@@ -39,3 +41,21 @@ def test_bad_arguments_are_named():
         subsurface_spheres(model, resolution=10**6)
     with pytest.raises(ParameterError, match=r"^light must"):
         subsurface_spheres(model, light=(np.nan, 0.0, 1.0))
+
+
+def test_under_a_uniform_sky_the_diffusion_sphere_is_specular_plus_rho():
+    """A uniform unit sky: every entry point takes in E_t = π c, so each pixel is the exit's
+    F(μ_o) plus (1 − F(μ_o)) ρ — the tabulated E_t and the exit's normalisation c agree."""
+    medium = Medium(0.8, sigma_t=20.0, eta=1.33)
+    model = BetterDipole(medium)
+    image = diffusion_sphere(model, EnvironmentMap(np.ones((8, 16, 1))), 16, 32)
+    centres = (np.arange(16) + 0.5) / 8 - 1
+    mu = np.sqrt(np.maximum(1 - centres[:, None] ** 2 - centres[None, :] ** 2, 0))
+    f = fresnel_dielectric(mu, 1.33)
+    expected = np.where(mu > 0, f + (1 - f) * float(model.total_reflectance()[0]), 0)
+    np.testing.assert_allclose(image[..., 0], expected, atol=2e-3)
+
+
+def test_the_diffusion_sphere_refuses_a_delta_light():
+    with pytest.raises(ParameterError, match="light"):
+        diffusion_sphere(BetterDipole(Medium(0.5)), DirectionalLight((0.0, 0.0, 1.0)))

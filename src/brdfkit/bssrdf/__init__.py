@@ -11,7 +11,10 @@
   diffusion as radial profiles, with their albedo inversion;
 - :mod:`~brdfkit.bssrdf.profile_sampling`: sampling of radii and of exit points by axis
   projection;
-- :mod:`~brdfkit.bssrdf.sphere`: a BSSRDF sphere beside the BRDF sphere of the same albedo.
+- :mod:`~brdfkit.bssrdf.sphere`: a BSSRDF sphere beside the BRDF sphere of the same albedo,
+  and a diffusion model's translucent sphere under an environment;
+- :mod:`~brdfkit.bssrdf.sphere_walk`: the reference render of that sphere, volumetric path
+  tracing (what Mitsuba 3's ``volpath`` computes).
 """
 
 from brdfkit.bssrdf.chandrasekhar import chandrasekhar_reflectance, h_function
@@ -33,7 +36,8 @@ from brdfkit.bssrdf.random_walk import (
     random_walk_reflectance,
     tally_walks,
 )
-from brdfkit.bssrdf.sphere import subsurface_spheres
+from brdfkit.bssrdf.sphere import diffusion_sphere, subsurface_spheres
+from brdfkit.bssrdf.sphere_walk import random_walk_sphere
 
 __all__ = [
     "BetterDipole",
@@ -47,12 +51,14 @@ __all__ = [
     "RadialSampler",
     "WalkTally",
     "chandrasekhar_reflectance",
+    "diffusion_sphere",
     "fresnel_moment",
     "h_function",
     "henyey_greenstein",
     "invert_albedo",
     "random_walk_profile",
     "random_walk_reflectance",
+    "random_walk_sphere",
     "sample_henyey_greenstein",
     "subsurface_spheres",
     "tally_walks",

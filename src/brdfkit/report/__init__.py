@@ -1,8 +1,9 @@
 """The reflectance atlas and the material gallery: self-contained HTML pages.
 
 :mod:`~brdfkit.report.atlas` writes a card per model (its docstring typeset, spheres, lobe,
-albedo curve and physics checks); :mod:`~brdfkit.report.gallery` shows the named material
-presets.
+albedo curve and physics checks) and ends the default atlas with
+:mod:`~brdfkit.report.subsurface`'s BRDF and BSSRDF spheres side by side;
+:mod:`~brdfkit.report.gallery` shows the named material presets.
 """
 
 from brdfkit.report.atlas import (

@@ -462,9 +462,9 @@ _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:2rem auto;max-width:1150px;
 color:#222;background:#fafafa}
 h1{margin-bottom:.2rem} .sub{color:#666;margin-top:0}
-.card{background:#fff;border:1px solid #ddd;border-radius:10px;padding:1rem 1.4rem;margin:1.4rem 0;
-box-shadow:0 1px 3px rgba(0,0,0,.06)}
-.card h2{margin:.2rem 0 .6rem;font-family:ui-monospace,monospace}
+.card,.subsurface{background:#fff;border:1px solid #ddd;border-radius:10px;
+padding:1rem 1.4rem;margin:1.4rem 0;box-shadow:0 1px 3px rgba(0,0,0,.06)}
+.card h2,.subsurface h2{margin:.2rem 0 .6rem;font-family:ui-monospace,monospace}
 .row{display:flex;flex-wrap:wrap;gap:1rem;align-items:flex-start}
 figure{margin:0} figcaption{font-size:.8rem;color:#666}
 pre{white-space:pre-wrap;font-size:.82rem;background:#f4f4f4;padding:.6rem;border-radius:6px}
@@ -563,12 +563,15 @@ def card_html(card: Card) -> str:
     return "\n".join(parts)
 
 
-def atlas_html(cards: Sequence[Card], envmap_name: str) -> str:
-    """The whole page."""
+def atlas_html(
+    cards: Sequence[Card], envmap_name: str, sections: Sequence[tuple[str, str]] = ()
+) -> str:
+    """The whole page; ``sections`` (title, HTML) follow the cards."""
     import brdfkit
 
-    toc = " · ".join(f'<a href="#{html.escape(c.title)}">{html.escape(c.title)}</a>' for c in cards)
-    body = "\n".join(card_html(c) for c in cards)
+    titles = [c.title for c in cards] + [title for title, _ in sections]
+    toc = " · ".join(f'<a href="#{html.escape(t)}">{html.escape(t)}</a>' for t in titles)
+    body = "\n".join([card_html(c) for c in cards] + [part for _, part in sections])
     return (
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>"
         f"<title>brdfkit atlas</title><style>{_CSS}</style><script>{_SCRIPT}</script></head><body>"
@@ -742,6 +745,18 @@ def _build_cards(
     return [results[k] for k in range(len(entries))]
 
 
+def _subsurface_html() -> str:
+    """The default atlas's last section: :mod:`brdfkit.report.subsurface`'s spheres."""
+    from brdfkit.report import subsurface
+
+    title = html.escape(subsurface.TITLE)
+    image = _img(_image_png(subsurface.subsurface_spheres_row()), subsurface.CAPTION)
+    return (
+        f'<section class="subsurface" id="{title}"><h2>{title}</h2>'
+        f"<p>{html.escape(subsurface.SUMMARY)}</p>{image}</section>"
+    )
+
+
 def build_atlas(
     output: Path,
     models: Sequence[str | BRDF] | None = None,
@@ -759,6 +774,7 @@ def build_atlas(
     from brdfkit.data import default_envmap_path
     from brdfkit.io import atomic_write
     from brdfkit.light.environment import EnvironmentMap
+    from brdfkit.report import subsurface
 
     envmap_path = Path(envmap) if envmap is not None else default_envmap_path()
     # one BLAS thread: the map's sampling weights and irradiance table, the workers it forks
@@ -779,7 +795,8 @@ def build_atlas(
             "max_samples": max_samples,
         }
         cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
-    page = atlas_html(cards, envmap_path.name)
+    sections = [] if models else [(subsurface.TITLE, _subsurface_html())]
+    page = atlas_html(cards, envmap_path.name, sections)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
 
 
