@@ -6,8 +6,9 @@ In a fresh virtual environment, ``pip install`` of this tree with its default de
 - **Size**: the bytes of ``site-packages`` (every file, as ``du`` counts them, in MiB), and of
   each installed distribution (the files its ``RECORD`` lists, compiled ``.pyc`` included):
   the total, and the ten largest.
-- **Without JAX**: the same after ``pip uninstall jax jaxlib`` in that environment (JAX serves
-  only the tracer of :mod:`brdfkit.compiled`, which is to leave the default install).
+- **Without JAX**: the same after ``pip uninstall`` of jax, jaxlib and the two packages only
+  they require (ml_dtypes, opt_einsum) in that environment (JAX serves only the tracer of
+  :mod:`brdfkit.compiled`, which is to leave the default install).
 - **Start-up**: wall and CPU seconds of fresh processes, interleaved over ``--repeats`` rounds:
   the console script's ``brdfkit --help``, ``python -c "import brdfkit"`` and, for scale,
   ``python -c pass``; the median and the minimum of each.
@@ -34,6 +35,8 @@ from _machine import write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 MIB = 2**20
+JAX = ("jax", "jaxlib", "ml_dtypes", "opt_einsum")
+"""JAX and the distributions that only it requires."""
 
 _SIZES = """
 import json, sys
@@ -127,7 +130,7 @@ def main() -> None:
         record: dict[str, Any] = {"pip_install_s": round(install_s, 1)}
         record["default"] = _sizes(python, site_packages)
         record["start_up"] = _start_up(venv, args.repeats)
-        _run([str(python), "-m", "pip", "uninstall", "-q", "-y", "jax", "jaxlib"], env=env)
+        _run([str(python), "-m", "pip", "uninstall", "-q", "-y", *JAX], env=env)
         record["without_jax"] = _sizes(python, site_packages)
         record["load_average_during"] = [round(x, 2) for x in os.getloadavg()]
     path = write_results(__file__, record)

@@ -8,20 +8,23 @@ units.
 """
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
-
-try:
-    __version__ = version("brdfkit")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
 
 __all__ = ["__version__", "load"]
 
 
 def __getattr__(name: str) -> Any:
-    """``brdfkit.load`` (:func:`brdfkit.interop.load.load`), imported on first use (PEP 562)
-    so that ``import brdfkit`` stays cheap; the root package is no layer of its own."""
+    """``brdfkit.load`` (:func:`brdfkit.interop.load.load`) and ``brdfkit.__version__`` (from
+    the installed metadata), looked up on first use (PEP 562) so that ``import brdfkit`` stays
+    cheap: ``importlib.metadata`` alone takes tens of ms; the root package is no layer of its
+    own."""
     if name == "load":
         return import_module("brdfkit.interop.load").load
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("brdfkit")
+        except PackageNotFoundError:  # running from a source tree that is not installed
+            return "0.0.0+unknown"
     raise AttributeError(f"module 'brdfkit' has no attribute {name!r}")
