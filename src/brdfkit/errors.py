@@ -115,7 +115,6 @@ EXTRAS = {
     "torch": "torch",
     "jax": "jax",
     "numba": "accel",
-    "llvmlite": "accel",
     "sphinx": "docs",
     "mitsuba": "oracle",
     "drjit": "oracle",
