@@ -353,31 +353,64 @@ def _rgbe_pixels(data: bytes, width: int, height: int, start: int) -> np.ndarray
         if len(data) - start < size:
             raise ValueError(f"{len(data) - start} bytes of pixels; {size} expected")
         return np.frombuffer(data, np.uint8, size, start).reshape(height, width, 4)
-    size = width * height * 4
-    planes = bytearray(size)
-    marker = bytes([2, 2, width >> 8, width & 0xFF])
+    stored = np.frombuffer(data, np.uint8)
+    rows_at_once = max(1, _RGBE_BLOCK_BYTES // (4 * width))
+    blocks = []
     at = start
-    filled = 0
-    for row in range(height):
+    for first_row in range(0, height, rows_at_once):
+        rows = range(first_row, min(height, first_row + rows_at_once))
+        runs, at = _rgbe_runs(data, width, rows, at)
+        blocks.append(_expand_runs(stored, np.array(runs, np.int64)))
+    planes = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
+    return planes.reshape(height, 4, width).transpose(0, 2, 1)
+
+
+_RGBE_BLOCK_BYTES = 1 << 22
+"""Run-length scanlines are expanded this many bytes at a time (the gather's index array is
+eight times as large)."""
+
+
+def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int], int]:
+    """The offsets of the count bytes of ``rows``' runs, which begin at ``at``, and the offset
+    after them: the one sequential pass over the file, checking each channel's width."""
+    marker = bytes([2, 2, width >> 8, width & 0xFF])
+    runs: list[int] = []
+    for row in rows:
         if data[at : at + 4] != marker:
             raise ValueError(f"scanline {row} does not begin with {list(marker)}")
         at += 4
-        end = filled + 4 * width
-        while filled < end:  # the four channels' runs, one after the other
-            count = data[at]
-            if count > _RGBE_MAX_RUN:
-                count -= _RGBE_MAX_RUN
-                planes[filled : filled + count] = data[at + 1 : at + 2] * count
-                at += 2
-            elif count:
-                planes[filled : filled + count] = data[at + 1 : at + 1 + count]
-                at += 1 + count
-            else:
-                raise ValueError(f"scanline {row} has a run of length 0")
-            filled += count
-        if filled != end or len(planes) != size:
-            raise ValueError(f"scanline {row} runs past its width {width} or the file's end")
-    return np.frombuffer(planes, np.uint8).reshape(height, 4, width).transpose(0, 2, 1)
+        for _channel in range(4):
+            filled = 0
+            while filled < width:
+                count = data[at]
+                runs.append(at)
+                if count > _RGBE_MAX_RUN:
+                    filled += count - _RGBE_MAX_RUN
+                    at += 2
+                elif count:
+                    filled += count
+                    at += 1 + count
+                else:
+                    raise ValueError(f"scanline {row} has a run of length 0")
+            if filled != width:
+                raise ValueError(f"scanline {row} runs past its width {width}")
+    if at > len(data):
+        raise ValueError(f"the last run of scanline {rows[-1]} runs past the file's end")
+    return runs, at
+
+
+def _expand_runs(stored: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """The bytes the runs whose count bytes lie at ``runs`` stand for, by one gather: a run
+    (count > 128) repeats the byte after its count, a literal copies the ``count`` bytes after
+    it."""
+    counts = stored[runs].astype(np.int64)
+    repeated = counts > _RGBE_MAX_RUN
+    lengths = np.where(repeated, counts - _RGBE_MAX_RUN, counts)
+    step = (~repeated).astype(np.int64)
+    offsets = np.cumsum(lengths) - lengths
+    index = np.repeat(runs + 1 - step * offsets, lengths)
+    index += np.repeat(step, lengths) * np.arange(index.size)
+    return stored[index]
 
 
 def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
