@@ -257,6 +257,17 @@ def test_tiff_keeps_16_bit_and_float_samples(tmp_path, dtype, planar):
     )
 
 
+def test_a_float_tiff_bomb_is_refused_before_decoding(tmp_path):
+    tifffile = pytest.importorskip("tifffile")
+    path = tmp_path / "bomb.tif"
+    tifffile.imwrite(path, np.ones((2, 2, 3), np.float32), photometric="rgb")
+    with tifffile.TiffFile(path, mode="r+b") as tiff:
+        tiff.pages.first.tags["ImageWidth"].overwrite(20_000)
+        tiff.pages.first.tags["ImageLength"].overwrite(20_000)
+    with pytest.raises(io.ImageTooLargeError, match=r"bomb\.tif.*20000 × 20000"):
+        io.read_image(path)
+
+
 def test_write_accepts_torch(tmp_path):
     torch = pytest.importorskip("torch")
     image = torch.rand(3, 4, 3, dtype=torch.float64)

@@ -689,7 +689,23 @@ def _declared_size(path: Path, data: bytes) -> tuple[int, int, int] | None:
         return _exr_declared_size(data)
     if suffix == ".hdr":
         return _radiance_declared_size(data)
-    return _pillow_declared_size(path, data)
+    declared = _pillow_declared_size(path, data)
+    if declared is None and suffix in (".tif", ".tiff"):
+        return _tiff_declared_size(data)
+    return declared
+
+
+def _tiff_declared_size(data: bytes) -> tuple[int, int, int] | None:
+    """A TIFF Pillow cannot open (floating point): its first page's size, from tifffile, which
+    reads the tags, not the pixels."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(_io.BytesIO(data)) as tiff:
+            page = tiff.pages.first
+            return page.imagewidth, page.imagelength, page.samplesperpixel
+    except Exception:  # tifffile raises TiffFileError, ValueError, ...: the decoder reports
+        return None
 
 
 def _exr_declared_size(data: bytes) -> tuple[int, int, int] | None:
