@@ -822,6 +822,29 @@ def faults(r: dict) -> str:
     ])  # fmt: skip
 
 
+def install(r: dict) -> str:
+    default, without = r["default"], r["without_jax"]
+    sizes = rows(
+        ["install", "site-packages MiB", "distributions"],
+        [["default dependencies", f"{default['site_packages_mib']:,.0f}", default["distributions"]],
+         ["without JAX (jax, jaxlib, ml_dtypes, opt_einsum)",
+          f"{without['site_packages_mib']:,.0f}", without["distributions"]]],
+        "lrr",
+    )  # fmt: skip
+    largest = rows(
+        ["distribution (default install)", "MiB"],
+        [[name, f"{mib:.1f}"] for name, mib in default["largest_mib"].items()],
+        "lr",
+    )
+    start = rows(
+        ["fresh process", "wall s (median)", "wall s (min)", "CPU s (median)"],
+        [[f"`{name}`", f"{t['wall_median_s']:.3f}", f"{t['wall_min_s']:.3f}",
+          f"{t['cpu_median_s']:.3f}"] for name, t in r["start_up"].items()],
+        "lrrr",
+    )  # fmt: skip
+    return f"{sizes}\n\n{largest}\n\n{start}"
+
+
 TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
@@ -848,6 +871,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "hdr": hdr,
     "export": export,
     "faults": faults,
+    "install": install,
 }
 """Every benchmark, in the order of ``benchmarks/README.md``."""
 

@@ -165,6 +165,109 @@ def test_png_matches_imageio_reader(tmp_path):
     np.testing.assert_array_equal(io.read_image(path), iio.imread(path) / np.float32(255))
 
 
+# ------------------------------------------------------------- codecs against other readers
+
+
+@pytest.mark.parametrize("width", [5, 300])  # narrower than any run-length scanline; wider
+def test_hdr_written_reads_back_in_opencv(tmp_path, width):
+    cv2 = pytest.importorskip("cv2")
+    image = np.random.default_rng(6).random((4, width, 3)) * np.logspace(-4, 4, width)[:, None]
+    image[1, :2] = 0.0
+    path = io.write_image(tmp_path / "a.hdr", image)
+    opencv = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    ours = io.read_image(path)
+    np.testing.assert_array_equal(ours, opencv)
+    assert np.all(np.abs(ours - image) <= image.max(axis=-1, keepdims=True) / 128)
+
+
+def test_hdr_written_by_opencv_with_runs_reads_the_same(tmp_path):
+    cv2 = pytest.importorskip("cv2")
+    image = np.zeros((6, 200, 3), np.float32)
+    image[:, 50:] = np.random.default_rng(8).random((6, 150, 3)) * 5  # runs, then literals
+    path = tmp_path / "opencv.hdr"
+    assert cv2.imwrite(str(path), image[..., ::-1], [cv2.IMWRITE_HDR_COMPRESSION, 1])
+    np.testing.assert_array_equal(
+        io.read_image(path), cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    )
+
+
+def test_hdr_other_layouts_are_refused_naming_the_file(tmp_path):
+    xyze = tmp_path / "xyze.hdr"
+    xyze.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n" + bytes(4))
+    with pytest.raises(io.ImageReadError, match=r"xyze\.hdr.*32-bit_rle_xyze"):
+        io.read_image(xyze)
+    flipped = tmp_path / "flipped.hdr"
+    flipped.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n+Y 1 +X 1\n" + bytes(4))
+    with pytest.raises(io.ImageReadError, match="-Y height \\+X width"):
+        io.read_image(flipped)
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_16_bit_png_written_reads_in_pypng_and_back(tmp_path, channels):
+    png = pytest.importorskip("png")
+    image = np.random.default_rng(9).random((5, 6, channels))
+    path = io.write_image(tmp_path / "a.png", image, srgb=False, bit_depth=16)
+    width, height, rows, info = png.Reader(filename=str(path)).asDirect()
+    codes = np.array([list(row) for row in rows]).reshape(height, width, channels)
+    assert info["bitdepth"] == 16
+    np.testing.assert_array_equal(codes, np.rint(image * 65535))
+    np.testing.assert_array_equal(io.read_image_codes(path), codes)
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_8_bit_png_written_reads_in_pillow(tmp_path, channels):
+    from PIL import Image
+
+    image = np.random.default_rng(10).random((5, 6, channels))
+    path = io.write_image(tmp_path / "a.png", image, srgb=False)
+    with Image.open(path) as pillow:
+        codes = np.asarray(pillow).reshape(5, 6, channels)
+    np.testing.assert_array_equal(codes, np.rint(image * 255))
+
+
+def test_png_palette_and_grey_alpha_read_as_rgb(tmp_path):
+    from PIL import Image
+
+    rgb = np.random.default_rng(11).integers(0, 256, (4, 5, 3), dtype=np.uint8)
+    Image.fromarray(rgb).quantize(8).save(tmp_path / "palette.png")
+    with Image.open(tmp_path / "palette.png") as pillow:
+        expected = np.asarray(pillow.convert("RGB"))
+    np.testing.assert_array_equal(io.read_image_codes(tmp_path / "palette.png"), expected)
+    grey_alpha = rgb[..., :2]
+    Image.fromarray(grey_alpha, "LA").save(tmp_path / "la.png")
+    np.testing.assert_array_equal(
+        io.read_image_codes(tmp_path / "la.png"), grey_alpha[..., [0, 0, 0, 1]]
+    )
+
+
+@pytest.mark.parametrize(
+    ("dtype", "planar"), [(np.uint16, False), (np.uint16, True), (np.float32, False)]
+)
+def test_tiff_keeps_16_bit_and_float_samples(tmp_path, dtype, planar):
+    tifffile = pytest.importorskip("tifffile")
+    rng = np.random.default_rng(12)
+    image = (rng.random((5, 6, 3)) * (65535 if dtype == np.uint16 else 1)).astype(dtype)
+    stored = np.moveaxis(image, -1, 0) if planar else image
+    path = tmp_path / "a.tif"
+    tifffile.imwrite(path, stored, photometric="rgb", planarconfig="separate" if planar else None)
+    if dtype == np.uint16:
+        np.testing.assert_array_equal(io.read_image_codes(path), image)
+    np.testing.assert_array_equal(
+        io.read_image(path), image / np.float32(65535) if dtype == np.uint16 else image
+    )
+
+
+def test_a_float_tiff_bomb_is_refused_before_decoding(tmp_path):
+    tifffile = pytest.importorskip("tifffile")
+    path = tmp_path / "bomb.tif"
+    tifffile.imwrite(path, np.ones((2, 2, 3), np.float32), photometric="rgb")
+    with tifffile.TiffFile(path, mode="r+b") as tiff:
+        tiff.pages.first.tags["ImageWidth"].overwrite(20_000)
+        tiff.pages.first.tags["ImageLength"].overwrite(20_000)
+    with pytest.raises(io.ImageTooLargeError, match=r"bomb\.tif.*20000 × 20000"):
+        io.read_image(path)
+
+
 def test_write_accepts_torch(tmp_path):
     torch = pytest.importorskip("torch")
     image = torch.rand(3, 4, 3, dtype=torch.float64)

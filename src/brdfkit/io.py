@@ -4,13 +4,15 @@ Reading
 -------
 :func:`read_image` returns a float32 array of shape (H, W, C), whatever the file:
 
-- ``.hdr`` (Radiance RGBE) through OpenCV and ``.exr`` through the OpenEXR bindings: linear
-  radiance values as stored (half floats widened to float32).
-- ``.png``/``.tif``/``.tiff`` through OpenCV (which keeps 16 bits per channel; imageio's Pillow
-  plugin reduces 16-bit RGB PNGs to 8 bits) and ``.jpg``/``.jpeg``/``.tga``/``.bmp`` through
-  imageio: integer codes divided by their maximum (255 or 65535), i.e. values in [0, 1] *as
-  stored* — sRGB-encoded for ordinary photographs. Pass ``srgb_to_linear=True`` to decode them
-  to linear values. Alpha, when present, is returned as the last channel and never decoded.
+- ``.hdr`` (Radiance RGBE, read and written here: no lean library has it) and ``.exr``
+  (through the OpenEXR bindings): linear radiance values as stored (half floats widened to
+  float32).
+- ``.png``/``.tif``/``.tiff`` through Pillow, except where Pillow would keep only 8 of 16 bits
+  (16-bit PNGs through pypng, 16-bit colour and floating-point TIFFs through tifffile), and
+  ``.jpg``/``.jpeg``/``.tga``/``.bmp`` through imageio: integer codes divided by their maximum
+  (255 or 65535), i.e. values in [0, 1] *as stored* — sRGB-encoded for ordinary photographs.
+  Pass ``srgb_to_linear=True`` to decode them to linear values. Alpha, when present, is
+  returned as the last channel and never decoded.
 
 A missing, truncated or corrupt file raises :class:`ImageReadError` (a
 :class:`~brdfkit.errors.FormatError`, hence a ``ValueError``) naming the file and the reason.
@@ -299,27 +301,170 @@ def tonemap(image: Array, exposure: float = 0.0, method: str = "clip") -> Array:
 
 
 # --------------------------------------------------------------------------------------------
+# Radiance RGBE (.hdr)
+#
+# Written here because no lean, maintained Python package reads it: imageio's reader needs the
+# FreeImage library (a download of its own), Pillow has none, OpenCV is a 180 MB install for
+# this one codec. The layout is Ward's [2]_: a text header that ends with a blank line, the
+# resolution line ``-Y height +X width``, then scanlines of 4-byte pixels (red, green, blue
+# mantissas and a shared exponent), each either flat or run-length encoded channel by channel.
+# The conversions are those of Ward's code as distributed by B. Walter (rgbe.c), which OpenCV,
+# Mitsuba and stb_image use: a pixel (r, g, b, e) is (r, g, b) · 2^(e − 136), and 0 for e = 0.
+
+_RGBE_FORMAT = b"32-bit_rle_rgbe"
+_RGBE_BIAS = 128 + 8
+"""Exponent bias plus the 8 bits of the mantissa bytes: value = byte · 2^(e − 136)."""
+_RGBE_RLE_WIDTHS = range(8, 0x8000)
+"""Scanline widths that may be run-length encoded; narrower and wider ones are always flat."""
+_RGBE_MAX_RUN = 128
+"""A run-length count byte above 128 repeats one byte (count − 128) times; up to 128 copies
+that many literal bytes."""
+
+
+def _radiance_header(path: Path, data: bytes) -> tuple[int, int, int]:
+    """(width, height, offset of the first pixel) of a Radiance file, from its header."""
+    if not data.startswith(b"#?"):
+        raise ImageReadError(path, "not a Radiance image (it does not begin with '#?')")
+    end = data.find(b"\n\n")
+    if end < 0:
+        raise ImageReadError(path, "not a Radiance image (its header has no end)")
+    for line in data[:end].split(b"\n"):
+        if line.startswith(b"FORMAT=") and line[7:].strip() != _RGBE_FORMAT:
+            found = line[7:].strip().decode("ascii", "replace")
+            raise ImageReadError(
+                path, f"holds {found} pixels; only {_RGBE_FORMAT.decode()} is read", field="FORMAT"
+            )
+    line_end = data.find(b"\n", end + 2)
+    fields = data[end + 2 : line_end].split() if line_end > 0 else []
+    if (
+        len(fields) != 4
+        or fields[0::2] != [b"-Y", b"+X"]
+        or not all(f.isdigit() for f in fields[1::2])
+    ):
+        line = data[end + 2 : end + 66].split(b"\n", 1)[0].decode("ascii", "replace")
+        raise ImageReadError(
+            path, f"resolution line {line!r}: expected the standard '-Y height +X width'"
+        )
+    return int(fields[3]), int(fields[1]), line_end + 1
+
+
+def _rgbe_pixels(data: bytes, width: int, height: int, start: int) -> np.ndarray:
+    """The (height, width, 4) RGBE bytes from ``start``: flat, or run-length encoded scanlines
+    (each ``2 2 width_hi width_lo``, then the four channels' runs). Raises ``IndexError`` or
+    ``ValueError`` on truncated or corrupt data."""
+    first = data[start : start + 4]
+    if (
+        width not in _RGBE_RLE_WIDTHS
+        or len(first) < 4
+        or first[:2] != b"\x02\x02"
+        or first[2] & 0x80
+    ):
+        size = width * height * 4
+        if len(data) - start < size:
+            raise ValueError(f"{len(data) - start} bytes of pixels; {size} expected")
+        return np.frombuffer(data, np.uint8, size, start).reshape(height, width, 4)
+    stored = np.frombuffer(data, np.uint8)
+    rows_at_once = max(1, _RGBE_BLOCK_BYTES // (4 * width))
+    blocks = []
+    at = start
+    for first_row in range(0, height, rows_at_once):
+        rows = range(first_row, min(height, first_row + rows_at_once))
+        runs, at = _rgbe_runs(data, width, rows, at)
+        blocks.append(_expand_runs(stored, np.array(runs, np.int64)))
+    planes = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
+    return planes.reshape(height, 4, width).transpose(0, 2, 1)
+
+
+_RGBE_BLOCK_BYTES = 1 << 22
+"""Run-length scanlines are expanded this many bytes at a time (the gather's index array is
+eight times as large)."""
+
+
+def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int], int]:
+    """The offsets of the count bytes of ``rows``' runs, which begin at ``at``, and the offset
+    after them: the one sequential pass over the file, checking each channel's width."""
+    marker = bytes([2, 2, width >> 8, width & 0xFF])
+    runs: list[int] = []
+    for row in rows:
+        if data[at : at + 4] != marker:
+            raise ValueError(f"scanline {row} does not begin with {list(marker)}")
+        at += 4
+        for _channel in range(4):
+            filled = 0
+            while filled < width:
+                count = data[at]
+                runs.append(at)
+                if count > _RGBE_MAX_RUN:
+                    filled += count - _RGBE_MAX_RUN
+                    at += 2
+                elif count:
+                    filled += count
+                    at += 1 + count
+                else:
+                    raise ValueError(f"scanline {row} has a run of length 0")
+            if filled != width:
+                raise ValueError(f"scanline {row} runs past its width {width}")
+    if at > len(data):
+        raise ValueError(f"the last run of scanline {rows[-1]} runs past the file's end")
+    return runs, at
+
+
+def _expand_runs(stored: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """The bytes the runs whose count bytes lie at ``runs`` stand for, by one gather: a run
+    (count > 128) repeats the byte after its count, a literal copies the ``count`` bytes after
+    it."""
+    counts = stored[runs].astype(np.int64)
+    repeated = counts > _RGBE_MAX_RUN
+    lengths = np.where(repeated, counts - _RGBE_MAX_RUN, counts)
+    step = (~repeated).astype(np.int64)
+    offsets = np.cumsum(lengths) - lengths
+    index = np.repeat(runs + 1 - step * offsets, lengths)
+    index += np.repeat(step, lengths) * np.arange(index.size)
+    return stored[index]
+
+
+def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
+    """float32 RGB (H, W, 3) of RGBE bytes: (r, g, b) · 2^(e − 136), 0 where e = 0 (exact:
+    an 8-bit mantissa times a power of two is a float32)."""
+    scales = np.ldexp(np.float32(1), np.arange(256) - _RGBE_BIAS).astype(np.float32)
+    scales[0] = 0
+    return rgbe[..., :3] * scales[rgbe[..., 3:]]
+
+
+def _float_to_rgbe(rgb: np.ndarray) -> np.ndarray:
+    """RGBE bytes (H, W, 4) of non-negative RGB: the largest component's binary exponent is
+    shared, each mantissa truncated to 8 bits (Ward's ``float2rgbe``; ~1 % precision)."""
+    peak = rgb.max(axis=-1)
+    mantissa, exponent = np.frexp(peak)
+    stored = peak > 1e-32
+    scale = np.where(stored, mantissa * 256.0 / np.where(stored, peak, 1.0), 0.0)
+    rgbe = np.empty((*rgb.shape[:-1], 4), np.uint8)
+    rgbe[..., :3] = (rgb * scale[..., None]).astype(np.uint8)
+    rgbe[..., 3] = np.where(stored, exponent + 128, 0)
+    return rgbe
+
+
+def _encode_radiance(rgb: np.ndarray) -> bytes:
+    """A Radiance file of non-negative float RGB (H, W, 3), in flat scanlines, which every
+    RGBE reader accepts (Ward's normalised pixels never begin with the bytes 2, 2 that would
+    mark a run-length scanline)."""
+    peak = float(rgb.max(initial=0.0))
+    if peak >= 2.0**127:
+        raise ValueError(f"image values must be below 2**127 for .hdr (RGBE); got {peak:.6g}")
+    height, width = rgb.shape[:2]
+    header = b"#?RADIANCE\nFORMAT=%s\n\n-Y %d +X %d\n" % (_RGBE_FORMAT, height, width)
+    return header + _float_to_rgbe(rgb.astype(np.float64)).tobytes()
+
+
+# --------------------------------------------------------------------------------------------
 # Reading
-
-
-def _cv2() -> Any:
-    try:
-        import cv2
-    except ImportError as error:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            "reading and writing .hdr, .png and .tif files needs OpenCV: "
-            "pip install opencv-python-headless"
-        ) from error
-    # Silent: a decoding failure reaches the user as one ImageReadError, not [ERROR] lines.
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    return cv2
 
 
 @contextlib.contextmanager
 def _native_output_captured() -> Iterator[list[str]]:
     """Collect what native code writes to file descriptors 1 and 2 into a list of lines.
 
-    Native decoders (OpenEXR, OpenCV) print their own diagnostics and warnings; brdfkit reports
+    Native decoders (OpenEXR) print their own diagnostics and warnings; brdfkit reports
     a failure as one :class:`ImageReadError` instead, with the first captured line as its reason.
     """
     lines: list[str] = []
@@ -379,30 +524,91 @@ def _read_exr(path: Path, data: bytes) -> np.ndarray:
     return np.stack([channels[name] for name in order], axis=-1).astype(np.float32)
 
 
-def _swap_red_blue(image: np.ndarray) -> np.ndarray:
-    """RGB(A) ⇄ BGR(A), OpenCV's channel order, for 3 or 4 channels (others unchanged)."""
-    if image.shape[-1] in (3, 4):
-        return image[..., [2, 1, 0, 3][: image.shape[-1]]]
-    return image
-
-
-def _read_opencv(path: Path, data: bytes) -> np.ndarray:
-    cv2 = _cv2()
-    captured: list[str] = []
+def _read_radiance(path: Path, data: bytes) -> np.ndarray:
+    width, height, start = _radiance_header(path, data)
     try:
-        with _native_output_captured() as captured:
-            image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    except cv2.error as error:  # e.g. a header beyond OpenCV's pixel limit
-        reason = str(error).strip().splitlines()[-1]
-        raise ImageReadError(path, f"OpenCV refused it ({reason})") from error
-    if image is None:
-        reason = f": {captured[0]}" if captured else ""
-        raise ImageReadError(
-            path,
-            f"OpenCV could not decode it (truncated, corrupt or not a {path.suffix.lower()} "
-            f"file){reason}",
+        rgbe = _rgbe_pixels(data, width, height, start)
+    except (IndexError, ValueError) as error:
+        raise ImageReadError(path, f"truncated or corrupt Radiance pixels ({error})") from None
+    return _rgbe_to_float(rgbe)
+
+
+def _as_opencv_layout(image: Any) -> Any:
+    """A Pillow image in the layout OpenCV's ``IMREAD_UNCHANGED`` gave (the readers brdfkit
+    used before): a palette expanded to RGB (RGBA with transparency), grey with alpha to RGBA,
+    bilevel to 8-bit grey, CMYK and YCbCr to RGB; other modes as stored."""
+    if image.mode in ("P", "PA"):
+        return image.convert(
+            "RGBA" if "transparency" in image.info or image.mode == "PA" else "RGB"
         )
-    return _swap_red_blue(image) if image.ndim == 3 else image
+    conversions = {"LA": "RGBA", "La": "RGBA", "1": "L", "CMYK": "RGB", "YCbCr": "RGB"}
+    return image.convert(conversions[image.mode]) if image.mode in conversions else image
+
+
+def _png_bit_depth(data: bytes) -> int:
+    """The bit depth a PNG's IHDR chunk declares (8 if there is none to read)."""
+    return data[24] if len(data) > 24 and data[12:16] == b"IHDR" else 8
+
+
+def _tiff_loses_bits_in_pillow(image: Any) -> bool:
+    """Pillow reduces colour TIFFs of more than 8 bits a sample to 8 bits (it has no 16-bit
+    RGB mode): those are read by tifffile instead."""
+    bits = image.tag_v2.get(258, (8,))
+    return len(bits) > 1 and max(bits) > 8
+
+
+def _read_pillow(path: Path, data: bytes) -> np.ndarray:
+    """A PNG or TIFF through Pillow; a 16-bit PNG through pypng and a TIFF Pillow would reduce
+    (16-bit colour) or cannot read (floating point) through tifffile."""
+    import warnings
+
+    from PIL import Image
+
+    is_png = path.suffix.lower() == ".png"
+    if is_png and _png_bit_depth(data) == 16:
+        return _read_png16(path, data)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(_io.BytesIO(data)) as image:
+                if is_png or not _tiff_loses_bits_in_pillow(image):
+                    return np.array(_as_opencv_layout(image))
+    except Exception as error:  # Pillow raises OSError, SyntaxError, ValueError, ...
+        if is_png:
+            raise ImageReadError(path, f"not a readable PNG image ({error})") from error
+    return _read_tiff(path, data)
+
+
+def _read_png16(path: Path, data: bytes) -> np.ndarray:
+    """A 16-bit PNG through pypng (pure Python; Pillow keeps only 8 bits of colour ones)."""
+    import png
+
+    try:
+        width, height, rows, info = png.Reader(bytes=data).asDirect()
+        codes = np.array([np.asarray(row, np.uint16) for row in rows], np.uint16)
+    except (png.Error, ValueError, EOFError) as error:
+        raise ImageReadError(path, f"not a readable PNG image ({error})") from error
+    codes = codes.reshape(height, width, info["planes"])
+    if info["planes"] == 2:  # grey and alpha, as RGBA (OpenCV's layout)
+        codes = codes[..., [0, 0, 0, 1]]
+    return codes[..., 0] if info["planes"] == 1 else codes
+
+
+def _read_tiff(path: Path, data: bytes) -> np.ndarray:
+    """A TIFF Pillow cannot read without losing bits (16-bit colour, floating point), through
+    tifffile: samples as stored, in (height, width, samples) order."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(_io.BytesIO(data)) as tiff:
+            page = tiff.pages.first
+            image = page.asarray()
+            axes = page.axes
+    except Exception as error:  # tifffile raises TiffFileError, ValueError, KeyError, ...
+        raise ImageReadError(path, f"not a readable TIFF image ({error})") from error
+    if axes.startswith("S"):  # planar configuration: one plane a sample
+        image = np.moveaxis(image, 0, -1)
+    return image
 
 
 def _read_imageio(path: Path, data: bytes) -> np.ndarray:
@@ -415,11 +621,11 @@ def _read_imageio(path: Path, data: bytes) -> np.ndarray:
 
 
 _READERS: dict[str, Callable[[Path, bytes], np.ndarray]] = {
-    ".hdr": _read_opencv,
+    ".hdr": _read_radiance,
     ".exr": _read_exr,
-    ".png": _read_opencv,
-    ".tif": _read_opencv,
-    ".tiff": _read_opencv,
+    ".png": _read_pillow,
+    ".tif": _read_pillow,
+    ".tiff": _read_pillow,
     ".jpg": _read_imageio,
     ".jpeg": _read_imageio,
     ".tga": _read_imageio,
@@ -493,7 +699,23 @@ def _declared_size(path: Path, data: bytes) -> tuple[int, int, int] | None:
         return _exr_declared_size(data)
     if suffix == ".hdr":
         return _radiance_declared_size(data)
-    return _pillow_declared_size(path, data)
+    declared = _pillow_declared_size(path, data)
+    if declared is None and suffix in (".tif", ".tiff"):
+        return _tiff_declared_size(data)
+    return declared
+
+
+def _tiff_declared_size(data: bytes) -> tuple[int, int, int] | None:
+    """A TIFF Pillow cannot open (floating point): its first page's size, from tifffile, which
+    reads the tags, not the pixels."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(_io.BytesIO(data)) as tiff:
+            page = tiff.pages.first
+            return page.imagewidth, page.imagelength, page.samplesperpixel
+    except Exception:  # tifffile raises TiffFileError, ValueError, ...: the decoder reports
+        return None
 
 
 def _exr_declared_size(data: bytes) -> tuple[int, int, int] | None:
@@ -748,12 +970,22 @@ def _check_values(path: Path, pixels: np.ndarray, *, nan_allowed: bool) -> None:
         )
 
 
-def _encode_opencv(suffix: str, image: np.ndarray) -> bytes:
-    cv2 = _cv2()
-    ok, encoded = cv2.imencode(suffix, np.ascontiguousarray(_swap_red_blue(image)))
-    if not ok:
-        raise OSError(f"OpenCV could not encode a {suffix} image of shape {image.shape}")
-    return encoded.tobytes()
+def _encode_png(codes: np.ndarray) -> bytes:
+    """8-bit codes through Pillow, 16-bit ones through pypng (Pillow writes no 16-bit colour)."""
+    stream = _io.BytesIO()
+    height, width, channels = codes.shape
+    if codes.dtype == np.uint8:
+        from PIL import Image
+
+        Image.fromarray(codes[..., 0] if channels == 1 else codes).save(stream, format="PNG")
+    else:
+        import png
+
+        writer = png.Writer(
+            width, height, greyscale=channels == 1, alpha=channels == 4, bitdepth=16
+        )
+        writer.write_array(stream, codes.reshape(-1))
+    return stream.getvalue()
 
 
 def write_image(
@@ -882,7 +1114,7 @@ def write_image(
                 f"image must be non-negative for .hdr (RGBE); got a minimum of {pixels.min():.6g}"
             )
         rgb = np.repeat(pixels, 3, axis=-1) if pixels.shape[-1] == 1 else pixels
-        atomic_write_bytes(path, _encode_opencv(suffix, rgb.astype(np.float32)))
+        atomic_write_bytes(path, _encode_radiance(rgb.astype(np.float32)))
         return path
 
     colour = min(pixels.shape[-1], 3)
@@ -891,7 +1123,7 @@ def write_image(
         encoded[..., :colour] = srgb_encode(encoded[..., :colour])
     dtype = np.uint8 if bit_depth == 8 else np.uint16
     codes = np.rint(encoded * np.iinfo(dtype).max).astype(dtype)
-    atomic_write_bytes(path, _encode_opencv(suffix, codes))
+    atomic_write_bytes(path, _encode_png(codes))
     return path
 
 

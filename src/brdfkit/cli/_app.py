@@ -2,7 +2,10 @@
 
 Exit statuses: 0 success; 1 a check failed (``brdfkit check``); 2 bad input (a usage error, or
 any :class:`~brdfkit.errors.BrdfkitError`, ``ValueError`` or ``OSError`` raised on the user's
-input); 3 an internal error (a bug: please report it); 130 interrupted. Every error is one line
+input) or an optional part whose extra is not installed
+(:class:`~brdfkit.errors.MissingExtraError`, named as such also where a package of
+:data:`~brdfkit.errors.EXTRAS` is imported without :func:`~brdfkit.errors.require_extra`); 3
+an internal error (a bug: please report it); 130 interrupted. Every error is one line
 on standard error; user text is never read as Rich markup; set ``BRDFKIT_TRACEBACK=1`` to see the
 traceback of an internal error.
 
@@ -85,7 +88,11 @@ class _Group(TyperGroup):
                 # Library warnings (NumPy's RuntimeWarnings, colour-science's notes) are noise
                 # here: results are checked for NaN and errors are reported as such.
                 warnings.simplefilter("ignore")
-            code = _run(lambda: super(_Group, self).main(*args, standalone_mode=False, **kwargs))
+            words = args[0] if args else kwargs.get("args")
+            command = _command(sys.argv[1:] if words is None else list(words))
+            code = _run(
+                lambda: super(_Group, self).main(*args, standalone_mode=False, **kwargs), command
+            )
         if standalone_mode and _interrupting:
             _exit_unwound()
         if standalone_mode:
@@ -102,9 +109,9 @@ def _exit_unwound() -> NoReturn:
     os._exit(INTERRUPTED)
 
 
-def _run(call: Any) -> int:
+def _run(call: Any, command: str) -> int:
     """Run the command line; return its exit status, having printed any error as one line."""
-    code = _outcome(call)
+    code = _outcome(call, command)
     if _interrupting:  # whatever became of the Interrupted raised (a library may swallow it)
         _report_interrupted()
         return INTERRUPTED
@@ -127,8 +134,14 @@ def _reason(error: Exception) -> str:
     return text
 
 
-def _outcome(call: Any) -> int:
-    from brdfkit.errors import BrdfkitError
+def _command(words: list[str]) -> str:
+    """The command that ``words`` (the arguments) run, in backquotes: "`brdfkit explore`"."""
+    name = [str(word) for word in words if not str(word).startswith("-")][:1]
+    return "`" + " ".join(["brdfkit", *name]) + "`"
+
+
+def _outcome(call: Any, command: str) -> int:
+    from brdfkit.errors import BrdfkitError, MissingExtraError, missing_extra
 
     try:
         code = call()
@@ -149,6 +162,9 @@ def _outcome(call: Any) -> int:
     except KeyboardInterrupt:
         _error_line("interrupted")
         return INTERRUPTED
+    except MissingExtraError as error:
+        _error_line(str(MissingExtraError(error.module, error.extra, command)))
+        return BAD_INPUT
     except MemoryError:
         _error_line("out of memory: use a smaller size option (-r, --samples, --height, …)")
         return BAD_INPUT
@@ -160,6 +176,10 @@ def _outcome(call: Any) -> int:
     except Exception as error:
         if os.environ.get("BRDFKIT_TRACEBACK"):
             raise
+        missing = missing_extra(error) if isinstance(error, ModuleNotFoundError) else None
+        if missing is not None:  # an optional package imported without require_extra
+            _error_line(str(MissingExtraError(missing.module, missing.extra, command)))
+            return BAD_INPUT
         _error_line(
             f"{type(error).__name__}: {error} (a bug in brdfkit; please report it; "
             "BRDFKIT_TRACEBACK=1 shows the traceback)",

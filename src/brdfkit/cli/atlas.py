@@ -9,7 +9,11 @@ import typer
 
 from brdfkit.cli._app import app, console, fail, shown, status
 from brdfkit.cli._output import OutputFolder
-from brdfkit.report.atlas import ENV_MAX_SAMPLES, ENV_NOISE
+
+# brdfkit.report.atlas's ENV_NOISE and ENV_MAX_SAMPLES, written out so that ``--help`` imports
+# no NumPy (tests/cli/test_startup.py holds them equal)
+ENV_NOISE = None
+ENV_MAX_SAMPLES = 2048
 
 _Output = Annotated[Path, typer.Option("--output", "-o", metavar="FOLDER", help="Output folder.")]
 _Models = Annotated[

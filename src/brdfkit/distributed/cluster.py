@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from brdfkit.errors import ParameterError
+from brdfkit.errors import ParameterError, require_extra
 
 CONNECT_TIMEOUT = 10.0
 """Seconds to wait for a scheduler given by address before giving up."""
@@ -56,17 +56,11 @@ def require_dask() -> None:
 
     Raises
     ------
-    brdfkit.errors.ParameterError
-        ``dask.distributed`` cannot be imported.
+    brdfkit.errors.MissingExtraError
+        ``dask.array`` or ``dask.distributed`` cannot be imported.
     """
-    try:
-        import dask.array  # noqa: F401
-
-        import distributed  # noqa: F401
-    except ImportError as error:
-        raise ParameterError(
-            f"this needs Dask ({error}); install it with: pip install 'brdfkit[dask]'"
-        ) from None
+    require_extra("dask.array", "dask")
+    require_extra("distributed", "dask")
 
 
 @contextmanager

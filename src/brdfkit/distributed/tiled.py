@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.errors import FormatError, ParameterError
+from brdfkit.errors import FormatError, ParameterError, require_extra
 
 PER_PIXEL = ("least_squares", "trimmed", "sparse_regression")
 """The methods of :data:`brdfkit.vision.photometric_stereo.METHODS` that run tile by tile."""
@@ -71,7 +71,7 @@ class Stack:
 
 def _stage_image(path: str, scale: np.ndarray | None, store: str, k: int, shape: tuple) -> int:
     """Decode image ``k``, divide it by ``scale`` and write it into the Zarr stack (a task)."""
-    import zarr
+    zarr = require_extra("zarr")
 
     from brdfkit.vision.datasets import read_image
 
@@ -97,7 +97,8 @@ def stage(folder: str | Path, store: str | Path, tile: int = DEFAULT_TILE) -> St
         A tile side below 16.
     """
     import dask
-    import zarr
+
+    zarr = require_extra("zarr")
 
     from brdfkit.vision import datasets
 
@@ -217,7 +218,8 @@ def _integrate_tile(
     """Integrate grown tile ``i`` (a task): its depth and piece labels go to the scratch store;
     returns the global component of each of its pieces (``(count,)``)."""
     import scipy.ndimage
-    import zarr
+
+    zarr = require_extra("zarr")
 
     from brdfkit.vision.normal_integration import least_squares_integration
 
@@ -236,7 +238,7 @@ def _integrate_tile(
 
 
 def _tile_of(scratch: str, i: int, grown: tuple[slice, slice]) -> tuple[np.ndarray, np.ndarray]:
-    import zarr
+    zarr = require_extra("zarr")
 
     store = zarr.open_group(scratch, mode="r")
     h, w = grown[0].stop - grown[0].start, grown[1].stop - grown[1].start
@@ -278,7 +280,7 @@ def _core_minima(scratch, i, window, grown, constants, components, count) -> np.
 
 def _write_core(scratch, i, window, grown, constants, components, nearest, depth_store) -> None:
     """Write tile ``i``'s core, each component's nearest pixel at 0 (a task)."""
-    import zarr
+    zarr = require_extra("zarr")
 
     core = _shifted_core(scratch, i, window, grown, constants)
     out = np.where(components > 0, core - nearest[components], np.nan)
@@ -317,7 +319,8 @@ def integrate(
     import scipy.ndimage
     import scipy.sparse
     import scipy.sparse.linalg
-    import zarr
+
+    zarr = require_extra("zarr")
 
     if tile < 16 or not 1 <= overlap < tile:
         raise ParameterError(f"tile must be >= 16 and 1 <= overlap < tile; got {tile}, {overlap}")

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.distributed import tiled
+from brdfkit.errors import require_extra
 
 MEMORY_SHARE = 0.25
 """The in-memory path is taken while ~16 bytes per stack value fit in this share of the
@@ -133,7 +134,7 @@ def reconstruct_tiled(
     brdfkit.errors.ParameterError
         A method that couples pixels, or a tile below 16.
     """
-    import zarr
+    zarr = require_extra("zarr")
 
     from brdfkit.vision.datasets import read_normal_gt
     from brdfkit.vision.metrics import angular_error_map

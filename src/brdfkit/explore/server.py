@@ -28,7 +28,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from brdfkit.errors import BrdfkitError
+from brdfkit.errors import BrdfkitError, require_extra
 from brdfkit.explore.protocol import (
     MAX_MESSAGE_BYTES,
     Message,
@@ -312,6 +312,7 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
 
     ``initial`` lists the specs and file names the page opens with.
     """
+    require_extra("starlette")
     from starlette.applications import Starlette
     from starlette.routing import Mount, Route, WebSocketRoute
     from starlette.staticfiles import StaticFiles
@@ -356,8 +357,7 @@ class ExplorerServer:
         return f"http://127.0.0.1:{self.port}/{self.token}/"
 
     def _uvicorn(self) -> Any:
-        import uvicorn
-
+        uvicorn = require_extra("uvicorn")
         config = uvicorn.Config(
             self.app,
             log_level="warning",

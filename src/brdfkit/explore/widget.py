@@ -21,11 +21,9 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-import anywidget
-import traitlets
-
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.spec import parse
+from brdfkit.errors import require_extra
 from brdfkit.explore.protocol import ProtocolError, array_table, parse_object
 from brdfkit.explore.session import (
     MEASURED_SUFFIXES,
@@ -34,6 +32,9 @@ from brdfkit.explore.session import (
     fit_spec,
     guarded,
 )
+
+anywidget = require_extra("anywidget")
+traitlets = require_extra("traitlets", "explore")
 
 _STATIC = Path(__file__).with_name("static")
 

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf import BRDF
+from brdfkit.errors import require_extra
 from brdfkit.interop.pbr import GLTF_IOR, PBRMaterial, pbr_material
 from brdfkit.io import atomic_write
 
@@ -104,7 +105,7 @@ def gltf_material(material: PBRMaterial) -> tuple[dict[str, Any], list[str]]:
 def gltf_document(brdf: BRDF, *, name: str = "brdfkit") -> Any:
     """A ``pygltflib.GLTF2`` document: ``brdf``'s material on a UV sphere, its buffer held
     as binary (``save_binary``) — :func:`write_gltf` embeds it for ``.gltf``."""
-    import pygltflib as gl
+    gl = require_extra("pygltflib")
 
     spec, used = gltf_material(pbr_material(brdf))
     spec["name"] = name
@@ -148,7 +149,7 @@ def gltf_document(brdf: BRDF, *, name: str = "brdfkit") -> Any:
 def write_gltf(brdf: BRDF, path: str | os.PathLike, *, name: str = "brdfkit") -> Path:
     """Write :func:`gltf_document` atomically: binary ``.glb``, or ``.gltf`` JSON with the
     buffer embedded as a data URI; returns the path."""
-    import pygltflib as gl
+    gl = require_extra("pygltflib")
 
     document = gltf_document(brdf, name=name)
     if Path(path).suffix.lower() == ".glb":

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf import BRDF
-from brdfkit.errors import ParameterError
+from brdfkit.errors import ParameterError, require_extra
 from brdfkit.interop.pbr import dielectric_f0, ior_from_f0, pbr_material
 from brdfkit.io import atomic_write
 
@@ -42,7 +42,7 @@ from brdfkit.io import atomic_write
 def standard_libraries() -> Any:
     """A MaterialX document holding the standard data libraries (``stdlib``, ``pbrlib``,
     ``bxdf`` with OpenPBR, …), from the package's default folders."""
-    import MaterialX as mx
+    mx = require_extra("MaterialX")
 
     stdlib = mx.createDocument()
     mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), stdlib)
@@ -52,7 +52,7 @@ def standard_libraries() -> Any:
 def validation_problems(document: Any, stdlib: Any | None = None) -> str:
     """MaterialX's ``validate()`` message for ``document`` with the standard libraries imported
     (into a copy); empty when it is valid."""
-    import MaterialX as mx
+    mx = require_extra("MaterialX")
 
     check = mx.createDocument()
     check.copyContentFrom(document)
@@ -64,7 +64,7 @@ def validation_problems(document: Any, stdlib: Any | None = None) -> str:
 def materialx_document(brdf: BRDF, *, name: str = "brdfkit") -> Any:
     """A MaterialX document: an ``open_pbr_surface`` named ``<name>_surface`` and the
     ``surfacematerial`` ``<name>`` that uses it."""
-    import MaterialX as mx
+    mx = require_extra("MaterialX")
 
     material = pbr_material(brdf)
     f0 = dielectric_f0(material)
@@ -103,7 +103,7 @@ def write_materialx(brdf: BRDF, path: str | os.PathLike, *, name: str = "brdfkit
         As :func:`~brdfkit.interop.pbr.pbr_material`, or if the document does not validate
         (its message quoted).
     """
-    import MaterialX as mx
+    mx = require_extra("MaterialX")
 
     document = materialx_document(brdf, name=name)
     problems = validation_problems(document)

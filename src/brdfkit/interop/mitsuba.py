@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf import BRDF, Lambertian, RoughConductor
+from brdfkit.errors import require_extra
 from brdfkit.interop.mitsuba_export import to_mitsuba_dict
 from brdfkit.light.analytic import DirectionalLight
 from brdfkit.light.environment import EnvironmentMap
@@ -97,8 +98,7 @@ def load_mitsuba(variants: tuple[str, ...] = ("llvm_ad_rgb", "scalar_rgb")) -> t
     """
     if os.path.exists(LLVM_DEFAULT):
         os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM_DEFAULT)
-    import mitsuba as mi
-
+    mi = require_extra("mitsuba")
     errors = []
     for variant in variants:
         try:

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.brdf import BRDF
+from brdfkit.errors import require_extra
 from brdfkit.interop.pbr import dielectric_f0, pbr_material
 from brdfkit.io import atomic_write
 
@@ -41,6 +42,7 @@ from brdfkit.io import atomic_write
 def usd_stage(brdf: BRDF, *, name: str = "brdfkit") -> Any:
     """An in-memory stage: ``/<name>/Sphere`` (radius 1) bound to ``/<name>/Material``, whose
     ``PreviewSurface`` shader holds ``brdf``'s parameters."""
+    require_extra("pxr")
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
     material = pbr_material(brdf)

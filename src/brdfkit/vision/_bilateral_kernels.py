@@ -18,8 +18,11 @@ References
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from brdfkit.errors import require_extra
+
+numba = require_extra("numba")
 
 _FASTMATH = {"reassoc", "contract", "nsz", "arcp"}
 """Floating-point licences: reorder sums (vectorised reductions), fuse multiply-adds; no

@@ -47,11 +47,13 @@ References
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from brdfkit.compiled.kernel_tools import without_runtime
+from brdfkit.errors import require_extra
 from brdfkit.vision._photometric_stereo_kernels import _FASTMATH, _tangents
+
+numba = require_extra("numba")
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH)
 _inline = numba.njit(
