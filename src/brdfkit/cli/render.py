@@ -19,6 +19,7 @@ from brdfkit.cli._app import (
     model_label,
     progress,
     shown,
+    status,
 )
 from brdfkit.cli._output import light_files, output_file
 
@@ -158,6 +159,7 @@ def render_command(
     if (look_at, fov, size, supersample) != (None, None, None, 1):
         fail("--look-at, --fov, --size and --supersample apply to mesh files only")
     g = _gbuffer(shape, mask, resolution)
+    _build_kernels(model, lights)
     height = g.shape[0]
     with progress() as bar:
         task = bar.add_task(f"rendering {g.shape[1]}×{height}", total=height)
@@ -169,6 +171,20 @@ def render_command(
             progress=lambda done, total: bar.update(task, completed=done),
         )
     _write(output, image, exposure, model_label(model, brdf))
+
+
+def _build_kernels(model: Any, lights: list[Any]) -> None:
+    """Build the compiled shading kernels the render takes before it starts, saying so in one
+    line on stderr where that compiles them (once per model structure and machine; a later
+    process loads them from the disk cache silently)."""
+    from brdfkit.render.compiled_shading import build_estimate, build_kernels, pending_kernels
+
+    part = pending_kernels(model, lights)
+    if part is None:
+        return
+    name = getattr(part, "spec_name", None) or str(part.to_spec()).partition("(")[0]
+    status.print(f"compiling kernels for {name} (once, ~{build_estimate():.0f} s)")
+    build_kernels(model, lights)
 
 
 def _write(output: Path, image: Any, exposure: float, label: str) -> None:

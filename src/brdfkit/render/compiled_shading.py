@@ -29,6 +29,7 @@ References
 from __future__ import annotations
 
 import math
+import time
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,6 +40,7 @@ import numpy as np
 from brdfkit import compiled, sampling
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.one_sided import one_sided_view
+from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import kernel_tools
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap, compiled_lookups
@@ -351,13 +353,15 @@ def _uniforms(
 
 
 AUTO_COMPILE_WORK = 4_000_000
-"""Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
-trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes seconds
-per model structure, about what the NumPy path takes for this many MIS pixel-samples of a
-GGX conductor. Below it, the NumPy path unless the kernels are built already, for any model
-of the same structure (:func:`kernels_built`): once one parameter set is built, every other
-set of that structure shades compiled at no build cost, in this process or from the disk
-cache in the next."""
+"""Pixel-samples of MIS shading of a GGX conductor that the NumPy path takes about as long for
+as building that model's kernels takes (a JAX trace and numba compiles of
+``sample``/``eval``/``pdf`` and the tile kernel, seconds once per model structure and
+machine). :func:`~brdfkit.render.shade` builds them whatever the work; a caller rendering
+many models once each, small (the atlas), may weigh their build against it."""
+
+BUILD_SECONDS = 10.0
+"""Estimated seconds to build a model's shading kernels where this machine has not built any
+yet (then :func:`build_kernels`' record of the last build is the estimate)."""
 
 
 def compiled_shader(
@@ -418,6 +422,51 @@ def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None
     return tile_kernel_built(kernels, dtype.type, model.channels, map_channels)
 
 
+def pending_kernels(
+    brdf: BRDF, lights: Sequence[Light], *, method: str = "auto", dtype: Any = np.float32
+) -> BRDF | None:
+    """The part of ``brdf`` whose shading kernels :func:`~brdfkit.render.shade` would build
+    before its first tile (not built in this process, nor on disk), or ``None`` where the
+    compiled path costs no build or does not apply (:func:`compiled_shader`)."""
+    maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
+    others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
+    if method not in METHODS or len(maps) != 1 or not all(lt.delta for lt in others):
+        return None
+    if compiled_shader(brdf, lights, method=method, dtype=dtype, build=False) is not None:
+        return None
+    _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
+    _, rest = split_mirror(rest) if method == "auto" else (None, rest)
+    return None if rest is None else one_sided_view(rest)
+
+
+def build_estimate() -> float:
+    """Seconds that building a model's shading kernels is expected to take on this machine:
+    the last build :func:`build_kernels` recorded, else :data:`BUILD_SECONDS`."""
+    record = kernel_cache.load_record(_TIMINGS, _BUILD_KEY)
+    seconds = None if record is None else record.get("seconds")
+    return float(seconds) if isinstance(seconds, float) and seconds > 0 else BUILD_SECONDS
+
+
+def build_kernels(
+    brdf: BRDF, lights: Sequence[Light], *, method: str = "auto", dtype: Any = np.float32
+) -> float:
+    """Build (or load) the compiled shader's kernels for ``brdf`` under ``lights`` now
+    (:meth:`EnvironmentShader.build`), record the seconds taken for :func:`build_estimate`
+    and return them (0 where the compiled path does not apply)."""
+    start = time.perf_counter()
+    plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
+    if plan is None:
+        return 0.0
+    plan[0].build()
+    seconds = time.perf_counter() - start
+    kernel_cache.store_record(_TIMINGS, _BUILD_KEY, {"seconds": seconds})
+    return seconds
+
+
+_TIMINGS = "timings"
+_BUILD_KEY = kernel_cache.key("shading kernels build")
+
+
 def reflected_radiance(
     brdf: BRDF,
     light: Light | Sequence[Light],
@@ -446,11 +495,15 @@ def reflected_radiance(
 __all__ = [
     "AUTO_COMPILE_WORK",
     "BLOCK",
+    "BUILD_SECONDS",
     "HEURISTICS",
     "METHODS",
     "EnvironmentShader",
     "Prepared",
+    "build_estimate",
+    "build_kernels",
     "compiled_shader",
     "kernels_built",
+    "pending_kernels",
     "reflected_radiance",
 ]
