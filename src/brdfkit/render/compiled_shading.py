@@ -17,7 +17,9 @@ pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
 :func:`brdfkit.sampling.scrambled_sobol`, or i.i.d. uniforms), so with ``dtype=float64`` the
 image equals :func:`~brdfkit.render.shade`'s to rounding, and with float32 to float32
 precision away from the rare samples whose texel flips. :func:`compiled_shader` decides
-where the compiled path applies; :func:`kernels_built` whether it costs no compilation.
+where the compiled path applies; :func:`kernels_built` whether it costs no compilation,
+:func:`pending_kernels` what a render would build first and :func:`build_kernels` builds it
+(timed, for :func:`build_estimate`: the command line announces a build in one line).
 
 References
 ----------
@@ -88,6 +90,31 @@ def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tupl
     return per_dtype[dtype]
 
 
+def shading_parts(brdf: BRDF, method: str) -> tuple[Any, BRDF | None, BRDF | None, bool]:
+    """How :class:`EnvironmentShader` shades ``brdf`` with ``method``: ``(rho, mirror, rest,
+    control)``, the albedo of its Lambertian lobes (exact, ρE(n)/π;
+    :func:`~brdfkit.render.split_diffuse`), a smooth plastic's mirror (exact;
+    :func:`~brdfkit.render.split_mirror`), the rest that the kernel samples (one-sided, as on
+    the NumPy path) and whether the control variate k·E(n) of ``method="auto"``
+    (:func:`~brdfkit.render.diffuse_floor`) applies to it. With ``"mis"`` all is sampled."""
+    if method != "auto":
+        return None, None, one_sided_view(brdf), False
+    rho, rest = split_diffuse(brdf)
+    mirror, rest = split_mirror(rest)
+    if rest is not None:  # transmitting lobes sampled one-sided
+        rest = one_sided_view(rest)
+    control = rest is not None and (mirror is not None or not rest.has_delta)
+    return rho, mirror, rest, control
+
+
+def uses_irradiance(brdf: BRDF, method: str = "auto") -> bool:
+    """Whether shading ``brdf`` under a map reads the map's irradiance table
+    (:attr:`~brdfkit.light.EnvironmentMap.irradiance_table`: Lambertian lobes or the control
+    variate, :func:`shading_parts`)."""
+    rho, _, _, control = shading_parts(brdf, method)
+    return rho is not None or control
+
+
 @dataclass(frozen=True, eq=False)
 class Prepared:
     """Queries made ready by :meth:`EnvironmentShader.prepare`: their batch shape, the exact
@@ -148,21 +175,11 @@ class EnvironmentShader:
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self.heuristic = heuristic
-        self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-        # a smooth plastic's mirror exactly, its base sampled (split_mirror)
-        self.mirror, self.rest = split_mirror(self.rest) if method == "auto" else (None, self.rest)
-        if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
-            self.rest = one_sided_view(self.rest)
+        self.rho, self.mirror, self.rest, self.control = shading_parts(brdf, method)
         if self.rho is not None and np.ndim(self.rho) > 1:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
-        # the control variate k(wo)·E(n) of method="auto" (diffuse_floor)
-        self.control = (
-            method == "auto"
-            and self.rest is not None
-            and (self.mirror is not None or not self.rest.has_delta)
-        )
         # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
@@ -390,9 +407,7 @@ def compiled_shader(
     dtype = np.dtype(dtype)
     try:  # without numba, a table's kernels_built raises ImportError as the shader does
         if not build:
-            _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-            _, rest = split_mirror(rest) if method == "auto" else (None, rest)
-            view = None if rest is None else one_sided_view(rest)
+            view = shading_parts(brdf, method)[2]
             if view is not None and not kernels_built(view, dtype, maps[0].channels):
                 return None
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
@@ -434,9 +449,7 @@ def pending_kernels(
         return None
     if compiled_shader(brdf, lights, method=method, dtype=dtype, build=False) is not None:
         return None
-    _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-    _, rest = split_mirror(rest) if method == "auto" else (None, rest)
-    return None if rest is None else one_sided_view(rest)
+    return shading_parts(brdf, method)[2]
 
 
 def build_estimate() -> float:
@@ -506,4 +519,6 @@ __all__ = [
     "kernels_built",
     "pending_kernels",
     "reflected_radiance",
+    "shading_parts",
+    "uses_irradiance",
 ]
