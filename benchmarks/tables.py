@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import statistics
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -646,6 +647,29 @@ def mesh(r: dict) -> str:
     return text
 
 
+def render_cli(r: dict) -> str:
+    w, first = r["warm"], r["first"]
+    body = [
+        ["brdfkit render (warm kernel cache)", f"{w['brdfkit_median']:.2f}",
+         f"{min(w['brdfkit_seconds']):.2f}–{max(w['brdfkit_seconds']):.2f}"],
+        [f"Mitsuba {r['mitsuba']} (`mitsuba scene.xml`)", f"{w['mitsuba_median']:.2f}",
+         f"{min(w['mitsuba_seconds']):.2f}–{max(w['mitsuba_seconds']):.2f}"],
+        ["brdfkit render, first run (empty kernel cache)",
+         f"{statistics.median(first['seconds']):.2f}",
+         f"{min(first['seconds']):.2f}–{max(first['seconds']):.2f}"],
+    ]  # fmt: skip
+    load = r["machine"].get("load_average", ["?"])[0]
+    return (
+        f'`brdfkit render -b "{r["spec"]}"` with its defaults ({r["resolution"]}², '
+        f"{r['spp']} spp, the bundled map, PNG) and Mitsuba's twin scene, each a fresh process, "
+        f"{len(w['brdfkit_seconds'])} interleaved runs; wall seconds:\n\n"
+        + rows(["process", "median s", "range s"], body, "lrr")
+        + f"\n\nMedian ratio brdfkit ÷ Mitsuba, pair by pair: **{w['ratio_median']:.2f}** "
+        f"(goal ≤ 1.5). The twin's images: mean ratio {r['twin_mean_ratio']:.4f}. "
+        f"Load average when written: {load} (the machine's other work is in every figure)."
+    )
+
+
 def sfs(r: dict) -> str:
     return rows(
         ["size", "solver", "pixels", "wall s", "CPU s", "evaluations", "error ° (mean / median)"],
@@ -849,6 +873,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "brdf": brdf,
     "render": render,
     "mesh": mesh,
+    "render_cli": render_cli,
     "env_sampling": env_sampling,
     "mis": mis,
     "sh": sh,

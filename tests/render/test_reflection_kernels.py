@@ -19,9 +19,13 @@ from brdfkit.render import (
     shade,
 )
 from brdfkit.render.compiled_shading import (
+    BUILD_SECONDS,
     EnvironmentShader,
+    build_estimate,
+    build_kernels,
     compiled_shader,
     kernels_built,
+    pending_kernels,
 )
 from brdfkit.render.compiled_shading import reflected_radiance as compiled_radiance
 
@@ -45,7 +49,7 @@ def _rotation() -> np.ndarray:
 def test_shade_compiled_float64_equals_numpy_path_on_a_sphere(brdf):
     g = gbuffer(Sphere(), None, 16)
     env = _map()
-    expected = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000)  # several tiles
+    expected = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000, compiled=False)
     image = shade(g, brdf, env, samples=16, seed=5, max_evaluations=2_000, compiled="float64")
     assert np.all(image[~g.mask] == 0)
     np.testing.assert_allclose(image, expected, rtol=1e-11, atol=1e-13)
@@ -54,8 +58,8 @@ def test_shade_compiled_float64_equals_numpy_path_on_a_sphere(brdf):
 def test_shade_compiled_float32_equals_numpy_path_to_float32_precision():
     g = gbuffer(Sphere(), None, 16)
     env = _map()
-    expected = shade(g, GOLD, env, samples=16, seed=2)
-    image = shade(g, GOLD, env, samples=16, seed=2, compiled=True)
+    expected = shade(g, GOLD, env, samples=16, seed=2, compiled=False)
+    image = shade(g, GOLD, env, samples=16, seed=2)  # the default: float32 kernels
     scale = np.max(expected)
     assert np.max(np.abs(image - expected)) < 1e-3 * scale
     assert np.median(np.abs(image - expected)[g.mask]) < 1e-5 * scale
@@ -183,22 +187,38 @@ def test_sums_scaled_lobes_and_delta_lights_equal_numpy_path():
 
 
 @pytest.mark.slow
-def test_auto_compiles_only_large_renders_or_models_already_built():
+def test_the_default_compiles_even_a_small_render():
     model = RoughConductor(alpha=0.35, material="Cu", masking="smith_separable")
     env = _map()
     g = gbuffer(Sphere(), None, 10)
     assert not kernels_built(model)
-    numpy_image = shade(g, model, env, samples=4, seed=1, compiled=False)
-    np.testing.assert_array_equal(shade(g, model, env, samples=4, seed=1), numpy_image)
-    assert not kernels_built(model)  # a small render does not pay for compiling
-    EnvironmentShader(model, env).build()
+    assert pending_kernels(model, [env]) is not None
+    image = shade(g, model, env, samples=4, seed=1)  # 300 pixel-samples: compiled all the same
     assert kernels_built(model)
-    image = shade(g, model, env, samples=4, seed=1)  # now the compiled path
+    assert pending_kernels(model, [env]) is None
     np.testing.assert_array_equal(image, shade(g, model, env, samples=4, seed=1, compiled=True))
-    assert not np.array_equal(image, numpy_image)
+    numpy_image = shade(g, model, env, samples=4, seed=1, compiled=False)
+    assert not np.array_equal(image, numpy_image)  # float32 kernels, not the NumPy path
     scale = np.max(numpy_image)
     assert np.max(np.abs(image - numpy_image)) < 1e-3 * scale
-    assert np.median(np.abs(image - numpy_image)[g.mask]) < 1e-5 * scale
+
+
+def test_nothing_is_pending_where_the_compiled_path_does_not_apply():
+    env = _map()
+    assert pending_kernels(GOLD, [DirectionalLight((0, 0, 1), 1.0)]) is None
+    assert pending_kernels(GOLD, [env, env]) is None
+    assert pending_kernels(GOLD, [env], method="brdf") is None
+    assert pending_kernels(Lambertian(0.5), [env]) is None  # exact: no kernels
+
+
+def test_a_build_records_its_seconds_as_the_next_estimate():
+    env = _map()
+    seconds = build_kernels(GOLD, [env])  # built by the tests above, or loaded from disk
+    assert seconds > 0
+    assert build_estimate() == pytest.approx(seconds)
+    assert pending_kernels(GOLD, [env]) is None
+    assert build_kernels(GOLD, [DirectionalLight((0, 0, 1), 1.0)]) == 0.0
+    assert BUILD_SECONDS > 0
 
 
 def test_a_second_parameter_set_reuses_the_shading_kernels(monkeypatch):
@@ -280,3 +300,43 @@ def test_scramble_keys_are_the_shared_hash_of_seed_and_slot():
                 slot = np.array([sampling.key_slot(stream, i * dim + k)])  # wrapping: no warning
                 expected = sampling.key_hash(seeds, slot).astype(np.uint32)
                 np.testing.assert_array_equal(keys[:, i, k], expected)
+
+
+def test_the_command_line_renders_on_the_kernels_as_the_numpy_path(tmp_path):
+    from typer.testing import CliRunner
+
+    from brdfkit.cli import app
+    from brdfkit.io import read_image, write_image
+    from brdfkit.light.spec import parse_light
+
+    light = f"envmap:{tmp_path / 'map.exr'}"
+    write_image(tmp_path / "map.exr", _map().image.astype(np.float32))
+    out = tmp_path / "gold.exr"
+    args = ["render", "-b", GOLD.to_spec(), "-l", light, "-r", "12", "-s", "8", "-o", out]
+    result = CliRunner().invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    g = gbuffer(Sphere(), None, 12)
+    env = parse_light(light)
+    image = read_image(out)
+    np.testing.assert_array_equal(image, shade(g, GOLD, env, samples=8).astype(np.float32))
+    expected = shade(g, GOLD, env, samples=8, compiled=False)
+    scale = np.max(expected)
+    assert np.max(np.abs(image - expected)) < 1e-3 * scale
+    assert np.median(np.abs(image - expected)[g.mask]) < 1e-5 * scale
+
+
+def test_the_command_line_says_once_that_it_compiles(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from brdfkit.cli import app
+    from brdfkit.render import compiled_shading
+
+    built = []
+    monkeypatch.setattr(compiled_shading, "pending_kernels", lambda brdf, lights: brdf)
+    monkeypatch.setattr(compiled_shading, "build_estimate", lambda: 7.2)
+    monkeypatch.setattr(compiled_shading, "build_kernels", lambda b, l: built.append(b) or 1.0)
+    args = ["render", "-b", "ggx(alpha=0.3)", "-l", "directional:0,0,1", "-r", "8", "-s", "1"]
+    result = CliRunner().invoke(app, [*args, "-o", str(tmp_path / "x.png")])
+    assert result.exit_code == 0, result.output
+    assert result.stderr.splitlines() == ["compiling kernels for ggx (once, ~7 s)"]
+    assert len(built) == 1

@@ -4,6 +4,8 @@ light (:func:`brdfkit.render.shading.shade` of a G-buffer; meshes with shadows,
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
@@ -19,6 +21,7 @@ from brdfkit.cli._app import (
     model_label,
     progress,
     shown,
+    status,
 )
 from brdfkit.cli._output import light_files, output_file
 
@@ -157,7 +160,10 @@ def render_command(
         return
     if (look_at, fov, size, supersample) != (None, None, None, 1):
         fail("--look-at, --fov, --size and --supersample apply to mesh files only")
+    kernels = _in_background(lambda: _build_kernels(model, lights))
     g = _gbuffer(shape, mask, resolution)
+    _prepare_maps(model, lights)
+    kernels()
     height = g.shape[0]
     with progress() as bar:
         task = bar.add_task(f"rendering {g.shape[1]}×{height}", total=height)
@@ -169,6 +175,55 @@ def render_command(
             progress=lambda done, total: bar.update(task, completed=done),
         )
     _write(output, image, exposure, model_label(model, brdf))
+
+
+def _in_background(work: Callable[[], None]) -> Callable[[], None]:
+    """Start ``work`` on a thread of its own; returns the function that waits for it to end
+    and raises what it raised. Loading or compiling kernels (Python and numba, holding the GIL
+    most of the time) then overlaps the NumPy set-up of the G-buffer and the maps."""
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            work()
+        except BaseException as error:  # handed to the waiting thread, raised there
+            failure.append(error)
+
+    thread = threading.Thread(target=run, name="brdfkit-kernels", daemon=True)
+    thread.start()
+
+    def wait() -> None:
+        thread.join()
+        if failure:
+            raise failure[0]
+
+    return wait
+
+
+def _prepare_maps(model: Any, lights: list[Any]) -> None:
+    """Compute the maps' irradiance tables the render will read (NumPy, while the kernels
+    load on their thread), once per map."""
+    from brdfkit.light import EnvironmentMap
+    from brdfkit.render.compiled_shading import uses_irradiance
+
+    if uses_irradiance(model):
+        for light in lights:
+            if isinstance(light, EnvironmentMap):
+                light.irradiance_table  # noqa: B018 (a cached property, built here)
+
+
+def _build_kernels(model: Any, lights: list[Any]) -> None:
+    """Build the compiled shading kernels the render takes before it starts, saying so in one
+    line on stderr where that compiles them (once per model structure and machine; a later
+    process loads them from the disk cache silently)."""
+    from brdfkit.render.compiled_shading import build_estimate, build_kernels, pending_kernels
+
+    part = pending_kernels(model, lights)
+    if part is None:
+        return
+    name = getattr(part, "spec_name", None) or str(part.to_spec()).partition("(")[0]
+    status.print(f"compiling kernels for {name} (once, ~{build_estimate():.0f} s)")
+    build_kernels(model, lights)
 
 
 def _write(output: Path, image: Any, exposure: float, label: str) -> None:

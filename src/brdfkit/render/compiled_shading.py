@@ -17,7 +17,9 @@ pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
 :func:`brdfkit.sampling.scrambled_sobol`, or i.i.d. uniforms), so with ``dtype=float64`` the
 image equals :func:`~brdfkit.render.shade`'s to rounding, and with float32 to float32
 precision away from the rare samples whose texel flips. :func:`compiled_shader` decides
-where the compiled path applies; :func:`kernels_built` whether it costs no compilation.
+where the compiled path applies; :func:`kernels_built` whether it costs no compilation,
+:func:`pending_kernels` what a render would build first and :func:`build_kernels` builds it
+(timed, for :func:`build_estimate`: the command line announces a build in one line).
 
 References
 ----------
@@ -29,6 +31,7 @@ References
 from __future__ import annotations
 
 import math
+import time
 import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,6 +42,7 @@ import numpy as np
 from brdfkit import compiled, sampling
 from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.one_sided import one_sided_view
+from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import kernel_tools
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap, compiled_lookups
@@ -84,6 +88,31 @@ def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tupl
             ),
         )
     return per_dtype[dtype]
+
+
+def shading_parts(brdf: BRDF, method: str) -> tuple[Any, BRDF | None, BRDF | None, bool]:
+    """How :class:`EnvironmentShader` shades ``brdf`` with ``method``: ``(rho, mirror, rest,
+    control)``, the albedo of its Lambertian lobes (exact, ρE(n)/π;
+    :func:`~brdfkit.render.split_diffuse`), a smooth plastic's mirror (exact;
+    :func:`~brdfkit.render.split_mirror`), the rest that the kernel samples (one-sided, as on
+    the NumPy path) and whether the control variate k·E(n) of ``method="auto"``
+    (:func:`~brdfkit.render.diffuse_floor`) applies to it. With ``"mis"`` all is sampled."""
+    if method != "auto":
+        return None, None, one_sided_view(brdf), False
+    rho, rest = split_diffuse(brdf)
+    mirror, rest = split_mirror(rest)
+    if rest is not None:  # transmitting lobes sampled one-sided
+        rest = one_sided_view(rest)
+    control = rest is not None and (mirror is not None or not rest.has_delta)
+    return rho, mirror, rest, control
+
+
+def uses_irradiance(brdf: BRDF, method: str = "auto") -> bool:
+    """Whether shading ``brdf`` under a map reads the map's irradiance table
+    (:attr:`~brdfkit.light.EnvironmentMap.irradiance_table`: Lambertian lobes or the control
+    variate, :func:`shading_parts`)."""
+    rho, _, _, control = shading_parts(brdf, method)
+    return rho is not None or control
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,21 +175,11 @@ class EnvironmentShader:
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64; got {self.dtype}")
         self.heuristic = heuristic
-        self.rho, self.rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-        # a smooth plastic's mirror exactly, its base sampled (split_mirror)
-        self.mirror, self.rest = split_mirror(self.rest) if method == "auto" else (None, self.rest)
-        if self.rest is not None:  # transmitting lobes sampled one-sided, as on the NumPy path
-            self.rest = one_sided_view(self.rest)
+        self.rho, self.mirror, self.rest, self.control = shading_parts(brdf, method)
         if self.rho is not None and np.ndim(self.rho) > 1:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
-        # the control variate k(wo)·E(n) of method="auto" (diffuse_floor)
-        self.control = (
-            method == "auto"
-            and self.rest is not None
-            and (self.mirror is not None or not self.rest.has_delta)
-        )
         # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
@@ -351,13 +370,15 @@ def _uniforms(
 
 
 AUTO_COMPILE_WORK = 4_000_000
-"""Pixel-samples from which ``compiled="auto"`` builds a model's kernels: building them (JAX
-trace and numba compile of ``sample``/``eval``/``pdf`` and of the tile kernel) takes seconds
-per model structure, about what the NumPy path takes for this many MIS pixel-samples of a
-GGX conductor. Below it, the NumPy path unless the kernels are built already, for any model
-of the same structure (:func:`kernels_built`): once one parameter set is built, every other
-set of that structure shades compiled at no build cost, in this process or from the disk
-cache in the next."""
+"""Pixel-samples of MIS shading of a GGX conductor that the NumPy path takes about as long for
+as building that model's kernels takes (a JAX trace and numba compiles of
+``sample``/``eval``/``pdf`` and the tile kernel, seconds once per model structure and
+machine). :func:`~brdfkit.render.shade` builds them whatever the work; a caller rendering
+many models once each, small (the atlas), may weigh their build against it."""
+
+BUILD_SECONDS = 10.0
+"""Estimated seconds to build a model's shading kernels where this machine has not built any
+yet (then :func:`build_kernels`' record of the last build is the estimate)."""
 
 
 def compiled_shader(
@@ -386,9 +407,7 @@ def compiled_shader(
     dtype = np.dtype(dtype)
     try:  # without numba, a table's kernels_built raises ImportError as the shader does
         if not build:
-            _, rest = split_diffuse(brdf) if method == "auto" else (None, brdf)
-            _, rest = split_mirror(rest) if method == "auto" else (None, rest)
-            view = None if rest is None else one_sided_view(rest)
+            view = shading_parts(brdf, method)[2]
             if view is not None and not kernels_built(view, dtype, maps[0].channels):
                 return None
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
@@ -416,6 +435,49 @@ def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None
         # built, or their source and machine code on disk: making them now costs a load
         kernels = tuple(compiled_model.kernel(method, width).function for method, width in methods)
     return tile_kernel_built(kernels, dtype.type, model.channels, map_channels)
+
+
+def pending_kernels(
+    brdf: BRDF, lights: Sequence[Light], *, method: str = "auto", dtype: Any = np.float32
+) -> BRDF | None:
+    """The part of ``brdf`` whose shading kernels :func:`~brdfkit.render.shade` would build
+    before its first tile (not built in this process, nor on disk), or ``None`` where the
+    compiled path costs no build or does not apply (:func:`compiled_shader`)."""
+    maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
+    others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
+    if method not in METHODS or len(maps) != 1 or not all(lt.delta for lt in others):
+        return None
+    if compiled_shader(brdf, lights, method=method, dtype=dtype, build=False) is not None:
+        return None
+    return shading_parts(brdf, method)[2]
+
+
+def build_estimate() -> float:
+    """Seconds that building a model's shading kernels is expected to take on this machine:
+    the last build :func:`build_kernels` recorded, else :data:`BUILD_SECONDS`."""
+    record = kernel_cache.load_record(_TIMINGS, _BUILD_KEY)
+    seconds = None if record is None else record.get("seconds")
+    return float(seconds) if isinstance(seconds, float) and seconds > 0 else BUILD_SECONDS
+
+
+def build_kernels(
+    brdf: BRDF, lights: Sequence[Light], *, method: str = "auto", dtype: Any = np.float32
+) -> float:
+    """Build (or load) the compiled shader's kernels for ``brdf`` under ``lights`` now
+    (:meth:`EnvironmentShader.build`), record the seconds taken for :func:`build_estimate`
+    and return them (0 where the compiled path does not apply)."""
+    start = time.perf_counter()
+    plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
+    if plan is None:
+        return 0.0
+    plan[0].build()
+    seconds = time.perf_counter() - start
+    kernel_cache.store_record(_TIMINGS, _BUILD_KEY, {"seconds": seconds})
+    return seconds
+
+
+_TIMINGS = "timings"
+_BUILD_KEY = kernel_cache.key("shading kernels build")
 
 
 def reflected_radiance(
@@ -446,11 +508,17 @@ def reflected_radiance(
 __all__ = [
     "AUTO_COMPILE_WORK",
     "BLOCK",
+    "BUILD_SECONDS",
     "HEURISTICS",
     "METHODS",
     "EnvironmentShader",
     "Prepared",
+    "build_estimate",
+    "build_kernels",
     "compiled_shader",
     "kernels_built",
+    "pending_kernels",
     "reflected_radiance",
+    "shading_parts",
+    "uses_irradiance",
 ]

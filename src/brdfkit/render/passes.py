@@ -66,9 +66,10 @@ def progressive(
     the total doubles until ``max_samples`` (with Sobol' replicates, from
     :data:`HALF_STEPS_FROM` samples of each on, half as many: totals 64, 96, 128, 192, …,
     a finer choice of when to stop). Each pass is :func:`shade` work
-    (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …). With ``compiled="auto"``
-    (default) the compiled kernels are built on a background thread while the first passes
-    run on NumPy, and used from the next pass once they are ready. Setting ``cancel`` stops
+    (``shade_kwargs``: ``method``, ``sequence``, ``compiled``, …). With ``compiled=True``
+    (default) kernels not built yet are built on a background thread while the first passes
+    run on NumPy, and used from the next pass once they are ready (built kernels: from the
+    first pass). Setting ``cancel`` stops
     rendering between tiles: the pass under way is dropped and the iterator ends.
 
     With ``sequence="sobol"`` (default) a pixel's samples are two independent replicates,
@@ -123,7 +124,7 @@ def progressive(
 
     kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
     # with shadows (``visibility``) every pass takes the NumPy path: no kernels to build
-    compiles = kwargs["compiled"] == "auto" and kwargs["visibility"] is None
+    compiles = kwargs["compiled"] is True and kwargs["visibility"] is None
     builder = _background_build(brdf, lights, kwargs) if compiles else None
 
     cache: dict[Any, Any] = {}  # the plan and each tile's sample-independent work
@@ -225,15 +226,15 @@ def _replicate_passes(
 def _background_build(
     brdf: BRDF, lights: Light | Sequence[Light], kwargs: dict[str, Any]
 ) -> threading.Thread | None:
-    """A thread building the compiled shader while the first passes run on NumPy, or ``None``
-    where it is built already (``kwargs["compiled"]`` then becomes ``True``)."""
+    """A thread building the compiled shader while the first passes run on NumPy
+    (``kwargs["compiled"]`` ``False`` meanwhile), or ``None`` where it is built already."""
     from brdfkit.render.compiled_shading import compiled_shader
 
     light_list = [lights] if isinstance(lights, Light) else list(lights)
     method = kwargs["method"]
     if compiled_shader(brdf, light_list, method=method, build=False) is not None:
-        kwargs["compiled"] = True
         return None
+    kwargs["compiled"] = False
 
     def build() -> None:
         plan = compiled_shader(brdf, light_list, method=method)

@@ -3,8 +3,8 @@
 :func:`shade` evaluates the reflection equation
 (:func:`brdfkit.render.reflection_equation.reflected_radiance`) at every covered pixel, in tiles
 of rows so that memory stays bounded, with per-pixel BRDF parameters sliced per tile. Under an
-environment map it takes the compiled path (:mod:`brdfkit.render.compiled_shading`) when its
-kernels are built or the work is worth building them. Direct lighting only: no interreflection,
+environment map it takes the compiled path (:mod:`brdfkit.render.compiled_shading`) wherever
+that applies, whatever the size of the work. Direct lighting only: no interreflection,
 and shadows only through a visibility factor (meshes, :mod:`brdfkit.render.mesh`).
 
 References
@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -82,7 +81,7 @@ def shade(
     max_evaluations: int = 500_000,
     background: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
-    compiled: bool | str = "auto",
+    compiled: bool | str = True,
     visibility: Callable[[slice], Visibility] | None = None,
 ) -> np.ndarray:
     """Linear radiance image ``(H, W, C)`` of the G-buffer under ``lights``.
@@ -103,11 +102,11 @@ def shade(
     :class:`brdfkit.render.compiled_shading.EnvironmentShader` where it applies (one
     :class:`~brdfkit.light.EnvironmentMap` plus any delta lights, ``method`` ``"auto"`` or
     ``"mis"``, a BRDF :mod:`brdfkit.compiled` compiles: see
-    :func:`~brdfkit.render.compiled_shading.compiled_shader`), NumPy elsewhere. ``"auto"``
-    (default): float32 kernels when this model's are built already or the render has at least
-    :data:`~brdfkit.render.compiled_shading.AUTO_COMPILE_WORK` pixel-samples (building them costs
-    seconds); ``True``: float32 kernels wherever they apply; ``"float64"``: float64 kernels
-    (the image then equals the NumPy one to rounding); ``False``: NumPy. Same tiles, seeds and
+    :func:`~brdfkit.render.compiled_shading.compiled_shader`), NumPy elsewhere. ``True``
+    (default): float32 kernels wherever they apply, built on first use once per model
+    structure and kept on disk (:mod:`brdfkit.compiled.cache`) for every later process;
+    ``"float64"``: float64 kernels (the image then equals the NumPy one to rounding);
+    ``False``: the NumPy reference. Same tiles, seeds and
     uniforms on both paths (float32 kernels: equal to float32 precision).
 
     ``visibility(rows)`` gives the visibility factor of the image's ``rows`` (shadow rays:
@@ -149,14 +148,13 @@ def _shade(
     progress: Callable[[int, int], None] | None,
     compiled: bool | str,
     stderr: bool = True,
-    work: int | None = None,
     first_row: int = 0,
     first_sample: int = 0,
     cache: dict[Any, Any] | None = None,
     visibility: Callable[[slice], Visibility] | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """:func:`shade`'s image and its per-pixel standard error (0 outside the mask; ``None``
-    unless ``stderr``); ``work`` (pixel-samples) decides ``compiled="auto"`` when given.
+    unless ``stderr``).
 
     The G-buffer is the image's rows from ``first_row`` on (:func:`render_sphere`'s bands).
     With ``sequence="sobol"`` each pixel's seed is a hash of ``seed`` and its index in the
@@ -173,14 +171,12 @@ def _shade(
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels)) if want_stderr else None
-    if work is None:
-        work = np.count_nonzero(g.mask) * samples
     if visibility is not None:
         plan = None  # the compiled kernels know no visibility
     elif cache is not None and ("plan", compiled) in cache:
         plan = cache["plan", compiled]
     else:
-        plan = _compiled_plan(brdf, light_list, method, compiled, work)
+        plan = _compiled_plan(brdf, light_list, method, compiled)
         if cache is not None:
             cache["plan", compiled] = plan
     rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
@@ -263,25 +259,22 @@ does not grow with the samples): tiles of a few tens of ms at most, so that a ca
 progress report comes soon."""
 
 
-COMPILED = (True, False, "auto", "float64")
+COMPILED = (True, False, "float64")
 """Values of :func:`shade`'s ``compiled``."""
 
 
 def _compiled_plan(
-    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str, work: int
+    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str
 ) -> tuple[Any, list[Light]] | None:
     """The compiled shader and the delta lights left to NumPy, or ``None`` for the NumPy path."""
     if not any(compiled is c or (isinstance(compiled, str) and compiled == c) for c in COMPILED):
-        raise ValueError(
-            f"compiled must be one of True, False, 'auto', 'float64'; got {compiled!r}"
-        )
+        raise ValueError(f"compiled must be one of True, False, 'float64'; got {compiled!r}")
     if compiled is False:
         return None
-    from brdfkit.render.compiled_shading import AUTO_COMPILE_WORK, compiled_shader
+    from brdfkit.render.compiled_shading import compiled_shader
 
     dtype = np.float64 if compiled == "float64" else np.float32
-    build = compiled != "auto" or work >= AUTO_COMPILE_WORK
-    return compiled_shader(brdf, lights, method=method, dtype=dtype, build=build)
+    return compiled_shader(brdf, lights, method=method, dtype=dtype)
 
 
 def render_sphere(
@@ -324,15 +317,12 @@ def render_sphere(
         g, cache = _recent_work(brdf, lights, camera, (height, width), options)
         return _shade(g, brdf, lights, **options, stderr=False, cache=cache)[0]
     progress, seed = options.pop("progress"), options.pop("seed")
-    # the compiled path's choice made once, for the whole image's work
-    work = int(math.pi / 4 * height * width) * options["samples"]
     image = None
     for r0 in range(0, height, band):
         rows = slice(r0, min(r0 + band, height))
         g = gbuffer(Sphere(), camera, (height, width), rows)
         part = _shade(
-            g, brdf, lights, **options, seed=seed, progress=None, stderr=False, work=work,
-            first_row=r0,
+            g, brdf, lights, **options, seed=seed, progress=None, stderr=False, first_row=r0,
         )[0]  # fmt: skip
         if image is None:
             image = np.empty((height, width, part.shape[-1]))
@@ -361,10 +351,9 @@ def _recent_work(
     work (each tile's :meth:`~brdfkit.render.compiled_shading.EnvironmentShader.prepare` and
     delta lights), kept for the most recent inputs: the same model, light and camera objects
     (immutable, held by the entry so that their ids stay theirs), shape, ``method`` and
-    tiling options. Per call the compiled plan is decided afresh (kernels may have been
-    built since); the tiles' entries carry the plan's dtype (``compiled``) in their keys.
-    The per-render set-up it saves: the G-buffer, the frames, the control variate's floor
-    and the irradiance."""
+    tiling options. The plan and the tiles' entries carry the plan's dtype (``compiled``) in
+    their keys. The per-render set-up it saves: the G-buffer, the compiled shader, the
+    frames, the control variate's floor and the irradiance."""
     light_list = (lights,) if isinstance(lights, Light) else tuple(lights)
     key = (
         id(brdf), tuple(map(id, light_list)), id(camera), shape, options["method"],
@@ -374,9 +363,7 @@ def _recent_work(
     if entry is None or entry[0] != key:
         entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), {})
         _RECENT["sphere"] = entry
-    cache = entry[3]
-    cache.pop(("plan", options["compiled"]), None)
-    return entry[2], cache
+    return entry[2], entry[3]
 
 
 _SHADE_KEYWORDS: dict[str, Any] = {

@@ -1,0 +1,176 @@
+"""The command line as a user meets it: ``brdfkit render`` against Mitsuba 3's whole process.
+
+``brdfkit render -b "ggx(alpha=0.3, material='Au')"`` with its defaults (a 256² sphere, 64 spp,
+the bundled map, ``render.png``) as a fresh process, against Mitsuba's own command line
+(``mitsuba -m VARIANT -o out.exr scene.xml``: import, load, render, write) on the twin scene:
+the unit sphere seen by brdfkit's orthographic camera, ``roughconductor`` GGX α = 0.3 gold
+(:func:`brdfkit.interop.to_mitsuba_xml`, Mitsuba's separable masking the nearest), the bundled
+map as an EXR of its values at Mitsuba's texel nodes
+(:func:`brdfkit.interop.mitsuba.envmap_texels`, written once before the runs), the ``direct``
+integrator, 64 spp, ``llvm_ad_rgb`` where it loads, else ``scalar_rgb``.
+
+Two figures:
+
+- **warm**: the kernel cache (``BRDFKIT_CACHE_DIR``, a folder of this run's own) filled by one
+  run first, then ``--repeats`` runs of each, interleaved (brdfkit, Mitsuba, brdfkit, …),
+  wall seconds of each process; the median of each and of the pairwise ratios;
+- **first**: ``--cold`` runs each with an empty kernel cache (a new folder each time): the
+  very first render a new user waits for, its kernel build announced on stderr.
+
+A sanity check of the twin (not timed): both renderers' linear images of the scene, their
+mean ratio over the sphere.
+
+    python benchmarks/bench_render_cli.py [--repeats 7] [--cold 2]
+
+Results go to ``benchmarks/results/render_cli.json`` and a summary on stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from brdfkit.brdf import parse
+from brdfkit.interop import mitsuba as ms
+from brdfkit.interop import to_mitsuba_xml
+from brdfkit.io import read_image
+from brdfkit.light.spec import parse_light
+from brdfkit.render.scene import interior_mask
+
+SPEC = "ggx(alpha=0.3, material='Au')"
+RESOLUTION = 256
+"""``brdfkit render``'s default image size."""
+SPP = 64
+"""``brdfkit render``'s default samples per pixel."""
+
+SCENE = """<scene version="3.0.0">
+  <integrator type="direct"><boolean name="hide_emitters" value="true"/></integrator>
+  <sensor type="orthographic">
+    <transform name="to_world"><lookat origin="10, 0, 0" target="0, 0, 0" up="0, 0, 1"/>
+    </transform>
+    <film type="hdrfilm">
+      <integer name="width" value="{resolution}"/><integer name="height" value="{resolution}"/>
+      <string name="pixel_format" value="rgb"/><rfilter type="box"/>
+    </film>
+    <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+  </sensor>
+  <shape type="sphere">
+{bsdf}
+  </shape>
+  <emitter type="envmap">
+    <string name="filename" value="{envmap}"/>
+    <transform name="to_world"><matrix value="{to_world}"/></transform>
+  </emitter>
+</scene>
+"""
+"""The twin of ``brdfkit render``'s default sphere (as :func:`brdfkit.interop.mitsuba.sphere_scene`
+builds it in process)."""
+
+
+def write_scene(folder: Path, mi) -> Path:
+    """The Mitsuba scene file of the twin scene and its map's EXR, in ``folder``."""
+    env = parse_light("envmap")
+    envmap = folder / "map.exr"
+    mi.Bitmap(ms.envmap_texels(env)).write(str(envmap))
+    to_world = np.eye(4)
+    to_world[:3, :3] = env.rotation @ ms.MAP_TO_MITSUBA.T
+    bsdf = to_mitsuba_xml(parse(SPEC), approximate=True).replace(' version="3.0.0"', "")
+    scene = folder / "scene.xml"
+    matrix = " ".join(f"{x:.17g}" for x in to_world.ravel())
+    text = SCENE.format(resolution=RESOLUTION, spp=SPP, bsdf=bsdf, envmap=envmap, to_world=matrix)
+    scene.write_text(text, encoding="utf-8")
+    return scene
+
+
+def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float, str]:
+    """Wall seconds of ``command`` as a fresh process in ``cwd`` and its standard error;
+    ``cache`` is brdfkit's kernel cache folder for it."""
+    env = dict(os.environ)
+    if cache is not None:
+        env["BRDFKIT_CACHE_DIR"] = str(cache)
+    start = time.perf_counter()
+    done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - start
+    if done.returncode != 0:
+        raise RuntimeError(f"{command[:3]} failed:\n{done.stderr[-2000:]}{done.stdout[-2000:]}")
+    return seconds, done.stderr
+
+
+def brdfkit_command(*extra: str) -> list[str]:
+    """``brdfkit render -b SPEC`` with its defaults (the console script's own entry point)."""
+    return [sys.executable, "-c", "from brdfkit.cli import main; main()", "render", "-b", SPEC,
+            *extra]  # fmt: skip
+
+
+def twin_check(folder: Path, scene: Path, variant: str, cache: Path) -> float:
+    """Mean ratio brdfkit ÷ Mitsuba of the two linear images over the sphere."""
+    run(brdfkit_command("-o", "check.exr"), folder, cache)
+    run(["mitsuba", "-m", variant, "-o", str(folder / "check_mitsuba.exr"), str(scene)], folder)
+    mask = interior_mask(RESOLUTION)
+    ours = read_image(folder / "check.exr")[..., :3][mask].mean()
+    theirs = read_image(folder / "check_mitsuba.exr")[..., :3][mask].mean()
+    return float(ours / theirs)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--cold", type=int, default=2)
+    parser.add_argument("--out", help="results file (default: benchmarks/results/render_cli.json)")
+    args = parser.parse_args()
+    mi, variant = ms.load_mitsuba()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        scene = write_scene(folder, mi)
+        mitsuba = ["mitsuba", "-m", variant, "-o", str(folder / "mitsuba.exr"), str(scene)]
+        first, announced = [], []
+        for k in range(args.cold):
+            seconds, stderr = run(brdfkit_command(), folder, folder / f"cold{k}")
+            first.append(seconds)
+            announced.append(stderr.strip())
+            print(f"first render (empty kernel cache): {seconds:.2f} s", flush=True)
+        warm = folder / "cold0"  # filled by the first cold run
+        run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
+        ours, theirs = [], []
+        for _ in range(args.repeats):
+            ours.append(run(brdfkit_command(), folder, warm)[0])
+            theirs.append(run(mitsuba, folder)[0])
+            print(f"warm: brdfkit {ours[-1]:.2f} s, Mitsuba {theirs[-1]:.2f} s", flush=True)
+        ratio = twin_check(folder, scene, variant, warm)
+    ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
+    record = {
+        "spec": SPEC,
+        "resolution": RESOLUTION,
+        "spp": SPP,
+        "mitsuba": f"{mi.__version__} {variant}",
+        "warm": {
+            "brdfkit_seconds": ours,
+            "mitsuba_seconds": theirs,
+            "brdfkit_median": statistics.median(ours),
+            "mitsuba_median": statistics.median(theirs),
+            "ratio_median": statistics.median(ratios),
+        },
+        "first": {"seconds": first, "stderr": announced},
+        "twin_mean_ratio": ratio,
+    }
+    w = record["warm"]
+    print(
+        f"warm medians: brdfkit {w['brdfkit_median']:.2f} s, Mitsuba {w['mitsuba_median']:.2f} s, "
+        f"ratio {w['ratio_median']:.2f}; first render {max(first):.2f} s at most; twin mean "
+        f"ratio {ratio:.4f}"
+    )
+    from _machine import write_results
+
+    write_results(__file__, record, args.out, packages=("mitsuba", "drjit"))
+
+
+if __name__ == "__main__":
+    main()
