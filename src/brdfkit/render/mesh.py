@@ -18,7 +18,11 @@ direction, by :math:`(1 + \max_k |x_k|)\cdot 1500\cdot 2^{-24}` (Mitsuba 3's ``s
 Light samples test the segment up to the sampled point on the light; BRDF samples the whole ray
 (lights do not report where a direction meets them), so a surface *behind* an area light
 shadows it along BRDF-sampled directions.
-Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`).
+Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`). Under an
+environment map (plus delta lights) the samples come from the compiled tile kernels where
+:func:`~brdfkit.render.shade`'s ``compiled`` takes them, the shadow rays cast in large batches
+between their chunks of samples (:class:`~brdfkit.render.compiled_shading.EnvironmentShader`);
+the same seeds give the NumPy path's image (float64 kernels: to rounding).
 
 Claims (tested): the estimator stays unbiased with the visibility factor (white-out on a convex
 mesh, nothing inside a closed box); cast shadows are the occluder's projection, without acne;
@@ -196,18 +200,16 @@ class MeshScene:
         """Whether the segments from ``points`` (geometric ``normals``) along ``wi`` up to
         ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True)."""
         shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
-        points, normals, wi = (
-            np.broadcast_to(a, shape).reshape(-1, 3) for a in (points, normals, wi)
-        )
-        distance = np.broadcast_to(distance, shape[:-1]).ravel()
-        visible = np.ones(len(distance), dtype=bool)
-        active = distance > 0
+        distance = np.broadcast_to(distance, shape[:-1])
+        active = distance > 0  # only these rays are cast: gathered from the broadcast views
+        points, normals, wi = (np.broadcast_to(a, shape)[active] for a in (points, normals, wi))
         eps = self.epsilon
-        side = np.sign(np.sum(normals[active] * wi[active], axis=-1))[:, None]
-        origins = points[active] + (eps * side) * normals[active]
+        side = np.sign(np.sum(normals * wi, axis=-1))[:, None]
+        origins = points + (eps * side) * normals
         far = np.maximum(distance[active] - 2 * eps, 0.0)
-        visible[active] = ~self.rays.occluded(origins, wi[active], far)
-        return visible.reshape(shape[:-1])
+        visible = np.ones(shape[:-1], dtype=bool)
+        visible[active] = ~self.rays.occluded(origins, wi, far)
+        return visible
 
     def visibility(self, g: MeshGBuffer) -> Callable[[slice], Visibility]:
         """:func:`~brdfkit.render.shade`'s ``visibility``: for the image's rows of ``g``, the
