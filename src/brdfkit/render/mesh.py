@@ -41,7 +41,10 @@ References
 from __future__ import annotations
 
 import functools
+import math
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -201,14 +204,14 @@ class MeshScene:
         ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True)."""
         shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
         distance = np.broadcast_to(distance, shape[:-1])
-        active = distance > 0  # only these rays are cast: gathered from the broadcast views
-        points, normals, wi = (np.broadcast_to(a, shape)[active] for a in (points, normals, wi))
+        active = np.flatnonzero(distance > 0)  # only these rays are cast
+        points, normals, wi = (_gather(a, shape, active) for a in (points, normals, wi))
         eps = self.epsilon
         side = np.sign(np.sum(normals * wi, axis=-1))[:, None]
         origins = points + (eps * side) * normals
-        far = np.maximum(distance[active] - 2 * eps, 0.0)
+        far = np.maximum(distance.reshape(-1)[active] - 2 * eps, 0.0)
         visible = np.ones(shape[:-1], dtype=bool)
-        visible[active] = ~self.rays.occluded(origins, wi, far)
+        visible.reshape(-1)[active] = ~self.rays.occluded(origins, wi, far)
         return visible
 
     def visibility(self, g: MeshGBuffer) -> Callable[[slice], Visibility]:
@@ -334,19 +337,56 @@ class _EmbreeRays:
         return np.concatenate(face), np.concatenate(u), np.concatenate(v)
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, far: np.ndarray):
-        """Whether each ray meets a triangle before ``far``."""
-        out = [np.zeros(0, dtype=bool)]
-        for o, d, t in _batches(origins, directions, far):
-            t = np.minimum(t, np.finfo(np.float32).max).astype(np.float32)
-            out.append(self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0)
-        return np.concatenate(out)
+        """Whether each ray meets a triangle before ``far``: batches of rays on the cores
+        this process may use (Embree's queries run without the GIL)."""
+        bounds = np.linspace(0, len(far), _ray_tasks(len(far)) + 1).astype(int)
+        far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32)
+
+        def query(task: int) -> np.ndarray:
+            part = slice(bounds[task], bounds[task + 1])
+            o, d = (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
+            return self.scene.run(o, d, dists=far[part].copy(), query="OCCLUDED") >= 0
+
+        if len(bounds) == 2:
+            return query(0)
+        return np.concatenate(list(_ray_pool().map(query, range(len(bounds) - 1))))
 
 
-def _batches(*arrays: np.ndarray):
-    """Slices of :data:`_RAY_BATCH` rays, as contiguous float32 arrays (the last: as given)."""
-    for start in range(0, len(arrays[0]), _RAY_BATCH):
-        part = [a[start : start + _RAY_BATCH] for a in arrays]
-        yield (*(np.ascontiguousarray(p, dtype=np.float32) for p in part[:2]), *part[2:])
+def _gather(a: np.ndarray, shape: tuple[int, ...], flat: np.ndarray) -> np.ndarray:
+    """The vectors ``(n, 3)`` at the flat indices ``flat`` (over ``shape[:-1]``) of ``a``
+    broadcast to ``shape``, read from ``a`` itself (a broadcast view's indexing is slow):
+    by one flat index where ``a`` varies along leading axes only (points and normals given
+    per pixel, a sample axis broadcast)."""
+    a = np.asarray(a)
+    batch = shape[:-1]
+    lead = (1,) * (len(shape) - a.ndim) + a.shape[:-1]
+    varying = len(lead)
+    while varying > 0 and lead[varying - 1] == 1:
+        varying -= 1
+    if lead[:varying] == batch[:varying]:
+        return a.reshape(-1, 3)[flat // math.prod(batch[varying:])]
+    index = np.unravel_index(flat, batch)
+    return a.reshape(*lead, 3)[tuple(i if n > 1 else 0 for i, n in zip(index, lead, strict=True))]
+
+
+def _ray_tasks(count: int) -> int:
+    """Batches of shadow rays: one per core (at least ``_RAY_BATCH`` / 16 rays each), and
+    at most ``_RAY_BATCH`` rays each."""
+    cores = len(os.sched_getaffinity(0))
+    return max(min(cores, -(-count // (_RAY_BATCH // 16))), -(-count // _RAY_BATCH), 1)
+
+
+@functools.cache
+def _ray_pool() -> ThreadPoolExecutor:
+    """The threads that answer batches of shadow rays."""
+    return ThreadPoolExecutor(len(os.sched_getaffinity(0)), thread_name_prefix="brdfkit-rays")
+
+
+def _batches(origins: np.ndarray, directions: np.ndarray):
+    """Slices of :data:`_RAY_BATCH` rays, as contiguous float32 arrays."""
+    for start in range(0, len(origins), _RAY_BATCH):
+        part = slice(start, start + _RAY_BATCH)
+        yield (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
 
 
 __all__ = [
