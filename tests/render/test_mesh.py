@@ -229,3 +229,49 @@ def test_skies_turn_to_mitsubas_up_axis_as_maps_do():
     assert np.allclose(image, 1.0, atol=0.05)
     with pytest.raises(ParameterError, match="delta"):
         RotatedLight(DirectionalLight(), MITSUBA_ENVMAP_ROTATION)
+
+
+OBJ_TWO_MATERIALS = """mtllib two.mtl
+v -1 -1 0
+v 0 -1 0
+v 0 1 0
+v -1 1 0
+v 1 -1 0
+v 1 1 0
+usemtl paint
+f 1 2 3
+f 1 3 4
+usemtl chalk
+f 2 5 6
+f 2 6 3
+"""
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".glb"])
+def test_each_material_of_the_file_gets_its_brdf(suffix, tmp_path):
+    """Two squares side by side, materials "paint" (left) and "chalk" (right): lit head-on
+    with irradiance π, each reflects its own ρ."""
+    (tmp_path / "two.mtl").write_text("newmtl paint\nKd 0.8 0.1 0.1\nnewmtl chalk\nKd 1 1 1\n")
+    (tmp_path / "two.obj").write_text(OBJ_TWO_MATERIALS)
+    path = tmp_path / f"two{suffix}"
+    if suffix == ".glb":  # the same squares as glTF primitives with named materials
+        parts = trimesh.load_scene(tmp_path / "two.obj", process=False).geometry
+        for name, part in parts.items():
+            material = trimesh.visual.material.PBRMaterial(name=name)
+            part.visual = trimesh.visual.TextureVisuals(material=material)
+        trimesh.Scene(list(parts.values())).export(path)
+    scene = MeshScene.from_file(path)
+    assert sorted(scene.materials) == ["chalk", "paint"]
+    paint = scene.materials.index("paint")
+    left = scene.vertices[scene.faces].mean(axis=1)[:, 0] < 0
+    assert np.array_equal(scene.face_materials == paint, left)
+    light = DirectionalLight((0.0, 0.0, 1.0), irradiance=math.pi)
+    brdfs = {"paint": Lambertian(0.2), "chalk": Lambertian([0.9, 0.8, 0.7])}
+    image = render_mesh(scene, brdfs, light, look_at_camera(*FRONT), (2, 4))
+    assert np.allclose(image[:, :2], 0.2) and np.allclose(image[:, 2:], [0.9, 0.8, 0.7])
+    with pytest.raises(ParameterError, match=r"missing.*chalk"):
+        render_mesh(scene, {"paint": Lambertian(0.2)}, light, look_at_camera(*FRONT), 2)
+    plain = MeshScene.from_trimesh(_square())
+    assert plain.materials == () and plain.face_materials is None
+    with pytest.raises(ParameterError, match="materials"):
+        render_mesh(plain, brdfs, light, look_at_camera(*FRONT), 2)

@@ -40,10 +40,11 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,15 +73,19 @@ _RAY_BATCH = 1 << 20
 @dataclass(frozen=True, eq=False)
 class MeshGBuffer(GBuffer):
     """A :class:`~brdfkit.render.GBuffer` of a mesh, plus each pixel's geometric normal
-    ``(H, W, 3)`` (the triangle's, by its winding)."""
+    ``(H, W, 3)`` (the triangle's, by its winding) and the face it sees ``(H, W)`` (−1 for
+    none)."""
 
     geometric_normals: np.ndarray
+    faces: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class MeshScene:
     """A triangle mesh to trace: ``vertices`` ``(V, 3)``, ``faces`` ``(F, 3)`` vertex indices and
-    unit ``vertex_normals`` ``(V, 3)`` (the shading normals, interpolated across each face).
+    unit ``vertex_normals`` ``(V, 3)`` (the shading normals, interpolated across each face);
+    where the file names materials, their ``materials`` names and each face's index among
+    them, ``face_materials`` ``(F,)`` (:func:`render_mesh` then takes a BRDF per material).
 
     Examples
     --------
@@ -108,9 +113,11 @@ class MeshScene:
     vertices: np.ndarray
     faces: np.ndarray
     vertex_normals: np.ndarray
+    materials: tuple[str, ...] = ()
+    face_materials: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        v, f, n = self.vertices, self.faces, self.vertex_normals
+        v, f, n, m = self.vertices, self.faces, self.vertex_normals, self.face_materials
         if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
             raise ParameterError(f"mesh vertices must be finite (V, 3); got shape {v.shape}")
         if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
@@ -121,6 +128,13 @@ class MeshScene:
             )
         if n.shape != v.shape:
             raise ParameterError(f"mesh vertex normals must be {v.shape}; got {n.shape}")
+        if (m is None) != (not self.materials) or (
+            m is not None
+            and (m.shape != f.shape[:1] or m.min() < 0 or m.max() >= len(self.materials))
+        ):
+            raise ParameterError(
+                f"mesh face materials must index its {len(self.materials)} materials per face"
+            )
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> MeshScene:
@@ -152,12 +166,22 @@ class MeshScene:
         parts = list(_placed_meshes(loaded))
         if not parts:
             raise FormatError(path, "the file holds no triangles")
-        offsets = np.cumsum([0] + [len(v) for v, _, _ in parts[:-1]])
+        offsets = np.cumsum([0] + [len(v) for v, _, _, _ in parts[:-1]])
+        named = [name for *_, name in parts if name is not None]
+        materials = tuple(dict.fromkeys(named))  # in the file's order, once each
+        face_materials = None
+        if materials:  # a part without a material gets one named "default"
+            materials += ("default",) * any(name is None for *_, name in parts)
+            face_materials = np.concatenate(
+                [np.full(len(f), materials.index(name or "default")) for _, f, _, name in parts]
+            )
         try:
             return cls(
-                np.concatenate([v for v, _, _ in parts]),
-                np.concatenate([f + o for (_, f, _), o in zip(parts, offsets, strict=True)]),
-                np.concatenate([n for _, _, n in parts]),
+                np.concatenate([v for v, _, _, _ in parts]),
+                np.concatenate([f + o for (_, f, _, _), o in zip(parts, offsets, strict=True)]),
+                np.concatenate([n for _, _, n, _ in parts]),
+                materials,
+                face_materials,
             )
         except ParameterError as error:
             raise FormatError(path, str(error)) from error
@@ -195,6 +219,7 @@ class MeshScene:
         return MeshGBuffer(
             points.reshape(shape), normals.reshape(shape), tangents.reshape(shape),
             facing.reshape(shape), hit.reshape(height, width), geometric.reshape(shape),
+            face.reshape(height, width),
         )  # fmt: skip
 
     def unoccluded(
@@ -236,7 +261,7 @@ class MeshScene:
 
 def render_mesh(
     scene: MeshScene,
-    brdf: BRDF,
+    brdf: BRDF | Mapping[str, BRDF],
     lights: Light | Sequence[Light],
     camera: Camera,
     resolution: int | tuple[int, int] = 256,
@@ -251,7 +276,10 @@ def render_mesh(
     :func:`~brdfkit.render.shade`; ``samples`` per shading point). With ``supersample`` k each
     pixel is the mean of k×k shading points on a regular grid inside it: the box filter of
     Mitsuba's film, so silhouettes are antialiased (give ``samples`` / k² to keep the work).
-    Background pixels are 0 (``background``).
+    Background pixels are 0 (``background``). ``brdf`` is one BRDF for every face, or a
+    mapping from the names of the scene's ``materials`` to a BRDF each (every material named
+    by the file must have one; a :class:`~brdfkit.errors.ParameterError` lists those
+    missing): the pixels of each material are shaded by its BRDF, with the same seeds.
 
     Examples
     --------
@@ -262,8 +290,38 @@ def render_mesh(
         raise ValueError(f"supersample must be an integer >= 1; got {supersample!r}")
     k = supersample
     g = scene.gbuffer(camera, (height * k, width * k))
-    image = shade(g, brdf, lights, visibility=scene.visibility(g), **kwargs)
+    if isinstance(brdf, BRDF):
+        image = shade(g, brdf, lights, visibility=scene.visibility(g), **kwargs)
+    else:
+        image = _shade_materials(scene, g, brdf, lights, kwargs)
     return image.reshape(height, k, width, k, -1).mean(axis=(1, 3))
+
+
+def _shade_materials(
+    scene: MeshScene,
+    g: MeshGBuffer,
+    brdfs: Mapping[str, BRDF],
+    lights: Light | Sequence[Light],
+    kwargs: dict[str, Any],
+) -> np.ndarray:
+    """The image of ``g`` with each material's pixels shaded by its BRDF in ``brdfs``."""
+    missing = [name for name in scene.materials if name not in brdfs]
+    if not scene.materials or missing:
+        raise ParameterError(
+            f"brdf: a mapping needs a BRDF for each of the mesh's materials "
+            f"{list(scene.materials)}; missing {missing or list(scene.materials)}"
+        )
+    seen = np.where(g.faces >= 0, scene.face_materials[np.maximum(g.faces, 0)], -1)
+    image = None
+    for index, name in enumerate(scene.materials):
+        part = dataclasses.replace(g, mask=g.mask & (seen == index))
+        if not np.any(part.mask):
+            continue
+        shaded = shade(part, brdfs[name], lights, visibility=scene.visibility(part), **kwargs)
+        image = shaded if image is None else np.where(part.mask[..., None], shaded, image)
+    if image is None:  # no pixel sees the mesh
+        image = shade(g, brdfs[scene.materials[0]], lights, **kwargs)
+    return image
 
 
 def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
@@ -290,8 +348,9 @@ def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
 
 def _placed_meshes(scene: Any):
     """Each triangle mesh of a ``trimesh.Scene`` placed by its node's transform: its vertices,
-    faces and unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
-    drops them)."""
+    faces, unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
+    drops them) and its material's name (``None`` without one; trimesh splits an OBJ by its
+    ``usemtl`` groups, a glTF by its primitives)."""
     import trimesh
 
     for node in scene.graph.nodes_geometry:
@@ -302,7 +361,9 @@ def _placed_meshes(scene: Any):
         normals = np.asarray(mesh.vertex_normals, dtype=float)
         vertices = trimesh.transform_points(np.asarray(mesh.vertices, dtype=float), transform)
         linear = np.linalg.inv(transform[:3, :3]).T  # normals turn by the inverse transpose
-        yield vertices, np.asarray(mesh.faces, dtype=np.int64), _unit(normals @ linear.T)
+        material = getattr(getattr(mesh.visual, "material", None), "name", None)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        yield vertices, faces, _unit(normals @ linear.T), str(material) if material else None
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
