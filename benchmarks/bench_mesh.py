@@ -7,7 +7,8 @@ by ``look_at((0, 2.2, 3.2), (0, 0.4, 0), +y)`` with a 40° horizontal fov, 128×
 
 Per model (gold GGX α = 0.3, a Lambertian clay), each renderer runs at 64 spp as a fresh
 process that reads the mesh and the map, renders and writes an EXR: ``brdfkit render`` (the
-NumPy path with Embree shadow rays) and a Python script that loads the same scene into
+compiled path, its kernels loaded from the disk cache that the in-process references filled,
+with Embree shadow rays) and a Python script that loads the same scene into
 Mitsuba (``llvm_ad_rgb`` where it loads, else ``scalar_rgb``; the map read by brdfkit and
 given at Mitsuba's texel nodes, as in the oracle tests) and writes its image. Reported:
 the process's wall time (best of ``--repeats``), the relative RMSE of its image against the
