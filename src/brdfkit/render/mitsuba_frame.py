@@ -127,7 +127,7 @@ class RotatedLight(Light):
         return dataclasses.replace(sample, wi=sample.wi @ self.rotation.T)
 
     def _inner(self, v: Any) -> Any:
-        """World vectors in the inner light's frame, :math:`R^\top v` (rows: ``v @ R``)."""
+        r"""World vectors in the inner light's frame, :math:`R^\top v` (rows: ``v @ R``)."""
         return np.asarray(v) @ self.rotation
 
 
