@@ -560,6 +560,7 @@ __all__ = [
     "BLOCK",
     "HEURISTICS",
     "METHODS",
+    "SHADOW_SAMPLES",
     "EnvironmentShader",
     "Prepared",
     "compiled_shader",
