@@ -7,7 +7,8 @@ by ``look_at((0, 2.2, 3.2), (0, 0.4, 0), +y)`` with a 40° horizontal fov, 128×
 
 Per model (gold GGX α = 0.3, a Lambertian clay), each renderer runs at 64 spp as a fresh
 process that reads the mesh and the map, renders and writes an EXR: ``brdfkit render`` (the
-NumPy path with Embree shadow rays) and a Python script that loads the same scene into
+compiled path, its kernels loaded from the disk cache that the in-process references filled,
+with Embree shadow rays) and a Python script that loads the same scene into
 Mitsuba (``llvm_ad_rgb`` where it loads, else ``scalar_rgb``; the map read by brdfkit and
 given at Mitsuba's texel nodes, as in the oracle tests) and writes its image. Reported:
 the process's wall time (best of ``--repeats``), the relative RMSE of its image against the
@@ -17,7 +18,10 @@ with 4×4 shading points per pixel, Mitsuba's box filter): mean ratio and relati
 a one-pixel Gaussian blur.
 
 Then a torus of 100k triangles at 512² (gold), the scene kept in process (brdfkit's G-buffer
-and Embree scene, Mitsuba's loaded scene), 8 spp, against each renderer's own 64-spp image.
+and Embree scene, Mitsuba's loaded scene), 8 spp, against each renderer's own
+``--large-reference``-spp image: brdfkit on its compiled path (float32 tile kernels recording
+each sample, Embree's shadow rays in batches between them; the kernels built before timing)
+and, for comparison, on its NumPy path.
 
     python benchmarks/bench_mesh.py [--data ../shared/data] [--repeats 2] [--reference 512]
         [--large-reference 64]
@@ -182,7 +186,8 @@ def bench_large(mi, env: EnvironmentMap, tmp: Path, args) -> dict:
     """A torus of about 100k triangles over the plane at 512², gold, the scene kept in
     process: brdfkit's G-buffer and Embree scene built once, Mitsuba's scene loaded once; the
     best of ``--repeats`` renders at ``LARGE_SPP`` against each renderer's own
-    ``--large-reference``-spp image."""
+    ``--large-reference``-spp image (brdfkit's NumPy path against the compiled path's: the
+    same estimator, so the same expected image), the renderers interleaved per repeat."""
     spec, bsdf = MODELS["gold"]
     mesh = tmp / "large.ply"
     large = torus_over_plane(sections=LARGE_SECTIONS)
@@ -198,25 +203,36 @@ def bench_large(mi, env: EnvironmentMap, tmp: Path, args) -> dict:
         "sun": ms.directional_emitter(DirectionalLight(*SUN)),
     }
     mi_scene = ms.mesh_scene(mi, mesh, bsdf, emitters, LOOK_AT, FOV, size)
+
+    def brdfkit(compiled: bool):
+        return lambda spp, seed: shade(
+            g, model, lights, samples=spp, seed=seed, visibility=visibility, compiled=compiled
+        )
+
     renderers = {
-        "brdfkit": lambda spp, seed: shade(
-            g, model, lights, samples=spp, seed=seed, visibility=visibility
-        ),
+        "brdfkit": brdfkit(True),
+        "brdfkit_numpy": brdfkit(False),
         "mitsuba": lambda spp, seed: ms.render(mi, mi_scene, spp, seed),
     }
-    row: dict = {"model": "gold", "triangles": len(large.faces), "size": list(size)}
-    for who, render in renderers.items():
-        reference = render(args.large_reference, 99)
-        seconds, errors = [], []
-        for repeat in range(args.repeats):
+    references = {who: renderers[who](args.large_reference, 99) for who in ("brdfkit", "mitsuba")}
+    references["brdfkit_numpy"] = references["brdfkit"]
+    seconds: dict[str, list[float]] = {who: [] for who in renderers}
+    errors: dict[str, list[float]] = {who: [] for who in renderers}
+    for repeat in range(args.repeats):
+        for who, render in renderers.items():
             start = time.perf_counter()
             image = render(LARGE_SPP, repeat + 1)
-            seconds.append(time.perf_counter() - start)
-            errors.append(relative_rmse(image, reference))
-        t, error = min(seconds), float(np.sqrt(np.mean(np.square(errors))))
+            seconds[who].append(time.perf_counter() - start)
+            errors[who].append(relative_rmse(image, references[who]))
+    row: dict = {"model": "gold", "triangles": len(large.faces), "size": list(size)}
+    for who in renderers:
+        t, error = min(seconds[who]), float(np.sqrt(np.mean(np.square(errors[who]))))
         row[who] = {"seconds": t, "rel_rmse": error, "efficiency": 1 / (t * error**2)}
     row["spp"], row["reference_spp"] = LARGE_SPP, args.large_reference
     row["efficiency_ratio"] = row["brdfkit"]["efficiency"] / row["mitsuba"]["efficiency"]
+    row["efficiency_ratio_numpy"] = (
+        row["brdfkit_numpy"]["efficiency"] / row["mitsuba"]["efficiency"]
+    )
     return row
 
 
@@ -252,11 +268,13 @@ def main() -> None:
                 flush=True,
             )
         large = bench_large(mi, env, Path(tmp), args)
-    b, m = large["brdfkit"], large["mitsuba"]
+    b, n, m = large["brdfkit"], large["brdfkit_numpy"], large["mitsuba"]
     print(
         f"\n{large['triangles']} triangles at {LARGE_PIXELS}², scene kept, {LARGE_SPP} spp: "
-        f"brdfkit {b['seconds']:.2f} s (error {b['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s "
-        f"(error {m['rel_rmse']:.4f}): efficiency brdfkit/Mitsuba {large['efficiency_ratio']:.2f}"
+        f"brdfkit compiled {b['seconds']:.2f} s (error {b['rel_rmse']:.4f}), NumPy "
+        f"{n['seconds']:.2f} s (error {n['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s "
+        f"(error {m['rel_rmse']:.4f}): efficiency brdfkit/Mitsuba "
+        f"{large['efficiency_ratio']:.2f} compiled, {large['efficiency_ratio_numpy']:.2f} NumPy"
     )
     from _machine import write_results
 

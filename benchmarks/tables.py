@@ -644,6 +644,12 @@ def mesh(r: dict) -> str:
             f"{b['rel_rmse']:.4f}), Mitsuba {m['seconds']:.2f} s (error {m['rel_rmse']:.4f}); "
             f"efficiency ÷ Mitsuba **{x['efficiency_ratio']:.2f}**."
         )
+        if "brdfkit_numpy" in x:
+            n = x["brdfkit_numpy"]
+            text += (
+                f" brdfkit on its NumPy path: {n['seconds']:.2f} s (error {n['rel_rmse']:.4f}), "
+                f"efficiency ÷ Mitsuba {x['efficiency_ratio_numpy']:.2f}."
+            )
     return text
 
 

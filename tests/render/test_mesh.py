@@ -11,7 +11,7 @@ import trimesh
 
 from brdfkit.brdf import Lambertian
 from brdfkit.errors import FormatError, ParameterError
-from brdfkit.light import DirectionalLight, EnvironmentMap, PointLight, UniformSky
+from brdfkit.light import DirectionalLight, EnvironmentMap, PointLight, SunSky, UniformSky
 from brdfkit.render import (
     Sphere,
     gbuffer,
@@ -21,7 +21,12 @@ from brdfkit.render import (
     shade,
 )
 from brdfkit.render.mesh import MeshScene, render_mesh, torus_over_plane
-from brdfkit.render.mitsuba_frame import look_at_camera
+from brdfkit.render.mitsuba_frame import (
+    MITSUBA_ENVMAP_ROTATION,
+    RotatedLight,
+    look_at_camera,
+    mitsuba_oriented,
+)
 
 FRONT = ((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 
@@ -198,3 +203,75 @@ def test_progressive_passes_carry_the_shadows():
     assert np.all(np.abs(last.image - once) <= 5 * last.error + 0.05)
     unshadowed = shade(g, Lambertian(0.5), lights, samples=16, compiled=False)
     assert np.abs(last.image - unshadowed).max() > 0.1  # the shadows are there
+
+
+def test_skies_turn_to_mitsubas_up_axis_as_maps_do():
+    """A sky's zenith becomes +y (the maps' pole); its samples keep value · pdf = radiance and
+    a floor facing +y under the turned uniform sky shows white-out, ρL."""
+    sky = SunSky(sun_direction=(0.0, 0.6, 0.8), resolution=(8, 16))
+    turned = mitsuba_oriented(sky)
+    zenith = sky.incident_radiance(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    assert np.allclose(turned.incident_radiance(np.zeros(3), np.array([0.0, 1.0, 0.0])), zenith)
+    sun = MITSUBA_ENVMAP_ROTATION @ sky.sun_direction
+    assert np.allclose(sun, [0.6, 0.8, 0.0])
+    assert turned.incident_radiance(np.zeros(3), sun)[1] > 1e4
+    u = np.random.default_rng(2).random((64, 2))
+    s = turned.sample(np.zeros((64, 3)), u)
+    radiance = turned.incident_radiance(np.zeros((64, 3)), s.wi)
+    assert np.allclose(s.value * s.pdf[:, None], radiance)
+    assert np.allclose(turned.pdf(np.zeros((64, 3)), s.wi), s.pdf)
+    floor = trimesh.Trimesh(
+        [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], [[0, 2, 1], [0, 3, 2]], process=False
+    )
+    camera = look_at_camera((0.0, 3.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0))
+    uniform = mitsuba_oriented(UniformSky(2.0))
+    image = render_mesh(MeshScene.from_trimesh(floor), Lambertian(0.5), uniform, camera, 4)
+    assert np.allclose(image, 1.0, atol=0.05)
+    with pytest.raises(ParameterError, match="delta"):
+        RotatedLight(DirectionalLight(), MITSUBA_ENVMAP_ROTATION)
+
+
+OBJ_TWO_MATERIALS = """mtllib two.mtl
+v -1 -1 0
+v 0 -1 0
+v 0 1 0
+v -1 1 0
+v 1 -1 0
+v 1 1 0
+usemtl paint
+f 1 2 3
+f 1 3 4
+usemtl chalk
+f 2 5 6
+f 2 6 3
+"""
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".glb"])
+def test_each_material_of_the_file_gets_its_brdf(suffix, tmp_path):
+    """Two squares side by side, materials "paint" (left) and "chalk" (right): lit head-on
+    with irradiance π, each reflects its own ρ."""
+    (tmp_path / "two.mtl").write_text("newmtl paint\nKd 0.8 0.1 0.1\nnewmtl chalk\nKd 1 1 1\n")
+    (tmp_path / "two.obj").write_text(OBJ_TWO_MATERIALS)
+    path = tmp_path / f"two{suffix}"
+    if suffix == ".glb":  # the same squares as glTF primitives with named materials
+        parts = trimesh.load_scene(tmp_path / "two.obj", process=False).geometry
+        for name, part in parts.items():
+            material = trimesh.visual.material.PBRMaterial(name=name)
+            part.visual = trimesh.visual.TextureVisuals(material=material)
+        trimesh.Scene(list(parts.values())).export(path)
+    scene = MeshScene.from_file(path)
+    assert sorted(scene.materials) == ["chalk", "paint"]
+    paint = scene.materials.index("paint")
+    left = scene.vertices[scene.faces].mean(axis=1)[:, 0] < 0
+    assert np.array_equal(scene.face_materials == paint, left)
+    light = DirectionalLight((0.0, 0.0, 1.0), irradiance=math.pi)
+    brdfs = {"paint": Lambertian(0.2), "chalk": Lambertian([0.9, 0.8, 0.7])}
+    image = render_mesh(scene, brdfs, light, look_at_camera(*FRONT), (2, 4))
+    assert np.allclose(image[:, :2], 0.2) and np.allclose(image[:, 2:], [0.9, 0.8, 0.7])
+    with pytest.raises(ParameterError, match=r"missing.*chalk"):
+        render_mesh(scene, {"paint": Lambertian(0.2)}, light, look_at_camera(*FRONT), 2)
+    plain = MeshScene.from_trimesh(_square())
+    assert plain.materials == () and plain.face_materials is None
+    with pytest.raises(ParameterError, match="materials"):
+        render_mesh(plain, brdfs, light, look_at_camera(*FRONT), 2)

@@ -28,8 +28,15 @@ numba functions, each mirroring the NumPy code it replaces in the kernel's dtype
 - :func:`_brdf_at_map_samples`: the BRDF's ``eval`` and ``pdf`` kernels at the map's samples
   above the surface only (below it the term is 0);
 - :func:`_radiance_reads`: the map's bilinear radiance at both sets of directions;
-- :func:`_accumulation`: the MIS weights, the control variate's terms and the running mean
-  and sum of squared deviations (Welford).
+- :func:`_accumulation`: the MIS weights, the control variate's terms (:func:`_mis_terms`)
+  and the running mean and sum of squared deviations (Welford).
+
+With shadows (meshes) the last step is :func:`_recording` instead: the kernel writes each
+sample's two MIS terms and the world directions of its two samples, and its driver
+(:meth:`brdfkit.render.compiled_shading.EnvironmentShader.shade` with ``visibility``) casts
+their shadow rays through Embree in one batch, which numba cannot call, and weighs the terms
+by the visibility factor :math:`V \in \{0, 1\}` before their mean: the estimate of
+:math:`\int V\,(f - k)\,L\cos\theta\,d\omega` of the NumPy path.
 
 The BRDF's kernels are those :func:`brdfkit.compiled.compile` builds from the model's own code
 or a tabulated BRDF's (:func:`brdfkit.measured.table_kernels`), called through the same
@@ -75,6 +82,7 @@ def tile_kernel(
     dtype: type,
     brdf_channels: int,
     map_channels: int,
+    record: bool = False,
 ) -> Callable[..., None]:
     """The kernel shading a set of pixels with these BRDF kernels in ``dtype``, built once
     per set of arguments, its machine code kept on disk (:mod:`brdfkit.compiled.cache`)
@@ -83,8 +91,11 @@ def tile_kernel(
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
     col_guide, power, control, mean, m2, data)`` and writes each pixel's mean and sum of
-    squared deviations of the MIS terms into ``mean`` and ``m2``."""
-    key = (sample_fn, eval_fn, pdf_fn, dtype, brdf_channels, map_channels)
+    squared deviations of the MIS terms into ``mean`` and ``m2`` ``(n, C)``. The
+    ``record`` kernel (shadows) writes instead each sample's two MIS terms into ``mean``
+    ``(n, N, 2, C)`` and the world directions of its two samples into ``m2`` ``(n, N, 2,
+    3)``, both in ``dtype`` (:func:`_recording`): their visibility is the driver's."""
+    key = (sample_fn, eval_fn, pdf_fn, dtype, brdf_channels, map_channels, record)
     if key not in _TILE_KERNELS:
         kernel = _new_tile_kernel(*key)
         disk_key = _tile_disk_key(*key)
@@ -99,15 +110,20 @@ def tile_kernel_built(
     dtype: type,
     brdf_channels: int,
     map_channels: int | None,
+    record: bool = False,
 ) -> bool:
-    """Whether a tile kernel for the BRDF kernels ``functions`` (sample, eval, pdf) is
-    compiled in this process, or its machine code is on disk, for a map of ``map_channels``
-    channels (``None``: 1 or 3)."""
-    tiles = [t for key, t in _TILE_KERNELS.items() if key[:4] == (*functions, dtype)]
+    """Whether a tile kernel (the ``record`` one: :func:`tile_kernel`) for the BRDF kernels
+    ``functions`` (sample, eval, pdf) is compiled in this process, or its machine code is on
+    disk, for a map of ``map_channels`` channels (``None``: 1 or 3)."""
+    tiles = [
+        t
+        for key, t in _TILE_KERNELS.items()
+        if key[:4] == (*functions, dtype) and key[-1] == record
+    ]
     if any(t.signatures for t in tiles):
         return True
     for channels in (map_channels,) if map_channels is not None else (1, 3):
-        disk_key = _tile_disk_key(*functions, dtype, brdf_channels, channels)
+        disk_key = _tile_disk_key(*functions, dtype, brdf_channels, channels, record)
         if disk_key is not None and kernel_cache.has(disk_key):
             return True
     return False
@@ -120,13 +136,15 @@ def _tile_disk_key(
     dtype: type,
     brdf_channels: int,
     map_channels: int,
+    record: bool = False,
 ) -> str | None:
     """The disk-cache key of a tile kernel: its BRDF kernels' keys (their machine code is
     inlined into it) and its options, or ``None`` where one of them has none."""
     keys = [kernel_cache.key_of(fn) for fn in (sample_fn, eval_fn, pdf_fn)]
     if None in keys:
         return None
-    return kernel_cache.key("tile", *keys, np.dtype(dtype).str, brdf_channels, map_channels, BLOCK)
+    options = (np.dtype(dtype).str, brdf_channels, map_channels, BLOCK)
+    return kernel_cache.key("tile", *keys, *options, *(("record",) if record else ()))
 
 
 def _new_tile_kernel(
@@ -136,9 +154,11 @@ def _new_tile_kernel(
     dtype: type,
     brdf_channels: int,
     map_channels: int,
+    record: bool,
 ) -> Callable[..., None]:
     """The tile kernel (module docstring) composed of its steps, in dtype ``dtype`` (the map's
-    CDF searches in float64, as :class:`~brdfkit.sampling.Distribution2D`)."""
+    CDF searches in float64, as :class:`~brdfkit.sampling.Distribution2D`); with ``record``
+    the recording kernel (:func:`tile_kernel`)."""
     env = compiled_lookups(dtype, kernel_tools)
     return _tile_loop(
         dtype,
@@ -151,7 +171,7 @@ def _new_tile_kernel(
         _map_sampling(env, dtype),
         _brdf_at_map_samples(eval_fn, pdf_fn, dtype, brdf_channels),
         _radiance_reads(env, dtype),
-        _accumulation(env, dtype, brdf_channels, map_channels),
+        (_recording if record else _accumulation)(env, dtype, brdf_channels, map_channels),
     )
 
 
@@ -400,25 +420,26 @@ def _radiance_reads(env: Any, dtype: type) -> Callable[..., None]:
     return read
 
 
-def _accumulation(env: Any, dtype: type, brdf_channels: int, map_channels: int) -> Callable:
-    r"""``accumulate(nb, inverse_count, power, brdf, light, brdf_at_light, controls,
-    radiance_b, radiance_l, mean_b, m2_b)``: one sample's MIS estimate per pixel and channel
-    (module docstring), folded into the running mean and sum of squared deviations:
+def _mis_terms(env: Any, dtype: type, brdf_channels: int, map_channels: int) -> tuple:
+    r"""``(pixel_weights, channel_terms)``: ``pixel_weights(j, power, brdf, light,
+    brdf_at_light)`` the MIS weights of pixel ``j``'s two samples and the BRDF sample's
+    :math:`\cos\theta/p_b`; ``channel_terms(j, c, weights, brdf, light, brdf_at_light,
+    controls, radiance_b, radiance_l)`` one sample's two MIS terms of pixel ``j`` and channel
+    ``c`` (module docstring), the BRDF
+    sample's :math:`w_b (f - k) L\cos\theta / p_b` and the map sample's
+    :math:`w_l (f - k) L\cos\theta / p_l`, in the kernel's dtype:
 
     - the weights :math:`w_b` (1 for a delta sample) and :math:`w_l` of the power or balance
       heuristic, ``safe_div(p^β, p^β + q^β)``, with :math:`p_l` at the BRDF's sample from its
       pdf texel (0 outside the map);
     - the control variate: :math:`(f - k)\cos\theta/p_b = w - k\cos\theta/p_b` of the
-      BRDF's sample (its weight :math:`w`), :math:`(f - k)` at the map's;
-    - Welford's update of the mean and of :math:`\sum (x - \bar x)^2` in float64.
+      BRDF's sample (its weight :math:`w`), :math:`(f - k)` at the map's.
 
     ``brdf = (wi, weight, pdf, delta)`` of the BRDF's samples, ``light = (pdf_l, cos_l,
-    density_b, p_texel, sin_b)``, ``brdf_at_light = (f_buf, pbl_buf)``. The loop is
-    straight-line, so LLVM vectorises it."""
+    density_b, p_texel, sin_b)``, ``brdf_at_light = (f_buf, pbl_buf)``."""
     select = kernel_tools.select()
     solid_angle_pdf = env.solid_angle_pdf
     zero, one = dtype(0), dtype(1)
-    channels = max(brdf_channels, map_channels)
     cb_step = 1 if brdf_channels > 1 else 0
     cl_step = 1 if map_channels > 1 else 0
 
@@ -431,6 +452,48 @@ def _accumulation(env: Any, dtype: type, brdf_channels: int, map_channels: int) 
         return select(total != zero, p / select(total != zero, total, one), zero)
 
     @kernel_tools.inline_jit()
+    def pixel_weights(j: int, power: bool, brdf: tuple, light: tuple,
+                      brdf_at_light: tuple) -> tuple:  # fmt: skip
+        wi_buf, _, pdf_buf, delta_buf = brdf
+        pdf_l, _, density_b, p_texel, sin_b = light
+        pb, pl = pdf_buf[j], pdf_l[j]
+        # EnvironmentMap.pdf at the BRDF's sample
+        p_light = select(density_b[j] >= 0, solid_angle_pdf(p_texel[j], sin_b[j]), zero)
+        w_b = select(delta_buf[j], one, weight(pb, p_light, power))
+        w_l = weight(pl, brdf_at_light[1][j], power)
+        upper = wi_buf[j * 3 + 2] > zero
+        cos_over_p = select(pb != zero, wi_buf[j * 3 + 2] / select(pb != zero, pb, one), zero)
+        return w_b, w_l, upper, cos_over_p
+
+    @kernel_tools.inline_jit()
+    def channel_terms(j: int, c: int, weights: tuple, brdf: tuple, light: tuple,
+                      brdf_at_light: tuple, controls: np.ndarray, radiance_b: np.ndarray,
+                      radiance_l: np.ndarray) -> tuple:  # fmt: skip
+        w_b, w_l, upper, cos_over_p = weights
+        wt_buf, pl, cos_l, f_buf = brdf[1], light[0][j], light[1], brdf_at_light[0]
+        k_c = controls[c * cb_step, j]
+        k = k_c * cos_over_p  # (f − k)·cos/p
+        term = (wt_buf[j * brdf_channels + c * cb_step] - k) * radiance_b[c * cl_step, j]
+        term_b = select(upper, term * w_b, zero * w_b)
+        radiance = radiance_l[c * cl_step, j]
+        value = select(pl != zero, radiance / select(pl != zero, pl, one), zero)
+        c_l = (f_buf[j * brdf_channels + c * cb_step] - k_c) * value
+        return term_b, c_l * cos_l[j] * w_l
+
+    return pixel_weights, channel_terms
+
+
+def _accumulation(env: Any, dtype: type, brdf_channels: int, map_channels: int) -> tuple:
+    r"""``(accumulate, flush)``: ``accumulate(nb, s, start, power, brdf, light,
+    brdf_at_light, controls, radiance_b, radiance_l, frames, wil_buf, mean_b, m2_b, mean,
+    m2)`` folds sample ``s``'s MIS estimate per pixel and channel (the sum of
+    :func:`_mis_terms`) into the block's running mean and sum of squared deviations
+    (Welford, in float64); ``flush(start, nb, mean_b, m2_b, mean, m2)`` writes the block's
+    into the outputs. The loop is straight-line, so LLVM vectorises it."""
+    pixel_weights, channel_terms = _mis_terms(env, dtype, brdf_channels, map_channels)
+    channels = max(brdf_channels, map_channels)
+
+    @kernel_tools.inline_jit()
     def running_mean(mean_b: np.ndarray, m2_b: np.ndarray, c: int, j: int, x: float,
                      inverse_count: float) -> None:  # fmt: skip
         previous = mean_b[c, j]
@@ -439,33 +502,71 @@ def _accumulation(env: Any, dtype: type, brdf_channels: int, map_channels: int) 
         m2_b[c, j] += (x - previous) * (x - current)
 
     @kernel_tools.inline_jit()
-    def accumulate(nb: int, inverse_count: float, power: bool, brdf: tuple, light: tuple,
+    def accumulate(nb: int, s: int, start: int, power: bool, brdf: tuple, light: tuple,
                    brdf_at_light: tuple, controls: np.ndarray, radiance_b: np.ndarray,
-                   radiance_l: np.ndarray, mean_b: np.ndarray,
-                   m2_b: np.ndarray) -> None:  # fmt: skip
-        wi_buf, wt_buf, pdf_buf, delta_buf = brdf
-        pdf_l, cos_l, density_b, p_texel, sin_b = light
-        f_buf, pbl_buf = brdf_at_light
+                   radiance_l: np.ndarray, frames: np.ndarray, wil_buf: np.ndarray,
+                   mean_b: np.ndarray, m2_b: np.ndarray, mean: np.ndarray,
+                   m2: np.ndarray) -> None:  # fmt: skip
+        inverse_count = 1.0 / (s + 1)
         for j in range(nb):
-            pb, pl = pdf_buf[j], pdf_l[j]
-            # EnvironmentMap.pdf at the BRDF's sample
-            p_light = select(density_b[j] >= 0, solid_angle_pdf(p_texel[j], sin_b[j]), zero)
-            w_b = select(delta_buf[j], one, weight(pb, p_light, power))
-            w_l = weight(pl, pbl_buf[j], power)
-            upper = wi_buf[j * 3 + 2] > zero
-            cos_over_p = select(pb != zero, wi_buf[j * 3 + 2] / select(pb != zero, pb, one), zero)
+            weights = pixel_weights(j, power, brdf, light, brdf_at_light)
             for c in range(channels):
-                k_c = controls[c * cb_step, j]
-                k = k_c * cos_over_p  # (f − k)·cos/p
-                term = (wt_buf[j * brdf_channels + c * cb_step] - k) * radiance_b[c * cl_step, j]
-                term_b = select(upper, term * w_b, zero * w_b)
-                radiance = radiance_l[c * cl_step, j]
-                value = select(pl != zero, radiance / select(pl != zero, pl, one), zero)
-                c_l = (f_buf[j * brdf_channels + c * cb_step] - k_c) * value
-                running_mean(mean_b, m2_b, c, j, np.float64(term_b + c_l * cos_l[j] * w_l),
-                             inverse_count)  # fmt: skip
+                term_b, term_l = channel_terms(j, c, weights, brdf, light, brdf_at_light,
+                                               controls, radiance_b, radiance_l)  # fmt: skip
+                running_mean(mean_b, m2_b, c, j, np.float64(term_b + term_l), inverse_count)
 
-    return accumulate
+    @kernel_tools.inline_jit()
+    def flush(start: int, nb: int, mean_b: np.ndarray, m2_b: np.ndarray, mean: np.ndarray,
+              m2: np.ndarray) -> None:  # fmt: skip
+        for j in range(nb):
+            for c in range(channels):
+                mean[start + j, c] = mean_b[c, j]
+                m2[start + j, c] = m2_b[c, j]
+
+    return accumulate, flush
+
+
+def _recording(env: Any, dtype: type, brdf_channels: int, map_channels: int) -> tuple:
+    r"""``(record, flush)`` of the recording kernel (shadows: :func:`tile_kernel` with
+    ``record``): ``record(...)`` (:func:`_accumulation`'s arguments) writes sample ``s``'s two
+    MIS terms per pixel and channel (:func:`_mis_terms`) into ``terms[pixel, s, strategy, c]``
+    and the world directions of both samples (the local ones turned by the pixel's frame, as
+    the NumPy path's ``to_world``) into ``directions[pixel, s, strategy]``, for the shadow
+    rays that the driver casts in between; ``flush`` does nothing."""
+    pixel_weights, channel_terms = _mis_terms(env, dtype, brdf_channels, map_channels)
+    channels = max(brdf_channels, map_channels)
+
+    @kernel_tools.inline_jit()
+    def record(nb: int, s: int, start: int, power: bool, brdf: tuple, light: tuple,
+               brdf_at_light: tuple, controls: np.ndarray, radiance_b: np.ndarray,
+               radiance_l: np.ndarray, frames: np.ndarray, wil_buf: np.ndarray,
+               mean_b: np.ndarray, m2_b: np.ndarray, terms_out: np.ndarray,
+               directions: np.ndarray) -> None:  # fmt: skip
+        wi_buf = brdf[0]
+        for j in range(nb):
+            p = start + j
+            weights = pixel_weights(j, power, brdf, light, brdf_at_light)
+            for c in range(channels):
+                term_b, term_l = channel_terms(j, c, weights, brdf, light, brdf_at_light,
+                                               controls, radiance_b, radiance_l)  # fmt: skip
+                terms_out[p, s, 0, c] = term_b
+                terms_out[p, s, 1, c] = term_l
+            for i in range(3):
+                directions[p, s, 0, i] = (
+                    wi_buf[j * 3] * frames[i, j] + wi_buf[j * 3 + 1] * frames[3 + i, j]
+                    + wi_buf[j * 3 + 2] * frames[6 + i, j]
+                )  # fmt: skip
+                directions[p, s, 1, i] = (
+                    wil_buf[j * 3] * frames[i, j] + wil_buf[j * 3 + 1] * frames[3 + i, j]
+                    + wil_buf[j * 3 + 2] * frames[6 + i, j]
+                )  # fmt: skip
+
+    @kernel_tools.inline_jit()
+    def flush(start: int, nb: int, mean_b: np.ndarray, m2_b: np.ndarray, terms_out: np.ndarray,
+              directions: np.ndarray) -> None:  # fmt: skip
+        return
+
+    return record, flush
 
 
 def _tile_loop(
@@ -479,12 +580,13 @@ def _tile_loop(
     sample_map: Callable[..., None],
     evaluate: Callable[..., None],
     read: Callable[..., None],
-    accumulate: Callable[..., None],
+    finish: tuple[Callable[..., None], Callable[..., None]],
 ) -> Callable[..., None]:
     """The tile kernel: its scratch buffers (a few per block, along the block), then per
     block of :data:`BLOCK` pixels and per sample the steps in turn, and each pixel's mean and
     sum of squared deviations."""
     block_keys, draw = variates
+    accumulate, flush = finish
     T, B, CB = dtype, BLOCK, BLOCK * brdf_channels
     channels = max(brdf_channels, map_channels)
     f64, i64 = np.float64, np.int64
@@ -543,11 +645,9 @@ def _tile_loop(
                            wil_buf, cos_l)  # fmt: skip
                 evaluate(params, data, nb, cos_l, wil_buf, wo_buf, compact, f_buf, pbl_buf)
                 read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)
-                accumulate(nb, 1.0 / (s + 1), power, brdf, light, (f_buf, pbl_buf), controls,
-                           radiance_b, radiance_l, mean_b, m2_b)  # fmt: skip
-            for j in range(nb):
-                for c in range(channels):
-                    mean[start + j, c] = mean_b[c, j]
-                    m2[start + j, c] = m2_b[c, j]
+                accumulate(nb, s, start, power, brdf, light, (f_buf, pbl_buf), controls,
+                           radiance_b, radiance_l, frames, wil_buf, mean_b, m2_b, mean,
+                           m2)  # fmt: skip
+            flush(start, nb, mean_b, m2_b, mean, m2)
 
     return shade

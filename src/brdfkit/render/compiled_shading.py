@@ -10,7 +10,10 @@ the rest by the numba tile kernel (``render/_reflection_kernels.py``), whose BRD
 :func:`brdfkit.compiled.compile` builds from the model's own code, or
 :func:`brdfkit.measured.table_kernels` for a tabulated BRDF. Its tasks (sets of pixels) run
 on the kernels' threads (:func:`brdfkit.compiled.kernel_tools.run_tasks`; the kernel releases
-the GIL).
+the GIL). With a visibility factor (shadow rays against a mesh, ``method="mis"``) a
+recording tile kernel writes each sample's terms and directions, the rays are cast in
+batches between chunks of samples, and the visible terms are averaged
+(:meth:`EnvironmentShader.shade`).
 
 The uniforms are those of the NumPy path (the same generator calls in the same order: per
 pixel and strategy its own nested-scrambled, digitally shifted Sobol' sequence,
@@ -52,6 +55,7 @@ from brdfkit.render._reflection_kernels import BLOCK, tile_kernel, tile_kernel_b
 from brdfkit.render.reflection_equation import (
     FLOOR_DIRECTIONS,
     Estimate,
+    Visibility,
     _floor_directions,
     _mirror_envmap,
     _Uniforms,
@@ -120,7 +124,7 @@ class Prepared:
     """Queries made ready by :meth:`EnvironmentShader.prepare`: their batch shape, the exact
     part of their value ``batch + (C,)``, and for the kernel the indices of the pixels it
     shades, the flat ``wo`` ``(n, 3)`` and frames ``(n, 3, 3)`` in its dtype and the control
-    variate's k ``(n, C)``."""
+    variate's k ``(n, C)``; for shadow rays the points ``batch + (3,)``."""
 
     batch: tuple[int, ...]
     value: np.ndarray
@@ -128,6 +132,7 @@ class Prepared:
     wo: np.ndarray | None = None
     frame: np.ndarray | None = None
     control: np.ndarray | None = None
+    point: np.ndarray | None = None
 
 
 class EnvironmentShader:
@@ -180,6 +185,7 @@ class EnvironmentShader:
             raise ValueError("a per-pixel Lambertian albedo is not supported by the compiled path")
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
+        self._recorder: Callable[..., None] | None = None  # with shadows, built when asked
         # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
@@ -194,6 +200,7 @@ class EnvironmentShader:
                 self.rest.channels,
                 self.env.channels,
             )
+            self._functions = functions
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS
         lookups = compiled_lookups(self.dtype, kernel_tools)
         self._tables = lookups.tables(self.env.compensated)
@@ -257,7 +264,7 @@ class EnvironmentShader:
             np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
             dtype=t,
         )
-        return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control)
+        return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control, point)
 
     def shade(
         self,
@@ -267,15 +274,27 @@ class EnvironmentShader:
         seed: Any = 0,
         sequence: str = "random",
         first_sample: int = 0,
+        visibility: Visibility | None = None,
     ) -> Estimate:
-        """:meth:`__call__` on queries made ready by :meth:`prepare`."""
+        """:meth:`__call__` on queries made ready by :meth:`prepare`; with ``visibility``
+        (:func:`~brdfkit.render.reflected_radiance`'s, ``method="mis"`` only) each sample's
+        terms carry the visibility factor (:meth:`_shadowed_monte_carlo`)."""
         if samples < 1:
             raise ValueError(f"samples must be >= 1; got {samples}")
         if sequence not in ("random", "sobol"):
             raise ValueError(f"sequence must be 'random' or 'sobol'; got {sequence!r}")
         batch, value = prepared.batch, prepared.value
         stderr2 = np.zeros((*batch, self.channels))
-        if self._kernel is not None:
+        exact = self.rho is not None or self.mirror is not None or self.control
+        if visibility is not None and exact:
+            raise ValueError("visibility needs method='mis' (the exact parts assume no shadows)")
+        if self._kernel is not None and visibility is not None:
+            mean, m2 = self._shadowed_monte_carlo(
+                prepared, samples, seed, sequence, first_sample, visibility
+            )
+            value = value + mean
+            stderr2 = m2 / samples / samples
+        elif self._kernel is not None:
             mean, m2 = self._monte_carlo(prepared, samples, seed, sequence, first_sample)
             value = value + mean
             stderr2 = m2 / samples / samples
@@ -323,6 +342,94 @@ class EnvironmentShader:
         mean[pixels], m2[pixels] = found_mean, found_m2
         shape = (*batch, self.channels)
         return mean.reshape(shape), m2.reshape(shape)
+
+    def _shadowed_monte_carlo(
+        self,
+        prepared: Prepared,
+        samples: int,
+        seed: Any,
+        sequence: str,
+        first_sample: int,
+        visibility: Visibility,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_monte_carlo` with the visibility factor, per chunk of
+        :data:`SHADOW_SAMPLES` samples: the recording tile kernel writes each sample's two MIS
+        terms and the world directions of its two samples (:meth:`_record`), ``visibility``
+        answers their shadow rays in one batch (a term of 0 asks none, as on the NumPy
+        path), and each pixel's visible terms fold into its mean and sum of squared
+        deviations (Chan et al.'s update across chunks)."""
+        batch, pixels, channels = prepared.batch, prepared.pixels, self.channels
+        brdf_uniforms, map_uniforms, seeds = _uniforms(seed, sequence, batch, samples, first_sample)
+        n = math.prod(batch)
+        mean, m2 = np.zeros((pixels.size, channels)), np.zeros((pixels.size, channels))
+        points = np.asarray(prepared.point)[..., None, None, :]
+        for first in range(0, samples, SHADOW_SAMPLES):
+            count = min(SHADOW_SAMPLES, samples - first)
+            chunk = [_sample_chunk(u, first, count) for u in (*brdf_uniforms, *map_uniforms)]
+            terms, directions = self._record(prepared, chunk, seeds)
+            wi, distance = np.zeros((n, count, 2, 3)), np.zeros((n, count, 2))
+            wi[pixels] = directions
+            distance[pixels] = np.where(np.any(terms != 0, axis=-1), np.inf, 0.0)
+            seen = visibility(
+                points, wi.reshape(*batch, count, 2, 3), distance.reshape(*batch, count, 2)
+            )
+            seen = np.asarray(seen).reshape(n, count, 2)[pixels]
+            x = terms[..., 0, :] * seen[..., 0, None] + terms[..., 1, :] * seen[..., 1, None]
+            x = x.astype(np.float64)  # (pixels, count, C)
+            chunk_mean = np.mean(x, axis=1)
+            chunk_m2 = np.sum(np.square(x - chunk_mean[:, None, :]), axis=1)
+            delta, total = chunk_mean - mean, first + count
+            mean += delta * (count / total)
+            m2 += chunk_m2 + delta * delta * (first * count / total)
+        full_mean, full_m2 = np.zeros((n, channels)), np.zeros((n, channels))
+        full_mean[pixels], full_m2[pixels] = mean, m2
+        shape = (*batch, channels)
+        return full_mean.reshape(shape), full_m2.reshape(shape)
+
+    def _record(
+        self, prepared: Prepared, chunk: list[np.ndarray], seeds: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The recording tile kernel (:func:`~brdfkit.render._reflection_kernels.tile_kernel`
+        with ``record``, built when first asked) on the prepared pixels and one chunk of
+        their uniforms, on the kernels' threads: each sample's two MIS terms ``(pixels,
+        samples, 2, C)`` and the world directions of its two samples ``(pixels, samples, 2,
+        3)``, in the kernels' dtype."""
+        if self._recorder is None:
+            self._recorder = tile_kernel(
+                *self._functions, self.dtype.type, self.rest.channels, self.env.channels,
+                record=True,
+            )  # fmt: skip
+        pixels, count = prepared.pixels, max(chunk[0].shape[1], chunk[1].shape[0])
+        terms = np.empty((pixels.size, count, 2, self.channels), self.dtype)
+        directions = np.empty((pixels.size, count, 2, 3), self.dtype)
+        bounds = _task_bounds(pixels.size, kernel_tools.threads())
+
+        def run(task: int) -> None:
+            lo, hi = bounds[task], bounds[task + 1]
+            self._recorder(
+                self._rest.parameters, pixels[lo:hi], prepared.wo, prepared.frame, *chunk,
+                seeds, *self._tables, self.heuristic == "power", prepared.control,
+                terms[lo:hi], directions[lo:hi], self._data,
+            )  # fmt: skip
+
+        kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
+        return terms, directions
+
+
+SHADOW_SAMPLES = 16
+"""Samples per chunk of :meth:`EnvironmentShader._shadowed_monte_carlo` (its per-sample
+records and shadow rays: 2 × 16 per pixel)."""
+
+
+def _sample_chunk(uniforms: np.ndarray, first: int, count: int) -> np.ndarray:
+    """Samples ``first`` … ``first + count`` of one of :func:`_uniforms`' arrays: the i.i.d.
+    points' (pixels, samples, d) or the Sobol' digits' (samples, d) (empty arrays as they
+    are)."""
+    if uniforms.ndim == 3 and uniforms.shape[1] > 0:
+        return np.ascontiguousarray(uniforms[:, first : first + count])
+    if uniforms.ndim == 2 and uniforms.shape[0] > 0:
+        return np.ascontiguousarray(uniforms[first : first + count])
+    return uniforms
 
 
 _CHUNK = 512
@@ -388,6 +495,7 @@ def compiled_shader(
     method: str,
     dtype: Any = np.float32,
     build: bool = True,
+    shadows: bool = False,
 ) -> tuple[EnvironmentShader, list[Light]] | None:
     """The compiled shader for ``brdf`` under ``lights`` and the lights it leaves to the NumPy
     path, or ``None`` where the compiled path does not apply.
@@ -398,7 +506,8 @@ def compiled_shader(
     compiles (no per-pixel parameters), with numba and JAX installed, or whose non-Lambertian
     part is a (constant-scaled) tabulated BRDF (:func:`brdfkit.measured.table_kernels`).
     With ``build=False`` it is returned only when it costs no compilation: the model's
-    kernels are built already, or the BRDF is Lambertian (no Monte Carlo).
+    kernels are built already (with ``shadows``, the recording tile kernel), or the BRDF is
+    Lambertian (no Monte Carlo).
     """
     maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
     others = [lt for lt in lights if not isinstance(lt, EnvironmentMap)]
@@ -408,18 +517,21 @@ def compiled_shader(
     try:  # without numba, a table's kernels_built raises ImportError as the shader does
         if not build:
             view = shading_parts(brdf, method)[2]
-            if view is not None and not kernels_built(view, dtype, maps[0].channels):
+            if view is not None and not kernels_built(view, dtype, maps[0].channels, shadows):
                 return None
         return EnvironmentShader(brdf, maps[0], method=method, dtype=dtype), others
     except (ValueError, ImportError):
         return None
 
 
-def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None = None) -> bool:
+def kernels_built(
+    model: BRDF, dtype: Any = np.float32, map_channels: int | None = None, shadows: bool = False
+) -> bool:
     """Whether compiled shading kernels for this model exist in this process (for its
     structure: any model that differs from it in parameter values only, or for the object)
     or in the disk cache (:mod:`brdfkit.compiled.cache`: loading them compiles nothing), for a
-    map of ``map_channels`` channels (``None``: 1 or 3)."""
+    map of ``map_channels`` channels (``None``: 1 or 3); with ``shadows`` the recording tile
+    kernel of the shadowed path."""
     dtype = np.dtype(dtype)
     table = table_kernels(model, dtype)
     entry = _BRDF_KERNELS.get(model, {}).get(dtype)
@@ -434,7 +546,7 @@ def kernels_built(model: BRDF, dtype: Any = np.float32, map_channels: int | None
             return False
         # built, or their source and machine code on disk: making them now costs a load
         kernels = tuple(compiled_model.kernel(method, width).function for method, width in methods)
-    return tile_kernel_built(kernels, dtype.type, model.channels, map_channels)
+    return tile_kernel_built(kernels, dtype.type, model.channels, map_channels, shadows)
 
 
 def pending_kernels(
@@ -511,6 +623,7 @@ __all__ = [
     "BUILD_SECONDS",
     "HEURISTICS",
     "METHODS",
+    "SHADOW_SAMPLES",
     "EnvironmentShader",
     "Prepared",
     "build_estimate",

@@ -18,7 +18,11 @@ direction, by :math:`(1 + \max_k |x_k|)\cdot 1500\cdot 2^{-24}` (Mitsuba 3's ``s
 Light samples test the segment up to the sampled point on the light; BRDF samples the whole ray
 (lights do not report where a direction meets them), so a surface *behind* an area light
 shadows it along BRDF-sampled directions.
-Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`).
+Scenes follow Mitsuba 3's world frame (:mod:`brdfkit.render.mitsuba_frame`). Under an
+environment map (plus delta lights) the samples come from the compiled tile kernels where
+:func:`~brdfkit.render.shade`'s ``compiled`` takes them, the shadow rays cast in large batches
+between their chunks of samples (:class:`~brdfkit.render.compiled_shading.EnvironmentShader`);
+the same seeds give the NumPy path's image (float64 kernels: to rounding).
 
 Claims (tested): the estimator stays unbiased with the visibility factor (white-out on a convex
 mesh, nothing inside a closed box); cast shadows are the occluder's projection, without acne;
@@ -36,8 +40,12 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
-from collections.abc import Callable, Sequence
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -65,15 +73,19 @@ _RAY_BATCH = 1 << 20
 @dataclass(frozen=True, eq=False)
 class MeshGBuffer(GBuffer):
     """A :class:`~brdfkit.render.GBuffer` of a mesh, plus each pixel's geometric normal
-    ``(H, W, 3)`` (the triangle's, by its winding)."""
+    ``(H, W, 3)`` (the triangle's, by its winding) and the face it sees ``(H, W)`` (−1 for
+    none)."""
 
     geometric_normals: np.ndarray
+    faces: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class MeshScene:
     """A triangle mesh to trace: ``vertices`` ``(V, 3)``, ``faces`` ``(F, 3)`` vertex indices and
-    unit ``vertex_normals`` ``(V, 3)`` (the shading normals, interpolated across each face).
+    unit ``vertex_normals`` ``(V, 3)`` (the shading normals, interpolated across each face);
+    where the file names materials, their ``materials`` names and each face's index among
+    them, ``face_materials`` ``(F,)`` (:func:`render_mesh` then takes a BRDF per material).
 
     Examples
     --------
@@ -101,9 +113,11 @@ class MeshScene:
     vertices: np.ndarray
     faces: np.ndarray
     vertex_normals: np.ndarray
+    materials: tuple[str, ...] = ()
+    face_materials: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        v, f, n = self.vertices, self.faces, self.vertex_normals
+        v, f, n, m = self.vertices, self.faces, self.vertex_normals, self.face_materials
         if v.ndim != 2 or v.shape[1] != 3 or not np.all(np.isfinite(v)):
             raise ParameterError(f"mesh vertices must be finite (V, 3); got shape {v.shape}")
         if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
@@ -114,6 +128,13 @@ class MeshScene:
             )
         if n.shape != v.shape:
             raise ParameterError(f"mesh vertex normals must be {v.shape}; got {n.shape}")
+        if (m is None) != (not self.materials) or (
+            m is not None
+            and (m.shape != f.shape[:1] or m.min() < 0 or m.max() >= len(self.materials))
+        ):
+            raise ParameterError(
+                f"mesh face materials must index its {len(self.materials)} materials per face"
+            )
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> MeshScene:
@@ -145,12 +166,22 @@ class MeshScene:
         parts = list(_placed_meshes(loaded))
         if not parts:
             raise FormatError(path, "the file holds no triangles")
-        offsets = np.cumsum([0] + [len(v) for v, _, _ in parts[:-1]])
+        offsets = np.cumsum([0] + [len(v) for v, _, _, _ in parts[:-1]])
+        named = [name for *_, name in parts if name is not None]
+        materials = tuple(dict.fromkeys(named))  # in the file's order, once each
+        face_materials = None
+        if materials:  # a part without a material gets one named "default"
+            materials += ("default",) * any(name is None for *_, name in parts)
+            face_materials = np.concatenate(
+                [np.full(len(f), materials.index(name or "default")) for _, f, _, name in parts]
+            )
         try:
             return cls(
-                np.concatenate([v for v, _, _ in parts]),
-                np.concatenate([f + o for (_, f, _), o in zip(parts, offsets, strict=True)]),
-                np.concatenate([n for _, _, n in parts]),
+                np.concatenate([v for v, _, _, _ in parts]),
+                np.concatenate([f + o for (_, f, _, _), o in zip(parts, offsets, strict=True)]),
+                np.concatenate([n for _, _, n, _ in parts]),
+                materials,
+                face_materials,
             )
         except ParameterError as error:
             raise FormatError(path, str(error)) from error
@@ -188,6 +219,7 @@ class MeshScene:
         return MeshGBuffer(
             points.reshape(shape), normals.reshape(shape), tangents.reshape(shape),
             facing.reshape(shape), hit.reshape(height, width), geometric.reshape(shape),
+            face.reshape(height, width),
         )  # fmt: skip
 
     def unoccluded(
@@ -196,18 +228,16 @@ class MeshScene:
         """Whether the segments from ``points`` (geometric ``normals``) along ``wi`` up to
         ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True)."""
         shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
-        points, normals, wi = (
-            np.broadcast_to(a, shape).reshape(-1, 3) for a in (points, normals, wi)
-        )
-        distance = np.broadcast_to(distance, shape[:-1]).ravel()
-        visible = np.ones(len(distance), dtype=bool)
-        active = distance > 0
+        distance = np.broadcast_to(distance, shape[:-1])
+        active = np.flatnonzero(distance > 0)  # only these rays are cast
+        points, normals, wi = (_gather(a, shape, active) for a in (points, normals, wi))
         eps = self.epsilon
-        side = np.sign(np.sum(normals[active] * wi[active], axis=-1))[:, None]
-        origins = points[active] + (eps * side) * normals[active]
-        far = np.maximum(distance[active] - 2 * eps, 0.0)
-        visible[active] = ~self.rays.occluded(origins, wi[active], far)
-        return visible.reshape(shape[:-1])
+        side = np.sign(np.sum(normals * wi, axis=-1))[:, None]
+        origins = points + (eps * side) * normals
+        far = np.maximum(distance.reshape(-1)[active] - 2 * eps, 0.0)
+        visible = np.ones(shape[:-1], dtype=bool)
+        visible.reshape(-1)[active] = ~self.rays.occluded(origins, wi, far)
+        return visible
 
     def visibility(self, g: MeshGBuffer) -> Callable[[slice], Visibility]:
         """:func:`~brdfkit.render.shade`'s ``visibility``: for the image's rows of ``g``, the
@@ -231,7 +261,7 @@ class MeshScene:
 
 def render_mesh(
     scene: MeshScene,
-    brdf: BRDF,
+    brdf: BRDF | Mapping[str, BRDF],
     lights: Light | Sequence[Light],
     camera: Camera,
     resolution: int | tuple[int, int] = 256,
@@ -246,7 +276,10 @@ def render_mesh(
     :func:`~brdfkit.render.shade`; ``samples`` per shading point). With ``supersample`` k each
     pixel is the mean of k×k shading points on a regular grid inside it: the box filter of
     Mitsuba's film, so silhouettes are antialiased (give ``samples`` / k² to keep the work).
-    Background pixels are 0 (``background``).
+    Background pixels are 0 (``background``). ``brdf`` is one BRDF for every face, or a
+    mapping from the names of the scene's ``materials`` to a BRDF each (every material named
+    by the file must have one; a :class:`~brdfkit.errors.ParameterError` lists those
+    missing): the pixels of each material are shaded by its BRDF, with the same seeds.
 
     Examples
     --------
@@ -257,8 +290,38 @@ def render_mesh(
         raise ValueError(f"supersample must be an integer >= 1; got {supersample!r}")
     k = supersample
     g = scene.gbuffer(camera, (height * k, width * k))
-    image = shade(g, brdf, lights, visibility=scene.visibility(g), **kwargs)
+    if isinstance(brdf, BRDF):
+        image = shade(g, brdf, lights, visibility=scene.visibility(g), **kwargs)
+    else:
+        image = _shade_materials(scene, g, brdf, lights, kwargs)
     return image.reshape(height, k, width, k, -1).mean(axis=(1, 3))
+
+
+def _shade_materials(
+    scene: MeshScene,
+    g: MeshGBuffer,
+    brdfs: Mapping[str, BRDF],
+    lights: Light | Sequence[Light],
+    kwargs: dict[str, Any],
+) -> np.ndarray:
+    """The image of ``g`` with each material's pixels shaded by its BRDF in ``brdfs``."""
+    missing = [name for name in scene.materials if name not in brdfs]
+    if not scene.materials or missing:
+        raise ParameterError(
+            f"brdf: a mapping needs a BRDF for each of the mesh's materials "
+            f"{list(scene.materials)}; missing {missing or list(scene.materials)}"
+        )
+    seen = np.where(g.faces >= 0, scene.face_materials[np.maximum(g.faces, 0)], -1)
+    image = None
+    for index, name in enumerate(scene.materials):
+        part = dataclasses.replace(g, mask=g.mask & (seen == index))
+        if not np.any(part.mask):
+            continue
+        shaded = shade(part, brdfs[name], lights, visibility=scene.visibility(part), **kwargs)
+        image = shaded if image is None else np.where(part.mask[..., None], shaded, image)
+    if image is None:  # no pixel sees the mesh
+        image = shade(g, brdfs[scene.materials[0]], lights, **kwargs)
+    return image
 
 
 def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
@@ -285,8 +348,9 @@ def torus_over_plane(sections: int = 48, tilt: float = 0.5) -> Any:
 
 def _placed_meshes(scene: Any):
     """Each triangle mesh of a ``trimesh.Scene`` placed by its node's transform: its vertices,
-    faces and unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
-    drops them)."""
+    faces, unit vertex normals (the file's where it has them; trimesh's ``Scene.dump``
+    drops them) and its material's name (``None`` without one; trimesh splits an OBJ by its
+    ``usemtl`` groups, a glTF by its primitives)."""
     import trimesh
 
     for node in scene.graph.nodes_geometry:
@@ -297,7 +361,9 @@ def _placed_meshes(scene: Any):
         normals = np.asarray(mesh.vertex_normals, dtype=float)
         vertices = trimesh.transform_points(np.asarray(mesh.vertices, dtype=float), transform)
         linear = np.linalg.inv(transform[:3, :3]).T  # normals turn by the inverse transpose
-        yield vertices, np.asarray(mesh.faces, dtype=np.int64), _unit(normals @ linear.T)
+        material = getattr(getattr(mesh.visual, "material", None), "name", None)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        yield vertices, faces, _unit(normals @ linear.T), str(material) if material else None
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -332,19 +398,56 @@ class _EmbreeRays:
         return np.concatenate(face), np.concatenate(u), np.concatenate(v)
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, far: np.ndarray):
-        """Whether each ray meets a triangle before ``far``."""
-        out = [np.zeros(0, dtype=bool)]
-        for o, d, t in _batches(origins, directions, far):
-            t = np.minimum(t, np.finfo(np.float32).max).astype(np.float32)
-            out.append(self.scene.run(o, d, dists=t, query="OCCLUDED") >= 0)
-        return np.concatenate(out)
+        """Whether each ray meets a triangle before ``far``: batches of rays on the cores
+        this process may use (Embree's queries run without the GIL)."""
+        bounds = np.linspace(0, len(far), _ray_tasks(len(far)) + 1).astype(int)
+        far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32)
+
+        def query(task: int) -> np.ndarray:
+            part = slice(bounds[task], bounds[task + 1])
+            o, d = (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
+            return self.scene.run(o, d, dists=far[part].copy(), query="OCCLUDED") >= 0
+
+        if len(bounds) == 2:
+            return query(0)
+        return np.concatenate(list(_ray_pool().map(query, range(len(bounds) - 1))))
 
 
-def _batches(*arrays: np.ndarray):
-    """Slices of :data:`_RAY_BATCH` rays, as contiguous float32 arrays (the last: as given)."""
-    for start in range(0, len(arrays[0]), _RAY_BATCH):
-        part = [a[start : start + _RAY_BATCH] for a in arrays]
-        yield (*(np.ascontiguousarray(p, dtype=np.float32) for p in part[:2]), *part[2:])
+def _gather(a: np.ndarray, shape: tuple[int, ...], flat: np.ndarray) -> np.ndarray:
+    """The vectors ``(n, 3)`` at the flat indices ``flat`` (over ``shape[:-1]``) of ``a``
+    broadcast to ``shape``, read from ``a`` itself (a broadcast view's indexing is slow):
+    by one flat index where ``a`` varies along leading axes only (points and normals given
+    per pixel, a sample axis broadcast)."""
+    a = np.asarray(a)
+    batch = shape[:-1]
+    lead = (1,) * (len(shape) - a.ndim) + a.shape[:-1]
+    varying = len(lead)
+    while varying > 0 and lead[varying - 1] == 1:
+        varying -= 1
+    if lead[:varying] == batch[:varying]:
+        return a.reshape(-1, 3)[flat // math.prod(batch[varying:])]
+    index = np.unravel_index(flat, batch)
+    return a.reshape(*lead, 3)[tuple(i if n > 1 else 0 for i, n in zip(index, lead, strict=True))]
+
+
+def _ray_tasks(count: int) -> int:
+    """Batches of shadow rays: one per core (at least ``_RAY_BATCH`` / 16 rays each), and
+    at most ``_RAY_BATCH`` rays each."""
+    cores = len(os.sched_getaffinity(0))
+    return max(min(cores, -(-count // (_RAY_BATCH // 16))), -(-count // _RAY_BATCH), 1)
+
+
+@functools.cache
+def _ray_pool() -> ThreadPoolExecutor:
+    """The threads that answer batches of shadow rays."""
+    return ThreadPoolExecutor(len(os.sched_getaffinity(0)), thread_name_prefix="brdfkit-rays")
+
+
+def _batches(origins: np.ndarray, directions: np.ndarray):
+    """Slices of :data:`_RAY_BATCH` rays, as contiguous float32 arrays."""
+    for start in range(0, len(origins), _RAY_BATCH):
+        part = slice(start, start + _RAY_BATCH)
+        yield (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
 
 
 __all__ = [

@@ -123,7 +123,8 @@ def progressive(
             user_progress(done, total)
 
     kwargs = {**_SHADE_DEFAULTS, **shade_kwargs}
-    # with shadows (``visibility``) every pass takes the NumPy path: no kernels to build
+    # with shadows (``visibility``) no kernels are built in the background: the passes take
+    # the compiled path where its kernels are built already
     compiles = kwargs["compiled"] is True and kwargs["visibility"] is None
     builder = _background_build(brdf, lights, kwargs) if compiles else None
 

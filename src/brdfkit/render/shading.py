@@ -111,8 +111,8 @@ def shade(
 
     ``visibility(rows)`` gives the visibility factor of the image's ``rows`` (shadow rays:
     :meth:`brdfkit.render.mesh.MeshScene.visibility`), which
-    :func:`~brdfkit.render.reflected_radiance` applies to every light and BRDF sample; such
-    renders take the NumPy path.
+    :func:`~brdfkit.render.reflected_radiance` applies to every light and BRDF sample, and
+    the compiled path between its kernels' samples.
 
     Examples
     --------
@@ -171,12 +171,14 @@ def _shade(
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels)) if want_stderr else None
-    if visibility is not None:
-        plan = None  # the compiled kernels know no visibility
-    elif cache is not None and ("plan", compiled) in cache:
+    if cache is not None and ("plan", compiled) in cache:
         plan = cache["plan", compiled]
     else:
-        plan = _compiled_plan(brdf, light_list, method, compiled)
+        # with shadows every lobe is sampled by MIS, as reflected_radiance does
+        shadowed = visibility is not None and method == "auto"
+        plan = _compiled_plan(
+            brdf, light_list, "mis" if shadowed else method, compiled, visibility is not None
+        )
         if cache is not None:
             cache["plan", compiled] = plan
     rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
@@ -194,6 +196,7 @@ def _shade(
                 tile_seed: Any = query_seeds(seed, count, first).reshape(-1, width)
             else:
                 tile_seed = seed + first_row + r0
+            seen = None if visibility is None else visibility(rows)
             if plan is not None:
                 shader, others = plan
                 key = ("tile", compiled, first_row + rows.start, first_row + rows.stop)
@@ -208,7 +211,7 @@ def _shade(
                         exact = reflected_radiance(
                             slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
                             normal=g.normals[rows], point=g.points[rows],
-                            tangent=g.tangents[rows],
+                            tangent=g.tangents[rows], visibility=seen,
                         ).value  # fmt: skip
                     if cache is not None:
                         cache[key] = prepared, exact
@@ -218,6 +221,7 @@ def _shade(
                     seed=tile_seed,
                     sequence=sequence,
                     first_sample=first_sample,
+                    visibility=seen,
                 )
                 if exact is not None:
                     estimate = Estimate(estimate.value + to_numpy(exact), estimate.stderr)
@@ -234,7 +238,7 @@ def _shade(
                     seed=tile_seed,
                     sequence=sequence,
                     first_sample=first_sample,
-                    visibility=None if visibility is None else visibility(rows),
+                    visibility=seen,
                 )
             value = to_numpy(estimate.value)
             image[rows] = np.where(m[..., None], value, background)
@@ -264,9 +268,10 @@ COMPILED = (True, False, "float64")
 
 
 def _compiled_plan(
-    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str
+    brdf: BRDF, lights: list[Light], method: str, compiled: bool | str, shadows: bool = False
 ) -> tuple[Any, list[Light]] | None:
-    """The compiled shader and the delta lights left to NumPy, or ``None`` for the NumPy path."""
+    """The compiled shader and the delta lights left to NumPy, or ``None`` for the NumPy path
+    (``shadows``: for a render with a visibility factor)."""
     if not any(compiled is c or (isinstance(compiled, str) and compiled == c) for c in COMPILED):
         raise ValueError(f"compiled must be one of True, False, 'float64'; got {compiled!r}")
     if compiled is False:
@@ -274,7 +279,7 @@ def _compiled_plan(
     from brdfkit.render.compiled_shading import compiled_shader
 
     dtype = np.float64 if compiled == "float64" else np.float32
-    return compiled_shader(brdf, lights, method=method, dtype=dtype)
+    return compiled_shader(brdf, lights, method=method, dtype=dtype, shadows=shadows)
 
 
 def render_sphere(
