@@ -455,6 +455,11 @@ export function createExplorer(root, transport, config = {}) {
         pick.addEventListener("input", () => { const v = rgbOf(pick.value); text.value = JSON.stringify(v); set(v); });
         text.addEventListener("change", () => { const v = parseText(text.value); if (Array.isArray(v)) pick.value = hexOf(v); set(v); });
         widget = [pick, text];
+      } else if (c.kind === "choice") {
+        const menu = el("select", { className: "bx-choice" }, c.options.map((o) => el("option", { value: o, textContent: o })));
+        menu.value = value;
+        menu.addEventListener("change", () => set(menu.value));
+        widget = [menu];
       } else if (c.kind === "bool") {
         const box = el("input", { type: "checkbox", checked: !!value });
         box.addEventListener("change", () => set(box.checked));
