@@ -111,6 +111,19 @@ def bundled_scene(name: str) -> MeshScene:
     return MeshScene.from_trimesh(BUNDLED_MESHES[name]())
 
 
+def object_bounds(name: str) -> np.ndarray:
+    """The bounding box ``(2, 3)`` (least, greatest corner) of a bundled mesh's object, its
+    ground left out: what a camera frames.
+
+    Examples
+    --------
+    >>> object_bounds("shaderball").round(3).tolist()
+    [[-0.7, 0.0, -0.7], [0.7, 1.333, 0.7]]
+    """
+    vertices = bundled_scene(name).vertices[:-4]  # the ground's four corners come last
+    return np.stack([vertices.min(axis=0), vertices.max(axis=0)])
+
+
 def is_mesh_source(source: str) -> bool:
     """Whether ``source`` names a mesh: ``bundled:NAME`` or a path with a mesh suffix."""
     return source.startswith(BUNDLED_PREFIX) or Path(source).suffix.lower() in MESH_SUFFIXES
@@ -236,5 +249,6 @@ __all__ = [
     "is_mesh_source",
     "knot",
     "load_mesh",
+    "object_bounds",
     "shaderball",
 ]

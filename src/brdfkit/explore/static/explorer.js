@@ -8,7 +8,8 @@
 
 const PALETTE = ["#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6", "#9a6324"];
 const LUMA = [0.2126, 0.7152, 0.0722];
-const DEFAULT_VIEW = { theta_i: 45, phi_i: 0, theta_h: 20, theta_d: 30, phi_d: 90, resolution: 256, irradiance: Math.PI };
+const DEFAULT_VIEW = { theta_i: 45, phi_i: 0, theta_h: 20, theta_d: 30, phi_d: 90, resolution: 256, irradiance: Math.PI, lit: false, mesh: "bundled:shaderball", azimuth: 30, elevation: 25 };
+const ELEVATION = [-30, 89];  // the orbiting camera's range, degrees (views.ELEVATION_RANGE)
 const DEFAULT_DISPLAY = { exposure: 0, gamma: "srgb", channel: "rgb", log: false, cosine: true };
 const ANGLE_SLIDERS = [
   ["theta_i", "θi", 0, 89.9], ["phi_i", "φi", -180, 180],
@@ -268,7 +269,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, env: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -288,9 +289,9 @@ export function createExplorer(root, transport, config = {}) {
   fileSelect.addEventListener("change", () => { if (fileSelect.value) addEntry({ file: fileSelect.value }); fileSelect.value = ""; });
   side.append(el("h3", { textContent: "BRDFs" }), entryList, addSpec, fileSelect);
   if (transport.upload) {
-    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json" });
+    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json,.obj,.ply,.stl,.gltf,.glb" });
     picker.addEventListener("change", async () => { for (const f of picker.files) await uploadFile(f); picker.value = ""; });
-    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell or fit.json: " }, [picker]));
+    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell, fit.json or a mesh (OBJ/PLY/STL/glTF): " }, [picker]));
     root.addEventListener("dragover", (e) => e.preventDefault());
     root.addEventListener("drop", async (e) => { e.preventDefault(); for (const f of e.dataTransfer.files) await uploadFile(f); });
   }
@@ -330,6 +331,22 @@ export function createExplorer(root, transport, config = {}) {
     inputs.envmap = { check: c };
     globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: `environment map (${config.envmap})` })]));
   }
+  {
+    const c = el("input", { type: "checkbox", checked: !!state.view.lit, className: "bx-lit" });
+    c.addEventListener("change", () => { state.view.lit = c.checked; changed(); });
+    inputs.lit = { check: c };
+    globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: "lit object (environment map, shadows)" })]));
+  }
+  const meshSelect = el("select", { className: "bx-mesh" });
+  const refreshMeshes = (meshes) => {
+    meshSelect.replaceChildren(...meshes.map((m) => el("option", { value: m, textContent: m })));
+    meshSelect.value = state.view.mesh || meshes[0] || "";
+  };
+  if (config.meshes && config.meshes.length && !config.meshes.includes(state.view.mesh)) state.view.mesh = config.meshes[0];
+  refreshMeshes(config.meshes || []);
+  meshSelect.addEventListener("change", () => { state.view.mesh = meshSelect.value; changed(); });
+  inputs.mesh = { select: meshSelect };
+  globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: "mesh" }), meshSelect]));
   check("log", "log-scale plots");
   check("cosine", "multiply by cos θ (lobe, polar, θv)");
   const exports = el("div", { className: "bx-exports" }, [
@@ -361,8 +378,10 @@ export function createExplorer(root, transport, config = {}) {
   };
   const sphereGroup = group("spheres", "lit spheres, directional light (drag to move it); last: |first − second|");
   const envGroup = group("envs", "lit spheres, environment map (refined progressively)");
-  const spheres = sphereGroup.body, envPanel = envGroup.body;
+  const litGroup = group("lits", "lit objects, environment map with shadows (drag to orbit; refined progressively); last: |first − second|");
+  const spheres = sphereGroup.body, envPanel = envGroup.body, litPanel = litGroup.body;
   const envs = new Map();  // id → {canvas, caption, data, size, C}
+  const lits = new Map();  // id → {canvas, caption, data, size, C, header}
   const sliceGroup = group("slices", "θh × θd slices (log)");
   const slices = sliceGroup.body;
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
@@ -376,7 +395,7 @@ export function createExplorer(root, transport, config = {}) {
   const checksBox = el("div", { className: "bx-panel bx-checks" }, [el("div", { className: "bx-title", textContent: "physics checks" })]);
   const checksBody = el("div", { className: "bx-checks-body", textContent: "select a BRDF's “check” button" });
   checksBox.append(checksBody);
-  mainPane.append(sphereGroup.box, envGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
+  mainPane.append(sphereGroup.box, envGroup.box, litGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
 
   let drag = null;
   lobe.canvas.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY }; lobe.canvas.setPointerCapture(e.pointerId); });
@@ -511,6 +530,8 @@ export function createExplorer(root, transport, config = {}) {
       redraw();
     } else if (header.type === "env") {
       showEnv(header, arrays[0]);
+    } else if (header.type === "lit") {
+      showLit(header, arrays[0]);
     } else if (header.type === "checks") {
       showChecks(header);
     } else if (header.type === "error") {
@@ -573,6 +594,69 @@ export function createExplorer(root, transport, config = {}) {
     envGroup.box.hidden = !shown.length;
   }
 
+  // ---- the lit object: one canvas per BRDF (and the difference of the first two); a drag on
+  // any of them orbits the camera
+  let litSeq = 0, orbit = null;
+  function litCanvas(id, title) {
+    const canvas = el("canvas", { className: "bx-lit-image", title });
+    canvas.dataset.id = id;
+    canvas.addEventListener("pointerdown", (e) => { orbit = { x: e.clientX, y: e.clientY }; canvas.setPointerCapture(e.pointerId); });
+    canvas.addEventListener("pointermove", (e) => {
+      if (!orbit) return;
+      const v = state.view;
+      v.azimuth = tidy(((((v.azimuth - (e.clientX - orbit.x) * 0.5) % 360) + 540) % 360) - 180);
+      v.elevation = tidy(Math.min(Math.max(v.elevation + (e.clientY - orbit.y) * 0.5, ELEVATION[0]), ELEVATION[1]));
+      orbit = { x: e.clientX, y: e.clientY };
+      changed();
+    });
+    canvas.addEventListener("pointerup", () => { orbit = null; });
+    return canvas;
+  }
+  function showLit(header, data) {
+    if (header.seq < litSeq) return;  // a pass of a cancelled view
+    litSeq = header.seq;
+    let item = lits.get(header.id);
+    if (!item) {
+      const canvas = litCanvas(header.id, "lit object: drag to orbit");
+      const caption = el("div", { className: "bx-caption" });
+      item = { canvas, caption, box: el("div", { className: "bx-lit-box" }, [canvas, caption]) };
+      lits.set(header.id, item);
+    }
+    const size = header.arrays[0].shape[0];
+    Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
+    api.lit[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, mesh: header.mesh, azimuth: header.azimuth, elevation: header.elevation, time: performance.now() };
+    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    drawLits();
+  }
+  let litDifference = null;
+  function drawLits() {
+    const ids = visibleIds();
+    const shown = state.view.lit ? state.entries.filter((e) => ids.has(e.id) && lits.has(e.id)) : [];
+    const paint = (canvas, data, size, C) => {
+      if (canvas.width !== size) { canvas.width = size; canvas.height = size; }
+      canvas.getContext("2d").putImageData(new ImageData(toPixels(data, size, C, state.display), size, size), 0, 0);
+    };
+    for (const e of shown) {
+      const item = lits.get(e.id);
+      item.canvas.style.borderColor = e.color;
+      paint(item.canvas, item.data, item.size, item.C);
+    }
+    const boxes = shown.map((e) => lits.get(e.id).box);
+    if (shown.length >= 2) {
+      const [a, b] = shown.map((e) => lits.get(e.id));
+      if (a.size === b.size) {
+        if (!litDifference) litDifference = { canvas: litCanvas("difference", "|first − second|: drag to orbit") };
+        const n = a.size * a.size, C = Math.max(a.C, b.C), diff = new Float32Array(n * C);
+        for (let p = 0; p < n; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+        paint(litDifference.canvas, diff, a.size, C);
+        boxes.push(litDifference.canvas);
+      }
+    }
+    const current = Array.from(litPanel.children);
+    if (current.length !== boxes.length || current.some((c, i) => c !== boxes[i])) litPanel.replaceChildren(...boxes);
+    litGroup.box.hidden = !shown.length;
+  }
+
   function showChecks(header) {
     const r = header.report;
     const rows = r.checks.map((c) => el("tr", { className: c.contradicts_claim ? "bad" : c.passed ? "ok" : "" }, [
@@ -591,6 +675,7 @@ export function createExplorer(root, transport, config = {}) {
     saveUrl();
     if (!frame) return;
     drawEnvs();
+    drawLits();
     const { header, arrays } = frame;
     const d = state.display;
     const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
@@ -735,7 +820,14 @@ export function createExplorer(root, transport, config = {}) {
     try {
       const reply = await transport.upload(file);
       if (reply.spec) addEntry({ spec: reply.spec });
-      else {
+      else if (reply.mesh) {
+        config.meshes = [...(config.meshes || []), reply.mesh];
+        state.view.mesh = reply.mesh;
+        refreshMeshes(config.meshes);
+        state.view.lit = true;
+        inputs.lit.check.checked = true;
+        changed();
+      } else {
         config.files = [...(config.files || []), reply.name];
         refreshFiles(config.files);
         addEntry({ file: reply.name });
@@ -765,6 +857,7 @@ export function createExplorer(root, transport, config = {}) {
   }
   api.addEntry = addEntry;
   api.envImage = (id) => Array.from(envs.get(id).data);
+  api.litImage = (id) => Array.from(lits.get(id).data);
   api.restore = restore;
   api.persistent = persistent;
   if (config.saved) restore(config.saved);
