@@ -607,6 +607,7 @@ export function createExplorer(root, transport, config = {}) {
       v.azimuth = tidy(((((v.azimuth - (e.clientX - orbit.x) * 0.5) % 360) + 540) % 360) - 180);
       v.elevation = tidy(Math.min(Math.max(v.elevation + (e.clientY - orbit.y) * 0.5, ELEVATION[0]), ELEVATION[1]));
       orbit = { x: e.clientX, y: e.clientY };
+      api.orbited = performance.now();
       changed();
     });
     canvas.addEventListener("pointerup", () => { orbit = null; });
