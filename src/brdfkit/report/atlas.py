@@ -764,6 +764,10 @@ def _build_cards(
     importer.start()
     _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
     importer.join()
+    if options.get("objects"):  # the mesh made once here (NumPy); each worker builds its rays
+        from brdfkit.render.bundled_meshes import bundled_scene
+
+        bundled_scene(OBJECT_MESH)
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(
