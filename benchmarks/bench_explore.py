@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 import tempfile
@@ -264,6 +265,7 @@ def main() -> None:
     results: dict[str, Any] = {
         **header(__file__, packages=("playwright", "starlette", "uvicorn", "websockets")),
         "platform": platform.platform(),
+        "load_average_before": os.getloadavg(),
         "workloads": {},
     }
     with tempfile.TemporaryDirectory() as folder, sync_playwright() as p:
@@ -292,6 +294,7 @@ def main() -> None:
             context.close()
             server.stop()
         browser.close()
+    results["load_average_after"] = os.getloadavg()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2) + "\n")
     print(
