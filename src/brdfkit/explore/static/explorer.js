@@ -218,7 +218,8 @@ function polarPlot(canvas, series, thetaI, log) {
   ctx.fillText(`max ${rmax.toPrecision(3)}${log ? " (log₁₀(1+·))" : ""}`, 4, 12);
 }
 
-// A wireframe of the 3D lobe r(wo)·wo, rotated by yaw/pitch, orthographic.
+// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each grid
+// cell a quad lit from the viewer's upper left (|n·l|, both sides), drawn far to near.
 function lobePlot(canvas, meshes, wi, rot) {
   const ctx = clear(canvas);
   const W = canvas.width, H = canvas.height;
@@ -227,11 +228,11 @@ function lobePlot(canvas, meshes, wi, rot) {
   if (!(rmax > 0)) rmax = 1;
   const s = (0.42 * Math.min(W, H)) / rmax;
   const cy = Math.cos(rot.yaw), sy = Math.sin(rot.yaw), cp = Math.cos(rot.pitch), sp = Math.sin(rot.pitch);
-  const project = (x, y, z) => {
+  const turn = (x, y, z) => {
     const x1 = cy * x - sy * y, y1 = sy * x + cy * y;  // yaw about the normal
-    const y2 = cp * y1 - sp * z, z2 = sp * y1 + cp * z;  // pitch
-    return [W / 2 + s * x1, H * 0.7 - s * z2, y2];
+    return [x1, cp * y1 - sp * z, sp * y1 + cp * z];  // pitch: (right, depth, up)
   };
+  const project = (x, y, z) => { const [a, d, u] = turn(x, y, z); return [W / 2 + s * a, H * 0.7 - s * u, d]; };
   const line = (pts, color, width = 1) => {
     ctx.strokeStyle = color; ctx.lineWidth = width; ctx.beginPath();
     for (const p of pts) ctx.lineTo(p[0], p[1]);
@@ -239,17 +240,34 @@ function lobePlot(canvas, meshes, wi, rot) {
   };
   line([project(-rmax, 0, 0), project(rmax, 0, 0)], "#ccc");
   line([project(0, -rmax, 0), project(0, rmax, 0)], "#ccc");
-  line([project(0, 0, 0), project(0, 0, rmax)], "#999");
-  line([project(0, 0, 0), project(wi[0] * rmax, wi[1] * rmax, wi[2] * rmax)], "#e0a000", 2);
+  const light = [-0.4, -0.6, 0.7], norm = Math.hypot(...light);
+  const quads = [];
   for (const m of meshes) {
     const [T, P] = m.shape;
-    const point = (t, p) => {
+    const rgb = [1, 3, 5].map((i) => parseInt(m.color.slice(i, i + 2), 16));
+    const at = (t, p) => {
       const th = (t / (T - 1)) * (Math.PI / 2), ph = (p / (P - 1)) * 2 * Math.PI, r = m.r[t * P + p];
-      return project(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
+      return turn(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
     };
-    for (let t = 1; t < T; t += 2) line(Array.from({ length: P }, (_, p) => point(t, p)), m.color + "aa");
-    for (let p = 0; p < P - 1; p += 3) line(Array.from({ length: T }, (_, t) => point(t, p)), m.color + "aa");
+    for (let t = 0; t < T - 1; t++) for (let p = 0; p < P - 1; p++) {
+      const c = [at(t, p), at(t, p + 1), at(t + 1, p + 1), at(t + 1, p)];
+      const e1 = c[2].map((v, k) => v - c[0][k]), e2 = c[3].map((v, k) => v - c[1][k]);
+      const n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+      const length = Math.hypot(...n);
+      const shade = length > 0 ? 0.3 + 0.7 * Math.abs(n[0] * light[0] + n[1] * light[1] + n[2] * light[2]) / (length * norm) : 0.3;
+      const depth = (c[0][1] + c[1][1] + c[2][1] + c[3][1]) / 4;
+      quads.push({ depth, fill: `rgb(${rgb.map((v) => Math.round(v * shade)).join(",")})`, pts: c.map(([a, , u]) => [W / 2 + s * a, H * 0.7 - s * u]) });
+    }
   }
+  quads.sort((a, b) => b.depth - a.depth);
+  for (const q of quads) {
+    ctx.fillStyle = q.fill; ctx.strokeStyle = q.fill; ctx.lineWidth = 0.5;
+    ctx.beginPath();
+    for (const p of q.pts) ctx.lineTo(p[0], p[1]);
+    ctx.closePath(); ctx.fill(); ctx.stroke();
+  }
+  line([project(0, 0, 0), project(0, 0, rmax)], "#999");
+  line([project(0, 0, 0), project(wi[0] * rmax, wi[1] * rmax, wi[2] * rmax)], "#e0a000", 2);
 }
 
 // A perceptual-ish colour map (dark purple → orange → yellow) for the θh × θd slice.
@@ -385,7 +403,7 @@ export function createExplorer(root, transport, config = {}) {
   const sliceGroup = group("slices", "θh × θd slices (log)");
   const slices = sliceGroup.body;
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
-  const lobe = panel("lobe", "3D lobe (drag to rotate)", 360, 300);
+  const lobe = panel("lobe", "3D lobe, shaded surface (drag to rotate)", 360, 300);
   const curves = {
     theta_v: panel("theta_v", "θv curve (plane of incidence)", 360, 180),
     theta_h: panel("theta_h", "θh curve (at θd, φd)", 360, 180),
