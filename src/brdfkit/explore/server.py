@@ -23,6 +23,7 @@ import logging
 import secrets
 import socket
 import threading
+import time
 from collections.abc import Awaitable, Callable, MutableMapping
 from importlib import resources
 from pathlib import Path
@@ -49,6 +50,9 @@ Send = Callable[[Any], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 _log = logging.getLogger(__name__)
+
+LIT_QUIET_SECONDS = 0.1
+"""How long after a render the lit object's next pass waits (while a slider is dragged)."""
 
 STATIC = Path(str(resources.files("brdfkit.explore") / "static"))
 """The front end's files (package data)."""
@@ -186,7 +190,9 @@ class _Channel:
     curves and physics checks in another, so they never hold up the next image; the
     environment-lit spheres come pass by pass from a third, and a newer render cancels them;
     the lit objects pass by pass from a fourth, cancelled only by a render that changes what
-    they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining.
+    they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining;
+    their next pass waits until no render has run for :data:`LIT_QUIET_SECONDS` (a slider
+    being dragged keeps both cores for the spheres).
     """
 
     def __init__(self, session: Session, ws: WebSocket) -> None:
@@ -197,6 +203,7 @@ class _Channel:
         self.progressive: dict[str, Message | None] = {"env": None, "lit": None}
         self.cancels = {"env": threading.Event(), "lit": threading.Event()}
         self.lit_shown: tuple[Any, ...] | None = None
+        self.last_render = 0.0
 
     async def serve(self) -> None:
         """Accept the socket and serve it until the page goes away."""
@@ -272,7 +279,12 @@ class _Channel:
                 message, self.pending[kind] = self.pending[kind], None
                 if message is None:
                     continue
+                rendering = kind == "render"
+                if rendering:
+                    self.last_render = time.monotonic()
                 result = await self._run(kind, message)
+                if rendering:
+                    self.last_render = time.monotonic()
                 if result is not None:
                     await self._reply([result])
                 if kind == "render" and result is not None:
@@ -295,6 +307,8 @@ class _Channel:
             cancel = self.cancels[kind] = threading.Event()
             passes = passes_of(message, cancel)
             while not cancel.is_set():
+                while kind == "lit" and time.monotonic() - self.last_render < LIT_QUIET_SECONDS:
+                    await asyncio.sleep(LIT_QUIET_SECONDS)
                 step = functools.partial(next, passes, None)
                 result = await asyncio.to_thread(guarded, message.seq, step)
                 if result is None or cancel.is_set():
