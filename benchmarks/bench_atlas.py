@@ -20,13 +20,17 @@ resolution (2× the rows, columns and rings: 8× the kernel nodes) and (b) Monte
 estimates the reference's own noise, reported alongside), against the quadrature at the same
 level there.
 
+Objects (``--objects``): the default atlas without and with the cards' object images
+(:func:`brdfkit.report.atlas.object_image`, ``brdfkit atlas --objects``), alternating,
+``--repeats`` pairs: wall and CPU seconds and their median ratio.
+
 Profile (``--profile``): the CPU seconds of each part of each card (directional spheres,
 environment spheres, plots, checks), cards built one after another (with one BLAS thread, as
 the atlas's processes), and of each
 environment-lit sphere, marked "(NumPy)" where its compiled kernels were not there (cold).
 
     python benchmarks/bench_atlas.py [--repeats 1] [--cold] [--noise-resolution 96]
-        [--skip-noise] [--profile] [--only CARD ...] [--json]
+        [--skip-noise] [--profile] [--objects] [--only CARD ...] [--json]
 
 Results go to ``benchmarks/results/atlas.json`` and a summary on stdout.
 """
@@ -80,6 +84,30 @@ def time_atlas(
     elif cold:
         os.environ[kernel_cache.ENV] = saved
     return seconds, cpu, cache
+
+
+def time_objects(repeats: int) -> dict:
+    """Wall and CPU seconds of the default atlas without and with its object images
+    (``objects=True``), alternating, ``repeats`` pairs; the median ratio with / without."""
+    from brdfkit.report.atlas import build_atlas
+
+    runs: dict[str, dict[str, list[float]]] = {
+        k: {"seconds": [], "cpu_seconds": []} for k in ("without", "with")
+    }
+    with tempfile.TemporaryDirectory() as folder:
+        for _ in range(repeats):
+            for key, objects in (("without", False), ("with", True)):
+                start, start_cpu = time.perf_counter(), _cpu_seconds()
+                build_atlas(Path(folder) / "index.html", objects=objects)
+                runs[key]["seconds"].append(time.perf_counter() - start)
+                runs[key]["cpu_seconds"].append(_cpu_seconds() - start_cpu)
+                print(f"  atlas {key} objects: {runs[key]['seconds'][-1]:.1f} s, "
+                      f"{runs[key]['cpu_seconds'][-1]:.1f} CPU s")  # fmt: skip
+    ratio = {
+        f"{k}_ratio": float(np.median(np.divide(runs["with"][k], runs["without"][k])))
+        for k in ("seconds", "cpu_seconds")
+    }
+    return {**runs, **ratio, "repeats": repeats}
 
 
 def profile_atlas(only: list[str] | None = None) -> dict:
@@ -218,6 +246,9 @@ def main() -> None:
     parser.add_argument(
         "--only", nargs="+", help="noise and profile of these cards only (e.g. ggx)"
     )
+    parser.add_argument(
+        "--objects", action="store_true", help="time the atlas without and with object images"
+    )
     parser.add_argument("--json", action="store_true", help="print the record as JSON")
     parser.add_argument("--out", help="results file (default: benchmarks/results/atlas.json)")
     parser.add_argument(
@@ -255,6 +286,9 @@ def main() -> None:
         print(f"noise at the atlas's spp N against 16 N spp, {args.noise_resolution}²:")
         rows = sphere_noise(args.noise_resolution, args.only, goal, args.mc_samples)
         record["noise"] = {"resolution": args.noise_resolution, "spheres": rows}
+    if args.objects:
+        print("the atlas without and with its object images, alternating:")
+        record["objects"] = time_objects(args.repeats)
     seconds, cpu, cache = time_atlas(args.repeats, args.cold, goal)
     record["atlas_seconds"] = seconds
     record["atlas_cpu_seconds"] = cpu

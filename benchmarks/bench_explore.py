@@ -17,6 +17,13 @@ error / mean over the sphere, estimated without bias from the two replicates:
 :func:`brdfkit.explore.views.relative_noise`) is reported,
 after the server's warm-up (which builds the compiled kernels of the shown BRDF).
 
+The lit object (the bundled shader ball under the map, with shadows, 128², refined to 64 spp
+on the server's NumPy path): the sphere's slider latency is measured again with the lit
+view on and restarted before every other move (so that its passes run while the slider
+moves), interleaved with moves where it is off; and the orbit latency, from a drag on the lit
+image (``pointermove``) to the first pass of the new camera drawn in the page, with the
+server's seconds for that pass and for 64 spp.
+
 The sphere's latency is from the slider's ``input`` event until the page has drawn the reply
 holding every view (sphere, polar, θv/θh/θd curves, lobe, slice); ``server views ms`` is the
 Python time of those views, ``page draw ms`` the page's drawing of them.
@@ -37,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 import tempfile
@@ -123,6 +131,69 @@ def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
     }
 
 
+LIT_TOGGLE = """(on) => { const box = document.querySelector('.bx-lit');
+  if (box.checked !== on) { box.checked = on; box.dispatchEvent(new Event('change')); } }"""
+
+
+def lit_latency(page: Any, moves: int) -> dict[str, Any]:
+    """The sphere's slider latency with the lit object refining (restarted before each such
+    move) and without it, interleaved."""
+    times: dict[bool, list[float]] = {True: [], False: []}
+    for i in range(moves):
+        on = i % 2 == 0
+        page.evaluate(LIT_TOGGLE, on)
+        if on:  # a fresh start: wait for its first pass, so that the rest runs during the move
+            page.wait_for_function(
+                "(seq) => (window.explorer.lit.b1 || {seq: 0}).seq >= seq",
+                arg=page.evaluate("window.explorer.sent.seq"),
+                timeout=120_000,
+            )
+        else:
+            page.wait_for_function("() => window.explorer.shown.seq === window.explorer.sent.seq")
+        times[on].append(page.evaluate(MOVE, 20 + (i * 37) % 60)[0])
+    return {
+        "slider_median_ms_lit_on": statistics.median(times[True]),
+        "slider_p95_ms_lit_on": percentile(times[True], 95),
+        "slider_median_ms_lit_off": statistics.median(times[False]),
+        "slider_p95_ms_lit_off": percentile(times[False], 95),
+        "moves": moves,
+    }
+
+
+def orbit_latency(page: Any, orbits: int) -> dict[str, Any]:
+    """Drag → first pass of the new camera in the page (ms), and the server's seconds for it
+    and for the last pass (64 spp), over ``orbits`` drags of 20 px."""
+    page.evaluate(LIT_TOGGLE, True)
+    first_ms, first_server_s, full_s = [], [], []
+    for i in range(orbits):
+        box = page.locator('.bx-lit-image[data-id="b1"]').bounding_box()
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        page.mouse.move(x + (20 if i % 2 else -20), y)
+        page.mouse.up()
+        view = page.evaluate(
+            "[window.explorer.state.view.azimuth, window.explorer.state.view.elevation]"
+        )
+        wait = (
+            "([a, e, n]) => { const l = window.explorer.lit.b1 || {};"
+            " return l.azimuth === a && l.elevation === e && l.samples >= n; }"
+        )
+        page.wait_for_function(wait, arg=[*view, 1], timeout=120_000, polling="raf")
+        lit = page.evaluate("window.explorer.lit.b1")
+        first_ms.append(lit["time"] - page.evaluate("window.explorer.orbited"))
+        first_server_s.append(lit["seconds"])
+        page.wait_for_function(wait, arg=[*view, 64], timeout=300_000, polling=50)
+        full_s.append(page.evaluate("window.explorer.lit.b1.seconds"))
+    return {
+        "orbit_to_first_pass_median_ms": statistics.median(first_ms),
+        "orbit_to_first_pass_p95_ms": percentile(first_ms, 95),
+        "first_pass_server_median_s": statistics.median(first_server_s),
+        "to_64_spp_server_median_s": statistics.median(full_s),
+        "orbits": orbits,
+    }
+
+
 def environment_session(session: Session, spec: str, limit: float) -> dict[str, Any]:
     """The environment-lit sphere's replies in-process (``--session``): seconds (wall and
     CPU) to the first image, the first pass and 1 % noise, as the page's ENV script times
@@ -179,6 +250,7 @@ def main() -> None:
     parser.add_argument("--moves", type=int, default=40)
     parser.add_argument("--chromium", default="/usr/bin/chromium")
     parser.add_argument("--env-limit", type=float, default=20.0, help="seconds")
+    parser.add_argument("--orbits", type=int, default=6, help="drags of the lit object")
     parser.add_argument("--session", action="store_true", help="env map figures, no browser")
     parser.add_argument("--repeats", type=int, default=3, help="--session runs")
     parser.add_argument("--out", type=Path, default=None)
@@ -193,6 +265,7 @@ def main() -> None:
     results: dict[str, Any] = {
         **header(__file__, packages=("playwright", "starlette", "uvicorn", "websockets")),
         "platform": platform.platform(),
+        "load_average_before": os.getloadavg(),
         "workloads": {},
     }
     with tempfile.TemporaryDirectory() as folder, sync_playwright() as p:
@@ -213,10 +286,15 @@ def main() -> None:
             record = latency(page, brdf, args.moves)
             if name == "lambertian+ggx":
                 record["envmap"] = page.evaluate(ENV, [1e3 * args.env_limit])
+                record["lit"] = {
+                    **lit_latency(page, args.moves),
+                    **orbit_latency(page, args.orbits),
+                }
             results["workloads"][name] = record
             context.close()
             server.stop()
         browser.close()
+    results["load_average_after"] = os.getloadavg()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2) + "\n")
     print(
@@ -230,6 +308,15 @@ def main() -> None:
             f"{r['server_views_median_ms']:.1f} | {r['page_draw_median_ms']:.1f} | "
             f"{r['render_sphere_median_ms']:.1f} | {r['ratio_to_render_sphere']:.2f} |"
         )
+    lit = results["workloads"]["lambertian+ggx"]["lit"]
+    print(
+        f"\nlit object: sphere slider median {lit['slider_median_ms_lit_on']:.1f} ms with it "
+        f"refining, {lit['slider_median_ms_lit_off']:.1f} ms without (p95 "
+        f"{lit['slider_p95_ms_lit_on']:.1f} / {lit['slider_p95_ms_lit_off']:.1f}); orbit to "
+        f"first pass {lit['orbit_to_first_pass_median_ms']:.0f} ms (server "
+        f"{lit['first_pass_server_median_s']:.2f} s), 64 spp after "
+        f"{lit['to_64_spp_server_median_s']:.1f} s"
+    )
     env = results["workloads"]["lambertian+ggx"]["envmap"]
     noise1 = "not reached" if env["noise1"] is None else f"{env['noise1']:.0f} ms"
     first_pass = "none" if env["firstPass"] is None else f"{env['firstPass']:.0f} ms"

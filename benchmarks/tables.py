@@ -383,6 +383,26 @@ def explore(r: dict) -> str:
                     "rrrrr",
                 )
             )  # fmt: skip
+        lit = next((w["lit"] for w in r["workloads"].values() if "lit" in w), None)
+        if lit:
+            load = r.get("load_average_before")
+            out.append(
+                "Lit object (shader ball, 128², NumPy path; the sphere's slider with the lit "
+                "view refining vs off, interleaved"
+                + (f"; load average {load[0]:.1f} on the machine" if load else "")
+                + "):\n\n"
+                + rows(
+                    ["slider median ms, lit on / off", "slider p95 ms, lit on / off",
+                     "orbit → first pass ms", "first pass server s", "64 spp server s"],
+                    [[f"{lit['slider_median_ms_lit_on']:.1f} / "
+                      f"{lit['slider_median_ms_lit_off']:.1f}",
+                      f"{lit['slider_p95_ms_lit_on']:.1f} / {lit['slider_p95_ms_lit_off']:.1f}",
+                      _ms(lit["orbit_to_first_pass_median_ms"]),
+                      f"{lit['first_pass_server_median_s']:.2f}",
+                      f"{lit['to_64_spp_server_median_s']:.1f}"]],
+                    "rrrrr",
+                )
+            )  # fmt: skip
     if "runs" in r:
         out.append(
             "Environment map, in-process (`--session`):\n\n"

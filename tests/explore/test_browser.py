@@ -382,3 +382,62 @@ def test_the_environment_lit_sphere_refines_and_agrees_with_python(server, brows
     pixels = np.asarray(pixels, np.int64).reshape(256, 256, 4)[..., :3]
     assert np.abs(pixels - expected_pixels(shown)).max() <= 1
     context.close()
+
+
+def test_the_lit_object_orbits_and_equals_the_python_render(server, browser):
+    """The lit-object view: a bundled mesh under the session's map, orbited by a drag; the
+    pass shown equals :func:`brdfkit.render.progressive` of the same mesh, camera, map and
+    samples (default seed) in Python, and its canvas that image within 8-bit quantisation."""
+    from brdfkit.explore.views import LIT_RESOLUTION, orbit_camera
+    from brdfkit.render import progressive
+    from brdfkit.render.bundled_meshes import load_mesh, object_bounds
+    from brdfkit.render.mitsuba_frame import mitsuba_oriented
+
+    server.session.warmed.wait(timeout=120)  # the kernels' builds, not this view's work
+    context = browser.new_context(viewport={"width": 1500, "height": 1100}, bypass_csp=True)
+    page = context.new_page()
+    page.goto(server.url)
+    settled(page)
+    page.locator(".bx-mesh").select_option("bundled:knot")
+    page.locator(".bx-lit").check()
+    page.wait_for_function(
+        "() => (window.explorer.lit.b1 || {}).mesh === 'bundled:knot'", timeout=60_000
+    )
+    before = page.evaluate("window.explorer.lit.b1")
+    box = page.locator('.bx-lit-image[data-id="b1"]').bounding_box()
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x - 60, y + 30)
+    page.mouse.up()
+    v = view(page)
+    assert (v["azimuth"], v["elevation"]) != (before["azimuth"], before["elevation"])
+    page.wait_for_function(
+        "([a, e]) => { const l = window.explorer.lit.b1 || {};"
+        " return l.azimuth === a && l.elevation === e && l.samples >= 4; }",
+        arg=[v["azimuth"], v["elevation"]],
+        timeout=60_000,
+        polling=100,
+    )
+    values, pixels, shown = page.evaluate(
+        """() => { const c = document.querySelector('.bx-lit-image[data-id="b1"]');
+           const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+           return [window.explorer.litImage('b1'), Array.from(d), window.explorer.lit.b1]; }"""
+    )
+    brdf = parse(entry(page, 0)["info"]["spec"])
+    scene = load_mesh("bundled:knot")
+    camera = orbit_camera(object_bounds("knot"), v["azimuth"], v["elevation"], LIT_RESOLUTION)
+    g = scene.gbuffer(camera, LIT_RESOLUTION)
+    light = mitsuba_oriented(server.session.envmap)
+    passes = progressive(
+        g, brdf, light, max_samples=shown["samples"], visibility=scene.visibility(g)
+    )
+    reference = next(p for p in passes if p.samples == shown["samples"]).image
+    image = np.asarray(values, np.float64).reshape(reference.shape)
+    np.testing.assert_allclose(image, reference, rtol=1e-6, atol=1e-6)  # float32 on the wire
+    expected = expected_pixels(reference)
+    pixels = np.asarray(pixels, np.int64).reshape(LIT_RESOLUTION, LIT_RESOLUTION, 4)[..., :3]
+    assert np.abs(pixels - expected).max() <= 1
+    assert expected.std() > 10 and g.mask.mean() > 0.5  # an object over its ground, lit
+    assert not page.evaluate("document.querySelector('.bx-status').textContent")
+    context.close()

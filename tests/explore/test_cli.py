@@ -43,6 +43,10 @@ def test_a_bad_file_is_refused_before_serving(tmp_path):
     envmap = tmp_path / "sky.hdr"
     result = runner.invoke(app, ["explore", "--no-browser", "--envmap", str(envmap)])
     one_error_line(result, "sky.hdr")
+    broken_mesh = tmp_path / "broken.ply"
+    broken_mesh.write_text("garbage")
+    result = runner.invoke(app, ["explore", "--no-browser", str(broken_mesh)])
+    one_error_line(result, "broken.ply")
 
 
 def test_a_bad_port_is_refused():

@@ -72,3 +72,22 @@ def test_deep_or_large_trees_are_refused():
         tree = {"scaled": 1.0, "inner": tree}
     with pytest.raises(SpecError, match="at most"):
         spec_of(tree)
+
+
+def test_parameters_with_a_fixed_set_of_values_are_choices():
+    from brdfkit.brdf.microfacet import MASKINGS
+    from brdfkit.fresnel import CONDUCTORS
+
+    controls = {c["name"]: c for c in controls_of(parse("rough_conductor(material='Au')"))}
+    assert controls["distribution"]["kind"] == "choice"
+    assert controls["distribution"]["options"] == ["ggx", "beckmann"]
+    assert controls["masking"]["options"] == list(MASKINGS)
+    assert controls["material"]["options"] == ["none", *CONDUCTORS]
+    assert controls["alpha"]["kind"] == "number" and "options" not in controls["alpha"]
+    # every option is a value the model accepts
+    for name in ("distribution", "masking", "material"):
+        for option in controls[name]["options"]:
+            parse(f"rough_conductor({name}={option!r})")
+    # a model that fixes its distribution offers that one only
+    ggx = {c["name"]: c for c in controls_of(parse("ggx(alpha=0.2)"))}
+    assert ggx["distribution"]["options"] == ["ggx"]

@@ -383,3 +383,46 @@ def test_two_uploads_of_one_name_at_once_get_distinct_files(monkeypatch):
         assert paths[0].parent == paths[1].parent
     finally:
         session.close()
+
+
+# -- the lit object ------------------------------------------------------------------------------
+
+
+def _lit_render(seq: int, **view) -> str:
+    entries = [{"id": "b1", "source": {"spec": "lambertian(albedo=0.5) + ggx(alpha=0.3)"}}]
+    state = {"entries": entries, "view": {"lit": True, "mesh": "bundled:knot", **view}}
+    return json.dumps({"type": "render", "seq": seq, "state": state})
+
+
+def _next_lit(ws, wanted=lambda header: True) -> dict:
+    """The next lit (or error) reply that ``wanted`` accepts, skipping the other views."""
+    while True:
+        header = decode_frame(ws.recv(timeout=60))[0]
+        if header["type"] in ("lit", "error") and wanted(header):
+            return header
+
+
+def test_the_lit_object_restarts_only_when_what_it_shows_changes(server):
+    pytest.importorskip("embreex", reason="embreex (the mesh extra) is not installed")
+    with _connect(server) as ws:
+        ws.send(_lit_render(1))
+        assert _next_lit(ws)["seq"] == 1
+        ws.send(_lit_render(2, theta_i=10))  # the light of the spheres: the lit view refines on
+        second = _next_lit(ws)
+        assert (second["seq"], second["samples"]) == (1, 4)
+        ws.send(_lit_render(3, azimuth=100))  # the camera: the view starts again
+        restarted = _next_lit(ws, lambda h: h["seq"] == 3)
+        assert (restarted["samples"], restarted["azimuth"]) == (2, 100)
+        ws.send(_lit_render(4, elevation=95))
+        error = _next_lit(ws, lambda h: h["type"] == "error")
+        assert "view.elevation must be a number in [-30.0, 89.0]" in error["message"]
+
+
+def test_a_mesh_upload_is_named_as_a_mesh_and_listed(server):
+    pytest.importorskip("embreex", reason="embreex (the mesh extra) is not installed")
+    from brdfkit.render.mesh import torus_over_plane
+
+    ply = torus_over_plane(sections=8).export(file_type="ply")
+    assert _upload(server, "scene.ply", ply) == (200, {"mesh": "scene.ply"})
+    with urllib.request.urlopen(server.url + "config", timeout=60) as response:
+        assert "scene.ply" in json.loads(response.read())["meshes"]

@@ -185,6 +185,29 @@ def test_build_card_records_the_cpu_seconds_of_its_parts():
     assert sum(card.env_cpu_seconds) <= card.cpu_seconds["environment spheres"] + 1e-6
 
 
+def test_a_card_shows_its_model_on_an_object_when_asked():
+    import base64
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    from brdfkit.light import EnvironmentMap
+    from brdfkit.plot import encode_spheres
+    from brdfkit.report.atlas import object_image
+
+    pytest.importorskip("embreex", reason="embreex (the mesh extra) is not installed")
+    env = EnvironmentMap(np.random.default_rng(3).random((16, 32, 3)) ** 4 * 4)
+    models = [MODELS["ggx"](alpha=0.2, material="Au")]
+    options = {"envmap": env, "resolution": 12, "samples": 2, "run_checks": False}
+    card = build_card("t", models, objects=True, **options)
+    caption = "shaderball under the environment map, shadows (4 spp)"
+    shown = np.asarray(Image.open(io.BytesIO(base64.b64decode(card.images[caption]))))
+    expected = encode_spheres([object_image(models[0], env, 12)])[0]
+    np.testing.assert_array_equal(shown, expected)
+    assert card.cpu_seconds["object"] >= 0 and expected.std() > 5
+
+
 def test_png_reuses_a_layout_and_draws_the_same_pixels(monkeypatch):
     import math
 

@@ -62,6 +62,14 @@ _MaxSamples = Annotated[
     ),
 ]
 _Checks = Annotated[bool, typer.Option("--checks/--no-checks", help="Run the physics checks.")]
+_Objects = Annotated[
+    bool,
+    typer.Option(
+        "--objects/--no-objects",
+        help="Show each model on the bundled shader ball under the map, with shadows "
+        "(needs the mesh extra: pip install 'brdfkit[mesh]').",
+    ),
+]
 
 
 @app.command("atlas")
@@ -74,6 +82,7 @@ def atlas_command(
     noise: _Noise = ENV_NOISE or 0.0,
     max_samples: _MaxSamples = ENV_MAX_SAMPLES,
     checks: _Checks = True,
+    objects: _Objects = False,
 ) -> None:
     """Write an HTML atlas: every model's formula, spheres, lobes, albedo and physics checks."""
     import matplotlib
@@ -116,6 +125,7 @@ def atlas_command(
                 noise=noise or None,
                 max_samples=max_samples,
                 run_checks=checks,
+                objects=objects,
                 progress=step,
             ),
         )

@@ -14,8 +14,8 @@ _Items = Annotated[
     typer.Argument(
         metavar="[SPEC_OR_FILE]...",
         help='Model specs ("ggx(alpha=0.1)"), measured files (MERL .binary, RGL .bsdf, '
-        "Cornell .brdf) and fit.json results of brdfkit fit to show; the default is a "
-        "Lambertian + GGX.",
+        "Cornell .brdf) and fit.json results of brdfkit fit to show, and meshes (.obj, .ply, "
+        ".stl, .gltf, .glb) for the lit-object view; the default is a Lambertian + GGX.",
     ),
 ]
 _Envmap = Annotated[
@@ -52,6 +52,7 @@ def explore_command(
     from brdfkit.brdf.spec import parse
     from brdfkit.explore.server import ExplorerServer
     from brdfkit.explore.session import MEASURED_SUFFIXES, Session, fit_spec
+    from brdfkit.render.mesh import MESH_SUFFIXES
 
     if not 0 <= port <= 65535:
         fail(f"--port must be in [0, 65535]; got {port}")
@@ -60,6 +61,8 @@ def explore_command(
     for item in items or []:
         if Path(item).suffix.lower() in MEASURED_SUFFIXES:
             initial.append(session.add_file(item))
+        elif Path(item).suffix.lower() in MESH_SUFFIXES:
+            session.add_mesh(item)  # in the lit-object view's menu of meshes
         elif Path(item).suffix.lower() == ".json":
             initial.append(fit_spec(Path(item).read_bytes(), item))
         else:

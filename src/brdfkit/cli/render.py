@@ -34,7 +34,8 @@ _Shape = Annotated[
     typer.Argument(
         metavar="SHAPE",
         help="sphere, plane, cylinder, a normal map (.npy/.png/.exr), or a mesh "
-        "(.obj/.ply/.stl/.gltf/.glb: Mitsuba 3's world frame, shadows).",
+        "(.obj/.ply/.stl/.gltf/.glb, or bundled:knot / bundled:shaderball: Mitsuba 3's "
+        "world frame, shadows).",
     ),
 ]
 _Brdf = Annotated[
@@ -273,9 +274,9 @@ def _shape_file(shape: str) -> Path | None:
 
 
 def _is_mesh(shape: str) -> bool:
-    from brdfkit.render.mesh import MESH_SUFFIXES
+    from brdfkit.render.bundled_meshes import is_mesh_source
 
-    return Path(shape).suffix.lower() in MESH_SUFFIXES
+    return is_mesh_source(shape)
 
 
 @dataclass(frozen=True)
@@ -327,12 +328,13 @@ def _render_mesh(path: Path, model: Any, lights: list[Any], camera: _MeshCamera,
     """Read the mesh at ``path`` and render it with shadows, progress on stderr."""
     from brdfkit._checks import check_memory
     from brdfkit.errors import ParameterError
-    from brdfkit.render.mesh import MeshScene, render_mesh
+    from brdfkit.render.bundled_meshes import BUNDLED_PREFIX, load_mesh
+    from brdfkit.render.mesh import render_mesh
     from brdfkit.render.mitsuba_frame import look_at_camera, mitsuba_oriented
 
-    if not path.is_file():
+    if not (str(path).startswith(BUNDLED_PREFIX) or path.is_file()):
         fail(f"SHAPE: no mesh file {shown(str(path))!r}")
-    mesh = MeshScene.from_file(path)
+    mesh = load_mesh(path)
     height, width = camera.size
     k = camera.supersample
     check_memory(f"rendering {width}×{height} pixels", _BYTES_PER_PIXEL * width * height * k * k)

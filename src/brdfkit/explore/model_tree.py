@@ -26,6 +26,7 @@ from typing import Any
 from brdfkit.brdf.base import BRDF, MODELS, SCALE, Scaled, Sum, spec_value
 from brdfkit.brdf.spec import parse
 from brdfkit.errors import SpecError
+from brdfkit.fresnel import CONDUCTORS
 from brdfkit.params import MAX_SPEC_LENGTH, Domain, parameter_domains
 
 MAX_DEPTH = 16
@@ -203,7 +204,8 @@ def slider(domain: Domain) -> dict[str, Any]:
 def controls_of(brdf: BRDF) -> list[dict[str, Any]]:
     """One record per editable parameter of ``brdf``'s tree, in order: ``path`` (the list of
     keys and indices that reach its value in :func:`tree_of`), ``name``, ``model``, ``kind``
-    (``"number"``, ``"rgb"``, ``"bool"``, ``"text"``) and, for numbers, the ``slider``.
+    (``"number"``, ``"rgb"``, ``"bool"``, ``"choice"``, ``"text"``) and, for numbers, the
+    ``slider``; for a choice, its ``options`` (:func:`options_of`: the page shows a menu).
 
     Examples
     --------
@@ -231,11 +233,42 @@ def _controls(brdf: BRDF, path: list[Any], out: list[dict[str, Any]]) -> None:
     for f in dataclasses.fields(brdf):  # type: ignore[arg-type]
         if f.init:
             value = getattr(brdf, f.name)
-            out.append(
-                _control(
-                    f.name, value, domains.get(f.name), brdf.spec_name, [*path, "params", f.name]
-                )
+            control = _control(
+                f.name, value, domains.get(f.name), brdf.spec_name, [*path, "params", f.name]
             )
+            options = options_of(type(brdf), f.name)
+            if options and control["kind"] == "text" and value in options:
+                control |= {"kind": "choice", "options": list(options)}
+            out.append(control)
+
+
+def options_of(model: type[BRDF], name: str) -> tuple[str, ...]:
+    """The values the string parameter ``name`` of ``model`` may take (its menu), or ``()``:
+    the options its classes declare (:attr:`BRDF.choices`, merged over the bases), the one
+    distribution a model fixes (``ggx``, ``beckmann``), and for a ``material`` whose default
+    is ``"none"`` (a conductor preset) ``"none"`` and the metals of
+    :data:`brdfkit.fresnel.CONDUCTORS`.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf.base import MODELS
+    >>> options_of(MODELS["ggx"], "distribution"), options_of(MODELS["ggx"], "masking")[:2]
+    (('ggx',), ('v_groove', 'smith_separable'))
+    >>> options_of(MODELS["ggx"], "material")[:3], options_of(MODELS["ggx"], "alpha")
+    (('none', 'Ag', 'Al'), ())
+    """
+    declared: dict[str, tuple[str, ...]] = {}
+    for klass in reversed(model.__mro__):
+        declared.update(vars(klass).get("choices", {}))
+    fixed = getattr(model, f"{name}_name", None)
+    if isinstance(fixed, str):
+        return (fixed,)
+    if name in declared:
+        return tuple(declared[name])
+    fields = {f.name: f for f in dataclasses.fields(model)}  # type: ignore[arg-type]
+    if name == "material" and name in fields and fields[name].default == "none":
+        return ("none", *CONDUCTORS)
+    return ()
 
 
 def _control(
@@ -260,6 +293,7 @@ __all__ = [
     "MAX_NODES",
     "brdf_of",
     "controls_of",
+    "options_of",
     "slider",
     "spec_of",
     "tree_of",

@@ -13,7 +13,9 @@ Messages from the front end::
 
 An entry is ``{"id": "b1", "visible": true, "source": S}`` with ``S`` one of ``{"spec": "ggx"}``,
 ``{"tree": {...}}`` (:mod:`brdfkit.explore.model_tree`) or ``{"file": "name"}`` (a file the server
-was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`.
+was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`, and for
+the lit object its switch ``lit``, its ``mesh`` (``bundled:NAME`` or an uploaded mesh's name)
+and the orbiting camera's ``azimuth`` and ``elevation`` (degrees).
 
 References
 ----------
@@ -31,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from brdfkit.errors import BrdfkitError
-from brdfkit.explore.views import ViewState
+from brdfkit.explore.views import ELEVATION_RANGE, ViewState
 
 MAX_MESSAGE_BYTES = 1 << 20
 """The largest message the front end may send (a spec holds at most 100 000 characters)."""
@@ -52,6 +54,8 @@ _ANGLES = {
     "theta_h": (0.0, 90.0),
     "theta_d": (0.0, 90.0),
     "phi_d": (-360.0, 360.0),
+    "azimuth": (-360.0, 360.0),
+    "elevation": ELEVATION_RANGE,
 }
 
 
@@ -191,7 +195,7 @@ def _entry(raw: Any, index: int) -> Entry:
 def _view(raw: Any) -> ViewState:
     if not isinstance(raw, dict):
         raise ProtocolError("state.view must be an object")
-    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap"}
+    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap", "lit", "mesh"}
     if unknown:
         raise ProtocolError(f"state.view has unknown fields {sorted(unknown)[:5]}")
     values: dict[str, Any] = {}
@@ -202,10 +206,16 @@ def _view(raw: Any) -> ViewState:
         if raw["resolution"] not in RESOLUTIONS or isinstance(raw["resolution"], bool):
             raise ProtocolError(f"view.resolution must be one of {RESOLUTIONS}")
         values["resolution"] = int(raw["resolution"])
-    if "envmap" in raw:
-        if not isinstance(raw["envmap"], bool):
-            raise ProtocolError("view.envmap must be true or false")
-        values["envmap"] = raw["envmap"]
+    for flag in ("envmap", "lit"):
+        if flag in raw:
+            if not isinstance(raw[flag], bool):
+                raise ProtocolError(f"view.{flag} must be true or false")
+            values[flag] = raw[flag]
+    if "mesh" in raw:
+        mesh = raw["mesh"]
+        if not isinstance(mesh, str) or not 0 < len(mesh) <= 80 or not mesh.isprintable():
+            raise ProtocolError("view.mesh must be a printable string of 1 to 80 characters")
+        values["mesh"] = mesh
     if "irradiance" in raw:
         values["irradiance"] = _number("view.irradiance", raw["irradiance"], 0.0, 1e6)
     return ViewState(**values)

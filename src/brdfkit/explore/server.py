@@ -23,6 +23,7 @@ import logging
 import secrets
 import socket
 import threading
+import time
 from collections.abc import Awaitable, Callable, MutableMapping
 from importlib import resources
 from pathlib import Path
@@ -49,6 +50,9 @@ Send = Callable[[Any], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 _log = logging.getLogger(__name__)
+
+LIT_QUIET_SECONDS = 0.1
+"""How long after a render the lit object's next pass waits (while a slider is dragged)."""
 
 STATIC = Path(str(resources.files("brdfkit.explore") / "static"))
 """The front end's files (package data)."""
@@ -129,6 +133,7 @@ def _config(session: Session, initial: list[str]) -> Callable[[Request], Awaitab
             {
                 "initial": initial,
                 "files": session.files,
+                "meshes": session.meshes,
                 "envmap": session.envmap_name,
                 "max_upload": MAX_UPLOAD_BYTES,
                 "materials": _material_choices(),  # the picker of static/materials.js
@@ -148,8 +153,9 @@ def _too_large(name: str, size: str) -> Response:
 
 
 def _upload(session: Session) -> Callable[[Request], Awaitable[Response]]:
-    """The handler of ``upload``: a measured file added to ``session`` (its key in the reply),
-    or a fit.json read for its spec (no file kept); at most :data:`MAX_UPLOAD_BYTES`."""
+    """The handler of ``upload``: a measured file added to ``session`` (its key in the reply as
+    ``name``), a mesh (its key as ``mesh``), or a fit.json read for its spec (no file kept); at
+    most :data:`MAX_UPLOAD_BYTES`."""
 
     async def upload(request: Request) -> Response:
         name = request.query_params.get("name", "")
@@ -171,27 +177,33 @@ def _upload(session: Session) -> Callable[[Request], Awaitable[Response]]:
             key = await asyncio.to_thread(session.add_upload, name, bytes(data))
         except (BrdfkitError, ValueError, OSError) as error:
             return _json({"error": str(error)[:500]}, 400)
-        return _json({"name": key})
+        return _json({"mesh" if key in session.meshes else "name": key})
 
     return upload
 
 
 class _Channel:
-    """One page's WebSocket: its messages in latest-wins slots, served by three workers.
+    """One page's WebSocket: its messages in latest-wins slots, served by four workers.
 
     A message waiting in a slot is replaced by a newer one of its kind, so a slider that moves
     faster than the renders skips the stale states. Renders run in one worker; the slow albedo
     curves and physics checks in another, so they never hold up the next image; the
-    environment-lit spheres come pass by pass from a third, and a newer render cancels them.
+    environment-lit spheres come pass by pass from a third, and a newer render cancels them;
+    the lit objects pass by pass from a fourth, cancelled only by a render that changes what
+    they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining;
+    their next pass waits until no render has run for :data:`LIT_QUIET_SECONDS` (a slider
+    being dragged keeps both cores for the spheres).
     """
 
     def __init__(self, session: Session, ws: WebSocket) -> None:
         self.session, self.ws = session, ws
         self.pending: dict[str, Message | None] = {"render": None, "albedo": None, "checks": None}
-        self.wakes = {"fast": asyncio.Event(), "slow": asyncio.Event(), "env": asyncio.Event()}
+        self.wakes = {k: asyncio.Event() for k in ("fast", "slow", "env", "lit")}
         self.lock = asyncio.Lock()
-        self.environment_message: Message | None = None
-        self.cancel = threading.Event()
+        self.progressive: dict[str, Message | None] = {"env": None, "lit": None}
+        self.cancels = {"env": threading.Event(), "lit": threading.Event()}
+        self.lit_shown: tuple[Any, ...] | None = None
+        self.last_render = 0.0
 
     async def serve(self) -> None:
         """Accept the socket and serve it until the page goes away."""
@@ -201,7 +213,8 @@ class _Channel:
         workers = [
             asyncio.create_task(self._work(self.wakes["fast"], ("render",))),
             asyncio.create_task(self._work(self.wakes["slow"], ("checks", "albedo"))),
-            asyncio.create_task(self._environment()),
+            asyncio.create_task(self._progressive("env", self.session.environment)),
+            asyncio.create_task(self._progressive("lit", self.session.lit)),
         ]
         try:
             await self._listen()
@@ -234,9 +247,18 @@ class _Channel:
             self.pending[message.type] = message
             self.wakes["fast" if message.type == "render" else "slow"].set()
             if message.type == "render":
-                self.cancel.set()
-                self.environment_message = message
-                self.wakes["env"].set()
+                self._restart("env", message)
+                view = message.view
+                shown = (message.entries, view.lit, view.mesh, view.azimuth, view.elevation)
+                if shown != self.lit_shown:
+                    self.lit_shown = shown
+                    self._restart("lit", message)
+
+    def _restart(self, kind: str, message: Message) -> None:
+        """Cancel the passes of ``kind`` under way and start those of ``message``."""
+        self.cancels[kind].set()
+        self.progressive[kind] = message
+        self.wakes[kind].set()
 
     async def _run(self, kind: str, message: Message) -> Any:
         """The reply to ``message`` of ``kind`` (``None`` when a newer one made it stale); an
@@ -257,7 +279,12 @@ class _Channel:
                 message, self.pending[kind] = self.pending[kind], None
                 if message is None:
                     continue
+                rendering = kind == "render"
+                if rendering:
+                    self.last_render = time.monotonic()
                 result = await self._run(kind, message)
+                if rendering:
+                    self.last_render = time.monotonic()
                 if result is not None:
                     await self._reply([result])
                 if kind == "render" and result is not None:
@@ -266,17 +293,22 @@ class _Channel:
                 if any(self.pending[k] is not None for k in kinds):
                     wake.set()
 
-    async def _environment(self) -> None:
-        """The environment-lit spheres, pass by pass; a newer render cancels the old one."""
+    async def _progressive(
+        self, kind: str, passes_of: Callable[[Message, threading.Event], Any]
+    ) -> None:
+        """The images of ``kind`` (``env``, ``lit``) pass by pass from ``passes_of``; a newer
+        message of that kind cancels the old one."""
         while True:
-            await self.wakes["env"].wait()
-            self.wakes["env"].clear()
-            message, self.environment_message = self.environment_message, None
+            await self.wakes[kind].wait()
+            self.wakes[kind].clear()
+            message, self.progressive[kind] = self.progressive[kind], None
             if message is None:
                 continue
-            cancel = self.cancel = threading.Event()
-            passes = self.session.environment(message, cancel)
+            cancel = self.cancels[kind] = threading.Event()
+            passes = passes_of(message, cancel)
             while not cancel.is_set():
+                while kind == "lit" and time.monotonic() - self.last_render < LIT_QUIET_SECONDS:
+                    await asyncio.sleep(LIT_QUIET_SECONDS)
                 step = functools.partial(next, passes, None)
                 result = await asyncio.to_thread(guarded, message.seq, step)
                 if result is None or cancel.is_set():

@@ -1,8 +1,9 @@
 """One explorer session: the BRDFs it may show, and the replies to the front end's messages.
 
 A :class:`Session` is shared by the web server and the notebook widget; it reads only the files
-it is given (:meth:`Session.add_file`, the command line) or that are uploaded
-(:meth:`Session.add_upload`, written into a temporary folder the session owns and removes).
+it is given (:meth:`Session.add_file`, :meth:`Session.add_mesh`, the command line) or that are
+uploaded (:meth:`Session.add_upload`, written into a temporary folder the session owns and
+removes): measured BRDFs, and meshes for the lit-object view (besides the bundled ones).
 Every reply is ``(header, arrays)``: :mod:`brdfkit.explore.protocol` frames it.
 """
 
@@ -30,6 +31,9 @@ from brdfkit.errors import BrdfkitError, FormatError, ResourceError
 from brdfkit.explore import views
 from brdfkit.explore.model_tree import brdf_of, controls_of, tree_of
 from brdfkit.explore.protocol import Entry, Message, ProtocolError, array_table
+from brdfkit.render.bundled_meshes import BUNDLED_MESHES, BUNDLED_PREFIX, load_mesh, object_bounds
+from brdfkit.render.mesh import MESH_SUFFIXES, MeshScene
+from brdfkit.render.passes import Pass
 
 MEASURED_SUFFIXES = (".binary", ".bsdf", ".brdf")
 """Files the explorer reads as measured BRDFs (MERL, RGL, Cornell), with
@@ -40,6 +44,10 @@ MAX_UPLOAD_BYTES = 64 << 20
 
 MAX_FILES = 32
 """The most files one session holds."""
+
+MAX_MESH_FACES = 2_000_000
+"""The most triangles of a mesh the lit-object view reads (Embree's structure and the mesh's
+arrays then take some 200 MB)."""
 
 MAX_FIT_BYTES = 1 << 20
 """The largest ``fit.json`` (:command:`brdfkit fit`'s result) the explorer reads."""
@@ -96,6 +104,7 @@ class Session:
         self.envmap_name = path.name
         self._paths: dict[str, Path] = {}
         self._brdfs: dict[str, BRDF] = {}
+        self._meshes: dict[str, MeshScene] = {}
         self._cache: OrderedDict[str, BRDF] = OrderedDict()
         self._albedo: OrderedDict[str, tuple[np.ndarray, ...]] = OrderedDict()
         self._views: OrderedDict[tuple[Any, ...], tuple[np.ndarray, ...]] = OrderedDict()
@@ -131,12 +140,53 @@ class Session:
             self._paths[key], self._brdfs[key] = path, brdf
         return key
 
+    @property
+    def meshes(self) -> list[str]:
+        """The meshes the lit-object view may show: the bundled ones, then the files given."""
+        return [BUNDLED_PREFIX + name for name in BUNDLED_MESHES] + list(self._meshes)
+
+    def add_mesh(self, path: str | os.PathLike, name: str | None = None) -> str:
+        """Read the mesh at ``path`` now (its errors propagate; at most :data:`MAX_MESH_FACES`
+        triangles) and return its name."""
+        path = Path(path)
+        if path.suffix.lower() not in MESH_SUFFIXES:
+            raise FormatError(path, f"must end in one of {', '.join(MESH_SUFFIXES)}")
+        if len(self._meshes) >= MAX_FILES:
+            raise ProtocolError(f"a session holds at most {MAX_FILES} meshes")
+        scene = load_mesh(path)
+        if len(scene.faces) > MAX_MESH_FACES:
+            raise FormatError(
+                path, f"holds {len(scene.faces)} triangles; the explorer reads {MAX_MESH_FACES}"
+            )
+        base = name or path.name
+        with self._lock:
+            key, n = base, 1
+            while key in self._meshes or key.startswith(BUNDLED_PREFIX):
+                n += 1
+                key = f"{Path(base).stem}-{n}{Path(base).suffix}"
+            self._meshes[key] = scene
+        return key
+
+    def mesh(self, name: str) -> tuple[MeshScene, tuple[float, ...]]:
+        """The mesh named ``name`` (``bundled:NAME`` or a file given) and the bounding box the
+        camera frames (a bundled object's, its ground left out), least corner first."""
+        if name.startswith(BUNDLED_PREFIX) and name[len(BUNDLED_PREFIX) :] in BUNDLED_MESHES:
+            bounds = object_bounds(name[len(BUNDLED_PREFIX) :])
+            return load_mesh(name), tuple(bounds.ravel().tolist())
+        if name not in self._meshes:
+            raise ProtocolError(f"view.mesh: no mesh named {name[:60]!r} in this session")
+        scene = self._meshes[name]
+        low, high = scene.vertices.min(axis=0), scene.vertices.max(axis=0)
+        return scene, (*low.tolist(), *high.tolist())
+
     def add_upload(self, name: str, data: bytes) -> str:
-        """Write uploaded bytes into the session's own folder, read them, return the name."""
+        """Write uploaded bytes into the session's own folder, read them (a measured BRDF, or
+        a mesh by its suffix: :attr:`meshes`), return the name."""
         suffix = Path(name).suffix.lower()
-        if suffix not in MEASURED_SUFFIXES:
+        if suffix not in MEASURED_SUFFIXES + MESH_SUFFIXES:
             raise ProtocolError(
-                f"uploaded file {name[:60]!r} must end in one of {', '.join(MEASURED_SUFFIXES)}"
+                f"uploaded file {name[:60]!r} must end in one of "
+                f"{', '.join(MEASURED_SUFFIXES + MESH_SUFFIXES)}"
             )
         if len(data) > MAX_UPLOAD_BYTES:
             raise ProtocolError(
@@ -148,8 +198,9 @@ class Session:
                 self._uploads = Path(tempfile.mkdtemp(prefix="brdfkit-explore-"))
             path = self._uploads / f"{next(self._upload_numbers)}-{safe}"
         path.write_bytes(data)
+        add = self.add_mesh if suffix in MESH_SUFFIXES else self.add_file
         try:
-            return self.add_file(path, name=safe)
+            return add(path, name=safe)
         except BrdfkitError as error:
             path.unlink()
             if isinstance(error, FormatError):  # named as the page knows it, not our path
@@ -354,19 +405,14 @@ class Session:
                 runs.append((entry.id, passes))
                 diffuse = views.diffuse_term(brdf, self.envmap, resolution)
                 if diffuse is not None and not cancel.is_set():
-                    yield self._env_reply(message, entry.id, diffuse, 0, start, None)
-        while runs and not cancel.is_set():
-            for run in list(runs):
-                entry_id, passes = run
-                p = next(passes, None)
-                if p is None or cancel.is_set():
-                    runs.remove(run)
-                    continue
-                noise = views.relative_noise(p, mask)
-                yield self._env_reply(message, entry_id, p.image, p.samples, start, noise)
+                    yield self._pass_reply("env", message, entry.id, diffuse, 0, start, None)
+        for entry_id, p in _interleaved(runs, cancel):
+            noise = views.relative_noise(p, mask)
+            yield self._pass_reply("env", message, entry_id, p.image, p.samples, start, noise)
 
-    def _env_reply(
+    def _pass_reply(
         self,
+        kind: str,
         message: Message,
         entry_id: str,
         image: np.ndarray,
@@ -374,9 +420,11 @@ class Session:
         start: float,
         noise: float | None,
     ) -> Reply:
+        """A progressive view's image: ``kind`` ``"env"`` (the environment-lit sphere) or
+        ``"lit"`` (the lit object, with its mesh and camera)."""
         image = image.astype(np.float32)
         header = {
-            "type": "env",
+            "type": kind,
             "seq": message.seq,
             "id": entry_id,
             "samples": samples,
@@ -385,7 +433,41 @@ class Session:
             "map": self.envmap_name,
             "arrays": array_table([image])[0],
         }
+        if kind == "lit":
+            view = message.view
+            header |= {"mesh": view.mesh, "azimuth": view.azimuth, "elevation": view.elevation}
         return header, [image]
+
+    def lit(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
+        """The lit object of each visible entry (:func:`~brdfkit.explore.views.lit_passes`:
+        the view's mesh under the environment map, with shadows, seen by the orbiting camera),
+        pass by pass (the entries' passes interleaved), until ``cancel`` is set or every image
+        has its :data:`~brdfkit.explore.views.LIT_MAX_SAMPLES`. Nothing unless ``view.lit``.
+
+        Raises
+        ------
+        ProtocolError
+            For a mesh the session does not hold (at the first pass).
+        """
+        view = message.view
+        if not view.lit:
+            return
+        start = time.perf_counter()
+        scene, bounds = self.mesh(view.mesh)
+        g = views.lit_gbuffer(scene, bounds, view.azimuth, view.elevation)
+        runs = []
+        for entry in message.entries:
+            if not entry.visible:
+                continue
+            try:
+                brdf, _ = self.brdf(entry)
+            except (BrdfkitError, ValueError):
+                continue
+            if brdf.channels in (1, self.envmap.channels):
+                runs.append((entry.id, views.lit_passes(brdf, scene, g, self.envmap, cancel)))
+        for entry_id, p in _interleaved(runs, cancel):
+            noise = views.relative_noise(p, g.mask)
+            yield self._pass_reply("lit", message, entry_id, p.image, p.samples, start, noise)
 
     def warm_up(self, specs: list[str]) -> None:
         """Build, before the page asks, what the environment-lit sphere of ``specs`` needs:
@@ -432,6 +514,21 @@ class Session:
             works = [partial(self.render, message), partial(self.albedo, message)]
         replies = [guarded(message.seq, work) for work in works]
         return [r for r in replies if r is not None]
+
+
+def _interleaved(
+    runs: list[tuple[str, Iterator[Pass]]], cancel: threading.Event
+) -> Iterator[tuple[str, Pass]]:
+    """``(id, pass)`` of each run in turn, one pass each, until all end or ``cancel`` is set."""
+    runs = list(runs)
+    while runs and not cancel.is_set():
+        for run in list(runs):
+            entry_id, passes = run
+            p = next(passes, None)
+            if p is None or cancel.is_set():
+                runs.remove(run)
+                continue
+            yield entry_id, p
 
 
 def error_reply(seq: int, error: Exception | str) -> Reply:
@@ -499,6 +596,7 @@ __all__ = [
     "MAX_CACHED_BYTES",
     "MAX_ENTRY_VALUES",
     "MAX_FIT_BYTES",
+    "MAX_MESH_FACES",
     "MAX_UPLOAD_BYTES",
     "MEASURED_SUFFIXES",
     "Session",

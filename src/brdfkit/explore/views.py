@@ -6,6 +6,11 @@ normal). The lit sphere is :func:`brdfkit.render.shade` of a unit sphere under a
 :data:`LOCAL_TO_WORLD`: the frame at the sphere's centre pixel, whose normal faces the default
 camera, so that the sphere's centre sees the BRDF at exactly (θi, φi) with ``wo`` = the normal.
 
+The lit object is a mesh (:mod:`brdfkit.render.bundled_meshes` or a file) under the environment
+map in Mitsuba 3's frame, with shadows (:func:`brdfkit.render.mesh.render_mesh`'s G-buffer and
+visibility), refined in progressive passes (:func:`lit_passes`), seen by an orbiting camera
+(:func:`orbit_camera`: azimuth and elevation about the object's centre, +y up).
+
 References
 ----------
 .. [1] S. Rusinkiewicz, "A new change of variables for efficient BRDF representation", EGWR 1998
@@ -29,6 +34,8 @@ from brdfkit.brdf.base import BRDF
 from brdfkit.geometry import from_half_diff, spherical_to_cartesian
 from brdfkit.light.analytic import DirectionalLight
 from brdfkit.light.environment import EnvironmentMap
+from brdfkit.render.mesh import MeshGBuffer, MeshScene
+from brdfkit.render.mitsuba_frame import look_at_camera, mitsuba_oriented
 from brdfkit.render.passes import Pass, progressive
 from brdfkit.render.reflection_equation import (
     delta_radiance,
@@ -36,7 +43,7 @@ from brdfkit.render.reflection_equation import (
     local_frames,
     split_diffuse,
 )
-from brdfkit.render.scene import GBuffer, Sphere, gbuffer
+from brdfkit.render.scene import Camera, GBuffer, Sphere, gbuffer
 
 LOCAL_TO_WORLD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Columns: the local x, y, z axes in the world of :mod:`brdfkit.render` (local z, the normal at
@@ -57,6 +64,22 @@ ENV_MAX_SAMPLES = 1024
 ALBEDO_ANGLES = 16
 ALBEDO_SAMPLES = 1024
 
+LIT_RESOLUTION = 128
+"""Pixels per side of the lit-object image."""
+
+LIT_MAX_SAMPLES = 64
+"""Samples per pixel at which the lit object stops refining."""
+
+LIT_FOV = 40.0
+"""The orbiting camera's horizontal field of view, degrees."""
+
+ELEVATION_RANGE = (-30.0, 89.0)
+"""The orbiting camera's elevation above the horizontal plane, degrees (at 90 the look-at's up
+would be parallel to the view)."""
+
+DEFAULT_MESH = "bundled:shaderball"
+"""The mesh the lit-object view opens with."""
+
 
 @dataclass(frozen=True)
 class ViewState:
@@ -76,6 +99,10 @@ class ViewState:
     resolution: int = 256
     irradiance: float = math.pi
     envmap: bool = False
+    lit: bool = False
+    mesh: str = DEFAULT_MESH
+    azimuth: float = 30.0
+    elevation: float = 25.0
 
     def wi(self) -> np.ndarray:
         """The incident direction (local), ``(3,)``."""
@@ -185,6 +212,77 @@ def relative_noise(p: Pass, mask: np.ndarray) -> float:
     return float(np.sqrt(np.mean(error[mask] ** 2)) / mean)
 
 
+def orbit_camera(
+    bounds: np.ndarray, azimuth: float, elevation: float, resolution: int = LIT_RESOLUTION
+) -> Camera:
+    """A :data:`LIT_FOV` camera in Mitsuba's frame looking at the centre of ``bounds``
+    (``(2, 3)``: least and greatest corner) from ``azimuth`` degrees about +y (0: from +z) and
+    ``elevation`` degrees above the horizontal, far enough that the box's bounding sphere fits
+    the view.
+
+    Examples
+    --------
+    >>> box = np.array([[-1.0, 0.0, -1.0], [1.0, 2.0, 1.0]])
+    >>> camera = orbit_camera(box, azimuth=0.0, elevation=0.0)
+    >>> camera.position.round(3).tolist(), camera.rotation[:, 2].round(3).tolist()
+    ([0.0, 1.0, 5.064], [0.0, 0.0, 1.0])
+    """
+    low, high = np.asarray(bounds, dtype=float)
+    centre, radius = (low + high) / 2, max(float(np.linalg.norm(high - low)) / 2, 1e-6)
+    distance = radius / math.sin(math.radians(LIT_FOV) / 2)
+    a, e = math.radians(azimuth), math.radians(elevation)
+    offset = np.array([math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a)])
+    return look_at_camera(
+        centre + distance * offset, centre, (0, 1, 0), fov=LIT_FOV, size=(resolution, resolution)
+    )
+
+
+@lru_cache(maxsize=8)
+def lit_gbuffer(
+    scene: MeshScene,
+    bounds: tuple[float, ...],
+    azimuth: float,
+    elevation: float,
+    resolution: int = LIT_RESOLUTION,
+) -> MeshGBuffer:
+    """The G-buffer of ``scene`` seen by :func:`orbit_camera` (``bounds``: the box's six
+    numbers, least corner first), cached: the BRDFs change more often than the camera."""
+    camera = orbit_camera(np.reshape(bounds, (2, 3)), azimuth, elevation, resolution)
+    return scene.gbuffer(camera, resolution)
+
+
+def lit_passes(
+    brdf: BRDF,
+    scene: MeshScene,
+    g: MeshGBuffer,
+    envmap: EnvironmentMap,
+    cancel: threading.Event | None = None,
+    max_samples: int = LIT_MAX_SAMPLES,
+) -> Iterator[Pass]:
+    """The lit object: ``scene``'s G-buffer ``g`` under ``envmap`` (turned into Mitsuba's
+    frame, :func:`~brdfkit.render.mitsuba_frame.mitsuba_oriented`) with shadows
+    (:meth:`~brdfkit.render.mesh.MeshScene.visibility`), refined progressively
+    (:func:`brdfkit.render.progressive`, default seed and Sobol' replicates: the same passes as
+    that call in any process), stopping when ``cancel`` is set.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> from brdfkit.render.bundled_meshes import load_mesh, object_bounds
+    >>> scene = load_mesh("bundled:knot")
+    >>> g = lit_gbuffer(scene, tuple(object_bounds("knot").ravel()), 30.0, 25.0, 16)
+    >>> white = EnvironmentMap(np.ones((8, 16, 1)))
+    >>> first = next(lit_passes(parse("lambertian(rho=0.5)"), scene, g, white))
+    >>> first.samples, first.image.shape, bool(0 < first.image[g.mask].mean() <= 0.5)
+    (2, (16, 16, 1), True)
+    """
+    light = mitsuba_oriented(envmap)
+    visibility = scene.visibility(g)
+    return progressive(
+        g, brdf, light, max_samples=max_samples, cancel=cancel, visibility=visibility
+    )
+
+
 def _eval(brdf: BRDF, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
     """f as float64 ``(..., C)``; 0 where a direction lies at or below the :data:`HORIZON`."""
     wi, wo = np.broadcast_arrays(wi, wo)
@@ -266,8 +364,13 @@ __all__ = [
     "ALBEDO_ANGLES",
     "ALBEDO_SAMPLES",
     "CURVE_SAMPLES",
+    "DEFAULT_MESH",
+    "ELEVATION_RANGE",
     "ENV_MAX_SAMPLES",
     "HORIZON",
+    "LIT_FOV",
+    "LIT_MAX_SAMPLES",
+    "LIT_RESOLUTION",
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
     "SLICE_RESOLUTION",
@@ -278,7 +381,10 @@ __all__ = [
     "environment_passes",
     "half_diff_slice",
     "incidence_plane",
+    "lit_gbuffer",
+    "lit_passes",
     "lobe",
+    "orbit_camera",
     "relative_noise",
     "sphere",
     "sphere_disk",

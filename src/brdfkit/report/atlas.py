@@ -2,10 +2,11 @@
 
 Each card shows the model's docstring typeset by docutils (its formulas as MathML, parameters
 and citations), a row of spheres across its example parameters under a directional light and
-under an environment map, a lobe plot, the directional albedo curves, and the physics checks
-(reciprocity, energy, isotropy, sampling) as pass/fail with their numbers, set against what the
-model claims. Images are embedded as base64 PNG and browsers draw MathML natively, so the page
-opens from disk with no server, script or network.
+under an environment map, optionally (``objects``) the representative example on a bundled
+object under the map with shadows (:func:`object_image`), a lobe plot, the directional albedo
+curves, and the physics checks (reciprocity, energy, isotropy, sampling) as pass/fail with
+their numbers, set against what the model claims. Images are embedded as base64 PNG and
+browsers draw MathML natively, so the page opens from disk with no server, script or network.
 
 References
 ----------
@@ -342,6 +343,40 @@ def env_sphere(
     return shaded.image, shaded.samples
 
 
+OBJECT_MESH = "shaderball"
+"""The bundled mesh of the cards' object images (:mod:`brdfkit.render.bundled_meshes`)."""
+
+OBJECT_CAMERA = ((1.6, 2.1, 2.8), (0.0, 0.6, 0.0), (0.0, 1.0, 0.0))
+"""The object image's look-at camera (origin, target, up) in Mitsuba's frame, 40° wide."""
+
+OBJECT_SAMPLES = 4
+"""Samples per pixel of a card's object image."""
+
+
+def object_image(
+    model: BRDF, envmap, resolution: int = 96, samples: int = OBJECT_SAMPLES
+) -> np.ndarray:
+    """``model`` on the bundled :data:`OBJECT_MESH` over its ground, under ``envmap`` in
+    Mitsuba's frame with shadows (:func:`brdfkit.render.mesh.render_mesh`, ``samples`` spp,
+    seed 0), seen by :data:`OBJECT_CAMERA`: linear ``(R, R, C)``.
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import Lambertian
+    >>> from brdfkit.light import EnvironmentMap
+    >>> image = object_image(Lambertian(rho=0.5), EnvironmentMap(np.ones((8, 16, 1))), 8, 2)
+    >>> image.shape, bool(0 < image.mean() < 0.5)  # ρ = 0.5 where nothing occludes the sky
+    ((8, 8, 1), True)
+    """
+    from brdfkit.render.bundled_meshes import bundled_scene
+    from brdfkit.render.mesh import render_mesh
+    from brdfkit.render.mitsuba_frame import look_at_camera, mitsuba_oriented
+
+    camera = look_at_camera(*OBJECT_CAMERA, fov=40.0, size=(resolution, resolution))
+    scene = bundled_scene(OBJECT_MESH)
+    return render_mesh(scene, model, mitsuba_oriented(envmap), camera, resolution, samples=samples)
+
+
 def _sphere_row(images: Sequence[np.ndarray], resolution: int) -> np.ndarray:
     from brdfkit.plot import encode_spheres
 
@@ -363,10 +398,12 @@ def build_card(
     noise: float | None = ENV_NOISE,
     max_samples: int = ENV_MAX_SAMPLES,
     run_checks: bool = True,
+    objects: bool = False,
 ) -> Card:
     """Render and measure one model family (its example instances) into a :class:`Card`:
     spheres under a directional light at ``samples`` spp, under ``envmap`` by
-    :func:`env_sphere` (``samples``, ``noise``, ``max_samples``); the CPU seconds of each part
+    :func:`env_sphere` (``samples``, ``noise``, ``max_samples``), with ``objects`` the
+    representative example on an object (:func:`object_image`); the CPU seconds of each part
     go to ``cpu_seconds`` (and of each environment-lit sphere to ``env_cpu_seconds``)."""
     from brdfkit.checks.properties import check
     from brdfkit.light.analytic import DirectionalLight
@@ -400,6 +437,11 @@ def build_card(
     )
     lap("environment spheres")
     representative = models[len(models) // 2]
+    if objects:
+        image = object_image(representative, envmap, resolution)
+        caption = f"{OBJECT_MESH} under the environment map, shadows ({OBJECT_SAMPLES} spp)"
+        card.images[caption] = _image_png(_sphere_row([image], resolution))
+        lap("object")
     # the lobe plot's decorations are fixed (no radial tick labels); the albedo plot's y
     # tick labels follow its y limits
     card.images["lobe (plane of incidence)"] = _png(
@@ -725,6 +767,10 @@ def _build_cards(
     importer.start()
     _ = options["envmap"].irradiance_table  # built once here, inherited by the workers
     importer.join()
+    if options.get("objects"):  # the mesh made once here (NumPy); each worker builds its rays
+        from brdfkit.render.bundled_meshes import bundled_scene
+
+        bundled_scene(OBJECT_MESH)
     context = multiprocessing.get_context("fork")
     results: dict[int, Card] = {}
     with ProcessPoolExecutor(
@@ -767,6 +813,7 @@ def build_atlas(
     noise: float | None = ENV_NOISE,
     max_samples: int = ENV_MAX_SAMPLES,
     run_checks: bool = True,
+    objects: bool = False,
     progress: Callable[[str, int, int], None] | None = None,
 ) -> Path:
     """Write the atlas to ``output`` (an ``.html`` file), atomically; return its path
@@ -794,7 +841,9 @@ def build_atlas(
             "noise": noise,
             "max_samples": max_samples,
         }
-        cards = _build_cards(entries, {**options, "run_checks": run_checks}, progress)
+        cards = _build_cards(
+            entries, {**options, "run_checks": run_checks, "objects": objects}, progress
+        )
     sections = [] if models else [(subsurface.TITLE, _subsurface_html())]
     page = atlas_html(cards, envmap_path.name, sections)
     return atomic_write(output, lambda tmp: tmp.write_text(page, encoding="utf-8"))
@@ -804,6 +853,9 @@ __all__ = [
     "DEFAULT_MODELS",
     "ENV_MAX_SAMPLES",
     "ENV_NOISE",
+    "OBJECT_CAMERA",
+    "OBJECT_MESH",
+    "OBJECT_SAMPLES",
     "Card",
     "atlas_html",
     "build_atlas",
@@ -812,4 +864,5 @@ __all__ = [
     "default_cards",
     "default_examples",
     "env_sphere",
+    "object_image",
 ]

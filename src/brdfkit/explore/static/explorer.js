@@ -8,7 +8,8 @@
 
 const PALETTE = ["#e6194b", "#3cb44b", "#4363d8", "#f58231", "#911eb4", "#42d4f4", "#f032e6", "#9a6324"];
 const LUMA = [0.2126, 0.7152, 0.0722];
-const DEFAULT_VIEW = { theta_i: 45, phi_i: 0, theta_h: 20, theta_d: 30, phi_d: 90, resolution: 256, irradiance: Math.PI };
+const DEFAULT_VIEW = { theta_i: 45, phi_i: 0, theta_h: 20, theta_d: 30, phi_d: 90, resolution: 256, irradiance: Math.PI, lit: false, mesh: "bundled:shaderball", azimuth: 30, elevation: 25 };
+const ELEVATION = [-30, 89];  // the orbiting camera's range, degrees (views.ELEVATION_RANGE)
 const DEFAULT_DISPLAY = { exposure: 0, gamma: "srgb", channel: "rgb", log: false, cosine: true };
 const ANGLE_SLIDERS = [
   ["theta_i", "θi", 0, 89.9], ["phi_i", "φi", -180, 180],
@@ -217,7 +218,8 @@ function polarPlot(canvas, series, thetaI, log) {
   ctx.fillText(`max ${rmax.toPrecision(3)}${log ? " (log₁₀(1+·))" : ""}`, 4, 12);
 }
 
-// A wireframe of the 3D lobe r(wo)·wo, rotated by yaw/pitch, orthographic.
+// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each grid
+// cell a quad lit from the viewer's upper left (|n·l|, both sides), drawn far to near.
 function lobePlot(canvas, meshes, wi, rot) {
   const ctx = clear(canvas);
   const W = canvas.width, H = canvas.height;
@@ -226,11 +228,11 @@ function lobePlot(canvas, meshes, wi, rot) {
   if (!(rmax > 0)) rmax = 1;
   const s = (0.42 * Math.min(W, H)) / rmax;
   const cy = Math.cos(rot.yaw), sy = Math.sin(rot.yaw), cp = Math.cos(rot.pitch), sp = Math.sin(rot.pitch);
-  const project = (x, y, z) => {
+  const turn = (x, y, z) => {
     const x1 = cy * x - sy * y, y1 = sy * x + cy * y;  // yaw about the normal
-    const y2 = cp * y1 - sp * z, z2 = sp * y1 + cp * z;  // pitch
-    return [W / 2 + s * x1, H * 0.7 - s * z2, y2];
+    return [x1, cp * y1 - sp * z, sp * y1 + cp * z];  // pitch: (right, depth, up)
   };
+  const project = (x, y, z) => { const [a, d, u] = turn(x, y, z); return [W / 2 + s * a, H * 0.7 - s * u, d]; };
   const line = (pts, color, width = 1) => {
     ctx.strokeStyle = color; ctx.lineWidth = width; ctx.beginPath();
     for (const p of pts) ctx.lineTo(p[0], p[1]);
@@ -238,17 +240,34 @@ function lobePlot(canvas, meshes, wi, rot) {
   };
   line([project(-rmax, 0, 0), project(rmax, 0, 0)], "#ccc");
   line([project(0, -rmax, 0), project(0, rmax, 0)], "#ccc");
-  line([project(0, 0, 0), project(0, 0, rmax)], "#999");
-  line([project(0, 0, 0), project(wi[0] * rmax, wi[1] * rmax, wi[2] * rmax)], "#e0a000", 2);
+  const light = [-0.4, -0.6, 0.7], norm = Math.hypot(...light);
+  const quads = [];
   for (const m of meshes) {
     const [T, P] = m.shape;
-    const point = (t, p) => {
+    const rgb = [1, 3, 5].map((i) => parseInt(m.color.slice(i, i + 2), 16));
+    const at = (t, p) => {
       const th = (t / (T - 1)) * (Math.PI / 2), ph = (p / (P - 1)) * 2 * Math.PI, r = m.r[t * P + p];
-      return project(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
+      return turn(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
     };
-    for (let t = 1; t < T; t += 2) line(Array.from({ length: P }, (_, p) => point(t, p)), m.color + "aa");
-    for (let p = 0; p < P - 1; p += 3) line(Array.from({ length: T }, (_, t) => point(t, p)), m.color + "aa");
+    for (let t = 0; t < T - 1; t++) for (let p = 0; p < P - 1; p++) {
+      const c = [at(t, p), at(t, p + 1), at(t + 1, p + 1), at(t + 1, p)];
+      const e1 = c[2].map((v, k) => v - c[0][k]), e2 = c[3].map((v, k) => v - c[1][k]);
+      const n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+      const length = Math.hypot(...n);
+      const shade = length > 0 ? 0.3 + 0.7 * Math.abs(n[0] * light[0] + n[1] * light[1] + n[2] * light[2]) / (length * norm) : 0.3;
+      const depth = (c[0][1] + c[1][1] + c[2][1] + c[3][1]) / 4;
+      quads.push({ depth, fill: `rgb(${rgb.map((v) => Math.round(v * shade)).join(",")})`, pts: c.map(([a, , u]) => [W / 2 + s * a, H * 0.7 - s * u]) });
+    }
   }
+  quads.sort((a, b) => b.depth - a.depth);
+  for (const q of quads) {
+    ctx.fillStyle = q.fill; ctx.strokeStyle = q.fill; ctx.lineWidth = 0.5;
+    ctx.beginPath();
+    for (const p of q.pts) ctx.lineTo(p[0], p[1]);
+    ctx.closePath(); ctx.fill(); ctx.stroke();
+  }
+  line([project(0, 0, 0), project(0, 0, rmax)], "#999");
+  line([project(0, 0, 0), project(wi[0] * rmax, wi[1] * rmax, wi[2] * rmax)], "#e0a000", 2);
 }
 
 // A perceptual-ish colour map (dark purple → orange → yellow) for the θh × θd slice.
@@ -268,7 +287,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, env: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -288,9 +307,9 @@ export function createExplorer(root, transport, config = {}) {
   fileSelect.addEventListener("change", () => { if (fileSelect.value) addEntry({ file: fileSelect.value }); fileSelect.value = ""; });
   side.append(el("h3", { textContent: "BRDFs" }), entryList, addSpec, fileSelect);
   if (transport.upload) {
-    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json" });
+    const picker = el("input", { type: "file", className: "bx-upload", accept: ".binary,.bsdf,.brdf,.json,.obj,.ply,.stl,.gltf,.glb" });
     picker.addEventListener("change", async () => { for (const f of picker.files) await uploadFile(f); picker.value = ""; });
-    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell or fit.json: " }, [picker]));
+    side.append(el("label", { className: "bx-upload-label", textContent: "upload (or drop) MERL/RGL/Cornell, fit.json or a mesh (OBJ/PLY/STL/glTF): " }, [picker]));
     root.addEventListener("dragover", (e) => e.preventDefault());
     root.addEventListener("drop", async (e) => { e.preventDefault(); for (const f of e.dataTransfer.files) await uploadFile(f); });
   }
@@ -330,6 +349,22 @@ export function createExplorer(root, transport, config = {}) {
     inputs.envmap = { check: c };
     globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: `environment map (${config.envmap})` })]));
   }
+  {
+    const c = el("input", { type: "checkbox", checked: !!state.view.lit, className: "bx-lit" });
+    c.addEventListener("change", () => { state.view.lit = c.checked; changed(); });
+    inputs.lit = { check: c };
+    globals.append(el("label", { className: "bx-row" }, [c, el("span", { textContent: "lit object (environment map, shadows)" })]));
+  }
+  const meshSelect = el("select", { className: "bx-mesh" });
+  const refreshMeshes = (meshes) => {
+    meshSelect.replaceChildren(...meshes.map((m) => el("option", { value: m, textContent: m })));
+    meshSelect.value = state.view.mesh || meshes[0] || "";
+  };
+  if (config.meshes && config.meshes.length && !config.meshes.includes(state.view.mesh)) state.view.mesh = config.meshes[0];
+  refreshMeshes(config.meshes || []);
+  meshSelect.addEventListener("change", () => { state.view.mesh = meshSelect.value; changed(); });
+  inputs.mesh = { select: meshSelect };
+  globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: "mesh" }), meshSelect]));
   check("log", "log-scale plots");
   check("cosine", "multiply by cos θ (lobe, polar, θv)");
   const exports = el("div", { className: "bx-exports" }, [
@@ -361,12 +396,14 @@ export function createExplorer(root, transport, config = {}) {
   };
   const sphereGroup = group("spheres", "lit spheres, directional light (drag to move it); last: |first − second|");
   const envGroup = group("envs", "lit spheres, environment map (refined progressively)");
-  const spheres = sphereGroup.body, envPanel = envGroup.body;
+  const litGroup = group("lits", "lit objects, environment map with shadows (drag to orbit; refined progressively); last: |first − second|");
+  const spheres = sphereGroup.body, envPanel = envGroup.body, litPanel = litGroup.body;
   const envs = new Map();  // id → {canvas, caption, data, size, C}
+  const lits = new Map();  // id → {canvas, caption, data, size, C, header}
   const sliceGroup = group("slices", "θh × θd slices (log)");
   const slices = sliceGroup.body;
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
-  const lobe = panel("lobe", "3D lobe (drag to rotate)", 360, 300);
+  const lobe = panel("lobe", "3D lobe, shaded surface (drag to rotate)", 360, 300);
   const curves = {
     theta_v: panel("theta_v", "θv curve (plane of incidence)", 360, 180),
     theta_h: panel("theta_h", "θh curve (at θd, φd)", 360, 180),
@@ -376,7 +413,7 @@ export function createExplorer(root, transport, config = {}) {
   const checksBox = el("div", { className: "bx-panel bx-checks" }, [el("div", { className: "bx-title", textContent: "physics checks" })]);
   const checksBody = el("div", { className: "bx-checks-body", textContent: "select a BRDF's “check” button" });
   checksBox.append(checksBody);
-  mainPane.append(sphereGroup.box, envGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
+  mainPane.append(sphereGroup.box, envGroup.box, litGroup.box, polar.box, lobe.box, ...Object.values(curves).map((c) => c.box), sliceGroup.box, checksBox);
 
   let drag = null;
   lobe.canvas.addEventListener("pointerdown", (e) => { drag = { x: e.clientX, y: e.clientY }; lobe.canvas.setPointerCapture(e.pointerId); });
@@ -455,6 +492,11 @@ export function createExplorer(root, transport, config = {}) {
         pick.addEventListener("input", () => { const v = rgbOf(pick.value); text.value = JSON.stringify(v); set(v); });
         text.addEventListener("change", () => { const v = parseText(text.value); if (Array.isArray(v)) pick.value = hexOf(v); set(v); });
         widget = [pick, text];
+      } else if (c.kind === "choice") {
+        const menu = el("select", { className: "bx-choice" }, c.options.map((o) => el("option", { value: o, textContent: o })));
+        menu.value = value;
+        menu.addEventListener("change", () => set(menu.value));
+        widget = [menu];
       } else if (c.kind === "bool") {
         const box = el("input", { type: "checkbox", checked: !!value });
         box.addEventListener("change", () => set(box.checked));
@@ -506,6 +548,8 @@ export function createExplorer(root, transport, config = {}) {
       redraw();
     } else if (header.type === "env") {
       showEnv(header, arrays[0]);
+    } else if (header.type === "lit") {
+      showLit(header, arrays[0]);
     } else if (header.type === "checks") {
       showChecks(header);
     } else if (header.type === "error") {
@@ -568,6 +612,70 @@ export function createExplorer(root, transport, config = {}) {
     envGroup.box.hidden = !shown.length;
   }
 
+  // ---- the lit object: one canvas per BRDF (and the difference of the first two); a drag on
+  // any of them orbits the camera
+  let litSeq = 0, orbit = null;
+  function litCanvas(id, title) {
+    const canvas = el("canvas", { className: "bx-lit-image", title });
+    canvas.dataset.id = id;
+    canvas.addEventListener("pointerdown", (e) => { orbit = { x: e.clientX, y: e.clientY }; canvas.setPointerCapture(e.pointerId); });
+    canvas.addEventListener("pointermove", (e) => {
+      if (!orbit) return;
+      const v = state.view;
+      v.azimuth = tidy(((((v.azimuth - (e.clientX - orbit.x) * 0.5) % 360) + 540) % 360) - 180);
+      v.elevation = tidy(Math.min(Math.max(v.elevation + (e.clientY - orbit.y) * 0.5, ELEVATION[0]), ELEVATION[1]));
+      orbit = { x: e.clientX, y: e.clientY };
+      api.orbited = performance.now();
+      changed();
+    });
+    canvas.addEventListener("pointerup", () => { orbit = null; });
+    return canvas;
+  }
+  function showLit(header, data) {
+    if (header.seq < litSeq) return;  // a pass of a cancelled view
+    litSeq = header.seq;
+    let item = lits.get(header.id);
+    if (!item) {
+      const canvas = litCanvas(header.id, "lit object: drag to orbit");
+      const caption = el("div", { className: "bx-caption" });
+      item = { canvas, caption, box: el("div", { className: "bx-lit-box" }, [canvas, caption]) };
+      lits.set(header.id, item);
+    }
+    const size = header.arrays[0].shape[0];
+    Object.assign(item, { data, size, C: header.arrays[0].shape[2], header });
+    api.lit[header.id] = { seq: header.seq, samples: header.samples, seconds: header.seconds, noise: header.noise, mesh: header.mesh, azimuth: header.azimuth, elevation: header.elevation, time: performance.now() };
+    item.caption.textContent = `${header.samples} spp · noise ${(100 * header.noise).toFixed(1)} % · ${header.seconds.toFixed(2)} s`;
+    drawLits();
+  }
+  let litDifference = null;
+  function drawLits() {
+    const ids = visibleIds();
+    const shown = state.view.lit ? state.entries.filter((e) => ids.has(e.id) && lits.has(e.id)) : [];
+    const paint = (canvas, data, size, C) => {
+      if (canvas.width !== size) { canvas.width = size; canvas.height = size; }
+      canvas.getContext("2d").putImageData(new ImageData(toPixels(data, size, C, state.display), size, size), 0, 0);
+    };
+    for (const e of shown) {
+      const item = lits.get(e.id);
+      item.canvas.style.borderColor = e.color;
+      paint(item.canvas, item.data, item.size, item.C);
+    }
+    const boxes = shown.map((e) => lits.get(e.id).box);
+    if (shown.length >= 2) {
+      const [a, b] = shown.map((e) => lits.get(e.id));
+      if (a.size === b.size) {
+        if (!litDifference) litDifference = { canvas: litCanvas("difference", "|first − second|: drag to orbit") };
+        const n = a.size * a.size, C = Math.max(a.C, b.C), diff = new Float32Array(n * C);
+        for (let p = 0; p < n; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+        paint(litDifference.canvas, diff, a.size, C);
+        boxes.push(litDifference.canvas);
+      }
+    }
+    const current = Array.from(litPanel.children);
+    if (current.length !== boxes.length || current.some((c, i) => c !== boxes[i])) litPanel.replaceChildren(...boxes);
+    litGroup.box.hidden = !shown.length;
+  }
+
   function showChecks(header) {
     const r = header.report;
     const rows = r.checks.map((c) => el("tr", { className: c.contradicts_claim ? "bad" : c.passed ? "ok" : "" }, [
@@ -586,6 +694,7 @@ export function createExplorer(root, transport, config = {}) {
     saveUrl();
     if (!frame) return;
     drawEnvs();
+    drawLits();
     const { header, arrays } = frame;
     const d = state.display;
     const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
@@ -730,7 +839,14 @@ export function createExplorer(root, transport, config = {}) {
     try {
       const reply = await transport.upload(file);
       if (reply.spec) addEntry({ spec: reply.spec });
-      else {
+      else if (reply.mesh) {
+        config.meshes = [...(config.meshes || []), reply.mesh];
+        state.view.mesh = reply.mesh;
+        refreshMeshes(config.meshes);
+        state.view.lit = true;
+        inputs.lit.check.checked = true;
+        changed();
+      } else {
         config.files = [...(config.files || []), reply.name];
         refreshFiles(config.files);
         addEntry({ file: reply.name });
@@ -760,6 +876,7 @@ export function createExplorer(root, transport, config = {}) {
   }
   api.addEntry = addEntry;
   api.envImage = (id) => Array.from(envs.get(id).data);
+  api.litImage = (id) => Array.from(lits.get(id).data);
   api.restore = restore;
   api.persistent = persistent;
   if (config.saved) restore(config.saved);
