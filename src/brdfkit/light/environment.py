@@ -13,7 +13,11 @@ from __future__ import annotations
 
 import copy
 import functools
+import hashlib
 import math
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -138,10 +142,19 @@ class EnvironmentMap(Light):
         """The light-sampling distribution of :meth:`sample` and :meth:`pdf`
         (:func:`_sampling_weights`), made when first needed: a map only looked up (the atlas's
         quadrature spheres, whose Monte Carlo renders sample :attr:`compensated`) never
-        pays for it."""
+        pays for it. Shared by maps of the same pixels (:func:`_content_table`)."""
         from brdfkit.sampling import Distribution2D
 
-        return Distribution2D(_sampling_weights(self.image))
+        return _content_table(
+            self._pixels_key,
+            "distribution",
+            lambda: Distribution2D(_sampling_weights(self.image)),
+        )
+
+    @functools.cached_property
+    def _pixels_key(self) -> tuple[Any, ...]:
+        """The pixels' key of :func:`_content_table`: their shape and BLAKE2b digest."""
+        return (self.image.shape, hashlib.blake2b(memoryview(self.image), digest_size=20).digest())
 
     @functools.cached_property
     def compensated(self) -> EnvironmentMap:
@@ -164,8 +177,12 @@ class EnvironmentMap(Light):
         from brdfkit.sampling import Distribution2D
 
         view = copy.copy(self)
-        weights = _sampling_weights(self.image, compensate=True)
-        object.__setattr__(view, "_distribution", Distribution2D(weights))
+        distribution = _content_table(
+            self._pixels_key,
+            "compensated",
+            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
+        )
+        view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
         return view
 
@@ -301,21 +318,42 @@ class EnvironmentMap(Light):
                environment maps", SIGGRAPH 2001 (the irradiance map; here by direct
                summation instead of spherical harmonics, which ring at a sun).
         """
-        moments, areas = _cell_moments(self.image, IRRADIANCE_CELLS)
-        rows, cols = IRRADIANCE_GRID
-        t, p = np.meshgrid(
-            np.linspace(0.0, math.pi, rows), np.arange(cols) * (2 * math.pi / cols), indexing="ij"
-        )
-        normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
-        normals = normals.reshape(-1, 3).astype(np.float32)
-        channels = moments.shape[0]
-        table = np.empty((normals.shape[0], channels))
-        for start in range(0, normals.shape[0], 512):  # ~20 MB of temporaries per block
-            n = normals[start : start + 512]
-            area = _clamped_sum(n, areas)
-            for ch in range(channels):
-                table[start : start + 512, ch] = math.pi * _clamped_sum(n, moments[ch]) / area
-        return table.reshape(rows, cols, channels).astype(np.float32)
+        return _content_table(self._pixels_key, "irradiance", lambda: _irradiance_table(self.image))
+
+
+CACHED_MAPS = 4
+"""Maps whose tables (:func:`_content_table`) a process keeps, the most recently used."""
+
+_TABLES: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
+_TABLES_LOCK = threading.Lock()
+
+
+def _content_table(key: tuple[Any, ...], name: str, build: Callable[[], Any]) -> Any:
+    """The table ``name`` of a map's pixels, made by ``build`` once per content: maps of
+    equal pixels (the same file read again, another scale or rotation) share their sampling
+    distributions and irradiance table, which depend on the pixels alone. ``key``: the
+    pixels' shape and BLAKE2b digest (``EnvironmentMap._pixels_key``); the tables of the
+    :data:`CACHED_MAPS` most recently used maps are kept."""
+    with _TABLES_LOCK:
+        tables = _TABLES.pop(key, {})
+        _TABLES[key] = tables
+        while len(_TABLES) > CACHED_MAPS:
+            _TABLES.popitem(last=False)
+    if name not in tables:  # built outside the lock: two threads may both build it
+        tables[name] = build()
+    return tables[name]
+
+
+def clear_table_cache() -> None:
+    """Forget every map's cached tables (:func:`_content_table`): the next map pays for its
+    own, as the first map a process reads does.
+
+    Examples
+    --------
+    >>> clear_table_cache()
+    """
+    with _TABLES_LOCK:
+        _TABLES.clear()
 
 
 IRRADIANCE_CELLS = (48, 96)
@@ -326,28 +364,178 @@ IRRADIANCE_GRID = (97, 192)
 """Node grid (rows with both poles, columns) of :meth:`EnvironmentMap.irradiance_table`."""
 
 
-def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    r"""Per cell of a lat-long ``image``, :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as
-    ``(C, 3, cells)`` and :math:`A_c = \sum_p \Delta\Omega_p\omega_p` as ``(3, cells)``
-    float32; pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``."""
+def _irradiance_table(image: np.ndarray) -> np.ndarray:
+    """:attr:`EnvironmentMap.irradiance_table` of a lat-long ``image`` (float32)."""
+    moments = _cell_moments(image, IRRADIANCE_CELLS)
+    rows, cols = IRRADIANCE_GRID
+    theta = np.linspace(0.0, math.pi, rows)
+    phi = np.arange(cols) * (2 * math.pi / cols)
+    sums = _clamped_sums(moments, _cell_bounds(image.shape[:2], IRRADIANCE_CELLS), theta, phi)
+    table = math.pi * sums[..., 1:] / sums[..., :1]
+    return table.reshape(rows, cols, -1).astype(np.float32)
+
+
+def _pixel_centres(count: int, span: float) -> np.ndarray:
+    """Centres of ``count`` equal pixels over [0, span]."""
+    return (np.arange(count) + 0.5) * (span / count)
+
+
+def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
+    r"""Per cell of a lat-long ``image``, :math:`A_c = \sum_p \Delta\Omega_p\omega_p` and
+    :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as ``(rows, cols, 1 + C, 3)`` float64 (A
+    first, then M per channel); pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``.
+
+    A cell's pixels are contiguous and :math:`\Delta\Omega_p\omega_p` is a product of a
+    row's and a column's factor (:math:`\Delta\Omega\sin\theta`, :math:`\Delta\Omega\cos\theta`
+    and :math:`\cos\varphi`, :math:`\sin\varphi`, 1), so the sums run over a cell's rows, then
+    its columns (``np.add.reduceat``)."""
     height, width, channels = image.shape
+    rows, cols = cells
     edges = np.arange(height + 1) * (math.pi / height)
     solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
-    theta = (np.arange(height) + 0.5) * (math.pi / height)
-    phi = (np.arange(width) + 0.5) * (2 * math.pi / width)
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    omega = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
-    weighted = (omega * solid_angle[:, None]).reshape(3, -1)  # (3, H·W)
-    rows, cols = cells
-    cell = (np.arange(height) * rows // height)[:, None] * cols + np.arange(width) * cols // width
-    cell, count = cell.ravel(), rows * cols
+    theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
+    values = np.concatenate([np.ones((height, width, 1), np.float32), image], axis=2)
 
-    def per_cell(values: np.ndarray) -> np.ndarray:
-        return np.stack([np.bincount(cell, values * w, count) for w in weighted])
+    def over_rows(factor: np.ndarray) -> np.ndarray:  # (rows, W, 1 + C) float64
+        weighted = values * (solid_angle * factor).astype(np.float32)[:, None, None]
+        return _group_sums(weighted, rows, axis=0)
 
-    radiance = image.reshape(-1, channels).astype(np.float64)
-    moments = np.stack([per_cell(radiance[:, ch]) for ch in range(channels)])
-    return moments.astype(np.float32), per_cell(np.ones(height * width)).astype(np.float32)
+    sin_rows, cos_rows = over_rows(np.sin(theta)), over_rows(np.cos(theta))
+    moments = np.empty((rows, cols, channels + 1, 3))
+    for axis, per_row in enumerate(
+        (sin_rows * np.cos(phi)[:, None], sin_rows * np.sin(phi)[:, None], cos_rows)
+    ):
+        moments[..., axis] = _group_sums(per_row, cols, axis=1)
+    return moments
+
+
+def _group_sums(values: np.ndarray, groups: int, axis: int) -> np.ndarray:
+    """Float64 sums of ``values`` along ``axis`` over ``groups`` runs of indices, index i
+    in run ``i·groups // n`` (empty runs sum to 0)."""
+    count = values.shape[axis]
+    bounds = np.searchsorted(np.arange(count) * groups // count, np.arange(groups + 1))
+    sums = np.cumsum(values, axis=axis, dtype=np.float64)
+    sums = np.concatenate([np.zeros_like(np.take(sums, [0], axis=axis)), sums], axis=axis)
+    return np.take(sums, bounds[1:], axis=axis) - np.take(sums, bounds[:-1], axis=axis)
+
+
+@dataclass(frozen=True)
+class _CellBounds:
+    """Where the pixel centres of a lat-long map's cells lie: each cell row's centre polar
+    angle ``theta`` (rows,) and chord radius ``radius`` (rows,), a bound on the distance from
+    the cell's centre direction to any of its pixel centres, and each cell column's centre
+    azimuth ``phi`` (cols,), increasing in [0, 2π)."""
+
+    theta: np.ndarray
+    radius: np.ndarray
+    phi: np.ndarray
+
+
+def _cell_bounds(shape: tuple[int, int], cells: tuple[int, int]) -> _CellBounds:
+    """:class:`_CellBounds` of the pixel centres of an ``(H, W)`` map in ``cells``."""
+    (height, width), (rows, cols) = shape, cells
+
+    def extents(count: int, groups: int, span: float) -> tuple[np.ndarray, np.ndarray]:
+        centres = _pixel_centres(count, span)
+        group = np.arange(count) * groups // count  # empty groups (zero moments) fall between
+        first = np.minimum(np.searchsorted(group, np.arange(groups)), count - 1)
+        last = np.maximum(np.searchsorted(group, np.arange(groups), side="right") - 1, 0)
+        return centres[first], centres[last]
+
+    theta_low, theta_high = extents(height, rows, math.pi)
+    phi_low, phi_high = extents(width, cols, 2 * math.pi)
+    theta, phi = (theta_low + theta_high) / 2, (phi_low + phi_high) / 2
+    half_width = np.max(phi_high - phi_low) / 2
+    # the farthest pixel centre of a cell lies at one of its corners or edge midpoints
+    corners = [(t, dp) for t in (theta_low, theta, theta_high) for dp in (0.0, half_width)]
+    radius = np.max([_chord(theta, t, dp) for t, dp in corners], axis=0)  # (rows,)
+    return _CellBounds(theta, radius * (1 + 1e-6) + 1e-12, phi)
+
+
+def _chord(theta: np.ndarray, other: np.ndarray, dphi: float) -> np.ndarray:
+    """|ω(θ, 0) − ω(θ', Δφ)|, the chord between two directions."""
+    cos_angle = np.cos(theta) * np.cos(other) + np.sin(theta) * np.sin(other) * np.cos(dphi)
+    return np.sqrt(np.maximum(2 - 2 * cos_angle, 0.0))
+
+
+def _clamped_sums(
+    moments: np.ndarray, bounds: _CellBounds, theta: np.ndarray, phi: np.ndarray
+) -> np.ndarray:
+    r""":math:`\sum_c \max(n\cdot v_c, 0)` for each vector v of the cells' ``moments``
+    ``(rows, cols, K, 3)`` and each normal n of the node grid ``theta`` × ``phi``;
+    ``(nodes, K)`` float64.
+
+    Every v_c is a non-negative sum of the cell's pixel-centre directions ω_p, so a cell
+    whose ω_p all lie above n's horizon adds n·v_c, one whose ω_p all lie below adds 0, and
+    only the cells in between need their clamped dot products. With :math:`\omega_c` the
+    cell's centre direction and ρ its chord radius, :math:`|n\cdot\omega_p - n\cdot\omega_c|
+    \le \rho`: in cell row r, :math:`n\cdot\omega_c = a + b\cos(\varphi_c - \varphi_n)`
+    (:math:`a = n_z\cos\theta_r`, :math:`b = \sin\theta_n\sin\theta_r`), so the cells above
+    form an arc of columns around :math:`\varphi_n` (summed from prefix sums) and those in
+    between two short arcs beside it. The work per normal is a few cells per row instead of
+    every cell.
+    """
+    rows, cols, k, _ = moments.shape
+    t, p = (grid.ravel() for grid in np.meshgrid(theta, phi, indexing="ij"))
+    normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+    nodes = normals.shape[0]
+    # three turns of the columns so that an arc around any φ_n ∈ [0, 2π) is one index range
+    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
+    a = np.cos(bounds.theta)[:, None] * normals[:, 2]  # (rows, nodes)
+    b = np.sin(bounds.theta)[:, None] * np.sin(t)
+    radius = bounds.radius[:, None]
+    lo_in, hi_in = _arc_indices(turns, p, _half_arc(a, b, radius), cols)
+    lo_out, hi_out = _arc_indices(turns, p, _half_arc(a, b, -radius), cols)
+    # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
+    whole = hi_out - lo_out >= cols
+    lo_out, hi_out = np.where(whole, lo_in, lo_out), np.where(whole, lo_in + cols, hi_out)
+    above = np.zeros((nodes, k, 3))
+    total = np.zeros((nodes, k))
+    normals32, moments32 = normals.astype(np.float32), moments.astype(np.float32)
+    for r in range(rows):
+        prefix = np.zeros((3 * cols + 1, k, 3))
+        np.cumsum(np.tile(moments[r], (3, 1, 1)), axis=0, out=prefix[1:])
+        above += prefix[hi_in[r]]
+        above -= prefix[lo_in[r]]
+        left, right = lo_in[r] - lo_out[r], hi_out[r] - hi_in[r]
+        count = left + right
+        node = np.repeat(np.arange(nodes), count)
+        first = np.cumsum(count) - count
+        offset = np.arange(node.size) - first[node]
+        start = np.where(offset < left[node], lo_out[r][node], (hi_in[r] - left)[node])
+        dots = np.einsum("nkj,nj->nk", moments32[r, (start + offset) % cols], normals32[node])
+        nonempty = np.flatnonzero(count)
+        total[nonempty] += np.add.reduceat(
+            np.maximum(dots, 0.0), first[nonempty], axis=0, dtype=np.float64
+        )
+    total += np.einsum("nkj,nj->nk", above, normals)
+    return total
+
+
+def _half_arc(a: np.ndarray, b: np.ndarray, level: float) -> np.ndarray:
+    """Half-width w of the arc of azimuths Δφ with a + b cos Δφ > ``level`` (b ≥ 0):
+    π for all of them, −1 for none."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        threshold = (level - a) / b
+    width = np.arccos(np.clip(threshold, -1.0, 1.0))
+    width = np.where(threshold < -1, math.pi, np.where(threshold > 1, -1.0, width))
+    flat = b <= 0  # a pole: the row is wholly on one side
+    return np.where(flat, np.where(a > level, math.pi, -1.0), width)
+
+
+def _arc_indices(
+    turns: np.ndarray, phi: np.ndarray, width: np.ndarray, cols: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Index range [lo, hi) into three turns of column azimuths ``turns`` of the columns with
+    |φ_c − φ| < ``width`` (cyclic), widened by a rounding margin; all ``cols`` columns
+    ``[cols, 2 cols)`` for a width of π, none (an empty range at φ) for a negative one."""
+    margin = 1e-9
+    lo = np.searchsorted(turns, phi - np.maximum(width, 0) - margin, side="left")
+    hi = np.searchsorted(turns, phi + width + margin, side="right")
+    centre = np.searchsorted(turns, phi, side="left")
+    lo, hi = np.where(width < 0, centre, lo), np.where(width < 0, centre, np.minimum(hi, lo + cols))
+    full = width >= math.pi
+    return np.where(full, cols, lo), np.where(full, 2 * cols, hi)
 
 
 def compiled_lookups(dtype: Any, tools: Any) -> Any:
@@ -359,12 +547,6 @@ def compiled_lookups(dtype: Any, tools: Any) -> Any:
     from brdfkit.light import _environment_kernels
 
     return _environment_kernels.lookups(np.dtype(dtype).type, tools)
-
-
-def _clamped_sum(normals: np.ndarray, vectors: np.ndarray) -> np.ndarray:
-    """Σ_c max(n·v_c, 0) for each of ``normals`` ``(N, 3)`` over ``vectors`` ``(3, cells)``."""
-    dots = normals @ vectors
-    return np.maximum(dots, 0.0, out=dots).sum(axis=1, dtype=np.float64)
 
 
 def _solid_angle_pdf(pdf_uv: Array, theta: Array) -> Array:
@@ -411,6 +593,8 @@ def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndar
 
 
 __all__ = [
+    "CACHED_MAPS",
     "EnvironmentMap",
+    "clear_table_cache",
     "compiled_lookups",
 ]
