@@ -385,38 +385,31 @@ def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
     :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as ``(rows, cols, 1 + C, 3)`` float64 (A
     first, then M per channel); pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``.
 
-    A cell's pixels are contiguous and :math:`\Delta\Omega_p\omega_p` is a product of a
-    row's and a column's factor (:math:`\Delta\Omega\sin\theta`, :math:`\Delta\Omega\cos\theta`
-    and :math:`\cos\varphi`, :math:`\sin\varphi`, 1), so the sums run over a cell's rows, then
-    its columns (``np.add.reduceat``)."""
+    :math:`\Delta\Omega_p\omega_p` is a product of a row's factor (:math:`\Delta\Omega
+    \sin\theta`, :math:`\Delta\Omega\cos\theta`) and a column's (:math:`\cos\varphi`,
+    :math:`\sin\varphi`, 1), so the sums are two matrix products: over each cell's rows with
+    the row factors, then over its columns with the column factors."""
     height, width, channels = image.shape
     rows, cols = cells
     edges = np.arange(height + 1) * (math.pi / height)
     solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
     theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
-    values = np.concatenate([np.ones((height, width, 1), np.float32), image], axis=2)
-
-    def over_rows(factor: np.ndarray) -> np.ndarray:  # (rows, W, 1 + C) float64
-        weighted = values * (solid_angle * factor).astype(np.float32)[:, None, None]
-        return _group_sums(weighted, rows, axis=0)
-
-    sin_rows, cos_rows = over_rows(np.sin(theta)), over_rows(np.cos(theta))
-    moments = np.empty((rows, cols, channels + 1, 3))
-    for axis, per_row in enumerate(
-        (sin_rows * np.cos(phi)[:, None], sin_rows * np.sin(phi)[:, None], cos_rows)
-    ):
-        moments[..., axis] = _group_sums(per_row, cols, axis=1)
-    return moments
-
-
-def _group_sums(values: np.ndarray, groups: int, axis: int) -> np.ndarray:
-    """Float64 sums of ``values`` along ``axis`` over ``groups`` runs of indices, index i
-    in run ``i·groups // n`` (empty runs sum to 0)."""
-    count = values.shape[axis]
-    bounds = np.searchsorted(np.arange(count) * groups // count, np.arange(groups + 1))
-    sums = np.cumsum(values, axis=axis, dtype=np.float64)
-    sums = np.concatenate([np.zeros_like(np.take(sums, [0], axis=axis)), sums], axis=axis)
-    return np.take(sums, bounds[1:], axis=axis) - np.take(sums, bounds[:-1], axis=axis)
+    row_cell = np.arange(height) * rows // height == np.arange(rows)[:, None]  # (rows, H)
+    col_cell = np.arange(width) * cols // width == np.arange(cols)[:, None]  # (cols, W)
+    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])  # (2, H)
+    col_factors = np.stack([np.cos(phi), np.sin(phi), np.ones(width)])  # (3, W)
+    over_rows = (row_cell * row_factors[:, None, :]).reshape(2 * rows, height)
+    per_row = over_rows.astype(np.float32) @ image.reshape(height, width * channels)
+    per_row = per_row.reshape(2, rows, width, channels).astype(np.float64)
+    area = over_rows.sum(axis=1).reshape(2, rows, 1, 1)  # the pixels' sums of a map of ones
+    per_row = np.concatenate([np.broadcast_to(area, (2, rows, width, 1)), per_row], axis=3)
+    over_cols = col_cell * col_factors[:, None, :]  # (3, cols, W)
+    sin_rows, cos_rows = per_row  # (rows, W, 1 + C)
+    sums = [
+        np.matmul(over_cols[axis], part)  # (rows, cols, 1 + C)
+        for axis, part in enumerate((sin_rows, sin_rows, cos_rows))
+    ]
+    return np.stack(sums, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -481,11 +474,14 @@ def _clamped_sums(
     nodes = normals.shape[0]
     # three turns of the columns so that an arc around any φ_n ∈ [0, 2π) is one index range
     turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
-    a = np.cos(bounds.theta)[:, None] * normals[:, 2]  # (rows, nodes)
-    b = np.sin(bounds.theta)[:, None] * np.sin(t)
+    # a and b depend on the node's θ alone: the arcs' half-widths per cell row and node row
+    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
+    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
     radius = bounds.radius[:, None]
-    lo_in, hi_in = _arc_indices(turns, p, _half_arc(a, b, radius), cols)
-    lo_out, hi_out = _arc_indices(turns, p, _half_arc(a, b, -radius), cols)
+    inner = np.repeat(_half_arc(a, b, radius), phi.size, axis=1)  # (rows, nodes)
+    outer = np.repeat(_half_arc(a, b, -radius), phi.size, axis=1)
+    lo_in, hi_in = _arc_indices(turns, p, inner, cols)
+    lo_out, hi_out = _arc_indices(turns, p, outer, cols)
     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
     whole = hi_out - lo_out >= cols
     lo_out, hi_out = np.where(whole, lo_in, lo_out), np.where(whole, lo_in + cols, hi_out)
@@ -503,7 +499,8 @@ def _clamped_sums(
         first = np.cumsum(count) - count
         offset = np.arange(node.size) - first[node]
         start = np.where(offset < left[node], lo_out[r][node], (hi_in[r] - left)[node])
-        dots = np.einsum("nkj,nj->nk", moments32[r, (start + offset) % cols], normals32[node])
+        vectors, n = moments32[r, (start + offset) % cols], normals32[node]
+        dots = vectors[..., 0] * n[:, :1] + vectors[..., 1] * n[:, 1:2] + vectors[..., 2] * n[:, 2:]
         nonempty = np.flatnonzero(count)
         total[nonempty] += np.add.reduceat(
             np.maximum(dots, 0.0), first[nonempty], axis=0, dtype=np.float64
