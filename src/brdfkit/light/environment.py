@@ -153,8 +153,8 @@ class EnvironmentMap(Light):
 
     @functools.cached_property
     def _pixels_key(self) -> tuple[Any, ...]:
-        """The pixels' key of :func:`_content_table`: their shape and BLAKE2b digest."""
-        return (self.image.shape, hashlib.blake2b(memoryview(self.image), digest_size=20).digest())
+        """The pixels' key of :func:`_content_table`: their shape and SHA-256 digest."""
+        return (self.image.shape, hashlib.sha256(memoryview(self.image)).digest())
 
     @functools.cached_property
     def compensated(self) -> EnvironmentMap:
@@ -332,7 +332,7 @@ def _content_table(key: tuple[Any, ...], name: str, build: Callable[[], Any]) ->
     """The table ``name`` of a map's pixels, made by ``build`` once per content: maps of
     equal pixels (the same file read again, another scale or rotation) share their sampling
     distributions and irradiance table, which depend on the pixels alone. ``key``: the
-    pixels' shape and BLAKE2b digest (``EnvironmentMap._pixels_key``); the tables of the
+    pixels' shape and SHA-256 digest (``EnvironmentMap._pixels_key``); the tables of the
     :data:`CACHED_MAPS` most recently used maps are kept."""
     with _TABLES_LOCK:
         tables = _TABLES.pop(key, {})
