@@ -80,3 +80,18 @@ def test_maps_of_equal_pixels_share_their_tables_and_others_do_not():
     # scale and rotation are applied on top of the shared map-frame table
     normal = np.array([[0.0, 0.0, 1.0]])
     np.testing.assert_allclose(again.irradiance(-normal), 2.0 * first.irradiance(normal), rtol=1e-6)
+
+
+def test_irradiance_of_some_normals_equals_the_lookup_in_the_whole_table():
+    """Only the table's columns the normals read are built: the values are the same."""
+    rng = np.random.default_rng(5)
+    image = rng.random((24, 48, 3))
+    normals = rng.normal(size=(200, 3))
+    normals[:, 0] = np.abs(normals[:, 0])  # one side of the map: half the columns
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    clear_table_cache()
+    partial = EnvironmentMap(image).irradiance(normals)
+    clear_table_cache()
+    whole = EnvironmentMap(image)
+    _ = whole.irradiance_table
+    np.testing.assert_array_equal(partial, whole.irradiance(normals))

@@ -283,13 +283,20 @@ class EnvironmentMap(Light):
 
         A Lambertian surface of albedo ρ under the map reflects exactly :math:`\rho E(n)/\pi`
         towards every viewer above it, with no Monte Carlo. E is read from
-        :meth:`irradiance_table` (built once per map) by bilinear interpolation.
+        :meth:`irradiance_table` by bilinear interpolation; only the table's columns that
+        ``normals`` read are built (a sphere seen from one side needs half of them).
         """
         xp = namespace(normals)
         x, y, _ = self._map_coordinates(normalize(normals))
-        table = asarray(self.irradiance_table, xp, like=normals)
-        rows, cols = table.shape[:2]
+        rows, cols = IRRADIANCE_GRID
+        nodes = self._irradiance_nodes.columns(_node_columns(to_numpy(x) * cols, cols))
+        table = asarray(nodes, xp, like=normals)
         return _bilinear(table, y * (rows - 1), x * cols) * self.scale
+
+    @functools.cached_property
+    def _irradiance_nodes(self) -> _IrradianceNodes:
+        """The map's :class:`_IrradianceNodes`, shared by maps of equal pixels."""
+        return _content_table(self._pixels_key, "irradiance", lambda: _IrradianceNodes(self.image))
 
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
@@ -318,7 +325,7 @@ class EnvironmentMap(Light):
                environment maps", SIGGRAPH 2001 (the irradiance map; here by direct
                summation instead of spherical harmonics, which ring at a sun).
         """
-        return _content_table(self._pixels_key, "irradiance", lambda: _irradiance_table(self.image))
+        return self._irradiance_nodes.columns(np.arange(IRRADIANCE_GRID[1]))
 
 
 CACHED_MAPS = 4
@@ -364,15 +371,44 @@ IRRADIANCE_GRID = (97, 192)
 """Node grid (rows with both poles, columns) of :meth:`EnvironmentMap.irradiance_table`."""
 
 
-def _irradiance_table(image: np.ndarray) -> np.ndarray:
-    """:attr:`EnvironmentMap.irradiance_table` of a lat-long ``image`` (float32)."""
-    moments = _cell_moments(image, IRRADIANCE_CELLS)
-    rows, cols = IRRADIANCE_GRID
-    theta = np.linspace(0.0, math.pi, rows)
-    phi = np.arange(cols) * (2 * math.pi / cols)
-    sums = _clamped_sums(moments, _cell_bounds(image.shape[:2], IRRADIANCE_CELLS), theta, phi)
-    table = math.pi * sums[..., 1:] / sums[..., :1]
-    return table.reshape(rows, cols, -1).astype(np.float32)
+class _IrradianceNodes:
+    """:attr:`EnvironmentMap.irradiance_table` of a lat-long ``image``, built column by column
+    as lookups need them (:meth:`columns`)."""
+
+    def __init__(self, image: np.ndarray) -> None:
+        self._image = image
+        rows, cols = IRRADIANCE_GRID
+        self._table = np.zeros((rows, cols, image.shape[2]), np.float32)
+        self._built = np.zeros(cols, bool)
+        self._lock = threading.Lock()
+        self._cells: tuple[np.ndarray, _CellBounds] | None = None
+
+    def columns(self, needed: np.ndarray) -> np.ndarray:
+        """The table, ``(97, 192, C)`` float32, with (at least) the node columns ``needed``
+        built; the others are not to be read."""
+        with self._lock:
+            missing = np.setdiff1d(needed, np.flatnonzero(self._built))
+            if missing.size:
+                if self._cells is None:
+                    shape = self._image.shape[:2]
+                    moments = _cell_moments(self._image, IRRADIANCE_CELLS)
+                    self._cells = moments, _cell_bounds(shape, IRRADIANCE_CELLS)
+                    self._image = None  # the moments are all the table needs
+                rows, cols = IRRADIANCE_GRID
+                theta = np.linspace(0.0, math.pi, rows)
+                phi = missing * (2 * math.pi / cols)
+                sums = _clamped_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
+                self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
+                self._built[missing] = True
+        return self._table
+
+
+def _node_columns(col: np.ndarray, cols: int) -> np.ndarray:
+    """The node columns a bilinear lookup at fractional columns ``col`` reads (the one at or
+    below, and the next, wrapping), unique."""
+    col = np.nan_to_num(np.asarray(col, dtype=np.float64).ravel(), nan=0.0, posinf=0.0)
+    left = np.unique(np.clip(np.floor(col), 0, cols - 1).astype(np.int64))
+    return np.union1d(left, (left + 1) % cols)
 
 
 def _pixel_centres(count: int, span: float) -> np.ndarray:
