@@ -521,27 +521,29 @@ def _clamped_sums(
     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
     whole = hi_out - lo_out >= cols
     lo_out, hi_out = np.where(whole, lo_in, lo_out), np.where(whole, lo_in + cols, hi_out)
-    above = np.zeros((nodes, k, 3))
+    above = np.zeros((nodes, 3 * k))
     total = np.zeros((nodes, k))
-    normals32, moments32 = normals.astype(np.float32), moments.astype(np.float32)
+    normals32 = normals.astype(np.float32)
     for r in range(rows):
-        prefix = np.zeros((3 * cols + 1, k, 3))
-        np.cumsum(np.tile(moments[r], (3, 1, 1)), axis=0, out=prefix[1:])
-        above += prefix[hi_in[r]]
-        above -= prefix[lo_in[r]]
-        left, right = lo_in[r] - lo_out[r], hi_out[r] - hi_in[r]
-        count = left + right
-        node = np.repeat(np.arange(nodes), count)
-        first = np.cumsum(count) - count
-        offset = np.arange(node.size) - first[node]
-        start = np.where(offset < left[node], lo_out[r][node], (hi_in[r] - left)[node])
-        vectors, n = moments32[r, (start + offset) % cols], normals32[node]
-        dots = vectors[..., 0] * n[:, :1] + vectors[..., 1] * n[:, 1:2] + vectors[..., 2] * n[:, 2:]
-        nonempty = np.flatnonzero(count)
-        total[nonempty] += np.add.reduceat(
-            np.maximum(dots, 0.0), first[nonempty], axis=0, dtype=np.float64
-        )
-    total += np.einsum("nkj,nj->nk", above, normals)
+        vectors = moments[r].reshape(cols, 3 * k)  # (cols, k·3)
+        prefix = np.zeros((3 * cols + 1, 3 * k))
+        np.cumsum(np.tile(vectors, (3, 1)), axis=0, out=prefix[1:])
+        above += np.take(prefix, hi_in[r], axis=0)
+        above -= np.take(prefix, lo_in[r], axis=0)
+        vectors32 = vectors.astype(np.float32).reshape(cols, k, 3)
+        for start, stop in ((lo_out[r], lo_in[r]), (hi_in[r], hi_out[r])):
+            count = stop - start
+            nonempty = np.flatnonzero(count)
+            if nonempty.size == 0:
+                continue
+            first = np.cumsum(count) - count
+            cell = (np.repeat(start - first, count) + np.arange(first[-1] + count[-1])) % cols
+            v, n = np.take(vectors32, cell, axis=0), np.repeat(normals32, count, axis=0)
+            dots = v[..., 0] * n[:, :1] + v[..., 1] * n[:, 1:2] + v[..., 2] * n[:, 2:]
+            total[nonempty] += np.add.reduceat(
+                np.maximum(dots, 0.0), first[nonempty], axis=0, dtype=np.float64
+            )
+    total += np.einsum("nkj,nj->nk", above.reshape(nodes, k, 3), normals)
     return total
 
 
