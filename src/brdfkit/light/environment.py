@@ -1,7 +1,11 @@
 """Environment maps: distant light from an equirectangular (lat-long) image.
 
 :class:`EnvironmentMap` interpolates the image bilinearly, samples directions in proportion to
-luminance·sin θ, and precomputes the irradiance of every normal for the diffuse part of a BRDF.
+luminance·sin θ, and tabulates the irradiance of the normals for the diffuse part of a BRDF.
+Its tables are made when first used and only as far as used (a map only looked up builds no
+sampling distribution; the irradiance table is built by the columns that lookups read), and are
+shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
+map.
 
 References
 ----------
@@ -318,6 +322,12 @@ class EnvironmentMap(Light):
         the quadrature's own error, so a constant map gives E = πL to rounding (white-out).
         The grid's bilinear interpolation errs by at most ~h|∇E|/4 (h = π/96) at the kink
         that a point-like source puts at its terminator, and by O(h²) elsewhere.
+
+        The sums over cells take a few cells per row of cells and normal, not all of them:
+        cells wholly above n's horizon add n·M_c and form an arc of columns, summed from
+        prefix sums; cells wholly below add 0; only the few across the horizon are clamped
+        one by one (:func:`_clamped_sums`). The table equals the sum over every cell to
+        rounding.
 
         References
         ----------
