@@ -634,6 +634,32 @@ def render(r: dict) -> str:
     return text
 
 
+def envmap(r: dict) -> str:
+    body = []
+    for x in r["rows"]:
+        for mode, peer in (("kept", "kept"), ("new", "new"), ("again", "new")):
+            b, m = x[f"brdfkit {mode}"], x[f"mitsuba {peer}"]
+            body.append(
+                [x["map"], f"{x['peak']:.3g}", mode, f"{b['seconds']:.3f}",
+                 f"{b['rel_rmse']:.4f}", f"{m['seconds']:.3f}", f"{m['rel_rmse']:.4f}",
+                 f"**{x[f'ratio {mode}']:.2f}**"]
+            )  # fmt: skip
+    return (
+        f"`{r['model']}` sphere, {r['resolution']}², {r['spp']} spp, best of {r['repeats']}; "
+        f"error against each renderer's own {r['reference_spp']}-spp image; Mitsuba "
+        f"{r['mitsuba']}. *kept*: the scene kept between images; *new*: the map read and a new "
+        "scene per image (brdfkit's tables forgotten first; Mitsuba loads its scene); *again*: "
+        "brdfkit's new scene of a map read before (tables found by content), against Mitsuba's "
+        "new scene:\n\n"
+        + rows(
+            ["map", "peak", "scene", "brdfkit s", "brdfkit error", "Mitsuba s", "Mitsuba error",
+             "efficiency ÷ Mitsuba"],
+            body,
+            "lrlrrrrr",
+        )
+    )  # fmt: skip
+
+
 def mesh(r: dict) -> str:
     body = [
         [x["model"], x["spp"], f"{x['brdfkit']['seconds']:.2f}", f"{x['brdfkit']['rel_rmse']:.4f}",
@@ -901,6 +927,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "mesh": mesh,
     "render_cli": render_cli,
     "env_sampling": env_sampling,
+    "envmap": envmap,
     "mis": mis,
     "sh": sh,
     "atlas": atlas,

@@ -1,7 +1,11 @@
 """Environment maps: distant light from an equirectangular (lat-long) image.
 
 :class:`EnvironmentMap` interpolates the image bilinearly, samples directions in proportion to
-luminance·sin θ, and precomputes the irradiance of every normal for the diffuse part of a BRDF.
+luminance·sin θ, and tabulates the irradiance of the normals for the diffuse part of a BRDF.
+Its tables are made when first used and only as far as used (a map only looked up builds no
+sampling distribution; the irradiance table is built by the columns that lookups read), and are
+shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
+map.
 
 References
 ----------
@@ -13,7 +17,11 @@ from __future__ import annotations
 
 import copy
 import functools
+import hashlib
 import math
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -138,10 +146,19 @@ class EnvironmentMap(Light):
         """The light-sampling distribution of :meth:`sample` and :meth:`pdf`
         (:func:`_sampling_weights`), made when first needed: a map only looked up (the atlas's
         quadrature spheres, whose Monte Carlo renders sample :attr:`compensated`) never
-        pays for it."""
+        pays for it. Shared by maps of the same pixels (:func:`_content_table`)."""
         from brdfkit.sampling import Distribution2D
 
-        return Distribution2D(_sampling_weights(self.image))
+        return _content_table(
+            self._pixels_key,
+            "distribution",
+            lambda: Distribution2D(_sampling_weights(self.image)),
+        )
+
+    @functools.cached_property
+    def _pixels_key(self) -> tuple[Any, ...]:
+        """The pixels' key of :func:`_content_table`: their shape and SHA-256 digest."""
+        return (self.image.shape, hashlib.sha256(memoryview(self.image)).digest())
 
     @functools.cached_property
     def compensated(self) -> EnvironmentMap:
@@ -164,8 +181,12 @@ class EnvironmentMap(Light):
         from brdfkit.sampling import Distribution2D
 
         view = copy.copy(self)
-        weights = _sampling_weights(self.image, compensate=True)
-        object.__setattr__(view, "_distribution", Distribution2D(weights))
+        distribution = _content_table(
+            self._pixels_key,
+            "compensated",
+            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
+        )
+        view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
         return view
 
@@ -266,13 +287,20 @@ class EnvironmentMap(Light):
 
         A Lambertian surface of albedo ρ under the map reflects exactly :math:`\rho E(n)/\pi`
         towards every viewer above it, with no Monte Carlo. E is read from
-        :meth:`irradiance_table` (built once per map) by bilinear interpolation.
+        :meth:`irradiance_table` by bilinear interpolation; only the table's columns that
+        ``normals`` read are built (a sphere seen from one side needs half of them).
         """
         xp = namespace(normals)
         x, y, _ = self._map_coordinates(normalize(normals))
-        table = asarray(self.irradiance_table, xp, like=normals)
-        rows, cols = table.shape[:2]
+        rows, cols = IRRADIANCE_GRID
+        nodes = self._irradiance_nodes.columns(_node_columns(to_numpy(x) * cols, cols))
+        table = asarray(nodes, xp, like=normals)
         return _bilinear(table, y * (rows - 1), x * cols) * self.scale
+
+    @functools.cached_property
+    def _irradiance_nodes(self) -> _IrradianceNodes:
+        """The map's :class:`_IrradianceNodes`, shared by maps of equal pixels."""
+        return _content_table(self._pixels_key, "irradiance", lambda: _IrradianceNodes(self.image))
 
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
@@ -295,27 +323,54 @@ class EnvironmentMap(Light):
         The grid's bilinear interpolation errs by at most ~h|∇E|/4 (h = π/96) at the kink
         that a point-like source puts at its terminator, and by O(h²) elsewhere.
 
+        The sums over cells take a few cells per row of cells and normal, not all of them:
+        cells wholly above n's horizon add n·M_c and form an arc of columns, summed from
+        prefix sums; cells wholly below add 0; only the few across the horizon are clamped
+        one by one (:func:`_clamped_sums`). The table equals the sum over every cell to
+        rounding.
+
         References
         ----------
         .. [1] R. Ramamoorthi, P. Hanrahan, "An efficient representation for irradiance
                environment maps", SIGGRAPH 2001 (the irradiance map; here by direct
                summation instead of spherical harmonics, which ring at a sun).
         """
-        moments, areas = _cell_moments(self.image, IRRADIANCE_CELLS)
-        rows, cols = IRRADIANCE_GRID
-        t, p = np.meshgrid(
-            np.linspace(0.0, math.pi, rows), np.arange(cols) * (2 * math.pi / cols), indexing="ij"
-        )
-        normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
-        normals = normals.reshape(-1, 3).astype(np.float32)
-        channels = moments.shape[0]
-        table = np.empty((normals.shape[0], channels))
-        for start in range(0, normals.shape[0], 512):  # ~20 MB of temporaries per block
-            n = normals[start : start + 512]
-            area = _clamped_sum(n, areas)
-            for ch in range(channels):
-                table[start : start + 512, ch] = math.pi * _clamped_sum(n, moments[ch]) / area
-        return table.reshape(rows, cols, channels).astype(np.float32)
+        return self._irradiance_nodes.columns(np.arange(IRRADIANCE_GRID[1]))
+
+
+CACHED_MAPS = 4
+"""Maps whose tables (:func:`_content_table`) a process keeps, the most recently used."""
+
+_TABLES: OrderedDict[tuple[Any, ...], dict[str, Any]] = OrderedDict()
+_TABLES_LOCK = threading.Lock()
+
+
+def _content_table(key: tuple[Any, ...], name: str, build: Callable[[], Any]) -> Any:
+    """The table ``name`` of a map's pixels, made by ``build`` once per content: maps of
+    equal pixels (the same file read again, another scale or rotation) share their sampling
+    distributions and irradiance table, which depend on the pixels alone. ``key``: the
+    pixels' shape and SHA-256 digest (``EnvironmentMap._pixels_key``); the tables of the
+    :data:`CACHED_MAPS` most recently used maps are kept."""
+    with _TABLES_LOCK:
+        tables = _TABLES.pop(key, {})
+        _TABLES[key] = tables
+        while len(_TABLES) > CACHED_MAPS:
+            _TABLES.popitem(last=False)
+    if name not in tables:  # built outside the lock: two threads may both build it
+        tables[name] = build()
+    return tables[name]
+
+
+def clear_table_cache() -> None:
+    """Forget every map's cached tables (:func:`_content_table`): the next map pays for its
+    own, as the first map a process reads does.
+
+    Examples
+    --------
+    >>> clear_table_cache()
+    """
+    with _TABLES_LOCK:
+        _TABLES.clear()
 
 
 IRRADIANCE_CELLS = (48, 96)
@@ -326,28 +381,206 @@ IRRADIANCE_GRID = (97, 192)
 """Node grid (rows with both poles, columns) of :meth:`EnvironmentMap.irradiance_table`."""
 
 
-def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    r"""Per cell of a lat-long ``image``, :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as
-    ``(C, 3, cells)`` and :math:`A_c = \sum_p \Delta\Omega_p\omega_p` as ``(3, cells)``
-    float32; pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``."""
+class _IrradianceNodes:
+    """:attr:`EnvironmentMap.irradiance_table` of a lat-long ``image``, built column by column
+    as lookups need them (:meth:`columns`)."""
+
+    def __init__(self, image: np.ndarray) -> None:
+        self._image = image
+        rows, cols = IRRADIANCE_GRID
+        self._table = np.zeros((rows, cols, image.shape[2]), np.float32)
+        self._built = np.zeros(cols, bool)
+        self._lock = threading.Lock()
+        self._cells: tuple[np.ndarray, _CellBounds] | None = None
+
+    def columns(self, needed: np.ndarray) -> np.ndarray:
+        """The table, ``(97, 192, C)`` float32, with (at least) the node columns ``needed``
+        built; the others are not to be read."""
+        with self._lock:
+            missing = np.setdiff1d(needed, np.flatnonzero(self._built))
+            if missing.size:
+                if self._cells is None:
+                    shape = self._image.shape[:2]
+                    moments = _cell_moments(self._image, IRRADIANCE_CELLS)
+                    self._cells = moments, _cell_bounds(shape, IRRADIANCE_CELLS)
+                    self._image = None  # the moments are all the table needs
+                rows, cols = IRRADIANCE_GRID
+                theta = np.linspace(0.0, math.pi, rows)
+                phi = missing * (2 * math.pi / cols)
+                sums = _clamped_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
+                self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
+                self._built[missing] = True
+        return self._table
+
+
+def _node_columns(col: np.ndarray, cols: int) -> np.ndarray:
+    """The node columns a bilinear lookup at fractional columns ``col`` reads (the one at or
+    below, and the next, wrapping), unique."""
+    col = np.nan_to_num(np.asarray(col, dtype=np.float64).ravel(), nan=0.0, posinf=0.0)
+    left = np.unique(np.clip(np.floor(col), 0, cols - 1).astype(np.int64))
+    return np.union1d(left, (left + 1) % cols)
+
+
+def _pixel_centres(count: int, span: float) -> np.ndarray:
+    """Centres of ``count`` equal pixels over [0, span]."""
+    return (np.arange(count) + 0.5) * (span / count)
+
+
+def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
+    r"""Per cell of a lat-long ``image``, :math:`A_c = \sum_p \Delta\Omega_p\omega_p` and
+    :math:`M_c = \sum_p L_p\Delta\Omega_p\omega_p` as ``(rows, cols, 1 + C, 3)`` float64 (A
+    first, then M per channel); pixel (r, c) goes to cell ``(r·rows // H, c·cols // W)``.
+
+    :math:`\Delta\Omega_p\omega_p` is a product of a row's factor (:math:`\Delta\Omega
+    \sin\theta`, :math:`\Delta\Omega\cos\theta`) and a column's (:math:`\cos\varphi`,
+    :math:`\sin\varphi`, 1), so the sums are two matrix products: over each cell's rows with
+    the row factors, then over its columns with the column factors."""
     height, width, channels = image.shape
+    rows, cols = cells
     edges = np.arange(height + 1) * (math.pi / height)
     solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
-    theta = (np.arange(height) + 0.5) * (math.pi / height)
-    phi = (np.arange(width) + 0.5) * (2 * math.pi / width)
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    omega = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
-    weighted = (omega * solid_angle[:, None]).reshape(3, -1)  # (3, H·W)
-    rows, cols = cells
-    cell = (np.arange(height) * rows // height)[:, None] * cols + np.arange(width) * cols // width
-    cell, count = cell.ravel(), rows * cols
+    theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
+    row_cell = np.arange(height) * rows // height == np.arange(rows)[:, None]  # (rows, H)
+    col_cell = np.arange(width) * cols // width == np.arange(cols)[:, None]  # (cols, W)
+    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])  # (2, H)
+    col_factors = np.stack([np.cos(phi), np.sin(phi), np.ones(width)])  # (3, W)
+    over_rows = (row_cell * row_factors[:, None, :]).reshape(2 * rows, height)
+    per_row = over_rows.astype(np.float32) @ image.reshape(height, width * channels)
+    per_row = per_row.reshape(2, rows, width, channels).astype(np.float64)
+    area = over_rows.sum(axis=1).reshape(2, rows, 1, 1)  # the pixels' sums of a map of ones
+    per_row = np.concatenate([np.broadcast_to(area, (2, rows, width, 1)), per_row], axis=3)
+    over_cols = col_cell * col_factors[:, None, :]  # (3, cols, W)
+    sin_rows, cos_rows = per_row  # (rows, W, 1 + C)
+    sums = [
+        np.matmul(over_cols[axis], part)  # (rows, cols, 1 + C)
+        for axis, part in enumerate((sin_rows, sin_rows, cos_rows))
+    ]
+    return np.stack(sums, axis=-1)
 
-    def per_cell(values: np.ndarray) -> np.ndarray:
-        return np.stack([np.bincount(cell, values * w, count) for w in weighted])
 
-    radiance = image.reshape(-1, channels).astype(np.float64)
-    moments = np.stack([per_cell(radiance[:, ch]) for ch in range(channels)])
-    return moments.astype(np.float32), per_cell(np.ones(height * width)).astype(np.float32)
+@dataclass(frozen=True)
+class _CellBounds:
+    """Where the pixel centres of a lat-long map's cells lie: each cell row's centre polar
+    angle ``theta`` (rows,) and chord radius ``radius`` (rows,), a bound on the distance from
+    the cell's centre direction to any of its pixel centres, and each cell column's centre
+    azimuth ``phi`` (cols,), increasing in [0, 2π)."""
+
+    theta: np.ndarray
+    radius: np.ndarray
+    phi: np.ndarray
+
+
+def _cell_bounds(shape: tuple[int, int], cells: tuple[int, int]) -> _CellBounds:
+    """:class:`_CellBounds` of the pixel centres of an ``(H, W)`` map in ``cells``."""
+    (height, width), (rows, cols) = shape, cells
+
+    def extents(count: int, groups: int, span: float) -> tuple[np.ndarray, np.ndarray]:
+        centres = _pixel_centres(count, span)
+        group = np.arange(count) * groups // count  # empty groups (zero moments) fall between
+        first = np.minimum(np.searchsorted(group, np.arange(groups)), count - 1)
+        last = np.maximum(np.searchsorted(group, np.arange(groups), side="right") - 1, 0)
+        return centres[first], centres[last]
+
+    theta_low, theta_high = extents(height, rows, math.pi)
+    phi_low, phi_high = extents(width, cols, 2 * math.pi)
+    theta, phi = (theta_low + theta_high) / 2, (phi_low + phi_high) / 2
+    half_width = np.max(phi_high - phi_low) / 2
+    # the farthest pixel centre of a cell lies at one of its corners or edge midpoints
+    corners = [(t, dp) for t in (theta_low, theta, theta_high) for dp in (0.0, half_width)]
+    radius = np.max([_chord(theta, t, dp) for t, dp in corners], axis=0)  # (rows,)
+    return _CellBounds(theta, radius * (1 + 1e-6) + 1e-12, phi)
+
+
+def _chord(theta: np.ndarray, other: np.ndarray, dphi: float) -> np.ndarray:
+    """|ω(θ, 0) − ω(θ', Δφ)|, the chord between two directions."""
+    cos_angle = np.cos(theta) * np.cos(other) + np.sin(theta) * np.sin(other) * np.cos(dphi)
+    return np.sqrt(np.maximum(2 - 2 * cos_angle, 0.0))
+
+
+def _clamped_sums(
+    moments: np.ndarray, bounds: _CellBounds, theta: np.ndarray, phi: np.ndarray
+) -> np.ndarray:
+    r""":math:`\sum_c \max(n\cdot v_c, 0)` for each vector v of the cells' ``moments``
+    ``(rows, cols, K, 3)`` and each normal n of the node grid ``theta`` × ``phi``;
+    ``(nodes, K)`` float64.
+
+    Every v_c is a non-negative sum of the cell's pixel-centre directions ω_p, so a cell
+    whose ω_p all lie above n's horizon adds n·v_c, one whose ω_p all lie below adds 0, and
+    only the cells in between need their clamped dot products. With :math:`\omega_c` the
+    cell's centre direction and ρ its chord radius, :math:`|n\cdot\omega_p - n\cdot\omega_c|
+    \le \rho`: in cell row r, :math:`n\cdot\omega_c = a + b\cos(\varphi_c - \varphi_n)`
+    (:math:`a = n_z\cos\theta_r`, :math:`b = \sin\theta_n\sin\theta_r`), so the cells above
+    form an arc of columns around :math:`\varphi_n` (summed from prefix sums) and those in
+    between two short arcs beside it. The work per normal is a few cells per row instead of
+    every cell.
+    """
+    rows, cols, k, _ = moments.shape
+    t, p = (grid.ravel() for grid in np.meshgrid(theta, phi, indexing="ij"))
+    normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+    nodes = normals.shape[0]
+    # three turns of the columns so that an arc around any φ_n ∈ [0, 2π) is one index range
+    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
+    # a and b depend on the node's θ alone: the arcs' half-widths per cell row and node row
+    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
+    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
+    radius = bounds.radius[:, None]
+    inner = np.repeat(_half_arc(a, b, radius), phi.size, axis=1)  # (rows, nodes)
+    outer = np.repeat(_half_arc(a, b, -radius), phi.size, axis=1)
+    lo_in, hi_in = _arc_indices(turns, p, inner, cols)
+    lo_out, hi_out = _arc_indices(turns, p, outer, cols)
+    # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
+    whole = hi_out - lo_out >= cols
+    lo_out, hi_out = np.where(whole, lo_in, lo_out), np.where(whole, lo_in + cols, hi_out)
+    above = np.zeros((nodes, 3 * k))
+    total = np.zeros((nodes, k))
+    normals32 = normals.astype(np.float32)
+    for r in range(rows):
+        vectors = moments[r].reshape(cols, 3 * k)  # (cols, k·3)
+        prefix = np.zeros((3 * cols + 1, 3 * k))
+        np.cumsum(np.tile(vectors, (3, 1)), axis=0, out=prefix[1:])
+        above += np.take(prefix, hi_in[r], axis=0)
+        above -= np.take(prefix, lo_in[r], axis=0)
+        vectors32 = vectors.astype(np.float32).reshape(cols, k, 3)
+        for start, stop in ((lo_out[r], lo_in[r]), (hi_in[r], hi_out[r])):
+            count = stop - start
+            nonempty = np.flatnonzero(count)
+            if nonempty.size == 0:
+                continue
+            first = np.cumsum(count) - count
+            cell = (np.repeat(start - first, count) + np.arange(first[-1] + count[-1])) % cols
+            v, n = np.take(vectors32, cell, axis=0), np.repeat(normals32, count, axis=0)
+            dots = v[..., 0] * n[:, :1] + v[..., 1] * n[:, 1:2] + v[..., 2] * n[:, 2:]
+            total[nonempty] += np.add.reduceat(
+                np.maximum(dots, 0.0), first[nonempty], axis=0, dtype=np.float64
+            )
+    total += np.einsum("nkj,nj->nk", above.reshape(nodes, k, 3), normals)
+    return total
+
+
+def _half_arc(a: np.ndarray, b: np.ndarray, level: float) -> np.ndarray:
+    """Half-width w of the arc of azimuths Δφ with a + b cos Δφ > ``level`` (b ≥ 0):
+    π for all of them, −1 for none."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        threshold = (level - a) / b
+    width = np.arccos(np.clip(threshold, -1.0, 1.0))
+    width = np.where(threshold < -1, math.pi, np.where(threshold > 1, -1.0, width))
+    flat = b <= 0  # a pole: the row is wholly on one side
+    return np.where(flat, np.where(a > level, math.pi, -1.0), width)
+
+
+def _arc_indices(
+    turns: np.ndarray, phi: np.ndarray, width: np.ndarray, cols: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Index range [lo, hi) into three turns of column azimuths ``turns`` of the columns with
+    |φ_c − φ| < ``width`` (cyclic), widened by a rounding margin; all ``cols`` columns
+    ``[cols, 2 cols)`` for a width of π, none (an empty range at φ) for a negative one."""
+    margin = 1e-9
+    lo = np.searchsorted(turns, phi - np.maximum(width, 0) - margin, side="left")
+    hi = np.searchsorted(turns, phi + width + margin, side="right")
+    centre = np.searchsorted(turns, phi, side="left")
+    lo, hi = np.where(width < 0, centre, lo), np.where(width < 0, centre, np.minimum(hi, lo + cols))
+    full = width >= math.pi
+    return np.where(full, cols, lo), np.where(full, 2 * cols, hi)
 
 
 def compiled_lookups(dtype: Any, tools: Any) -> Any:
@@ -359,12 +592,6 @@ def compiled_lookups(dtype: Any, tools: Any) -> Any:
     from brdfkit.light import _environment_kernels
 
     return _environment_kernels.lookups(np.dtype(dtype).type, tools)
-
-
-def _clamped_sum(normals: np.ndarray, vectors: np.ndarray) -> np.ndarray:
-    """Σ_c max(n·v_c, 0) for each of ``normals`` ``(N, 3)`` over ``vectors`` ``(3, cells)``."""
-    dots = normals @ vectors
-    return np.maximum(dots, 0.0, out=dots).sum(axis=1, dtype=np.float64)
 
 
 def _solid_angle_pdf(pdf_uv: Array, theta: Array) -> Array:
@@ -411,6 +638,8 @@ def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndar
 
 
 __all__ = [
+    "CACHED_MAPS",
     "EnvironmentMap",
+    "clear_table_cache",
     "compiled_lookups",
 ]
