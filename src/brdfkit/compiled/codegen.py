@@ -1,10 +1,11 @@
-r"""A function traced by JAX and written out as the Python source of a numba kernel.
+r"""A traced function written out as the Python source of a numba kernel.
 
-:func:`generate` runs the function once under :func:`jax.make_jaxpr` on a batch of *one*
-(``(1, w)`` per input of width ``w``; the models are written against the array API, so they
-run on JAX unchanged), checks that every output follows the batch (a batch of two gives
-``(2, ...)``), and interprets the jaxpr on scalar symbols (:mod:`brdfkit.compiled.scalar_code`).
-The result is the source of one function
+:func:`generate` runs the function once on symbolic arrays (:mod:`brdfkit.compiled.symbolic`)
+of a batch of *one* (``(1, w)`` per input of width ``w``; the models are written against the
+array API, so they run on the tracer's namespace unchanged), whose operations write
+straight-line scalar code (:mod:`brdfkit.compiled.scalar_code`), and checks that every output
+follows the batch (a batch of two gives ``(2, ...)``). The result is the source of one
+function
 
 .. code-block:: python
 
@@ -25,7 +26,7 @@ one source serves every parameter set of a model's structure.
 References
 ----------
 .. [1] R. Frostig, M. J. Johnson, C. Leary, "Compiling machine learning programs via
-       high-level tracing", SysML 2018 (JAX and its jaxpr).
+       high-level tracing", SysML 2018 (tracing array code into primitives).
 .. [2] W. Jakob, S. Speierer, N. Roussel, D. Vicini, "Dr.Jit: a just-in-time compiler for
        differentiable rendering", ACM TOG 41(4), 2022 (the same trace-then-compile idea).
 """
