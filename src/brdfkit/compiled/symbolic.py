@@ -589,6 +589,9 @@ class SymbolicNamespace:
         shape = np.broadcast_shapes(*(a.shape for a in lifted))
         return [self.broadcast_to(a, shape) for a in lifted]
 
+    def broadcast_shapes(self, *shapes: tuple[int, ...]) -> tuple[int, ...]:
+        return tuple(np.broadcast_shapes(*shapes))
+
     def stack(self, arrays: Sequence[Any], /, *, axis: int = 0) -> SymbolicArray:
         dtype, weak = self._promote(arrays)
         lifted = [self.lift(a, dtype).elements for a in arrays]
