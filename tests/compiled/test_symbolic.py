@@ -26,6 +26,7 @@ def test_python_scalars_take_the_arrays_dtype_and_float64_computes_in_float32() 
 
     def fn(w):
         xp = namespace(w)
+        assert xp.finfo(xp.float64).eps == xp.finfo(w).eps == np.finfo(w.dtype).eps
         return w * 2.0, w * np.float64(0.5), xp.astype(w, xp.float64), w[..., 0] > 1
 
     _, (scaled, by_numpy, cast, compared) = _trace(fn)

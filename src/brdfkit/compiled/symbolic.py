@@ -353,7 +353,8 @@ class SymbolicNamespace:
         return array_api_compat.numpy.isdtype(np.dtype(dtype), kind)
 
     def finfo(self, dtype: Any) -> Any:
-        return np.finfo(self.canonical(dtype.dtype if hasattr(dtype, "dtype") else dtype))
+        arrays = SymbolicArray | np.ndarray | np.generic
+        return np.finfo(self.canonical(dtype.dtype if isinstance(dtype, arrays) else dtype))
 
     # ---------------------------------------------------------------- arrays
     def _wrap(self, elements: np.ndarray, dtype: Any, weak: builtins.bool = False) -> SymbolicArray:
