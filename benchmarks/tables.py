@@ -457,6 +457,23 @@ def kulla_conty(r: dict) -> str:
     return f"{table}\n\nE(μ) table for a new α: {r['table_seconds']:.2f} s."
 
 
+def tracer(r: dict) -> str:
+    def jax(row: dict) -> str:
+        return "" if row["jax_make_jaxpr_s"] is None else f"{row['jax_make_jaxpr_s']:.3f}"
+
+    table = rows(
+        ["model", "method", "trace s", "jax.make_jaxpr s", "source lines", "numba compile s"],
+        [[x["model"], x["method"], f"{x['trace_s']:.3f}", jax(x), str(x["source_lines"]),
+          f"{x['numba_compile_s']:.2f}"] for x in r["rows"]],
+        "llrrrr",
+    )  # fmt: skip
+    return (
+        f"{table}\n\nfloat32 kernels of each model's structure; trace: brdfkit's tracer "
+        f"(best of {r['repeats']}, interleaved with JAX's `make_jaxpr` of the same function, "
+        "which the compiled path needed before); numba compile: once, no disk cache."
+    )
+
+
 def kulla_conty_dielectric(r: dict) -> str:
     cpu = r["cpu_seconds"]
     table = rows(
@@ -934,6 +951,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "explore": explore,
     "kulla_conty": kulla_conty,
     "kulla_conty_dielectric": kulla_conty_dielectric,
+    "tracer": tracer,
     "fit": fit,
     "cornell_fits": cornell_fits,
     "loo_fits": loo_fits,

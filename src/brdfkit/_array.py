@@ -271,6 +271,7 @@ def _backend_special(x: Array, scipy_name: str, torch_name: str) -> Array | None
 
     NumPy uses ``scipy.special.<scipy_name>`` (dtype kept), PyTorch ``torch.<torch_name>``,
     JAX ``jax.scipy.special.<scipy_name>``; all three differentiate through it where they can.
+    Another namespace that has ``<scipy_name>`` itself uses it.
     """
     xp = namespace(x)
     if is_numpy(xp):
@@ -285,7 +286,8 @@ def _backend_special(x: Array, scipy_name: str, torch_name: str) -> Array | None
         import jax.scipy.special
 
         return getattr(jax.scipy.special, scipy_name)(x)
-    return None
+    own = getattr(xp, scipy_name, None)  # a namespace with its own (brdfkit.compiled's tracer)
+    return None if own is None else own(x)
 
 
 def erf(x: Array) -> Array:
@@ -379,7 +381,10 @@ def check_vectors(name: str, v: Array, *, finite: bool = True) -> Array:
 
 
 def is_abstract(x: Any) -> bool:
-    """Whether ``x`` is an abstract JAX value (a tracer under ``jax.jit``) with no data to check."""
+    """Whether ``x`` is an abstract value with no data to check: a tracer under ``jax.jit``, or
+    an array of :mod:`brdfkit.compiled`'s tracer (its class says ``abstract = True``)."""
+    if getattr(type(x), "abstract", False) is True:
+        return True
     if not is_jax(namespace(x)):
         return False
     import jax

@@ -130,7 +130,6 @@ def _run(cache: Path, code: str = _PROCESS) -> dict:
 
 @pytest.mark.slow
 def test_a_second_process_neither_traces_nor_compiles(tmp_path):
-    pytest.importorskip("jax")
     cold = _run(tmp_path / "cache")
     assert cold["stats"].get("misses", 0) >= 1 and cold["stats"].get("hits", 0) == 0
     assert cold["stats"].get("record_misses", 0) >= 1
@@ -159,7 +158,6 @@ _RENDER = textwrap.dedent(
 
 @pytest.mark.slow
 def test_a_second_process_loads_the_tile_kernel_and_renders_the_same_image(tmp_path):
-    pytest.importorskip("jax")
     cold = _run(tmp_path / "cache", _RENDER)
     assert cold["stats"].get("misses", 0) >= 4  # sample, eval, pdf and the tile kernel
     warm = _run(tmp_path / "cache", _RENDER)

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("jax")
 pytest.importorskip("numba")
 
 from scipy import special
@@ -433,11 +432,20 @@ def test_spatially_varying_parameters_are_rejected() -> None:
         compiled.eval(w, w)
 
 
-def test_unsupported_primitive_is_named() -> None:
-    import jax.numpy as jnp
+def test_unsupported_array_function_is_named() -> None:
+    with pytest.raises(ValueError, match=r"'cumulative_sum' is not supported by brdfkit\.compiled"):
+        compile_function(lambda w: namespace(w).cumulative_sum(w, axis=-1), (3,), np.float32)
 
-    with pytest.raises(ValueError, match="'cumsum' is not supported"):
-        compile_function(lambda w: jnp.cumsum(w, axis=-1), (3,), np.float32)
+
+def test_python_branching_on_traced_values_is_refused() -> None:
+    """A function that branches in Python on its input's values cannot be compiled (as under
+    JAX): the error says why."""
+
+    def branchy(w):
+        return w[..., 2] if bool(w[..., 2] > 0) else -w[..., 2]
+
+    with pytest.raises(ValueError, match="Python control flow on array values"):
+        compile_function(branchy, (3,), np.float32)
 
 
 def test_bad_arguments() -> None:

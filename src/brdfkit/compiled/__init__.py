@@ -7,13 +7,13 @@ array written to and read back from memory, and only one core works. :func:`comp
 formula:
 
 1. **Trace** (:mod:`~brdfkit.compiled.codegen`). The model method (``eval``, ``pdf``,
-   ``sample``) is run once by :func:`jax.make_jaxpr` on a batch of *one* direction pair (the
-   models are written against the array API, so they run on JAX unchanged). Its numeric
-   parameters enter the trace as inputs: the model is rebuilt on abstract values of their
-   shapes (:mod:`~brdfkit.compiled.structure`), so the kernel depends on the model's
-   structure alone.
-2. **Scalarise** (:mod:`~brdfkit.compiled.scalar_code`). The jaxpr is interpreted on scalar
-   symbols: small trailing axes resolve at compile time, constants fold, common
+   ``sample``) is run once on symbolic arrays (:mod:`~brdfkit.compiled.symbolic`) of a batch
+   of *one* direction pair (the models are written against the array API, so they run on the
+   tracer's namespace unchanged). Its numeric parameters enter the trace as inputs: the
+   model is rebuilt on abstract values of their shapes (:mod:`~brdfkit.compiled.structure`),
+   so the kernel depends on the model's structure alone.
+2. **Scalarise** (:mod:`~brdfkit.compiled.scalar_code`). Each array of the trace is its
+   per-lane scalar symbols: small trailing axes resolve at compile time, constants fold, common
    subexpressions are shared, and what remains is straight-line, branch-free scalar code.
 3. **Compile** (:mod:`~brdfkit.compiled.kernel`). That code is the body of a numba loop over
    the batch, which LLVM vectorises across elements with two vectors in flight; blocks of the
@@ -36,7 +36,7 @@ Every use of numba's internals (and of the LLVM binding under it) is in one modu
 References
 ----------
 .. [1] R. Frostig, M. J. Johnson, C. Leary, "Compiling machine learning programs via
-       high-level tracing", SysML 2018 (JAX and its jaxpr).
+       high-level tracing", SysML 2018 (tracing array code into primitives).
 .. [2] S. K. Lam, A. Pitrou, S. Seibert, "Numba: a LLVM-based Python JIT compiler", LLVM-HPC
        2015.
 .. [3] W. Jakob, S. Speierer, N. Roussel, D. Vicini, "Dr.Jit: a just-in-time compiler for

@@ -1,6 +1,6 @@
 """An on-disk cache of the compiled kernels, so that building them is paid once per machine.
 
-:mod:`brdfkit.compiled` traces a model's code with JAX and compiles the generated source with
+:mod:`brdfkit.compiled` traces a model's code and compiles the generated source with
 numba; the render's tile kernel (``render/_reflection_kernels.py``) is compiled around those
 kernels. Both cost seconds per model structure, every process. numba's own ``cache=True``
 cannot help: it keys its files on a function's source file (the generated code has none) and

@@ -1,10 +1,11 @@
-r"""A function traced by JAX and written out as the Python source of a numba kernel.
+r"""A traced function written out as the Python source of a numba kernel.
 
-:func:`generate` runs the function once under :func:`jax.make_jaxpr` on a batch of *one*
-(``(1, w)`` per input of width ``w``; the models are written against the array API, so they
-run on JAX unchanged), checks that every output follows the batch (a batch of two gives
-``(2, ...)``), and interprets the jaxpr on scalar symbols (:mod:`brdfkit.compiled.scalar_code`).
-The result is the source of one function
+:func:`generate` runs the function once on symbolic arrays (:mod:`brdfkit.compiled.symbolic`)
+of a batch of *one* (``(1, w)`` per input of width ``w``; the models are written against the
+array API, so they run on the tracer's namespace unchanged), whose operations write
+straight-line scalar code (:mod:`brdfkit.compiled.scalar_code`), and checks that every output
+follows the batch (a batch of two gives ``(2, ...)``). The result is the source of one
+function
 
 .. code-block:: python
 
@@ -25,13 +26,15 @@ one source serves every parameter set of a model's structure.
 References
 ----------
 .. [1] R. Frostig, M. J. Johnson, C. Leary, "Compiling machine learning programs via
-       high-level tracing", SysML 2018 (JAX and its jaxpr).
+       high-level tracing", SysML 2018 (tracing array code into primitives).
 .. [2] W. Jakob, S. Speierer, N. Roussel, D. Vicini, "Dr.Jit: a just-in-time compiler for
        differentiable rendering", ACM TOG 41(4), 2022 (the same trace-then-compile idea).
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,7 +42,8 @@ from typing import Any
 
 import numpy as np
 
-from brdfkit.compiled.scalar_code import Emitter, Sym, run_jaxpr
+from brdfkit.compiled.scalar_code import Emitter
+from brdfkit.compiled.symbolic import UNSUPPORTED, SymbolicArray, trace
 
 BATCH_ONLY = (
     "brdfkit.compiled compiles functions that are elementwise over the batch, with parameters "
@@ -107,76 +111,59 @@ def generate(
     ------
     ValueError
         When ``fn`` cannot be traced on a batch of one, an output does not follow the batch
-        (a parameter varying over it), or ``fn`` uses a primitive without a scalar form.
+        (a parameter varying over it), or ``fn`` uses an array function without a scalar
+        form.
     """
-    import jax
-
-    closed = _trace(fn, widths, dtype, parameter_shapes)
-    em = Emitter()
-    args, uniform_loads = [], []
-    for shape in parameter_shapes:
-        syms = np.empty(tuple(shape), dtype=object)
-        for c in range(syms.size):
-            name = f"p{len(uniform_loads)}"
-            syms.flat[c] = Sym(name, dtype)
-            em.uniform.add(name)
-            uniform_loads.append((name, f"prm[{len(uniform_loads)}]"))
-        args.append(syms)
+    dtype = np.dtype(dtype)
+    shapes = [tuple(s) for s in parameter_shapes]
+    names = [[f"p{k}" for k in range(math.prod(s))] for s in shapes]
+    offsets = np.cumsum([0] + [len(n) for n in names])
+    names = [[f"p{offsets[j] + k}" for k in range(len(n))] for j, n in enumerate(names)]
+    uniform_loads = [(name, f"prm[{k}]") for k, name in enumerate(itertools.chain(*names))]
     ins = [Port(w, dtype) for w in widths]
     loads = []
     for j, port in enumerate(ins):
-        count = max(port.width, 1)
-        syms = np.empty((1, count) if port.width else (1,), dtype=object)
-        for c in range(count):
-            name = f"a{j}_{c}"
-            syms.flat[c] = Sym(name, dtype)
-            index = f"i * {port.width} + {c}" if port.width else "i"
-            loads.append((name, f"in{j}[{index}]"))
-        args.append(syms)
-    with jax.enable_x64(dtype == np.float64):
-        results = run_jaxpr(em, closed, args)
-    outs = [
-        Port(r.shape[1] if r.ndim == 2 else 0, np.dtype(a.dtype))
-        for r, a in zip(results, closed.out_avals, strict=True)
-    ]
-    source = _source(em, uniform_loads, loads, results, outs, len(ins))
+        names.append([f"a{j}_{c}" for c in range(max(port.width, 1))])
+        for c, name in enumerate(names[-1]):
+            loads.append((name, f"in{j}[i * {port.width} + {c}]" if port.width else f"in{j}[i]"))
+    em, results = _trace(fn, widths, dtype, shapes, names, [n for n, _ in uniform_loads])
+    outs = [Port(r.shape[1] if r.ndim == 2 else 0, r.dtype) for r in results]
+    elements = [r.elements for r in results]
+    source = _source(em, uniform_loads, loads, elements, outs, len(ins))
     return Generated(source, em.constants, ins, outs, len(uniform_loads))
+
+
+def _batched(widths: Sequence[int], batch: int) -> list[tuple[int, ...]]:
+    return [(batch, w) if w else (batch,) for w in widths]
 
 
 def _trace(
     fn: Callable[..., Any],
     widths: Sequence[int],
     dtype: np.dtype,
-    parameter_shapes: Sequence[tuple[int, ...]],
-) -> Any:
-    """The closed jaxpr of ``fn`` on a batch of one, its outputs checked to follow the
-    batch."""
-    import jax
-
-    def flat_fn(*args: Any) -> tuple[Any, ...]:
-        out = fn(*args)
-        return tuple(out) if isinstance(out, tuple | list) else (out,)
-
-    def example(batch: int) -> list[Any]:
-        params = [jax.ShapeDtypeStruct(tuple(s), dtype) for s in parameter_shapes]
-        return params + [jax.ShapeDtypeStruct((batch, w) if w else (batch,), dtype) for w in widths]
-
-    with jax.enable_x64(dtype == np.float64):
-        try:
-            closed = jax.make_jaxpr(flat_fn)(*example(1))
-            wider = jax.eval_shape(flat_fn, *example(2))
-        except (ValueError, TypeError) as error:
-            raise ValueError(
-                f"the function could not be traced on a batch of one ({error}); {BATCH_ONLY}"
-            ) from error
-    for k, (one, two) in enumerate(zip(closed.out_avals, wider, strict=True)):
-        ok = len(one.shape) in (1, 2) and one.shape[0] == 1 and two.shape == (2, *one.shape[1:])
+    parameter_shapes: list[tuple[int, ...]],
+    names: list[list[str]],
+    uniform: list[str],
+) -> tuple[Emitter, list[SymbolicArray]]:
+    """The trace of ``fn`` on a batch of one, its outputs checked to follow the batch (a
+    batch of two gives ``(2, ...)``)."""
+    try:
+        em, results = trace(fn, dtype, parameter_shapes + _batched(widths, 1), names, uniform)
+        wider = trace(fn, dtype, parameter_shapes + _batched(widths, 2))[1]
+    except (ValueError, TypeError) as error:
+        if UNSUPPORTED in str(error):
+            raise
+        raise ValueError(
+            f"the function could not be traced on a batch of one ({error}); {BATCH_ONLY}"
+        ) from error
+    for k, (one, two) in enumerate(zip(results, wider, strict=True)):
+        ok = one.ndim in (1, 2) and one.shape[0] == 1 and two.shape == (2, *one.shape[1:])
         if not ok:
             raise ValueError(
                 f"output {k} of the traced function has shape {one.shape} for a batch of one "
                 f"and does not follow the batch; {BATCH_ONLY}"
             )
-    return closed
+    return em, results
 
 
 def _source(

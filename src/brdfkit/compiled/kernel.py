@@ -203,14 +203,14 @@ def compile_function(
 
     ``fn`` takes arrays of shape ``(..., w)`` for each ``w`` in ``widths`` (``w = 0``: shape
     ``(...,)``) and returns an array or a tuple of arrays with the batch as leading axes. It is
-    traced once by JAX on a batch of one, scalarised and compiled with numba
+    traced once on a batch of one, scalarised and compiled with numba
     (:mod:`brdfkit.compiled.codegen`); the kernel reproduces ``fn`` on any batch size.
 
     Raises
     ------
     ValueError
         When an output does not follow the batch (a parameter varying over the batch), or
-        ``fn`` uses a JAX primitive the scalariser does not know.
+        ``fn`` uses an array function the tracer does not know.
 
     Examples
     --------

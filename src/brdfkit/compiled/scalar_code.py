@@ -1,26 +1,27 @@
-r"""A JAX trace interpreted on scalar symbols: the straight-line scalar code of a kernel.
+r"""Straight-line scalar code: the operations of a traced kernel, one line each.
 
-:func:`run_jaxpr` runs a jaxpr (the graph of primitives that :func:`jax.make_jaxpr` records
-of a model's array code on a batch of *one*) on NumPy *object* arrays whose elements are
-scalar symbols (:class:`Sym`) or constants. Every array of the trace becomes its handful of
-per-lane scalars (``(1, 3)`` → 3 scalars), so slicing, concatenation, broadcasting and
-reductions over the small trailing axes resolve here, at compile time. The :class:`Emitter`
-writes one line of scalar code per remaining operation: it folds constants, shares common
-subexpressions, and marks what depends on the model's parameters alone (computed once per
-call, before the kernel's loop). A ``where`` becomes a branch-free select, and the inner
-guard of the models' double ``where`` (:func:`brdfkit._array.safe_div`) is resolved
-(:func:`_given`), so that a guarded division compiles to one select.
+:mod:`brdfkit.compiled.symbolic` traces a model's array code on NumPy *object* arrays whose
+elements are scalar symbols (:class:`Sym`) or constants: every array of the trace is its
+handful of per-lane scalars (``(1, 3)`` → 3 scalars), so slicing, concatenation,
+broadcasting and reductions over the small trailing axes resolve at trace time. The
+functions here turn the remaining operations into code: :func:`elementwise` applies a
+primitive lane by lane, and the :class:`Emitter` writes one line of scalar code per
+operation. It folds constants, shares common subexpressions, and marks what depends on the
+model's parameters alone (computed once per call, before the kernel's loop). A ``where``
+becomes a branch-free select (:func:`select`), and the inner guard of the models' double
+``where`` (:func:`brdfkit._array.safe_div`) is resolved (:func:`_given`), so that a guarded
+division compiles to one select.
 
 Primitives map to NumPy expressions that numba compiles (``sqrt``, division, ``min``/``max``
 and selects vectorise), to the intrinsics of :mod:`brdfkit.compiled._numba` (``_select``,
 ``_max``, boolean operators, ``_rsqrt32``) and to :mod:`brdfkit.compiled.scalar_functions`
 (float32 ``_sin32``/``_cos32``, ``_erfinv32``/``_erfinv64``); ``erf`` and ``lgamma`` are
-``math``'s. A primitive without a mapping raises ``ValueError``.
+``math``'s.
 
 References
 ----------
 .. [1] R. Frostig, M. J. Johnson, C. Leary, "Compiling machine learning programs via
-       high-level tracing", SysML 2018 (JAX and its jaxpr).
+       high-level tracing", SysML 2018 (tracing array code into primitives).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ class Sym:
 
 
 # Elementwise primitives: (NumPy function used to fold constants, code template).
-_UNARY: dict[str, tuple[Callable[..., Any], str]] = {
+UNARY: dict[str, tuple[Callable[..., Any], str]] = {
     "neg": (np.negative, "-{0}"),
     "abs": (np.abs, "np.abs({0})"),
     "sign": (np.sign, "np.sign({0})"),
@@ -66,7 +67,7 @@ _UNARY: dict[str, tuple[Callable[..., Any], str]] = {
     "is_finite": (np.isfinite, "np.isfinite({0})"),
     "not": (np.logical_not, "_not({0})"),
 }
-_BINARY: dict[str, tuple[Callable[..., Any], str]] = {
+BINARY: dict[str, tuple[Callable[..., Any], str]] = {
     "add": (np.add, "{0} + {1}"),
     "sub": (np.subtract, "{0} - {1}"),
     "mul": (np.multiply, "{0} * {1}"),
@@ -86,21 +87,11 @@ _BINARY: dict[str, tuple[Callable[..., Any], str]] = {
     "or": (np.logical_or, "_or({0}, {1})"),
     "xor": (np.logical_xor, "_xor({0}, {1})"),
 }
-_FLOAT_BINARY = {"max": "_max({0}, {1})", "min": "_min({0}, {1})"}
+_FLOATBINARY = {"max": "_max({0}, {1})", "min": "_min({0}, {1})"}
 """Templates of the float ``max``/``min``: LLVM's ``maximum``/``minimum``, NaN-propagating as
 ``np.maximum``/``np.minimum`` (and JAX's), one vector instruction and a NaN fix-up. numba's
 own ``np.maximum`` of scalars is a compare-and-select chain that LLVM lowers, under the
 kernels' fast-math flags, to integer compares and mask logic."""
-_SPECIAL = {"erf": "erf", "lgamma": "gammaln"}  # scipy.special names; math.* in the kernel
-_REDUCERS = {
-    "reduce_sum": "add",
-    "reduce_prod": "mul",
-    "reduce_max": "max",
-    "reduce_min": "min",
-    "reduce_and": "and",
-    "reduce_or": "or",
-}
-_IDENTITY = {"copy", "copy_p", "optimization_barrier"}
 
 
 class Emitter:
@@ -153,7 +144,7 @@ def _is_const(x: Any) -> bool:
     return not isinstance(x, Sym)
 
 
-def _elementwise(
+def elementwise(
     em: Emitter, fold: Callable[..., Any], template: str, args: list[np.ndarray], dtype: np.dtype
 ) -> np.ndarray:
     """Apply a primitive lane-wise to broadcast object arrays, folding all-constant elements."""
@@ -173,7 +164,7 @@ _SELECT = "_select({0}, {2}, {1})"
 """Template of a select: its arguments are ``[predicate, case if false, case if true]``."""
 
 
-def _select(em: Emitter, predicate: Any, cases: list[Any], dtype: np.dtype) -> Any:
+def select(em: Emitter, predicate: Any, cases: list[Any], dtype: np.dtype) -> Any:
     """``cases[predicate]`` for a boolean predicate (JAX's ``select_n``); each case as
     :func:`_given` the predicate's value that picks it."""
     if _is_const(predicate):
@@ -214,16 +205,16 @@ def _given(em: Emitter, x: Any, predicate: Sym, value: bool) -> Any:
     return em.emit(template, operands, x.dtype)
 
 
-def _binary(op: str, dtype: np.dtype) -> tuple[Callable[..., Any], str]:
+def binary_rule(op: str, dtype: np.dtype) -> tuple[Callable[..., Any], str]:
     """The constant fold and code template of the binary primitive ``op`` on ``dtype``."""
-    fold, template = _BINARY[op]
-    if op in _FLOAT_BINARY and np.dtype(dtype).kind == "f":
-        template = _FLOAT_BINARY[op]
+    fold, template = BINARY[op]
+    if op in _FLOATBINARY and np.dtype(dtype).kind == "f":
+        template = _FLOATBINARY[op]
     return fold, template
 
 
-def _reduce(em: Emitter, x: np.ndarray, axes: tuple[int, ...], op: str, dtype: Any) -> np.ndarray:
-    fold, template = _binary(op, dtype)
+def reduce(em: Emitter, x: np.ndarray, axes: tuple[int, ...], op: str, dtype: Any) -> np.ndarray:
+    fold, template = binary_rule(op, dtype)
     keep = [a for a in range(x.ndim) if a not in axes]
     moved = np.transpose(x, keep + list(axes))
     flat = moved.reshape(*moved.shape[: len(keep)], -1)
@@ -233,12 +224,13 @@ def _reduce(em: Emitter, x: np.ndarray, axes: tuple[int, ...], op: str, dtype: A
         total = items[0]
         for item in items[1:]:
             pair = [np.array(total, dtype=object), np.array(item, dtype=object)]
-            total = _elementwise(em, fold, template, pair, dtype)[()]
+            total = elementwise(em, fold, template, pair, dtype)[()]
         out[index] = total
     return out
 
 
-def _constant_array(value: Any) -> np.ndarray:
+def constant_elements(value: Any) -> np.ndarray:
+    """``value`` (a NumPy array) as an object array of its NumPy scalars."""
     arr = np.asarray(value)
     out = np.empty(arr.shape, dtype=object)
     for index in np.ndindex(arr.shape):
@@ -246,141 +238,12 @@ def _constant_array(value: Any) -> np.ndarray:
     return out
 
 
-def _subjaxpr(params: dict[str, Any]) -> Any:
-    from jax.extend.core import ClosedJaxpr, Jaxpr
-
-    for value in params.values():
-        if isinstance(value, ClosedJaxpr | Jaxpr):
-            return value
-    return None
+def convert(em: Emitter, x: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """The elements ``x`` converted to ``dtype`` (constants folded)."""
+    return elementwise(em, lambda v: v, "{0}", [x], dtype)
 
 
-def run_jaxpr(em: Emitter, closed: Any, args: list[np.ndarray]) -> list[np.ndarray]:
-    """Interpret a (closed) jaxpr on object arrays of symbols; returns its outputs."""
-    from jax.extend.core import ClosedJaxpr, Literal
-
-    jaxpr, consts = (
-        (closed.jaxpr, closed.consts) if isinstance(closed, ClosedJaxpr) else (closed, [])
-    )
-    env: dict[Any, np.ndarray] = {}
-    for var, value in zip(jaxpr.constvars, consts, strict=True):
-        env[var] = _constant_array(value)
-    for var, value in zip(jaxpr.invars, args, strict=True):
-        env[var] = value
-
-    def read(v: Any) -> np.ndarray:
-        if isinstance(v, Literal):
-            return _constant_array(np.asarray(v.val, dtype=v.aval.dtype))
-        return env[v]
-
-    for eqn in jaxpr.eqns:
-        ins = [read(v) for v in eqn.invars]
-        outs = _apply(em, eqn, ins)
-        for var, value in zip(eqn.outvars, outs, strict=True):
-            env[var] = value
-    return [read(v) for v in jaxpr.outvars]
-
-
-def _apply(em: Emitter, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
-    """One jaxpr equation on object arrays."""
-    name = eqn.primitive.name
-    p = eqn.params
-    aval = eqn.outvars[0].aval
-    dtype = np.dtype(aval.dtype)
-    sub = _subjaxpr(p)
-    if sub is not None and name not in ("cond", "while", "scan"):
-        return run_jaxpr(em, sub, ins)
-    if name in ("sin", "cos") and dtype == np.float32:
-        return [_elementwise(em, _UNARY[name][0], f"_{name}32({{0}})", ins, dtype)]
-    if name == "erf_inv":
-        from scipy import special
-
-        template = f"_erfinv{8 * dtype.itemsize}({{0}})"
-        return [_elementwise(em, special.erfinv, template, ins, dtype)]
-    if name == "div" and dtype.kind == "f":
-        return [_divide(em, *ins, dtype)]
-    if name in _UNARY:
-        return [_elementwise(em, *_UNARY[name], ins, dtype)]
-    if name in _BINARY:
-        return [_elementwise(em, *_binary(name, dtype), ins, dtype)]
-    if name in _SPECIAL:
-        from scipy import special
-
-        fold = getattr(special, _SPECIAL[name])
-        return [_elementwise(em, fold, f"math.{name}({{0}})", ins, dtype)]
-    if name in _IDENTITY:
-        return ins[:1]
-    if name == "integer_pow":
-        return [_integer_pow(em, ins[0], int(p["y"]), dtype)]
-    if name == "square":
-        return [_elementwise(em, np.multiply, "{0} * {1}", [ins[0], ins[0]], dtype)]
-    if name == "rsqrt":
-        return [_elementwise(em, lambda x: 1 / np.sqrt(x), "1 / np.sqrt({0})", ins, dtype)]
-    if name == "logistic":
-        return [
-            _elementwise(em, lambda x: 1 / (1 + np.exp(-x)), "1 / (1 + np.exp(-{0}))", ins, dtype)
-        ]
-    if name == "convert_element_type":
-        return [_elementwise(em, lambda x: x, "{0}", ins, dtype)]
-    if name == "select_n":
-        if len(ins) != 3:
-            raise ValueError(
-                f"select_n with {len(ins) - 1} cases is not supported by brdfkit.compiled"
-            )
-        pred, *cases = np.broadcast_arrays(*ins)
-        out = np.empty(pred.shape, dtype=object)
-        for index in np.ndindex(out.shape):
-            out[index] = _select(em, pred[index], [c[index] for c in cases], dtype)
-        return [out]
-    if name == "clamp":
-        lo, x, hi = ins
-        x = _elementwise(em, *_binary("max", dtype), [x, lo], dtype)
-        return [_elementwise(em, *_binary("min", dtype), [x, hi], dtype)]
-    if name in _REDUCERS:
-        return [_reduce(em, ins[0], tuple(p["axes"]), _REDUCERS[name], dtype)]
-    if name == "broadcast_in_dim":
-        shape = tuple(p["shape"])
-        expanded = [1] * len(shape)
-        for i, d in enumerate(p["broadcast_dimensions"]):
-            expanded[d] = ins[0].shape[i]
-        return [np.broadcast_to(ins[0].reshape(expanded), shape)]
-    if name == "reshape":
-        x = ins[0] if p.get("dimensions") is None else np.transpose(ins[0], p["dimensions"])
-        return [x.reshape(tuple(p["new_sizes"]))]
-    if name == "squeeze":
-        return [np.squeeze(ins[0], axis=tuple(p["dimensions"]))]
-    if name == "expand_dims":
-        return [np.expand_dims(ins[0], tuple(p["dimensions"]))]
-    if name == "slice":
-        strides = p["strides"] or (1,) * ins[0].ndim
-        index = tuple(
-            slice(a, b, s)
-            for a, b, s in zip(p["start_indices"], p["limit_indices"], strides, strict=True)
-        )
-        return [ins[0][index]]
-    if name == "concatenate":
-        return [np.concatenate(ins, axis=p["dimension"])]
-    if name == "stack":
-        return [np.stack(np.broadcast_arrays(*ins), axis=p["axis"])]
-    if name == "transpose":
-        return [np.transpose(ins[0], p["permutation"])]
-    if name == "rev":
-        return [np.flip(ins[0], axis=tuple(p["dimensions"]))]
-    if name == "split":
-        bounds = np.cumsum(p["sizes"])[:-1]
-        return list(np.split(ins[0], bounds, axis=p["axis"]))
-    if name == "iota":
-        values = np.arange(p["shape"][p["dimension"]], dtype=dtype)
-        shape = [1] * len(p["shape"])
-        shape[p["dimension"]] = -1
-        return [_constant_array(np.broadcast_to(values.reshape(shape), p["shape"]))]
-    raise ValueError(
-        f"the JAX primitive {name!r} is not supported by brdfkit.compiled; "
-        "use brdfkit.compiled.eval_chunked (NumPy) for this model"
-    )
-
-
-def _divide(em: Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.ndarray:
+def divide(em: Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.ndarray:
     """``x / y``; by a divisor computed once per call (of the parameters alone), as ``x``
     times its reciprocal. A constant divisor becomes that under LLVM's reciprocal fast-math
     flag already, in every copy of the loop alike; a per-call one would too, but LLVM may
@@ -388,7 +251,7 @@ def _divide(em: Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.nd
     would depend on its place in the batch."""
     x, y = np.broadcast_arrays(x, y)
     out = np.empty(x.shape, dtype=object)
-    fold, template = _BINARY["div"]
+    fold, template = BINARY["div"]
     one = np.ones((), dtype=dtype)
     for index in np.ndindex(out.shape):
         a, b = x[index], y[index]
@@ -396,13 +259,13 @@ def _divide(em: Emitter, x: np.ndarray, y: np.ndarray, dtype: np.dtype) -> np.nd
         floored = None if per_call else _floored_square(em, b)
         if per_call and not (_is_const(a) or a.name in em.uniform):
             reciprocal = em.emit(template, [one, b], dtype)
-            out[index] = em.emit(_BINARY["mul"][1], [a, reciprocal], dtype)
+            out[index] = em.emit(BINARY["mul"][1], [a, reciprocal], dtype)
         elif floored is not None:
             reciprocal = em.emit("_rsqrt32({0})", [floored], dtype)
-            mul = _BINARY["mul"]
-            out[index] = _elementwise(em, *mul, [np.array(a), np.array(reciprocal)], dtype)[()]
+            mul = BINARY["mul"]
+            out[index] = elementwise(em, *mul, [np.array(a), np.array(reciprocal)], dtype)[()]
         else:
-            out[index] = _elementwise(em, fold, template, [np.array(a), np.array(b)], dtype)[()]
+            out[index] = elementwise(em, fold, template, [np.array(a), np.array(b)], dtype)[()]
     return out
 
 
@@ -420,32 +283,45 @@ def _floored_square(em: Emitter, b: Any) -> Sym | None:
     if not isinstance(b, Sym) or b.dtype != np.float32:
         return None
     template, args = em.definitions.get(b.name, ("", ()))
-    if template != _UNARY["sqrt"][1] or not isinstance(args[0], Sym):
+    if template != UNARY["sqrt"][1] or not isinstance(args[0], Sym):
         return None
     template, args = em.definitions.get(args[0].name, ("", ()))
-    if template != _FLOAT_BINARY["max"]:
+    if template != _FLOATBINARY["max"]:
         return None
     floors = [float(v) for v in args if _is_const(v)]
     if len(floors) != 1 or not np.finfo(np.float32).tiny <= floors[0] < np.inf:
         return None
-    return em.emit(_FLOAT_BINARY["max"], list(args), np.dtype(np.float32))
+    return em.emit(_FLOATBINARY["max"], list(args), np.dtype(np.float32))
 
 
-def _integer_pow(em: Emitter, x: np.ndarray, y: int, dtype: np.dtype) -> np.ndarray:
+def integer_power(em: Emitter, x: np.ndarray, y: int, dtype: np.dtype) -> np.ndarray:
     """``x**y`` for an integer ``y`` by repeated squaring (as XLA does)."""
-    mul = _BINARY["mul"]
+    mul = BINARY["mul"]
     result = None
     base = x
     for bit in bin(abs(y))[:1:-1]:
         if bit == "1":
-            result = base if result is None else _elementwise(em, *mul, [result, base], dtype)
-        base = _elementwise(em, *mul, [base, base], dtype)
+            result = base if result is None else elementwise(em, *mul, [result, base], dtype)
+        base = elementwise(em, *mul, [base, base], dtype)
     if result is None:
-        result = _constant_array(np.ones(x.shape, dtype=dtype))
+        result = constant_elements(np.ones(x.shape, dtype=dtype))
     if y < 0:
-        one = _constant_array(np.ones((), dtype=dtype))
-        result = _elementwise(em, *_BINARY["div"], [one, result], dtype)
+        one = constant_elements(np.ones((), dtype=dtype))
+        result = elementwise(em, *BINARY["div"], [one, result], dtype)
     return result
 
 
-__all__ = ["Emitter", "Sym", "run_jaxpr"]
+__all__ = [
+    "BINARY",
+    "UNARY",
+    "Emitter",
+    "Sym",
+    "binary_rule",
+    "constant_elements",
+    "convert",
+    "divide",
+    "elementwise",
+    "integer_power",
+    "reduce",
+    "select",
+]

@@ -5,7 +5,7 @@ The structure of a model is its spec tree with every numeric parameter (a field 
 the class of each node, its options (strings, flags, ``None``), nested lobes, and the shapes of
 the parameters. Two models of one structure differ only in parameter values, so one compiled
 kernel serves both, taking the values as an input (:mod:`brdfkit.compiled`).
-:func:`rebuild` makes the model again from any values of the right shapes — JAX tracers included,
+:func:`rebuild` makes the model again from any values of the right shapes — traced arrays included,
 which is how a kernel is traced once for the whole structure.
 """
 
