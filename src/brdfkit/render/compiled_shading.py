@@ -478,7 +478,7 @@ def _uniforms(
 
 AUTO_COMPILE_WORK = 4_000_000
 """Pixel-samples of MIS shading of a GGX conductor that the NumPy path takes about as long for
-as building that model's kernels takes (a JAX trace and numba compiles of
+as building that model's kernels takes (a symbolic trace and numba compiles of
 ``sample``/``eval``/``pdf`` and the tile kernel, seconds once per model structure and
 machine). :func:`~brdfkit.render.shade` builds them whatever the work; a caller rendering
 many models once each, small (the atlas), may weigh their build against it."""
@@ -503,7 +503,7 @@ def compiled_shader(
     It applies to exactly one :class:`~brdfkit.light.EnvironmentMap` plus any delta lights
     (directional, point: evaluated exactly, no samples, by the NumPy path), ``method``
     ``"auto"`` or ``"mis"``, a BRDF whose non-Lambertian part :func:`brdfkit.compiled.compile`
-    compiles (no per-pixel parameters), with numba and JAX installed, or whose non-Lambertian
+    compiles (no per-pixel parameters), with numba installed, or whose non-Lambertian
     part is a (constant-scaled) tabulated BRDF (:func:`brdfkit.measured.table_kernels`).
     With ``build=False`` it is returned only when it costs no compilation: the model's
     kernels are built already (with ``shadows``, the recording tile kernel), or the BRDF is
