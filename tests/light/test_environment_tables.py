@@ -133,10 +133,11 @@ def test_the_table_key_names_the_pixels(table_dir):
     image = np.random.default_rng(12).random((12, 24, 3)).astype(np.float32)
     other = image.copy()
     other[3, 4, 2] += 0.5
-    key = EnvironmentMap(image)._table_key
-    assert EnvironmentMap(image.copy())._table_key == key
-    assert EnvironmentMap(other)._table_key != key
-    assert EnvironmentMap(image[:, ::-1])._table_key != key
+    key = EnvironmentMap(image)._table_key("irradiance")
+    assert EnvironmentMap(image.copy())._table_key("irradiance") == key
+    assert EnvironmentMap(other)._table_key("irradiance") != key
+    assert EnvironmentMap(image[:, ::-1])._table_key("irradiance") != key
+    assert EnvironmentMap(image)._table_key("weights") != key
 
 
 def test_a_partial_table_on_disk_is_completed_and_stored_again(table_dir):
@@ -202,5 +203,34 @@ def test_an_empty_cache_dir_keeps_the_tables_in_memory_only(tmp_path, monkeypatc
     image = np.random.default_rng(15).random((12, 24, 3)).astype(np.float32)
     EnvironmentMap(image).irradiance(np.array([[0.0, 0.0, 1.0]]))
     clear_table_cache()
-    assert cache.load_arrays("irradiance", EnvironmentMap(image)._table_key) is None
+    assert cache.load_arrays("irradiance", EnvironmentMap(image)._table_key("irradiance")) is None
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("compensated", [False, True])
+def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
+    table_dir, monkeypatch, compensated
+):
+    """A new process samples the map as the first did (equal densities) with the weights read
+    back; weights of another shape or negative are made again."""
+    image = np.random.default_rng(16).random((12, 24, 3)).astype(np.float32)
+    name = "compensated" if compensated else "weights"
+
+    def density(env):
+        env = env.compensated if compensated else env
+        return env._distribution.density.copy()
+
+    first = density(EnvironmentMap(image))
+    (path,) = sorted(table_dir.rglob(f"{name}/*.npz"))
+    clear_table_cache()
+    monkeypatch.setattr(environment, "_sampling_weights", None)  # reading only
+    np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+    monkeypatch.undo()
+    monkeypatch.setenv(cache.ENV, str(table_dir))
+    for bad in (np.ones((3, 4)), -np.ones(image.shape[:2])):
+        np.savez(path, weights=bad)
+        clear_table_cache()
+        np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+        with np.load(path) as stored:
+            assert stored["weights"].shape == image.shape[:2]
+            assert (stored["weights"] >= 0).all()

@@ -5,8 +5,9 @@ luminance·sin θ, and tabulates the irradiance of the normals for the diffuse p
 Its tables are made when first used and only as far as used (a map only looked up builds no
 sampling distribution; the irradiance table is built by the columns that lookups read), and are
 shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
-map. The irradiance table has a second level of cache on disk (:func:`use_table_store`), so
-that a new process reading the same map does not build it again.
+map. The irradiance table and the sampling weights have a second level of cache on disk
+(:func:`use_table_store`), so that a new process reading the same map does not build them
+again.
 
 References
 ----------
@@ -153,7 +154,7 @@ class EnvironmentMap(Light):
         return _content_table(
             self._pixels_key,
             "distribution",
-            lambda: Distribution2D(_sampling_weights(self.image)),
+            lambda: Distribution2D(self._stored_weights(compensate=False)),
         )
 
     @functools.cached_property
@@ -185,7 +186,7 @@ class EnvironmentMap(Light):
         distribution = _content_table(
             self._pixels_key,
             "compensated",
-            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
+            lambda: Distribution2D(self._stored_weights(compensate=True)),
         )
         view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
@@ -302,16 +303,37 @@ class EnvironmentMap(Light):
     def _irradiance_nodes(self) -> _IrradianceNodes:
         """The map's :class:`_IrradianceNodes`, shared by maps of equal pixels."""
         return _content_table(
-            self._pixels_key, "irradiance", lambda: _IrradianceNodes(self.image, self._table_key)
+            self._pixels_key,
+            "irradiance",
+            lambda: _IrradianceNodes(self.image, self._table_key("irradiance")),
         )
 
-    @property
-    def _table_key(self) -> str:
-        """The key of the irradiance table on disk: SHA-256 of the pixels' digest, their
-        shape and type, the cells and node grid, and :data:`TABLE_FORMAT`."""
+    def _table_key(self, name: str) -> str:
+        """The key of the table ``name`` on disk: SHA-256 of the pixels' digest, their shape
+        and type, the irradiance cells and node grid, ``name`` and :data:`TABLE_FORMAT`."""
         shape, digest = self._pixels_key
-        parts = (TABLE_FORMAT, shape, self.image.dtype.str, IRRADIANCE_CELLS, IRRADIANCE_GRID)
+        parts = (TABLE_FORMAT, name, shape, self.image.dtype.str, IRRADIANCE_CELLS, IRRADIANCE_GRID)
         return hashlib.sha256(digest + repr(parts).encode()).hexdigest()
+
+    def _stored_weights(self, compensate: bool) -> np.ndarray:
+        """:func:`_sampling_weights` of the pixels, read from the table store where they are
+        (finite, non-negative, one per pixel), else made and stored."""
+        name = "compensated" if compensate else "weights"
+        key = self._table_key(name)
+        stored = _STORE[0].load(name, key) if _STORE else None
+        weights = None if stored is None else stored.get("weights")
+        if (
+            isinstance(weights, np.ndarray)
+            and weights.dtype == np.float64
+            and weights.shape == self.image.shape[:2]
+            and bool((weights >= 0).all())  # False for NaN too
+            and bool(np.isfinite(weights).all())
+        ):
+            return weights
+        weights = _sampling_weights(self.image, compensate)
+        if _STORE:
+            _STORE[0].save(name, key, {"weights": weights})
+        return weights
 
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
@@ -390,9 +412,9 @@ _STORE: list[TableStore] = []
 
 
 def use_table_store(store: TableStore | None) -> TableStore | None:
-    """Keep the maps' irradiance tables in ``store`` too (``None``: in memory only); returns
-    the store used until now. :mod:`brdfkit.compiled.cache` gives its own when imported (the
-    kernel cache's folder, ``$BRDFKIT_CACHE_DIR``).
+    """Keep the maps' irradiance tables and sampling weights in ``store`` too (``None``: in
+    memory only); returns the store used until now. :mod:`brdfkit.compiled.cache` gives its
+    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``).
 
     Examples
     --------
