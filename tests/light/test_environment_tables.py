@@ -1,12 +1,13 @@
 """An environment map's tables: the irradiance table against its direct quadrature, and the
-cache that shares tables between maps of equal pixels."""
+caches that share tables between maps of equal pixels, in memory and on disk."""
 
 import math
 
 import numpy as np
 import pytest
 
-from brdfkit.light import EnvironmentMap
+from brdfkit.compiled import cache
+from brdfkit.light import EnvironmentMap, environment
 from brdfkit.light.environment import (
     IRRADIANCE_CELLS,
     IRRADIANCE_GRID,
@@ -94,3 +95,142 @@ def test_irradiance_of_some_normals_equals_the_lookup_in_the_whole_table():
     whole = EnvironmentMap(image)
     _ = whole.irradiance_table
     np.testing.assert_array_equal(partial, whole.irradiance(normals))
+
+
+@pytest.fixture
+def table_dir(tmp_path, monkeypatch):
+    """A disk cache of its own (:mod:`brdfkit.compiled.cache` is the maps' table store)."""
+    monkeypatch.setenv(cache.ENV, str(tmp_path))
+    clear_table_cache()
+    yield tmp_path
+    clear_table_cache()
+
+
+def _stored_tables(folder):
+    return sorted(folder.rglob("irradiance/*.npz"))
+
+
+def _no_building(monkeypatch):
+    def refuse(*args):
+        raise AssertionError("the irradiance table was built, not read from disk")
+
+    monkeypatch.setattr(environment, "_clamped_sums", refuse)
+
+
+def test_a_new_process_reads_the_irradiance_table_from_disk_bit_equal(table_dir, monkeypatch):
+    """The table is stored once built; with the in-memory cache gone (as in a new process) a
+    map of the same pixels reads it back, equal to the bit, without building it."""
+    image = np.random.default_rng(11).random((12, 24, 3)).astype(np.float32)
+    built = EnvironmentMap(image).irradiance_table.copy()
+    (path,) = _stored_tables(table_dir)
+    clear_table_cache()
+    _no_building(monkeypatch)
+    np.testing.assert_array_equal(EnvironmentMap(image.copy()).irradiance_table, built)
+    assert _stored_tables(table_dir) == [path]
+
+
+def test_the_table_key_names_the_pixels(table_dir):
+    image = np.random.default_rng(12).random((12, 24, 3)).astype(np.float32)
+    other = image.copy()
+    other[3, 4, 2] += 0.5
+    key = EnvironmentMap(image)._table_key("irradiance")
+    assert EnvironmentMap(image.copy())._table_key("irradiance") == key
+    assert EnvironmentMap(other)._table_key("irradiance") != key
+    assert EnvironmentMap(image[:, ::-1])._table_key("irradiance") != key
+    assert EnvironmentMap(image)._table_key("weights") != key
+
+
+def test_a_partial_table_on_disk_is_completed_and_stored_again(table_dir):
+    """Columns built by lookups are stored with the mask of what was built; a later map
+    builds only what is missing and stores the whole."""
+    image = np.random.default_rng(13).random((12, 24, 3)).astype(np.float32)
+    EnvironmentMap(image).irradiance(np.array([[1.0, 0.0, 0.0]]))
+    (path,) = _stored_tables(table_dir)
+    with np.load(path) as stored:
+        assert 0 < stored["built"].sum() < IRRADIANCE_GRID[1]
+    clear_table_cache()
+    whole = EnvironmentMap(image).irradiance_table
+    with np.load(path) as stored:
+        assert stored["built"].all()
+        np.testing.assert_array_equal(stored["table"], whole)
+    nodes = np.arange(0, whole[..., 0].size, 97)
+    direct = _direct_irradiance_table(image, nodes)
+    np.testing.assert_allclose(whole.reshape(-1, 3)[nodes], direct, rtol=2e-5)
+
+
+def _truncate(path):
+    path.write_bytes(path.read_bytes()[:300])
+
+
+def _wrong_shape(path):
+    np.savez(path, table=np.zeros((3, 4, 3), np.float32), built=np.ones(4, bool))
+
+
+def _not_finite(path):
+    with np.load(path) as stored:
+        table, built = stored["table"].copy(), stored["built"]
+    table[5, np.flatnonzero(built)[0], 1] = np.nan
+    np.savez(path, table=table, built=built)
+
+
+def _objects(path):
+    np.savez(path, table=np.array([None], dtype=object), built=np.ones(1, bool))
+
+
+@pytest.mark.parametrize("damage", [_truncate, _wrong_shape, _not_finite, _objects])
+def test_a_bad_table_on_disk_is_built_again_and_replaced(table_dir, damage):
+    """A truncated or corrupt file, one of another shape, with a NaN or holding objects is
+    never trusted: the table's columns are built again (equal to the first) and the file
+    replaced. (One normal's lookup: two columns, cheap.)"""
+    image = np.random.default_rng(14).random((12, 24, 3)).astype(np.float32)
+    normal = np.array([[0.6, 0.0, 0.8]])
+    first = EnvironmentMap(image).irradiance(normal)
+    (path,) = _stored_tables(table_dir)
+    with np.load(path) as stored:
+        built, table = stored["built"], stored["table"]
+    damage(path)
+    clear_table_cache()
+    np.testing.assert_array_equal(EnvironmentMap(image).irradiance(normal), first)
+    with np.load(path) as stored:
+        np.testing.assert_array_equal(stored["built"], built)
+        np.testing.assert_array_equal(stored["table"], table)
+
+
+def test_an_empty_cache_dir_keeps_the_tables_in_memory_only(tmp_path, monkeypatch):
+    monkeypatch.setenv(cache.ENV, "")
+    monkeypatch.chdir(tmp_path)
+    clear_table_cache()
+    image = np.random.default_rng(15).random((12, 24, 3)).astype(np.float32)
+    EnvironmentMap(image).irradiance(np.array([[0.0, 0.0, 1.0]]))
+    clear_table_cache()
+    assert cache.load_arrays("irradiance", EnvironmentMap(image)._table_key("irradiance")) is None
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("compensated", [False, True])
+def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
+    table_dir, monkeypatch, compensated
+):
+    """A new process samples the map as the first did (equal densities) with the weights read
+    back; weights of another shape or negative are made again."""
+    image = np.random.default_rng(16).random((12, 24, 3)).astype(np.float32)
+    name = "compensated" if compensated else "weights"
+
+    def density(env):
+        env = env.compensated if compensated else env
+        return env._distribution.density.copy()
+
+    first = density(EnvironmentMap(image))
+    (path,) = sorted(table_dir.rglob(f"{name}/*.npz"))
+    clear_table_cache()
+    monkeypatch.setattr(environment, "_sampling_weights", None)  # reading only
+    np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+    monkeypatch.undo()
+    monkeypatch.setenv(cache.ENV, str(table_dir))
+    for bad in (np.ones((3, 4)), -np.ones(image.shape[:2])):
+        np.savez(path, weights=bad)
+        clear_table_cache()
+        np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+        with np.load(path) as stored:
+            assert stored["weights"].shape == image.shape[:2]
+            assert (stored["weights"] >= 0).all()

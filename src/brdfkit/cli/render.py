@@ -249,7 +249,6 @@ def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:
     from brdfkit._checks import check_memory
     from brdfkit.io import read_image
     from brdfkit.render.scene import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer
-    from brdfkit.vision.datasets import read_normal_map
 
     shapes = {"sphere": Sphere(), "plane": Plane(), "cylinder": Cylinder()}
     if shape in shapes:
@@ -260,6 +259,8 @@ def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:
     path = _shape_file(shape)
     if path is None:
         fail(f"shape must be one of {sorted(shapes)} or a normal-map file; got {shown(shape)!r}")
+    from brdfkit.vision.datasets import read_normal_map  # a file's reader only: vision is heavy
+
     normals = read_normal_map(path)
     height, width = normals.shape[:2]
     check_memory(f"rendering {width}×{height} pixels", _BYTES_PER_PIXEL * width * height)

@@ -10,7 +10,9 @@ string the caller computes from everything the machine code depends on (the gene
 source, its constants, the tile's options), under a folder that names the version of
 brdfkit's code, numba and Python; numba adds the CPU (its own "magic tuple") to each entry.
 It also keeps small JSON records (the generated source of a model structure's kernel), so
-that a warm process does not even trace.
+that a warm process does not even trace, and arrays (:func:`store_arrays`: the tables of an
+environment map, which :mod:`brdfkit.light.environment` is given as its second level of cache
+when this module is imported, :func:`brdfkit.light.environment.use_table_store`).
 
 The folder is ``$BRDFKIT_CACHE_DIR`` if set (empty: no disk cache), else
 ``platformdirs.user_cache_dir("brdfkit")``, then ``kernels/<version>``. Files are written
@@ -40,11 +42,13 @@ import tempfile
 import threading
 import time
 import weakref
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from brdfkit.compiled import _numba
+from brdfkit.light.environment import TableStore, use_table_store
 
 ENV = "BRDFKIT_CACHE_DIR"
 """Environment variable overriding the cache folder (an empty value turns the cache off)."""
@@ -54,7 +58,8 @@ _MARKER = "brdfkit-kernel-cache"
 
 STATS: collections.Counter[str] = collections.Counter()
 """Counts of ``hits``/``misses`` (numba machine code loaded from disk or compiled),
-``record_hits``/``record_misses`` (generated sources) and ``errors`` (entries that could not be
+``record_hits``/``record_misses`` (generated sources), ``array_hits``/``array_misses``
+(:func:`load_arrays`) and ``errors`` (entries that could not be
 read or written: the kernel was then compiled in memory), since the process started."""
 
 _LOCK = threading.Lock()
@@ -231,6 +236,58 @@ def store_record(kind: str, cache_key: str, record: dict) -> None:
         STATS["errors"] += 1
 
 
+# --------------------------------------------------------------------------- arrays
+def _array_path(kind: str, cache_key: str) -> Path | None:
+    folder = directory()
+    return None if folder is None else folder / kind / f"{cache_key}.npz"
+
+
+def load_arrays(kind: str, cache_key: str) -> dict[str, Any] | None:
+    """The NumPy arrays stored under ``kind``/``cache_key`` by :func:`store_arrays`, or
+    ``None`` (absent, or unreadable: truncated, corrupt, holding objects). Whether their
+    shapes, types and values are what the caller expects is the caller's to check."""
+    import numpy as np
+
+    path = _array_path(kind, cache_key)
+    if path is None:
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as stored:
+            arrays = {name: stored[name] for name in stored.files}
+    except FileNotFoundError:
+        STATS["array_misses"] += 1
+        return None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
+        STATS["errors"] += 1
+        return None
+    STATS["array_hits"] += 1
+    return arrays
+
+
+def store_arrays(kind: str, cache_key: str, arrays: dict[str, Any]) -> None:
+    """Store NumPy ``arrays`` (an ``.npz`` file) under ``kind``/``cache_key``, atomically;
+    errors are counted, never raised."""
+    import numpy as np
+
+    from brdfkit.io import atomic_write
+
+    path = _array_path(kind, cache_key)
+    if path is None:
+        return
+
+    def write(tmp: Path) -> None:
+        with tmp.open("wb") as handle:
+            np.savez(handle, **arrays)
+
+    try:
+        atomic_write(path, write)
+    except OSError:
+        STATS["errors"] += 1
+
+
+use_table_store(TableStore(load_arrays, store_arrays))
+
+
 __all__ = [
     "ENV",
     "STALE_DAYS",
@@ -240,9 +297,11 @@ __all__ = [
     "has",
     "key",
     "key_of",
+    "load_arrays",
     "load_record",
     "njit",
     "root",
+    "store_arrays",
     "store_record",
     "version",
 ]

@@ -5,7 +5,9 @@ luminance·sin θ, and tabulates the irradiance of the normals for the diffuse p
 Its tables are made when first used and only as far as used (a map only looked up builds no
 sampling distribution; the irradiance table is built by the columns that lookups read), and are
 shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
-map.
+map. The irradiance table and the sampling weights have a second level of cache on disk
+(:func:`use_table_store`), so that a new process reading the same map does not build them
+again.
 
 References
 ----------
@@ -152,7 +154,7 @@ class EnvironmentMap(Light):
         return _content_table(
             self._pixels_key,
             "distribution",
-            lambda: Distribution2D(_sampling_weights(self.image)),
+            lambda: Distribution2D(self._stored_weights(compensate=False)),
         )
 
     @functools.cached_property
@@ -184,7 +186,7 @@ class EnvironmentMap(Light):
         distribution = _content_table(
             self._pixels_key,
             "compensated",
-            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
+            lambda: Distribution2D(self._stored_weights(compensate=True)),
         )
         view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
@@ -300,7 +302,38 @@ class EnvironmentMap(Light):
     @functools.cached_property
     def _irradiance_nodes(self) -> _IrradianceNodes:
         """The map's :class:`_IrradianceNodes`, shared by maps of equal pixels."""
-        return _content_table(self._pixels_key, "irradiance", lambda: _IrradianceNodes(self.image))
+        return _content_table(
+            self._pixels_key,
+            "irradiance",
+            lambda: _IrradianceNodes(self.image, self._table_key("irradiance")),
+        )
+
+    def _table_key(self, name: str) -> str:
+        """The key of the table ``name`` on disk: SHA-256 of the pixels' digest, their shape
+        and type, the irradiance cells and node grid, ``name`` and :data:`TABLE_FORMAT`."""
+        shape, digest = self._pixels_key
+        parts = (TABLE_FORMAT, name, shape, self.image.dtype.str, IRRADIANCE_CELLS, IRRADIANCE_GRID)
+        return hashlib.sha256(digest + repr(parts).encode()).hexdigest()
+
+    def _stored_weights(self, compensate: bool) -> np.ndarray:
+        """:func:`_sampling_weights` of the pixels, read from the table store where they are
+        (finite, non-negative, one per pixel), else made and stored."""
+        name = "compensated" if compensate else "weights"
+        key = self._table_key(name)
+        stored = _STORE[0].load(name, key) if _STORE else None
+        weights = None if stored is None else stored.get("weights")
+        if (
+            isinstance(weights, np.ndarray)
+            and weights.dtype == np.float64
+            and weights.shape == self.image.shape[:2]
+            and bool((weights >= 0).all())  # False for NaN too
+            and bool(np.isfinite(weights).all())
+        ):
+            return weights
+        weights = _sampling_weights(self.image, compensate)
+        if _STORE:
+            _STORE[0].save(name, key, {"weights": weights})
+        return weights
 
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
@@ -361,6 +394,39 @@ def _content_table(key: tuple[Any, ...], name: str, build: Callable[[], Any]) ->
     return tables[name]
 
 
+@dataclass(frozen=True)
+class TableStore:
+    """A second level of the maps' table cache, on disk: ``load(kind, key)`` gives the arrays
+    stored under ``key`` (a dict of names to NumPy arrays) or ``None``, ``save(kind, key,
+    arrays)`` stores them; neither raises. What ``load`` gives is checked before it is used
+    (shape, type, finite values): a bad entry is built again, never trusted."""
+
+    load: Callable[[str, str], dict[str, np.ndarray] | None]
+    save: Callable[[str, str, dict[str, np.ndarray]], None]
+
+
+TABLE_FORMAT = 1
+"""Version of the irradiance table's layout on disk, part of its key."""
+
+_STORE: list[TableStore] = []
+
+
+def use_table_store(store: TableStore | None) -> TableStore | None:
+    """Keep the maps' irradiance tables and sampling weights in ``store`` too (``None``: in
+    memory only); returns the store used until now. :mod:`brdfkit.compiled.cache` gives its
+    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``).
+
+    Examples
+    --------
+    >>> previous = use_table_store(None)  # in memory only
+    >>> use_table_store(previous) is None
+    True
+    """
+    previous = _STORE[0] if _STORE else None
+    _STORE[:] = [] if store is None else [store]
+    return previous
+
+
 def clear_table_cache() -> None:
     """Forget every map's cached tables (:func:`_content_table`): the next map pays for its
     own, as the first map a process reads does.
@@ -385,13 +451,31 @@ class _IrradianceNodes:
     """:attr:`EnvironmentMap.irradiance_table` of a lat-long ``image``, built column by column
     as lookups need them (:meth:`columns`)."""
 
-    def __init__(self, image: np.ndarray) -> None:
+    def __init__(self, image: np.ndarray, key: str) -> None:
         self._image = image
         rows, cols = IRRADIANCE_GRID
         self._table = np.zeros((rows, cols, image.shape[2]), np.float32)
         self._built = np.zeros(cols, bool)
         self._lock = threading.Lock()
         self._cells: tuple[np.ndarray, _CellBounds] | None = None
+        self._key = key
+        stored = _STORE[0].load("irradiance", key) if _STORE else None
+        if stored is not None and self._valid(stored):
+            self._table[...] = stored["table"]
+            self._built[...] = stored["built"]
+
+    def _valid(self, stored: dict[str, np.ndarray]) -> bool:
+        """Whether ``stored`` is a table of this map's shape and type, finite where built."""
+        table, built = stored.get("table"), stored.get("built")
+        return (
+            isinstance(table, np.ndarray)
+            and isinstance(built, np.ndarray)
+            and table.dtype == self._table.dtype
+            and table.shape == self._table.shape
+            and built.dtype == bool
+            and built.shape == self._built.shape
+            and bool(np.isfinite(table[:, built]).all())
+        )
 
     def columns(self, needed: np.ndarray) -> np.ndarray:
         """The table, ``(97, 192, C)`` float32, with (at least) the node columns ``needed``
@@ -410,6 +494,9 @@ class _IrradianceNodes:
                 sums = _clamped_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
                 self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
                 self._built[missing] = True
+                if _STORE:
+                    arrays = {"table": self._table, "built": self._built}
+                    _STORE[0].save("irradiance", self._key, arrays)
         return self._table
 
 
@@ -639,7 +726,10 @@ def _bilinear_np(image: np.ndarray, row: np.ndarray, col: np.ndarray) -> np.ndar
 
 __all__ = [
     "CACHED_MAPS",
+    "TABLE_FORMAT",
     "EnvironmentMap",
+    "TableStore",
     "clear_table_cache",
     "compiled_lookups",
+    "use_table_store",
 ]
