@@ -178,7 +178,12 @@ def started_deaf_to_ctrl_c(make: Callable[[], _Made]) -> _Made:
     while the workers start ends the wait at once (the start then carries on unobserved until
     the process ends). Where threads have no signal masks (Windows), ``make()`` runs here.
     CPython starts its resource tracker behind the same mask, for the same race
-    (bpo-33613 [2]_).
+    (bpo-33613 [1]_).
+
+    References
+    ----------
+    .. [1] CPython issue bpo-33613, https://bugs.python.org/issue33613 (why
+       ``multiprocessing.resource_tracker`` starts its process with SIGINT blocked).
     """
     if not hasattr(signal, "pthread_sigmask"):
         return make()
