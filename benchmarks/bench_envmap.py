@@ -86,28 +86,7 @@ def mitsuba_scene(mi: Any, bsdf: dict[str, Any], path: Path) -> Any:
         "filename": str(path),
         "to_world": mi.ScalarTransform4f(to_world.tolist()),
     }
-    return mi.load_dict(
-        {
-            "type": "scene",
-            "integrator": {"type": "direct", "hide_emitters": True},
-            "sensor": {
-                "type": "orthographic",
-                "to_world": mi.ScalarTransform4f().look_at(
-                    origin=[10, 0, 0], target=[0, 0, 0], up=[0, 0, 1]
-                ),
-                "film": {
-                    "type": "hdrfilm",
-                    "width": RESOLUTION,
-                    "height": RESOLUTION,
-                    "pixel_format": "rgb",
-                    "rfilter": {"type": "box"},
-                },
-                "sampler": {"type": "independent"},
-            },
-            "sphere": {"type": "sphere", "bsdf": bsdf},
-            "light": emitter,
-        }
-    )
+    return ms.sphere_scene(mi, bsdf, emitter, RESOLUTION)
 
 
 def bench_map(mi: Any, path: Path, args: argparse.Namespace) -> dict[str, Any]:

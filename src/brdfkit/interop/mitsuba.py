@@ -133,8 +133,11 @@ def envmap_emitter(mi: Any, env: EnvironmentMap) -> dict[str, Any]:
     }
 
 
-def sphere_scene(mi: Any, bsdf: dict[str, Any], env: EnvironmentMap, resolution: int = 256):
-    """A loaded Mitsuba scene: the unit sphere with ``bsdf`` under ``env``, brdfkit's camera."""
+def sphere_scene(
+    mi: Any, bsdf: dict[str, Any], env: EnvironmentMap | dict[str, Any], resolution: int = 256
+):
+    """A loaded Mitsuba scene: the unit sphere with ``bsdf`` under ``env``, brdfkit's camera
+    (``env`` a map, or an emitter dict of Mitsuba's own, e.g. an ``envmap`` reading a file)."""
     return mi.load_dict(
         {
             "type": "scene",
@@ -154,7 +157,7 @@ def sphere_scene(mi: Any, bsdf: dict[str, Any], env: EnvironmentMap, resolution:
                 "sampler": {"type": "independent"},
             },
             "sphere": {"type": "sphere", "bsdf": bsdf},
-            "light": envmap_emitter(mi, env),
+            "light": env if isinstance(env, dict) else envmap_emitter(mi, env),
         }
     )
 
