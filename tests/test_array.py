@@ -118,19 +118,3 @@ def test_a_read_only_numpy_array_converts_to_torch_without_warning():
         value = A.asarray(read_only, like=like)
     assert isinstance(value, torch.Tensor)
     np.testing.assert_array_equal(value.numpy(), read_only)
-
-
-def test_colour_science_is_imported_without_changing_numpys_print_options():
-    """colour-science's import sets legacy printing for the whole process; brdfkit's use of it
-    (the sun's spectrum here) leaves the user's print options as they were."""
-    import subprocess
-    import sys
-
-    code = (
-        "import numpy as np\n"
-        "from brdfkit.light.sunsky import sun_radiance\n"
-        "sun_radiance(3.0, 0.5)\n"
-        "print(np.get_printoptions()['legacy'])\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"

@@ -513,17 +513,3 @@ def to_numpy(x: Any) -> np.ndarray:
     if hasattr(x, "detach"):
         x = x.detach().cpu()
     return np.asarray(x)
-
-
-def colour_science() -> Any:
-    """The ``colour`` module (colour-science), imported without changing NumPy's print options.
-
-    Importing colour-science sets ``numpy.set_printoptions(legacy="1.13")`` for the whole
-    process; brdfkit uses it for spectra, colour-matching functions and ΔE, and keeps the
-    user's printing as it was.
-    """
-    options = np.get_printoptions()
-    import colour
-
-    np.set_printoptions(**options)
-    return colour

@@ -38,12 +38,12 @@ from brdfkit._array import (
     check_finite,
     check_param,
     clamp,
-    colour_science,
     namespace,
     safe_div,
     safe_sqrt,
     where,
 )
+from brdfkit.data import colorimetry
 
 # --------------------------------------------------------------------------- presets
 IOR: dict[str, float] = {
@@ -96,8 +96,9 @@ Source: the spectral tables ``data/ior/<name>.eta.spd`` / ``.k.spd`` shipped wit
 when loading ``conductor(material='<name>')`` (``spectrum_list_to_srgb``: CIE 1931 2° XYZ under
 an equal-energy illuminant, normalised by ∫ȳ, then the sRGB matrix, unbounded). The values are
 Mitsuba 3.9 ``scalar_rgb``'s own float32 numbers, so a comparison with a Mitsuba conductor of
-the same name is exact; :func:`rgb_from_spectrum` re-derives them with colour-science from the
-spectral tables to within 0.32 % (Mitsuba integrates a 5 nm CMF table by a 1000-step sum).
+the same name is exact; :func:`rgb_from_spectrum` re-derives them (colour-science's
+integration, restated in :mod:`brdfkit.data.colorimetry`) from the spectral tables to within
+0.32 % (Mitsuba integrates a 5 nm CMF table by a 1000-step sum).
 """
 
 
@@ -157,7 +158,10 @@ def rgb_from_spectrum(wavelengths: Any, values: Any) -> np.ndarray:
     then ``RGB = M_sRGB · XYZ`` with no chromatic adaptation, negatives clamped to 0. This is
     Mitsuba 3's ``spectrum_list_to_srgb(bounded=False, d65=False)`` recipe, which produced
     :data:`CONDUCTORS`; a flat spectrum of 1 maps to (1.205, 0.948, 0.909), not to grey, in
-    both.
+    both. The integration is colour-science's ``sd_to_XYZ(..., method="Integration")`` under
+    illuminant E and its sRGB matrix, restated in :mod:`brdfkit.data.colorimetry` (the tests
+    hold them equal to ~1e-12) rather than imported: colour-science is a 94 MiB install for a
+    table and a sum.
 
     Parameters
     ----------
@@ -172,9 +176,12 @@ def rgb_from_spectrum(wavelengths: Any, values: Any) -> np.ndarray:
     ----------
     .. [1] CIE 015:2018, *Colorimetry*, 4th ed.; IEC 61966-2-1 (sRGB).
     .. [2] Mitsuba 3, ``src/core/spectrum.cpp``, ``spectrum_list_to_srgb``.
-    """
-    colour = colour_science()
 
+    Examples
+    --------
+    >>> rgb_from_spectrum([400.0, 700.0], [1.0, 1.0]).round(3).tolist()
+    [1.205, 0.948, 0.909]
+    """
     wavelengths = np.asarray(wavelengths, dtype=np.float64)
     values = np.asarray(values, dtype=np.float64)
     if wavelengths.ndim != 1 or wavelengths.shape != values.shape or wavelengths.size < 2:
@@ -186,13 +193,10 @@ def rgb_from_spectrum(wavelengths: Any, values: Any) -> np.ndarray:
     check_finite("values", values)
     if not np.all(np.diff(wavelengths) > 0):
         raise ValueError("wavelengths must be strictly increasing (nm)")
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    grid = colorimetry.observer()[0]
     # np.interp: linear inside the table, the end values held outside (as documented above).
-    sd = colour.SpectralDistribution(
-        np.interp(cmfs.wavelengths, wavelengths, values), cmfs.wavelengths
-    )
-    xyz = colour.sd_to_XYZ(sd, cmfs, colour.sd_ones(cmfs.shape), method="Integration") / 100
-    rgb = colour.XYZ_to_RGB(xyz, "sRGB", illuminant=None, chromatic_adaptation_transform=None)
+    xyz = colorimetry.tristimulus(np.interp(grid, wavelengths, values))
+    rgb = colorimetry.XYZ_TO_LINEAR_SRGB @ xyz
     return np.maximum(np.asarray(rgb, dtype=np.float64), 0.0)
 
 

@@ -8,6 +8,7 @@ import pytest
 from brdfkit.brdf import RoughConductor, ThinFilm
 from brdfkit.brdf.thin_film import airy_reflectance, belcour_barla_xyz, xyz_to_linear_srgb
 from brdfkit.compiled import compile
+from brdfkit.data import colorimetry
 from brdfkit.fresnel import fresnel_conductor
 from brdfkit.geometry import spherical_to_cartesian
 
@@ -87,13 +88,11 @@ def test_reflectance_is_between_zero_and_one():
 
 
 def _cie_rgb(cos_1, d, eta_2, eta_3, k_3):
-    """The exact Airy spectrum at 1 nm summed against colour-science's CIE 1931 2° CMFs
-    (equal-energy illuminant, Y = 1 for a white reflector), in linear sRGB."""
-    import colour
-
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    r = airy_reflectance(np.array([[cos_1]]), cmfs.wavelengths, d, eta_2, eta_3, k_3)[0]
-    xyz = (r[:, None] * cmfs.values).sum(axis=0) / cmfs.values[:, 1].sum()
+    """The exact Airy spectrum at 1 nm summed against the CIE 1931 2° CMFs (equal-energy
+    illuminant, Y = 1 for a white reflector), in linear sRGB."""
+    wavelengths, xyz_bar = colorimetry.observer()
+    r = airy_reflectance(np.array([[cos_1]]), wavelengths, d, eta_2, eta_3, k_3)[0]
+    xyz = (r[:, None] * xyz_bar).sum(axis=0) / xyz_bar[:, 1].sum()
     return np.array(xyz_to_linear_srgb()) @ xyz
 
 
@@ -147,8 +146,8 @@ def test_shared_sensitivities_are_the_fresh_ones_bit_for_bit():
 
 
 def test_xyz_to_srgb_constants_are_colour_sciences_matrix():
-    """The matrix is kept as constants (importing colour-science costs ~1 CPU s a process);
-    they are colour-science's Bradford-adapted E → sRGB matrix, to rounding."""
+    """The matrix (brdfkit.data.colorimetry's, Python floats for the kernels) is
+    colour-science's Bradford-adapted E → sRGB matrix, to rounding."""
     colour = pytest.importorskip("colour")
     white_e = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["E"]
     expected = colour.XYZ_to_RGB(

@@ -40,6 +40,7 @@ from brdfkit._array import Array, clamp, constant, namespace, safe_div, safe_sqr
 from brdfkit.brdf.base import BRDF, ROUGHNESS, register
 from brdfkit.brdf.microfacet import EXTINCTION, GGX, IOR
 from brdfkit.brdf.microfacet_reflection import MicrofacetReflection
+from brdfkit.data import colorimetry
 from brdfkit.errors import ParameterError
 from brdfkit.params import Domain, channel_count, param
 
@@ -207,21 +208,16 @@ def belcour_barla_xyz(
     return total
 
 
-_XYZ_TO_LINEAR_SRGB = (
-    (3.1462980624321326, -1.6662654804053003, -0.4801892993520599),
-    (-0.995187803032164, 1.9555754230400555, 0.03971152892827865),
-    (0.06366240363778476, -0.21458887554061587, 1.1510009095928009),
-)
-""":func:`xyz_to_linear_srgb`'s matrix, as colour-science 0.4.7 computes it (rows)."""
+_XYZ_TO_LINEAR_SRGB = tuple(tuple(map(float, row)) for row in colorimetry.xyz_e_to_linear_srgb())
+""":func:`xyz_to_linear_srgb`'s matrix (rows, Python floats for the kernels' constants)."""
 
 
 def xyz_to_linear_srgb() -> tuple[tuple[float, ...], ...]:
     """The 3×3 matrix from XYZ under the equal-energy illuminant E to linear sRGB (D65),
     Bradford-adapted so that a white reflector (XYZ = (1, 1, 1)) is RGB (1, 1, 1), as rows:
-    colour-science's ``XYZ_to_RGB(np.eye(3), "sRGB", illuminant=E,
-    chromatic_adaptation_transform="Bradford").T``, kept as constants (the same floats) so
-    that thin-film evaluation does not import colour-science
-    (``tests/brdf/test_thin_film.py`` compares them with colour-science)."""
+    :func:`brdfkit.data.colorimetry.xyz_e_to_linear_srgb` (the one source of sRGB's matrix;
+    ``tests/brdf/test_thin_film.py`` compares it with colour-science's ``XYZ_to_RGB(np.eye(3),
+    "sRGB", illuminant=E, chromatic_adaptation_transform="Bradford").T``)."""
     return _XYZ_TO_LINEAR_SRGB
 
 

@@ -49,13 +49,13 @@ from brdfkit._array import (
     Array,
     asarray,
     clamp,
-    colour_science,
     dot,
     namespace,
     normalize,
     safe_div,
     to_numpy,
 )
+from brdfkit.data import colorimetry
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal, to_world
 from brdfkit.light.base import STRENGTH, Light, LightSample, _batch
@@ -139,22 +139,15 @@ def sun_radiance(turbidity: float, elevation: float, aperture: float = SUN_APERT
     projected to sRGB with the CIE 1931 functions at those wavelengths,
     :math:`\mathrm{RGB} = M_{sRGB}\,\mathrm{mean}_k(\bar{\mathbf x}(\lambda_k)E(\lambda_k))
     \cdot 467.07 \cdot (1/106.75) / \Omega_{sun}` (``SPEC_TO_RGB_SUN_CONV``,
-    ``MI_CIE_Y_NORMALIZATION``).
+    ``MI_CIE_Y_NORMALIZATION``). The CIE table and the sRGB matrix are
+    :mod:`brdfkit.data.colorimetry`'s (colour-science's values, shipped rather than imported:
+    a 94 MiB install for a table and a matrix).
     """
-    colour = colour_science()
-
     table = _lerp_index(_datasets()["sun_irradiance"], turbidity - 1)  # (elevation, λ)
     index = (math.degrees(elevation) - 2.0) / 3.0
     irradiance = _lerp_index(table, min(max(index, 0.0), table.shape[0] - 1 - 1e-7))
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xyz_bar = np.array(
-        [
-            cmfs[w] if cmfs.wavelengths[0] <= w <= cmfs.wavelengths[-1] else np.zeros(3)
-            for w in _WAVELENGTHS
-        ]
-    )
-    xyz = np.mean(xyz_bar * irradiance[:, None], axis=0)
-    rgb = colour.XYZ_to_RGB(xyz, "sRGB", illuminant=None, chromatic_adaptation_transform=None)
+    xyz = np.mean(colorimetry.observer_at(_WAVELENGTHS) * irradiance[:, None], axis=0)
+    rgb = colorimetry.XYZ_TO_LINEAR_SRGB @ xyz
     solid_angle = 2 * math.pi * (1 - math.cos(math.radians(aperture / 2)))
     return np.asarray(rgb, dtype=np.float64) * SPEC_TO_RGB_SUN * CIE_Y_NORMALIZATION / solid_angle
 

@@ -4,8 +4,8 @@ Text format: ``#`` comment lines; the number of wavelengths n; n wavelengths in 
 row per measurement, :math:`\theta_i\ \varphi_i\ \theta_s\ \varphi_s` (radians; i the light,
 s the scattered/viewing direction) followed by n spectral BRDF values (sr⁻¹). The spectra
 are converted to linear sRGB through the CIE 1931 2° observer under D65
-(:func:`~brdfkit.measured.tabulated.spectrum_to_rgb_matrix`, colour-science); saturated colours
-outside the sRGB gamut (a negative channel) are clipped to 0 in that channel.
+(:func:`~brdfkit.measured.tabulated.spectrum_to_rgb_matrix`, colour-science's integration);
+saturated colours outside the sRGB gamut (a negative channel) are clipped to 0 in that channel.
 
 :func:`read_cornell` returns a :class:`~brdfkit.measured.tabulated.TabulatedBRDF` resampled on
 an isotropic half/difference grid by scattered interpolation (Delaunay-linear inside the

@@ -50,7 +50,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from brdfkit._array import Array, asarray, colour_science, namespace, safe_sqrt, to_numpy
+from brdfkit._array import Array, asarray, namespace, safe_sqrt, to_numpy
 from brdfkit.brdf.base import BRDF, Sample, result_shape, upper_hemisphere
 from brdfkit.brdf.phong import (
     Component,
@@ -59,6 +59,7 @@ from brdfkit.brdf.phong import (
     reflect_about,
     reflected_pdf,
 )
+from brdfkit.data import colorimetry
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import from_half_diff, to_half_diff
 from brdfkit.sampling import (
@@ -81,29 +82,27 @@ rounding below 0 folds to the end of the previous period)."""
 # --------------------------------------------------------------------------- colour
 @functools.cache
 def _spectrum_to_rgb(wavelengths: tuple[float, ...]) -> np.ndarray:
-    colour = colour_science()
-
-    basis = colour.MultiSpectralDistributions(np.eye(len(wavelengths)), np.asarray(wavelengths))
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xyz = colour.msds_to_XYZ(basis, cmfs, colour.SDS_ILLUMINANTS["D65"], method="Integration")
-    return (xyz / 100.0) @ colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB.T
+    basis = colorimetry.align_to_observer(np.asarray(wavelengths), np.eye(len(wavelengths)))
+    xyz = colorimetry.tristimulus(basis, colorimetry.d65())
+    return xyz @ colorimetry.XYZ_TO_LINEAR_SRGB.T
 
 
-OBSERVER_RANGE = (360.0, 830.0)
+OBSERVER_RANGE = colorimetry.OBSERVER_RANGE
 """The wavelengths (nm) the CIE 1931 2° observer tabulates."""
 
 MIN_OBSERVED_WAVELENGTHS = 6
-"""Fewest wavelengths a spectrum needs inside :data:`OBSERVER_RANGE`: colour-science
-interpolates evenly spaced spectra by Sprague (1880), which needs six samples."""
+"""Fewest wavelengths a spectrum needs inside :data:`OBSERVER_RANGE`: evenly spaced spectra are
+interpolated by Sprague (1880), which needs six samples."""
 
 
 def wavelengths_problem(wavelengths: Any) -> str:
     """Why ``wavelengths`` (nm) cannot be converted to sRGB, or ``""`` when they can.
 
     They must be finite whole nanometres, strictly increasing, within [300, 900], with at least
-    :data:`MIN_OBSERVED_WAVELENGTHS` inside :data:`OBSERVER_RANGE`: colour-science aligns a
-    spectrum to the observer's 1 nm grid, which fails for fractional nanometres and for too few
-    samples on it. Readers use this to raise their own error naming the file.
+    :data:`MIN_OBSERVED_WAVELENGTHS` inside :data:`OBSERVER_RANGE`: a spectrum is aligned to
+    the observer's 1 nm grid (:func:`brdfkit.data.colorimetry.align_to_observer`), which needs
+    whole nanometres and enough samples on it. Readers use this to raise their own error
+    naming the file.
 
     Parameters
     ----------
@@ -137,8 +136,11 @@ def spectrum_to_rgb_matrix(wavelengths: Any) -> np.ndarray:
     :math:`XYZ = \sum_\lambda S(\lambda)\,E(\lambda)\,\bar{\mathbf x}(\lambda)\,\Delta\lambda
     \,/\sum_\lambda E(\lambda)\,\bar y(\lambda)\,\Delta\lambda` under illuminant D65 (the sRGB
     white) with the CIE 1931 2° observer, then the sRGB XYZ→RGB matrix; a constant spectrum 1
-    maps to RGB ≈ (1, 1, 1). The integration is colour-science's (the spectra interpolated onto
-    the observer's 1 nm grid: Sprague for even spacing, else a cubic spline).
+    maps to RGB ≈ (1, 1, 1). The integration is colour-science's ``msds_to_XYZ`` "Integration"
+    (the spectra interpolated onto the observer's 1 nm grid: Sprague for even spacing, else a
+    cubic spline, the ends held), restated in :mod:`brdfkit.data.colorimetry` with its tables
+    shipped (the tests hold it equal to colour-science's to ~1e-12) rather than imported:
+    colour-science is a 94 MiB install for a few tables and a sum.
 
     Raises
     ------
@@ -149,6 +151,13 @@ def spectrum_to_rgb_matrix(wavelengths: Any) -> np.ndarray:
     ----------
     .. [1] CIE 015:2018, *Colorimetry*; IEC 61966-2-1:1999 (sRGB).
     .. [2] colour-science, ``colour.msds_to_XYZ``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> wavelengths = np.arange(400.0, 701.0, 10.0)
+    >>> (np.ones(31) @ spectrum_to_rgb_matrix(wavelengths)).round(2).tolist()  # white stays white
+    [1.0, 1.0, 1.0]
     """
     wl = np.asarray(wavelengths, dtype=np.float64).ravel()
     problem = wavelengths_problem(wl)
