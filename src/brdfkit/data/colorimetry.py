@@ -227,7 +227,7 @@ def tristimulus(values: np.ndarray, illuminant: np.ndarray | None = None) -> np.
     --------
     >>> import numpy as np
     >>> tristimulus(np.ones(471), d65()).round(4).tolist()  # the D65 white, Y = 1
-    [0.9505, 1.0, 1.089]
+    [0.9505, 1.0, 1.0888]
     """
     xyz_bar = observer()[1]
     weight = np.ones(len(xyz_bar)) if illuminant is None else np.asarray(illuminant)
