@@ -6,7 +6,7 @@ The colour a thin film reflects changes with its thickness (and with the angle):
 specular colour of a film of index 1.8 on glass (:class:`~brdfkit.brdf.ThinFilm`) for
 thicknesses 0–1000 nm, at normal incidence and at 60°, from Belcour & Barla's closed-form
 spectral integration (RGB mode) above the exact Airy spectrum summed over the CIE 1931
-colour-matching functions (colour-science) for comparison; right, spheres coated with films
+colour-matching functions for comparison; right, spheres coated with films
 of three thicknesses under the default environment map, rendered by
 :func:`brdfkit.render.render_sphere`.
 
@@ -17,11 +17,11 @@ writes it.
 import os
 from pathlib import Path
 
-import colour
 import numpy as np
 
 from brdfkit.brdf import ThinFilm
 from brdfkit.brdf.thin_film import airy_reflectance, xyz_to_linear_srgb
+from brdfkit.data.colorimetry import observer
 from brdfkit.io import srgb_encode
 from brdfkit.light import parse_light
 from brdfkit.plot import _figure, save
@@ -29,7 +29,7 @@ from brdfkit.render import render_sphere
 
 FILM_ETA, BASE_ETA = 1.8, 1.5
 thickness = np.linspace(0.0, 1000.0, 400)
-cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+wavelengths, xyz_bar = observer()
 matrix = np.array(xyz_to_linear_srgb())
 
 
@@ -38,13 +38,13 @@ def strip(cos_theta: float, exact: bool) -> np.ndarray:
     if exact:
         r = airy_reflectance(
             np.full((thickness.size, 1), cos_theta),
-            cmfs.wavelengths,
+            wavelengths,
             thickness[:, None],
             FILM_ETA,
             BASE_ETA,
             0.0,
         )
-        rgb = (r @ cmfs.values / cmfs.values[:, 1].sum()) @ matrix.T
+        rgb = (r @ xyz_bar / xyz_bar[:, 1].sum()) @ matrix.T
     else:
         rgb = np.stack(
             [

@@ -35,7 +35,7 @@ EXCLUDED = {
     # name lookups: take a string, return Python floats
     "fresnel.conductor",
     "fresnel.dielectric",
-    # documented to reduce spectral tables to a float64 NumPy (3,) array (via colour-science)
+    # documented to reduce spectral tables to a float64 NumPy (3,) array (brdfkit.data.colorimetry)
     "fresnel.rgb_from_spectrum",
     # documented to return float64 NumPy arrays (a SciPy wrapper; a seeded NumPy generator)
     "sampling.sobol",

@@ -117,8 +117,8 @@ def _tables() -> dict[str, np.ndarray]:
 
 
 def observer() -> tuple[np.ndarray, np.ndarray]:
-    """The CIE 1931 2° standard observer: wavelengths ``(471,)`` nm (360–830 every 1 nm) and
-    :math:`(\\bar x, \\bar y, \\bar z)` ``(471, 3)`` (CIE 015:2018).
+    r"""The CIE 1931 2° standard observer: wavelengths ``(471,)`` nm (360–830 every 1 nm) and
+    :math:`(\bar x, \bar y, \bar z)` ``(471, 3)`` (CIE 015:2018).
 
     Examples
     --------
@@ -131,7 +131,7 @@ def observer() -> tuple[np.ndarray, np.ndarray]:
 
 
 def observer_at(wavelengths: np.ndarray) -> np.ndarray:
-    """The observer's :math:`(\bar x, \bar y, \bar z)` ``(n, 3)`` at whole-nanometre
+    r"""The observer's :math:`(\bar x, \bar y, \bar z)` ``(n, 3)`` at whole-nanometre
     ``wavelengths`` ``(n,)``, 0 outside 360–830 nm (the observer sees nothing there).
 
     Examples
@@ -245,9 +245,9 @@ def xy_to_xyz(xy: tuple[float, float]) -> np.ndarray:
 def bradford_adaptation(
     source_xy: tuple[float, float], target_xy: tuple[float, float]
 ) -> np.ndarray:
-    """The von Kries matrix in Bradford's cone space taking XYZ seen under the white
-    ``source_xy`` to XYZ under ``target_xy``: :math:`M_B^{-1}\\,\\mathrm{diag}(M_B W_t / M_B W_s)
-    \\,M_B` (Lam 1985).
+    r"""The von Kries matrix in Bradford's cone space taking XYZ seen under the white
+    ``source_xy`` to XYZ under ``target_xy``: :math:`M_B^{-1}\,\mathrm{diag}(M_B W_t / M_B W_s)
+    \,M_B` (Lam 1985).
 
     Examples
     --------
