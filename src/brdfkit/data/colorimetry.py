@@ -112,8 +112,12 @@ _SPRAGUE_POLYNOMIAL = np.array(
 
 @functools.cache
 def _tables() -> dict[str, np.ndarray]:
+    """The shipped tables, read once and read-only (every caller shares them)."""
     with np.load(str(files("brdfkit.data") / OBSERVER_TABLE)) as data:
-        return {key: data[key] for key in data.files}
+        tables = {key: data[key] for key in data.files}
+    for table in tables.values():
+        table.flags.writeable = False
+    return tables
 
 
 def observer() -> tuple[np.ndarray, np.ndarray]:
