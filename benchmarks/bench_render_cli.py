@@ -13,7 +13,9 @@ Two figures:
 
 - **warm**: the kernel cache (``BRDFKIT_CACHE_DIR``, a folder of this run's own) filled by one
   run first, then ``--repeats`` runs of each, interleaved (brdfkit, Mitsuba, brdfkit, …),
-  wall seconds of each process; the median of each and of the pairwise ratios;
+  wall seconds of each process; the median of each and of the pairwise ratios; and the CPU
+  seconds (user + system, all threads) of each process, which the machine's other work
+  inflates far less than the wall time;
 - **first**: ``--cold`` runs each with an empty kernel cache (a new folder each time): the
   very first render a new user waits for, its kernel build announced on stderr.
 
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -95,21 +98,24 @@ def write_scene(folder: Path, mi) -> Path:
     return scene
 
 
-def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float, str]:
-    """Wall seconds of ``command`` as a fresh process in ``cwd`` and its standard error;
-    ``cache`` is brdfkit's kernel cache folder for it. Python's bytecode is cached under
+def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float, float, str]:
+    """Wall and CPU seconds of ``command`` as a fresh process in ``cwd`` and its standard
+    error; ``cache`` is brdfkit's kernel cache folder for it. Python's bytecode is cached under
     ``cwd``."""
     env = dict(os.environ)
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     env["PYTHONPYCACHEPREFIX"] = str(cwd / "bytecode")
     if cache is not None:
         env["BRDFKIT_CACHE_DIR"] = str(cache)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, check=False)
     seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise RuntimeError(f"{command[:3]} failed:\n{done.stderr[-2000:]}{done.stdout[-2000:]}")
-    return seconds, done.stderr
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    return seconds, cpu, done.stderr
 
 
 def brdfkit_command(*extra: str) -> list[str]:
@@ -141,17 +147,22 @@ def main() -> None:
         mitsuba = ["mitsuba", "-m", variant, "-o", str(folder / "mitsuba.exr"), str(scene)]
         first, announced = [], []
         for k in range(args.cold):
-            seconds, stderr = run(brdfkit_command(), folder, folder / f"cold{k}")
+            seconds, _, stderr = run(brdfkit_command(), folder, folder / f"cold{k}")
             first.append(seconds)
             announced.append(stderr.strip())
             print(f"first render (empty kernel cache): {seconds:.2f} s", flush=True)
         warm = folder / "cold0"  # filled by the first cold run
         run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
-        ours, theirs = [], []
+        ours, theirs, our_cpu, their_cpu = [], [], [], []
         for _ in range(args.repeats):
-            ours.append(run(brdfkit_command(), folder, warm)[0])
-            theirs.append(run(mitsuba, folder)[0])
-            print(f"warm: brdfkit {ours[-1]:.2f} s, Mitsuba {theirs[-1]:.2f} s", flush=True)
+            seconds, cpu, _ = run(brdfkit_command(), folder, warm)
+            ours.append(seconds)
+            our_cpu.append(cpu)
+            seconds, cpu, _ = run(mitsuba, folder)
+            theirs.append(seconds)
+            their_cpu.append(cpu)
+            print(f"warm: brdfkit {ours[-1]:.2f} s ({our_cpu[-1]:.2f} CPU s), Mitsuba "
+                  f"{theirs[-1]:.2f} s ({their_cpu[-1]:.2f} CPU s)", flush=True)  # fmt: skip
         ratio = twin_check(folder, scene, variant, warm)
     ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
     record = {
@@ -165,6 +176,10 @@ def main() -> None:
             "brdfkit_median": statistics.median(ours),
             "mitsuba_median": statistics.median(theirs),
             "ratio_median": statistics.median(ratios),
+            "brdfkit_cpu_seconds": our_cpu,
+            "mitsuba_cpu_seconds": their_cpu,
+            "brdfkit_cpu_median": statistics.median(our_cpu),
+            "mitsuba_cpu_median": statistics.median(their_cpu),
         },
         "first": {"seconds": first, "stderr": announced},
         "twin_mean_ratio": ratio,
@@ -172,7 +187,8 @@ def main() -> None:
     w = record["warm"]
     print(
         f"warm medians: brdfkit {w['brdfkit_median']:.2f} s, Mitsuba {w['mitsuba_median']:.2f} s, "
-        f"ratio {w['ratio_median']:.2f}; first render {max(first):.2f} s at most; twin mean "
+        f"ratio {w['ratio_median']:.2f}; CPU brdfkit {w['brdfkit_cpu_median']:.2f} s, Mitsuba "
+        f"{w['mitsuba_cpu_median']:.2f} s; first render {max(first):.2f} s at most; twin mean "
         f"ratio {ratio:.4f}"
     )
     from _machine import write_results

@@ -720,19 +720,22 @@ def render_cli(r: dict) -> str:
     w, first = r["warm"], r["first"]
     body = [
         ["brdfkit render (warm kernel cache)", f"{w['brdfkit_median']:.2f}",
-         f"{min(w['brdfkit_seconds']):.2f}–{max(w['brdfkit_seconds']):.2f}"],
+         f"{min(w['brdfkit_seconds']):.2f}–{max(w['brdfkit_seconds']):.2f}",
+         f"{w['brdfkit_cpu_median']:.2f}"],
         [f"Mitsuba {r['mitsuba']} (`mitsuba scene.xml`)", f"{w['mitsuba_median']:.2f}",
-         f"{min(w['mitsuba_seconds']):.2f}–{max(w['mitsuba_seconds']):.2f}"],
+         f"{min(w['mitsuba_seconds']):.2f}–{max(w['mitsuba_seconds']):.2f}",
+         f"{w['mitsuba_cpu_median']:.2f}"],
         ["brdfkit render, first run (empty kernel cache)",
          f"{statistics.median(first['seconds']):.2f}",
-         f"{min(first['seconds']):.2f}–{max(first['seconds']):.2f}"],
+         f"{min(first['seconds']):.2f}–{max(first['seconds']):.2f}", ""],
     ]  # fmt: skip
     load = r["machine"].get("load_average", ["?"])[0]
     return (
         f'`brdfkit render -b "{r["spec"]}"` with its defaults ({r["resolution"]}², '
         f"{r['spp']} spp, the bundled map, PNG) and Mitsuba's twin scene, each a fresh process, "
-        f"{len(w['brdfkit_seconds'])} interleaved runs; wall seconds:\n\n"
-        + rows(["process", "median s", "range s"], body, "lrr")
+        f"{len(w['brdfkit_seconds'])} interleaved runs; wall seconds, and the median CPU seconds "
+        "of each process (all threads):\n\n"
+        + rows(["process", "median s", "range s", "CPU s"], body, "lrrr")
         + f"\n\nMedian ratio brdfkit ÷ Mitsuba, pair by pair: **{w['ratio_median']:.2f}** "
         f"(goal ≤ 1.5). The twin's images: mean ratio {r['twin_mean_ratio']:.4f}. "
         f"Load average when written: {load} (the machine's other work is in every figure)."

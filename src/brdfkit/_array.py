@@ -9,6 +9,8 @@ References
 ----------
 .. [1] Python array API standard, https://data-apis.org/array-api/
 .. [2] array-api-compat, https://data-apis.org/array-api-compat/
+.. [3] NumPy 2.1 release notes: the main namespace implements the array API standard 2023.12,
+       https://numpy.org/doc/stable/release/2.1.0-notes.html
 """
 
 from __future__ import annotations
@@ -18,7 +20,6 @@ import operator
 from typing import Any
 
 import array_api_compat
-import array_api_compat.numpy
 import numpy as np
 
 from brdfkit.errors import ParameterError
@@ -29,6 +30,23 @@ Array = Any
 
 _NUMPY = (np.ndarray, np.generic)
 _NUMPY_OR_NOT_ARRAYS = (*_NUMPY, type(None), int, float, bool, complex, list, tuple)
+
+
+def _numpy_namespace() -> Any:
+    """NumPy's array-API namespace: the ``numpy`` module itself from NumPy 2.1 on (it
+    implements the standard's 2023.12 revision, ``asarray``/``astype``/``reshape`` with
+    ``device`` and ``copy`` included), else array-api-compat's wrapper of it. The wrapper
+    copies the whole ``numpy`` module when imported (~0.3 s, its ``f2py`` and ``typing``
+    with it), which every process that renders would pay."""
+    if getattr(np, "__array_api_version__", "") >= "2023.12":
+        return np
+    import array_api_compat.numpy
+
+    return array_api_compat.numpy
+
+
+NUMPY_NAMESPACE = _numpy_namespace()
+"""The namespace :func:`namespace` gives NumPy arrays, Python scalars and lists."""
 
 
 def namespace(*arrays: Any) -> Any:
@@ -43,13 +61,13 @@ def namespace(*arrays: Any) -> Any:
     if not others:
         # NumPy only (or nothing): what array_namespace answers, without its checks, which
         # cost more than a small array operation (models ask here dozens of times per call).
-        return array_api_compat.numpy
+        return NUMPY_NAMESPACE
     return array_api_compat.array_namespace(*others)
 
 
 def is_numpy(xp: Any) -> bool:
     """Whether ``xp`` is the NumPy namespace."""
-    return array_api_compat.is_numpy_namespace(xp)
+    return xp is NUMPY_NAMESPACE or array_api_compat.is_numpy_namespace(xp)
 
 
 def is_torch(xp: Any) -> bool:
@@ -93,7 +111,7 @@ def asarray(x: Any, xp: Any = None, *, like: Any = None, dtype: Any = None) -> A
     """
     if (
         dtype is not None
-        and (xp is None or xp is array_api_compat.numpy)
+        and (xp is None or xp is NUMPY_NAMESPACE)
         and (like is None or isinstance(like, _NUMPY))
     ):
         # The common NumPy cases, answered before the general rules below.

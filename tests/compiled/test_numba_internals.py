@@ -43,14 +43,16 @@ def _quiet(function, *args):
 _PROCESS = textwrap.dedent(
     """
     import json, sys, warnings
+    import numpy as np
     warnings.simplefilter("error", RuntimeWarning)
     from brdfkit.compiled import cache as kernel_cache
     namespace = {"__name__": "brdfkit.compiled.cache"}
-    exec("def kernel(x):\\n    return x * 3.0 - 1.0\\n", namespace)
+    exec("def kernel(x):\\n    return x[0] * 3.0 - 1.0\\n", namespace)
     kernel = kernel_cache.njit(namespace["kernel"], sys.argv[1], nogil=True)
-    value = kernel(2.5)
+    value = kernel(np.array([2.5]))
     print(json.dumps({"value": value, "key": kernel_cache.key_of(kernel),
-                      "stats": dict(kernel_cache.STATS)}))
+                      "stats": dict(kernel_cache.STATS),
+                      "compiler_context": "numba.np.linalg" in sys.modules}))
     """
 )
 
@@ -75,6 +77,9 @@ def test_the_keyed_disk_cache_writes_machine_code_and_a_fresh_process_loads_it(t
     warm = _process(tmp_path / "cache", key)
     assert warm["stats"].get("hits") == 1 and not warm["stats"].get("misses")
     assert not warm["stats"].get("errors") and warm["value"] == cold["value"]
+    # compiling loaded numba's whole compiler context (its linalg among it); loading machine
+    # code (an array argument: numba's runtime) did not
+    assert cold["compiler_context"] and not warm["compiler_context"]
 
 
 def test_a_cache_that_cannot_be_installed_warns_once_and_compiles_in_memory(tmp_path, monkeypatch):

@@ -18,8 +18,6 @@ ends itself.
 
 from __future__ import annotations
 
-import multiprocessing
-import multiprocessing.resource_tracker
 import os
 import signal
 import sys
@@ -306,15 +304,19 @@ def stop_workers() -> None:
     extra), else the children :mod:`multiprocessing` started; SIGKILL, because a worker busy
     in compiled code would not run a Python handler for SIGTERM before it returned.
     """
+    # multiprocessing is imported only by the commands that start workers: where it is not
+    # imported, it started none (and no resource tracker)
+    started = sys.modules.get("multiprocessing")
     try:
         import psutil
     except ImportError:
-        pids = [child.pid for child in multiprocessing.active_children()]
+        pids = [] if started is None else [child.pid for child in started.active_children()]
     else:
         pids = [child.pid for child in psutil.Process().children(recursive=True)]
     # multiprocessing's resource tracker is no worker: killed, it would be started again on the
     # way out, and print a traceback for every semaphore then released
-    tracker = getattr(multiprocessing.resource_tracker._resource_tracker, "_pid", None)
+    tracking = sys.modules.get("multiprocessing.resource_tracker")
+    tracker = getattr(getattr(tracking, "_resource_tracker", None), "_pid", None)
     for pid in set(pids) - {tracker}:
         try:
             os.kill(pid, signal.SIGKILL)

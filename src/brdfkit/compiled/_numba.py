@@ -11,7 +11,8 @@ The compiled back end needs a few things numba offers no public API for:
   ``-force-vector-interleave``);
 - numba's per-function disk cache keyed by a string instead of a source file
   (:func:`install_keyed_cache`: numba's cache classes subclassed, the dispatcher's cache
-  replaced);
+  replaced; a load from it initialises numba's runtime only, not numba's whole compiler
+  context);
 - compiling without numba's reference-counting runtime (:func:`no_runtime_options`).
 
 Each hook says what happens where numba's internals have changed under it: the intrinsics
@@ -344,6 +345,7 @@ def _keyed_cache_class() -> type:
         IndexDataCacheFile,
         _CacheLocator,
     )
+    from numba.core.runtime import rtsys
 
     class Locator(_CacheLocator):
         def __init__(self, path: Path) -> None:
@@ -390,8 +392,15 @@ def _keyed_cache_class() -> type:
             return (sig, codegen.magic_tuple(), self._key)
 
         def load_overload(self, sig: Any, target_context: Any) -> Any:
+            # numba's own first refreshes the target context: it imports and registers every
+            # numba extension (linalg, which imports scipy.linalg; random; typed containers;
+            # ~0.9 s), which compiling needs and loading machine code does not (a compile
+            # after a miss refreshes the context itself). Loaded code calls numba's runtime
+            # (the wrapper's array arguments), so that is initialised here.
             try:
-                data = super().load_overload(sig, target_context)
+                rtsys.initialize(target_context)
+                with self._guard_against_spurious_io_errors():
+                    data = self._load_overload(sig, target_context)
             except _UNREADABLE:  # a corrupt entry: compile, then overwrite it
                 self._count("errors")
                 return None

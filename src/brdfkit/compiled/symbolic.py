@@ -47,10 +47,9 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import array_api_compat.numpy
 import numpy as np
-from scipy import special
 
+from brdfkit._array import NUMPY_NAMESPACE
 from brdfkit.compiled.scalar_code import (
     BINARY,
     UNARY,
@@ -279,8 +278,9 @@ _COMPARISONS = {"eq", "ne", "lt", "le", "gt", "ge"}
 _LOGICAL = {"and", "or", "xor"}
 _FLOAT_ONLY = {"atan2"}
 
-_SPECIAL = {"erf": ("erf", special.erf), "gammaln": ("lgamma", special.gammaln)}
-"""Special functions (:func:`brdfkit._array.erf`, ``log_gamma``): ``math``'s in the kernel."""
+_SPECIAL = {"erf": "erf", "gammaln": "lgamma"}
+"""Special functions (:func:`brdfkit._array.erf`, ``log_gamma``) by their :mod:`scipy.special`
+names (which fold constants): ``math``'s in the kernel."""
 
 
 class SymbolicNamespace:
@@ -303,7 +303,7 @@ class SymbolicNamespace:
         self.default_int = np.dtype(np.int64 if self.wide else np.int32)
 
     def __getattr__(self, name: str) -> Any:
-        if not name.startswith("_") and hasattr(array_api_compat.numpy, name):
+        if not name.startswith("_") and hasattr(NUMPY_NAMESPACE, name):
 
             def unsupported(*args: Any, **kwargs: Any) -> Any:
                 raise ValueError(f"the array function {name!r} is not supported by "
@@ -350,7 +350,7 @@ class SymbolicNamespace:
         return self._promote(values)[0]
 
     def isdtype(self, dtype: Any, kind: Any) -> builtins.bool:
-        return array_api_compat.numpy.isdtype(np.dtype(dtype), kind)
+        return NUMPY_NAMESPACE.isdtype(np.dtype(dtype), kind)
 
     def finfo(self, dtype: Any) -> Any:
         arrays = SymbolicArray | np.ndarray | np.generic
@@ -517,12 +517,18 @@ class SymbolicNamespace:
         return self._special("gammaln", x)
 
     def _special(self, name: str, x: Any) -> SymbolicArray:
+        from scipy import special  # only where a trace meets one (its import costs ~0.25 s)
+
         x = self.asarray(x)
-        primitive, fold = _SPECIAL[name]
-        out = elementwise(self.emitter, fold, f"math.{primitive}({{0}})", [x.elements], x.dtype)
+        fold = getattr(special, name)
+        out = elementwise(
+            self.emitter, fold, f"math.{_SPECIAL[name]}({{0}})", [x.elements], x.dtype
+        )
         return self._wrap(out, x.dtype, x.weak)
 
     def erfinv(self, x: Any, /) -> SymbolicArray:
+        from scipy import special
+
         x = self.asarray(x)
         template = f"_erfinv{8 * x.dtype.itemsize}({{0}})"
         out = elementwise(self.emitter, special.erfinv, template, [x.elements], x.dtype)

@@ -16,7 +16,6 @@ from typing import Any
 
 from brdfkit.brdf.base import BRDF, Scaled, Sum
 from brdfkit.errors import FormatError, ParameterError, SpecError
-from brdfkit.interop.brdf_explorer import ExplorerBRDF, is_brdf_explorer_file, read_brdf_explorer
 
 __all__ = ["FILE_SUFFIXES", "MAX_FIT_BYTES", "is_file_source", "load"]
 
@@ -83,6 +82,9 @@ def load(source: str | os.PathLike | BRDF, **params: Any) -> BRDF:
     if not Path(path).is_file():
         raise FileNotFoundError(f"BRDF file not found: {path}")
     suffix = Path(path).suffix.lower()
+    # the shader reader (with the GLSL interpreter and brdfkit.measured) only for its files
+    from brdfkit.interop.brdf_explorer import is_brdf_explorer_file, read_brdf_explorer
+
     if suffix == ".brdf" and is_brdf_explorer_file(path):
         return read_brdf_explorer(path, **params)
     if suffix == ".json":
@@ -114,6 +116,8 @@ def _with_params(model: BRDF, params: dict[str, Any], source: str) -> BRDF:
     """``model`` with ``params`` set (spec aliases accepted), validated by its constructor."""
     if not params:
         return model
+    from brdfkit.interop.brdf_explorer import ExplorerBRDF
+
     names = ", ".join(sorted(params))
     if isinstance(model, ExplorerBRDF):
         return model.with_values(**params)
