@@ -217,3 +217,29 @@ def test_map_tables_and_guides_are_built_once_per_map():
     tables = _lookups(np.float32).tables(env.compensated)
     assert tables[-2] is row_guide and tables[-1] is col_guide
     assert tables[0].dtype == np.float32 and tables[2] == np.float32(env.scale)
+
+
+@pytest.mark.parametrize("shape", [(40, 100), (20, 30)])
+def test_clamped_sums_kernel_equals_the_numpy_sums(shape):
+    """The irradiance table's sums over cells (``environment._clamped_sums``) by the numba
+    kernel, on every node and on scattered node columns (a partial table), with a one-texel
+    sun and with more cells than pixels: equal to the rounding of the NumPy code's float32
+    clamped terms (each errs by about ε₃₂·|v_c|; the kernel's are float64)."""
+    from brdfkit.light import environment as env_module
+    from brdfkit.light.environment import IRRADIANCE_CELLS, IRRADIANCE_GRID
+
+    rng = np.random.default_rng(9)
+    image = rng.random((*shape, 3)).astype(np.float32)
+    image[shape[0] // 4, shape[1] // 3] = [3e4, 2e4, 1e4]
+    moments = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    bounds = env_module._cell_bounds(shape, IRRADIANCE_CELLS)
+    rows, cols = IRRADIANCE_GRID
+    theta = np.linspace(0.0, math.pi, rows)
+    for columns in (np.arange(cols), np.array([0, 1, 2, 50, 51, 120, 191])):
+        phi = columns * (2 * math.pi / cols)
+        expected = env_module._clamped_sums(moments, bounds, theta, phi)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(env_module, "_KERNEL_TOOLS", [kernel_tools])
+            found = env_module._node_sums(moments, bounds, theta, phi)
+        rounding = 2 * np.finfo(np.float32).eps * np.linalg.norm(moments, axis=-1).sum((0, 1))
+        assert np.all(np.abs(found - expected) <= rounding + 1e-12 * np.abs(expected))

@@ -491,7 +491,7 @@ class _IrradianceNodes:
                 rows, cols = IRRADIANCE_GRID
                 theta = np.linspace(0.0, math.pi, rows)
                 phi = missing * (2 * math.pi / cols)
-                sums = _clamped_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
+                sums = _node_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
                 self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
                 self._built[missing] = True
                 if _STORE:
@@ -605,14 +605,9 @@ def _clamped_sums(
     t, p = (grid.ravel() for grid in np.meshgrid(theta, phi, indexing="ij"))
     normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
     nodes = normals.shape[0]
-    # three turns of the columns so that an arc around any φ_n ∈ [0, 2π) is one index range
-    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
-    # a and b depend on the node's θ alone: the arcs' half-widths per cell row and node row
-    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
-    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
-    radius = bounds.radius[:, None]
-    inner = np.repeat(_half_arc(a, b, radius), phi.size, axis=1)  # (rows, nodes)
-    outer = np.repeat(_half_arc(a, b, -radius), phi.size, axis=1)
+    turns, inner, outer = _arcs(bounds, theta)
+    inner = np.repeat(inner, phi.size, axis=1)  # (rows, nodes)
+    outer = np.repeat(outer, phi.size, axis=1)
     lo_in, hi_in = _arc_indices(turns, p, inner, cols)
     lo_out, hi_out = _arc_indices(turns, p, outer, cols)
     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
@@ -621,13 +616,11 @@ def _clamped_sums(
     above = np.zeros((nodes, 3 * k))
     total = np.zeros((nodes, k))
     normals32 = normals.astype(np.float32)
+    vectors, prefix = _turn_prefix(moments)
     for r in range(rows):
-        vectors = moments[r].reshape(cols, 3 * k)  # (cols, k·3)
-        prefix = np.zeros((3 * cols + 1, 3 * k))
-        np.cumsum(np.tile(vectors, (3, 1)), axis=0, out=prefix[1:])
-        above += np.take(prefix, hi_in[r], axis=0)
-        above -= np.take(prefix, lo_in[r], axis=0)
-        vectors32 = vectors.astype(np.float32).reshape(cols, k, 3)
+        above += np.take(prefix[r], hi_in[r], axis=0)
+        above -= np.take(prefix[r], lo_in[r], axis=0)
+        vectors32 = vectors[r].astype(np.float32).reshape(cols, k, 3)
         for start, stop in ((lo_out[r], lo_in[r]), (hi_in[r], hi_out[r])):
             count = stop - start
             nonempty = np.flatnonzero(count)
@@ -642,6 +635,52 @@ def _clamped_sums(
             )
     total += np.einsum("nkj,nj->nk", above.reshape(nodes, k, 3), normals)
     return total
+
+
+def _arcs(bounds: _CellBounds, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three turns of the cell columns' azimuths (an arc around any φ ∈ [0, 2π) is one index
+    range of them), and the half-widths of the arcs of cells wholly above the horizon of
+    normals at polar angles ``theta`` and of cells not wholly below it, ``(rows, node
+    rows)`` each (:func:`_clamped_sums`: a and b depend on the normal's θ alone)."""
+    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
+    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
+    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
+    radius = bounds.radius[:, None]
+    return turns, _half_arc(a, b, radius), _half_arc(a, b, -radius)
+
+
+def _turn_prefix(moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cells' ``moments`` ``(rows, cols, K, 3)`` as ``(rows, cols, 3K)`` vectors, and each
+    row's prefix sums over three turns of its columns, ``(rows, 3 cols + 1, 3K)``."""
+    rows, cols = moments.shape[:2]
+    vectors = np.ascontiguousarray(moments.reshape(rows, cols, -1))
+    prefix = np.zeros((rows, 3 * cols + 1, vectors.shape[2]))
+    np.cumsum(np.tile(vectors, (1, 3, 1)), axis=1, out=prefix[:, 1:])
+    return vectors, prefix
+
+
+def _node_sums(
+    moments: np.ndarray, bounds: _CellBounds, theta: np.ndarray, phi: np.ndarray
+) -> np.ndarray:
+    """:func:`_clamped_sums`, by its numba kernel (``_environment_kernels.clamped_sums``, on
+    the kernels' threads, a block of node rows each) once the compiled layer has handed in
+    its tools (:func:`compiled_lookups`), else by NumPy."""
+    if not _KERNEL_TOOLS:
+        return _clamped_sums(moments, bounds, theta, phi)
+    from brdfkit.light._environment_kernels import clamped_sums
+
+    tools = _KERNEL_TOOLS[0]
+    kernel = clamped_sums(tools)
+    vectors, prefix = _turn_prefix(moments)
+    turns, inner, outer = _arcs(bounds, theta)
+    out = np.zeros((theta.size * phi.size, moments.shape[2]))
+    blocks = np.linspace(0, theta.size, min(theta.size, 4 * tools.threads()) + 1).astype(int)
+
+    def block(b: int) -> None:
+        kernel(prefix, vectors, turns, theta, phi, inner, outer, blocks[b], blocks[b + 1], out)
+
+    tools.run_tasks(block, range(blocks.size - 1), tools.threads())
+    return out
 
 
 def _half_arc(a: np.ndarray, b: np.ndarray, level: float) -> np.ndarray:
@@ -670,14 +709,20 @@ def _arc_indices(
     return np.where(full, cols, lo), np.where(full, 2 * cols, hi)
 
 
+_KERNEL_TOOLS: list[Any] = []
+""":mod:`brdfkit.compiled.kernel_tools` once handed in (:func:`compiled_lookups`)."""
+
+
 def compiled_lookups(dtype: Any, tools: Any) -> Any:
     """This module's lookups as numba functions for compiled kernels in ``dtype``: the map
     coordinates of a direction, the bilinear radiance, the pdf and the map's sampling, and
     ``tables(env)``, the arrays they read (``light/_environment_kernels.py``; tests bind each
     function to the code here). ``tools`` is :mod:`brdfkit.compiled.kernel_tools`, handed in
-    by the caller (the compiled layer sits above this one)."""
+    by the caller (the compiled layer sits above this one); from then on the irradiance
+    table's sums over cells are a numba kernel too (:func:`_node_sums`)."""
     from brdfkit.light import _environment_kernels
 
+    _KERNEL_TOOLS[:] = [tools]  # the table builds use numba kernels too from now on
     return _environment_kernels.lookups(np.dtype(dtype).type, tools)
 
 
