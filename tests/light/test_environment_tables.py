@@ -248,3 +248,14 @@ def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
         with np.load(path) as stored:
             assert stored["weights"].shape == image.shape[:2]
             assert (stored["weights"] >= 0).all()
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
+def test_the_neighbourhood_maximum_is_scipys_maximum_filter(shape):
+    """The sampling weights' 3×3 maximum (rows clamped, columns wrapping) equals SciPy's
+    ``maximum_filter`` with those modes, to the bit, on the smallest maps too."""
+    from scipy.ndimage import maximum_filter
+
+    values = np.random.default_rng(17).random(shape) ** 3
+    expected = maximum_filter(values, size=3, mode=("nearest", "wrap"))
+    np.testing.assert_array_equal(environment._neighbourhood_maximum(values), expected)
