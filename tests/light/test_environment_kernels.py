@@ -243,3 +243,21 @@ def test_clamped_sums_kernel_equals_the_numpy_sums(shape):
             found = env_module._node_sums(moments, bounds, theta, phi)
         rounding = 2 * np.finfo(np.float32).eps * np.linalg.norm(moments, axis=-1).sum((0, 1))
         assert np.all(np.abs(found - expected) <= rounding + 1e-12 * np.abs(expected))
+
+
+@pytest.mark.parametrize("shape", [(40, 100), (20, 30)])
+def test_cell_moments_kernel_equals_the_numpy_moments(shape):
+    """The irradiance table's cell moments by the numba kernel's one pass over the pixels
+    equal the NumPy code's weighted run sums to float64 rounding: uneven cells, and more
+    cells than pixels (empty cells, zero moments)."""
+    from brdfkit.light import environment as env_module
+    from brdfkit.light.environment import IRRADIANCE_CELLS
+
+    image = np.random.default_rng(10).random((*shape, 3)).astype(np.float32) * 50
+    expected = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(env_module, "_KERNEL_TOOLS", [kernel_tools])
+        found = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    scale = np.abs(expected).max(axis=(0, 1))  # per vector and axis
+    assert np.all(np.abs(found - expected) <= 1e-13 * scale)
+    assert np.array_equal(found == 0, expected == 0)

@@ -292,6 +292,36 @@ def _sample_geometry(dtype: type, tools: Any) -> tuple[Callable[..., Any], Calla
 
 
 @functools.cache
+def cell_moments(tools: Any) -> Callable[..., None]:
+    r"""``environment._cell_moments`` (the irradiance table's cell moments) as the numba
+    ``moments(image, row_factors, col_factors, row_cell, col_cell, out)``: one pass over the
+    pixels of ``image`` ``(H, W, C)``, each adding :math:`\Delta\Omega_p\omega_p` = (row
+    factor 0 · column factors 0 and 1, row factor 1) to :math:`A_c` and :math:`L_p` times it
+    to :math:`M_c` of its cell ``(row_cell[h], col_cell[w])`` in ``out`` ``(rows, cols, 1 +
+    C, 3)`` (zeros on entry), in float64. Its machine code is kept on disk."""
+
+    @tools.cached_jit("environment-cell-moments")
+    def moments(image: np.ndarray, row_factors: np.ndarray, col_factors: np.ndarray,
+                row_cell: np.ndarray, col_cell: np.ndarray, out: np.ndarray) -> None:  # fmt: skip
+        height, width, channels = image.shape
+        for h in range(height):
+            r, sin_part, z = row_cell[h], row_factors[0, h], row_factors[1, h]
+            for w in range(width):
+                cell = out[r, col_cell[w]]
+                x, y = sin_part * col_factors[0, w], sin_part * col_factors[1, w]
+                cell[0, 0] += x
+                cell[0, 1] += y
+                cell[0, 2] += z
+                for c in range(channels):
+                    value = np.float64(image[h, w, c])
+                    cell[1 + c, 0] += value * x
+                    cell[1 + c, 1] += value * y
+                    cell[1 + c, 2] += value * z
+
+    return moments
+
+
+@functools.cache
 def clamped_sums(tools: Any) -> Callable[..., None]:
     r"""``environment._clamped_sums`` (the irradiance table's sums over cells) as the numba
     ``sums(prefix, vectors, turns, theta, phi, inner, outer, first, last, out)``: for the
@@ -376,6 +406,7 @@ __all__ = [
     "COLUMN_BUCKETS",
     "ROW_BUCKETS",
     "MapLookups",
+    "cell_moments",
     "clamped_sums",
     "guides",
     "lookups",

@@ -537,14 +537,21 @@ def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
     \sin\theta`, :math:`\Delta\Omega\cos\theta`) and a column's (:math:`\cos\varphi`,
     :math:`\sin\varphi`, 1), so the sums are two weighted sums over runs of pixels: over each
     cell's rows with the row factors, then over its columns with the column factors (float64;
-    a cell holding no pixel has zero moments)."""
+    a cell holding no pixel has zero moments). Once the compiled layer has handed in its
+    tools (:func:`compiled_lookups`), one pass of a numba kernel over the pixels instead
+    (``_environment_kernels.cell_moments``)."""
     height, width, channels = image.shape
     rows, cols = cells
-    edges = np.arange(height + 1) * (math.pi / height)
-    solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
-    theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
-    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])  # (2, H)
-    col_factors = np.stack([np.cos(phi), np.sin(phi), np.ones(width)])  # (3, W)
+    row_factors, col_factors = _pixel_factors(height, width)
+    if _KERNEL_TOOLS:  # one pass over the pixels by a numba kernel instead
+        from brdfkit.light._environment_kernels import cell_moments
+
+        moments = np.zeros((rows, cols, 1 + channels, 3))
+        row_cell = np.arange(height) * rows // height
+        col_cell = np.arange(width) * cols // width
+        kernel = cell_moments(_KERNEL_TOOLS[0])
+        kernel(image, row_factors, col_factors, row_cell, col_cell, moments)
+        return moments
     per_row = np.empty((2, rows, width, 1 + channels))
     for kind, factor in enumerate(row_factors):
         area = _run_sums(factor, rows, axis=0)  # the sums of a map of ones
@@ -556,6 +563,17 @@ def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
         for part, factor in zip((sin_rows, sin_rows, cos_rows), col_factors, strict=True)
     ]
     return np.stack(sums, axis=-1)
+
+
+def _pixel_factors(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""The row factors ``(2, H)`` (:math:`\Delta\Omega\sin\theta`,
+    :math:`\Delta\Omega\cos\theta`) and column factors ``(3, W)`` (:math:`\cos\varphi`,
+    :math:`\sin\varphi`, 1) of the pixels of a lat-long map (:func:`_cell_moments`)."""
+    edges = np.arange(height + 1) * (math.pi / height)
+    solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
+    theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
+    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])
+    return row_factors, np.stack([np.cos(phi), np.sin(phi), np.ones(width)])
 
 
 def _run_sums(values: np.ndarray, groups: int, axis: int) -> np.ndarray:
