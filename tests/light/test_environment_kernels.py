@@ -261,3 +261,24 @@ def test_cell_moments_kernel_equals_the_numpy_moments(shape):
     scale = np.abs(expected).max(axis=(0, 1))  # per vector and axis
     assert np.all(np.abs(found - expected) <= 1e-13 * scale)
     assert np.array_equal(found == 0, expected == 0)
+
+
+@pytest.mark.parametrize("buckets", [1, 7, 64])
+def test_guide_table_is_the_searchsorted_of_each_bucket(buckets):
+    """The map's guide tables (``kernel_tools.guide_table``, one walk along each row) hold
+    ``searchsorted(row, m / buckets, "right") − 1`` clipped to the row's cells: CDFs with
+    flat runs, nodes on bucket edges and padding past the row's ``count + 1`` nodes."""
+    rng = np.random.default_rng(11)
+    rows, count = 6, 30
+    weights = rng.random((rows, count)) ** 4
+    weights[rng.random((rows, count)) < 0.3] = 0.0
+    weights[:, 0] += 1e-12
+    cdf = np.concatenate([np.zeros((rows, 1)), np.cumsum(weights, axis=1)], axis=1)
+    cdf /= cdf[:, -1:]
+    cdf[::2] = np.maximum.accumulate(np.round(cdf[::2] * buckets) / buckets, axis=1)
+    cdf[:, -1] = 1.0
+    padded = np.concatenate([cdf, np.ones((rows, 2))], axis=1)
+    u = np.arange(buckets) / buckets
+    expected = [np.clip(np.searchsorted(row, u, side="right") - 1, 0, count - 1) for row in cdf]
+    guide = kernel_tools.guide_table(padded.ravel(), count, buckets, rows)
+    np.testing.assert_array_equal(guide, np.concatenate(expected))
