@@ -375,7 +375,9 @@ class EnvironmentMap(Light):
         cells wholly above n's horizon add n·M_c and form an arc of columns, summed from
         prefix sums; cells wholly below add 0; only the few across the horizon are clamped
         one by one (:func:`_clamped_sums`). The table equals the sum over every cell to
-        rounding.
+        rounding. Once the compiled layer has handed in its tools (:func:`compiled_lookups`),
+        the moments and the sums are numba kernels (``light/_environment_kernels.py``; tests
+        hold them equal to the NumPy code to rounding).
 
         References
         ----------
