@@ -11,9 +11,11 @@ interleaved, ``--repeats`` times with fresh seeds:
   scene), one ``render`` each;
 - **new**: a new scene per image, as a command or script makes one: brdfkit reads the map
   (:meth:`~brdfkit.light.EnvironmentMap.from_file`) and renders it with its tables
-  forgotten first (:func:`~brdfkit.light.environment.clear_table_cache`: each map as if read
-  for the first time); Mitsuba loads its scene (the ``envmap`` plugin reads the same file)
-  and renders it;
+  forgotten first, in the process (:func:`~brdfkit.light.environment.clear_table_cache`)
+  and on disk (an empty table store of its own, ``$BRDFKIT_CACHE_DIR`` pointing at a new
+  temporary folder for that render: the lookups miss and the tables are stored, as for a
+  map never seen on the machine); Mitsuba loads its scene (the ``envmap`` plugin reads the
+  same file) and renders it;
 - **again**: brdfkit's new scene of a map read before in the process (its tables found by
   content).
 
@@ -31,15 +33,18 @@ Results go to ``benchmarks/results/envmap.json`` and a Markdown table on stdout.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from brdfkit.brdf import parse
+from brdfkit.compiled import cache as kernel_cache
 from brdfkit.interop import mitsuba as ms
 from brdfkit.interop.mitsuba_export import to_mitsuba_dict
 from brdfkit.light import EnvironmentMap
@@ -71,6 +76,28 @@ def timed(render: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
     return time.perf_counter() - start, image
 
 
+@contextlib.contextmanager
+def forgotten_tables(check: bool = True) -> Iterator[None]:
+    """The maps' tables forgotten in the process and on disk: ``$BRDFKIT_CACHE_DIR`` is a new
+    empty folder (removed afterwards) while the block runs. The kernels stay compiled in
+    memory; with ``check``, a render that compiled or loaded one from disk raises."""
+    clear_table_cache()
+    before = {name: kernel_cache.STATS[name] for name in ("hits", "misses", "record_misses")}
+    previous = os.environ.get(kernel_cache.ENV)
+    with tempfile.TemporaryDirectory(prefix="bench-envmap-tables-") as folder:
+        os.environ[kernel_cache.ENV] = folder
+        try:
+            yield
+        finally:
+            if previous is None:
+                del os.environ[kernel_cache.ENV]
+            else:
+                os.environ[kernel_cache.ENV] = previous
+    after = {name: kernel_cache.STATS[name] for name in before}
+    if check and after != before:
+        raise RuntimeError(f"a new scene's render loaded or built kernels: {before} -> {after}")
+
+
 def peak(path: Path) -> float:
     """The map's brightest texel luminance (Rec. 709)."""
     image = EnvironmentMap.from_file(path).image
@@ -98,12 +125,12 @@ def bench_map(mi: Any, path: Path, args: argparse.Namespace) -> dict[str, Any]:
     plan[0].build()
     scene = mitsuba_scene(mi, bsdf, path)
 
-    def brdfkit_new(spp: int, seed: int) -> np.ndarray:
-        clear_table_cache()
-        return render_sphere(
-            brdf, EnvironmentMap.from_file(path), resolution=RESOLUTION, samples=spp,
-            seed=seed, compiled=True,
-        )  # fmt: skip
+    def brdfkit_new(spp: int, seed: int, check: bool = True) -> np.ndarray:
+        with forgotten_tables(check):
+            return render_sphere(
+                brdf, EnvironmentMap.from_file(path), resolution=RESOLUTION, samples=spp,
+                seed=seed, compiled=True,
+            )  # fmt: skip
 
     renderers: dict[str, tuple[str, Callable[[int, int], np.ndarray]]] = {
         "brdfkit kept": ("brdfkit", lambda spp, seed: render_sphere(
@@ -117,6 +144,7 @@ def bench_map(mi: Any, path: Path, args: argparse.Namespace) -> dict[str, Any]:
             seed=seed, compiled=True)),
     }  # fmt: skip
     mask = interior_mask(RESOLUTION)
+    brdfkit_new(4, 12345, check=False)  # warm-up: the table builds' kernels
     for _, render in renderers.values():
         render(4, 12345)  # warm-up: Mitsuba's JIT, brdfkit's kernels
     references = {

@@ -665,7 +665,8 @@ def envmap(r: dict) -> str:
         f"`{r['model']}` sphere, {r['resolution']}², {r['spp']} spp, best of {r['repeats']}; "
         f"error against each renderer's own {r['reference_spp']}-spp image; Mitsuba "
         f"{r['mitsuba']}. *kept*: the scene kept between images; *new*: the map read and a new "
-        "scene per image (brdfkit's tables forgotten first; Mitsuba loads its scene); *again*: "
+        "scene per image (brdfkit's tables forgotten first, in the process and on disk; Mitsuba "
+        "loads its scene); *again*: "
         "brdfkit's new scene of a map read before (tables found by content), against Mitsuba's "
         "new scene:\n\n"
         + rows(

@@ -191,6 +191,40 @@ def test_hdr_written_by_opencv_with_runs_reads_the_same(tmp_path):
     )
 
 
+def test_hdr_run_length_scanlines_decode_run_by_run(tmp_path):
+    """Run-length scanlines written by hand, each channel's runs chosen to mix the kinds
+    (runs of 1 to 127 copies, literals of 1 to 128 bytes, back to back): every pixel
+    equals Ward's decoding of the bytes, written out here run by run."""
+    rng = np.random.default_rng(21)
+    width, height = 300, 3
+    body, expected = bytearray(), np.empty((height, 4, width), np.uint8)
+    for row in range(height):
+        body += bytes([2, 2, width >> 8, width & 0xFF])
+        for channel in range(4):
+            filled, plane = 0, []
+            for length in (1, 127, 1, 128, 30, 13, 128):
+                length = min(length, width - filled)
+                if length == 0:
+                    break
+                if length <= 127 and rng.random() < 0.5:  # a run: count + 128, then the byte
+                    value = int(rng.integers(1, 256))
+                    body += bytes([128 + length, value])
+                    plane += [value] * length
+                else:  # a literal: count, then the bytes
+                    values = rng.integers(0, 256, length).tolist()
+                    body += bytes([length, *values])
+                    plane += values
+                filled += length
+            expected[row, channel] = plane
+    path = tmp_path / "runs.hdr"
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 3 +X 300\n" + bytes(body))
+    rgbe = expected.transpose(0, 2, 1)
+    scale = np.ldexp(np.float32(1), rgbe[..., 3:].astype(int) - 136).astype(np.float32)
+    np.testing.assert_array_equal(
+        io.read_image(path), np.where(rgbe[..., 3:] > 0, rgbe[..., :3] * scale, 0.0)
+    )
+
+
 def test_hdr_other_layouts_are_refused_naming_the_file(tmp_path):
     xyze = tmp_path / "xyze.hdr"
     xyze.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n" + bytes(4))

@@ -410,17 +410,22 @@ def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int]
 
 
 def _expand_runs(stored: np.ndarray, runs: np.ndarray) -> np.ndarray:
-    """The bytes the runs whose count bytes lie at ``runs`` stand for, by one gather: a run
-    (count > 128) repeats the byte after its count, a literal copies the ``count`` bytes after
-    it."""
+    """The bytes the runs whose count bytes lie at ``runs`` (in order, back to back) stand
+    for, by one ``np.repeat`` of the span of the file they cover: a run (count > 128) repeats
+    the byte after its count, a literal copies the ``count`` bytes after it. Each byte of the
+    span is repeated that many times (count bytes none, a literal's bytes once, a run's byte
+    ``count − 128`` times)."""
     counts = stored[runs].astype(np.int64)
     repeated = counts > _RGBE_MAX_RUN
-    lengths = np.where(repeated, counts - _RGBE_MAX_RUN, counts)
-    step = (~repeated).astype(np.int64)
-    offsets = np.cumsum(lengths) - lengths
-    index = np.repeat(runs + 1 - step * offsets, lengths)
-    index += np.repeat(step, lengths) * np.arange(index.size)
-    return stored[index]
+    first = int(runs[0])
+    end = int(runs[-1]) + (2 if repeated[-1] else 1 + int(counts[-1]))
+    literal, length = runs[~repeated] + 1 - first, counts[~repeated]
+    # a literal's bytes: +1 where they begin, −1 after them, summed along the span
+    edges = np.bincount(literal, minlength=end - first + 1)
+    edges -= np.bincount(literal + length, minlength=end - first + 1)
+    times = np.cumsum(edges[:-1])
+    times[runs[repeated] + 1 - first] = counts[repeated] - _RGBE_MAX_RUN
+    return np.repeat(stored[first:end], times)
 
 
 def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:

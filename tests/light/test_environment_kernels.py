@@ -217,3 +217,69 @@ def test_map_tables_and_guides_are_built_once_per_map():
     tables = _lookups(np.float32).tables(env.compensated)
     assert tables[-2] is row_guide and tables[-1] is col_guide
     assert tables[0].dtype == np.float32 and tables[2] == np.float32(env.scale)
+
+
+@pytest.mark.parametrize("shape", [(40, 100), (20, 30)])
+def test_clamped_sums_kernel_equals_the_numpy_sums(shape):
+    """The irradiance table's sums over cells (``environment._clamped_sums``) by the numba
+    kernel, on every node column and on scattered ones (a partial table), every sixth node
+    row with both poles, with a one-texel sun and with more cells than pixels: equal to the
+    rounding of the NumPy code's float32 clamped terms (each errs by about ε₃₂·|v_c|; the
+    kernel's are float64)."""
+    from brdfkit.light import environment as env_module
+    from brdfkit.light.environment import IRRADIANCE_CELLS, IRRADIANCE_GRID
+
+    rng = np.random.default_rng(9)
+    image = rng.random((*shape, 3)).astype(np.float32)
+    image[shape[0] // 4, shape[1] // 3] = [3e4, 2e4, 1e4]
+    moments = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    bounds = env_module._cell_bounds(shape, IRRADIANCE_CELLS)
+    rows, cols = IRRADIANCE_GRID
+    theta = np.linspace(0.0, math.pi, rows)[::6]
+    for columns in (np.arange(cols), np.array([0, 1, 2, 50, 51, 120, 191])):
+        phi = columns * (2 * math.pi / cols)
+        expected = env_module._clamped_sums(moments, bounds, theta, phi)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(env_module, "_KERNEL_TOOLS", [kernel_tools])
+            found = env_module._node_sums(moments, bounds, theta, phi)
+        rounding = 2 * np.finfo(np.float32).eps * np.linalg.norm(moments, axis=-1).sum((0, 1))
+        assert np.all(np.abs(found - expected) <= rounding + 1e-12 * np.abs(expected))
+
+
+@pytest.mark.parametrize("shape", [(40, 100), (20, 30)])
+def test_cell_moments_kernel_equals_the_numpy_moments(shape):
+    """The irradiance table's cell moments by the numba kernel's one pass over the pixels
+    equal the NumPy code's weighted run sums to float64 rounding: uneven cells, and more
+    cells than pixels (empty cells, zero moments)."""
+    from brdfkit.light import environment as env_module
+    from brdfkit.light.environment import IRRADIANCE_CELLS
+
+    image = np.random.default_rng(10).random((*shape, 3)).astype(np.float32) * 50
+    expected = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(env_module, "_KERNEL_TOOLS", [kernel_tools])
+        found = env_module._cell_moments(image, IRRADIANCE_CELLS)
+    scale = np.abs(expected).max(axis=(0, 1))  # per vector and axis
+    assert np.all(np.abs(found - expected) <= 1e-13 * scale)
+    assert np.array_equal(found == 0, expected == 0)
+
+
+@pytest.mark.parametrize("buckets", [1, 7, 64])
+def test_guide_table_is_the_searchsorted_of_each_bucket(buckets):
+    """The map's guide tables (``kernel_tools.guide_table``, one walk along each row) hold
+    ``searchsorted(row, m / buckets, "right") − 1`` clipped to the row's cells: CDFs with
+    flat runs, nodes on bucket edges and padding past the row's ``count + 1`` nodes."""
+    rng = np.random.default_rng(11)
+    rows, count = 6, 30
+    weights = rng.random((rows, count)) ** 4
+    weights[rng.random((rows, count)) < 0.3] = 0.0
+    weights[:, 0] += 1e-12
+    cdf = np.concatenate([np.zeros((rows, 1)), np.cumsum(weights, axis=1)], axis=1)
+    cdf /= cdf[:, -1:]
+    cdf[::2] = np.maximum.accumulate(np.round(cdf[::2] * buckets) / buckets, axis=1)
+    cdf[:, -1] = 1.0
+    padded = np.concatenate([cdf, np.ones((rows, 2))], axis=1)
+    u = np.arange(buckets) / buckets
+    expected = [np.clip(np.searchsorted(row, u, side="right") - 1, 0, count - 1) for row in cdf]
+    guide = kernel_tools.guide_table(padded.ravel(), count, buckets, rows)
+    np.testing.assert_array_equal(guide, np.concatenate(expected))

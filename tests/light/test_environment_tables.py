@@ -48,11 +48,25 @@ def _direct_irradiance_table(image: np.ndarray, nodes: np.ndarray) -> np.ndarray
     return math.pi * np.stack(sums[1:], -1) / sums[0][:, None]
 
 
+@pytest.fixture(params=["numpy", "numba"])
+def sums_by(request, monkeypatch):
+    """The irradiance table's sums over cells by NumPy, or by the numba kernel the compiled
+    layer hands in (:func:`brdfkit.light.environment.compiled_lookups`)."""
+    tools = []
+    if request.param == "numba":
+        pytest.importorskip("numba")
+        from brdfkit.compiled import kernel_tools
+
+        tools = [kernel_tools]
+    monkeypatch.setattr(environment, "_KERNEL_TOOLS", tools)
+    return request.param
+
+
 @pytest.mark.parametrize("shape", [(100, 250), (24, 40)])
-def test_irradiance_table_equals_the_direct_quadrature_over_every_cell(shape):
+def test_irradiance_table_equals_the_direct_quadrature_over_every_cell(shape, sums_by):
     """Cells wholly above or below a normal's horizon summed by arcs equal the clamped sum
     over every cell: with a sun, uneven cells (100 × 250 pixels in 48 × 96 cells) and more
-    cells than pixels (empty cells)."""
+    cells than pixels (empty cells); by NumPy and by the numba kernel."""
     rng = np.random.default_rng(7)
     image = rng.random((*shape, 3)).astype(np.float32)
     image[shape[0] // 3, shape[1] // 5] = [5e4, 4e4, 3e4]  # a one-texel sun
@@ -82,7 +96,7 @@ def test_maps_of_equal_pixels_share_their_tables_and_others_do_not():
     np.testing.assert_allclose(again.irradiance(-normal), 2.0 * first.irradiance(normal), rtol=1e-6)
 
 
-def test_irradiance_of_some_normals_equals_the_lookup_in_the_whole_table():
+def test_irradiance_of_some_normals_equals_the_lookup_in_the_whole_table(sums_by):
     """Only the table's columns the normals read are built: the values are the same."""
     rng = np.random.default_rng(5)
     image = rng.random((24, 48, 3))
@@ -114,7 +128,7 @@ def _no_building(monkeypatch):
     def refuse(*args):
         raise AssertionError("the irradiance table was built, not read from disk")
 
-    monkeypatch.setattr(environment, "_clamped_sums", refuse)
+    monkeypatch.setattr(environment, "_node_sums", refuse)
 
 
 def test_a_new_process_reads_the_irradiance_table_from_disk_bit_equal(table_dir, monkeypatch):
@@ -234,3 +248,14 @@ def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
         with np.load(path) as stored:
             assert stored["weights"].shape == image.shape[:2]
             assert (stored["weights"] >= 0).all()
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
+def test_the_neighbourhood_maximum_is_scipys_maximum_filter(shape):
+    """The sampling weights' 3×3 maximum (rows clamped, columns wrapping) equals SciPy's
+    ``maximum_filter`` with those modes, to the bit, on the smallest maps too."""
+    from scipy.ndimage import maximum_filter
+
+    values = np.random.default_rng(17).random(shape) ** 3
+    expected = maximum_filter(values, size=3, mode=("nearest", "wrap"))
+    np.testing.assert_array_equal(environment._neighbourhood_maximum(values), expected)

@@ -38,13 +38,34 @@ def guide_table(cdf: np.ndarray, count: int, buckets: int, rows: int = 1) -> np.
     >>> guide_table(np.array([0.0, 0.5, 0.5, 1.0]), count=3, buckets=4)
     array([0, 0, 2, 2], dtype=uint16)
     """
-    nodes = np.asarray(cdf, np.float64).reshape(rows, -1)[:, : count + 1]
-    u = np.arange(buckets) / buckets
+    nodes = np.ascontiguousarray(np.asarray(cdf, np.float64).reshape(rows, -1)[:, : count + 1])
     guide = np.empty((rows, buckets), np.uint16 if count <= 2**16 else np.int32)
-    for r in range(rows):
-        k = np.searchsorted(nodes[r], u, side="right") - 1
-        guide[r] = np.clip(k, 0, count - 1)
+    _guide_rows()(nodes, guide)
     return guide.ravel()
+
+
+@functools.cache
+def _guide_rows() -> Callable[..., None]:
+    """The numba ``guide_rows(nodes, guide)`` of :func:`guide_table`: in each row of the
+    nondecreasing ``nodes``, ``np.searchsorted(row, m / buckets, side="right") − 1`` clipped
+    to [0, count) for every bucket m, by one walk along the row (the u's increase), its
+    machine code kept on disk (:mod:`brdfkit.compiled.cache`)."""
+    from brdfkit.compiled import cache
+
+    @exact_jit()
+    def guide_rows(nodes: np.ndarray, guide: np.ndarray) -> None:
+        rows, buckets = guide.shape
+        count = nodes.shape[1] - 1
+        for r in range(rows):
+            j = 0  # nodes of the row at or below u
+            for m in range(buckets):
+                u = np.float64(m) / np.float64(buckets)
+                while j <= count and nodes[r, j] <= u:
+                    j += 1
+                guide[r, m] = min(max(j - 1, 0), count - 1)
+
+    cache.enable(guide_rows, cache.key("hand-written", "guide-rows"))
+    return guide_rows
 
 
 @functools.cache

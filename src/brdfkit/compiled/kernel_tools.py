@@ -9,7 +9,8 @@ Those modules build their functions from this toolkit only:
 - decorators: :func:`exact_jit` (rounds as written), :func:`vector_jit` (the
   :data:`FASTMATH` flags of vectorised loops), :func:`jit` (a helper with its caller's
   flags), :func:`inline_jit` (a step inlined into its caller), :func:`without_runtime`
-  (options for code that passes arrays on without reference counting);
+  (options for code that passes arrays on without reference counting), :func:`cached_jit`
+  (:func:`exact_jit` with its machine code kept on disk);
 - intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
   :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function);
 - scalar functions: :func:`trigonometry` (``atan2``, ``sin``, ``cos`` in a dtype);
@@ -33,6 +34,9 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 from brdfkit.compiled.guide_tables import guide_table, guided_search
 from brdfkit.compiled.jit import (
     FASTMATH,
@@ -49,8 +53,25 @@ from brdfkit.compiled.jit import (
 from brdfkit.compiled.scalar_functions import trigonometry
 from brdfkit.compiled.thread_pool import run_tasks, threads
 
+
+def cached_jit(name: str) -> Callable[[Any], Any]:
+    """:func:`exact_jit` for a hand-written kernel called on its own (not inlined into a
+    generated one), its machine code kept in :mod:`brdfkit.compiled.cache` under ``name``
+    (the cache's folder already names the version of brdfkit's code): a new process loads
+    it instead of compiling it again."""
+    from brdfkit.compiled import cache
+
+    def decorate(function: Callable[..., Any]) -> Any:
+        dispatcher = exact_jit()(function)
+        cache.enable(dispatcher, cache.key("hand-written", name))
+        return dispatcher
+
+    return decorate
+
+
 __all__ = [
     "FASTMATH",
+    "cached_jit",
     "exact_jit",
     "guide_table",
     "guided_search",

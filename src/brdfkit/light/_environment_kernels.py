@@ -291,4 +291,124 @@ def _sample_geometry(dtype: type, tools: Any) -> tuple[Callable[..., Any], Calla
     return sample_point, sample_direction
 
 
-__all__ = ["COLUMN_BUCKETS", "ROW_BUCKETS", "MapLookups", "guides", "lookups", "unit"]
+@functools.cache
+def cell_moments(tools: Any) -> Callable[..., None]:
+    r"""``environment._cell_moments`` (the irradiance table's cell moments) as the numba
+    ``moments(image, row_factors, col_factors, row_cell, col_cell, out)``: one pass over the
+    pixels of ``image`` ``(H, W, C)``, each adding :math:`\Delta\Omega_p\omega_p` = (row
+    factor 0 · column factors 0 and 1, row factor 1) to :math:`A_c` and :math:`L_p` times it
+    to :math:`M_c` of its cell ``(row_cell[h], col_cell[w])`` in ``out`` ``(rows, cols, 1 +
+    C, 3)`` (zeros on entry), in float64. Its machine code is kept on disk."""
+
+    @tools.cached_jit("environment-cell-moments")
+    def moments(image: np.ndarray, row_factors: np.ndarray, col_factors: np.ndarray,
+                row_cell: np.ndarray, col_cell: np.ndarray, out: np.ndarray) -> None:  # fmt: skip
+        height, width, channels = image.shape
+        for h in range(height):
+            r, sin_part, z = row_cell[h], row_factors[0, h], row_factors[1, h]
+            for w in range(width):
+                cell = out[r, col_cell[w]]
+                x, y = sin_part * col_factors[0, w], sin_part * col_factors[1, w]
+                cell[0, 0] += x
+                cell[0, 1] += y
+                cell[0, 2] += z
+                for c in range(channels):
+                    value = np.float64(image[h, w, c])
+                    cell[1 + c, 0] += value * x
+                    cell[1 + c, 1] += value * y
+                    cell[1 + c, 2] += value * z
+
+    return moments
+
+
+@functools.cache
+def clamped_sums(tools: Any) -> Callable[..., None]:
+    r"""``environment._clamped_sums`` (the irradiance table's sums over cells) as the numba
+    ``sums(prefix, vectors, turns, theta, phi, inner, outer, first, last, out)``: for the
+    node rows ``first`` … ``last − 1`` of ``theta`` × ``phi`` (``phi`` increasing),
+    :math:`\sum_c \max(n\cdot v_c, 0)` of each of the cells' ``K`` vectors into ``out``
+    ``(nodes, K)`` (zeros on entry). Per cell row r, the cells of the arc :math:`|\varphi_c -
+    \varphi_n| <` ``inner[r, i]`` (wholly above the horizon) are summed from the prefix sums
+    ``prefix[r]`` ``(3 cols + 1, 3K)`` of three turns of the row's ``vectors`` ``(rows, cols,
+    3K)``, and the cells between it and the arc of ``outer[r, i]`` are clamped one by one;
+    ``turns``: three turns of the cell columns' azimuths. The arcs' ends are
+    ``_arc_indices``' searches, found by walking ``turns`` along the increasing φ of a
+    node row instead of bisecting for each node. float64 throughout (the NumPy code clamps
+    in float32). Its machine code is kept on disk (``tools.cached_jit``)."""
+    margin, pi = 1e-9, math.pi
+
+    @tools.jit()
+    def walk(turns: np.ndarray, at: int, value: float, right: bool) -> int:
+        """np.searchsorted(turns, value, side) for a value at or above that of ``at``."""
+        while at < turns.shape[0] and (turns[at] < value or (right and turns[at] == value)):
+            at += 1
+        return at
+
+    @tools.jit()
+    def arc(turns: np.ndarray, at: np.ndarray, phi: float, width: float,
+            cols: int) -> tuple[int, int]:  # fmt: skip
+        """``_arc_indices``' [lo, hi) of one node, ``at`` the walks' places (lo, hi, centre)."""
+        if width >= pi:
+            return cols, 2 * cols
+        if width < 0:
+            at[2] = walk(turns, at[2], phi, False)
+            return at[2], at[2]
+        at[0] = walk(turns, at[0], phi - width - margin, False)
+        at[1] = walk(turns, at[1], phi + width + margin, True)
+        return at[0], min(at[1], at[0] + cols)
+
+    @tools.jit()
+    def clamp_cells(vectors: np.ndarray, start: int, stop: int, nx: float, ny: float,
+                    nz: float, out: np.ndarray) -> None:  # fmt: skip
+        cols, k3 = vectors.shape
+        for c in range(start, stop):
+            v = vectors[c % cols]
+            for q in range(0, k3, 3):
+                out[q // 3] += max(v[q] * nx + v[q + 1] * ny + v[q + 2] * nz, 0.0)
+
+    @tools.cached_jit("environment-clamped-sums")
+    def sums(prefix: np.ndarray, vectors: np.ndarray, turns: np.ndarray, theta: np.ndarray,
+             phi: np.ndarray, inner: np.ndarray, outer: np.ndarray, first: int, last: int,
+             out: np.ndarray) -> None:  # fmt: skip
+        rows, cols, k3 = vectors.shape
+        count = phi.shape[0]
+        normals = np.empty((count, 3))
+        above = np.empty((count, k3))
+        for i in range(first, last):
+            for j in range(count):
+                normals[j, 0] = np.sin(theta[i]) * np.cos(phi[j])
+                normals[j, 1] = np.sin(theta[i]) * np.sin(phi[j])
+                normals[j, 2] = np.cos(theta[i])
+            above[:] = 0.0
+            for r in range(rows):
+                at_in, at_out = np.zeros(3, np.int64), np.zeros(3, np.int64)
+                for j in range(count):
+                    nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
+                    lo_in, hi_in = arc(turns, at_in, phi[j], inner[r, i], cols)
+                    lo_out, hi_out = arc(turns, at_out, phi[j], outer[r, i], cols)
+                    if hi_out - lo_out >= cols:
+                        lo_out, hi_out = lo_in, lo_in + cols
+                    for q in range(k3):
+                        above[j, q] += prefix[r, hi_in, q] - prefix[r, lo_in, q]
+                    # the cells in between: [lo_out, lo_in) and [hi_in, hi_out)
+                    node = out[i * count + j]
+                    clamp_cells(vectors[r], lo_out, lo_in, nx, ny, nz, node)
+                    clamp_cells(vectors[r], hi_in, hi_out, nx, ny, nz, node)
+            for j in range(count):
+                for q in range(0, k3, 3):
+                    dot = above[j, q] * normals[j, 0] + above[j, q + 1] * normals[j, 1]
+                    out[i * count + j, q // 3] += dot + above[j, q + 2] * normals[j, 2]
+
+    return sums
+
+
+__all__ = [
+    "COLUMN_BUCKETS",
+    "ROW_BUCKETS",
+    "MapLookups",
+    "cell_moments",
+    "clamped_sums",
+    "guides",
+    "lookups",
+    "unit",
+]

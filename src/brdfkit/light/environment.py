@@ -58,8 +58,6 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
     ``compensate`` the map's sin θ-weighted mean luminance is subtracted first, clipped at
     zero (:attr:`EnvironmentMap.compensated`).
     """
-    from scipy.ndimage import maximum_filter
-
     from brdfkit.io import REC709_WEIGHTS
 
     height = image.shape[0]
@@ -68,12 +66,29 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
         lum = image @ np.array(REC709_WEIGHTS)
     else:
         lum = image.mean(axis=2)
-    peak = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
+    peak = _neighbourhood_maximum(lum)
     floor = 1e-3 * max(peak.mean(), 1e-12)
     if compensate:
         mean = float(np.sum(lum * sin_theta) / (np.sum(sin_theta) * lum.shape[1]))
         peak = np.maximum(peak - mean, 0.0)
     return (peak + floor) * sin_theta
+
+
+def _neighbourhood_maximum(values: np.ndarray) -> np.ndarray:
+    """The maximum over each texel's 3×3 neighbourhood of a lat-long map's ``values``
+    ``(H, W)``: rows clamped at the poles, columns wrapping around. SciPy's
+    ``maximum_filter(values, 3, mode=("nearest", "wrap"))`` (equal to the bit: a maximum
+    rounds nothing), written out because importing ``scipy.ndimage`` costs a new process
+    more than this whole function (0.3 s against 2 ms for a 1024 × 512 map)."""
+    rows = values.copy()
+    np.maximum(rows[1:], values[:-1], out=rows[1:])  # the row above (the pole's own)
+    np.maximum(rows[:-1], values[1:], out=rows[:-1])  # the row below
+    peak = rows.copy()
+    np.maximum(peak[:, 1:], rows[:, :-1], out=peak[:, 1:])  # the column before, wrapping
+    np.maximum(peak[:, :1], rows[:, -1:], out=peak[:, :1])
+    np.maximum(peak[:, :-1], rows[:, 1:], out=peak[:, :-1])  # the column after, wrapping
+    np.maximum(peak[:, -1:], rows[:, :1], out=peak[:, -1:])
+    return peak
 
 
 @dataclass(frozen=True, eq=False)
@@ -360,7 +375,9 @@ class EnvironmentMap(Light):
         cells wholly above n's horizon add n·M_c and form an arc of columns, summed from
         prefix sums; cells wholly below add 0; only the few across the horizon are clamped
         one by one (:func:`_clamped_sums`). The table equals the sum over every cell to
-        rounding.
+        rounding. Once the compiled layer has handed in its tools (:func:`compiled_lookups`),
+        the moments and the sums are numba kernels (``light/_environment_kernels.py``; tests
+        hold them equal to the NumPy code to rounding).
 
         References
         ----------
@@ -491,7 +508,7 @@ class _IrradianceNodes:
                 rows, cols = IRRADIANCE_GRID
                 theta = np.linspace(0.0, math.pi, rows)
                 phi = missing * (2 * math.pi / cols)
-                sums = _clamped_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
+                sums = _node_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
                 self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
                 self._built[missing] = True
                 if _STORE:
@@ -520,29 +537,59 @@ def _cell_moments(image: np.ndarray, cells: tuple[int, int]) -> np.ndarray:
 
     :math:`\Delta\Omega_p\omega_p` is a product of a row's factor (:math:`\Delta\Omega
     \sin\theta`, :math:`\Delta\Omega\cos\theta`) and a column's (:math:`\cos\varphi`,
-    :math:`\sin\varphi`, 1), so the sums are two matrix products: over each cell's rows with
-    the row factors, then over its columns with the column factors."""
+    :math:`\sin\varphi`, 1), so the sums are two weighted sums over runs of pixels: over each
+    cell's rows with the row factors, then over its columns with the column factors (float64;
+    a cell holding no pixel has zero moments). Once the compiled layer has handed in its
+    tools (:func:`compiled_lookups`), one pass of a numba kernel over the pixels instead
+    (``_environment_kernels.cell_moments``)."""
     height, width, channels = image.shape
     rows, cols = cells
+    row_factors, col_factors = _pixel_factors(height, width)
+    if _KERNEL_TOOLS:  # one pass over the pixels by a numba kernel instead
+        from brdfkit.light._environment_kernels import cell_moments
+
+        moments = np.zeros((rows, cols, 1 + channels, 3))
+        row_cell = np.arange(height) * rows // height
+        col_cell = np.arange(width) * cols // width
+        kernel = cell_moments(_KERNEL_TOOLS[0])
+        kernel(image, row_factors, col_factors, row_cell, col_cell, moments)
+        return moments
+    per_row = np.empty((2, rows, width, 1 + channels))
+    for kind, factor in enumerate(row_factors):
+        area = _run_sums(factor, rows, axis=0)  # the sums of a map of ones
+        per_row[kind, ..., 0] = area[:, None]
+        per_row[kind, ..., 1:] = _run_sums(image * factor[:, None, None], rows, axis=0)
+    sin_rows, cos_rows = per_row  # (rows, W, 1 + C)
+    sums = [
+        _run_sums(part * factor[:, None], cols, axis=1)  # (rows, cols, 1 + C)
+        for part, factor in zip((sin_rows, sin_rows, cos_rows), col_factors, strict=True)
+    ]
+    return np.stack(sums, axis=-1)
+
+
+def _pixel_factors(height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""The row factors ``(2, H)`` (:math:`\Delta\Omega\sin\theta`,
+    :math:`\Delta\Omega\cos\theta`) and column factors ``(3, W)`` (:math:`\cos\varphi`,
+    :math:`\sin\varphi`, 1) of the pixels of a lat-long map (:func:`_cell_moments`)."""
     edges = np.arange(height + 1) * (math.pi / height)
     solid_angle = (2 * math.pi / width) * (np.cos(edges[:-1]) - np.cos(edges[1:]))
     theta, phi = _pixel_centres(height, math.pi), _pixel_centres(width, 2 * math.pi)
-    row_cell = np.arange(height) * rows // height == np.arange(rows)[:, None]  # (rows, H)
-    col_cell = np.arange(width) * cols // width == np.arange(cols)[:, None]  # (cols, W)
-    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])  # (2, H)
-    col_factors = np.stack([np.cos(phi), np.sin(phi), np.ones(width)])  # (3, W)
-    over_rows = (row_cell * row_factors[:, None, :]).reshape(2 * rows, height)
-    per_row = over_rows.astype(np.float32) @ image.reshape(height, width * channels)
-    per_row = per_row.reshape(2, rows, width, channels).astype(np.float64)
-    area = over_rows.sum(axis=1).reshape(2, rows, 1, 1)  # the pixels' sums of a map of ones
-    per_row = np.concatenate([np.broadcast_to(area, (2, rows, width, 1)), per_row], axis=3)
-    over_cols = col_cell * col_factors[:, None, :]  # (3, cols, W)
-    sin_rows, cos_rows = per_row  # (rows, W, 1 + C)
-    sums = [
-        np.matmul(over_cols[axis], part)  # (rows, cols, 1 + C)
-        for axis, part in enumerate((sin_rows, sin_rows, cos_rows))
-    ]
-    return np.stack(sums, axis=-1)
+    row_factors = solid_angle * np.stack([np.sin(theta), np.cos(theta)])
+    return row_factors, np.stack([np.cos(phi), np.sin(phi), np.ones(width)])
+
+
+def _run_sums(values: np.ndarray, groups: int, axis: int) -> np.ndarray:
+    """Sums of ``values`` over the ``groups`` runs of its ``axis`` that pixel i of n belongs
+    to, group ``i·groups // n``; 0 for a group no pixel falls in."""
+    count = values.shape[axis]
+    first = np.flatnonzero(np.diff(np.arange(count) * groups // count, prepend=-1))
+    shape = list(values.shape)
+    shape[axis] = groups
+    sums = np.zeros(shape)
+    index = [slice(None)] * values.ndim
+    index[axis] = np.arange(count)[first] * groups // count
+    sums[tuple(index)] = np.add.reduceat(values, first, axis=axis, dtype=np.float64)
+    return sums
 
 
 @dataclass(frozen=True)
@@ -605,14 +652,9 @@ def _clamped_sums(
     t, p = (grid.ravel() for grid in np.meshgrid(theta, phi, indexing="ij"))
     normals = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
     nodes = normals.shape[0]
-    # three turns of the columns so that an arc around any φ_n ∈ [0, 2π) is one index range
-    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
-    # a and b depend on the node's θ alone: the arcs' half-widths per cell row and node row
-    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
-    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
-    radius = bounds.radius[:, None]
-    inner = np.repeat(_half_arc(a, b, radius), phi.size, axis=1)  # (rows, nodes)
-    outer = np.repeat(_half_arc(a, b, -radius), phi.size, axis=1)
+    turns, inner, outer = _arcs(bounds, theta)
+    inner = np.repeat(inner, phi.size, axis=1)  # (rows, nodes)
+    outer = np.repeat(outer, phi.size, axis=1)
     lo_in, hi_in = _arc_indices(turns, p, inner, cols)
     lo_out, hi_out = _arc_indices(turns, p, outer, cols)
     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out), the rest of the outer arc
@@ -621,13 +663,11 @@ def _clamped_sums(
     above = np.zeros((nodes, 3 * k))
     total = np.zeros((nodes, k))
     normals32 = normals.astype(np.float32)
+    vectors, prefix = _turn_prefix(moments)
     for r in range(rows):
-        vectors = moments[r].reshape(cols, 3 * k)  # (cols, k·3)
-        prefix = np.zeros((3 * cols + 1, 3 * k))
-        np.cumsum(np.tile(vectors, (3, 1)), axis=0, out=prefix[1:])
-        above += np.take(prefix, hi_in[r], axis=0)
-        above -= np.take(prefix, lo_in[r], axis=0)
-        vectors32 = vectors.astype(np.float32).reshape(cols, k, 3)
+        above += np.take(prefix[r], hi_in[r], axis=0)
+        above -= np.take(prefix[r], lo_in[r], axis=0)
+        vectors32 = vectors[r].astype(np.float32).reshape(cols, k, 3)
         for start, stop in ((lo_out[r], lo_in[r]), (hi_in[r], hi_out[r])):
             count = stop - start
             nonempty = np.flatnonzero(count)
@@ -642,6 +682,52 @@ def _clamped_sums(
             )
     total += np.einsum("nkj,nj->nk", above.reshape(nodes, k, 3), normals)
     return total
+
+
+def _arcs(bounds: _CellBounds, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three turns of the cell columns' azimuths (an arc around any φ ∈ [0, 2π) is one index
+    range of them), and the half-widths of the arcs of cells wholly above the horizon of
+    normals at polar angles ``theta`` and of cells not wholly below it, ``(rows, node
+    rows)`` each (:func:`_clamped_sums`: a and b depend on the normal's θ alone)."""
+    turns = np.concatenate([bounds.phi - 2 * math.pi, bounds.phi, bounds.phi + 2 * math.pi])
+    a = np.cos(bounds.theta)[:, None] * np.cos(theta)  # (rows, node rows)
+    b = np.sin(bounds.theta)[:, None] * np.sin(theta)
+    radius = bounds.radius[:, None]
+    return turns, _half_arc(a, b, radius), _half_arc(a, b, -radius)
+
+
+def _turn_prefix(moments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cells' ``moments`` ``(rows, cols, K, 3)`` as ``(rows, cols, 3K)`` vectors, and each
+    row's prefix sums over three turns of its columns, ``(rows, 3 cols + 1, 3K)``."""
+    rows, cols = moments.shape[:2]
+    vectors = np.ascontiguousarray(moments.reshape(rows, cols, -1))
+    prefix = np.zeros((rows, 3 * cols + 1, vectors.shape[2]))
+    np.cumsum(np.tile(vectors, (1, 3, 1)), axis=1, out=prefix[:, 1:])
+    return vectors, prefix
+
+
+def _node_sums(
+    moments: np.ndarray, bounds: _CellBounds, theta: np.ndarray, phi: np.ndarray
+) -> np.ndarray:
+    """:func:`_clamped_sums`, by its numba kernel (``_environment_kernels.clamped_sums``, on
+    the kernels' threads, a block of node rows each) once the compiled layer has handed in
+    its tools (:func:`compiled_lookups`), else by NumPy."""
+    if not _KERNEL_TOOLS:
+        return _clamped_sums(moments, bounds, theta, phi)
+    from brdfkit.light._environment_kernels import clamped_sums
+
+    tools = _KERNEL_TOOLS[0]
+    kernel = clamped_sums(tools)
+    vectors, prefix = _turn_prefix(moments)
+    turns, inner, outer = _arcs(bounds, theta)
+    out = np.zeros((theta.size * phi.size, moments.shape[2]))
+    blocks = np.linspace(0, theta.size, min(theta.size, 4 * tools.threads()) + 1).astype(int)
+
+    def block(b: int) -> None:
+        kernel(prefix, vectors, turns, theta, phi, inner, outer, blocks[b], blocks[b + 1], out)
+
+    tools.run_tasks(block, range(blocks.size - 1), tools.threads())
+    return out
 
 
 def _half_arc(a: np.ndarray, b: np.ndarray, level: float) -> np.ndarray:
@@ -670,14 +756,20 @@ def _arc_indices(
     return np.where(full, cols, lo), np.where(full, 2 * cols, hi)
 
 
+_KERNEL_TOOLS: list[Any] = []
+""":mod:`brdfkit.compiled.kernel_tools` once handed in (:func:`compiled_lookups`)."""
+
+
 def compiled_lookups(dtype: Any, tools: Any) -> Any:
     """This module's lookups as numba functions for compiled kernels in ``dtype``: the map
     coordinates of a direction, the bilinear radiance, the pdf and the map's sampling, and
     ``tables(env)``, the arrays they read (``light/_environment_kernels.py``; tests bind each
     function to the code here). ``tools`` is :mod:`brdfkit.compiled.kernel_tools`, handed in
-    by the caller (the compiled layer sits above this one)."""
+    by the caller (the compiled layer sits above this one); from then on the irradiance
+    table's sums over cells are a numba kernel too (:func:`_node_sums`)."""
     from brdfkit.light import _environment_kernels
 
+    _KERNEL_TOOLS[:] = [tools]  # the table builds use numba kernels too from now on
     return _environment_kernels.lookups(np.dtype(dtype).type, tools)
 
 
