@@ -1,0 +1,90 @@
+"""ST14 (bi-polynomial photometric stereo) on the renders of ``bench_ps_materials.py``.
+
+The same DiLiGenT-layout stacks (real DiLiGenT normals and depth, 96 DiLiGenT-like lights,
+cast shadows, noise; analytic and measured materials) and, per (object, material), least
+squares, :func:`~brdfkit.vision.bivariate_stereo.bipolynomial` as its paper does it (degree
+``(1, 0)`` by default) and the same search with the ``l·h`` terms of a ``(3, 1)``
+bi-polynomial, which make the residual's minimum ambiguous under these lights. One JSON line
+per (object, material, method), then the table; records to ``benchmarks/results/bipolynomial.json``.
+
+    python benchmarks/bench_bipolynomial.py [--objects bear cat pot1] [--step 4]
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bench_ps_materials import ANALYTIC, MEASURED, render, table
+from brdfkit.brdf.spec import parse
+from brdfkit.measured import read
+from brdfkit.vision import bivariate_stereo, datasets, photometric_stereo
+from brdfkit.vision.metrics import angular_error
+
+METHODS = {
+    "least_squares": photometric_stereo.least_squares,
+    "bipolynomial": bivariate_stereo.bipolynomial,
+    "bipolynomial (3, 1)": functools.partial(bivariate_stereo.bipolynomial, degree=(3, 1)),
+}
+
+
+def main() -> None:
+    """Render every (object, material), run the three, print JSON lines and the table."""
+    default = os.environ.get(
+        "BRDFKIT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
+    )
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=Path(default))
+    parser.add_argument("--objects", nargs="+", default=["bear", "cat", "pot1"])
+    parser.add_argument("--step", type=int, default=4)
+    parser.add_argument("--noise", type=float, default=0.005)
+    args = parser.parse_args()
+    rng = np.random.default_rng(0)
+    lights = datasets.diligent_like_lights()
+    materials = list(ANALYTIC) + list(MEASURED)
+    records = []
+    for name in args.objects:
+        gt = datasets.load_normal_integration(args.data / "normal_integration" / "diligent" / name)
+        normals, mask, depth = (
+            a[:: args.step, :: args.step] for a in (gt.normals, gt.mask, gt.depth)
+        )
+        pixel_size = np.nanmean(depth) / gt.camera[0, 0] * args.step
+        lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
+        for material in materials:
+            if material in ANALYTIC:
+                brdf = parse(ANALYTIC[material])
+            else:
+                brdf = read(args.data / "measured" / MEASURED[material])
+            data = render(brdf, normals, mask, lights, lit, args.noise, rng)
+            for method, solve in METHODS.items():
+                start = time.perf_counter()
+                result = solve(data.images, data.light_directions, data.mask)
+                seconds = time.perf_counter() - start
+                errors = angular_error(result.normals, data.normals, data.mask)
+                record = {
+                    "object": name, "material": material, "method": method,
+                    "pixels": int(mask.sum()), "mean_deg": round(errors["mean"], 3),
+                    "median_deg": round(errors["median"], 3), "seconds": round(seconds, 3),
+                }  # fmt: skip
+                records.append(record)
+                print(json.dumps(record), flush=True)
+    from _machine import header, results_path
+
+    out = results_path(__file__)
+    results = {
+        **header(__file__),
+        "objects": args.objects, "step": args.step, "noise": args.noise,
+        "methods": list(METHODS), "materials": materials, "records": records,
+    }  # fmt: skip
+    out.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    print(table(records, list(METHODS), materials))
+
+
+if __name__ == "__main__":
+    main()
