@@ -44,16 +44,18 @@ def test_glossy_sphere_beats_least_squares_and_the_shared_table(sphere):
 
 def test_exact_where_the_lobe_is_the_objects():
     """Noise-free images of a GGX lobe of a roughness on the grid: the rendering is the image
-    formation, so the normals come back to the search's tolerance."""
+    formation, so the normals converge to the truth (measured: median 0.0002°, mean 0.023°,
+    the worst 0.17° at the rim, where few lights reach)."""
     normals, mask = sphere_normals((12, 12), (5.5, 5.5), 5.0)
     lights = datasets.diligent_like_lights()
     images = render_brdf(normals, mask, lights, parse(GLOSSY))
     result = inverse_rendering(
-        images, lights, mask, lobes=1, roughness_grid=(0.05, 0.1, 0.2), rounds=1, iterations=20
-    )
+        images, lights, mask, lobes=1, roughness_grid=(0.05, 0.1, 0.2), rounds=1,
+        iterations=60, cast_shadows=False,
+    )  # fmt: skip
     error = angular_error(result.normals, normals, mask)
-    assert error["median"] < 0.02
-    assert error["mean"] < 0.1
+    assert error["median"] < 0.002
+    assert error["mean"] < 0.05
     # the diffuse weight is the Lambertian albedo / π in the images' units
     centre = result.albedo[5, 5, 0]
     assert centre == pytest.approx(0.5 / np.pi, rel=0.02)

@@ -17,7 +17,8 @@ distribution and ``G`` the height-correlated Smith masking-shadowing of
 :class:`~brdfkit.brdf.GGXConductor` (Fresnel factor 1: a grey lobe whose Fresnel level is in the
 weight) [5]_, ``max(0, n·l)`` the attached shadows and ``V`` the cast shadows of the current
 shape: the normals integrated to a depth map and each light's shadow marched over it
-(:func:`~brdfkit.vision.svbrdf.shadow_visibility`). The fit minimises the robust cost
+(:func:`~brdfkit.vision.svbrdf.shadow_visibility`, its bias chosen by the cost as
+:func:`~brdfkit.vision.svbrdf.select_shadow_bias` chooses it). The fit minimises the robust cost
 
 .. math:: \sum_{k,p} w_{kp}\,(I_{kp} - \hat I_{kp})^2
 
@@ -74,6 +75,8 @@ from brdfkit.brdf import GGXConductor
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal
 from brdfkit.vision.bivariate_stereo import shared_bivariate
+from brdfkit.vision.datasets import cast_shadows as march_shadows
+from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import (
     Callback,
     PhotometricStereoResult,
@@ -83,7 +86,7 @@ from brdfkit.vision.photometric_stereo import (
     _trim_weights,
     trimmed_least_squares,
 )
-from brdfkit.vision.svbrdf import shadow_visibility
+from brdfkit.vision.svbrdf import SHADOW_BIASES
 
 ROUGHNESS_GRID = tuple(float(a) for a in np.geomspace(0.02, 0.8, 17))
 """GGX roughnesses ``α`` the shared lobes are chosen from (sharp to broad, ratio 1.26)."""
@@ -259,6 +262,11 @@ def _search(
     return normals, c, residual
 
 
+def _subsample(count: int) -> np.ndarray:
+    """At most :data:`SELECTION_PIXELS` evenly spread indices of ``count`` pixels."""
+    return np.unique(np.linspace(0, count - 1, SELECTION_PIXELS).astype(np.intp))
+
+
 def _select_lobes(
     problem: _Problem, normals: np.ndarray, grid: tuple[float, ...], count: int
 ) -> None:
@@ -266,7 +274,7 @@ def _select_lobes(
     ``grid`` by the robust cost on :data:`SELECTION_PIXELS` pixels at ``normals`` (each lobe the
     one that lowers it most given those already chosen; one that lowers it by less than 0.1 % is
     not added), the first refined between its grid neighbours by halving the log-step twice."""
-    pixels = np.unique(np.linspace(0, len(normals) - 1, SELECTION_PIXELS).astype(np.intp))
+    pixels = _subsample(len(normals))
     local = _local(normals[pixels], problem.lights, problem.visibility[pixels])
     target, weights = problem.target[pixels], problem.weights[pixels]
     columns: dict[float, np.ndarray] = {}
@@ -335,7 +343,7 @@ def inverse_rendering(
     rounds: int = 3,
     iterations: int = 8,
     cast_shadows: bool = True,
-    shadow_bias: float = 1.0,
+    shadow_bias: float | None = None,
     callback: Callback | None = None,
 ) -> PhotometricStereoResult:
     r"""Photometric stereo by inverse rendering with a microfacet dictionary (module docstring).
@@ -350,7 +358,9 @@ def inverse_rendering(
     iterations : normal-search iterations per round (1 … :data:`MAX_ITERATIONS`).
     cast_shadows : render the cast shadows of the current shape (else only attached ones).
     shadow_bias : height (pixels) an occluder of the integrated depth must rise above the ray
-        (:func:`~brdfkit.vision.datasets.cast_shadows`), >= 0.
+        (:func:`~brdfkit.vision.datasets.cast_shadows`), >= 0; by default the one of
+        :data:`~brdfkit.vision.svbrdf.SHADOW_BIASES` (infinity: none) whose rendering of the
+        start has the least cost.
     callback : ``callback(done, total)`` after each start and each search iteration.
 
     Returns
@@ -399,7 +409,7 @@ def inverse_rendering(
     grid = tuple(float(a) for a in roughness_grid)
     if not 1 <= len(grid) <= 64 or not all(1e-3 <= a <= 1 for a in grid):
         raise ParameterError(f"roughness_grid must be 1 to 64 values in [0.001, 1]; got {grid}")
-    if not shadow_bias >= 0:
+    if shadow_bias is not None and not shadow_bias >= 0:
         raise ParameterError(f"shadow_bias must be >= 0, got {shadow_bias}")
     observations, lights, mask = _prepare(images, light_directions, mask)
     report = callback if callback is not None else (lambda done, total: None)
@@ -415,9 +425,11 @@ def inverse_rendering(
     everything = np.arange(gray.shape[1])
     starts = _starts(images, lights, mask, gray)
     advance()
-    if cast_shadows:
-        problem.visibility = _cast(starts[0], mask, lights, shadow_bias)
     _select_lobes(problem, starts[0], grid, lobes)
+    if cast_shadows and shadow_bias is None:
+        shadow_bias = _select_bias(problem, starts[0], mask)
+    elif cast_shadows:
+        problem.visibility = _cast(starts[0], mask, lights, (shadow_bias,))[0]
     costs = np.stack([problem.fit(start, everything)[2] for start in starts])
     normals = np.stack(starts)[np.argmin(costs, axis=0), everything]
     advance()
@@ -425,7 +437,7 @@ def inverse_rendering(
     for round_ in range(rounds):
         if round_ > 0:
             if cast_shadows:
-                problem.visibility = _cast(normals, mask, lights, shadow_bias)
+                problem.visibility = _cast(normals, mask, lights, (shadow_bias,))[0]
             residual = problem.fit(normals, everything)[1]
         if round_ > 0:  # the first round by least squares: a start's misfit is no outlier
             problem.weights = _cauchy_weights(residual, problem.visibility > 0)
@@ -436,10 +448,30 @@ def inverse_rendering(
     return _result((normals * rho).T, observations, mask, _trim_weights(gray, 0.25, 0.1))
 
 
-def _cast(normals: np.ndarray, mask: np.ndarray, lights: np.ndarray, bias: float) -> np.ndarray:
-    """Cast-shadow visibility ``(P, N)`` (0/1) of the surface integrated from ``normals``."""
-    visible = shadow_visibility(_normal_map(normals, mask), mask, lights, bias=bias)
-    return visible[:, mask].T.astype(np.float64)
+def _cast(
+    normals: np.ndarray, mask: np.ndarray, lights: np.ndarray, biases: tuple[float, ...]
+) -> list[np.ndarray]:
+    """Cast-shadow visibilities ``(P, N)`` (0/1) of the surface integrated from ``normals``, one
+    per bias (:func:`~brdfkit.vision.svbrdf.shadow_visibility`, the depth integrated once)."""
+    height = -least_squares_integration(_normal_map(normals, mask), mask)
+    return [
+        march_shadows(height, lights, bias=bias)[:, mask].T.astype(np.float64) for bias in biases
+    ]
+
+
+def _select_bias(problem: _Problem, normals: np.ndarray, mask: np.ndarray) -> float:
+    """The cast-shadow bias of :data:`~brdfkit.vision.svbrdf.SHADOW_BIASES` (infinity: no cast
+    shadows) whose rendering has the least cost on :data:`SELECTION_PIXELS` pixels at
+    ``normals``, as :func:`~brdfkit.vision.svbrdf.select_shadow_bias` chooses it; sets the
+    problem's visibility to it."""
+    pixels = _subsample(len(normals))
+    costs, visibilities = [], _cast(normals, mask, problem.lights, SHADOW_BIASES)
+    for visibility in visibilities:
+        problem.visibility = visibility
+        costs.append(problem.fit(normals[pixels], pixels)[2].sum())
+    best = int(np.argmin(costs))
+    problem.visibility = visibilities[best]
+    return SHADOW_BIASES[best]
 
 
 METHODS: dict[str, Callable[..., PhotometricStereoResult]] = {
