@@ -21,9 +21,9 @@ GLOSSY = "lambertian(albedo=0.5) + 0.3 * ggx(alpha=0.1)"
 
 @pytest.fixture(scope="module")
 def sphere():
-    """A 20-pixel sphere, Lambertian plus a GGX lobe (α = 0.1), 96 DiLiGenT-like lights, noise
+    """A 16-pixel sphere, Lambertian plus a GGX lobe (α = 0.1), 96 DiLiGenT-like lights, noise
     of 0.5 % of the 99th percentile (as the material benchmark)."""
-    normals, mask = sphere_normals((20, 20), (9.5, 9.5), 9.0)
+    normals, mask = sphere_normals((16, 16), (7.5, 7.5), 7.0)
     lights = datasets.diligent_like_lights()
     images = render_brdf(normals, mask, lights, parse(GLOSSY))
     scale = np.percentile(images[:, mask], 99)
@@ -36,7 +36,7 @@ def test_glossy_sphere_beats_least_squares_and_the_shared_table(sphere):
     fitted = angular_error(inverse_rendering(images, lights, mask).normals, normals, mask)
     classical = angular_error(least_squares(images, lights, mask).normals, normals, mask)
     table = angular_error(shared_bivariate(images, lights, mask).normals, normals, mask)
-    # measured: inverse rendering 0.52 / 0.30, least squares 10.7 / 4.2, shared table 0.88 / 0.31
+    # measured: inverse rendering 0.45 / 0.40, least squares 10.8 / 4.4, shared table 1.26 / 0.66
     assert fitted["mean"] < 0.1 * classical["mean"]
     assert fitted["median"] < 0.2 * classical["median"]
     assert fitted["mean"] < 0.8 * table["mean"]
@@ -64,7 +64,7 @@ def test_exact_where_the_lobe_is_the_objects():
 def test_cast_shadows_of_the_shape_are_rendered():
     """A ridge casting a shadow on a plane: the fit that renders the current shape's cast
     shadows explains the dark side better than the one that only knows attached shadows."""
-    rows, columns = np.mgrid[0:16, 0:16].astype(np.float64)
+    columns = np.mgrid[0:16, 0:16][1].astype(np.float64)
     height = 4.0 * np.exp(-(((columns - 7.5) / 1.5) ** 2))  # a ridge along the rows
     gradient_x = np.gradient(height, axis=1)
     normals = np.stack([-gradient_x, np.zeros_like(height), np.ones_like(height)], axis=-1)
@@ -81,7 +81,8 @@ def test_cast_shadows_of_the_shape_are_rendered():
         )["mean"]
         for shadows in (True, False)
     }
-    assert errors[True] < errors[False]
+    # measured: 0.74° with the cast shadows (bias 0 chosen), 1.23° without; least squares 5.4°
+    assert errors[True] < 0.8 * errors[False]
 
 
 @pytest.mark.parametrize(

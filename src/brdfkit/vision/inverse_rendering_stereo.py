@@ -478,5 +478,3 @@ METHODS: dict[str, Callable[..., PhotometricStereoResult]] = {
     "inverse_rendering": inverse_rendering
 }
 """The inverse-rendering method by name (a ``--method`` choice of ``brdfkit ps``)."""
-
-__all__ = ["METHODS", "ROUGHNESS_GRID", "inverse_rendering"]
