@@ -1,6 +1,6 @@
 """Inverse-rendering photometric stereo: exact where its microfacet lobe is the object's, better
-than least squares (and the shared bivariate table) on a glossy sphere, cast shadows of the
-current shape rendered, bad parameters named, and a ``brdfkit ps`` method."""
+than least squares (and the shared bivariate table) on a glossy sphere, unbiased by cast
+shadows, bad parameters named, and a ``brdfkit ps`` method."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def test_glossy_sphere_beats_least_squares_and_the_shared_table(sphere):
     fitted = angular_error(inverse_rendering(images, lights, mask).normals, normals, mask)
     classical = angular_error(least_squares(images, lights, mask).normals, normals, mask)
     table = angular_error(shared_bivariate(images, lights, mask).normals, normals, mask)
-    # measured: inverse rendering 0.45 / 0.40, least squares 10.8 / 4.4, shared table 1.26 / 0.66
+    # measured: inverse rendering 0.46 / 0.43, least squares 10.8 / 4.4, shared table 1.26 / 0.66
     assert fitted["mean"] < 0.1 * classical["mean"]
     assert fitted["median"] < 0.2 * classical["median"]
     assert fitted["mean"] < 0.8 * table["mean"]
@@ -61,9 +61,10 @@ def test_exact_where_the_lobe_is_the_objects():
     assert centre == pytest.approx(0.5 / np.pi, rel=0.02)
 
 
-def test_cast_shadows_of_the_shape_are_rendered():
-    """A ridge casting a shadow on a plane: the fit that renders the current shape's cast
-    shadows explains the dark side better than the one that only knows attached shadows."""
+def test_cast_shadows_do_not_bias_the_normals():
+    """A ridge casting shadows on a plane: rendered from the integrated shape or left out as
+    dark observations, the shadows do not pull the normals (measured: 0.034° with and without
+    the rendered cast shadows; least squares 5.4°)."""
     columns = np.mgrid[0:16, 0:16][1].astype(np.float64)
     height = 4.0 * np.exp(-(((columns - 7.5) / 1.5) ** 2))  # a ridge along the rows
     gradient_x = np.gradient(height, axis=1)
@@ -72,17 +73,13 @@ def test_cast_shadows_of_the_shape_are_rendered():
     mask = np.ones(height.shape, dtype=bool)
     lights = datasets.diligent_like_lights()
     visible = datasets.cast_shadows(height, lights)
+    assert not visible.all()  # the ridge does cast shadows under these lights
     images = render_brdf(normals, mask, lights, parse(GLOSSY)) * visible[..., None]
-    errors = {
-        shadows: angular_error(
-            inverse_rendering(images, lights, mask, cast_shadows=shadows, rounds=2).normals,
-            normals,
-            mask,
-        )["mean"]
-        for shadows in (True, False)
-    }
-    # measured: 0.74° with the cast shadows (bias 0 chosen), 1.23° without; least squares 5.4°
-    assert errors[True] < 0.8 * errors[False]
+    classical = angular_error(least_squares(images, lights, mask).normals, normals, mask)
+    for shadows in (True, False):
+        fitted = inverse_rendering(images, lights, mask, cast_shadows=shadows, rounds=2)
+        error = angular_error(fitted.normals, normals, mask)["mean"]
+        assert error < min(0.1, 0.05 * classical["mean"])
 
 
 @pytest.mark.parametrize(

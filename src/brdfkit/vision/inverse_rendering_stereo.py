@@ -30,9 +30,11 @@ over the normals, the weights and the roughnesses:
   the rendering with the weights held, every pixel on its own, all at once in NumPy);
 - the roughnesses chosen from :data:`ROUGHNESS_GRID` by greedy forward selection on the cost,
   at the start and after the first round;
-- ``w`` Cauchy weights of the residuals (iteratively reweighted least squares [4]_, scale from
-  the median absolute residual), so that what the model cannot render (inter-reflections, a
-  shadow the integrated shape misses) loses its pull.
+- ``w`` zero for the observations darker than :data:`SHADOW_THRESHOLD` of the pixel's
+  90th-percentile one (shadows, attached or cast by what the integrated shape misses: a
+  rendering that puts light there would pull the normal towards a lobe-only fit), else Cauchy
+  weights of the residuals (iteratively reweighted least squares [4]_, scale from the median
+  absolute residual), so that what the model cannot render (inter-reflections) loses its pull.
 
 Each round recomputes the cast shadows from the current normals and (after the first, a plain
 least-squares round: a start's misfit is no outlier) the robust weights, then runs the normal
@@ -96,6 +98,10 @@ SELECTION_PIXELS = 2000
 
 CAUCHY_SCALE = 2.385
 """Cauchy's constant: 95 % efficiency on Gaussian residuals (in units of their sigma)."""
+
+SHADOW_THRESHOLD = 0.05
+"""Observations darker than this fraction of their pixel's 90th-percentile observation are
+shadows (attached, or cast by what the integrated shape misses) and left out of the fit."""
 
 DIFFERENCE_STEP = 1e-5
 """Forward-difference step of the normal's tangent coordinates (radians)."""
@@ -422,6 +428,9 @@ def inverse_rendering(
 
     gray = _gray(observations)
     problem = _Problem(np.ascontiguousarray(gray.T), lights)
+    dark = gray < SHADOW_THRESHOLD * np.percentile(gray, 90, axis=0)
+    problem.weights = np.ascontiguousarray(~dark.T, dtype=np.float64)
+    observed = problem.weights.copy()
     everything = np.arange(gray.shape[1])
     starts = _starts(images, lights, mask, gray)
     advance()
@@ -440,7 +449,7 @@ def inverse_rendering(
                 problem.visibility = _cast(normals, mask, lights, (shadow_bias,))[0]
             residual = problem.fit(normals, everything)[1]
         if round_ > 0:  # the first round by least squares: a start's misfit is no outlier
-            problem.weights = _cauchy_weights(residual, problem.visibility > 0)
+            problem.weights = observed * _cauchy_weights(residual, observed > 0)
         if round_ == 1:  # the lobes again, from the first round's normals and weights
             _select_lobes(problem, normals, grid, lobes)
         normals, c, residual = _search(problem, normals, iterations, advance)
