@@ -31,10 +31,17 @@ import numpy as np
 from brdfkit.brdf.spec import parse
 from brdfkit.geometry import frame_from_normal, to_local
 from brdfkit.measured import read
-from brdfkit.vision import bivariate_stereo, consensus, datasets, photometric_stereo
+from brdfkit.vision import (
+    bivariate_stereo,
+    consensus,
+    datasets,
+    inverse_rendering_stereo,
+    photometric_stereo,
+)
 from brdfkit.vision.metrics import angular_error
 
 METHODS = {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
+METHODS |= inverse_rendering_stereo.METHODS
 
 ANALYTIC = {
     "matte": "lambertian(albedo=[0.6, 0.5, 0.4])",

@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vision.bivariate
 _METHODS += ("consensus",)  # vision.consensus
+_METHODS += ("inverse_rendering",)  # vision.inverse_rendering_stereo
 _INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
 _OUTPUTS = (
     "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",

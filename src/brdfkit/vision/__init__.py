@@ -10,6 +10,8 @@ Modules: :mod:`~brdfkit.vision.datasets` (DiLiGenT and the classic "psm" course 
 :mod:`~brdfkit.vision.photometric_stereo` (Lambertian least squares, robust estimators, chrome
 sphere calibration), :mod:`~brdfkit.vision.consensus` and
 :mod:`~brdfkit.vision.bivariate_stereo` (non-Lambertian photometric stereo),
+:mod:`~brdfkit.vision.inverse_rendering_stereo` (normals and a microfacet reflectance fitted
+together by inverse rendering, with cast shadows),
 :mod:`~brdfkit.vision.uncalibrated` (lights and normals from the images alone),
 :mod:`~brdfkit.vision.svbrdf` and :mod:`~brdfkit.vision.visibility` (spatially varying BRDFs,
 shadows and relighting), :mod:`~brdfkit.vision.normal_integration` and

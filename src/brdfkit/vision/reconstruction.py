@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from brdfkit.errors import FormatError, ParameterError
-from brdfkit.vision import bivariate_stereo, consensus, photometric_stereo
+from brdfkit.vision import bivariate_stereo, consensus, inverse_rendering_stereo, photometric_stereo
 from brdfkit.vision import normal_integration as integration_methods
 from brdfkit.vision.datasets import PhotometricStereoData
 from brdfkit.vision.metrics import angular_error, angular_error_map, depth_error
@@ -45,9 +45,11 @@ SOLVERS: dict[str, Callable[..., PhotometricStereoResult]] = {
     **photometric_stereo.METHODS,
     **bivariate_stereo.METHODS,
     **consensus.METHODS,
+    **inverse_rendering_stereo.METHODS,
 }
 """Every calibrated method by name: the Lambertian and robust ones, the bivariate
-(non-Lambertian) ones and the consensus search (the ``--method`` choices of ``brdfkit ps``)."""
+(non-Lambertian) ones, the consensus search and inverse rendering (the ``--method`` choices of
+``brdfkit ps``)."""
 
 _WITHOUT_PROGRESS = ("least_squares", "trimmed")
 """The closed-form methods, which take no progress callback."""

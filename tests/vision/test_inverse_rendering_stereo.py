@@ -1,0 +1,106 @@
+"""Inverse-rendering photometric stereo: exact where its microfacet lobe is the object's, better
+than least squares (and the shared bivariate table) on a glossy sphere, unbiased by cast
+shadows, bad parameters named, and a ``brdfkit ps`` method."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from brdfkit.brdf.spec import parse
+from brdfkit.errors import ParameterError
+from brdfkit.vision import datasets
+from brdfkit.vision.bivariate_stereo import shared_bivariate
+from brdfkit.vision.inverse_rendering_stereo import METHODS, inverse_rendering
+from brdfkit.vision.metrics import angular_error
+from brdfkit.vision.photometric_stereo import least_squares, sphere_normals
+from brdfkit.vision.synthesis import render_brdf
+
+GLOSSY = "lambertian(albedo=0.5) + 0.3 * ggx(alpha=0.1)"
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    """A 16-pixel sphere, Lambertian plus a GGX lobe (α = 0.1), 96 DiLiGenT-like lights, noise
+    of 0.5 % of the 99th percentile (as the material benchmark)."""
+    normals, mask = sphere_normals((16, 16), (7.5, 7.5), 7.0)
+    lights = datasets.diligent_like_lights()
+    images = render_brdf(normals, mask, lights, parse(GLOSSY))
+    scale = np.percentile(images[:, mask], 99)
+    images = images + np.random.default_rng(0).normal(0.0, 0.005 * scale, images.shape)
+    return normals, mask, lights, np.clip(images, 0.0, None)
+
+
+def test_glossy_sphere_beats_least_squares_and_the_shared_table(sphere):
+    normals, mask, lights, images = sphere
+    fitted = angular_error(inverse_rendering(images, lights, mask).normals, normals, mask)
+    classical = angular_error(least_squares(images, lights, mask).normals, normals, mask)
+    table = angular_error(shared_bivariate(images, lights, mask).normals, normals, mask)
+    # measured: inverse rendering 0.46 / 0.43, least squares 10.8 / 4.4, shared table 1.26 / 0.66
+    assert fitted["mean"] < 0.1 * classical["mean"]
+    assert fitted["median"] < 0.2 * classical["median"]
+    assert fitted["mean"] < 0.8 * table["mean"]
+
+
+def test_exact_where_the_lobe_is_the_objects():
+    """Noise-free images of a GGX lobe of a roughness on the grid: the rendering is the image
+    formation, so the normals converge to the truth (measured: median 0.0002°, mean 0.023°,
+    the worst 0.17° at the rim, where few lights reach)."""
+    normals, mask = sphere_normals((12, 12), (5.5, 5.5), 5.0)
+    lights = datasets.diligent_like_lights()
+    images = render_brdf(normals, mask, lights, parse(GLOSSY))
+    result = inverse_rendering(
+        images, lights, mask, lobes=1, roughness_grid=(0.05, 0.1, 0.2), rounds=1,
+        iterations=60, cast_shadows=False,
+    )  # fmt: skip
+    error = angular_error(result.normals, normals, mask)
+    assert error["median"] < 0.002
+    assert error["mean"] < 0.05
+    # the diffuse weight is the Lambertian albedo / π in the images' units
+    centre = result.albedo[5, 5, 0]
+    assert centre == pytest.approx(0.5 / np.pi, rel=0.02)
+
+
+def test_cast_shadows_do_not_bias_the_normals():
+    """A ridge casting shadows on a plane: rendered from the integrated shape or left out as
+    dark observations, the shadows do not pull the normals (measured: 0.034° with and without
+    the rendered cast shadows; least squares 5.4°)."""
+    columns = np.mgrid[0:16, 0:16][1].astype(np.float64)
+    height = 4.0 * np.exp(-(((columns - 7.5) / 1.5) ** 2))  # a ridge along the rows
+    gradient_x = np.gradient(height, axis=1)
+    normals = np.stack([-gradient_x, np.zeros_like(height), np.ones_like(height)], axis=-1)
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    mask = np.ones(height.shape, dtype=bool)
+    lights = datasets.diligent_like_lights()
+    visible = datasets.cast_shadows(height, lights)
+    assert not visible.all()  # the ridge does cast shadows under these lights
+    images = render_brdf(normals, mask, lights, parse(GLOSSY)) * visible[..., None]
+    classical = angular_error(least_squares(images, lights, mask).normals, normals, mask)
+    for shadows in (True, False):
+        fitted = inverse_rendering(images, lights, mask, cast_shadows=shadows, rounds=2)
+        error = angular_error(fitted.normals, normals, mask)["mean"]
+        assert error < min(0.1, 0.05 * classical["mean"])
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        ({"lobes": 0}, "lobes"),
+        ({"roughness_grid": (0.1, 2.0)}, "roughness_grid"),
+        ({"roughness_grid": ()}, "roughness_grid"),
+        ({"shadow_bias": -1.0}, "shadow_bias"),
+        ({"rounds": 0}, "rounds"),
+    ],
+)
+def test_bad_parameters_are_named(sphere, options, named):
+    _, mask, lights, images = sphere
+    with pytest.raises(ParameterError, match=named):
+        inverse_rendering(images, lights, mask, **options)
+
+
+def test_a_ps_method():
+    from brdfkit.cli.ps import _METHODS
+    from brdfkit.vision.reconstruction import SOLVERS
+
+    assert SOLVERS["inverse_rendering"] is METHODS["inverse_rendering"] is inverse_rendering
+    assert "inverse_rendering" in _METHODS
