@@ -15,7 +15,9 @@ Two figures:
   run first, then ``--repeats`` runs of each, interleaved (brdfkit, Mitsuba, brdfkit, …),
   wall seconds of each process; the median of each and of the pairwise ratios;
 - **first**: ``--cold`` runs each with an empty kernel cache (a new folder each time): the
-  very first render a new user waits for, its kernel build announced on stderr.
+  very first render a new user waits for, its kernel build announced on stderr; with
+  ``--baseline SRC`` (the ``src`` folder of another brdfkit checkout) each is paired with a
+  cold run of that code, in alternating order, and the load average before each run is kept.
 
 Both processes run as installed packages do, with their modules' bytecode cached
 (``PYTHONPYCACHEPREFIX``, a folder of this run's own, filled by the first runs; an environment
@@ -25,7 +27,7 @@ every process).
 A sanity check of the twin (not timed): both renderers' linear images of the scene, their
 mean ratio over the sphere.
 
-    python benchmarks/bench_render_cli.py [--repeats 7] [--cold 2]
+    python benchmarks/bench_render_cli.py [--repeats 7] [--cold 2] [--baseline SRC]
 
 Results go to ``benchmarks/results/render_cli.json`` and a summary on stdout.
 """
@@ -95,11 +97,15 @@ def write_scene(folder: Path, mi) -> Path:
     return scene
 
 
-def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float, str]:
+def run(
+    command: list[str], cwd: Path, cache: Path | None = None, source: str | None = None
+) -> tuple[float, str]:
     """Wall seconds of ``command`` as a fresh process in ``cwd`` and its standard error;
-    ``cache`` is brdfkit's kernel cache folder for it. Python's bytecode is cached under
-    ``cwd``."""
+    ``cache`` is brdfkit's kernel cache folder for it, ``source`` a brdfkit ``src`` folder to
+    import instead of the installed one. Python's bytecode is cached under ``cwd``."""
     env = dict(os.environ)
+    if source is not None:
+        env["PYTHONPATH"] = source
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     env["PYTHONPYCACHEPREFIX"] = str(cwd / "bytecode")
     if cache is not None:
@@ -132,6 +138,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--cold", type=int, default=2)
+    parser.add_argument("--baseline", help="src folder of a brdfkit to pair cold runs with")
     parser.add_argument("--out", help="results file (default: benchmarks/results/render_cli.json)")
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()
@@ -139,12 +146,16 @@ def main() -> None:
         folder = Path(tmp)
         scene = write_scene(folder, mi)
         mitsuba = ["mitsuba", "-m", variant, "-o", str(folder / "mitsuba.exr"), str(scene)]
-        first, announced = [], []
+        first, announced, baseline, loads = [], [], [], []
         for k in range(args.cold):
-            seconds, stderr = run(brdfkit_command(), folder, folder / f"cold{k}")
-            first.append(seconds)
-            announced.append(stderr.strip())
-            print(f"first render (empty kernel cache): {seconds:.2f} s", flush=True)
+            for turn in (k % 2, 1 - k % 2) if args.baseline else (0,):
+                loads.append(os.getloadavg()[0])
+                cache = folder / (f"cold{k}" if turn == 0 else f"baseline{k}")
+                seconds, stderr = run(brdfkit_command(), folder, cache, (None, args.baseline)[turn])
+                (first if turn == 0 else baseline).append(seconds)
+                if turn == 0:
+                    announced.append(stderr.strip())
+                print(f"first render (empty kernel cache){' baseline' * turn}: {seconds:.2f} s")
         warm = folder / "cold0"  # filled by the first cold run
         run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
         ours, theirs = [], []
@@ -166,7 +177,8 @@ def main() -> None:
             "mitsuba_median": statistics.median(theirs),
             "ratio_median": statistics.median(ratios),
         },
-        "first": {"seconds": first, "stderr": announced},
+        "first": {"seconds": first, "stderr": announced, "load_before_runs": loads}
+        | ({"baseline_seconds": baseline, "baseline": args.baseline} if args.baseline else {}),
         "twin_mean_ratio": ratio,
     }
     w = record["warm"]
