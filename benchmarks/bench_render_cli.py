@@ -118,6 +118,13 @@ def run(
     return seconds, done.stderr
 
 
+def _commit(source: str) -> str:
+    """The git commit of the checkout holding ``source``, or ``source`` itself outside git."""
+    done = subprocess.run(["git", "-C", source, "rev-parse", "--short=12", "HEAD"],
+                          capture_output=True, text=True, check=False)  # fmt: skip
+    return done.stdout.strip() or source
+
+
 def brdfkit_command(*extra: str) -> list[str]:
     """``brdfkit render -b SPEC`` with its defaults (the console script's own entry point)."""
     return [sys.executable, "-c", "from brdfkit.cli import main; main()", "render", "-b", SPEC,
@@ -165,6 +172,9 @@ def main() -> None:
             print(f"warm: brdfkit {ours[-1]:.2f} s, Mitsuba {theirs[-1]:.2f} s", flush=True)
         ratio = twin_check(folder, scene, variant, warm)
     ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
+    paired = {}
+    if args.baseline:
+        paired = {"baseline_seconds": baseline, "baseline": _commit(args.baseline)}
     record = {
         "spec": SPEC,
         "resolution": RESOLUTION,
@@ -177,8 +187,7 @@ def main() -> None:
             "mitsuba_median": statistics.median(theirs),
             "ratio_median": statistics.median(ratios),
         },
-        "first": {"seconds": first, "stderr": announced, "load_before_runs": loads}
-        | ({"baseline_seconds": baseline, "baseline": args.baseline} if args.baseline else {}),
+        "first": {"seconds": first, "stderr": announced, "load_before_runs": loads} | paired,
         "twin_mean_ratio": ratio,
     }
     w = record["warm"]

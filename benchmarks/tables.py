@@ -729,7 +729,7 @@ def render_cli(r: dict) -> str:
     ]  # fmt: skip
     if "baseline_seconds" in first:
         base = first["baseline_seconds"]
-        label = f"first run, the code of `{first['baseline']}` (paired)"
+        label = f"brdfkit at {first['baseline']}, first run (paired)"
         spread = f"{min(base):.2f}–{max(base):.2f}"
         body.append([label, f"{statistics.median(base):.2f}", spread])
     load = r["machine"].get("load_average", ["?"])[0]
