@@ -17,7 +17,9 @@ Two figures:
   seconds (user + system, all threads) of each process, which the machine's other work
   inflates far less than the wall time;
 - **first**: ``--cold`` runs each with an empty kernel cache (a new folder each time): the
-  very first render a new user waits for, its kernel build announced on stderr.
+  very first render a new user waits for, its kernel build announced on stderr; with
+  ``--baseline SRC`` (the ``src`` folder of another brdfkit checkout) each is paired with a
+  cold run of that code, in alternating order, and the load average before each run is kept.
 
 Both processes run as installed packages do, with their modules' bytecode cached
 (``PYTHONPYCACHEPREFIX``, a folder of this run's own, filled by the first runs; an environment
@@ -27,7 +29,7 @@ every process).
 A sanity check of the twin (not timed): both renderers' linear images of the scene, their
 mean ratio over the sphere.
 
-    python benchmarks/bench_render_cli.py [--repeats 7] [--cold 2]
+    python benchmarks/bench_render_cli.py [--repeats 7] [--cold 2] [--baseline SRC]
 
 Results go to ``benchmarks/results/render_cli.json`` and a summary on stdout.
 """
@@ -98,11 +100,15 @@ def write_scene(folder: Path, mi) -> Path:
     return scene
 
 
-def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float, float, str]:
+def run(
+    command: list[str], cwd: Path, cache: Path | None = None, source: str | None = None
+) -> tuple[float, float, str]:
     """Wall and CPU seconds of ``command`` as a fresh process in ``cwd`` and its standard
-    error; ``cache`` is brdfkit's kernel cache folder for it. Python's bytecode is cached under
-    ``cwd``."""
+    error; ``cache`` is brdfkit's kernel cache folder for it, ``source`` a brdfkit ``src``
+    folder to import instead of the installed one. Python's bytecode is cached under ``cwd``."""
     env = dict(os.environ)
+    if source is not None:
+        env["PYTHONPATH"] = source
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     env["PYTHONPYCACHEPREFIX"] = str(cwd / "bytecode")
     if cache is not None:
@@ -116,6 +122,13 @@ def run(command: list[str], cwd: Path, cache: Path | None = None) -> tuple[float
         raise RuntimeError(f"{command[:3]} failed:\n{done.stderr[-2000:]}{done.stdout[-2000:]}")
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
     return seconds, cpu, done.stderr
+
+
+def _commit(source: str) -> str:
+    """The git commit of the checkout holding ``source``, or ``source`` itself outside git."""
+    done = subprocess.run(["git", "-C", source, "rev-parse", "--short=12", "HEAD"],
+                          capture_output=True, text=True, check=False)  # fmt: skip
+    return done.stdout.strip() or source
 
 
 def brdfkit_command(*extra: str) -> list[str]:
@@ -138,6 +151,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--cold", type=int, default=2)
+    parser.add_argument("--baseline", help="src folder of a brdfkit to pair cold runs with")
     parser.add_argument("--out", help="results file (default: benchmarks/results/render_cli.json)")
     args = parser.parse_args()
     mi, variant = ms.load_mitsuba()
@@ -145,12 +159,18 @@ def main() -> None:
         folder = Path(tmp)
         scene = write_scene(folder, mi)
         mitsuba = ["mitsuba", "-m", variant, "-o", str(folder / "mitsuba.exr"), str(scene)]
-        first, announced = [], []
+        first, announced, baseline, loads = [], [], [], []
         for k in range(args.cold):
-            seconds, _, stderr = run(brdfkit_command(), folder, folder / f"cold{k}")
-            first.append(seconds)
-            announced.append(stderr.strip())
-            print(f"first render (empty kernel cache): {seconds:.2f} s", flush=True)
+            for turn in (k % 2, 1 - k % 2) if args.baseline else (0,):
+                loads.append(os.getloadavg()[0])
+                cache = folder / (f"cold{k}" if turn == 0 else f"baseline{k}")
+                seconds, _, stderr = run(
+                    brdfkit_command(), folder, cache, (None, args.baseline)[turn]
+                )
+                (first if turn == 0 else baseline).append(seconds)
+                if turn == 0:
+                    announced.append(stderr.strip())
+                print(f"first render (empty kernel cache){' baseline' * turn}: {seconds:.2f} s")
         warm = folder / "cold0"  # filled by the first cold run
         run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
         ours, theirs, our_cpu, their_cpu = [], [], [], []
@@ -165,6 +185,9 @@ def main() -> None:
                   f"{theirs[-1]:.2f} s ({their_cpu[-1]:.2f} CPU s)", flush=True)  # fmt: skip
         ratio = twin_check(folder, scene, variant, warm)
     ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
+    paired = {}
+    if args.baseline:
+        paired = {"baseline_seconds": baseline, "baseline": _commit(args.baseline)}
     record = {
         "spec": SPEC,
         "resolution": RESOLUTION,
@@ -181,7 +204,7 @@ def main() -> None:
             "brdfkit_cpu_median": statistics.median(our_cpu),
             "mitsuba_cpu_median": statistics.median(their_cpu),
         },
-        "first": {"seconds": first, "stderr": announced},
+        "first": {"seconds": first, "stderr": announced, "load_before_runs": loads} | paired,
         "twin_mean_ratio": ratio,
     }
     w = record["warm"]

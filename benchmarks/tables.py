@@ -731,6 +731,11 @@ def render_cli(r: dict) -> str:
          f"{statistics.median(first['seconds']):.2f}",
          f"{min(first['seconds']):.2f}–{max(first['seconds']):.2f}", ""],
     ]  # fmt: skip
+    if "baseline_seconds" in first:
+        base = first["baseline_seconds"]
+        label = f"brdfkit at {first['baseline']}, first run (paired)"
+        spread = f"{min(base):.2f}–{max(base):.2f}"
+        body.append([label, f"{statistics.median(base):.2f}", spread])
     load = r["machine"].get("load_average", ["?"])[0]
     return (
         f'`brdfkit render -b "{r["spec"]}"` with its defaults ({r["resolution"]}², '

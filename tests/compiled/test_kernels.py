@@ -556,3 +556,17 @@ def test_a_constructor_that_needs_values_bakes_them_in() -> None:
     assert_close(compiled.eval(wi, wo), model.eval(wi, wo), 1e-12)
     assert compiled.kernel("eval").parameters.size == 0  # values baked in
     assert not compiled.shares("eval")
+
+
+def test_read_only_inputs_reuse_the_compiled_code() -> None:
+    """A read-only input (a contiguous broadcast view, a frozen array) is another type to
+    numba: the kernel copies it rather than compile itself a second time, on both layouts."""
+    kernel = compile_function(lambda w: w[..., 2] * 0.25 + w[..., 0], (3,), np.float64)
+    row = np.array([[0.5, 0.0, 2.0]])
+    frozen = np.array([[1.0, 2.0, 4.0], [3.0, 0.0, 8.0]], order="F")
+    frozen.flags.writeable = False
+    assert not np.broadcast_to(row, (1, 3)).flags.writeable
+    assert kernel(np.broadcast_to(row, (1, 3)))[0][0] == 1.0
+    np.testing.assert_array_equal(kernel(frozen)[0], [2.0, 5.0])
+    assert len(kernel.function.signatures) == 1
+    assert len(kernel._component_code().signatures) == 1

@@ -109,3 +109,29 @@ def test_tracing_imports_no_jax() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     jax_imported, parameters, looped = json.loads(out.stdout.strip().splitlines()[-1])
     assert not jax_imported and parameters > 0 and looped
+
+
+def test_lines_cast_only_where_numba_would_type_them_otherwise() -> None:
+    """A generated line drops its cast where numba types the expression as its dtype
+    already (float arithmetic of one type, selects, comparisons of one type, boolean logic),
+    and keeps it where the operands' types differ or the function's result type is numba's
+    own choice."""
+    from brdfkit.compiled.scalar_code import Emitter
+
+    f32, f64, boolean = np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.bool_)
+    em = Emitter()
+    a, b, wide, p = Sym("a", f32), Sym("b", f32), Sym("w", f64), Sym("p", boolean)
+
+    def line(template, args, dtype):
+        return em.lines[int(em.emit(template, args, dtype).name[1:])][1]
+
+    assert line("{0} * {1}", [a, b], f32) == "a * b"
+    assert line("{0} / {1}", [a, np.float32(2)], f32) == "a / k0"
+    assert line("_select({0}, {2}, {1})", [p, a, b], f32) == "_select(p, b, a)"
+    assert line("{0} > {1}", [a, b], boolean) == "a > b"
+    assert line("_and({0}, {1})", [p, p], boolean) == "_and(p, p)"
+    assert line("{0} * {1}", [a, wide], f32) == "np.float32(a * w)"
+    assert line("{0} * {1}", [a, 0.5], f32) == "np.float32(a * k1)"  # a float64 global
+    assert line("{0} > {1}", [a, wide], boolean) == "bool(a > w)"
+    assert line("np.exp({0})", [a], f32) == "np.float32(np.exp(a))"
+    assert line("{0} + {1}", [wide, wide], f32) == "np.float32(w + w)"

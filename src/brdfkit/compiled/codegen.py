@@ -12,13 +12,14 @@ function
     def kernel(prm, in0, in1, out0, n):
         _prefer_vector_width()
         p0 = prm[0]                    # the parameters, and what depends on them alone
-        t3 = np.float32(p0 * k1)
+        t3 = p0 * k1
         for i in range(n):             # the batch
             a0_0 = in0[i * 3 + 0]      # loads
-            t7 = np.float32(a0_0 * t3) # the live straight-line body
+            t7 = a0_0 * t3             # the live straight-line body
             out0[i * 3 + 0] = t7       # stores
 
-over flat buffers holding ``max(w, 1)`` values per element, which numba compiles and LLVM
+over flat buffers holding ``max(w, 1)`` values per element (a line casts its value, e.g.
+``np.float32(...)``, only where numba would type it otherwise), which numba compiles and LLVM
 vectorises across the loop's iterations; :func:`by_component_source` rewrites it for arrays
 laid out component by component. The parameters of a model are inputs, not constants, so
 one source serves every parameter set of a model's structure.

@@ -135,7 +135,7 @@ class Kernel:
             outs = list(out)
         ports = [*self.inputs, *self.outputs]
         columns = [
-            a[:, c] if p.width else a
+            _writable(a[:, c] if p.width else a)
             for a, p in zip([*arrays, *outs], ports, strict=True)
             for c in range(max(p.width, 1))
         ]
@@ -178,7 +178,7 @@ class Kernel:
         for k, (a, port) in enumerate(zip(flat, self.inputs, strict=True)):
             full = (*shape, port.width) if port.width else shape
             a = np.broadcast_to(a, full) if a.shape != full else a
-            flat[k] = np.ascontiguousarray(a, dtype=port.dtype).reshape(-1)
+            flat[k] = _writable(np.ascontiguousarray(a, dtype=port.dtype).reshape(-1))
         shapes = [(*shape, port.width) if port.width else shape for port in self.outputs]
         if out is None:
             outs = [OUTPUTS.empty(s, p.dtype) for s, p in zip(shapes, self.outputs, strict=True)]
@@ -194,6 +194,13 @@ class Kernel:
         arrays_flat = [*flat, *(o.reshape(-1) for o in outs)]
         run_blocks(self.function, self.parameters, arrays_flat, widths, n)
         return tuple(outs)
+
+
+def _writable(a: np.ndarray) -> np.ndarray:
+    """``a``, or a copy where it is read-only (a broadcast view that is contiguous, a frozen
+    array): numba compiles a kernel once per argument type, and a read-only array is
+    another type, so one read-only input would compile the whole kernel a second time."""
+    return a if a.flags.writeable else a.copy()
 
 
 def compile_function(

@@ -124,10 +124,8 @@ class Emitter:
         if key not in self._memo:
             name = f"t{len(self.lines)}"
             code = template.format(*refs)
-            if dtype == np.bool_:
-                code = f"bool({code})"
-            else:
-                code = f"{_cast_name(dtype)}({code})"
+            if not _typed_as(template, args, dtype):
+                code = f"bool({code})" if dtype == np.bool_ else f"{_cast_name(dtype)}({code})"
             self.lines.append((name, code, refs))
             self._memo[key] = Sym(name, dtype)
             self.definitions[name] = (template, tuple(args))
@@ -138,6 +136,38 @@ class Emitter:
 
 def _cast_name(dtype: np.dtype) -> str:
     return f"np.{np.dtype(dtype).name}"
+
+
+_SAME_TYPE = frozenset(
+    {"{0} + {1}", "{0} - {1}", "{0} * {1}", "{0} / {1}", "-{0}", "np.sqrt({0})", "_rsqrt32({0})"}
+    | set(_FLOATBINARY.values())
+)
+"""Templates that numba types as their operands' float type when all operands have it."""
+_COMPARISONS = frozenset(BINARY[op][1] for op in ("eq", "ne", "lt", "le", "gt", "ge"))
+_LOGICAL = frozenset({"_and({0}, {1})", "_or({0}, {1})", "_xor({0}, {1})", "_not({0})"})
+
+
+def _dtype_of(x: Any) -> np.dtype:
+    """The type numba gives ``x`` in the generated code (constants are typed globals)."""
+    return x.dtype if isinstance(x, Sym) else np.asarray(x).dtype
+
+
+def _typed_as(template: str, args: Sequence[Any], dtype: np.dtype) -> bool:
+    """Whether numba types ``template`` of ``args`` as ``dtype`` already, so that the cast to
+    it would compile to nothing: float arithmetic, square roots and ``_max``/``_min`` of
+    operands of that type, a select between two of them, comparisons of operands of one
+    type and logic of booleans. The line is then written without it (numba types and lowers
+    each cast call: a third of a model kernel's build; the machine code is the same)."""
+    types = [_dtype_of(a) for a in args]
+    if dtype == np.bool_:
+        if template in _COMPARISONS:
+            return types[0] == types[1]
+        return template in _LOGICAL and all(t == np.bool_ for t in types)
+    if dtype.kind != "f":
+        return False
+    if template == _SELECT:
+        return types[0] == np.bool_ and types[1] == types[2] == dtype
+    return template in _SAME_TYPE and all(t == dtype for t in types)
 
 
 def _is_const(x: Any) -> bool:

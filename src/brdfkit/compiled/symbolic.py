@@ -37,7 +37,7 @@ Examples
 >>> out.shape, out.dtype
 ((1,), dtype('float32'))
 >>> em.lines[-1][1]
-'np.float32(t0 * k1)'
+'t0 * k1'
 """
 
 from __future__ import annotations
