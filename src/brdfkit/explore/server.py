@@ -378,7 +378,8 @@ class ExplorerServer:
         self.port = self._socket.getsockname()[1]
         self.app = build_app(session, self.token, self.port, initial)
         specs = [item for item in initial if item not in session.files]
-        self._warm_up = threading.Thread(target=session.warm_up, args=(specs,), daemon=True)
+        files = [item for item in initial if item in session.files]
+        self._warm_up = threading.Thread(target=session.warm_up, args=(specs, files), daemon=True)
         self._warm_up.start()
         self._server: Any = None
         self._thread: threading.Thread | None = None

@@ -278,6 +278,35 @@ function colormap(t) {
   const x = Math.min(Math.max(t, 0), 1) * (STOPS.length - 1), i = Math.min(Math.floor(x), STOPS.length - 2), f = x - i;
   return STOPS[i].map((c, k) => Math.round(c + (STOPS[i + 1][k] - c) * f));
 }
+// The θh × θd slice's pixels: log colour scale over four decades below the largest value, black
+// where the value is 0; (θd up).
+function slicePixels(v, n) {
+  let vmax = 0;
+  for (const x of v) vmax = Math.max(vmax, x);
+  const vmin = vmax * 1e-4, px = new Uint8ClampedArray(n * n * 4), scale = 1 / Math.log(vmax / vmin);
+  for (let row = 0; row < n; row++) for (let col = 0; col < n; col++) {
+    const value = v[row * n + col], out = ((n - 1 - row) * n + col) * 4;
+    const c = value > 0 ? colormap(Math.log(value / vmin) * scale) : [0, 0, 0];
+    px[out] = c[0]; px[out + 1] = c[1]; px[out + 2] = c[2]; px[out + 3] = 255;
+  }
+  return px;
+}
+
+// Whether any of a view's inputs differ from those it was last drawn from (kept by name):
+// typed arrays by value, anything else by identity. A view whose inputs are unchanged is not
+// drawn again: the light's slider moves the spheres, the polar plot, the θv curve and the lobe.
+function sameValue(a, b) {
+  if (!ArrayBuffer.isView(a) || !ArrayBuffer.isView(b)) return a === b;
+  if (a.length !== b.length || a.constructor !== b.constructor) return false;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i] && !(a[i] !== a[i] && b[i] !== b[i])) return false;
+  return true;
+}
+function inputsChanged(memory, name, inputs) {
+  const last = memory.get(name);
+  if (last && last.length === inputs.length && inputs.every((v, i) => sameValue(v, last[i]))) return false;
+  memory.set(name, inputs);
+  return true;
+}
 
 // ------------------------------------------------------------------------------ the explorer
 export function createExplorer(root, transport, config = {}) {
@@ -547,7 +576,7 @@ export function createExplorer(root, transport, config = {}) {
       if (pending && !inFlight) { pending = false; changed(); }
     } else if (header.type === "albedo") {
       albedo = { header, arrays };
-      redraw();
+      if (frame) drawAlbedo(shownEntries());
     } else if (header.type === "env") {
       showEnv(header, arrays[0]);
     } else if (header.type === "lit") {
@@ -692,93 +721,124 @@ export function createExplorer(root, transport, config = {}) {
   }
 
   // ---- drawing
+  const drawn = new Map();  // view name → the inputs it was last drawn from (inputsChanged)
+  function shownEntries() {
+    const ids = visibleIds();
+    return state.entries.filter((e) => frame.header.views[e.id] && ids.has(e.id));
+  }
   function redraw() {
     saveUrl();
     if (!frame) return;
     drawEnvs();
     drawLits();
     const { header, arrays } = frame;
-    const d = state.display;
-    const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
+    const d = state.display, v = state.view;
+    const shown = shownEntries();
     const channels = (e) => (e.info ? e.info.channels : 1);
     const arr = (e, name) => arrays[header.views[e.id][name]];
+    const colors = shown.map((e) => `${e.id}:${e.color}`).join(" ");
+    const changedFor = (name, ...inputs) => inputsChanged(drawn, name, [colors, d.channel, d.log, ...inputs]);
     api.plotted = {};
 
     // lit spheres (+ the difference of the first two)
-    const R = state.view.resolution;
+    const R = v.resolution;
     const sphereData = [];
     const canvases = shown.map((e) => {
       const data = arr(e, "sphere");
       const C = data.length / (R * R);
       sphereData.push({ data, C });
-      return sphereCanvas(e.id, e.color, toPixels(data, R, C, d), R);
+      const draw = changedFor(`sphere ${e.id}`, data, R, d.exposure, d.gamma);
+      return sphereCanvas(e.id, e.color, draw ? toPixels(data, R, C, d) : null, R);
     });
     if (sphereData.length >= 2) {
       const [a, b] = sphereData;
-      const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
-      for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
-      canvases.push(sphereCanvas("difference", "#000", toPixels(diff, R, C, d), R, "|first − second|"));
+      let pixels = null;
+      if (changedFor("sphere difference", a.data, b.data, R, d.exposure, d.gamma)) {
+        const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
+        for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+        pixels = toPixels(diff, R, C, d);
+      }
+      canvases.push(sphereCanvas("difference", "#000", pixels, R, "|first − second|"));
     }
     const current = Array.from(spheres.children);
     if (current.length !== canvases.length || current.some((c, i) => c !== canvases[i])) spheres.replaceChildren(...canvases);
 
-    // curves
+    // curves (api.plotted holds every curve's values, drawn or not)
     const curve = (name, cosine) => shown.map((e) => {
       const x = arrays[header.axes[name]];
       let y = channelOf(arr(e, name), channels(e), d.channel);
-      if (cosine) y = y.map((v, i) => v * Math.max(Math.cos(x[i]), 0));
+      if (cosine) y = y.map((value, i) => value * Math.max(Math.cos(x[i]), 0));
       api.plotted[name] = api.plotted[name] || {};
       api.plotted[name][e.id] = { x: Array.from(x), y: Array.from(y) };
       return { x, y, color: e.color };
     });
+    const ys = (series) => series.map((s) => s.y);
     const tv = curve("theta_v", d.cosine);
-    polarPlot(polar.canvas, tv, state.view.theta_i, d.log);
-    linePlot(curves.theta_v.canvas, tv, { log: d.log, xmin: -90, xmax: 90, title: d.cosine ? "f·cos θv" : "f" });
-    linePlot(curves.theta_h.canvas, curve("theta_h", false), { log: d.log, title: `f at θd = ${state.view.theta_d}°, φd = ${state.view.phi_d}°` });
-    linePlot(curves.theta_d.canvas, curve("theta_d", false), { log: d.log, title: `f at θh = ${state.view.theta_h}°, φd = ${state.view.phi_d}°` });
-    if (albedo) {
-      const ax = albedo.arrays[albedo.header.axes.albedo];
-      const series = shown.filter((e) => albedo.header.views[e.id]).map((e) => {
-        const v = albedo.header.views[e.id];
-        const mean = channelOf(albedo.arrays[v.albedo], channels(e), d.channel);
-        const err = channelOf(albedo.arrays[v.albedo_err], channels(e), d.channel).map((s) => 2 * s);
-        return { x: ax, y: mean, band: err, color: e.color };
-      });
-      linePlot(curves.albedo.canvas, series, { xmin: 0, xmax: 90, title: "ρ(θo)" });
+    if (changedFor("theta_v", ...ys(tv), d.cosine, v.theta_i)) {
+      polarPlot(polar.canvas, tv, v.theta_i, d.log);
+      linePlot(curves.theta_v.canvas, tv, { log: d.log, xmin: -90, xmax: 90, title: d.cosine ? "f·cos θv" : "f" });
     }
+    const th = curve("theta_h", false), td = curve("theta_d", false);
+    if (changedFor("theta_h", ...ys(th), v.theta_d, v.phi_d)) {
+      linePlot(curves.theta_h.canvas, th, { log: d.log, title: `f at θd = ${v.theta_d}°, φd = ${v.phi_d}°` });
+    }
+    if (changedFor("theta_d", ...ys(td), v.theta_h, v.phi_d)) {
+      linePlot(curves.theta_d.canvas, td, { log: d.log, title: `f at θh = ${v.theta_h}°, φd = ${v.phi_d}°` });
+    }
+    drawAlbedo(shown);
 
     // 3D lobe
-    const wi = [Math.sin(rad(state.view.theta_i)) * Math.cos(rad(state.view.phi_i)), Math.sin(rad(state.view.theta_i)) * Math.sin(rad(state.view.phi_i)), Math.cos(rad(state.view.theta_i))];
-    const meshes = shown.map((e) => {
-      const spec = header.arrays[header.views[e.id].lobe];
-      const [T, P] = spec.shape;
-      let r = channelOf(arr(e, "lobe"), channels(e), d.channel);
-      if (d.cosine) r = r.map((v, i) => v * Math.cos((Math.floor(i / P) / (T - 1)) * (Math.PI / 2)));
-      if (d.log) r = r.map((v) => Math.log10(1 + v));
-      return { r, shape: [T, P], color: e.color };
-    });
-    lobePlot(lobe.canvas, meshes, wi, state.rotation);
+    const lobes = shown.map((e) => arr(e, "lobe"));
+    if (changedFor("lobe", ...lobes, d.cosine, v.theta_i, v.phi_i, state.rotation.yaw, state.rotation.pitch)) {
+      const wi = [Math.sin(rad(v.theta_i)) * Math.cos(rad(v.phi_i)), Math.sin(rad(v.theta_i)) * Math.sin(rad(v.phi_i)), Math.cos(rad(v.theta_i))];
+      const meshes = shown.map((e) => {
+        const spec = header.arrays[header.views[e.id].lobe];
+        const [T, P] = spec.shape;
+        let r = channelOf(arr(e, "lobe"), channels(e), d.channel);
+        if (d.cosine) r = r.map((value, i) => value * Math.cos((Math.floor(i / P) / (T - 1)) * (Math.PI / 2)));
+        if (d.log) r = r.map((value) => Math.log10(1 + value));
+        return { r, shape: [T, P], color: e.color };
+      });
+      lobePlot(lobe.canvas, meshes, wi, state.rotation);
+    }
 
     // θh × θd slices (log colour scale)
-    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${state.view.phi_d}° (log colour scale)`;
-    slices.replaceChildren(...shown.map((e) => {
-      const spec = header.arrays[header.views[e.id].slice];
-      const n = spec.shape[0];
-      const v = channelOf(arr(e, "slice"), channels(e), d.channel);
-      let vmax = 0;
-      for (const x of v) vmax = Math.max(vmax, x);
-      const vmin = vmax * 1e-4, px = new Uint8ClampedArray(n * n * 4);
-      for (let row = 0; row < n; row++) for (let col = 0; col < n; col++) {
-        const value = v[row * n + col], out = ((n - 1 - row) * n + col) * 4;  // θd up
-        const c = value > 0 ? colormap(Math.log(value / vmin) / Math.log(vmax / vmin)) : [0, 0, 0];
-        px.set([...c, 255], out);
+    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${v.phi_d}° (log colour scale)`;
+    const sliceCanvases = shown.map((e) => {
+      const n = header.arrays[header.views[e.id].slice].shape[0];
+      let canvas = slicesDrawn.get(e.id);
+      if (!canvas) {
+        canvas = el("canvas", { className: "bx-slice" });
+        canvas.dataset.id = e.id;
+        slicesDrawn.set(e.id, canvas);
       }
-      const canvas = el("canvas", { width: n, height: n, className: "bx-slice", title: e.info.label });
-      canvas.dataset.id = e.id;
+      canvas.title = e.info.label;
       canvas.style.borderColor = e.color;
-      canvas.getContext("2d").putImageData(new ImageData(px, n, n), 0, 0);
+      const values = arr(e, "slice");
+      if (changedFor(`slice ${e.id}`, values, n) || canvas.width !== n) {
+        canvas.width = n; canvas.height = n;
+        const px = slicePixels(channelOf(values, channels(e), d.channel), n);
+        canvas.getContext("2d").putImageData(new ImageData(px, n, n), 0, 0);
+      }
       return canvas;
-    }));
+    });
+    const currentSlices = Array.from(slices.children);
+    if (currentSlices.length !== sliceCanvases.length || currentSlices.some((c, i) => c !== sliceCanvases[i])) slices.replaceChildren(...sliceCanvases);
+  }
+  const slicesDrawn = new Map();  // id → its slice's canvas
+  function drawAlbedo(shown) {
+    if (!albedo) return;
+    const d = state.display, views = albedo.header.views;
+    const series = shown.filter((e) => views[e.id]).map((e) => ({ e, v: views[e.id] }));
+    const inputs = series.flatMap(({ e, v }) => [e.id, e.color, albedo.arrays[v.albedo], albedo.arrays[v.albedo_err]]);
+    if (!inputsChanged(drawn, "albedo", [d.channel, ...inputs])) return;
+    const ax = albedo.arrays[albedo.header.axes.albedo];
+    linePlot(curves.albedo.canvas, series.map(({ e, v }) => {
+      const channels = e.info ? e.info.channels : 1;
+      const mean = channelOf(albedo.arrays[v.albedo], channels, d.channel);
+      const err = channelOf(albedo.arrays[v.albedo_err], channels, d.channel).map((s) => 2 * s);
+      return { x: ax, y: mean, band: err, color: e.color };
+    }), { xmin: 0, xmax: 90, title: "ρ(θo)" });
   }
   const rad = (deg) => (deg * Math.PI) / 180;
 
@@ -808,7 +868,7 @@ export function createExplorer(root, transport, config = {}) {
     }
     if (canvas.width !== R) { canvas.width = R; canvas.height = R; }
     canvas.style.borderColor = color;
-    canvas.getContext("2d").putImageData(new ImageData(pixels, R, R), 0, 0);
+    if (pixels) canvas.getContext("2d").putImageData(new ImageData(pixels, R, R), 0, 0);
     return canvas;
   }
 
