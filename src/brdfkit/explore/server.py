@@ -188,7 +188,8 @@ class _Channel:
     A message waiting in a slot is replaced by a newer one of its kind, so a slider that moves
     faster than the renders skips the stale states. Renders run in one worker; the slow albedo
     curves and physics checks in another, so they never hold up the next image; the
-    environment-lit spheres come pass by pass from a third, and a newer render cancels them;
+    environment-lit spheres come pass by pass from a third, cancelled only by a render that
+    changes what they show (the BRDFs, the map's switch, the resolution);
     the lit objects pass by pass from a fourth, cancelled only by a render that changes what
     they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining;
     their next pass waits until no render has run for :data:`LIT_QUIET_SECONDS` (a slider
@@ -202,6 +203,7 @@ class _Channel:
         self.lock = asyncio.Lock()
         self.progressive: dict[str, Message | None] = {"env": None, "lit": None}
         self.cancels = {"env": threading.Event(), "lit": threading.Event()}
+        self.env_shown: tuple[Any, ...] | None = None
         self.lit_shown: tuple[Any, ...] | None = None
         self.last_render = 0.0
 
@@ -247,8 +249,11 @@ class _Channel:
             self.pending[message.type] = message
             self.wakes["fast" if message.type == "render" else "slow"].set()
             if message.type == "render":
-                self._restart("env", message)
                 view = message.view
+                shown = (message.entries, view.envmap, view.resolution)
+                if shown != self.env_shown:
+                    self.env_shown = shown
+                    self._restart("env", message)
                 shown = (message.entries, view.lit, view.mesh, view.azimuth, view.elevation)
                 if shown != self.lit_shown:
                     self.lit_shown = shown

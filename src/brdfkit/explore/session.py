@@ -277,7 +277,7 @@ class Session:
                 affordable(brdf.channels, state.resolution)
                 key = info.get("spec") or f"file:{info['file']}"
                 sphere, theta_v, lobe = self._cached(
-                    (key, state.theta_i, state.phi_i, state.resolution, state.irradiance),
+                    (key, state.theta_i, state.phi_i, state.sphere_resolution, state.irradiance),
                     partial(self._incident_views, brdf, state),
                 )
                 theta_h, theta_d, slice_ = self._cached(
@@ -303,6 +303,7 @@ class Session:
             "views": per_entry,
             "axes": axes,
             "light": [float(x) for x in light],
+            "preview": state.preview,
             "arrays": table,
             "seconds": time.perf_counter() - start,
         }

@@ -83,6 +83,9 @@ would be parallel to the view)."""
 DEFAULT_MESH = "bundled:shaderball"
 """The mesh the lit-object view opens with."""
 
+PREVIEW_MIN = 64
+"""The least resolution of a preview's sphere (:attr:`ViewState.sphere_resolution`)."""
+
 
 @dataclass(frozen=True)
 class ViewState:
@@ -106,6 +109,20 @@ class ViewState:
     mesh: str = DEFAULT_MESH
     azimuth: float = 30.0
     elevation: float = 25.0
+    preview: bool = False
+
+    @property
+    def sphere_resolution(self) -> int:
+        """Pixels per side of the lit sphere: :attr:`resolution`, or half of it (at least
+        :data:`PREVIEW_MIN`) for a ``preview``, the state of a slider being dragged (the page
+        asks for the full image once it rests).
+
+        Examples
+        --------
+        >>> ViewState(resolution=256, preview=True).sphere_resolution
+        128
+        """
+        return max(self.resolution // 2, PREVIEW_MIN) if self.preview else self.resolution
 
     def wi(self) -> np.ndarray:
         """The incident direction (local), ``(3,)``."""
@@ -146,7 +163,7 @@ def sphere_disk(resolution: int) -> Disk:
 
 def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
-    state.resolution)``: the same delta-light term of the reflection equation
+    state.sphere_resolution)``: the same delta-light term of the reflection equation
     (:func:`brdfkit.render.reflected_radiance`), evaluated in one batch on the visible
     pixels only, from geometry computed once per resolution (the background stays 0), with
     f from :func:`fast_eval` (the compiled float64 kernel once it is built: equal to NumPy's
@@ -161,7 +178,7 @@ def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     >>> image.shape, float(image.max().round(4))
     ((8, 8, 1), 0.4921)
     """
-    disk = sphere_disk(state.resolution)
+    disk = sphere_disk(state.sphere_resolution)
     model = fast_eval(brdf)
     value = to_numpy(delta_radiance(model, state.light(), disk.point, disk.frame, disk.wo_local))
     image = np.zeros((*disk.mask.shape, value.shape[-1]))
@@ -424,6 +441,7 @@ __all__ = [
     "LIT_RESOLUTION",
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
+    "PREVIEW_MIN",
     "SLICE_RESOLUTION",
     "Disk",
     "ViewState",

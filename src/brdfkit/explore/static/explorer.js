@@ -318,7 +318,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, moving: false, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -353,10 +353,11 @@ export function createExplorer(root, transport, config = {}) {
     const range = el("input", { type: "range", min: lo, max: hi, step, value: target[key], className: `bx-${key}` });
     const out = el("span", { className: "bx-value", textContent: String(target[key]) });
     range.addEventListener("input", () => { target[key] = Number(range.value); out.textContent = range.value; onchange(); });
+    if (onchange === moved) range.addEventListener("change", rested);
     inputs[key] = { range, out };
     globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: label }), range, out]));
   };
-  for (const [key, label, lo, hi] of ANGLE_SLIDERS) slider(key, label, lo, hi, 0.1, state.view, changed);
+  for (const [key, label, lo, hi] of ANGLE_SLIDERS) slider(key, label, lo, hi, 0.1, state.view, moved);
   slider("exposure", "exposure", -10, 10, 0.1, state.display, redraw);
   const select = (key, label, options, target, onchange) => {
     const s = el("select", { className: `bx-${key}` }, options.map(([v, t]) => el("option", { value: v, textContent: t })));
@@ -508,13 +509,14 @@ export function createExplorer(root, transport, config = {}) {
     for (const c of entry.info.controls || []) {
       const value = getPath(tree, c.path);
       const key = c.path.join(".");
-      const set = (v) => { setPath(entry.source.tree, c.path, v); changed(); };
+      const set = (v, moving = false) => { setPath(entry.source.tree, c.path, v); if (moving) moved(); else changed(); };
       const label = el("span", { className: "bx-param-name", textContent: `${c.model}.${c.name}`, title: (c.slider && c.slider.hint) || "" });
       let widget;
       if (c.kind === "number") {
         const range = el("input", { type: "range", min: 0, max: 1000, step: 1, value: Math.round(valueToSlider(value, c.slider) * 1000) });
         const box = el("input", { type: "number", value: tidy(value), step: "any", className: "bx-number" });
-        range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v); });
+        range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v, true); });
+        range.addEventListener("change", rested);
         box.addEventListener("change", () => { range.value = Math.round(valueToSlider(Number(box.value), c.slider) * 1000); set(Number(box.value)); });
         widget = [range, box];
       } else if (c.kind === "rgb") {
@@ -546,8 +548,27 @@ export function createExplorer(root, transport, config = {}) {
     const ids = visibleIds();
     return {
       entries: state.entries.map((e) => ({ id: e.id, visible: ids.has(e.id), source: e.source })),
-      view: state.view,
+      view: { ...state.view, preview: api.moving },
     };
+  }
+  // While a slider or the light is dragged (moved again within REST_MS) the page asks for
+  // previews (the sphere at half resolution: a quarter of the pixels to render, send and
+  // draw); the full image follows once it rests: released, or not moved for REST_MS. A single
+  // step (a click, a key) asks for the full image at once.
+  const REST_MS = 250;
+  let restTimer = 0;
+  function moved() {
+    api.moving = restTimer !== 0;
+    clearTimeout(restTimer);
+    restTimer = setTimeout(rested, REST_MS);
+    changed();
+  }
+  function rested() {
+    clearTimeout(restTimer);
+    restTimer = 0;
+    if (!api.moving) return;
+    api.moving = false;
+    changed();
   }
   function changed() {
     saveUrl();
@@ -569,7 +590,7 @@ export function createExplorer(root, transport, config = {}) {
       const start = performance.now();
       applyEntries(header.entries);
       redraw();
-      api.shown = { seq: header.seq, time: performance.now() };
+      api.shown = { seq: header.seq, time: performance.now(), preview: header.preview };
       api.drawMs = api.shown.time - start;
       status.textContent = "";
       for (const f of listeners) f(header);
@@ -741,10 +762,11 @@ export function createExplorer(root, transport, config = {}) {
     api.plotted = {};
 
     // lit spheres (+ the difference of the first two)
-    const R = v.resolution;
     const sphereData = [];
+    let R = v.resolution;  // a preview's sphere has half the pixels
     const canvases = shown.map((e) => {
       const data = arr(e, "sphere");
+      R = header.arrays[header.views[e.id].sphere].shape[0];
       const C = data.length / (R * R);
       sphereData.push({ data, C });
       const draw = changedFor(`sphere ${e.id}`, data, R, d.exposure, d.gamma);
@@ -860,11 +882,11 @@ export function createExplorer(root, transport, config = {}) {
         state.view.theta_i = Math.min(tidy((Math.acos(z) * 180) / Math.PI), 89.9);
         state.view.phi_i = tidy((Math.atan2(y, x) * 180) / Math.PI);
         for (const k of ["theta_i", "phi_i"]) { inputs[k].range.value = state.view[k]; inputs[k].out.textContent = state.view[k]; }
-        changed();
+        moved();
       };
       canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; move(e); });
       canvas.addEventListener("pointermove", (e) => { if (canvas.dataset.dragging) move(e); });
-      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; });
+      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; rested(); });
     }
     if (canvas.width !== R) { canvas.width = R; canvas.height = R; }
     canvas.style.borderColor = color;
