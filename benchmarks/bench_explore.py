@@ -4,16 +4,16 @@ Starts ``brdfkit explore``'s server in-process and drives the real page in headl
 (Debian's ``/usr/bin/chromium``, software WebGL): for each workload the θi slider is dragged
 ``--moves`` steps, one step after the previous frame is shown, and the time from the slider's
 ``input`` event to the frame being drawn (the directional-light sphere and every plot of every
-visible BRDF) is measured in the page with ``performance.now()``. While the slider is dragged
-(moved again within the page's rest time) the page asks for previews, the sphere at half
-resolution (128² of 256²); ``preview share`` says how many of the measured frames were
-previews. ``click`` is the full 256² image: a single step after the page has rested (an
-``input`` and a ``change`` event, as a click on the slider's track), from the event to the
-full frame drawn. Interleaved with each step, the full sphere is rendered in Python by
-:func:`brdfkit.render.render_sphere` (the peer: the compute alone), so the ratio latency /
-render says what the server, the WebSocket and the drawing add. Workloads: Lambertian + GGX,
-and a MERL-layout table (written by :func:`brdfkit.measured.write_merl`, read back as a
-tabulated BRDF).
+visible BRDF) is measured in the page with ``performance.now()``. The slider is held
+(``pointerdown``) through the steps and released after them: while it is dragged the page asks
+for previews, the sphere at half resolution (128² of 256²); ``preview share`` says how many of
+the measured frames were previews. ``click`` is the full 256² image: a single step after the
+page has rested (an ``input`` and a ``change`` event, as a click on the slider's track or a
+key), from the event to the full frame drawn. Interleaved with each step, the full sphere is
+rendered in Python by :func:`brdfkit.render.render_sphere` (the peer: the compute alone), so
+the ratio latency / render says what the server, the WebSocket and the drawing add.
+Workloads: Lambertian + GGX, and a MERL-layout table (written by
+:func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
 
 Under the environment map (the bundled one), the time from switching the view on to the first
 image (the exact diffuse term, :func:`brdfkit.explore.views.diffuse_term`), to the first pass
@@ -94,6 +94,8 @@ CLICK = """(value) => new Promise((resolve) => {
   requestAnimationFrame(wait);
 })"""
 
+HOLD = """(name) => document.querySelector('.bx-theta_i').dispatchEvent(new PointerEvent(name))"""
+
 REST_MS = 400
 """Milliseconds the page is left alone before a click (beyond its rest time: a single step)."""
 
@@ -128,7 +130,8 @@ def percentile(values: list[float], q: float) -> float:
 def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
     """Slider-to-frame times in the page while the slider is dragged, with render_sphere
     timed between the steps; then single steps at rest (clicks) to the full image."""
-    page.evaluate(MOVE, 30)  # warm-up
+    page.evaluate(HOLD, "pointerdown")  # the slider held: a drag
+    page.evaluate(MOVE, 30)  # warm-up (a drag's first step is a full image)
     browser_ms, render_ms, server_ms, draw_ms, previews = [], [], [], [], 0
     for i in range(moves):
         theta = 20 + (i * 37) % 60
@@ -141,6 +144,7 @@ def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
         start = time.perf_counter()
         render_sphere(brdf, light, resolution=256)
         render_ms.append(1e3 * (time.perf_counter() - start))
+    page.evaluate(HOLD, "pointerup")
     click_ms = []
     for i in range(max(moves // 2, 1)):
         page.wait_for_timeout(REST_MS)

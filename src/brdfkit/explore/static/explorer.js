@@ -353,7 +353,7 @@ export function createExplorer(root, transport, config = {}) {
     const range = el("input", { type: "range", min: lo, max: hi, step, value: target[key], className: `bx-${key}` });
     const out = el("span", { className: "bx-value", textContent: String(target[key]) });
     range.addEventListener("input", () => { target[key] = Number(range.value); out.textContent = range.value; onchange(); });
-    if (onchange === moved) range.addEventListener("change", rested);
+    if (onchange === moved) draggable(range);
     inputs[key] = { range, out };
     globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: label }), range, out]));
   };
@@ -516,7 +516,7 @@ export function createExplorer(root, transport, config = {}) {
         const range = el("input", { type: "range", min: 0, max: 1000, step: 1, value: Math.round(valueToSlider(value, c.slider) * 1000) });
         const box = el("input", { type: "number", value: tidy(value), step: "any", className: "bx-number" });
         range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v, true); });
-        range.addEventListener("change", rested);
+        draggable(range);
         box.addEventListener("change", () => { range.value = Math.round(valueToSlider(Number(box.value), c.slider) * 1000); set(Number(box.value)); });
         widget = [range, box];
       } else if (c.kind === "rgb") {
@@ -551,25 +551,31 @@ export function createExplorer(root, transport, config = {}) {
       view: { ...state.view, preview: api.moving },
     };
   }
-  // While a slider or the light is dragged (moved again within REST_MS) the page asks for
+  // While a slider or the light is dragged (held, after its first step) the page asks for
   // previews (the sphere at half resolution: a quarter of the pixels to render, send and
-  // draw); the full image follows once it rests: released, or not moved for REST_MS. A single
+  // draw); the full image follows once it rests: released, or held still for REST_MS. A single
   // step (a click, a key) asks for the full image at once.
-  const REST_MS = 250;
-  let restTimer = 0;
+  const REST_MS = 150;
+  let restTimer = 0, held = false, stepped = false;
   function moved() {
-    api.moving = restTimer !== 0;
+    api.moving = held && stepped;
+    stepped = held;
     clearTimeout(restTimer);
-    restTimer = setTimeout(rested, REST_MS);
+    if (api.moving) restTimer = setTimeout(rested, REST_MS);
     changed();
   }
+  function grabbed() { held = true; stepped = false; }
+  function released() { held = false; stepped = false; rested(); }
   function rested() {
     clearTimeout(restTimer);
-    restTimer = 0;
     if (!api.moving) return;
     api.moving = false;
     changed();
   }
+  const draggable = (range) => {
+    range.addEventListener("pointerdown", grabbed);
+    for (const name of ["pointerup", "change"]) range.addEventListener(name, released);
+  };
   function changed() {
     saveUrl();
     if (inFlight) { pending = true; return; }
@@ -884,9 +890,9 @@ export function createExplorer(root, transport, config = {}) {
         for (const k of ["theta_i", "phi_i"]) { inputs[k].range.value = state.view[k]; inputs[k].out.textContent = state.view[k]; }
         moved();
       };
-      canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; move(e); });
+      canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; grabbed(); move(e); });
       canvas.addEventListener("pointermove", (e) => { if (canvas.dataset.dragging) move(e); });
-      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; rested(); });
+      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; released(); });
     }
     if (canvas.width !== R) { canvas.width = R; canvas.height = R; }
     canvas.style.borderColor = color;
