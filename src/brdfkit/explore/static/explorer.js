@@ -572,10 +572,10 @@ export function createExplorer(root, transport, config = {}) {
     api.moving = false;
     changed();
   }
-  const draggable = (range) => {
+  function draggable(range) {
     range.addEventListener("pointerdown", grabbed);
     for (const name of ["pointerup", "change"]) range.addEventListener(name, released);
-  };
+  }
   function changed() {
     saveUrl();
     if (inFlight) { pending = true; return; }
