@@ -555,7 +555,7 @@ export function createExplorer(root, transport, config = {}) {
   // previews (the sphere at half resolution: a quarter of the pixels to render, send and
   // draw); the full image follows once it rests: released, or held still for REST_MS. A single
   // step (a click, a key) asks for the full image at once.
-  const REST_MS = 150;
+  const REST_MS = 300;
   let restTimer = 0, held = false, stepped = false;
   function moved() {
     api.moving = held && stepped;
