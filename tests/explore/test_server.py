@@ -116,6 +116,34 @@ def test_a_render_reply_holds_every_view(server):
         assert receive(ws)["type"] == "albedo"
 
 
+def test_a_moving_light_gets_previews_and_no_new_albedo(server):
+    def render(seq: int, theta_i: float, preview: bool) -> dict:
+        message = json.loads(json.dumps(RENDER))
+        message["seq"] = seq
+        message["state"]["view"] |= {"theta_i": theta_i, "resolution": 128, "preview": preview}
+        return message
+
+    with connect(server) as ws:
+        ws.send(json.dumps(render(1, 30, False)))
+        header, arrays = decode_frame(ws.recv(timeout=20))
+        assert arrays[header["views"]["a"]["sphere"]].shape == (128, 128, 1)
+        assert not header["preview"]
+        assert receive(ws)["type"] == "albedo"
+        replies = []
+        for seq, (theta_i, preview) in enumerate([(35, True), (40, False)], start=2):
+            ws.send(json.dumps(render(seq, theta_i, preview)))
+            header, arrays = decode_frame(ws.recv(timeout=20))
+            replies.append((header["seq"], header["preview"], header["views"]["a"]["sphere"]))
+            replies[-1] = (*replies[-1][:2], arrays[replies[-1][2]].shape)
+        assert replies == [(2, True, (64, 64, 1)), (3, False, (128, 128, 1))]
+        ws.send(
+            json.dumps(
+                {**render(4, 40, False), "type": "checks", "entry": RENDER["state"]["entries"][0]}
+            )
+        )
+        assert receive(ws)["type"] == "checks"  # the next reply: no albedo for the moved light
+
+
 @pytest.mark.parametrize(
     ("message", "expected"),
     [

@@ -204,6 +204,7 @@ class _Channel:
         self.progressive: dict[str, Message | None] = {"env": None, "lit": None}
         self.cancels = {"env": threading.Event(), "lit": threading.Event()}
         self.env_shown: tuple[Any, ...] | None = None
+        self.albedo_asked: tuple[Any, ...] | None = None
         self.lit_shown: tuple[Any, ...] | None = None
         self.last_render = 0.0
 
@@ -276,7 +277,8 @@ class _Channel:
         return await asyncio.to_thread(guarded, message.seq, work)
 
     async def _work(self, wake: asyncio.Event, kinds: tuple[str, ...]) -> None:
-        """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo."""
+        """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo
+        curves when its BRDFs or resolution differ from those last queued."""
         while True:
             await wake.wait()
             wake.clear()
@@ -292,7 +294,9 @@ class _Channel:
                     self.last_render = time.monotonic()
                 if result is not None:
                     await self._reply([result])
-                if kind == "render" and result is not None:
+                asked = (message.entries, message.view.resolution)
+                if kind == "render" and result is not None and asked != self.albedo_asked:
+                    self.albedo_asked = asked  # the light's slider leaves the albedo as it is
                     self.pending["albedo"] = message
                     self.wakes["slow"].set()
                 if any(self.pending[k] is not None for k in kinds):
