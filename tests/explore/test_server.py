@@ -133,8 +133,11 @@ def test_a_moving_light_gets_previews_and_no_new_albedo(server):
         for seq, (theta_i, preview) in enumerate([(35, True), (40, False)], start=2):
             ws.send(json.dumps(render(seq, theta_i, preview)))
             header, arrays = decode_frame(ws.recv(timeout=20))
-            replies.append((header["seq"], header["preview"], header["views"]["a"]["sphere"]))
-            replies[-1] = (*replies[-1][:2], arrays[replies[-1][2]].shape)
+            sphere = arrays[header["views"]["a"]["sphere"]]
+            replies.append((header["seq"], header["preview"], sphere.shape))
+            # the views the light leaves as they are: not sent again (the page holds them)
+            assert sorted(header["held"]) == [["a", "slice"], ["a", "theta_d"], ["a", "theta_h"]]
+            assert len(arrays) == len(header["arrays"]) == 3 + 3  # axes, sphere, θv, lobe
         assert replies == [(2, True, (64, 64, 1)), (3, False, (128, 128, 1))]
         ws.send(
             json.dumps(

@@ -205,6 +205,7 @@ class _Channel:
         self.cancels = {"env": threading.Event(), "lit": threading.Event()}
         self.env_shown: tuple[Any, ...] | None = None
         self.albedo_asked: tuple[Any, ...] | None = None
+        self.views_sent: dict[tuple[str, str], Any] = {}
         self.lit_shown: tuple[Any, ...] | None = None
         self.last_render = 0.0
 
@@ -232,6 +233,36 @@ class _Channel:
         async with self.lock:
             for header, arrays in replies:
                 await self.ws.send_bytes(encode_frame(header, [a.tobytes() for a in arrays]))
+
+    def _held_left_out(self, reply: tuple[dict[str, Any], list[Any]]) -> tuple[dict, list]:
+        """A frame without the views the page holds already: those whose array is the very
+        object the last frame sent (the session's cached views, e.g. the θh × θd slice while
+        the light moves), named in the header's ``held`` as ``[id, view]`` pairs and left
+        out of its arrays. Other replies unchanged."""
+        header, arrays = reply
+        if header["type"] != "frame":
+            return reply
+        held, kept, sent = [], {}, {}
+        for entry_id, names in header["views"].items():
+            for name, index in names.items():
+                sent[entry_id, name] = arrays[index]
+                if self.views_sent.get((entry_id, name)) is arrays[index]:
+                    held.append([entry_id, name])
+        self.views_sent = sent
+        left_out = {header["views"][i][n] for i, n in held}
+        for index in range(len(arrays)):
+            if index not in left_out:
+                kept[index] = len(kept)
+        views = {
+            i: {n: kept[k] for n, k in names.items() if k in kept}
+            for i, names in header["views"].items()
+        }
+        axes = {n: kept[k] for n, k in header["axes"].items()}
+        table = [header["arrays"][k] for k in kept]
+        return (
+            {**header, "views": views, "axes": axes, "arrays": table, "held": held},
+            [arrays[k] for k in kept],
+        )
 
     async def _listen(self) -> None:
         """Put each message in its slot and wake its worker, until the page disconnects."""
@@ -293,7 +324,7 @@ class _Channel:
                 if rendering:
                     self.last_render = time.monotonic()
                 if result is not None:
-                    await self._reply([result])
+                    await self._reply([self._held_left_out(result) if rendering else result])
                 asked = (message.entries, message.view.resolution)
                 if kind == "render" and result is not None and asked != self.albedo_asked:
                     self.albedo_asked = asked  # the light's slider leaves the albedo as it is

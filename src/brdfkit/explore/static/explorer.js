@@ -110,6 +110,9 @@ export function toPixels(data, size, channels, display) {
   return out;
 }
 
+// Text written only when it differs (an unchanged page needs no new layout).
+function setText(node, text) { if (node.textContent !== text) node.textContent = text; }
+
 function getPath(obj, path) { return path.reduce((o, k) => (o === undefined ? undefined : o[k]), obj); }
 function setPath(obj, path, value) { getPath(obj, path.slice(0, -1))[path[path.length - 1]] = value; }
 
@@ -218,9 +221,10 @@ function polarPlot(canvas, series, thetaI, log) {
   ctx.fillText(`max ${rmax.toPrecision(3)}${log ? " (log₁₀(1+·))" : ""}`, 4, 12);
 }
 
-// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each grid
-// cell a quad lit from the viewer's upper left (|n·l|, both sides), drawn far to near.
-function lobePlot(canvas, meshes, wi, rot) {
+// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each cell of
+// every `step`-th grid line a quad lit from the viewer's upper left (|n·l|, both sides), drawn
+// far to near.
+function lobePlot(canvas, meshes, wi, rot, step = 2) {
   const ctx = clear(canvas);
   const W = canvas.width, H = canvas.height;
   let rmax = 0;
@@ -249,9 +253,8 @@ function lobePlot(canvas, meshes, wi, rot) {
       const th = (t / (T - 1)) * (Math.PI / 2), ph = (p / (P - 1)) * 2 * Math.PI, r = m.r[t * P + p];
       return turn(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
     };
-    // every second grid line: a quarter of the quads, drawn in the time the wireframe took
-    for (let t = 0; t < T - 1; t += 2) for (let p = 0; p < P - 1; p += 2) {
-      const t2 = Math.min(t + 2, T - 1), p2 = Math.min(p + 2, P - 1);
+    for (let t = 0; t < T - 1; t += step) for (let p = 0; p < P - 1; p += step) {
+      const t2 = Math.min(t + step, T - 1), p2 = Math.min(p + step, P - 1);
       const c = [at(t, p), at(t, p2), at(t2, p2), at(t2, p)];
       const e1 = c[2].map((v, k) => v - c[0][k]), e2 = c[3].map((v, k) => v - c[1][k]);
       const n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
@@ -433,7 +436,7 @@ export function createExplorer(root, transport, config = {}) {
   const envs = new Map();  // id → {canvas, caption, data, size, C}
   const lits = new Map();  // id → {canvas, caption, data, size, C, header}
   const sliceGroup = group("slices", "θh × θd slices (log)");
-  const slices = sliceGroup.body;
+  const slices = sliceGroup.body, sliceTitle = sliceGroup.box.querySelector(".bx-title span");
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
   const lobe = panel("lobe", "3D lobe, shaded surface (drag to rotate)", 360, 300);
   const curves = {
@@ -590,6 +593,12 @@ export function createExplorer(root, transport, config = {}) {
 
   transport.onMessage((header, buffers) => {
     const arrays = (header.arrays || []).map((spec, i) => typedArray(spec, buffers[i]));
+    for (const [id, name] of header.held || []) {  // views as in the previous frame
+      const index = frame.header.views[id][name];
+      header.views[id][name] = arrays.length;
+      header.arrays.push(frame.header.arrays[index]);
+      arrays.push(frame.arrays[index]);
+    }
     if (header.type === "frame") {
       if (header.seq === inFlight) inFlight = 0;
       frame = { header, arrays };
@@ -598,7 +607,7 @@ export function createExplorer(root, transport, config = {}) {
       redraw();
       api.shown = { seq: header.seq, time: performance.now(), preview: header.preview };
       api.drawMs = api.shown.time - start;
-      status.textContent = "";
+      setText(status, "");
       for (const f of listeners) f(header);
       if (pending && !inFlight) { pending = false; changed(); }
     } else if (header.type === "albedo") {
@@ -621,10 +630,11 @@ export function createExplorer(root, transport, config = {}) {
     for (const info of infos) {
       const entry = state.entries.find((e) => e.id === info.id);
       if (!entry) continue;
-      entry.dom.error.textContent = info.error || "";
+      setText(entry.dom.error, info.error || "");
       if (info.error && !info.label) continue;
       entry.info = info;
-      if (document.activeElement !== entry.dom.spec) entry.dom.spec.value = info.spec || info.file;
+      const text = info.spec || info.file;
+      if (document.activeElement !== entry.dom.spec && entry.dom.spec.value !== text) entry.dom.spec.value = text;
       if (info.tree && !entry.source.file) {
         const signature = JSON.stringify((info.controls || []).map((c) => c.path));
         const fresh = !entry.source.tree || signature !== entry.signature;
@@ -817,7 +827,9 @@ export function createExplorer(root, transport, config = {}) {
 
     // 3D lobe
     const lobes = shown.map((e) => arr(e, "lobe"));
-    if (changedFor("lobe", ...lobes, d.cosine, v.theta_i, v.phi_i, state.rotation.yaw, state.rotation.pitch)) {
+    // every second grid line (a quarter of the quads); a preview's every fourth
+    const step = header.preview ? 4 : 2;
+    if (changedFor("lobe", ...lobes, step, d.cosine, v.theta_i, v.phi_i, state.rotation.yaw, state.rotation.pitch)) {
       const wi = [Math.sin(rad(v.theta_i)) * Math.cos(rad(v.phi_i)), Math.sin(rad(v.theta_i)) * Math.sin(rad(v.phi_i)), Math.cos(rad(v.theta_i))];
       const meshes = shown.map((e) => {
         const spec = header.arrays[header.views[e.id].lobe];
@@ -827,11 +839,11 @@ export function createExplorer(root, transport, config = {}) {
         if (d.log) r = r.map((value) => Math.log10(1 + value));
         return { r, shape: [T, P], color: e.color };
       });
-      lobePlot(lobe.canvas, meshes, wi, state.rotation);
+      lobePlot(lobe.canvas, meshes, wi, state.rotation, step);
     }
 
     // θh × θd slices (log colour scale)
-    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${v.phi_d}° (log colour scale)`;
+    setText(sliceTitle, `θh × θd slices at φd = ${v.phi_d}° (log colour scale)`);
     const sliceCanvases = shown.map((e) => {
       const n = header.arrays[header.views[e.id].slice].shape[0];
       let canvas = slicesDrawn.get(e.id);
