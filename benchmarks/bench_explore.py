@@ -7,11 +7,13 @@ Starts ``brdfkit explore``'s server in-process and drives the real page in headl
 visible BRDF) is measured in the page with ``performance.now()``. The slider is held
 (``pointerdown``) through the steps and released after them: while it is dragged the page asks
 for previews, the sphere at half resolution (128² of 256²); ``preview share`` says how many of
-the measured frames were previews. ``click`` is the full 256² image: a single step after the
+the measured frames were previews. The steps come in drags of five (a first, unmeasured step
+then five measured ones, each as soon as the previous frame is shown), with five renders of
+the peer between the drags. ``click`` is the full 256² image: a single step after the
 page has rested (an ``input`` and a ``change`` event, as a click on the slider's track or a
-key), from the event to the full frame drawn. Interleaved with each step, the full sphere is
-rendered in Python by :func:`brdfkit.render.render_sphere` (the peer: the compute alone), so
-the ratio latency / render says what the server, the WebSocket and the drawing add.
+key), from the event to the full frame drawn. The peer is the full sphere rendered in Python
+by :func:`brdfkit.render.render_sphere` (the compute alone), so the ratio latency / render
+says what the server, the WebSocket and the drawing add.
 Workloads: Lambertian + GGX, and a MERL-layout table (written by
 :func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
 
@@ -127,24 +129,33 @@ def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(values, q))
 
 
+DRAG_STEPS = 5
+"""Steps of each drag; between drags, as many renders of the peer."""
+
+
 def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
-    """Slider-to-frame times in the page while the slider is dragged, with render_sphere
-    timed between the steps; then single steps at rest (clicks) to the full image."""
-    page.evaluate(HOLD, "pointerdown")  # the slider held: a drag
-    page.evaluate(MOVE, 30)  # warm-up (a drag's first step is a full image)
+    """Slider-to-frame times in the page while the slider is dragged (drags of
+    :data:`DRAG_STEPS` steps, each after its first, which is a full image, with as many
+    render_sphere timings between the drags); then single steps at rest (clicks) to the full
+    image."""
     browser_ms, render_ms, server_ms, draw_ms, previews = [], [], [], [], 0
     for i in range(moves):
         theta = 20 + (i * 37) % 60
+        if i % DRAG_STEPS == 0:
+            page.evaluate(HOLD, "pointerdown")  # the slider held: a drag
+            page.evaluate(MOVE, theta + 1)  # its first step: a full image
         total, server, draw, preview = page.evaluate(MOVE, theta)
         browser_ms.append(total)
         server_ms.append(server)
         draw_ms.append(draw)
         previews += preview
-        light = ViewState(theta_i=theta).light()
-        start = time.perf_counter()
-        render_sphere(brdf, light, resolution=256)
-        render_ms.append(1e3 * (time.perf_counter() - start))
-    page.evaluate(HOLD, "pointerup")
+        if i % DRAG_STEPS == DRAG_STEPS - 1 or i == moves - 1:
+            page.evaluate(HOLD, "pointerup")
+            for k in range(i - i % DRAG_STEPS, i + 1):
+                light = ViewState(theta_i=20 + (k * 37) % 60).light()
+                start = time.perf_counter()
+                render_sphere(brdf, light, resolution=256)
+                render_ms.append(1e3 * (time.perf_counter() - start))
     click_ms = []
     for i in range(max(moves // 2, 1)):
         page.wait_for_timeout(REST_MS)
