@@ -1,13 +1,20 @@
 """Explorer latency in a real browser: slider → updated sphere and plots, and the env-lit sphere.
 
 Starts ``brdfkit explore``'s server in-process and drives the real page in headless Chromium
-(Debian's ``/usr/bin/chromium``, software WebGL): for each workload the θi slider is moved
-``--moves`` times, one move after the previous frame is shown, and the time from the slider's
-``input`` event to the frame being drawn (the 256² directional-light sphere and every plot of
-every visible BRDF) is measured in the page with ``performance.now()``. Interleaved with each
-move, the same sphere is rendered in Python by :func:`brdfkit.render.render_sphere` (the peer:
-the compute alone), so the ratio latency / render says what the server, the WebSocket and the
-drawing add. Workloads: Lambertian + GGX, and a MERL-layout table (written by
+(Debian's ``/usr/bin/chromium``, software WebGL): for each workload the θi slider is dragged
+``--moves`` steps, one step after the previous frame is shown, and the time from the slider's
+``input`` event to the frame being drawn (the directional-light sphere and every plot of every
+visible BRDF) is measured in the page with ``performance.now()``. The slider is held
+(``pointerdown``) through the steps and released after them: while it is dragged the page asks
+for previews, the sphere at half resolution (128² of 256²); ``preview share`` says how many of
+the measured frames were previews. The steps come in drags of five (a first, unmeasured step
+then five measured ones, each as soon as the previous frame is shown), with five renders of
+the peer between the drags. ``click`` is the full 256² image: a single step after the
+page has rested (an ``input`` and a ``change`` event, as a click on the slider's track or a
+key), from the event to the full frame drawn. The peer is the full sphere rendered in Python
+by :func:`brdfkit.render.render_sphere` (the compute alone), so the ratio latency / render
+says what the server, the WebSocket and the drawing add.
+Workloads: Lambertian + GGX, and a MERL-layout table (written by
 :func:`brdfkit.measured.write_merl`, read back as a tabulated BRDF).
 
 Under the environment map (the bundled one), the time from switching the view on to the first
@@ -71,11 +78,28 @@ MOVE = """(value) => new Promise((resolve) => {
   const start = performance.now(), before = x.shown.seq;
   const done = () => x.shown && x.sent && x.shown.seq > before && x.shown.seq === x.sent.seq;
   const wait = () => done()
-      ? resolve([x.shown.time - start, 1e3 * x.frame().header.seconds, x.drawMs])
+      ? resolve([x.shown.time - start, 1e3 * x.frame().header.seconds, x.drawMs,
+                 !!x.shown.preview])
       : requestAnimationFrame(wait);
   range.value = value; range.dispatchEvent(new Event('input'));
   requestAnimationFrame(wait);
 })"""
+
+CLICK = """(value) => new Promise((resolve) => {
+  const x = window.explorer, range = document.querySelector('.bx-theta_i');
+  const start = performance.now(), before = x.shown.seq;
+  const done = () => x.shown.seq > before && x.shown.seq === x.sent.seq && !x.moving
+      && !x.shown.preview;
+  const wait = () => done() ? resolve(x.shown.time - start) : requestAnimationFrame(wait);
+  range.value = value;
+  range.dispatchEvent(new Event('input')); range.dispatchEvent(new Event('change'));
+  requestAnimationFrame(wait);
+})"""
+
+HOLD = """(name) => document.querySelector('.bx-theta_i').dispatchEvent(new PointerEvent(name))"""
+
+REST_MS = 400
+"""Milliseconds the page is left alone before a click (beyond its rest time: a single step)."""
 
 ENV = """([limit]) => new Promise((resolve) => {
   const x = window.explorer, box = document.querySelector('.bx-envmap');
@@ -105,29 +129,50 @@ def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(values, q))
 
 
+DRAG_STEPS = 5
+"""Steps of each drag; between drags, as many renders of the peer."""
+
+
 def latency(page: Any, brdf: Any, moves: int) -> dict[str, Any]:
-    """Slider-to-frame times in the page, with render_sphere timed between the moves."""
-    page.evaluate(MOVE, 30)  # warm-up
-    browser_ms, render_ms, server_ms, draw_ms = [], [], [], []
+    """Slider-to-frame times in the page while the slider is dragged (drags of
+    :data:`DRAG_STEPS` steps, each after its first, which is a full image, with as many
+    render_sphere timings between the drags); then single steps at rest (clicks) to the full
+    image."""
+    browser_ms, render_ms, server_ms, draw_ms, previews = [], [], [], [], 0
     for i in range(moves):
         theta = 20 + (i * 37) % 60
-        total, server, draw = page.evaluate(MOVE, theta)
+        if i % DRAG_STEPS == 0:
+            page.evaluate(HOLD, "pointerdown")  # the slider held: a drag
+            page.evaluate(MOVE, theta + 1)  # its first step: a full image
+        total, server, draw, preview = page.evaluate(MOVE, theta)
         browser_ms.append(total)
         server_ms.append(server)
         draw_ms.append(draw)
-        light = ViewState(theta_i=theta).light()
-        start = time.perf_counter()
-        render_sphere(brdf, light, resolution=256)
-        render_ms.append(1e3 * (time.perf_counter() - start))
+        previews += preview
+        if i % DRAG_STEPS == DRAG_STEPS - 1 or i == moves - 1:
+            page.evaluate(HOLD, "pointerup")
+            for k in range(i - i % DRAG_STEPS, i + 1):
+                light = ViewState(theta_i=20 + (k * 37) % 60).light()
+                start = time.perf_counter()
+                render_sphere(brdf, light, resolution=256)
+                render_ms.append(1e3 * (time.perf_counter() - start))
+    click_ms = []
+    for i in range(max(moves // 2, 1)):
+        page.wait_for_timeout(REST_MS)
+        click_ms.append(page.evaluate(CLICK, 25 + (i * 41) % 60))
     median = statistics.median(browser_ms)
     return {
         "median_ms": median,
         "p95_ms": percentile(browser_ms, 95),
+        "preview_share": previews / moves,
+        "click_median_ms": statistics.median(click_ms),
+        "click_p95_ms": percentile(click_ms, 95),
         "render_sphere_median_ms": statistics.median(render_ms),
         "ratio_to_render_sphere": median / statistics.median(render_ms),
         "server_views_median_ms": statistics.median(server_ms),
         "page_draw_median_ms": statistics.median(draw_ms),
         "moves": moves,
+        "clicks": len(click_ms),
     }
 
 
@@ -251,6 +296,7 @@ def main() -> None:
     parser.add_argument("--chromium", default="/usr/bin/chromium")
     parser.add_argument("--env-limit", type=float, default=20.0, help="seconds")
     parser.add_argument("--orbits", type=int, default=6, help="drags of the lit object")
+    parser.add_argument("--lit-moves", type=int, default=None, help="default: --moves")
     parser.add_argument("--session", action="store_true", help="env map figures, no browser")
     parser.add_argument("--repeats", type=int, default=3, help="--session runs")
     parser.add_argument("--out", type=Path, default=None)
@@ -287,7 +333,7 @@ def main() -> None:
             if name == "lambertian+ggx":
                 record["envmap"] = page.evaluate(ENV, [1e3 * args.env_limit])
                 record["lit"] = {
-                    **lit_latency(page, args.moves),
+                    **lit_latency(page, args.lit_moves or args.moves),
                     **orbit_latency(page, args.orbits),
                 }
             results["workloads"][name] = record
@@ -298,13 +344,14 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(results, indent=2) + "\n")
     print(
-        "| workload | median ms | p95 ms | server views ms | page draw ms | render_sphere ms "
-        "| ratio |"
+        "| workload | median ms | p95 ms | preview share | click median ms | click p95 ms "
+        "| server views ms | page draw ms | render_sphere ms | ratio |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name, r in results["workloads"].items():
         print(
-            f"| {name} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | "
+            f"| {name} | {r['median_ms']:.1f} | {r['p95_ms']:.1f} | {r['preview_share']:.2f} | "
+            f"{r['click_median_ms']:.1f} | {r['click_p95_ms']:.1f} | "
             f"{r['server_views_median_ms']:.1f} | {r['page_draw_median_ms']:.1f} | "
             f"{r['render_sphere_median_ms']:.1f} | {r['ratio_to_render_sphere']:.2f} |"
         )

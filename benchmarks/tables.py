@@ -363,12 +363,14 @@ def explore(r: dict) -> str:
     if "workloads" in r:
         out.append(
             rows(
-                ["workload", "median ms", "p95 ms", "server views ms", "page draw ms",
-                 "render_sphere ms"],
+                ["workload", "median ms", "p95 ms", "preview share", "click median ms",
+                 "click p95 ms", "server views ms", "page draw ms", "render_sphere ms"],
                 [[name, f"{w['median_ms']:.1f}", f"{w['p95_ms']:.1f}",
+                  f"{w.get('preview_share', 0):.2f}", _ms(w.get("click_median_ms")),
+                  _ms(w.get("click_p95_ms")),
                   f"{w['server_views_median_ms']:.1f}", f"{w['page_draw_median_ms']:.1f}",
                   f"{w['render_sphere_median_ms']:.1f}"] for name, w in r["workloads"].items()],
-                "lrrrrr",
+                "lrrrrrrrr",
             )
         )  # fmt: skip
         env = next((w["envmap"] for w in r["workloads"].values() if "envmap" in w), None)

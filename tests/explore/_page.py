@@ -12,19 +12,22 @@ from brdfkit.io import srgb_encode
 WAIT_MS = 30_000
 
 
+RESTED = (
+    "const x = window.explorer; return x && x.sent && x.shown.seq === x.sent.seq"
+    " && !x.moving && !x.shown.preview"
+)
+"""The page shows the full reply to the last state it sent: no slider is moving (a dragged
+slider's previews are refined once it rests) and the frame shown is no preview."""
+
+
 def settled(page: Any, after: int = 0) -> int:
-    """Wait until the page shows the reply to the last state it sent (and nothing is pending),
-    with a sequence number above ``after``; returns it."""
+    """Wait until the page shows the full reply to the last state it sent (and nothing is
+    pending; :data:`RESTED`), with a sequence number above ``after``; returns it."""
     page.wait_for_function(
-        "([after]) => { const x = window.explorer; return x && x.sent && x.shown.seq === x.sent.seq"
-        " && x.shown.seq > after; }",
-        arg=[after],
-        timeout=WAIT_MS,
+        f"([after]) => {{ {RESTED} && x.shown.seq > after; }}", arg=[after], timeout=WAIT_MS
     )
     page.wait_for_timeout(50)  # a coalesced change may follow the reply at once
-    page.wait_for_function(
-        "() => window.explorer.shown.seq === window.explorer.sent.seq", timeout=WAIT_MS
-    )
+    page.wait_for_function(f"() => {{ {RESTED}; }}", timeout=WAIT_MS)
     return page.evaluate("window.explorer.shown.seq")
 
 

@@ -122,12 +122,20 @@ def test_dragging_on_the_sphere_moves_the_light(page):
     before = page.evaluate("window.explorer.shown.seq")
     box = page.locator('.bx-sphere[data-id="b1"]').bounding_box()
     cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.evaluate(
+        "window.previews = 0;"
+        " window.explorer.onFrame((h) => { if (h.preview) window.previews += 1; })"
+    )
     page.mouse.move(cx, cy)
     page.mouse.down()
-    # drag to the point (x, y) = (-0.4, 0.5) of the unit disc: its normal is the light
-    page.mouse.move(cx - 0.4 * box["width"] / 2, cy - 0.5 * box["height"] / 2, steps=8)
+    # drag to the point (x, y) = (-0.4, 0.5) of the unit disc: its normal is the light; each
+    # step drawn before the next, the steps after the first as previews
+    for step in range(1, 5):
+        page.mouse.move(cx - 0.1 * step * box["width"] / 2, cy - 0.125 * step * box["height"] / 2)
+        page.wait_for_function("() => window.explorer.shown.seq === window.explorer.sent.seq")
     page.mouse.up()
     settled(page, before)
+    assert page.evaluate("window.previews") >= 1
     v = view(page)
     x, y = -0.4, 0.5
     theta_i = math.degrees(math.acos(math.sqrt(1 - x * x - y * y)))

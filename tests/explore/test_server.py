@@ -116,6 +116,37 @@ def test_a_render_reply_holds_every_view(server):
         assert receive(ws)["type"] == "albedo"
 
 
+def test_a_moving_light_gets_previews_and_no_new_albedo(server):
+    def render(seq: int, theta_i: float, preview: bool) -> dict:
+        message = json.loads(json.dumps(RENDER))
+        message["seq"] = seq
+        message["state"]["view"] |= {"theta_i": theta_i, "resolution": 128, "preview": preview}
+        return message
+
+    with connect(server) as ws:
+        ws.send(json.dumps(render(1, 30, False)))
+        header, arrays = decode_frame(ws.recv(timeout=20))
+        assert arrays[header["views"]["a"]["sphere"]].shape == (128, 128, 1)
+        assert not header["preview"]
+        assert receive(ws)["type"] == "albedo"
+        replies = []
+        for seq, (theta_i, preview) in enumerate([(35, True), (40, False)], start=2):
+            ws.send(json.dumps(render(seq, theta_i, preview)))
+            header, arrays = decode_frame(ws.recv(timeout=20))
+            sphere = arrays[header["views"]["a"]["sphere"]]
+            replies.append((header["seq"], header["preview"], sphere.shape))
+            # the views the light leaves as they are: not sent again (the page holds them)
+            assert sorted(header["held"]) == [["a", "slice"], ["a", "theta_d"], ["a", "theta_h"]]
+            assert len(arrays) == len(header["arrays"]) == 3 + 3  # axes, sphere, θv, lobe
+        assert replies == [(2, True, (64, 64, 1)), (3, False, (128, 128, 1))]
+        ws.send(
+            json.dumps(
+                {**render(4, 40, False), "type": "checks", "entry": RENDER["state"]["entries"][0]}
+            )
+        )
+        assert receive(ws)["type"] == "checks"  # the next reply: no albedo for the moved light
+
+
 @pytest.mark.parametrize(
     ("message", "expected"),
     [

@@ -29,6 +29,20 @@ def test_the_sphere_is_render_sphere(spec, angles):
     assert reference.max() > 0
 
 
+def test_the_compiled_sphere_is_render_sphere_and_a_preview_has_half_the_pixels():
+    pytest.importorskip("numba")
+    brdf = parse(SPECS[0])
+    views.build_fast_eval(brdf)
+    other = parse(SPECS[0].replace("alpha=0.2", "alpha=0.35"))  # a slider moved: same kernel
+    assert views.fast_eval(other) is not other
+    state = views.ViewState(theta_i=40.0, phi_i=25.0, resolution=128)
+    reference = render_sphere(other, state.light(), resolution=128)
+    np.testing.assert_allclose(views.sphere(other, state), reference, rtol=1e-12, atol=1e-15)
+    preview = dataclasses.replace(state, preview=True)
+    half = render_sphere(other, state.light(), resolution=64)
+    np.testing.assert_allclose(views.sphere(other, preview), half, rtol=1e-12, atol=1e-15)
+
+
 @pytest.fixture(scope="module")
 def envmap():
     return EnvironmentMap.from_file(default_envmap_path())

@@ -15,7 +15,8 @@ An entry is ``{"id": "b1", "visible": true, "source": S}`` with ``S`` one of ``{
 ``{"tree": {...}}`` (:mod:`brdfkit.explore.model_tree`) or ``{"file": "name"}`` (a file the server
 was given). The view holds the angles of :class:`~brdfkit.explore.views.ViewState`, and for
 the lit object its switch ``lit``, its ``mesh`` (``bundled:NAME`` or an uploaded mesh's name)
-and the orbiting camera's ``azimuth`` and ``elevation`` (degrees).
+and the orbiting camera's ``azimuth`` and ``elevation`` (degrees); ``preview`` is true while a
+slider or the light is dragged (:attr:`~brdfkit.explore.views.ViewState.sphere_resolution`).
 
 References
 ----------
@@ -195,7 +196,7 @@ def _entry(raw: Any, index: int) -> Entry:
 def _view(raw: Any) -> ViewState:
     if not isinstance(raw, dict):
         raise ProtocolError("state.view must be an object")
-    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap", "lit", "mesh"}
+    unknown = set(raw) - {*_ANGLES, "resolution", "irradiance", "envmap", "lit", "mesh", "preview"}
     if unknown:
         raise ProtocolError(f"state.view has unknown fields {sorted(unknown)[:5]}")
     values: dict[str, Any] = {}
@@ -206,7 +207,7 @@ def _view(raw: Any) -> ViewState:
         if raw["resolution"] not in RESOLUTIONS or isinstance(raw["resolution"], bool):
             raise ProtocolError(f"view.resolution must be one of {RESOLUTIONS}")
         values["resolution"] = int(raw["resolution"])
-    for flag in ("envmap", "lit"):
+    for flag in ("envmap", "lit", "preview"):
         if flag in raw:
             if not isinstance(raw[flag], bool):
                 raise ProtocolError(f"view.{flag} must be true or false")

@@ -188,7 +188,8 @@ class _Channel:
     A message waiting in a slot is replaced by a newer one of its kind, so a slider that moves
     faster than the renders skips the stale states. Renders run in one worker; the slow albedo
     curves and physics checks in another, so they never hold up the next image; the
-    environment-lit spheres come pass by pass from a third, and a newer render cancels them;
+    environment-lit spheres come pass by pass from a third, cancelled only by a render that
+    changes what they show (the BRDFs, the map's switch, the resolution);
     the lit objects pass by pass from a fourth, cancelled only by a render that changes what
     they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining;
     their next pass waits until no render has run for :data:`LIT_QUIET_SECONDS` (a slider
@@ -202,6 +203,9 @@ class _Channel:
         self.lock = asyncio.Lock()
         self.progressive: dict[str, Message | None] = {"env": None, "lit": None}
         self.cancels = {"env": threading.Event(), "lit": threading.Event()}
+        self.env_shown: tuple[Any, ...] | None = None
+        self.albedo_asked: tuple[Any, ...] | None = None
+        self.views_sent: dict[tuple[str, str], Any] = {}
         self.lit_shown: tuple[Any, ...] | None = None
         self.last_render = 0.0
 
@@ -230,6 +234,36 @@ class _Channel:
             for header, arrays in replies:
                 await self.ws.send_bytes(encode_frame(header, [a.tobytes() for a in arrays]))
 
+    def _held_left_out(self, reply: tuple[dict[str, Any], list[Any]]) -> tuple[dict, list]:
+        """A frame without the views the page holds already: those whose array is the very
+        object the last frame sent (the session's cached views, e.g. the θh × θd slice while
+        the light moves), named in the header's ``held`` as ``[id, view]`` pairs and left
+        out of its arrays. Other replies unchanged."""
+        header, arrays = reply
+        if header["type"] != "frame":
+            return reply
+        held, kept, sent = [], {}, {}
+        for entry_id, names in header["views"].items():
+            for name, index in names.items():
+                sent[entry_id, name] = arrays[index]
+                if self.views_sent.get((entry_id, name)) is arrays[index]:
+                    held.append([entry_id, name])
+        self.views_sent = sent
+        left_out = {header["views"][i][n] for i, n in held}
+        for index in range(len(arrays)):
+            if index not in left_out:
+                kept[index] = len(kept)
+        views = {
+            i: {n: kept[k] for n, k in names.items() if k in kept}
+            for i, names in header["views"].items()
+        }
+        axes = {n: kept[k] for n, k in header["axes"].items()}
+        table = [header["arrays"][k] for k in kept]
+        return (
+            {**header, "views": views, "axes": axes, "arrays": table, "held": held},
+            [arrays[k] for k in kept],
+        )
+
     async def _listen(self) -> None:
         """Put each message in its slot and wake its worker, until the page disconnects."""
         while True:
@@ -247,8 +281,11 @@ class _Channel:
             self.pending[message.type] = message
             self.wakes["fast" if message.type == "render" else "slow"].set()
             if message.type == "render":
-                self._restart("env", message)
                 view = message.view
+                shown = (message.entries, view.envmap, view.resolution)
+                if shown != self.env_shown:
+                    self.env_shown = shown
+                    self._restart("env", message)
                 shown = (message.entries, view.lit, view.mesh, view.azimuth, view.elevation)
                 if shown != self.lit_shown:
                     self.lit_shown = shown
@@ -271,7 +308,8 @@ class _Channel:
         return await asyncio.to_thread(guarded, message.seq, work)
 
     async def _work(self, wake: asyncio.Event, kinds: tuple[str, ...]) -> None:
-        """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo."""
+        """Serve the slots of ``kinds`` whenever ``wake`` is set; a render queues its albedo
+        curves when its BRDFs or resolution differ from those last queued."""
         while True:
             await wake.wait()
             wake.clear()
@@ -286,8 +324,10 @@ class _Channel:
                 if rendering:
                     self.last_render = time.monotonic()
                 if result is not None:
-                    await self._reply([result])
-                if kind == "render" and result is not None:
+                    await self._reply([self._held_left_out(result) if rendering else result])
+                asked = (message.entries, message.view.resolution)
+                if kind == "render" and result is not None and asked != self.albedo_asked:
+                    self.albedo_asked = asked  # the light's slider leaves the albedo as it is
                     self.pending["albedo"] = message
                     self.wakes["slow"].set()
                 if any(self.pending[k] is not None for k in kinds):
@@ -378,7 +418,8 @@ class ExplorerServer:
         self.port = self._socket.getsockname()[1]
         self.app = build_app(session, self.token, self.port, initial)
         specs = [item for item in initial if item not in session.files]
-        self._warm_up = threading.Thread(target=session.warm_up, args=(specs,), daemon=True)
+        files = [item for item in initial if item in session.files]
+        self._warm_up = threading.Thread(target=session.warm_up, args=(specs, files), daemon=True)
         self._warm_up.start()
         self._server: Any = None
         self._thread: threading.Thread | None = None

@@ -18,7 +18,7 @@ import tempfile
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -277,7 +277,7 @@ class Session:
                 affordable(brdf.channels, state.resolution)
                 key = info.get("spec") or f"file:{info['file']}"
                 sphere, theta_v, lobe = self._cached(
-                    (key, state.theta_i, state.phi_i, state.resolution, state.irradiance),
+                    (key, state.theta_i, state.phi_i, state.sphere_resolution, state.irradiance),
                     partial(self._incident_views, brdf, state),
                 )
                 theta_h, theta_d, slice_ = self._cached(
@@ -303,6 +303,7 @@ class Session:
             "views": per_entry,
             "axes": axes,
             "light": [float(x) for x in light],
+            "preview": state.preview,
             "arrays": table,
             "seconds": time.perf_counter() - start,
         }
@@ -469,18 +470,25 @@ class Session:
             noise = views.relative_noise(p, g.mask)
             yield self._pass_reply("lit", message, entry_id, p.image, p.samples, start, noise)
 
-    def warm_up(self, specs: list[str]) -> None:
-        """Build, before the page asks, what the environment-lit sphere of ``specs`` needs:
-        the map's tables and the compiled kernels of the very BRDF objects the page's
-        messages resolve to (:meth:`brdf` keeps them by spec; kernels are kept per object).
-        In a fresh process the first passes otherwise run on NumPy while the kernels build."""
+    def warm_up(self, specs: Sequence[str], files: Sequence[str] = ()) -> None:
+        """Build, before the page asks, what the views of ``specs`` and of the session's
+        ``files`` need: the compiled float64 ``eval`` of the directional-light sphere
+        (:func:`~brdfkit.explore.views.build_fast_eval`), and for the specs the
+        environment-lit sphere's map tables and compiled kernels, of the very BRDF objects
+        the page's messages resolve to (:meth:`brdf` keeps them by spec and by file; kernels
+        are kept per object). In a fresh process the first renders otherwise run on NumPy
+        while the kernels build."""
         from brdfkit.render.compiled_shading import compiled_shader
 
-        for spec in specs or ["lambertian + ggx"]:
+        for name in files:
+            if name in self._brdfs:
+                views.build_fast_eval(self._brdfs[name])
+        for spec in specs or ([] if files else ["lambertian + ggx"]):
             try:
                 brdf = self._parsed("spec", spec)
             except (BrdfkitError, ValueError):
                 continue
+            views.build_fast_eval(brdf)
             plan = compiled_shader(brdf, [self.envmap], method="auto")
             if plan is not None:
                 plan[0].build()

@@ -110,6 +110,9 @@ export function toPixels(data, size, channels, display) {
   return out;
 }
 
+// Text written only when it differs (an unchanged page needs no new layout).
+function setText(node, text) { if (node.textContent !== text) node.textContent = text; }
+
 function getPath(obj, path) { return path.reduce((o, k) => (o === undefined ? undefined : o[k]), obj); }
 function setPath(obj, path, value) { getPath(obj, path.slice(0, -1))[path[path.length - 1]] = value; }
 
@@ -218,9 +221,10 @@ function polarPlot(canvas, series, thetaI, log) {
   ctx.fillText(`max ${rmax.toPrecision(3)}${log ? " (log₁₀(1+·))" : ""}`, 4, 12);
 }
 
-// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each grid
-// cell a quad lit from the viewer's upper left (|n·l|, both sides), drawn far to near.
-function lobePlot(canvas, meshes, wi, rot) {
+// The 3D lobe r(wo)·wo as a shaded surface, rotated by yaw/pitch, orthographic: each cell of
+// every `step`-th grid line a quad lit from the viewer's upper left (|n·l|, both sides), drawn
+// far to near.
+function lobePlot(canvas, meshes, wi, rot, step = 2) {
   const ctx = clear(canvas);
   const W = canvas.width, H = canvas.height;
   let rmax = 0;
@@ -249,9 +253,8 @@ function lobePlot(canvas, meshes, wi, rot) {
       const th = (t / (T - 1)) * (Math.PI / 2), ph = (p / (P - 1)) * 2 * Math.PI, r = m.r[t * P + p];
       return turn(r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th));
     };
-    // every second grid line: a quarter of the quads, drawn in the time the wireframe took
-    for (let t = 0; t < T - 1; t += 2) for (let p = 0; p < P - 1; p += 2) {
-      const t2 = Math.min(t + 2, T - 1), p2 = Math.min(p + 2, P - 1);
+    for (let t = 0; t < T - 1; t += step) for (let p = 0; p < P - 1; p += step) {
+      const t2 = Math.min(t + step, T - 1), p2 = Math.min(p + step, P - 1);
       const c = [at(t, p), at(t, p2), at(t2, p2), at(t2, p)];
       const e1 = c[2].map((v, k) => v - c[0][k]), e2 = c[3].map((v, k) => v - c[1][k]);
       const n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
@@ -278,6 +281,35 @@ function colormap(t) {
   const x = Math.min(Math.max(t, 0), 1) * (STOPS.length - 1), i = Math.min(Math.floor(x), STOPS.length - 2), f = x - i;
   return STOPS[i].map((c, k) => Math.round(c + (STOPS[i + 1][k] - c) * f));
 }
+// The θh × θd slice's pixels: log colour scale over four decades below the largest value, black
+// where the value is 0; (θd up).
+function slicePixels(v, n) {
+  let vmax = 0;
+  for (const x of v) vmax = Math.max(vmax, x);
+  const vmin = vmax * 1e-4, px = new Uint8ClampedArray(n * n * 4), scale = 1 / Math.log(vmax / vmin);
+  for (let row = 0; row < n; row++) for (let col = 0; col < n; col++) {
+    const value = v[row * n + col], out = ((n - 1 - row) * n + col) * 4;
+    const c = value > 0 ? colormap(Math.log(value / vmin) * scale) : [0, 0, 0];
+    px[out] = c[0]; px[out + 1] = c[1]; px[out + 2] = c[2]; px[out + 3] = 255;
+  }
+  return px;
+}
+
+// Whether any of a view's inputs differ from those it was last drawn from (kept by name):
+// typed arrays by value, anything else by identity. A view whose inputs are unchanged is not
+// drawn again: the light's slider moves the spheres, the polar plot, the θv curve and the lobe.
+function sameValue(a, b) {
+  if (!ArrayBuffer.isView(a) || !ArrayBuffer.isView(b)) return a === b;
+  if (a.length !== b.length || a.constructor !== b.constructor) return false;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i] && !(a[i] !== a[i] && b[i] !== b[i])) return false;
+  return true;
+}
+function inputsChanged(memory, name, inputs) {
+  const last = memory.get(name);
+  if (last && last.length === inputs.length && inputs.every((v, i) => sameValue(v, last[i]))) return false;
+  memory.set(name, inputs);
+  return true;
+}
 
 // ------------------------------------------------------------------------------ the explorer
 export function createExplorer(root, transport, config = {}) {
@@ -289,7 +321,7 @@ export function createExplorer(root, transport, config = {}) {
   };
   let nextId = 1, seq = 0, inFlight = 0, pending = false, frame = null, albedo = null;
   const listeners = [];
-  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
+  const api = { state, plotted: {}, env: {}, lit: {}, sent: { seq: 0, time: 0 }, shown: { seq: 0, time: 0 }, moving: false, drawMs: 0, frame: () => frame, onFrame: (f) => listeners.push(f) };
   root.classList.add("brdfkit-explorer");
 
   // ---- layout
@@ -324,10 +356,11 @@ export function createExplorer(root, transport, config = {}) {
     const range = el("input", { type: "range", min: lo, max: hi, step, value: target[key], className: `bx-${key}` });
     const out = el("span", { className: "bx-value", textContent: String(target[key]) });
     range.addEventListener("input", () => { target[key] = Number(range.value); out.textContent = range.value; onchange(); });
+    if (onchange === moved) draggable(range);
     inputs[key] = { range, out };
     globals.append(el("label", { className: "bx-row" }, [el("span", { textContent: label }), range, out]));
   };
-  for (const [key, label, lo, hi] of ANGLE_SLIDERS) slider(key, label, lo, hi, 0.1, state.view, changed);
+  for (const [key, label, lo, hi] of ANGLE_SLIDERS) slider(key, label, lo, hi, 0.1, state.view, moved);
   slider("exposure", "exposure", -10, 10, 0.1, state.display, redraw);
   const select = (key, label, options, target, onchange) => {
     const s = el("select", { className: `bx-${key}` }, options.map(([v, t]) => el("option", { value: v, textContent: t })));
@@ -403,7 +436,7 @@ export function createExplorer(root, transport, config = {}) {
   const envs = new Map();  // id → {canvas, caption, data, size, C}
   const lits = new Map();  // id → {canvas, caption, data, size, C, header}
   const sliceGroup = group("slices", "θh × θd slices (log)");
-  const slices = sliceGroup.body;
+  const slices = sliceGroup.body, sliceTitle = sliceGroup.box.querySelector(".bx-title span");
   const polar = panel("polar", "plane of incidence (polar)", 360, 200);
   const lobe = panel("lobe", "3D lobe, shaded surface (drag to rotate)", 360, 300);
   const curves = {
@@ -479,13 +512,14 @@ export function createExplorer(root, transport, config = {}) {
     for (const c of entry.info.controls || []) {
       const value = getPath(tree, c.path);
       const key = c.path.join(".");
-      const set = (v) => { setPath(entry.source.tree, c.path, v); changed(); };
+      const set = (v, moving = false) => { setPath(entry.source.tree, c.path, v); if (moving) moved(); else changed(); };
       const label = el("span", { className: "bx-param-name", textContent: `${c.model}.${c.name}`, title: (c.slider && c.slider.hint) || "" });
       let widget;
       if (c.kind === "number") {
         const range = el("input", { type: "range", min: 0, max: 1000, step: 1, value: Math.round(valueToSlider(value, c.slider) * 1000) });
         const box = el("input", { type: "number", value: tidy(value), step: "any", className: "bx-number" });
-        range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v); });
+        range.addEventListener("input", () => { const v = tidy(sliderToValue(range.value / 1000, c.slider)); box.value = v; set(v, true); });
+        draggable(range);
         box.addEventListener("change", () => { range.value = Math.round(valueToSlider(Number(box.value), c.slider) * 1000); set(Number(box.value)); });
         widget = [range, box];
       } else if (c.kind === "rgb") {
@@ -517,8 +551,33 @@ export function createExplorer(root, transport, config = {}) {
     const ids = visibleIds();
     return {
       entries: state.entries.map((e) => ({ id: e.id, visible: ids.has(e.id), source: e.source })),
-      view: state.view,
+      view: { ...state.view, preview: api.moving },
     };
+  }
+  // While a slider or the light is dragged (held, after its first step) the page asks for
+  // previews (the sphere at half resolution: a quarter of the pixels to render, send and
+  // draw); the full image follows once it rests: released, or held still for REST_MS. A single
+  // step (a click, a key) asks for the full image at once.
+  const REST_MS = 300;
+  let restTimer = 0, held = false, stepped = false;
+  function moved() {
+    api.moving = held && stepped;
+    stepped = held;
+    clearTimeout(restTimer);
+    if (api.moving) restTimer = setTimeout(rested, REST_MS);
+    changed();
+  }
+  function grabbed() { held = true; stepped = false; }
+  function released() { held = false; stepped = false; rested(); }
+  function rested() {
+    clearTimeout(restTimer);
+    if (!api.moving) return;
+    api.moving = false;
+    changed();
+  }
+  function draggable(range) {
+    range.addEventListener("pointerdown", grabbed);
+    for (const name of ["pointerup", "change"]) range.addEventListener(name, released);
   }
   function changed() {
     saveUrl();
@@ -534,20 +593,26 @@ export function createExplorer(root, transport, config = {}) {
 
   transport.onMessage((header, buffers) => {
     const arrays = (header.arrays || []).map((spec, i) => typedArray(spec, buffers[i]));
+    for (const [id, name] of header.held || []) {  // views as in the previous frame
+      const index = frame.header.views[id][name];
+      header.views[id][name] = arrays.length;
+      header.arrays.push(frame.header.arrays[index]);
+      arrays.push(frame.arrays[index]);
+    }
     if (header.type === "frame") {
       if (header.seq === inFlight) inFlight = 0;
       frame = { header, arrays };
       const start = performance.now();
       applyEntries(header.entries);
       redraw();
-      api.shown = { seq: header.seq, time: performance.now() };
+      api.shown = { seq: header.seq, time: performance.now(), preview: header.preview };
       api.drawMs = api.shown.time - start;
-      status.textContent = "";
+      setText(status, "");
       for (const f of listeners) f(header);
       if (pending && !inFlight) { pending = false; changed(); }
     } else if (header.type === "albedo") {
       albedo = { header, arrays };
-      redraw();
+      if (frame) drawAlbedo(shownEntries());
     } else if (header.type === "env") {
       showEnv(header, arrays[0]);
     } else if (header.type === "lit") {
@@ -565,10 +630,11 @@ export function createExplorer(root, transport, config = {}) {
     for (const info of infos) {
       const entry = state.entries.find((e) => e.id === info.id);
       if (!entry) continue;
-      entry.dom.error.textContent = info.error || "";
+      setText(entry.dom.error, info.error || "");
       if (info.error && !info.label) continue;
       entry.info = info;
-      if (document.activeElement !== entry.dom.spec) entry.dom.spec.value = info.spec || info.file;
+      const text = info.spec || info.file;
+      if (document.activeElement !== entry.dom.spec && entry.dom.spec.value !== text) entry.dom.spec.value = text;
       if (info.tree && !entry.source.file) {
         const signature = JSON.stringify((info.controls || []).map((c) => c.path));
         const fresh = !entry.source.tree || signature !== entry.signature;
@@ -692,93 +758,127 @@ export function createExplorer(root, transport, config = {}) {
   }
 
   // ---- drawing
+  const drawn = new Map();  // view name → the inputs it was last drawn from (inputsChanged)
+  function shownEntries() {
+    const ids = visibleIds();
+    return state.entries.filter((e) => frame.header.views[e.id] && ids.has(e.id));
+  }
   function redraw() {
     saveUrl();
     if (!frame) return;
     drawEnvs();
     drawLits();
     const { header, arrays } = frame;
-    const d = state.display;
-    const shown = state.entries.filter((e) => header.views[e.id] && visibleIds().has(e.id));
+    const d = state.display, v = state.view;
+    const shown = shownEntries();
     const channels = (e) => (e.info ? e.info.channels : 1);
     const arr = (e, name) => arrays[header.views[e.id][name]];
+    const colors = shown.map((e) => `${e.id}:${e.color}`).join(" ");
+    const changedFor = (name, ...inputs) => inputsChanged(drawn, name, [colors, d.channel, d.log, ...inputs]);
     api.plotted = {};
 
     // lit spheres (+ the difference of the first two)
-    const R = state.view.resolution;
     const sphereData = [];
+    let R = v.resolution;  // a preview's sphere has half the pixels
     const canvases = shown.map((e) => {
       const data = arr(e, "sphere");
+      R = header.arrays[header.views[e.id].sphere].shape[0];
       const C = data.length / (R * R);
       sphereData.push({ data, C });
-      return sphereCanvas(e.id, e.color, toPixels(data, R, C, d), R);
+      const draw = changedFor(`sphere ${e.id}`, data, R, d.exposure, d.gamma);
+      return sphereCanvas(e.id, e.color, draw ? toPixels(data, R, C, d) : null, R);
     });
     if (sphereData.length >= 2) {
       const [a, b] = sphereData;
-      const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
-      for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
-      canvases.push(sphereCanvas("difference", "#000", toPixels(diff, R, C, d), R, "|first − second|"));
+      let pixels = null;
+      if (changedFor("sphere difference", a.data, b.data, R, d.exposure, d.gamma)) {
+        const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
+        for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+        pixels = toPixels(diff, R, C, d);
+      }
+      canvases.push(sphereCanvas("difference", "#000", pixels, R, "|first − second|"));
     }
     const current = Array.from(spheres.children);
     if (current.length !== canvases.length || current.some((c, i) => c !== canvases[i])) spheres.replaceChildren(...canvases);
 
-    // curves
+    // curves (api.plotted holds every curve's values, drawn or not)
     const curve = (name, cosine) => shown.map((e) => {
       const x = arrays[header.axes[name]];
       let y = channelOf(arr(e, name), channels(e), d.channel);
-      if (cosine) y = y.map((v, i) => v * Math.max(Math.cos(x[i]), 0));
+      if (cosine) y = y.map((value, i) => value * Math.max(Math.cos(x[i]), 0));
       api.plotted[name] = api.plotted[name] || {};
       api.plotted[name][e.id] = { x: Array.from(x), y: Array.from(y) };
       return { x, y, color: e.color };
     });
+    const ys = (series) => series.map((s) => s.y);
     const tv = curve("theta_v", d.cosine);
-    polarPlot(polar.canvas, tv, state.view.theta_i, d.log);
-    linePlot(curves.theta_v.canvas, tv, { log: d.log, xmin: -90, xmax: 90, title: d.cosine ? "f·cos θv" : "f" });
-    linePlot(curves.theta_h.canvas, curve("theta_h", false), { log: d.log, title: `f at θd = ${state.view.theta_d}°, φd = ${state.view.phi_d}°` });
-    linePlot(curves.theta_d.canvas, curve("theta_d", false), { log: d.log, title: `f at θh = ${state.view.theta_h}°, φd = ${state.view.phi_d}°` });
-    if (albedo) {
-      const ax = albedo.arrays[albedo.header.axes.albedo];
-      const series = shown.filter((e) => albedo.header.views[e.id]).map((e) => {
-        const v = albedo.header.views[e.id];
-        const mean = channelOf(albedo.arrays[v.albedo], channels(e), d.channel);
-        const err = channelOf(albedo.arrays[v.albedo_err], channels(e), d.channel).map((s) => 2 * s);
-        return { x: ax, y: mean, band: err, color: e.color };
-      });
-      linePlot(curves.albedo.canvas, series, { xmin: 0, xmax: 90, title: "ρ(θo)" });
+    if (changedFor("theta_v", ...ys(tv), d.cosine, v.theta_i)) {
+      polarPlot(polar.canvas, tv, v.theta_i, d.log);
+      linePlot(curves.theta_v.canvas, tv, { log: d.log, xmin: -90, xmax: 90, title: d.cosine ? "f·cos θv" : "f" });
     }
+    const th = curve("theta_h", false), td = curve("theta_d", false);
+    if (changedFor("theta_h", ...ys(th), v.theta_d, v.phi_d)) {
+      linePlot(curves.theta_h.canvas, th, { log: d.log, title: `f at θd = ${v.theta_d}°, φd = ${v.phi_d}°` });
+    }
+    if (changedFor("theta_d", ...ys(td), v.theta_h, v.phi_d)) {
+      linePlot(curves.theta_d.canvas, td, { log: d.log, title: `f at θh = ${v.theta_h}°, φd = ${v.phi_d}°` });
+    }
+    drawAlbedo(shown);
 
     // 3D lobe
-    const wi = [Math.sin(rad(state.view.theta_i)) * Math.cos(rad(state.view.phi_i)), Math.sin(rad(state.view.theta_i)) * Math.sin(rad(state.view.phi_i)), Math.cos(rad(state.view.theta_i))];
-    const meshes = shown.map((e) => {
-      const spec = header.arrays[header.views[e.id].lobe];
-      const [T, P] = spec.shape;
-      let r = channelOf(arr(e, "lobe"), channels(e), d.channel);
-      if (d.cosine) r = r.map((v, i) => v * Math.cos((Math.floor(i / P) / (T - 1)) * (Math.PI / 2)));
-      if (d.log) r = r.map((v) => Math.log10(1 + v));
-      return { r, shape: [T, P], color: e.color };
-    });
-    lobePlot(lobe.canvas, meshes, wi, state.rotation);
+    const lobes = shown.map((e) => arr(e, "lobe"));
+    // every second grid line (a quarter of the quads); a preview's every fourth
+    const step = header.preview ? 4 : 2;
+    if (changedFor("lobe", ...lobes, step, d.cosine, v.theta_i, v.phi_i, state.rotation.yaw, state.rotation.pitch)) {
+      const wi = [Math.sin(rad(v.theta_i)) * Math.cos(rad(v.phi_i)), Math.sin(rad(v.theta_i)) * Math.sin(rad(v.phi_i)), Math.cos(rad(v.theta_i))];
+      const meshes = shown.map((e) => {
+        const spec = header.arrays[header.views[e.id].lobe];
+        const [T, P] = spec.shape;
+        let r = channelOf(arr(e, "lobe"), channels(e), d.channel);
+        if (d.cosine) r = r.map((value, i) => value * Math.cos((Math.floor(i / P) / (T - 1)) * (Math.PI / 2)));
+        if (d.log) r = r.map((value) => Math.log10(1 + value));
+        return { r, shape: [T, P], color: e.color };
+      });
+      lobePlot(lobe.canvas, meshes, wi, state.rotation, step);
+    }
 
     // θh × θd slices (log colour scale)
-    sliceGroup.box.querySelector(".bx-title span").textContent = `θh × θd slices at φd = ${state.view.phi_d}° (log colour scale)`;
-    slices.replaceChildren(...shown.map((e) => {
-      const spec = header.arrays[header.views[e.id].slice];
-      const n = spec.shape[0];
-      const v = channelOf(arr(e, "slice"), channels(e), d.channel);
-      let vmax = 0;
-      for (const x of v) vmax = Math.max(vmax, x);
-      const vmin = vmax * 1e-4, px = new Uint8ClampedArray(n * n * 4);
-      for (let row = 0; row < n; row++) for (let col = 0; col < n; col++) {
-        const value = v[row * n + col], out = ((n - 1 - row) * n + col) * 4;  // θd up
-        const c = value > 0 ? colormap(Math.log(value / vmin) / Math.log(vmax / vmin)) : [0, 0, 0];
-        px.set([...c, 255], out);
+    setText(sliceTitle, `θh × θd slices at φd = ${v.phi_d}° (log colour scale)`);
+    const sliceCanvases = shown.map((e) => {
+      const n = header.arrays[header.views[e.id].slice].shape[0];
+      let canvas = slicesDrawn.get(e.id);
+      if (!canvas) {
+        canvas = el("canvas", { className: "bx-slice" });
+        canvas.dataset.id = e.id;
+        slicesDrawn.set(e.id, canvas);
       }
-      const canvas = el("canvas", { width: n, height: n, className: "bx-slice", title: e.info.label });
-      canvas.dataset.id = e.id;
+      canvas.title = e.info.label;
       canvas.style.borderColor = e.color;
-      canvas.getContext("2d").putImageData(new ImageData(px, n, n), 0, 0);
+      const values = arr(e, "slice");
+      if (changedFor(`slice ${e.id}`, values, n) || canvas.width !== n) {
+        canvas.width = n; canvas.height = n;
+        const px = slicePixels(channelOf(values, channels(e), d.channel), n);
+        canvas.getContext("2d").putImageData(new ImageData(px, n, n), 0, 0);
+      }
       return canvas;
-    }));
+    });
+    const currentSlices = Array.from(slices.children);
+    if (currentSlices.length !== sliceCanvases.length || currentSlices.some((c, i) => c !== sliceCanvases[i])) slices.replaceChildren(...sliceCanvases);
+  }
+  const slicesDrawn = new Map();  // id → its slice's canvas
+  function drawAlbedo(shown) {
+    if (!albedo) return;
+    const d = state.display, views = albedo.header.views;
+    const series = shown.filter((e) => views[e.id]).map((e) => ({ e, v: views[e.id] }));
+    const inputs = series.flatMap(({ e, v }) => [e.id, e.color, albedo.arrays[v.albedo], albedo.arrays[v.albedo_err]]);
+    if (!inputsChanged(drawn, "albedo", [d.channel, ...inputs])) return;
+    const ax = albedo.arrays[albedo.header.axes.albedo];
+    linePlot(curves.albedo.canvas, series.map(({ e, v }) => {
+      const channels = e.info ? e.info.channels : 1;
+      const mean = channelOf(albedo.arrays[v.albedo], channels, d.channel);
+      const err = channelOf(albedo.arrays[v.albedo_err], channels, d.channel).map((s) => 2 * s);
+      return { x: ax, y: mean, band: err, color: e.color };
+    }), { xmin: 0, xmax: 90, title: "ρ(θo)" });
   }
   const rad = (deg) => (deg * Math.PI) / 180;
 
@@ -800,15 +900,15 @@ export function createExplorer(root, transport, config = {}) {
         state.view.theta_i = Math.min(tidy((Math.acos(z) * 180) / Math.PI), 89.9);
         state.view.phi_i = tidy((Math.atan2(y, x) * 180) / Math.PI);
         for (const k of ["theta_i", "phi_i"]) { inputs[k].range.value = state.view[k]; inputs[k].out.textContent = state.view[k]; }
-        changed();
+        moved();
       };
-      canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; move(e); });
+      canvas.addEventListener("pointerdown", (e) => { canvas.setPointerCapture(e.pointerId); canvas.dataset.dragging = "1"; grabbed(); move(e); });
       canvas.addEventListener("pointermove", (e) => { if (canvas.dataset.dragging) move(e); });
-      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; });
+      canvas.addEventListener("pointerup", () => { delete canvas.dataset.dragging; released(); });
     }
     if (canvas.width !== R) { canvas.width = R; canvas.height = R; }
     canvas.style.borderColor = color;
-    canvas.getContext("2d").putImageData(new ImageData(pixels, R, R), 0, 0);
+    if (pixels) canvas.getContext("2d").putImageData(new ImageData(pixels, R, R), 0, 0);
     return canvas;
   }
 
