@@ -16,16 +16,10 @@ import argparse
 import functools
 import json
 import os
-import time
 from pathlib import Path
 
-import numpy as np
-
-from bench_ps_materials import ANALYTIC, MEASURED, render, table
-from brdfkit.brdf.spec import parse
-from brdfkit.measured import read
-from brdfkit.vision import bivariate_stereo, datasets, photometric_stereo
-from brdfkit.vision.metrics import angular_error
+from bench_ps_materials import ANALYTIC, MEASURED, solve_all, table
+from brdfkit.vision import bivariate_stereo, photometric_stereo
 
 METHODS = {
     "least_squares": photometric_stereo.least_squares,
@@ -45,35 +39,8 @@ def main() -> None:
     parser.add_argument("--step", type=int, default=4)
     parser.add_argument("--noise", type=float, default=0.005)
     args = parser.parse_args()
-    rng = np.random.default_rng(0)
-    lights = datasets.diligent_like_lights()
     materials = list(ANALYTIC) + list(MEASURED)
-    records = []
-    for name in args.objects:
-        gt = datasets.load_normal_integration(args.data / "normal_integration" / "diligent" / name)
-        normals, mask, depth = (
-            a[:: args.step, :: args.step] for a in (gt.normals, gt.mask, gt.depth)
-        )
-        pixel_size = np.nanmean(depth) / gt.camera[0, 0] * args.step
-        lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
-        for material in materials:
-            if material in ANALYTIC:
-                brdf = parse(ANALYTIC[material])
-            else:
-                brdf = read(args.data / "measured" / MEASURED[material])
-            data = render(brdf, normals, mask, lights, lit, args.noise, rng)
-            for method, solve in METHODS.items():
-                start = time.perf_counter()
-                result = solve(data.images, data.light_directions, data.mask)
-                seconds = time.perf_counter() - start
-                errors = angular_error(result.normals, data.normals, data.mask)
-                record = {
-                    "object": name, "material": material, "method": method,
-                    "pixels": int(mask.sum()), "mean_deg": round(errors["mean"], 3),
-                    "median_deg": round(errors["median"], 3), "seconds": round(seconds, 3),
-                }  # fmt: skip
-                records.append(record)
-                print(json.dumps(record), flush=True)
+    records = solve_all(args.data, args.objects, args.step, args.noise, materials, METHODS)
     from _machine import header, results_path
 
     out = results_path(__file__)

@@ -24,7 +24,9 @@ import argparse
 import json
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -97,25 +99,49 @@ def main() -> None:
     parser.add_argument("--materials", nargs="+", default=list(ANALYTIC) + list(MEASURED))
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
+    methods = {m: METHODS[m] for m in args.methods}
+    records = solve_all(args.data, args.objects, args.step, args.noise, args.materials, methods)
+    from _machine import header, results_path
+
+    out = args.out or results_path(__file__)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    results = {
+        **header(__file__),
+        "objects": args.objects, "step": args.step, "noise": args.noise,
+        "methods": args.methods, "materials": args.materials, "records": records,
+    }  # fmt: skip
+    out.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    print(table(records, args.methods, args.materials))
+
+
+def solve_all(
+    data_dir: Path,
+    objects: list[str],
+    step: int,
+    noise: float,
+    materials: list[str],
+    methods: dict[str, Callable[..., Any]],
+) -> list[dict[str, Any]]:
+    """Render every (object, material) and run every method on it: one record (and one JSON
+    line printed) per (object, material, method), in that order; the noise from one seeded
+    generator, so that every caller renders the same stacks."""
     rng = np.random.default_rng(0)
     lights = datasets.diligent_like_lights()
     records = []
-    for name in args.objects:
-        gt = datasets.load_normal_integration(args.data / "normal_integration" / "diligent" / name)
-        normals, mask, depth = (
-            a[:: args.step, :: args.step] for a in (gt.normals, gt.mask, gt.depth)
-        )
-        pixel_size = np.nanmean(depth) / gt.camera[0, 0] * args.step
+    for name in objects:
+        gt = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
+        normals, mask, depth = (a[::step, ::step] for a in (gt.normals, gt.mask, gt.depth))
+        pixel_size = np.nanmean(depth) / gt.camera[0, 0] * step
         lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
-        for material in args.materials:
+        for material in materials:
             if material in ANALYTIC:
                 brdf = parse(ANALYTIC[material])
             else:
-                brdf = read(args.data / "measured" / MEASURED[material])
-            data = render(brdf, normals, mask, lights, lit, args.noise, rng)
-            for method in args.methods:
+                brdf = read(data_dir / "measured" / MEASURED[material])
+            data = render(brdf, normals, mask, lights, lit, noise, rng)
+            for method, solve in methods.items():
                 start = time.perf_counter()
-                result = METHODS[method](data.images, data.light_directions, data.mask)
+                result = solve(data.images, data.light_directions, data.mask)
                 seconds = time.perf_counter() - start
                 errors = angular_error(result.normals, data.normals, data.mask)
                 record = {
@@ -129,17 +155,7 @@ def main() -> None:
                 }
                 records.append(record)
                 print(json.dumps(record), flush=True)
-    from _machine import header, results_path
-
-    out = args.out or results_path(__file__)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    results = {
-        **header(__file__),
-        "objects": args.objects, "step": args.step, "noise": args.noise,
-        "methods": args.methods, "materials": args.materials, "records": records,
-    }  # fmt: skip
-    out.write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
-    print(table(records, args.methods, args.materials))
+    return records
 
 
 def table(records: list[dict], methods: list[str], materials: list[str]) -> str:
