@@ -112,12 +112,16 @@ def test_a_plane_is_recovered(perspective):
         assert np.allclose(depth, truth - truth.min(), atol=1e-6)
 
 
-def test_depth_prior_sets_the_offset_and_units():
+@pytest.mark.parametrize("continuity", [0.0, CONTINUITY])
+def test_depth_prior_sets_the_offset_and_units(continuity):
+    """Also with the continuity prior: where depth is known, the depth prior decides."""
     normals, depth, _ = _orthographic_step(12)
     prior = np.full(depth.shape, np.nan)
     prior[:, :6] = depth[:, :6] + 40.0  # the left half known, 40 units away
     prior[:, 6:] = depth[:, 6:] + 55.0  # and the right half, 55
-    result = bilateral_integration(normals, depth_prior=prior, prior_weight=1.0)
+    result = bilateral_integration(
+        normals, depth_prior=prior, prior_weight=1.0, continuity=continuity
+    )
     assert np.allclose(result.depth[:, :6], 40.0, atol=0.3)
     assert np.allclose(result.depth[:, 6:] - depth[:, 6:], 55.0, atol=0.3)
 
