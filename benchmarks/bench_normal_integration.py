@@ -2,7 +2,8 @@
 integration (BiNI, Cao et al. ECCV 2022) run from its public code in the same run.
 
 For each object of ``../shared/data/normal_integration/diligent`` (perspective, its ``K``):
-brdfkit's default ``brdfkit integrate`` method (bilateral), brdfkit's masked least squares and
+brdfkit's default ``brdfkit integrate`` method (bilateral integration with the continuity
+prior, ``bilateral_continuity``), brdfkit's masked least squares and
 the peer's ``bilateral_normal_integration`` with the settings of its own DiLiGenT evaluation
 (``k = 2``, ``max_iter = 100``, ``tol = 1e-4``; its file is imported from ``--peer``, the
 folder of a checkout of github.com/xucao-42/bilateral_normal_integration, never copied here).
@@ -12,8 +13,21 @@ of ``z_gt / z``. Wall seconds of the integration alone, brdfkit then the peer on
 (the same load on both), after each has compiled its kernels (the peer at import, brdfkit on a
 4 × 4 map). The peer needs pyvista, tqdm and OpenCV.
 
+A second score separates the shape of each piece from what the normals cannot tell: in
+perspective, scaling part of a surface about the camera centre leaves its normals unchanged, so
+the relative scale of pieces joined only across occluding contours (goblet's stem and foot
+behind its cup) is not in the data. *Piecewise MADE* scales each ground-truth piece by its own
+median ratio; the pieces are the connected parts of the mask once neighbours whose true depths
+differ by more than ``JUMP_MM`` are parted.
+
+``--variants`` adds rows for bilateral integration with other settings, all through its public
+options: the authors' method alone (``continuity = 0``), then with the sigmoid's sharpness
+``k = 1`` and ``k = 4`` either side of their 2, with the conjugate-gradient tolerance 10 %
+either side of their 1e-3 (how much their result hangs on where the inexact solves stop), and
+the continuity prior at 0.1 % and 10 % either side of the default 1 %.
+
     python benchmarks/bench_normal_integration.py --peer PATH [--data ../shared/data]
-        [--objects bear cat ...]
+        [--objects bear cat ...] [--variants]
 """
 
 from __future__ import annotations
@@ -31,16 +45,60 @@ from pathlib import Path
 import numpy as np
 
 from brdfkit.vision import datasets
+from brdfkit.vision.bilateral_integration import bilateral_integration
 from brdfkit.vision.depth_from_normals import DEFAULT_METHOD, METHODS
 
 PEER_FILE = "bilateral_normal_integration_cpu.py"
 """The peer's fast CPU implementation (the one its evaluation imports)."""
+
+JUMP_MM = 5.0
+"""Neighbours whose true depths differ by more than this are in different pieces (at DiLiGenT's
+0.4 mm pixels at 1.5 m, a surface steeper than 85° from the view)."""
+
+VARIANTS = {
+    "bilateral": {},
+    "bilateral_k1": {"k": 1.0},
+    "bilateral_k4": {"k": 4.0},
+    "bilateral_solver_tolerance_0.0009": {"solver_tolerance": 9e-4},
+    "bilateral_solver_tolerance_0.0011": {"solver_tolerance": 1.1e-3},
+    "continuity_0.001": {"continuity": 1e-3},
+    "continuity_0.1": {"continuity": 0.1},
+}
+"""The options of ``bilateral_integration`` in each ``--variants`` row."""
 
 
 def made(depth: np.ndarray, truth: np.ndarray) -> float:
     """The peer's evaluation: mean ``|s z - z_gt|`` with ``s`` the median of ``z_gt / z``."""
     scale = np.nanmedian(truth / depth)
     return float(np.nanmean(np.abs(scale * depth - truth)))
+
+
+def pieces(truth: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Label of each mask pixel's ground-truth piece (see :data:`JUMP_MM`), -1 outside."""
+    import scipy.sparse
+    from scipy.sparse.csgraph import connected_components
+
+    index = np.full(mask.shape, -1)
+    index[mask] = np.arange(int(mask.sum()))
+    pairs = []
+    for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
+        joined = mask[a] & mask[b] & (np.abs(truth[a] - truth[b]) <= JUMP_MM)
+        pairs.append((index[a][joined], index[b][joined]))
+    p, q = (np.concatenate(side) for side in zip(*pairs, strict=True))
+    graph = scipy.sparse.coo_matrix((np.ones(len(p)), (p, q)), shape=(index.max() + 1,) * 2)
+    labels = np.full(mask.shape, -1)
+    labels[mask] = connected_components(graph, directed=False)[1]
+    return labels
+
+
+def piecewise_made(depth: np.ndarray, truth: np.ndarray, labels: np.ndarray) -> float:
+    """MADE with each piece of ``labels`` scaled by its own median of ``z_gt / z``."""
+    error = np.zeros(0)
+    for label in range(labels.max() + 1):
+        inside = labels == label
+        scale = np.median(truth[inside] / depth[inside])
+        error = np.concatenate([error, np.abs(scale * depth[inside] - truth[inside])])
+    return float(error.mean())
 
 
 def load_peer(folder: Path):
@@ -71,26 +129,36 @@ def timed(call) -> tuple[np.ndarray, float]:
     return depth, time.perf_counter() - start
 
 
-def run_object(folder: Path, peer) -> dict[str, float]:
-    """MADE and seconds of brdfkit's default, its least squares and the peer on one object."""
+def variants(data) -> dict[str, tuple[np.ndarray, float]]:
+    """Depth and seconds of bilateral integration with each of :data:`VARIANTS`."""
+    return {
+        name: timed(lambda o=options: bilateral_integration(
+            data.normals, data.mask, data.camera, **o).depth)
+        for name, options in VARIANTS.items()
+    }  # fmt: skip
+
+
+def run_object(folder: Path, peer, with_variants: bool = False) -> dict[str, float]:
+    """MADE, piecewise MADE and seconds of brdfkit's default, its least squares, the peer (and
+    the variants) on one object."""
     data = datasets.load_normal_integration(folder)
     normals, mask, camera = read_as_peer(folder)
-    ours, ours_s = timed(lambda: METHODS[DEFAULT_METHOD](data.normals, data.mask, data.camera))
-    theirs, theirs_s = timed(
-        lambda: peer(normals, mask, k=2, K=camera, max_iter=100, tol=1e-4)[0]
-    )  # fmt: skip
-    squares, squares_s = timed(
-        lambda: METHODS["least_squares"](data.normals, data.mask, data.camera)
-    )  # fmt: skip
-    return {
+    ours = timed(lambda: METHODS[DEFAULT_METHOD](data.normals, data.mask, data.camera))
+    theirs = timed(lambda: peer(normals, mask, k=2, K=camera, max_iter=100, tol=1e-4)[0])
+    squares = timed(lambda: METHODS["least_squares"](data.normals, data.mask, data.camera))
+    runs = {"brdfkit": ours, "bini": theirs, "least_squares": squares}
+    if with_variants:
+        runs.update(variants(data))
+    labels = pieces(data.depth, data.mask)
+    record: dict[str, float] = {
         "pixels": int(data.mask.sum()),
-        "brdfkit_made_mm": made(ours, data.depth),
-        "brdfkit_seconds": ours_s,
-        "bini_made_mm": made(theirs, data.depth),
-        "bini_seconds": theirs_s,
-        "least_squares_made_mm": made(squares, data.depth),
-        "least_squares_seconds": squares_s,
+        "pieces_over_100_pixels": int(np.sum(np.bincount(labels[data.mask]) > 100)),
     }
+    for name, (depth, seconds) in runs.items():
+        record[f"{name}_made_mm"] = made(depth, data.depth)
+        record[f"{name}_piecewise_made_mm"] = piecewise_made(depth, data.depth, labels)
+        record[f"{name}_seconds"] = seconds
+    return record
 
 
 def main() -> None:
@@ -101,6 +169,7 @@ def main() -> None:
     parser.add_argument("--peer", type=Path, required=True, help=f"folder holding {PEER_FILE}")
     parser.add_argument("--data", type=Path, default=Path(default))
     parser.add_argument("--objects", nargs="+", default=None)
+    parser.add_argument("--variants", action="store_true", help="add the variants' rows")
     args = parser.parse_args()
     root = args.data / "normal_integration" / "diligent"
     names = args.objects or sorted(p.name for p in root.iterdir() if p.is_dir())
@@ -110,8 +179,9 @@ def main() -> None:
     METHODS[DEFAULT_METHOD](flat, None)  # compiles brdfkit's kernel or loads its cache
     objects = {}
     for name in names:
-        objects[name] = run_object(root / name, peer)
+        objects[name] = run_object(root / name, peer, args.variants)
         print(json.dumps({"object": name, **objects[name]}), flush=True)
+    methods = [key.removesuffix("_seconds") for key in objects[names[0]] if "_seconds" in key]
     wins = sum(o["brdfkit_made_mm"] <= o["bini_made_mm"] for o in objects.values())
     summary = {
         "objects": len(objects),
@@ -120,6 +190,13 @@ def main() -> None:
         "bini_mean_made_mm": float(np.mean([o["bini_made_mm"] for o in objects.values()])),
         "brdfkit_total_seconds": float(sum(o["brdfkit_seconds"] for o in objects.values())),
         "bini_total_seconds": float(sum(o["bini_seconds"] for o in objects.values())),
+        **{
+            f"{kind}_by_method": {
+                method: float(np.mean([o[f"{method}_{kind}"] for o in objects.values()]))
+                for method in methods
+            }
+            for kind in ("made_mm", "piecewise_made_mm")
+        },
     }
     print(json.dumps(summary))
     from _machine import write_results

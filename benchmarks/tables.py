@@ -823,9 +823,25 @@ def normal_integration(r: dict) -> str:
     )  # fmt: skip
     header = ["object", "pixels", f"brdfkit {r['method']} MADE mm", "BiNI MADE mm",
               "least squares MADE mm", "brdfkit s", "BiNI s"]  # fmt: skip
-    return (
+    text = (
         f"{rows(header, body, 'lrrrrrr')}\n\nbrdfkit's MADE at most BiNI's on "
         f"{s['brdfkit_made_at_most_bini']} of {s['objects']} objects."
+    )
+    if "piecewise_made_mm_by_method" not in s:
+        return text
+    methods = list(s["made_mm_by_method"])
+    pieces = rows(
+        ["object", "pieces", *methods],
+        [[name, o["pieces_over_100_pixels"],
+          *(f"{o[f'{m}_made_mm']:.3f} / {o[f'{m}_piecewise_made_mm']:.3f}" for m in methods)]
+         for name, o in r["objects"].items()]
+        + [["**mean**", "", *(f"{s['made_mm_by_method'][m]:.3f} / "
+                              f"{s['piecewise_made_mm_by_method'][m]:.3f}" for m in methods)]],
+        "lr" + "r" * len(methods),
+    )  # fmt: skip
+    return (
+        f"{text}\n\nMADE / piecewise MADE (each ground-truth piece scaled on its own; pieces "
+        f"of over 100 pixels counted) in mm:\n\n{pieces}"
     )
 
 

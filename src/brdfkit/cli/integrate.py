@@ -11,7 +11,13 @@ import typer
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
-_METHODS = ("bilateral", "least_squares", "poisson_dct", "frankot_chellappa")
+_METHODS = (
+    "bilateral_continuity",
+    "bilateral",
+    "least_squares",
+    "poisson_dct",
+    "frankot_chellappa",
+)
 """The keys of :data:`brdfkit.vision.depth_from_normals.METHODS` (kept here so that
 ``--help`` needs no NumPy)."""
 _OUTPUTS = ("depth.npy", "depth.exr", "mesh.ply")
@@ -49,11 +55,15 @@ def integrate_command(
     normals: _Normals,
     mask: _Mask = None,
     camera: _Camera = None,
-    method: _Method = "bilateral",
+    method: _Method = "bilateral_continuity",
     output: _Output = Path("integrate"),
     as_json: _Json = False,
 ) -> None:
-    """Integrate a normal map into depth, keeping depth discontinuities (bilateral by default).
+    """Integrate a normal map into depth, keeping depth discontinuities.
+
+    The default, bilateral_continuity, is bilateral normal integration (Cao et al. 2022) with a
+    weak pull towards the least-squares surface where the normals leave the relative depth of
+    two parts open; bilateral is the authors' method alone.
 
     Normal maps are encoded as n = 2 v / v_max - 1 per channel, red = x (right), green = y
     (up), blue = z (towards the camera). A folder may hold mask.png and K.txt, which --mask and
