@@ -662,7 +662,7 @@ def _as_float_image(image: np.ndarray, path: Path) -> np.ndarray:
     if image.dtype == np.uint8 or image.dtype == np.uint16:
         image = image.astype(np.float32) / np.iinfo(image.dtype).max
     elif image.dtype.kind == "f":
-        image = image.astype(np.float32)
+        image = image.astype(np.float32, copy=not image.flags.writeable)  # a new array once
     else:
         raise ImageReadError(path, f"unsupported sample type {image.dtype}")
     if image.ndim == 2:
