@@ -225,6 +225,37 @@ def test_hdr_run_length_scanlines_decode_run_by_run(tmp_path):
     )
 
 
+@pytest.mark.parametrize(
+    ("channel_runs", "message"),
+    [
+        ([bytes([0]), bytes([128 + 8, 7]), *[bytes([128 + 8, 5])] * 3], "run of length 0"),
+        (
+            [
+                bytes([128 + 5, 1]),
+                bytes([128 + 6, 2]),
+                bytes([128 + 5, 3]),
+                bytes([128 + 8, 5]) * 2,
+            ],
+            "run across channels",
+        ),
+        (
+            [bytes([128 + 9, 1]), bytes([128 + 9, 2]), bytes([128 + 9, 3]), bytes([128 + 9, 4])],
+            "past its width 8",
+        ),
+    ],
+)
+def test_hdr_corrupt_runs_are_refused_naming_the_file_and_scanline(tmp_path, channel_runs, message):
+    """A scanline whose runs have no length, or cross from one channel into the next, or
+    overfill the row, is refused with the file and the scanline named."""
+    good = bytes([2, 2, 0, 8]) + bytes([128 + 8, 5]) * 4
+    bad = bytes([2, 2, 0, 8]) + b"".join(channel_runs)
+    path = tmp_path / "corrupt.hdr"
+    header = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 3 +X 8\n"
+    path.write_bytes(header + good + bad + good)
+    with pytest.raises(io.ImageReadError, match=rf"corrupt\.hdr.*scanline 1 .*{message}"):
+        io.read_image(path)
+
+
 def test_hdr_other_layouts_are_refused_naming_the_file(tmp_path):
     xyze = tmp_path / "xyze.hdr"
     xyze.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n" + bytes(4))

@@ -369,8 +369,10 @@ def _rgbe_pixels(data: bytes, width: int, height: int, start: int) -> np.ndarray
     at = start
     for first_row in range(0, height, rows_at_once):
         rows = range(first_row, min(height, first_row + rows_at_once))
-        runs, at = _rgbe_runs(data, width, rows, at)
-        blocks.append(_expand_runs(stored, np.array(runs, np.int64)))
+        markers, runs, at = _rgbe_runs(data, width, rows, at)
+        markers, runs = np.array(markers), np.array(runs)
+        _check_runs(stored, markers, runs, width, rows)
+        blocks.append(_expand_runs(stored, markers, runs))
     planes = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
     return planes.reshape(height, 4, width).transpose(0, 2, 1)
 
@@ -380,52 +382,70 @@ _RGBE_BLOCK_BYTES = 1 << 22
 eight times as large)."""
 
 
-def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int], int]:
-    """The offsets of the count bytes of ``rows``' runs, which begin at ``at``, and the offset
-    after them: the one sequential pass over the file, checking each channel's width."""
+def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int], list[int], int]:
+    """The offsets of ``rows``' scanline markers and of their runs' count bytes, the rows
+    beginning at ``at``, and the offset after them: the one sequential pass over the file.
+    A row's runs must fill its four channels exactly (:func:`_check_runs`)."""
     marker = bytes([2, 2, width >> 8, width & 0xFF])
+    markers: list[int] = []
     runs: list[int] = []
+    add_run = runs.append
     for row in rows:
         if data[at : at + 4] != marker:
             raise ValueError(f"scanline {row} does not begin with {list(marker)}")
+        markers.append(at)
         at += 4
-        for _channel in range(4):
-            filled = 0
-            while filled < width:
-                count = data[at]
-                runs.append(at)
-                if count > _RGBE_MAX_RUN:
-                    filled += count - _RGBE_MAX_RUN
-                    at += 2
-                elif count:
-                    filled += count
-                    at += 1 + count
-                else:
-                    raise ValueError(f"scanline {row} has a run of length 0")
-            if filled != width:
-                raise ValueError(f"scanline {row} runs past its width {width}")
+        left = 4 * width
+        while left > 0:
+            count = data[at]
+            add_run(at)
+            if count > _RGBE_MAX_RUN:
+                left -= count - _RGBE_MAX_RUN
+                at += 2
+            else:
+                left -= count
+                at += 1 + count
+        if left:
+            raise ValueError(f"scanline {row} runs past its width {width}")
     if at > len(data):
         raise ValueError(f"the last run of scanline {rows[-1]} runs past the file's end")
-    return runs, at
+    return markers, runs, at
 
 
-def _expand_runs(stored: np.ndarray, runs: np.ndarray) -> np.ndarray:
-    """The bytes the runs whose count bytes lie at ``runs`` (in order, back to back) stand
-    for, by one ``np.repeat`` of the span of the file they cover: a run (count > 128) repeats
-    the byte after its count, a literal copies the ``count`` bytes after it. Each byte of the
-    span is repeated that many times (count bytes none, a literal's bytes once, a run's byte
-    ``count − 128`` times)."""
+def _check_runs(
+    stored: np.ndarray, markers: np.ndarray, runs: np.ndarray, width: int, rows: range
+) -> None:
+    """Raise ``ValueError`` unless every run of ``rows`` (whose four channels' runs fill
+    them, as :func:`_rgbe_runs` made sure) has a length and lies within one channel: the
+    runs' ends, counted from the first row's start, meet every multiple of ``width``."""
     counts = stored[runs].astype(np.int64)
+    lengths = np.where(counts > _RGBE_MAX_RUN, counts - _RGBE_MAX_RUN, counts)
+    empty = np.flatnonzero(lengths == 0)
+    if empty.size:
+        row = rows[np.searchsorted(markers, runs[empty[0]], side="right") - 1]
+        raise ValueError(f"scanline {row} has a run of length 0")
+    ends = np.cumsum(lengths)
+    channels = np.arange(width, ends[-1] + 1, width)
+    across = channels[~np.isin(channels, ends, assume_unique=True)]
+    if across.size:
+        raise ValueError(f"scanline {rows[across[0] // (4 * width)]} has a run across channels")
+
+
+def _expand_runs(stored: np.ndarray, markers: np.ndarray, runs: np.ndarray) -> np.ndarray:
+    """The bytes that scanlines stand for, given the offsets of their markers and of their
+    runs' count bytes (in order, back to back), by one ``np.repeat`` of the span of the file
+    they cover: each byte of it is repeated as often as it stands in the image — a marker's
+    and a count byte none, a literal's bytes once, a run's byte (after a count above 128)
+    ``count − 128`` times."""
+    counts = stored[runs]
     repeated = counts > _RGBE_MAX_RUN
-    first = int(runs[0])
+    begin = int(markers[0])
     end = int(runs[-1]) + (2 if repeated[-1] else 1 + int(counts[-1]))
-    literal, length = runs[~repeated] + 1 - first, counts[~repeated]
-    # a literal's bytes: +1 where they begin, −1 after them, summed along the span
-    edges = np.bincount(literal, minlength=end - first + 1)
-    edges -= np.bincount(literal + length, minlength=end - first + 1)
-    times = np.cumsum(edges[:-1])
-    times[runs[repeated] + 1 - first] = counts[repeated] - _RGBE_MAX_RUN
-    return np.repeat(stored[first:end], times)
+    times = np.ones(end - begin, np.uint8)
+    times[(markers[:, None] + np.arange(4) - begin).ravel()] = 0
+    times[runs - begin] = 0
+    times[runs[repeated] + 1 - begin] = counts[repeated] - _RGBE_MAX_RUN
+    return np.repeat(stored[begin:end], times)
 
 
 def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
@@ -642,7 +662,7 @@ def _as_float_image(image: np.ndarray, path: Path) -> np.ndarray:
     if image.dtype == np.uint8 or image.dtype == np.uint16:
         image = image.astype(np.float32) / np.iinfo(image.dtype).max
     elif image.dtype.kind == "f":
-        image = image.astype(np.float32)
+        image = image.astype(np.float32, copy=not image.flags.writeable)  # a new array once
     else:
         raise ImageReadError(path, f"unsupported sample type {image.dtype}")
     if image.ndim == 2:

@@ -670,7 +670,7 @@ class Distribution2D:
     """
 
     def __init__(self, image: Any) -> None:
-        f = to_numpy(image).astype(np.float64)
+        f = np.asarray(to_numpy(image), dtype=np.float64)  # read only: no copy needed
         if f.ndim != 2 or f.size == 0:
             raise ValueError(f"image must be a non-empty 2D array (H, W); got shape {f.shape}")
         check_param("image", f, 0.0)
@@ -683,7 +683,8 @@ class Distribution2D:
         row_sums = f.sum(axis=1)
         marginal = np.concatenate([[0.0], np.cumsum(row_sums)]) / row_sums.sum()
         marginal[-1] = 1.0
-        conditional = np.concatenate([np.zeros((height, 1)), np.cumsum(f, axis=1)], axis=1)
+        conditional = np.zeros((height, width + 1))
+        np.cumsum(f, axis=1, out=conditional[:, 1:])
         # A row of zeros is never sampled; it gets a uniform CDF so that invert() stays defined.
         empty = row_sums == 0
         conditional[empty] = np.arange(width + 1)
