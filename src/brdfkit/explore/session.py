@@ -351,22 +351,26 @@ class Session:
     @staticmethod
     def _incident_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
         """The views that depend on the incident direction: the sphere's visible pixels (in
-        float64, and as sent), the θv curve and the lobe."""
+        float64, and as sent), the θv curve and the lobe (f from
+        :func:`~brdfkit.explore.views.fast_eval`)."""
         values = views.sphere_values(brdf, state)
+        model = views.fast_eval(brdf)
         return (
             values,
             half_floats(values),
-            views.theta_v_curve(brdf, state)[1],
-            views.lobe(brdf, state).astype(np.float32),
+            views.theta_v_curve(model, state)[1],
+            views.lobe(model, state).astype(np.float32),
         )
 
     @staticmethod
     def _half_diff_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
-        """The θh and θd curves and the θh×θd slice, which do not depend on the light."""
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light (f from
+        :func:`~brdfkit.explore.views.fast_eval`)."""
+        model = views.fast_eval(brdf)
         return (
-            views.theta_h_curve(brdf, state)[1],
-            views.theta_d_curve(brdf, state)[1],
-            views.half_diff_slice(brdf, state).astype(np.float32),
+            views.theta_h_curve(model, state)[1],
+            views.theta_d_curve(model, state)[1],
+            views.half_diff_slice(model, state).astype(np.float32),
         )
 
     def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:

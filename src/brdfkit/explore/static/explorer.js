@@ -332,6 +332,7 @@ function slicePixels(v, n) {
 // typed arrays by value, anything else by identity. A view whose inputs are unchanged is not
 // drawn again: the light's slider moves the spheres, the polar plot, the θv curve and the lobe.
 function sameValue(a, b) {
+  if (a === b) return true;
   if (!ArrayBuffer.isView(a) || !ArrayBuffer.isView(b)) return a === b;
   if (a.length !== b.length || a.constructor !== b.constructor) return false;
   for (let i = 0; i < a.length; i++) if (a[i] !== b[i] && !(a[i] !== a[i] && b[i] !== b[i])) return false;
