@@ -501,3 +501,16 @@ def test_a_mesh_upload_is_named_as_a_mesh_and_listed(server):
     assert _upload(server, "scene.ply", ply) == (200, {"mesh": "scene.ply"})
     with urllib.request.urlopen(server.url + "config", timeout=60) as response:
         assert "scene.ply" in json.loads(response.read())["meshes"]
+
+
+def test_the_warm_up_freezes_the_objects_made_so_far_out_of_the_collector():
+    """After the warm-up the process's objects are frozen (:func:`gc.freeze`): a full
+    collection no longer scans them while replies are under way."""
+    import gc
+
+    gc.unfreeze()
+    session = Session()
+    session.warm_up = lambda specs, files: None  # its kernels' builds are not at issue here
+    srv = ExplorerServer(session, ["lambertian"]).start()
+    srv.stop()  # waits for the warm-up
+    assert gc.get_freeze_count() > 1000
