@@ -200,8 +200,16 @@ def test_loading_a_measured_file_and_a_second_brdf(page, merl_file):
     assert gold.to_spec() == parse("ggx(alpha=0.3, material='Au')").to_spec()
     assert_sphere_matches(page, gold, ids[2])
     assert_curves_match(page, gold, ids[2])
-    # three visible BRDFs: three spheres and the difference of the first two
+    # three visible BRDFs: three spheres and the difference of the first two, |first − second|
     assert page.locator(".bx-sphere").count() == 4
+    v = view(page)
+    light = DirectionalLight(
+        direction=light_world(v["theta_i"], v["phi_i"]), irradiance=v["irradiance"]
+    )
+    first = render_sphere(parse(entry(page, 0)["info"]["spec"]), light, resolution=256)
+    difference = np.abs(first - render_sphere(measured, light, resolution=256))
+    shown = canvas_pixels(page, '.bx-sphere[data-id="difference"]')[..., :3].astype(np.int64)
+    assert np.abs(shown - expected_pixels(difference)).max() <= 1
     # hiding one removes its sphere
     before = page.evaluate("window.explorer.shown.seq")
     page.locator(f'.bx-entry[data-id="{ids[0]}"] .bx-visible').uncheck()

@@ -15,7 +15,12 @@ from brdfkit.errors import FormatError
 from brdfkit.explore import session as session_module
 from brdfkit.explore.protocol import Entry, Message, ProtocolError, parse_message
 from brdfkit.explore.session import Session
-from brdfkit.explore.views import LIT_RESOLUTION, ViewState, orbit_camera
+from brdfkit.explore.views import (
+    LIT_RESOLUTION,
+    PROGRESSIVE_TILE_EVALUATIONS,
+    ViewState,
+    orbit_camera,
+)
 from brdfkit.render import progressive
 from brdfkit.render.bundled_meshes import object_bounds
 from brdfkit.render.mesh import torus_over_plane
@@ -54,8 +59,11 @@ def test_the_passes_are_the_librarys_progressive_render(session):
     g = scene.gbuffer(orbit_camera(object_bounds("knot"), -40.0, 10.0), LIT_RESOLUTION)
     light = mitsuba_oriented(session.envmap)
     expected = list(
-        progressive(g, parse(SPEC), light, max_samples=4, visibility=scene.visibility(g))
-    )
+        progressive(
+            g, parse(SPEC), light, max_samples=4, visibility=scene.visibility(g),
+            max_evaluations=PROGRESSIVE_TILE_EVALUATIONS,
+        )
+    )  # fmt: skip
     assert image.shape == (LIT_RESOLUTION, LIT_RESOLUTION, 3) and image.dtype == np.float32
     np.testing.assert_array_equal(image, expected[-1].image.astype(np.float32))
     assert 0 < header["noise"] < replies[0][0]["noise"]  # refined: less noise

@@ -24,6 +24,7 @@ def test_the_widget_renders_in_a_jupyter_kernel(monkeypatch):
     from pathlib import Path
 
     import brdfkit
+    from brdfkit.explore.views import sphere_disk
 
     src = str(Path(brdfkit.__file__).parents[1])
     cells = [
@@ -74,8 +75,9 @@ def test_the_widget_renders_in_a_jupyter_kernel(monkeypatch):
     assert config["initial"][0].startswith("lambertian(rho=[0.2, 0.5, 0.8]")
     reply = json.loads(nb.cells[1].outputs[0]["text"])
     assert reply["types"] == ["frame", "albedo"] and reply["seq"] == 7
-    assert reply["sphere"] == {"dtype": "float32", "shape": [64, 64, 3]}
-    assert reply["bytes"] == 64 * 64 * 3 * 4
+    visible = int(sphere_disk(64).mask.sum())  # the sphere's visible pixels, as float16
+    assert reply["sphere"] == {"dtype": "float16", "shape": [visible, 3]}
+    assert reply["bytes"] == visible * 3 * 2
     assert reply["env"][0] == [8, 0]  # the exact diffuse term first, then passes
     assert [8, 2] in reply["env"] and reply["stopped"]  # 1 sample of each Sobol' replicate
     assert json.loads(state["config"])["envmap"]

@@ -11,15 +11,19 @@ import urllib.error
 import urllib.parse
 import urllib.request
 
+import numpy as np
 import pytest
 
 pytest.importorskip("starlette")
 pytest.importorskip("uvicorn")
 websockets_sync = pytest.importorskip("websockets.sync.client")
 
+from brdfkit.brdf import parse  # noqa: E402
 from brdfkit.explore.protocol import MAX_MESSAGE_BYTES, decode_frame, parse_object  # noqa: E402
 from brdfkit.explore.server import ExplorerServer  # noqa: E402
 from brdfkit.explore.session import MAX_ENTRY_VALUES, Session, entry_values  # noqa: E402
+from brdfkit.explore.views import ViewState  # noqa: E402
+from brdfkit.render import render_sphere  # noqa: E402
 
 RENDER = {
     "type": "render",
@@ -103,6 +107,17 @@ def test_websocket_needs_token_and_origin(server):
     assert refused.value.response.status_code == 403
 
 
+def sphere_image(arrays: list, views: dict, name: str = "sphere") -> np.ndarray:
+    """The lit sphere's image from a frame: its float16 values placed on its disc's bits."""
+    bits = arrays[views["disc"]]
+    resolution = bits.shape[0]
+    mask = np.unpackbits(bits, axis=1)[:, :resolution].astype(bool)
+    values = arrays[views[name]]
+    image = np.zeros((resolution, resolution, values.shape[-1]))
+    image[mask] = values
+    return image
+
+
 def test_a_render_reply_holds_every_view(server):
     with connect(server) as ws:
         ws.send(json.dumps(RENDER))
@@ -110,10 +125,39 @@ def test_a_render_reply_holds_every_view(server):
         header, arrays = decode_frame(frame)
         assert header["type"] == "frame" and header["seq"] == 1
         views = header["views"]["a"]
-        assert arrays[views["sphere"]].shape == (64, 64, 1)
+        assert arrays[views["sphere"]].dtype == np.float16
+        assert arrays[views["disc"]].shape == (64, 8)
+        # the visible pixels and the disc are the sphere, to float16's rounding
+        state = ViewState(theta_i=30, resolution=64)
+        expected = render_sphere(parse("ggx(alpha=0.3)"), state.light(), resolution=64)
+        np.testing.assert_allclose(sphere_image(arrays, views), expected, rtol=2**-11)
+        assert expected.max() > 0.1
         assert arrays[views["theta_v"]].shape == (181, 1)
         assert header["entries"][0]["spec"].startswith("ggx(alpha=0.3")
         assert receive(ws)["type"] == "albedo"
+
+
+def test_the_difference_of_two_spheres_is_exact_where_they_nearly_agree(server):
+    """|first − second| comes from the float64 values: two models 1e-4 apart differ by
+    their difference to float32's rounding (not by the float16 rounding of each sphere)."""
+    specs = ["lambertian(rho=0.5) + ggx(alpha=0.3)", "lambertian(rho=0.50005) + ggx(alpha=0.3)"]
+    entries = [{"id": i, "source": {"spec": spec}} for i, spec in zip("ab", specs, strict=True)]
+    with connect(server) as ws:
+        for seq in (1, 2):  # the first alone, then both
+            state = {"entries": entries[:seq], "view": RENDER["state"]["view"]}
+            ws.send(json.dumps({"type": "render", "seq": seq, "state": state}))
+            header, arrays = decode_frame(ws.recv(timeout=20))
+            assert receive(ws)["type"] == "albedo"
+    views = header["views"]
+    assert "difference" in views["a"] and "difference" not in views["b"]
+    # one disc, sent again (the first sphere held it, the second did not)
+    assert ["a", "disc"] not in header["held"] and ["a", "sphere"] in header["held"]
+    assert views["a"]["disc"] == views["b"]["disc"]
+    state = ViewState(theta_i=30, resolution=64)
+    a, b = (render_sphere(parse(s), state.light(), resolution=64) for s in specs)
+    difference = sphere_image(arrays, views["a"], "difference")
+    np.testing.assert_allclose(difference, np.abs(a - b), rtol=1e-6, atol=1e-12)
+    assert difference.max() > 1e-6
 
 
 def test_a_moving_light_gets_previews_and_no_new_albedo(server):
@@ -126,19 +170,19 @@ def test_a_moving_light_gets_previews_and_no_new_albedo(server):
     with connect(server) as ws:
         ws.send(json.dumps(render(1, 30, False)))
         header, arrays = decode_frame(ws.recv(timeout=20))
-        assert arrays[header["views"]["a"]["sphere"]].shape == (128, 128, 1)
+        assert arrays[header["views"]["a"]["disc"]].shape == (128, 16)
         assert not header["preview"]
         assert receive(ws)["type"] == "albedo"
         replies = []
         for seq, (theta_i, preview) in enumerate([(35, True), (40, False)], start=2):
             ws.send(json.dumps(render(seq, theta_i, preview)))
             header, arrays = decode_frame(ws.recv(timeout=20))
-            sphere = arrays[header["views"]["a"]["sphere"]]
-            replies.append((header["seq"], header["preview"], sphere.shape))
+            disc = arrays[header["views"]["a"]["disc"]]
+            replies.append((header["seq"], header["preview"], disc.shape))
             # the views the light leaves as they are: not sent again (the page holds them)
             assert sorted(header["held"]) == [["a", "slice"], ["a", "theta_d"], ["a", "theta_h"]]
-            assert len(arrays) == len(header["arrays"]) == 3 + 3  # axes, sphere, θv, lobe
-        assert replies == [(2, True, (64, 64, 1)), (3, False, (128, 128, 1))]
+            assert len(arrays) == len(header["arrays"]) == 3 + 4  # axes, sphere, disc, θv, lobe
+        assert replies == [(2, True, (64, 8)), (3, False, (128, 16))]
         ws.send(
             json.dumps(
                 {**render(4, 40, False), "type": "checks", "entry": RENDER["state"]["entries"][0]}
@@ -457,3 +501,16 @@ def test_a_mesh_upload_is_named_as_a_mesh_and_listed(server):
     assert _upload(server, "scene.ply", ply) == (200, {"mesh": "scene.ply"})
     with urllib.request.urlopen(server.url + "config", timeout=60) as response:
         assert "scene.ply" in json.loads(response.read())["meshes"]
+
+
+def test_the_warm_up_freezes_the_objects_made_so_far_out_of_the_collector():
+    """After the warm-up the process's objects are frozen (:func:`gc.freeze`): a full
+    collection no longer scans them while replies are under way."""
+    import gc
+
+    gc.unfreeze()
+    session = Session()
+    session.warm_up = lambda specs, files: None  # its kernels' builds are not at issue here
+    srv = ExplorerServer(session, ["lambertian"]).start()
+    srv.stop()  # waits for the warm-up
+    assert gc.get_freeze_count() > 1000

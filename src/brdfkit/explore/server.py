@@ -19,12 +19,14 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import gc
 import logging
 import secrets
 import socket
 import threading
 import time
 from collections.abc import Awaitable, Callable, MutableMapping
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,6 +40,7 @@ from brdfkit.explore.protocol import (
     parse_message,
 )
 from brdfkit.explore.session import MAX_UPLOAD_BYTES, Session, error_reply, fit_spec, guarded
+from brdfkit.explore.views import ViewState
 
 if TYPE_CHECKING:
     from starlette.requests import Request
@@ -51,8 +54,9 @@ ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 _log = logging.getLogger(__name__)
 
-LIT_QUIET_SECONDS = 0.1
-"""How long after a render the lit object's next pass waits (while a slider is dragged)."""
+QUIET_SECONDS = 0.1
+"""How long after the last render's reply the progressive views (the environment-lit
+spheres, the lit objects) wait before they take the cores again (:class:`_Quiet`)."""
 
 STATIC = Path(str(resources.files("brdfkit.explore") / "static"))
 """The front end's files (package data)."""
@@ -182,6 +186,46 @@ def _upload(session: Session) -> Callable[[Request], Awaitable[Response]]:
     return upload
 
 
+PROGRESSIVE_ONLY = {
+    name: getattr(ViewState(), name) for name in ("envmap", "lit", "mesh", "azimuth", "elevation")
+}
+"""The view's fields only the progressive views depend on (a render that changes nothing
+else is answered from the session's cached views and leaves them the cores)."""
+
+
+class _Quiet:
+    """Whether the directional-light views (the sphere and the plots, a slider's reply) have
+    the cores: from a render message's arrival until :data:`QUIET_SECONDS` after the last
+    render's reply, during which the progressive views wait, between their passes and
+    between the tiles of a pass (a slider being dragged keeps both cores, and the GIL, for
+    the sphere views; the progressive views go on once it rests). Set and read on the
+    server's event loop, read by the passes' threads."""
+
+    def __init__(self) -> None:
+        self.rendering = False
+        self.until = 0.0
+
+    def begin(self) -> None:
+        """A render message arrived."""
+        self.rendering = True
+
+    def end(self, more: bool) -> None:
+        """A render was answered; ``more``: another render message is waiting."""
+        self.rendering = more
+        self.until = time.monotonic() + QUIET_SECONDS
+
+    def left(self) -> float:
+        """Seconds the progressive views have yet to wait (at least; 0: go on)."""
+        if self.rendering:
+            return QUIET_SECONDS
+        return max(self.until - time.monotonic(), 0.0)
+
+    def wait(self, cancel: threading.Event) -> None:
+        """Block the calling thread until the views are quiet or ``cancel`` is set."""
+        while (left := self.left()) > 0 and not cancel.is_set():
+            cancel.wait(left)
+
+
 class _Channel:
     """One page's WebSocket: its messages in latest-wins slots, served by four workers.
 
@@ -191,9 +235,10 @@ class _Channel:
     environment-lit spheres come pass by pass from a third, cancelled only by a render that
     changes what they show (the BRDFs, the map's switch, the resolution);
     the lit objects pass by pass from a fourth, cancelled only by a render that changes what
-    they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining;
-    their next pass waits until no render has run for :data:`LIT_QUIET_SECONDS` (a slider
-    being dragged keeps both cores for the spheres).
+    they show (the BRDFs, the mesh, the camera), so the light's slider leaves them refining.
+    Both progressive views yield to the renders (:class:`_Quiet`): their passes, and the
+    tiles of a pass, wait while a render is waiting or under way and for
+    :data:`QUIET_SECONDS` after its reply.
     """
 
     def __init__(self, session: Session, ws: WebSocket) -> None:
@@ -207,7 +252,8 @@ class _Channel:
         self.albedo_asked: tuple[Any, ...] | None = None
         self.views_sent: dict[tuple[str, str], Any] = {}
         self.lit_shown: tuple[Any, ...] | None = None
-        self.last_render = 0.0
+        self.quiet = _Quiet()
+        self.views_shown: tuple[Any, ...] | None = None
 
     async def serve(self) -> None:
         """Accept the socket and serve it until the page goes away."""
@@ -242,14 +288,14 @@ class _Channel:
         header, arrays = reply
         if header["type"] != "frame":
             return reply
-        held, kept, sent = [], {}, {}
-        for entry_id, names in header["views"].items():
-            for name, index in names.items():
-                sent[entry_id, name] = arrays[index]
-                if self.views_sent.get((entry_id, name)) is arrays[index]:
-                    held.append([entry_id, name])
-        self.views_sent = sent
-        left_out = {header["views"][i][n] for i, n in held}
+        kept: dict[int, int] = {}
+        places = {(i, n): k for i, names in header["views"].items() for n, k in names.items()}
+        unchanged = {p for p, k in places.items() if self.views_sent.get(p) is arrays[k]}
+        self.views_sent = {p: arrays[k] for p, k in places.items()}
+        # an array shared by several views (the disc) is left out only if all of them hold it
+        needed = {k for p, k in places.items() if p not in unchanged}
+        left_out = {places[p] for p in unchanged} - needed
+        held = [list(p) for p in unchanged if places[p] in left_out]
         for index in range(len(arrays)):
             if index not in left_out:
                 kept[index] = len(kept)
@@ -282,6 +328,10 @@ class _Channel:
             self.wakes["fast" if message.type == "render" else "slow"].set()
             if message.type == "render":
                 view = message.view
+                shown = (message.entries, replace(view, **PROGRESSIVE_ONLY))
+                if shown != self.views_shown:  # not an orbit or a switch of a progressive view
+                    self.views_shown = shown
+                    self.quiet.begin()
                 shown = (message.entries, view.envmap, view.resolution)
                 if shown != self.env_shown:
                     self.env_shown = shown
@@ -318,13 +368,11 @@ class _Channel:
                 if message is None:
                     continue
                 rendering = kind == "render"
-                if rendering:
-                    self.last_render = time.monotonic()
                 result = await self._run(kind, message)
-                if rendering:
-                    self.last_render = time.monotonic()
                 if result is not None:
                     await self._reply([self._held_left_out(result) if rendering else result])
+                if rendering and self.quiet.rendering:
+                    self.quiet.end(more=self.pending["render"] is not None)
                 asked = (message.entries, message.view.resolution)
                 if kind == "render" and result is not None and asked != self.albedo_asked:
                     self.albedo_asked = asked  # the light's slider leaves the albedo as it is
@@ -333,11 +381,10 @@ class _Channel:
                 if any(self.pending[k] is not None for k in kinds):
                     wake.set()
 
-    async def _progressive(
-        self, kind: str, passes_of: Callable[[Message, threading.Event], Any]
-    ) -> None:
+    async def _progressive(self, kind: str, passes_of: Callable[..., Any]) -> None:
         """The images of ``kind`` (``env``, ``lit``) pass by pass from ``passes_of``; a newer
-        message of that kind cancels the old one."""
+        message of that kind cancels the old one. Each pass after the first image, and each
+        tile of a pass, waits until the renders are quiet (:class:`_Quiet`)."""
         while True:
             await self.wakes[kind].wait()
             self.wakes[kind].clear()
@@ -345,10 +392,12 @@ class _Channel:
             if message is None:
                 continue
             cancel = self.cancels[kind] = threading.Event()
-            passes = passes_of(message, cancel)
+            passes = passes_of(message, cancel, functools.partial(self.quiet.wait, cancel))
+            first = True
             while not cancel.is_set():
-                while kind == "lit" and time.monotonic() - self.last_render < LIT_QUIET_SECONDS:
-                    await asyncio.sleep(LIT_QUIET_SECONDS)
+                while not first and (left := self.quiet.left()) > 0:
+                    await asyncio.sleep(left)
+                first = False
                 step = functools.partial(next, passes, None)
                 result = await asyncio.to_thread(guarded, message.seq, step)
                 if result is None or cancel.is_set():
@@ -399,6 +448,17 @@ def build_app(session: Session, token: str, port: int, initial: list[str]) -> AS
     return Guard(Starlette(routes=[Mount(f"/{token}", routes=routes)]), token, port)
 
 
+def _warm_up(session: Session, specs: list[str], files: list[str]) -> None:
+    """The session's warm-up (:meth:`Session.warm_up`), then the process's objects so far
+    (modules, kernels, the session's tables) collected once and frozen out of the cyclic
+    garbage collector (:func:`gc.freeze`): a full collection over them holds the GIL for
+    40–300 ms on a 2-core machine, a stall of whatever reply is under way; afterwards the
+    collector scans only the objects made since."""
+    session.warm_up(specs, files)
+    gc.collect()
+    gc.freeze()
+
+
 WARM_UP_TIMEOUT = 300.0
 """Seconds :meth:`ExplorerServer.stop` waits for the warm-up's kernel builds to finish."""
 
@@ -419,7 +479,7 @@ class ExplorerServer:
         self.app = build_app(session, self.token, self.port, initial)
         specs = [item for item in initial if item not in session.files]
         files = [item for item in initial if item in session.files]
-        self._warm_up = threading.Thread(target=session.warm_up, args=(specs, files), daemon=True)
+        self._warm_up = threading.Thread(target=_warm_up, args=(session, specs, files), daemon=True)
         self._warm_up.start()
         self._server: Any = None
         self._thread: threading.Thread | None = None

@@ -19,7 +19,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Sequence
-from functools import partial
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ from brdfkit.brdf.spec import parse
 from brdfkit.errors import BrdfkitError, FormatError, ResourceError
 from brdfkit.explore import views
 from brdfkit.explore.model_tree import brdf_of, controls_of, tree_of
-from brdfkit.explore.protocol import Entry, Message, ProtocolError, array_table
+from brdfkit.explore.protocol import Entry, Message, ProtocolError, array_table, half_floats
 from brdfkit.render.bundled_meshes import BUNDLED_MESHES, BUNDLED_PREFIX, load_mesh, object_bounds
 from brdfkit.render.mesh import MESH_SUFFIXES, MeshScene
 from brdfkit.render.passes import Pass
@@ -247,12 +247,24 @@ class Session:
     # -- replies -----------------------------------------------------------------------------
     def render(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
         """Every view of every visible entry; ``None`` as soon as ``stale()`` says a newer
-        message is waiting."""
+        message is waiting.
+
+        An entry's ``views`` name its arrays: ``sphere``, the lit sphere's visible pixels
+        (:func:`~brdfkit.explore.views.sphere_values`) as float16
+        (:func:`~brdfkit.explore.protocol.half_floats`: a third of a full float32 image's
+        bytes), and ``disc``, which pixels those are (:func:`disc_bits`); ``theta_v``,
+        ``theta_h``, ``theta_d``, ``slice`` and ``lobe``; the first entry's views also
+        ``difference``, |first − second| of the first two spheres' pixels (from the float64
+        values, as float32: it holds where the two nearly agree).
+        """
         start = time.perf_counter()
         state = message.view
         arrays: list[np.ndarray] = []
 
         def put(a: np.ndarray) -> int:
+            for index, held in enumerate(arrays):
+                if held is a:  # an array shared by entries (the disc) is sent once
+                    return index
             arrays.append(a)
             return len(arrays) - 1
 
@@ -261,7 +273,7 @@ class Session:
             "theta_h": put(np.radians(np.linspace(0, 90, views.CURVE_SAMPLES))),
             "theta_d": put(np.radians(np.linspace(0, 90, views.CURVE_SAMPLES))),
         }
-        entries, per_entry = [], {}
+        entries, per_entry, spheres = [], {}, []
         for entry in message.entries:
             if stale():
                 return None
@@ -276,9 +288,9 @@ class Session:
             try:
                 affordable(brdf.channels, state.resolution)
                 key = info.get("spec") or f"file:{info['file']}"
-                sphere, theta_v, lobe = self._cached(
-                    (key, state.theta_i, state.phi_i, state.sphere_resolution, state.irradiance),
-                    partial(self._incident_views, brdf, state),
+                incident = (key, state.theta_i, state.phi_i, state.sphere_resolution)
+                values, sphere, theta_v, lobe = self._cached(
+                    (*incident, state.irradiance), partial(self._incident_views, brdf, state)
                 )
                 theta_h, theta_d, slice_ = self._cached(
                     (key, state.theta_h, state.theta_d, state.phi_d),
@@ -286,14 +298,22 @@ class Session:
                 )
                 per_entry[entry.id] = {
                     "sphere": put(sphere),
+                    "disc": put(disc_bits(state.sphere_resolution)),
                     "theta_v": put(theta_v),
                     "theta_h": put(theta_h),
                     "theta_d": put(theta_d),
                     "slice": put(slice_),
                     "lobe": put(lobe),
                 }
+                spheres.append((entry.id, (*incident, state.irradiance), values))
             except (BrdfkitError, ValueError, FloatingPointError, MemoryError) as error:
                 entries[-1]["error"] = f"cannot evaluate: {error or 'out of memory'}"
+        if len(spheres) >= 2:
+            (first, key_a, a), (_, key_b, b) = spheres[:2]
+            (difference,) = self._cached(
+                ("difference", key_a, key_b), lambda: (np.abs(a - b).astype(np.float32),)
+            )
+            per_entry[first]["difference"] = put(difference)
         table, _ = array_table(arrays)
         light = state.light().direction
         header = {
@@ -330,20 +350,27 @@ class Session:
 
     @staticmethod
     def _incident_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
-        """The views that depend on the incident direction: the sphere, θv curve and lobe."""
+        """The views that depend on the incident direction: the sphere's visible pixels (in
+        float64, and as sent), the θv curve and the lobe (f from
+        :func:`~brdfkit.explore.views.fast_eval`)."""
+        values = views.sphere_values(brdf, state)
+        model = views.fast_eval(brdf)
         return (
-            views.sphere(brdf, state).astype(np.float32),
-            views.theta_v_curve(brdf, state)[1],
-            views.lobe(brdf, state).astype(np.float32),
+            values,
+            half_floats(values),
+            views.theta_v_curve(model, state)[1],
+            views.lobe(model, state).astype(np.float32),
         )
 
     @staticmethod
     def _half_diff_views(brdf: BRDF, state: views.ViewState) -> tuple[np.ndarray, ...]:
-        """The θh and θd curves and the θh×θd slice, which do not depend on the light."""
+        """The θh and θd curves and the θh×θd slice, which do not depend on the light (f from
+        :func:`~brdfkit.explore.views.fast_eval`)."""
+        model = views.fast_eval(brdf)
         return (
-            views.theta_h_curve(brdf, state)[1],
-            views.theta_d_curve(brdf, state)[1],
-            views.half_diff_slice(brdf, state).astype(np.float32),
+            views.theta_h_curve(model, state)[1],
+            views.theta_d_curve(model, state)[1],
+            views.half_diff_slice(model, state).astype(np.float32),
         )
 
     def albedo(self, message: Message, stale: Callable[[], bool] = lambda: False) -> Reply | None:
@@ -381,12 +408,18 @@ class Session:
         }
         return header, arrays
 
-    def environment(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
+    def environment(
+        self,
+        message: Message,
+        cancel: threading.Event,
+        between_tiles: Callable[[], None] | None = None,
+    ) -> Iterator[Reply]:
         """The environment-lit sphere of each visible entry: first the exact diffuse term
         (:func:`~brdfkit.explore.views.diffuse_term`, ``samples`` 0), then refined pass by pass
         (the entries' passes interleaved), until ``cancel`` is set or every sphere has its
         samples. ``noise`` is :func:`~brdfkit.explore.views.relative_noise` (``None`` for
-        the diffuse term)."""
+        the diffuse term). ``between_tiles()`` is called after each tile of a pass (it may
+        block: the server's passes wait there for its renders)."""
         if not message.view.envmap:
             return
         start = time.perf_counter()
@@ -402,7 +435,9 @@ class Session:
                     continue
                 if brdf.channels not in (1, self.envmap.channels):
                     continue  # a spectral BRDF under an RGB map: no environment-lit sphere
-                passes = views.environment_passes(brdf, self.envmap, resolution, cancel)
+                passes = views.environment_passes(
+                    brdf, self.envmap, resolution, cancel, between_tiles=between_tiles
+                )
                 runs.append((entry.id, passes))
                 diffuse = views.diffuse_term(brdf, self.envmap, resolution)
                 if diffuse is not None and not cancel.is_set():
@@ -439,11 +474,17 @@ class Session:
             header |= {"mesh": view.mesh, "azimuth": view.azimuth, "elevation": view.elevation}
         return header, [image]
 
-    def lit(self, message: Message, cancel: threading.Event) -> Iterator[Reply]:
+    def lit(
+        self,
+        message: Message,
+        cancel: threading.Event,
+        between_tiles: Callable[[], None] | None = None,
+    ) -> Iterator[Reply]:
         """The lit object of each visible entry (:func:`~brdfkit.explore.views.lit_passes`:
         the view's mesh under the environment map, with shadows, seen by the orbiting camera),
         pass by pass (the entries' passes interleaved), until ``cancel`` is set or every image
         has its :data:`~brdfkit.explore.views.LIT_MAX_SAMPLES`. Nothing unless ``view.lit``.
+        ``between_tiles`` as in :meth:`environment`.
 
         Raises
         ------
@@ -465,7 +506,10 @@ class Session:
             except (BrdfkitError, ValueError):
                 continue
             if brdf.channels in (1, self.envmap.channels):
-                runs.append((entry.id, views.lit_passes(brdf, scene, g, self.envmap, cancel)))
+                passes = views.lit_passes(
+                    brdf, scene, g, self.envmap, cancel, between_tiles=between_tiles
+                )
+                runs.append((entry.id, passes))
         for entry_id, p in _interleaved(runs, cancel):
             noise = views.relative_noise(p, g.mask)
             yield self._pass_reply("lit", message, entry_id, p.image, p.samples, start, noise)
@@ -560,6 +604,23 @@ def guarded(seq: int, work: Callable[[], Reply | None]) -> Reply | None:
         return error_reply(seq, f"internal error ({type(error).__name__}); see the server's log")
 
 
+@lru_cache(maxsize=4)
+def disc_bits(resolution: int) -> np.ndarray:
+    """Which pixels of the lit sphere at ``resolution`` are visible
+    (``views.sphere_disk(resolution).mask``), as bits packed along each row, most
+    significant first (``np.packbits(mask, axis=1)``), ``(R, ⌈R/8⌉)`` uint8: the order of
+    the frame's ``sphere`` values (cached: the same array while the resolution stays, so a
+    frame leaves it out once the page holds it).
+
+    Examples
+    --------
+    >>> bits = disc_bits(8)
+    >>> bits.shape, np.unpackbits(bits, axis=1)[4].tolist()
+    ((8, 1), [1, 1, 1, 1, 1, 1, 1, 1])
+    """
+    return np.packbits(views.sphere_disk(resolution).mask, axis=1)
+
+
 def entry_values(channels: int, resolution: int) -> int:
     """The values (channels × points) of one entry's views at ``resolution``: its sphere, the
     θh×θd slice, the lobe, four curves and the albedo curves' samples."""
@@ -609,6 +670,7 @@ __all__ = [
     "MEASURED_SUFFIXES",
     "Session",
     "affordable",
+    "disc_bits",
     "entry_values",
     "error_reply",
     "fit_spec",

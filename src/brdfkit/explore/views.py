@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -163,11 +163,8 @@ def sphere_disk(resolution: int) -> Disk:
 
 def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     """Linear radiance ``(R, R, C)`` of the lit sphere, ``render_sphere(brdf, state.light(),
-    state.sphere_resolution)``: the same delta-light term of the reflection equation
-    (:func:`brdfkit.render.reflected_radiance`), evaluated in one batch on the visible
-    pixels only, from geometry computed once per resolution (the background stays 0), with
-    f from :func:`fast_eval` (the compiled float64 kernel once it is built: equal to NumPy's
-    to rounding, a few times faster on every core).
+    state.sphere_resolution)``: :func:`sphere_values` on the visible pixels, 0 on the
+    background.
 
     Examples
     --------
@@ -178,12 +175,32 @@ def sphere(brdf: BRDF, state: ViewState) -> np.ndarray:
     >>> image.shape, float(image.max().round(4))
     ((8, 8, 1), 0.4921)
     """
+    mask = sphere_disk(state.sphere_resolution).mask
+    value = sphere_values(brdf, state)
+    image = np.zeros((*mask.shape, value.shape[-1]))
+    image[mask] = value
+    return image
+
+
+def sphere_values(brdf: BRDF, state: ViewState) -> np.ndarray:
+    """Linear radiance ``(N, C)`` of the lit sphere's N visible pixels, in the row order of
+    ``sphere_disk(state.sphere_resolution).mask``: the delta-light term of the reflection
+    equation (:func:`brdfkit.render.reflected_radiance`) that :func:`~brdfkit.render.shade`
+    evaluates, in one batch, from geometry computed once per resolution, with f from
+    :func:`fast_eval` (the compiled float64 kernel once it is built: equal to NumPy's to
+    rounding, a few times faster on every core).
+
+    Examples
+    --------
+    >>> from brdfkit.brdf import parse
+    >>> state = ViewState(theta_i=0.0, resolution=8)
+    >>> values = sphere_values(parse("lambertian(rho=0.5)"), state)
+    >>> values.shape == (int(sphere_disk(8).mask.sum()), 1)
+    True
+    """
     disk = sphere_disk(state.sphere_resolution)
     model = fast_eval(brdf)
-    value = to_numpy(delta_radiance(model, state.light(), disk.point, disk.frame, disk.wo_local))
-    image = np.zeros((*disk.mask.shape, value.shape[-1]))
-    image[disk.mask] = value
-    return image
+    return to_numpy(delta_radiance(model, state.light(), disk.point, disk.frame, disk.wo_local))
 
 
 def fast_eval(brdf: BRDF) -> Any:
@@ -242,13 +259,35 @@ def environment_passes(
     resolution: int,
     cancel: threading.Event | None = None,
     max_samples: int = ENV_MAX_SAMPLES,
+    between_tiles: Callable[[], None] | None = None,
 ) -> Iterator[Pass]:
     """The sphere under ``envmap`` refined progressively (:func:`brdfkit.render.progressive`:
     2, 4, …, 64, 96, 128, 192, … samples per pixel in two Sobol' replicates), stopping when
-    ``cancel`` is set."""
+    ``cancel`` is set; ``between_tiles()`` after each tile (:func:`tile_progress`)."""
     return progressive(
-        sphere_gbuffer(resolution), brdf, envmap, max_samples=max_samples, cancel=cancel
+        sphere_gbuffer(resolution),
+        brdf,
+        envmap,
+        max_samples=max_samples,
+        cancel=cancel,
+        max_evaluations=PROGRESSIVE_TILE_EVALUATIONS,
+        progress=tile_progress(between_tiles),
     )
+
+
+PROGRESSIVE_TILE_EVALUATIONS = 1 << 17
+"""BRDF evaluations per tile of the progressive views' passes (a quarter of
+:func:`~brdfkit.render.shade`'s default): tiles of a few ms, after each of which a pass can
+wait for the directional-light views (``between_tiles``). The pixels' samples do not depend
+on the tiles (Sobol' sequences seeded per pixel): the images equal those of the default
+tiles to float32 rounding (the compiled kernels' per-tile sums)."""
+
+
+def tile_progress(between_tiles: Callable[[], None] | None) -> Callable[[int, int], None] | None:
+    """:func:`~brdfkit.render.progressive`'s ``progress`` that calls ``between_tiles()``."""
+    if between_tiles is None:
+        return None
+    return lambda done, total: between_tiles()
 
 
 def diffuse_term(brdf: BRDF, envmap: EnvironmentMap, resolution: int) -> np.ndarray | None:
@@ -326,12 +365,14 @@ def lit_passes(
     envmap: EnvironmentMap,
     cancel: threading.Event | None = None,
     max_samples: int = LIT_MAX_SAMPLES,
+    between_tiles: Callable[[], None] | None = None,
 ) -> Iterator[Pass]:
     """The lit object: ``scene``'s G-buffer ``g`` under ``envmap`` (turned into Mitsuba's
     frame, :func:`~brdfkit.render.mitsuba_frame.mitsuba_oriented`) with shadows
     (:meth:`~brdfkit.render.mesh.MeshScene.visibility`), refined progressively
     (:func:`brdfkit.render.progressive`, default seed and Sobol' replicates: the same passes as
-    that call in any process), stopping when ``cancel`` is set.
+    that call in any process, to float32 rounding), stopping when ``cancel`` is set;
+    ``between_tiles()`` after each tile (:func:`tile_progress`).
 
     Examples
     --------
@@ -347,7 +388,14 @@ def lit_passes(
     light = mitsuba_oriented(envmap)
     visibility = scene.visibility(g)
     return progressive(
-        g, brdf, light, max_samples=max_samples, cancel=cancel, visibility=visibility
+        g,
+        brdf,
+        light,
+        max_samples=max_samples,
+        cancel=cancel,
+        visibility=visibility,
+        max_evaluations=PROGRESSIVE_TILE_EVALUATIONS,
+        progress=tile_progress(between_tiles),
     )
 
 
@@ -442,6 +490,7 @@ __all__ = [
     "LOBE_GRID",
     "LOCAL_TO_WORLD",
     "PREVIEW_MIN",
+    "PROGRESSIVE_TILE_EVALUATIONS",
     "SLICE_RESOLUTION",
     "Disk",
     "ViewState",
@@ -460,7 +509,9 @@ __all__ = [
     "sphere",
     "sphere_disk",
     "sphere_gbuffer",
+    "sphere_values",
     "theta_d_curve",
     "theta_h_curve",
     "theta_v_curve",
+    "tile_progress",
 ]

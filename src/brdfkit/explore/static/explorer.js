@@ -35,12 +35,43 @@ function srgbDecode(v) {
   return v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4);
 }
 
-// A typed view of one array described in a frame header.
+// A typed view of one array described in a frame header (float16: its bits, see halfFloats).
 function typedArray(spec, buffer) {
-  const kinds = { float32: Float32Array, float64: Float64Array, int32: Int32Array, uint8: Uint8Array };
+  const kinds = { float16: Uint16Array, float32: Float32Array, float64: Float64Array, int32: Int32Array, uint8: Uint8Array };
   const Kind = kinds[spec.dtype];
   const count = spec.shape.reduce((a, b) => a * b, 1);
   return new Kind(buffer.buffer, buffer.byteOffset, count);
+}
+
+// IEEE 754 half floats: the value of each of the 65536 bit patterns (a table built once).
+let HALF = null;
+function halfFloats() {
+  if (HALF) return HALF;
+  HALF = new Float32Array(65536);
+  for (let h = 0; h < 65536; h++) {
+    const e = (h >> 10) & 31, m = h & 1023;
+    const v = e === 0 ? m * 2 ** -24 : e === 31 ? (m ? NaN : Infinity) : (1 + m / 1024) * 2 ** (e - 15);
+    HALF[h] = h & 0x8000 ? -v : v;
+  }
+  return HALF;
+}
+
+// The linear image (size·size·C, 0 off the disc) of a disc's values: those of its pixels
+// only, in row order (float16 bits in a Uint16Array, or floats); the disc is its mask's bits,
+// each row's packed most significant first ((size, ⌈size/8⌉) bytes, as NumPy's packbits). The
+// image is a scratch buffer, valid until the next call.
+let scratch = new Float32Array(0);
+function discImage(values, size, C, disc) {
+  const n = size * size * C, rowBytes = disc.length / size;
+  if (scratch.length < n) scratch = new Float32Array(n);
+  const out = scratch.subarray(0, n).fill(0), half = values instanceof Uint16Array ? halfFloats() : null;
+  for (let row = 0, k = 0; row < size; row++) for (let col = 0; col < size; col++) {
+    if (!(disc[row * rowBytes + (col >> 3)] & (128 >> (col & 7)))) continue;
+    const p = (row * size + col) * C;
+    if (half) for (let c = 0; c < C; c++) out[p + c] = half[values[k++]];
+    else for (let c = 0; c < C; c++) out[p + c] = values[k++];
+  }
+  return out;
 }
 
 // Channel selection: values (n*C) → n grey values. "rgb" on a plot is luminance.
@@ -92,8 +123,10 @@ function encoder(display) {
   return encode;
 }
 
-// Linear (R, R, C) image → RGBA pixels with exposure, channel and display encoding.
-export function toPixels(data, size, channels, display) {
+// Linear (R, R, C) image → RGBA pixels with exposure, channel and display encoding; with a
+// disc, data holds the values of the disc's pixels only (discImage), the others are black.
+export function toPixels(data, size, channels, display, disc = null) {
+  if (disc) data = discImage(data, size, channels, disc);
   const out = new Uint8ClampedArray(size * size * 4);
   const scale = Math.pow(2, display.exposure), encode = encoder(display);
   const k = { r: 0, g: 1, b: 2 }[display.channel];
@@ -299,6 +332,7 @@ function slicePixels(v, n) {
 // typed arrays by value, anything else by identity. A view whose inputs are unchanged is not
 // drawn again: the light's slider moves the spheres, the polar plot, the θv curve and the lobe.
 function sameValue(a, b) {
+  if (a === b) return true;
   if (!ArrayBuffer.isView(a) || !ArrayBuffer.isView(b)) return a === b;
   if (a.length !== b.length || a.constructor !== b.constructor) return false;
   for (let i = 0; i < a.length; i++) if (a[i] !== b[i] && !(a[i] !== a[i] && b[i] !== b[i])) return false;
@@ -665,14 +699,23 @@ export function createExplorer(root, transport, config = {}) {
     item.caption.textContent = `${what}${noise} · ${header.seconds.toFixed(2)} s`;
     drawEnvs();
   }
+  // A progressive view's canvas painted with its linear image under the display, unless it
+  // shows that very image under that display already (a frame of the spheres redraws them).
+  const painted = new WeakMap();  // canvas → what it shows
+  function paintImage(canvas, data, size, C) {
+    const d = state.display, shows = [data, size, d.exposure, d.gamma, d.channel], last = painted.get(canvas);
+    if (last && shows.every((v, i) => v === last[i])) return;
+    painted.set(canvas, shows);
+    if (canvas.width !== size) { canvas.width = size; canvas.height = size; }
+    canvas.getContext("2d").putImageData(new ImageData(toPixels(data, size, C, d), size, size), 0, 0);
+  }
   function drawEnvs() {
     const ids = visibleIds();
     const shown = state.view.envmap ? state.entries.filter((e) => ids.has(e.id) && envs.has(e.id)) : [];
     for (const e of shown) {
       const item = envs.get(e.id);
-      if (item.canvas.width !== item.size) { item.canvas.width = item.size; item.canvas.height = item.size; }
       item.canvas.style.borderColor = e.color;
-      item.canvas.getContext("2d").putImageData(new ImageData(toPixels(item.data, item.size, item.C, state.display), item.size, item.size), 0, 0);
+      paintImage(item.canvas, item.data, item.size, item.C);
     }
     const boxes = shown.map((e) => envs.get(e.id).box);
     const current = Array.from(envPanel.children);
@@ -719,24 +762,24 @@ export function createExplorer(root, transport, config = {}) {
   function drawLits() {
     const ids = visibleIds();
     const shown = state.view.lit ? state.entries.filter((e) => ids.has(e.id) && lits.has(e.id)) : [];
-    const paint = (canvas, data, size, C) => {
-      if (canvas.width !== size) { canvas.width = size; canvas.height = size; }
-      canvas.getContext("2d").putImageData(new ImageData(toPixels(data, size, C, state.display), size, size), 0, 0);
-    };
     for (const e of shown) {
       const item = lits.get(e.id);
       item.canvas.style.borderColor = e.color;
-      paint(item.canvas, item.data, item.size, item.C);
+      paintImage(item.canvas, item.data, item.size, item.C);
     }
     const boxes = shown.map((e) => lits.get(e.id).box);
     if (shown.length >= 2) {
       const [a, b] = shown.map((e) => lits.get(e.id));
       if (a.size === b.size) {
         if (!litDifference) litDifference = { canvas: litCanvas("difference", "|first − second|: drag to orbit") };
-        const n = a.size * a.size, C = Math.max(a.C, b.C), diff = new Float32Array(n * C);
-        for (let p = 0; p < n; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
-        paint(litDifference.canvas, diff, a.size, C);
-        boxes.push(litDifference.canvas);
+        const d = litDifference, C = Math.max(a.C, b.C);
+        if (d.a !== a.data || d.b !== b.data) {  // a new pass of either
+          const n = a.size * a.size;
+          Object.assign(d, { a: a.data, b: b.data, data: new Float32Array(n * C) });
+          for (let p = 0; p < n; p++) for (let k = 0; k < C; k++) d.data[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
+        }
+        paintImage(d.canvas, d.data, a.size, C);
+        boxes.push(d.canvas);
       }
     }
     const current = Array.from(litPanel.children);
@@ -777,25 +820,18 @@ export function createExplorer(root, transport, config = {}) {
     const changedFor = (name, ...inputs) => inputsChanged(drawn, name, [colors, d.channel, d.log, ...inputs]);
     api.plotted = {};
 
-    // lit spheres (+ the difference of the first two)
-    const sphereData = [];
+    // lit spheres (+ the difference of the first two, computed by the server in float64)
     let R = v.resolution;  // a preview's sphere has half the pixels
-    const canvases = shown.map((e) => {
-      const data = arr(e, "sphere");
-      R = header.arrays[header.views[e.id].sphere].shape[0];
-      const C = data.length / (R * R);
-      sphereData.push({ data, C });
-      const draw = changedFor(`sphere ${e.id}`, data, R, d.exposure, d.gamma);
-      return sphereCanvas(e.id, e.color, draw ? toPixels(data, R, C, d) : null, R);
-    });
-    if (sphereData.length >= 2) {
-      const [a, b] = sphereData;
-      let pixels = null;
-      if (changedFor("sphere difference", a.data, b.data, R, d.exposure, d.gamma)) {
-        const C = Math.max(a.C, b.C), diff = new Float32Array(R * R * C);
-        for (let p = 0; p < R * R; p++) for (let k = 0; k < C; k++) diff[p * C + k] = Math.abs(a.data[p * a.C + (a.C === 1 ? 0 : k)] - b.data[p * b.C + (b.C === 1 ? 0 : k)]);
-        pixels = toPixels(diff, R, C, d);
-      }
+    const image = (e, name) => {
+      const spec = header.arrays[header.views[e.id][name]], disc = arr(e, "disc");
+      R = header.arrays[header.views[e.id].disc].shape[0];
+      return { values: arr(e, name), disc, C: spec.shape[1] };
+    };
+    const paint = (name, sphere) => changedFor(name, sphere.values, sphere.disc, d.exposure, d.gamma)
+      ? toPixels(sphere.values, R, sphere.C, d, sphere.disc) : null;
+    const canvases = shown.map((e) => sphereCanvas(e.id, e.color, paint(`sphere ${e.id}`, image(e, "sphere")), R));
+    if (shown.length >= 2 && header.views[shown[0].id].difference !== undefined) {
+      const pixels = paint("sphere difference", image(shown[0], "difference"));
       canvases.push(sphereCanvas("difference", "#000", pixels, R, "|first − second|"));
     }
     const current = Array.from(spheres.children);
