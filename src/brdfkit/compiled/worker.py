@@ -1,0 +1,107 @@
+"""Compiling kernels on another core: a worker process that fills the disk cache.
+
+numba compiles on one core, holding the GIL, so threads of one process compile one kernel at a
+time. A kernel that does not depend on the others (the render's tile kernel, which takes the
+BRDF's kernels as arguments) can be compiled by a second process while this one compiles the
+rest; the worker writes its machine code into :mod:`brdfkit.compiled.cache` (numba's atomic
+writes: an entry is complete or absent) and this process loads it from there when it first
+calls the kernel. Where the worker fails or is not there (the cache turned off), the kernel is
+compiled in this process at that call, as without a worker: a worker only saves time.
+
+:func:`start` runs ``module.function(*arguments)`` in a fresh Python (``python -c``, the same
+brdfkit and cache folder, its output discarded); the returned :class:`Worker` is a context
+manager that ends the process on the way out (an interrupt, an error, or a caller that no
+longer waits), so that no process outlives the command. The worker also ends itself when its
+parent is gone (checked every :data:`PARENT_POLL` seconds).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from brdfkit.compiled import cache as kernel_cache
+
+PARENT_POLL = 0.25
+"""Seconds between a worker's checks that the process that started it still runs."""
+
+
+class Worker:
+    """A worker process (:func:`start`); ``with`` ends it on the way out."""
+
+    def __init__(self, process: subprocess.Popen) -> None:
+        self._process = process
+
+    def wait(self) -> bool:
+        """Wait for the worker to finish; whether it succeeded (its kernels are on disk)."""
+        return self._process.wait() == 0
+
+    def stop(self) -> None:
+        """End the worker if it still runs (SIGTERM), and reap it."""
+        if self._process.poll() is None:
+            self._process.terminate()
+        self._process.wait()
+
+    def __enter__(self) -> Worker:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.stop()
+
+
+def start(module: str, function: str, *arguments: Any) -> Worker | None:
+    """Start a process calling ``module.function(*arguments)`` (Python literals) with this
+    process's brdfkit and kernel cache folder; ``None`` (nothing started) where the cache is
+    off or cannot be written, or the process cannot be started."""
+    folder = kernel_cache.root()
+    if folder is None or kernel_cache.directory() is None:
+        return None
+    source = str(Path(__file__).parents[2])  # the folder holding this brdfkit package
+    path = os.environ.get("PYTHONPATH")
+    environment = {
+        **os.environ,
+        kernel_cache.ENV: str(folder),
+        "PYTHONPATH": source if not path else f"{source}{os.pathsep}{path}",
+    }
+    call = f"{function}(*{arguments!r})"
+    statement = (
+        f"from brdfkit.compiled.worker import serve; serve({os.getpid()}); "
+        f"from {module} import {function}; {call}"
+    )
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-c", statement],
+            env=environment,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    except OSError:
+        return None
+    return Worker(process)
+
+
+def serve(parent: int) -> None:
+    """In a worker: end this process as soon as ``parent`` is no longer its parent (the
+    process that started it has ended), from a daemon thread."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="brdfkit-worker-parent", daemon=True).start()
+
+
+__all__ = ["PARENT_POLL", "Worker", "serve", "start"]
