@@ -17,9 +17,9 @@ without it). Per block of :data:`BLOCK` pixels and per sample, the kernel's step
 numba functions, each mirroring the NumPy code it replaces in the kernel's dtype:
 
 - :func:`_block_loader`: the block's viewing directions, frames and control variates;
-- :func:`_variates`: the uniforms of both strategies, each pixel's own nested-scrambled,
-  digitally shifted Sobol' sequence (:func:`brdfkit.sampling.scrambled_sobol`: the scramble
-  keys hashed from the same code) or i.i.d. points;
+- :func:`_variate_steps` and :func:`_draw`: the uniforms of both strategies, each pixel's own
+  nested-scrambled, digitally shifted Sobol' sequence (:func:`brdfkit.sampling.scrambled_sobol`:
+  the scramble keys hashed from the same code) or i.i.d. points;
 - :func:`_brdf_sampling`: the BRDF's ``sample`` kernel over the block (vectorised across it);
 - :func:`_map_at_brdf_samples`: the map's coordinates, bilinear cell and pdf texel at those
   directions (``light/_environment_kernels.py``);
@@ -64,6 +64,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import types
 from collections.abc import Callable
 from typing import Any
@@ -93,10 +94,12 @@ def tile_kernel(
 
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
-    col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn)``, the BRDF's
-    kernels passed as first-class functions (:func:`brdf_functions`; they are compiled on
-    their own and called through their addresses, so the tile kernel is the same for every
-    BRDF and compiled once per machine), and writes each pixel's mean and sum of squared
+    col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn, block_keys,
+    scrambled, sample_texels)``, the BRDF's kernels and three block-level steps passed as
+    first-class functions (:func:`brdf_functions`, :func:`step_functions`; compiled on their
+    own and called through their addresses, so the tile kernel is the same for every BRDF and
+    compiled once per machine, and compiled in another process while this one builds those),
+    and writes each pixel's mean and sum of squared
     deviations of the MIS terms into ``mean`` and ``m2`` ``(n, C)``. The ``record`` kernel
     (shadows) writes instead each sample's two MIS terms into ``mean`` ``(n, N, 2, C)`` and
     the world directions of its two samples into ``m2`` ``(n, N, 2, 3)``, both in ``dtype``
@@ -146,7 +149,8 @@ def tile_signature(
     array, scalar = kernel_tools.array_type, kernel_tools.scalar_type
     t, f64, u32 = np.dtype(dtype), np.float64, np.uint32
     outputs = (array(t, 4), array(t, 4)) if record else (array(f64, 2), array(f64, 2))
-    functions = tuple(kernel_tools.function_type(a) for a in _brdf_argument_types(t.type, ()))
+    brdf = _brdf_argument_types(t.type, ())
+    functions = tuple(map(kernel_tools.function_type, (*brdf, *_step_types())))
     return (
         array(t, 1), array(np.int64, 1), array(t, 2), array(t, 3),  # parameters … frame
         array(f64, 3), array(u32, 2), array(f64, 3), array(u32, 2), array(np.uint64, 1),
@@ -171,6 +175,8 @@ def tile_kernel_built(
     """Whether a tile kernel (the ``record`` one: :func:`tile_kernel`) is compiled in this
     process, or its machine code is on disk, for a map of ``map_channels`` channels
     (``None``: 1 or 3)."""
+    if not _steps_built(dtype):
+        return False
     for channels in (map_channels,) if map_channels is not None else (1, 3):
         tile = _TILE_KERNELS.get((np.dtype(dtype).type, brdf_channels, channels, record))
         if tile is not None and tile.signatures:
@@ -198,7 +204,7 @@ def _new_tile_kernel(
         brdf_channels,
         map_channels,
         _block_loader(brdf_channels, max(brdf_channels, map_channels)),
-        _variates(dtype),
+        _draw(),
         _brdf_sampling(dtype),
         _map_at_brdf_samples(env),
         _map_sampling(env, dtype),
@@ -233,15 +239,16 @@ def _block_loader(brdf_channels: int, channels: int) -> Callable[..., None]:
     return load_block
 
 
-def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
-    """``(block_keys, draw)``: ``block_keys(seeds, stream, pixels, start, nb, out)``, the
+@functools.cache
+def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
+    """``(block_keys, scrambled)``: ``block_keys(seeds, stream, pixels, start, nb, out)``, the
     block's pixels' scramble keys of ``stream`` (``sampling.scramble_keys`` of their seeds:
     ``key_hash`` of ``key_slot``, the same code jitted) as ``out`` ``(2, d, nb)``; and
-    ``draw(s, start, nb, pixels, sequences, keys, u_b, u_l)``, sample ``s`` of the BRDF's
-    (3-D) and the map's (2-D) uniforms of the block, ``(d, nb)`` each: each dimension's
-    Sobol' digits Laine–Karras scrambled by the pixel's keys, bit-reversed and shifted
-    (``sampling.scrambled_sobol``; one integer loop per dimension over the block, which
-    LLVM vectorises), or the i.i.d. ``points`` of the NumPy path."""
+    ``scrambled(digits, keys, s, nb, out)``, sample ``s`` of each dimension's Sobol' digits
+    Laine–Karras scrambled by the pixels' keys, bit-reversed and shifted
+    (``sampling.scrambled_sobol``; one integer loop per dimension over the block, which LLVM
+    vectorises), as ``out`` ``(d, nb)``. Block-level steps: first-class functions of the
+    tile kernel (:func:`step_functions`)."""
     jit = kernel_tools.jit()
     reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
     key_hash = jit(
@@ -271,9 +278,71 @@ def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
                 x = reverse_bits(laine_karras(d, keys[0, k, j])) ^ keys[1, k, j]
                 out[k, j] = np.float64(np.int64(x)) * unit_interval  # x < 2^32: exact
 
+    return block_keys, scrambled
+
+
+_STEPS: dict[type, tuple[Callable[..., None], ...]] = {}
+
+
+def step_functions(dtype: type) -> tuple[Any, Any, Any]:
+    """The tile kernel's block-level steps that need no BRDF (``block_keys``, ``scrambled``:
+    :func:`_variate_steps`; the map's texel search ``sample_texels``,
+    :func:`brdfkit.light.environment.compiled_lookups`) compiled on their own (their machine
+    code on disk) as the first-class functions :func:`tile_kernel` takes last: the process
+    that builds the BRDF's kernels builds these too, while a worker compiles the rest of the
+    tile kernel (:func:`build_tile_kernel`). Each is called once per block, so a call through
+    its address costs nothing measurable."""
+    dtype = np.dtype(dtype).type
+    if dtype not in _STEPS:
+        steps = (*_variate_steps(), compiled_lookups(dtype, kernel_tools).sample_texels)
+        for name, step in zip(_STEP_NAMES, steps, strict=True):
+            if not step.signatures:  # not yet compiled in this process: from disk
+                kernel_cache.enable(step, _step_key(name, dtype))
+        _STEPS[dtype] = steps
+    return tuple(
+        kernel_tools.first_class_function(step, arguments)
+        for step, arguments in zip(_STEPS[dtype], _step_types(), strict=True)
+    )
+
+
+_STEP_NAMES = ("block keys", "scrambled digits", "texel search")
+
+
+def _step_key(name: str, dtype: type) -> str:
+    """The disk-cache key of the step ``name`` of :func:`step_functions`."""
+    return kernel_cache.key("tile step", name, np.dtype(dtype).str)
+
+
+def _step_types() -> tuple[tuple[Any, ...], ...]:
+    """The numba argument types of :func:`step_functions`' steps as the tile kernel calls
+    them."""
+    array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
+    u64, i64, f64 = array(np.uint64, 1), array(np.int64, 1), array(np.float64, 1)
+    keys = array(np.uint64, 3)
+    block_keys = (u64, n, i64, n, n, keys)
+    scrambled = (array(np.uint32, 2), keys, n, n, array(np.float64, 2))
+    guide = array(np.uint16, 1)
+    sample_texels = (f64, f64, f64, f64, guide, guide, n, n, n, i64, i64, i64)
+    return block_keys, scrambled, sample_texels
+
+
+def _steps_built(dtype: type) -> bool:
+    """Whether :func:`step_functions`' steps are compiled in this process or on disk."""
+    steps = _STEPS.get(np.dtype(dtype).type)
+    if steps is not None and all(step.signatures for step in steps):
+        return True
+    return all(kernel_cache.has(_step_key(name, dtype)) for name in _STEP_NAMES)
+
+
+def _draw() -> Callable[..., None]:
+    """``draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)``: sample ``s`` of
+    the BRDF's (3-D) and the map's (2-D) uniforms of the block, ``(d, nb)`` each: the
+    pixels' scrambled Sobol' points (``scrambled``, :func:`_variate_steps`) or the i.i.d.
+    ``points`` of the NumPy path."""
+
     @kernel_tools.inline_jit()
     def draw(s: int, start: int, nb: int, pixels: np.ndarray, sequences: tuple, keys: tuple,
-             u_b: np.ndarray, u_l: np.ndarray) -> None:  # fmt: skip
+             scrambled: Any, u_b: np.ndarray, u_l: np.ndarray) -> None:  # fmt: skip
         points_b, digits_b, points_l, digits_l = sequences
         if digits_b.shape[0] > 0:
             scrambled(digits_b, keys[0], s, nb, u_b)
@@ -286,7 +355,7 @@ def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
             for k in range(2):
                 u_l[k, j] = points_l[p, s, k]
 
-    return block_keys, draw
+    return draw
 
 
 def _brdf_sampling(dtype: type) -> Callable[..., None]:
@@ -342,15 +411,16 @@ def _map_at_brdf_samples(env: Any) -> Callable[..., None]:
 
 
 def _map_sampling(env: Any, dtype: type) -> Callable[..., None]:
-    """``sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l, wil_buf,
-    cos_l)``: ``EnvironmentMap.sample`` per pixel: the texel search (``env.sample_texels``
+    """``sample_map(nb, u_l, view, cdfs, frames, scratch, sample_texels, cells_l, weights_l,
+    pdf_l, wil_buf, cos_l)``: ``EnvironmentMap.sample`` per pixel: the texel search
+    (``sample_texels``, ``env.sample_texels`` as a first-class function: :func:`step_functions`
     on the float64 uniforms, clamped below 1 as ``Distribution2D.sample`` does), the texels'
     CDF nodes and density (gathers in a loop of their own), then the point in the texel
     (``env.sample_point``), its bilinear cell, solid-angle pdf and direction in the pixel's
     frame with cos θ; finally the texels' rows prefetched. ``cdfs = (marginal, conditional,
     row_guide, col_guide)``; ``scratch`` the float64 uniforms, texels and CDF nodes."""
     prefetch = kernel_tools.prefetch()
-    sample_texels, sample_point = env.sample_texels, env.sample_point
+    sample_point = env.sample_point
     sample_direction, texel_cell = env.sample_direction, env.texel_cell
     solid_angle_pdf = env.solid_angle_pdf
     zero = dtype(0)
@@ -358,7 +428,7 @@ def _map_sampling(env: Any, dtype: type) -> Callable[..., None]:
 
     @kernel_tools.inline_jit()
     def sample_map(nb: int, u_l: np.ndarray, view: tuple, cdfs: tuple, frames: np.ndarray,
-                   scratch: tuple, cells_l: np.ndarray, weights_l: np.ndarray,
+                   scratch: tuple, sample_texels: Any, cells_l: np.ndarray, weights_l: np.ndarray,
                    pdf_l: np.ndarray, wil_buf: np.ndarray, cos_l: np.ndarray) -> None:  # fmt: skip
         texels, density, r, height, width, nc = view
         marginal, conditional, row_guide, col_guide = cdfs
@@ -606,7 +676,7 @@ def _tile_loop(
     brdf_channels: int,
     map_channels: int,
     load_block: Callable[..., None],
-    variates: tuple[Callable[..., None], Callable[..., None]],
+    draw: Callable[..., None],
     sample_brdf: Callable[..., None],
     locate: Callable[..., None],
     sample_map: Callable[..., None],
@@ -617,7 +687,6 @@ def _tile_loop(
     """The tile kernel: its scratch buffers (a few per block, along the block), then per
     block of :data:`BLOCK` pixels and per sample the steps in turn, and each pixel's mean and
     sum of squared deviations."""
-    block_keys, draw = variates
     accumulate, flush = finish
     T, B, CB = dtype, BLOCK, BLOCK * brdf_channels
     channels = max(brdf_channels, map_channels)
@@ -630,7 +699,8 @@ def _tile_loop(
               scale: Any, marginal: np.ndarray, conditional: np.ndarray, density: np.ndarray,
               row_guide: np.ndarray, col_guide: np.ndarray, power: bool, control: np.ndarray,
               mean: np.ndarray, m2: np.ndarray, data: tuple, sample_fn: Any, eval_fn: Any,
-              pdf_fn: Any) -> None:  # fmt: skip
+              pdf_fn: Any, block_keys: Any, scrambled: Any,
+              sample_texels: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
         view = (image.reshape(-1), density, r, image.shape[0], image.shape[1], image.shape[2])
@@ -671,11 +741,11 @@ def _tile_loop(
             load_block(pixels, start, nb, wo, frame, control, wo_buf, frames, controls, mean_b,
                        m2_b)  # fmt: skip
             for s in range(samples):
-                draw(s, start, nb, pixels, sequences, keys, u_b, u_l)
+                draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)
                 sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)
                 locate(nb, brdf[0], frames, view, sin_b, cells_b, weights_b, density_b)
-                sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l,
-                           wil_buf, cos_l)  # fmt: skip
+                sample_map(nb, u_l, view, cdfs, frames, scratch, sample_texels, cells_l,
+                           weights_l, pdf_l, wil_buf, cos_l)  # fmt: skip
                 evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
                          pbl_buf)  # fmt: skip
                 read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)

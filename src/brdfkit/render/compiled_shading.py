@@ -58,6 +58,7 @@ from brdfkit.params import check_choice
 from brdfkit.render._reflection_kernels import (
     BLOCK,
     brdf_functions,
+    step_functions,
     tile_kernel,
     tile_kernel_built,
 )
@@ -204,8 +205,9 @@ class EnvironmentShader:
             else:
                 self._rest, functions = _compiled(self.rest, self.dtype)
             self._kernel = tile_kernel(self.dtype.type, self.rest.channels, self.env.channels)
-            self._functions = brdf_functions(
-                functions, self.dtype.type, self.rest.channels, self._data
+            self._functions = (
+                *brdf_functions(functions, self.dtype.type, self.rest.channels, self._data),
+                *step_functions(self.dtype.type),
             )
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS
         lookups = compiled_lookups(self.dtype, kernel_tools)
