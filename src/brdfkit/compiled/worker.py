@@ -11,12 +11,15 @@ compiled in this process at that call, as without a worker: a worker only saves 
 :func:`start` runs ``module.function(*arguments)`` in a fresh Python (``python -c``, the same
 brdfkit and cache folder, its output discarded); the returned :class:`Worker` is a context
 manager that ends the process on the way out (an interrupt, an error, or a caller that no
-longer waits), so that no process outlives the command. The worker also ends itself when its
-parent is gone (checked every :data:`PARENT_POLL` seconds).
+longer waits), so that no process outlives the command; workers still running when the
+interpreter exits (started from a thread the exit does not wait for) are ended then. The
+worker also ends itself when its parent is gone (checked every :data:`PARENT_POLL` seconds:
+a parent killed outright runs no clean-up).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import subprocess
 import sys
@@ -37,6 +40,10 @@ class Worker:
 
     def __init__(self, process: subprocess.Popen) -> None:
         self._process = process
+        with _LOCK:
+            if not _RUNNING:
+                atexit.register(_stop_running)
+            _RUNNING.add(self)
 
     def wait(self) -> bool:
         """Wait for the worker to finish; whether it succeeded (its kernels are on disk)."""
@@ -47,6 +54,8 @@ class Worker:
         if self._process.poll() is None:
             self._process.terminate()
         self._process.wait()
+        with _LOCK:
+            _RUNNING.discard(self)
 
     def __enter__(self) -> Worker:
         return self
@@ -58,6 +67,18 @@ class Worker:
         traceback: TracebackType | None,
     ) -> None:
         self.stop()
+
+
+_RUNNING: set[Worker] = set()
+_LOCK = threading.Lock()
+
+
+def _stop_running() -> None:
+    """End the workers still running (at the interpreter's exit)."""
+    with _LOCK:
+        running = list(_RUNNING)
+    for worker in running:
+        worker.stop()
 
 
 def start(module: str, function: str, *arguments: Any) -> Worker | None:
