@@ -174,9 +174,7 @@ def tile_kernel_built(
 ) -> bool:
     """Whether a tile kernel (the ``record`` one: :func:`tile_kernel`) is compiled in this
     process, or its machine code is on disk, for a map of ``map_channels`` channels
-    (``None``: 1 or 3)."""
-    if not _steps_built(dtype):
-        return False
+    (``None``: 1 or 3); the steps it calls are :func:`steps_built`'s."""
     for channels in (map_channels,) if map_channels is not None else (1, 3):
         tile = _TILE_KERNELS.get((np.dtype(dtype).type, brdf_channels, channels, record))
         if tile is not None and tile.signatures:
@@ -326,7 +324,7 @@ def _step_types() -> tuple[tuple[Any, ...], ...]:
     return block_keys, scrambled, sample_texels
 
 
-def _steps_built(dtype: type) -> bool:
+def steps_built(dtype: type) -> bool:
     """Whether :func:`step_functions`' steps are compiled in this process or on disk."""
     steps = _STEPS.get(np.dtype(dtype).type)
     if steps is not None and all(step.signatures for step in steps):

@@ -59,6 +59,7 @@ from brdfkit.render._reflection_kernels import (
     BLOCK,
     brdf_functions,
     step_functions,
+    steps_built,
     tile_kernel,
     tile_kernel_built,
 )
@@ -540,8 +541,10 @@ def kernels_built(
     map of ``map_channels`` channels (``None``: 1 or 3); with ``shadows`` the recording tile
     kernel of the shadowed path."""
     dtype = np.dtype(dtype)
-    return _brdf_kernels_built(model, dtype) and tile_kernel_built(
-        dtype.type, model.channels, map_channels, shadows
+    return (
+        _brdf_kernels_built(model, dtype)
+        and steps_built(dtype.type)
+        and tile_kernel_built(dtype.type, model.channels, map_channels, shadows)
     )
 
 
@@ -586,7 +589,12 @@ def build_kernels(
 ) -> float:
     """Build (or load) the compiled shader's kernels for ``brdf`` under ``lights`` now
     (:meth:`EnvironmentShader.build`), record the seconds taken for :func:`build_estimate`
-    and return them (0 where the compiled path does not apply)."""
+    and return them (0 where the compiled path does not apply).
+
+    Where the tile kernel is neither built nor on disk, a worker process compiles it into the
+    disk cache (:func:`_tile_worker`) while this one builds the BRDF's kernels, the tile
+    kernel's steps and the map's tables; this process then loads it (or, where the worker
+    failed, compiles it itself). The worker is ended when this returns or raises."""
     start = time.perf_counter()
     with _tile_worker(brdf, lights, method, np.dtype(dtype)) as worker:
         plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
