@@ -95,7 +95,7 @@ def tile_kernel(
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
     col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn, block_keys,
-    scrambled, sample_texels)``, the BRDF's kernels and three block-level steps passed as
+    scrambled)``, the BRDF's kernels and two block-level steps passed as
     first-class functions (:func:`brdf_functions`, :func:`step_functions`; compiled on their
     own and called through their addresses, so the tile kernel is the same for every BRDF and
     compiled once per machine, and compiled in another process while this one builds those),
@@ -282,17 +282,18 @@ def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
 _STEPS: dict[type, tuple[Callable[..., None], ...]] = {}
 
 
-def step_functions(dtype: type) -> tuple[Any, Any, Any]:
-    """The tile kernel's block-level steps that need no BRDF (``block_keys``, ``scrambled``:
-    :func:`_variate_steps`; the map's texel search ``sample_texels``,
-    :func:`brdfkit.light.environment.compiled_lookups`) compiled on their own (their machine
-    code on disk) as the first-class functions :func:`tile_kernel` takes last: the process
-    that builds the BRDF's kernels builds these too, while a worker compiles the rest of the
-    tile kernel (:func:`build_tile_kernel`). Each is called once per block, so a call through
-    its address costs nothing measurable."""
+def step_functions(dtype: type) -> tuple[Any, Any]:
+    """The tile kernel's block-level steps of its Sobol' variates (``block_keys``,
+    ``scrambled``: :func:`_variate_steps`) compiled on their own (their machine code on disk)
+    as the first-class functions :func:`tile_kernel` takes last: the process that builds the
+    BRDF's kernels builds these too, while a worker compiles the rest of the tile kernel
+    (:func:`build_tile_kernel`), so that the two processes take about equal shares of a first
+    build. Each is called once per block and sample at most. (The map's texel search, also
+    called once per block, stays in the tile kernel: called through its address it made the
+    kernel 5–10 % slower.)"""
     dtype = np.dtype(dtype).type
     if dtype not in _STEPS:
-        steps = (*_variate_steps(), compiled_lookups(dtype, kernel_tools).sample_texels)
+        steps = _variate_steps()
         for name, step in zip(_STEP_NAMES, steps, strict=True):
             if not step.signatures:  # not yet compiled in this process: from disk
                 kernel_cache.enable(step, _step_key(name, dtype))
@@ -303,7 +304,7 @@ def step_functions(dtype: type) -> tuple[Any, Any, Any]:
     )
 
 
-_STEP_NAMES = ("block keys", "scrambled digits", "texel search")
+_STEP_NAMES = ("block keys", "scrambled digits")
 
 
 def _step_key(name: str, dtype: type) -> str:
@@ -315,13 +316,10 @@ def _step_types() -> tuple[tuple[Any, ...], ...]:
     """The numba argument types of :func:`step_functions`' steps as the tile kernel calls
     them."""
     array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
-    u64, i64, f64 = array(np.uint64, 1), array(np.int64, 1), array(np.float64, 1)
     keys = array(np.uint64, 3)
-    block_keys = (u64, n, i64, n, n, keys)
+    block_keys = (array(np.uint64, 1), n, array(np.int64, 1), n, n, keys)
     scrambled = (array(np.uint32, 2), keys, n, n, array(np.float64, 2))
-    guide = array(np.uint16, 1)
-    sample_texels = (f64, f64, f64, f64, guide, guide, n, n, n, i64, i64, i64)
-    return block_keys, scrambled, sample_texels
+    return block_keys, scrambled
 
 
 def steps_built(dtype: type) -> bool:
@@ -409,16 +407,15 @@ def _map_at_brdf_samples(env: Any) -> Callable[..., None]:
 
 
 def _map_sampling(env: Any, dtype: type) -> Callable[..., None]:
-    """``sample_map(nb, u_l, view, cdfs, frames, scratch, sample_texels, cells_l, weights_l,
-    pdf_l, wil_buf, cos_l)``: ``EnvironmentMap.sample`` per pixel: the texel search
-    (``sample_texels``, ``env.sample_texels`` as a first-class function: :func:`step_functions`
+    """``sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l, wil_buf,
+    cos_l)``: ``EnvironmentMap.sample`` per pixel: the texel search (``env.sample_texels``
     on the float64 uniforms, clamped below 1 as ``Distribution2D.sample`` does), the texels'
     CDF nodes and density (gathers in a loop of their own), then the point in the texel
     (``env.sample_point``), its bilinear cell, solid-angle pdf and direction in the pixel's
     frame with cos θ; finally the texels' rows prefetched. ``cdfs = (marginal, conditional,
     row_guide, col_guide)``; ``scratch`` the float64 uniforms, texels and CDF nodes."""
     prefetch = kernel_tools.prefetch()
-    sample_point = env.sample_point
+    sample_texels, sample_point = env.sample_texels, env.sample_point
     sample_direction, texel_cell = env.sample_direction, env.texel_cell
     solid_angle_pdf = env.solid_angle_pdf
     zero = dtype(0)
@@ -426,7 +423,7 @@ def _map_sampling(env: Any, dtype: type) -> Callable[..., None]:
 
     @kernel_tools.inline_jit()
     def sample_map(nb: int, u_l: np.ndarray, view: tuple, cdfs: tuple, frames: np.ndarray,
-                   scratch: tuple, sample_texels: Any, cells_l: np.ndarray, weights_l: np.ndarray,
+                   scratch: tuple, cells_l: np.ndarray, weights_l: np.ndarray,
                    pdf_l: np.ndarray, wil_buf: np.ndarray, cos_l: np.ndarray) -> None:  # fmt: skip
         texels, density, r, height, width, nc = view
         marginal, conditional, row_guide, col_guide = cdfs
@@ -697,8 +694,7 @@ def _tile_loop(
               scale: Any, marginal: np.ndarray, conditional: np.ndarray, density: np.ndarray,
               row_guide: np.ndarray, col_guide: np.ndarray, power: bool, control: np.ndarray,
               mean: np.ndarray, m2: np.ndarray, data: tuple, sample_fn: Any, eval_fn: Any,
-              pdf_fn: Any, block_keys: Any, scrambled: Any,
-              sample_texels: Any) -> None:  # fmt: skip
+              pdf_fn: Any, block_keys: Any, scrambled: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
         view = (image.reshape(-1), density, r, image.shape[0], image.shape[1], image.shape[2])
@@ -742,8 +738,8 @@ def _tile_loop(
                 draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)
                 sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)
                 locate(nb, brdf[0], frames, view, sin_b, cells_b, weights_b, density_b)
-                sample_map(nb, u_l, view, cdfs, frames, scratch, sample_texels, cells_l,
-                           weights_l, pdf_l, wil_buf, cos_l)  # fmt: skip
+                sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l,
+                           wil_buf, cos_l)  # fmt: skip
                 evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
                          pbl_buf)  # fmt: skip
                 read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)
