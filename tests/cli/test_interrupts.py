@@ -267,6 +267,7 @@ def test_an_interrupted_first_render_leaves_no_kernel_worker(tmp_path, signal_to
     core); Ctrl-C (the group) or SIGTERM (the parent alone) ends both, with one line."""
     env = dict(os.environ, PYTHONPATH=str(Path(_app.__file__).parents[2]))
     env["BRDFKIT_CACHE_DIR"] = str(tmp_path / "kernels")  # empty: the kernels are built
+    env["BRDFKIT_COMPILE_WORKER"] = "1"  # whatever the machine's load
     process = subprocess.Popen(
         [sys.executable, "-c", _COMMAND, "render", "-b", "ggx(alpha=0.3)", "-r", "16", "-s",
          "1", "-o", str(tmp_path / "x.png")],

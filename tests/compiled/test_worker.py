@@ -15,6 +15,11 @@ from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import worker
 
 
+@pytest.fixture(autouse=True)
+def _workers_whatever_the_load(monkeypatch):
+    monkeypatch.setenv(worker.ENV, "1")
+
+
 def test_a_worker_runs_its_call_and_reports_success():
     with worker.start("time", "sleep", 0.0) as job:
         assert job.wait()
@@ -34,6 +39,18 @@ def test_no_worker_without_a_cache(monkeypatch):
     assert worker.start("time", "sleep", 0.0) is None
 
 
+def test_no_worker_where_the_load_leaves_no_core_free(monkeypatch):
+    cores = len(os.sched_getaffinity(0))
+    monkeypatch.delenv(worker.ENV)
+    monkeypatch.setattr(os, "getloadavg", lambda: (cores + worker.BUSY_LOAD, 0.0, 0.0))
+    assert worker.start("time", "sleep", 0.0) is None
+    monkeypatch.setattr(os, "getloadavg", lambda: (cores + worker.BUSY_LOAD - 0.5, 0.0, 0.0))
+    with worker.start("time", "sleep", 0.0) as job:
+        assert job.wait()
+    monkeypatch.setenv(worker.ENV, "0")
+    assert worker.start("time", "sleep", 0.0) is None
+
+
 @pytest.mark.skipif(not Path("/proc/self").exists(), reason="reads /proc")
 def test_a_worker_ends_when_the_process_that_started_it_is_gone(tmp_path):
     """The parent killed outright (no clean-up runs): its worker ends itself."""
@@ -46,7 +63,7 @@ def test_a_worker_ends_when_the_process_that_started_it_is_gone(tmp_path):
         os._exit(0)
         """
     )
-    env = {**os.environ, kernel_cache.ENV: str(tmp_path)}
+    env = {**os.environ, kernel_cache.ENV: str(tmp_path), worker.ENV: "1"}
     env["PYTHONPATH"] = str(Path(worker.__file__).parents[2])
     done = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True

@@ -365,8 +365,9 @@ def test_a_build_starts_a_worker_only_for_a_tile_kernel_it_lacks(monkeypatch):
 
     started = []
     monkeypatch.setattr(worker, "start", lambda *a: started.append(a))
+    built = {(np.float32, 3, 3, False)}
+    monkeypatch.setattr(compiled_shading, "tile_kernel_built", lambda *a: a in built)
     env, grey = _map(), EnvironmentMap(np.ones((8, 16, 1)))
-    shade(gbuffer(Sphere(), None, 8), GOLD, env, samples=2)  # this tile kernel is built
     with compiled_shading._tile_worker(GOLD, [env], "auto", np.dtype(np.float32)) as found:
         assert found is None and started == []
     with compiled_shading._tile_worker(GOLD, [grey], "auto", np.dtype(np.float64)):

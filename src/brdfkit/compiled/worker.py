@@ -34,6 +34,17 @@ from brdfkit.compiled import cache as kernel_cache
 PARENT_POLL = 0.25
 """Seconds between a worker's checks that the process that started it still runs."""
 
+ENV = "BRDFKIT_COMPILE_WORKER"
+"""Environment variable: ``1`` starts workers whatever the load, ``0`` never; unset, by the
+load (:data:`BUSY_LOAD`)."""
+
+BUSY_LOAD = 1.0
+"""Load average above this process's cores at which :func:`start` starts no worker: the
+machine's other work already takes every core, and a second process would share them with
+this one, adding its own start (a Python and numba, ~1 s of CPU) to the total. Measured with
+the first render of ``brdfkit render`` on 2 cores, paired with one process compiling
+everything: with a worker 0.72–0.92× its time at load averages 1.6–2.6, 0.9–1.3× at 3.5–6.0."""
+
 
 class Worker:
     """A worker process (:func:`start`); ``with`` ends it on the way out."""
@@ -84,9 +95,10 @@ def _stop_running() -> None:
 def start(module: str, function: str, *arguments: Any) -> Worker | None:
     """Start a process calling ``module.function(*arguments)`` (Python literals) with this
     process's brdfkit and kernel cache folder; ``None`` (nothing started) where the cache is
-    off or cannot be written, or the process cannot be started."""
+    off or cannot be written, the machine is busy (:data:`BUSY_LOAD`) or the process cannot
+    be started."""
     folder = kernel_cache.root()
-    if folder is None or kernel_cache.directory() is None:
+    if folder is None or kernel_cache.directory() is None or _busy():
         return None
     source = str(Path(__file__).parents[2])  # the folder holding this brdfkit package
     path = os.environ.get("PYTHONPATH")
@@ -113,6 +125,19 @@ def start(module: str, function: str, *arguments: Any) -> Worker | None:
     return Worker(process)
 
 
+def _busy() -> bool:
+    """Whether the load average leaves no core free for a worker (:data:`BUSY_LOAD`), or
+    :data:`ENV` says so."""
+    choice = os.environ.get(ENV, "")
+    if choice in ("0", "1"):
+        return choice == "0"
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # no load average on this system: assume a free core
+        return False
+    return load >= len(os.sched_getaffinity(0)) + BUSY_LOAD
+
+
 def serve(parent: int) -> None:
     """In a worker: end this process as soon as ``parent`` is no longer its parent (the
     process that started it has ended), from a daemon thread."""
@@ -125,4 +150,4 @@ def serve(parent: int) -> None:
     threading.Thread(target=watch, name="brdfkit-worker-parent", daemon=True).start()
 
 
-__all__ = ["PARENT_POLL", "Worker", "serve", "start"]
+__all__ = ["BUSY_LOAD", "ENV", "PARENT_POLL", "Worker", "serve", "start"]
