@@ -19,7 +19,13 @@ Two figures:
 - **first**: ``--cold`` runs each with an empty kernel cache (a new folder each time): the
   very first render a new user waits for, its kernel build announced on stderr; with
   ``--baseline SRC`` (the ``src`` folder of another brdfkit checkout) each is paired with a
-  cold run of that code, in alternating order, and the load average before each run is kept.
+  cold run of that code, in alternating order, and the load average before each run is kept;
+  each cold image is checked to equal the warm one (the same machine code, built by the
+  worker process or loaded). One untimed cold run of each code first fills Python's
+  bytecode cache, which an installed package has.
+
+With ``--baseline`` the warm runs are triples: brdfkit, the baseline (its kernel cache filled
+by its first cold run) and Mitsuba, and the baseline's images are compared with brdfkit's.
 
 Both processes run as installed packages do, with their modules' bytecode cached
 (``PYTHONPYCACHEPREFIX``, a folder of this run's own, filled by the first runs; an environment
@@ -160,12 +166,15 @@ def main() -> None:
         scene = write_scene(folder, mi)
         mitsuba = ["mitsuba", "-m", variant, "-o", str(folder / "mitsuba.exr"), str(scene)]
         first, announced, baseline, loads = [], [], [], []
+        for source in (None, args.baseline) if args.baseline else (None,):  # bytecode
+            run(brdfkit_command("-o", "untimed.exr"), folder, folder / "untimed", source)
         for k in range(args.cold):
             for turn in (k % 2, 1 - k % 2) if args.baseline else (0,):
                 loads.append(os.getloadavg()[0])
                 cache = folder / (f"cold{k}" if turn == 0 else f"baseline{k}")
+                output = f"cold{k}.exr" if turn == 0 else f"baseline{k}.exr"
                 seconds, _, stderr = run(
-                    brdfkit_command(), folder, cache, (None, args.baseline)[turn]
+                    brdfkit_command("-o", output), folder, cache, (None, args.baseline)[turn]
                 )
                 (first if turn == 0 else baseline).append(seconds)
                 if turn == 0:
@@ -173,21 +182,43 @@ def main() -> None:
                 print(f"first render (empty kernel cache){' baseline' * turn}: {seconds:.2f} s")
         warm = folder / "cold0"  # filled by the first cold run
         run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
-        ours, theirs, our_cpu, their_cpu = [], [], [], []
+        ours, theirs, our_cpu, their_cpu, base, base_cpu = [], [], [], [], [], []
         for _ in range(args.repeats):
-            seconds, cpu, _ = run(brdfkit_command(), folder, warm)
+            seconds, cpu, _ = run(brdfkit_command("-o", "warm.exr"), folder, warm)
             ours.append(seconds)
             our_cpu.append(cpu)
+            if args.baseline:
+                seconds, cpu, _ = run(
+                    brdfkit_command("-o", "warm_baseline.exr"), folder, folder / "baseline0",
+                    args.baseline,
+                )  # fmt: skip
+                base.append(seconds)
+                base_cpu.append(cpu)
+                print(f"warm: baseline {seconds:.2f} s ({cpu:.2f} CPU s)", flush=True)
             seconds, cpu, _ = run(mitsuba, folder)
             theirs.append(seconds)
             their_cpu.append(cpu)
             print(f"warm: brdfkit {ours[-1]:.2f} s ({our_cpu[-1]:.2f} CPU s), Mitsuba "
                   f"{theirs[-1]:.2f} s ({their_cpu[-1]:.2f} CPU s)", flush=True)  # fmt: skip
         ratio = twin_check(folder, scene, variant, warm)
+        image = read_image(folder / "warm.exr")
+        cold_equal = [
+            bool(np.array_equal(read_image(folder / f"cold{k}.exr"), image))
+            for k in range(args.cold)
+        ]
+        if args.baseline:
+            difference = np.abs(read_image(folder / "warm_baseline.exr") - image)
+            base_difference = float(difference.max())
     ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
-    paired = {}
+    paired, warm_paired = {}, {}
     if args.baseline:
         paired = {"baseline_seconds": baseline, "baseline": _commit(args.baseline)}
+        warm_paired = {
+            "baseline_seconds": base,
+            "baseline_median": statistics.median(base),
+            "baseline_cpu_seconds": base_cpu,
+            "baseline_image_max_abs_difference": base_difference,
+        }
     record = {
         "spec": SPEC,
         "resolution": RESOLUTION,
@@ -203,16 +234,26 @@ def main() -> None:
             "mitsuba_cpu_seconds": their_cpu,
             "brdfkit_cpu_median": statistics.median(our_cpu),
             "mitsuba_cpu_median": statistics.median(their_cpu),
-        },
-        "first": {"seconds": first, "stderr": announced, "load_before_runs": loads} | paired,
+        }
+        | warm_paired,
+        "first": {
+            "seconds": first,
+            "stderr": announced,
+            "load_before_runs": loads,
+            "load_after": os.getloadavg()[0],
+            "image_equals_warm": cold_equal,
+        }
+        | paired,
         "twin_mean_ratio": ratio,
     }
     w = record["warm"]
     print(
         f"warm medians: brdfkit {w['brdfkit_median']:.2f} s, Mitsuba {w['mitsuba_median']:.2f} s, "
         f"ratio {w['ratio_median']:.2f}; CPU brdfkit {w['brdfkit_cpu_median']:.2f} s, Mitsuba "
-        f"{w['mitsuba_cpu_median']:.2f} s; first render {max(first):.2f} s at most; twin mean "
-        f"ratio {ratio:.4f}"
+        f"{w['mitsuba_cpu_median']:.2f} s; first render median {statistics.median(first):.2f} s, "
+        f"at most {max(first):.2f} s"
+        + (f" (baseline median {statistics.median(baseline):.2f} s)" if baseline else "")
+        + f"; twin mean ratio {ratio:.4f}"
     )
     from _machine import write_results
 

@@ -738,7 +738,16 @@ def render_cli(r: dict) -> str:
         label = f"brdfkit at {first['baseline']}, first run (paired)"
         spread = f"{min(base):.2f}–{max(base):.2f}"
         body.append([label, f"{statistics.median(base):.2f}", spread])
+    if "baseline_seconds" in w:
+        base = w["baseline_seconds"]
+        label = f"brdfkit at {first['baseline']}, warm (paired)"
+        spread = f"{min(base):.2f}–{max(base):.2f}"
+        cpu = f"{statistics.median(w['baseline_cpu_seconds']):.2f}"
+        body.append([label, f"{w['baseline_median']:.2f}", spread, cpu])
     load = r["machine"].get("load_average", ["?"])[0]
+    loads = first.get("load_before_runs")
+    if loads:
+        load = f"{load}; before the first runs {min(loads):.1f}–{max(loads):.1f}"
     return (
         f'`brdfkit render -b "{r["spec"]}"` with its defaults ({r["resolution"]}², '
         f"{r['spp']} spp, the bundled map, PNG) and Mitsuba's twin scene, each a fresh process, "

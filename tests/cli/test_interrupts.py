@@ -259,3 +259,30 @@ def test_a_dask_batch_interrupted_while_its_workers_start_prints_one_line(tmp_pa
     time.sleep(0.3)
     assert _session_processes(process.pid) == []
     assert not [p for p in tmp_path.rglob(".brdfkit-*") if p.name != ".brdfkit-outputs.json"]
+
+
+@pytest.mark.parametrize("signal_to", ["group", "parent"])
+def test_an_interrupted_first_render_leaves_no_kernel_worker(tmp_path, signal_to):
+    """The first render's kernel build starts a worker process (the tile kernel on another
+    core); Ctrl-C (the group) or SIGTERM (the parent alone) ends both, with one line."""
+    env = dict(os.environ, PYTHONPATH=str(Path(_app.__file__).parents[2]))
+    env["BRDFKIT_CACHE_DIR"] = str(tmp_path / "kernels")  # empty: the kernels are built
+    env["BRDFKIT_COMPILE_WORKER"] = "1"  # whatever the machine's load
+    process = subprocess.Popen(
+        [sys.executable, "-c", _COMMAND, "render", "-b", "ggx(alpha=0.3)", "-r", "16", "-s",
+         "1", "-o", str(tmp_path / "x.png")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        env=env,
+    )  # fmt: skip
+    _wait_for_workers(process)
+    workers = psutil.Process(process.pid).children(recursive=True)
+    if signal_to == "group":
+        os.killpg(process.pid, signal.SIGINT)
+    else:
+        process.send_signal(signal.SIGTERM)
+    _, stderr = process.communicate(timeout=10)
+    assert (process.returncode, stderr.splitlines()[-1:]) == (130, ["error: interrupted"])
+    _, alive = psutil.wait_procs(workers, timeout=3)
+    assert alive == []
+    assert _session_processes(process.pid) == []
+    assert not (tmp_path / "x.png").exists()

@@ -234,3 +234,30 @@ def test_toolchain_names_the_installed_versions():
     import llvmlite
 
     assert _numba.toolchain() == f"numba {numba.__version__}, llvmlite {llvmlite.__version__}"
+
+
+def test_a_first_class_function_argument_compiles_its_caller_once():
+    """Two compiled functions of one signature passed to a kernel: one specialisation of the
+    kernel, each function's own code called through its address."""
+    array = kernel_tools.array_type(np.float64, 1)
+    arguments = (array, kernel_tools.scalar_type(np.int64))
+
+    @numba.njit
+    def double(a, n):
+        for i in range(n):
+            a[i] *= 2.0
+
+    @numba.njit
+    def negate(a, n):
+        for i in range(n):
+            a[i] = -a[i]
+
+    @numba.njit
+    def apply(function, a):
+        function(a, a.shape[0])
+
+    a = np.arange(3.0)
+    for function in (double, negate):
+        apply(kernel_tools.first_class_function(function, arguments), a)
+    np.testing.assert_array_equal(a, [-0.0, -2.0, -4.0])
+    assert [tuple(s) for s in apply.signatures] == [(_numba.function_type(arguments), array)]

@@ -340,3 +340,39 @@ def test_the_command_line_says_once_that_it_compiles(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     assert result.stderr.splitlines() == ["compiling kernels for ggx (once, ~7 s)"]
     assert len(built) == 1
+
+
+def test_one_tile_kernel_serves_every_model_compiled_to_its_stated_signature():
+    """The BRDF's kernels are arguments of the tile kernel (first-class functions): two model
+    structures share one compiled tile kernel, whose one specialisation is the signature a
+    worker process compiles ahead of the first call."""
+    from brdfkit.render._reflection_kernels import tile_kernel, tile_signature
+
+    g = gbuffer(Sphere(), None, 8)
+    env = _map()
+    correlated = RoughConductor(alpha=0.3, material="Au")  # another structure than GOLD's
+    for model in (GOLD, correlated):
+        image = shade(g, model, env, samples=4, seed=1)
+        expected = shade(g, model, env, samples=4, seed=1, compiled=False)
+        assert np.max(np.abs(image - expected)) < 1e-3 * np.max(expected)
+    kernel = tile_kernel(np.float32, 3, 3)
+    assert [tuple(s) for s in kernel.signatures] == [tile_signature(np.float32, 3, 3)]
+
+
+def test_a_build_starts_a_worker_only_for_a_tile_kernel_it_lacks(monkeypatch):
+    from brdfkit.compiled import worker
+    from brdfkit.render import compiled_shading
+
+    started = []
+    monkeypatch.setattr(worker, "start", lambda *a: started.append(a))
+    built = {(np.float32, 3, 3, False)}
+    monkeypatch.setattr(compiled_shading, "tile_kernel_built", lambda *a: a in built)
+    env, grey = _map(), EnvironmentMap(np.ones((8, 16, 1)))
+    with compiled_shading._tile_worker(GOLD, [env], "auto", np.dtype(np.float32)) as found:
+        assert found is None and started == []
+    with compiled_shading._tile_worker(GOLD, [grey], "auto", np.dtype(np.float64)):
+        pass
+    assert started == [
+        ("brdfkit.render._reflection_kernels", "build_tile_kernel", "float64", 3, 1, False)
+    ]
+    assert compiled_shading._tile_worker(Lambertian(0.5), [env], "auto", np.dtype("f4"))

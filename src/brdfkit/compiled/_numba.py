@@ -13,12 +13,16 @@ The compiled back end needs a few things numba offers no public API for:
   (:func:`install_keyed_cache`: numba's cache classes subclassed, the dispatcher's cache
   replaced; a load from it initialises numba's runtime only, not numba's whole compiler
   context);
-- compiling without numba's reference-counting runtime (:func:`no_runtime_options`).
+- compiling without numba's reference-counting runtime (:func:`no_runtime_options`);
+- a compiled function as a first-class function value (:func:`first_class`: numba's
+  wrapper-address protocol over the compile result), which a kernel calls through a pointer,
+  so that the kernel is compiled once for every function of that signature.
 
 Each hook says what happens where numba's internals have changed under it: the intrinsics
-are required (a kernel cannot be built without them) and raise; the speed hooks (vector width,
-interleave, disk cache, no runtime) fall back to numba's defaults, which give the same values
-(the interleave: to rounding in a batch's last few elements) at lower speed, and warn once
+and the first-class functions are required (a kernel cannot be built without them) and
+raise; the speed hooks (vector width, interleave, disk cache, no runtime) fall back to
+numba's defaults, which give the same values (the interleave: to rounding in a batch's last
+few elements) at lower speed, and warn once
 with a :class:`RuntimeWarning` that names the hook and the installed versions, so that an
 upgrade is never a silent performance cliff. ``tests/compiled/test_numba_internals.py``
 fails when any hook stops working.
@@ -228,6 +232,41 @@ def prefetch() -> Callable[..., None]:
     return prefetch_element
 
 
+def function_type(argument_types: tuple[Any, ...]) -> Any:
+    """numba's type of a first-class function of ``argument_types`` returning nothing (the
+    type :func:`first_class`'s values have)."""
+    from numba import types
+
+    return types.FunctionType(types.none(*argument_types))
+
+
+def first_class(dispatcher: Any, argument_types: tuple[Any, ...]) -> Any:
+    """``dispatcher`` compiled for ``argument_types`` (or loaded: from this process or its
+    disk cache) as a first-class function value: numba types it as
+    :func:`function_type` ``(argument_types)`` and a kernel taking it as an argument calls it
+    through its address (numba's C wrapper of the compiled function; no exceptions), so that
+    the kernel is compiled once for all functions of that type, not once per function.
+
+    Raises
+    ------
+    RuntimeError
+        Where numba's wrapper-address protocol has changed (no kernel taking functions can
+        be built without it).
+    """
+    try:
+        # numba's typeof and data model of these values, which a process that loads its
+        # kernels from the disk cache (no compiler context) has not imported yet
+        import numba.experimental.function_type  # noqa: F401
+        from numba.core.types.function_type import CompileResultWAP
+    except ImportError as error:
+        raise RuntimeError(
+            f"brdfkit.compiled needs numba's first-class functions; {toolchain()} (tested "
+            f"with {TESTED}) lacks them: {error}"
+        ) from error
+    dispatcher.compile(argument_types)
+    return CompileResultWAP(dispatcher.overloads[tuple(argument_types)])
+
+
 # --------------------------------------------------------------------------- speed hooks
 @functools.cache
 def vector_width_hint(bits: int) -> Any:
@@ -423,6 +462,8 @@ def _keyed_cache_class() -> type:
 __all__ = [
     "TESTED",
     "compile_interleaved",
+    "first_class",
+    "function_type",
     "install_keyed_cache",
     "intrinsics",
     "no_runtime_options",

@@ -1,18 +1,18 @@
 """An on-disk cache of the compiled kernels, so that building them is paid once per machine.
 
-:mod:`brdfkit.compiled` traces a model's code and compiles the generated source with
-numba; the render's tile kernel (``render/_reflection_kernels.py``) is compiled around those
-kernels. Both cost seconds per model structure, every process. numba's own ``cache=True``
-cannot help: it keys its files on a function's source file (the generated code has none) and
-on a pickle of a closure's cells (a compiled function pickles with a random id, so it never
-matches in the next process). This module gives a numba dispatcher a cache keyed instead by a
-string the caller computes from everything the machine code depends on (the generated
-source, its constants, the tile's options), under a folder that names the version of
-brdfkit's code, numba and Python; numba adds the CPU (its own "magic tuple") to each entry.
-It also keeps small JSON records (the generated source of a model structure's kernel), so
-that a warm process does not even trace, and arrays (:func:`store_arrays`: the tables of an
-environment map, which :mod:`brdfkit.light.environment` is given as its second level of cache
-when this module is imported, :func:`brdfkit.light.environment.use_table_store`).
+:mod:`brdfkit.compiled` traces a model's code and compiles the generated source with numba;
+the render's tile kernel (``render/_reflection_kernels.py``) calls those kernels. Both cost
+seconds, every process. numba's own ``cache=True`` cannot help: it keys its files on a
+function's source file (the generated code has none) and on a pickle of a closure's cells (a
+compiled function pickles with a random id, so it never matches in the next process). This
+module gives a numba dispatcher a cache keyed instead by a string the caller computes from
+everything the machine code depends on (the generated source, its constants, the tile's
+options), under a folder that names the version of brdfkit's code, numba and Python; numba
+adds the CPU (its own "magic tuple") to each entry. It also keeps small JSON records (the
+generated source of a model structure's kernel), so that a warm process does not even trace,
+and arrays (:func:`store_arrays`: the tables of an environment map, which
+:mod:`brdfkit.light.environment` is given as its second level of cache when this module is
+imported, :func:`brdfkit.light.environment.use_table_store`).
 
 The folder is ``$BRDFKIT_CACHE_DIR`` if set (empty: no disk cache), else
 ``platformdirs.user_cache_dir("brdfkit")``, then ``kernels/<version>``. Files are written

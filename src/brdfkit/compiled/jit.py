@@ -6,8 +6,11 @@ of the vectorised loops) and :func:`jit` (a helper compiled with the licences of
 that calls it); all release the GIL and follow NumPy's error model (a division by zero gives
 inf or NaN, never an exception). The intrinsics (:func:`select`,
 :func:`prefetch`, :func:`vector_width_hint`) are single LLVM instructions or attributes that
-keep a loop branch-free and vectorised (:mod:`brdfkit.compiled._numba` builds them). numba is
-imported on first use.
+keep a loop branch-free and vectorised (:mod:`brdfkit.compiled._numba` builds them). A kernel
+may take compiled functions as arguments (:func:`first_class_function`, of the type
+:func:`function_type`) and so be compiled once for all functions of one signature; its
+signature, given ahead of its first call, is made of :func:`array_type`, :func:`scalar_type`
+and :func:`type_of`. numba is imported on first use.
 
 References
 ----------
@@ -113,13 +116,56 @@ def without_runtime() -> dict[str, Any]:
     return _numba.no_runtime_options()
 
 
+def array_type(dtype: Any, ndim: int) -> Any:
+    """numba's type of a writable, C-contiguous NumPy array of ``dtype`` and ``ndim`` axes
+    (what ``numba.typeof`` gives such an array)."""
+    import numba
+    import numpy as np
+
+    return numba.types.Array(numba.from_dtype(np.dtype(dtype)), ndim, "C")
+
+
+def scalar_type(dtype: Any) -> Any:
+    """numba's type of a NumPy scalar of ``dtype`` (``bool``: Python's and NumPy's booleans)."""
+    import numba
+    import numpy as np
+
+    return numba.from_dtype(np.dtype(dtype))
+
+
+def type_of(value: Any) -> Any:
+    """numba's type of ``value`` as a kernel's argument (``numba.typeof``)."""
+    import numba
+
+    return numba.typeof(value)
+
+
+def function_type(argument_types: tuple[Any, ...]) -> Any:
+    """numba's type of a compiled function of ``argument_types`` returning nothing, as an
+    argument of a kernel (:func:`first_class_function`)."""
+    return _numba.function_type(argument_types)
+
+
+def first_class_function(dispatcher: Any, argument_types: tuple[Any, ...]) -> Any:
+    """The numba function ``dispatcher`` compiled (or loaded) for ``argument_types``, as a
+    value a kernel takes as an argument of type :func:`function_type` and calls through its
+    address: the kernel is then compiled once for every function of that type, and a
+    function's code is compiled on its own, not again inside each kernel calling it."""
+    return _numba.first_class(dispatcher, argument_types)
+
+
 __all__ = [
     "FASTMATH",
+    "array_type",
     "exact_jit",
+    "first_class_function",
+    "function_type",
     "inline_jit",
     "jit",
     "prefetch",
+    "scalar_type",
     "select",
+    "type_of",
     "vector_bits",
     "vector_jit",
     "vector_width_hint",

@@ -13,6 +13,10 @@ Those modules build their functions from this toolkit only:
   (:func:`exact_jit` with its machine code kept on disk);
 - intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
   :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function);
+- functions as arguments: :func:`first_class_function` (a compiled function as a value of
+  type :func:`function_type`: a kernel taking it is compiled once per signature, not per
+  function), with :func:`array_type`, :func:`scalar_type` and :func:`type_of` for a kernel's
+  signature;
 - scalar functions: :func:`trigonometry` (``atan2``, ``sin``, ``cos`` in a dtype);
 - CDF searches: :func:`guide_table` and :func:`guided_search`;
 - threads: :func:`threads` and :func:`run_tasks`.
@@ -40,11 +44,16 @@ from typing import Any
 from brdfkit.compiled.guide_tables import guide_table, guided_search
 from brdfkit.compiled.jit import (
     FASTMATH,
+    array_type,
     exact_jit,
+    first_class_function,
+    function_type,
     inline_jit,
     jit,
     prefetch,
+    scalar_type,
     select,
+    type_of,
     vector_bits,
     vector_jit,
     vector_width_hint,
@@ -71,17 +80,22 @@ def cached_jit(name: str) -> Callable[[Any], Any]:
 
 __all__ = [
     "FASTMATH",
+    "array_type",
     "cached_jit",
     "exact_jit",
+    "first_class_function",
+    "function_type",
     "guide_table",
     "guided_search",
     "inline_jit",
     "jit",
     "prefetch",
     "run_tasks",
+    "scalar_type",
     "select",
     "threads",
     "trigonometry",
+    "type_of",
     "vector_bits",
     "vector_jit",
     "vector_width_hint",

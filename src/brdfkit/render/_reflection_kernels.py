@@ -17,9 +17,9 @@ without it). Per block of :data:`BLOCK` pixels and per sample, the kernel's step
 numba functions, each mirroring the NumPy code it replaces in the kernel's dtype:
 
 - :func:`_block_loader`: the block's viewing directions, frames and control variates;
-- :func:`_variates`: the uniforms of both strategies, each pixel's own nested-scrambled,
-  digitally shifted Sobol' sequence (:func:`brdfkit.sampling.scrambled_sobol`: the scramble
-  keys hashed from the same code) or i.i.d. points;
+- :func:`_variate_steps` and :func:`_draw`: the uniforms of both strategies, each pixel's own
+  nested-scrambled, digitally shifted Sobol' sequence (:func:`brdfkit.sampling.scrambled_sobol`:
+  the scramble keys hashed from the same code) or i.i.d. points;
 - :func:`_brdf_sampling`: the BRDF's ``sample`` kernel over the block (vectorised across it);
 - :func:`_map_at_brdf_samples`: the map's coordinates, bilinear cell and pdf texel at those
   directions (``light/_environment_kernels.py``);
@@ -40,7 +40,13 @@ by the visibility factor :math:`V \in \{0, 1\}` before their mean: the estimate 
 
 The BRDF's kernels are those :func:`brdfkit.compiled.compile` builds from the model's own code
 or a tabulated BRDF's (:func:`brdfkit.measured.table_kernels`), called through the same
-convention: ``fn(parameters, *inputs, *outputs, n, *data)``. Loops are split so that the
+convention: ``fn(parameters, *inputs, *outputs, n, *data)``, once per block (vectorised over
+it). They are arguments of the tile kernel (first-class functions, called through their
+addresses: :func:`brdf_functions`), so the tile kernel, most of a first build, is the same for
+every BRDF: compiled once per machine, and compiled ahead of its first call
+(:func:`tile_signature`, :func:`build_tile_kernel`) by a worker process while the process
+that needs it builds the BRDF's kernels (:func:`brdfkit.render.compiled_shading.build_kernels`).
+Loops are split so that the
 unpredictable table reads (CDF searches, texel fetches) of a block overlap and the arithmetic
 runs in loops LLVM vectorises (a loop holding a gather or a prefetch runs scalar); a
 direction's texels are prefetched as soon as its map coordinates are known. Nothing of size
@@ -58,6 +64,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import types
 from collections.abc import Callable
 from typing import Any
@@ -76,85 +83,115 @@ _TILE_KERNELS: dict[tuple[Any, ...], Any] = {}
 
 
 def tile_kernel(
-    sample_fn: Callable[..., None],
-    eval_fn: Callable[..., None],
-    pdf_fn: Callable[..., None],
     dtype: type,
     brdf_channels: int,
     map_channels: int,
     record: bool = False,
 ) -> Callable[..., None]:
-    """The kernel shading a set of pixels with these BRDF kernels in ``dtype``, built once
-    per set of arguments, its machine code kept on disk (:mod:`brdfkit.compiled.cache`)
-    where the BRDF's kernels are.
+    """The kernel shading a set of pixels in ``dtype`` for any BRDF of ``brdf_channels``
+    channels, built once per set of arguments, its machine code kept on disk
+    (:mod:`brdfkit.compiled.cache`).
 
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
-    col_guide, power, control, mean, m2, data)`` and writes each pixel's mean and sum of
-    squared deviations of the MIS terms into ``mean`` and ``m2`` ``(n, C)``. The
-    ``record`` kernel (shadows) writes instead each sample's two MIS terms into ``mean``
-    ``(n, N, 2, C)`` and the world directions of its two samples into ``m2`` ``(n, N, 2,
-    3)``, both in ``dtype`` (:func:`_recording`): their visibility is the driver's."""
-    key = (sample_fn, eval_fn, pdf_fn, dtype, brdf_channels, map_channels, record)
+    col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn, block_keys,
+    scrambled)``, the BRDF's kernels and two block-level steps passed as
+    first-class functions (:func:`brdf_functions`, :func:`step_functions`; compiled on their
+    own and called through their addresses, so the tile kernel is the same for every BRDF and
+    compiled once per machine, and compiled in another process while this one builds those),
+    and writes each pixel's mean and sum of squared
+    deviations of the MIS terms into ``mean`` and ``m2`` ``(n, C)``. The ``record`` kernel
+    (shadows) writes instead each sample's two MIS terms into ``mean`` ``(n, N, 2, C)`` and
+    the world directions of its two samples into ``m2`` ``(n, N, 2, 3)``, both in ``dtype``
+    (:func:`_recording`): their visibility is the driver's."""
+    key = (np.dtype(dtype).type, brdf_channels, map_channels, record)
     if key not in _TILE_KERNELS:
         kernel = _new_tile_kernel(*key)
-        disk_key = _tile_disk_key(*key)
-        if disk_key is not None:
-            kernel_cache.enable(kernel, disk_key)
+        kernel_cache.enable(kernel, _tile_disk_key(*key))
         _TILE_KERNELS[key] = kernel
     return _TILE_KERNELS[key]
 
 
+def brdf_functions(
+    functions: tuple[Callable[..., None], ...], dtype: type, brdf_channels: int, data: tuple
+) -> tuple[Any, Any, Any]:
+    """The BRDF's numba kernels ``functions`` (sample, eval, pdf: ``fn(parameters, *inputs,
+    *outputs, n, *data)`` on flat buffers) compiled (or loaded) for the tile kernel's
+    buffers in ``dtype`` and the arrays ``data``, as the first-class functions
+    :func:`tile_kernel` takes."""
+    return tuple(
+        kernel_tools.first_class_function(fn, types)
+        for fn, types in zip(functions, _brdf_argument_types(dtype, data), strict=True)
+    )
+
+
+def _brdf_argument_types(dtype: type, data: tuple) -> tuple[tuple[Any, ...], ...]:
+    """The numba argument types of the BRDF's sample, eval and pdf kernels as the tile kernel
+    calls them: ``(parameters, wo, u, wi, weight, pdf, delta, n, *data)``, ``(parameters, wi,
+    wo, f, n, *data)`` and ``(parameters, wi, wo, pdf, n, *data)``, flat buffers of
+    ``dtype`` (``delta`` boolean)."""
+    flat = kernel_tools.array_type(dtype, 1)
+    n = kernel_tools.scalar_type(np.int64)
+    rest = (n, *(kernel_tools.type_of(a) for a in data))
+    sample = (flat, flat, flat, flat, flat, flat, kernel_tools.array_type(np.bool_, 1), *rest)
+    return sample, (flat, flat, flat, flat, *rest), (flat, flat, flat, flat, *rest)
+
+
+def tile_signature(
+    dtype: type, brdf_channels: int, map_channels: int, record: bool = False
+) -> tuple[Any, ...]:
+    """The numba argument types of :func:`tile_kernel` as
+    :class:`~brdfkit.render.compiled_shading.EnvironmentShader` calls it for a BRDF without
+    data arrays (a compiled model) and the map's tables
+    (:func:`brdfkit.light.environment.compiled_lookups`): compiling these ahead of the
+    first call (:func:`build_tile_kernel`, in another process) compiles what that call
+    runs."""
+    array, scalar = kernel_tools.array_type, kernel_tools.scalar_type
+    t, f64, u32 = np.dtype(dtype), np.float64, np.uint32
+    outputs = (array(t, 4), array(t, 4)) if record else (array(f64, 2), array(f64, 2))
+    brdf = _brdf_argument_types(t.type, ())
+    functions = tuple(map(kernel_tools.function_type, (*brdf, *_step_types())))
+    return (
+        array(t, 1), array(np.int64, 1), array(t, 2), array(t, 3),  # parameters … frame
+        array(f64, 3), array(u32, 2), array(f64, 3), array(u32, 2), array(np.uint64, 1),
+        array(t, 3), array(t, 2), scalar(t),  # image, rotation, scale
+        array(f64, 1), array(f64, 1), array(f64, 1), array(np.uint16, 1), array(np.uint16, 1),
+        scalar(np.bool_), array(t, 2), *outputs, kernel_tools.type_of(()), *functions,
+    )  # fmt: skip
+
+
+def build_tile_kernel(dtype: str, brdf_channels: int, map_channels: int, record: bool) -> None:
+    """Compile :func:`tile_kernel` for :func:`tile_signature` into the disk cache (or find it
+    there): what a worker process runs while the process that asked for it builds the
+    BRDF's kernels."""
+    tile_kernel(np.dtype(dtype).type, brdf_channels, map_channels, record).compile(
+        tile_signature(np.dtype(dtype).type, brdf_channels, map_channels, record)
+    )
+
+
 def tile_kernel_built(
-    functions: tuple[Callable[..., None], ...],
-    dtype: type,
-    brdf_channels: int,
-    map_channels: int | None,
-    record: bool = False,
+    dtype: type, brdf_channels: int, map_channels: int | None, record: bool = False
 ) -> bool:
-    """Whether a tile kernel (the ``record`` one: :func:`tile_kernel`) for the BRDF kernels
-    ``functions`` (sample, eval, pdf) is compiled in this process, or its machine code is on
-    disk, for a map of ``map_channels`` channels (``None``: 1 or 3)."""
-    tiles = [
-        t
-        for key, t in _TILE_KERNELS.items()
-        if key[:4] == (*functions, dtype) and key[-1] == record
-    ]
-    if any(t.signatures for t in tiles):
-        return True
+    """Whether a tile kernel (the ``record`` one: :func:`tile_kernel`) is compiled in this
+    process, or its machine code is on disk, for a map of ``map_channels`` channels
+    (``None``: 1 or 3); the steps it calls are :func:`steps_built`'s."""
     for channels in (map_channels,) if map_channels is not None else (1, 3):
-        disk_key = _tile_disk_key(*functions, dtype, brdf_channels, channels, record)
-        if disk_key is not None and kernel_cache.has(disk_key):
+        tile = _TILE_KERNELS.get((np.dtype(dtype).type, brdf_channels, channels, record))
+        if tile is not None and tile.signatures:
+            return True
+        if kernel_cache.has(_tile_disk_key(dtype, brdf_channels, channels, record)):
             return True
     return False
 
 
-def _tile_disk_key(
-    sample_fn: Callable[..., None],
-    eval_fn: Callable[..., None],
-    pdf_fn: Callable[..., None],
-    dtype: type,
-    brdf_channels: int,
-    map_channels: int,
-    record: bool = False,
-) -> str | None:
-    """The disk-cache key of a tile kernel: its BRDF kernels' keys (their machine code is
-    inlined into it) and its options, or ``None`` where one of them has none."""
-    keys = [kernel_cache.key_of(fn) for fn in (sample_fn, eval_fn, pdf_fn)]
-    if None in keys:
-        return None
+def _tile_disk_key(dtype: type, brdf_channels: int, map_channels: int, record: bool) -> str:
+    """The disk-cache key of a tile kernel: its options (the BRDF's kernels are arguments)."""
     options = (np.dtype(dtype).str, brdf_channels, map_channels, BLOCK)
-    return kernel_cache.key("tile", *keys, *options, *(("record",) if record else ()))
+    return kernel_cache.key("tile", *options, *(("record",) if record else ()))
 
 
 def _new_tile_kernel(
-    sample_fn: Callable[..., None],
-    eval_fn: Callable[..., None],
-    pdf_fn: Callable[..., None],
-    dtype: type,
-    brdf_channels: int,
-    map_channels: int,
-    record: bool,
+    dtype: type, brdf_channels: int, map_channels: int, record: bool
 ) -> Callable[..., None]:
     """The tile kernel (module docstring) composed of its steps, in dtype ``dtype`` (the map's
     CDF searches in float64, as :class:`~brdfkit.sampling.Distribution2D`); with ``record``
@@ -165,11 +202,11 @@ def _new_tile_kernel(
         brdf_channels,
         map_channels,
         _block_loader(brdf_channels, max(brdf_channels, map_channels)),
-        _variates(dtype),
-        _brdf_sampling(sample_fn, dtype),
+        _draw(),
+        _brdf_sampling(dtype),
         _map_at_brdf_samples(env),
         _map_sampling(env, dtype),
-        _brdf_at_map_samples(eval_fn, pdf_fn, dtype, brdf_channels),
+        _brdf_at_map_samples(dtype, brdf_channels),
         _radiance_reads(env, dtype),
         (_recording if record else _accumulation)(env, dtype, brdf_channels, map_channels),
     )
@@ -200,15 +237,16 @@ def _block_loader(brdf_channels: int, channels: int) -> Callable[..., None]:
     return load_block
 
 
-def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
-    """``(block_keys, draw)``: ``block_keys(seeds, stream, pixels, start, nb, out)``, the
+@functools.cache
+def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
+    """``(block_keys, scrambled)``: ``block_keys(seeds, stream, pixels, start, nb, out)``, the
     block's pixels' scramble keys of ``stream`` (``sampling.scramble_keys`` of their seeds:
     ``key_hash`` of ``key_slot``, the same code jitted) as ``out`` ``(2, d, nb)``; and
-    ``draw(s, start, nb, pixels, sequences, keys, u_b, u_l)``, sample ``s`` of the BRDF's
-    (3-D) and the map's (2-D) uniforms of the block, ``(d, nb)`` each: each dimension's
-    Sobol' digits Laine–Karras scrambled by the pixel's keys, bit-reversed and shifted
-    (``sampling.scrambled_sobol``; one integer loop per dimension over the block, which
-    LLVM vectorises), or the i.i.d. ``points`` of the NumPy path."""
+    ``scrambled(digits, keys, s, nb, out)``, sample ``s`` of each dimension's Sobol' digits
+    Laine–Karras scrambled by the pixels' keys, bit-reversed and shifted
+    (``sampling.scrambled_sobol``; one integer loop per dimension over the block, which LLVM
+    vectorises), as ``out`` ``(d, nb)``. Block-level steps: first-class functions of the
+    tile kernel (:func:`step_functions`)."""
     jit = kernel_tools.jit()
     reverse_bits, laine_karras = jit(sampling.reverse_bits), jit(sampling.laine_karras)
     key_hash = jit(
@@ -238,9 +276,69 @@ def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
                 x = reverse_bits(laine_karras(d, keys[0, k, j])) ^ keys[1, k, j]
                 out[k, j] = np.float64(np.int64(x)) * unit_interval  # x < 2^32: exact
 
+    return block_keys, scrambled
+
+
+_STEPS: dict[type, tuple[Callable[..., None], ...]] = {}
+
+
+def step_functions(dtype: type) -> tuple[Any, Any]:
+    """The tile kernel's block-level steps of its Sobol' variates (``block_keys``,
+    ``scrambled``: :func:`_variate_steps`) compiled on their own (their machine code on disk)
+    as the first-class functions :func:`tile_kernel` takes last: the process that builds the
+    BRDF's kernels builds these too, while a worker compiles the rest of the tile kernel
+    (:func:`build_tile_kernel`), so that the two processes take about equal shares of a first
+    build. Each is called once per block and sample at most. (The map's texel search, also
+    called once per block, stays in the tile kernel: called through its address it made the
+    kernel 5–10 % slower.)"""
+    dtype = np.dtype(dtype).type
+    if dtype not in _STEPS:
+        steps = _variate_steps()
+        for name, step in zip(_STEP_NAMES, steps, strict=True):
+            if not step.signatures:  # not yet compiled in this process: from disk
+                kernel_cache.enable(step, _step_key(name, dtype))
+        _STEPS[dtype] = steps
+    return tuple(
+        kernel_tools.first_class_function(step, arguments)
+        for step, arguments in zip(_STEPS[dtype], _step_types(), strict=True)
+    )
+
+
+_STEP_NAMES = ("block keys", "scrambled digits")
+
+
+def _step_key(name: str, dtype: type) -> str:
+    """The disk-cache key of the step ``name`` of :func:`step_functions`."""
+    return kernel_cache.key("tile step", name, np.dtype(dtype).str)
+
+
+def _step_types() -> tuple[tuple[Any, ...], ...]:
+    """The numba argument types of :func:`step_functions`' steps as the tile kernel calls
+    them."""
+    array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
+    keys = array(np.uint64, 3)
+    block_keys = (array(np.uint64, 1), n, array(np.int64, 1), n, n, keys)
+    scrambled = (array(np.uint32, 2), keys, n, n, array(np.float64, 2))
+    return block_keys, scrambled
+
+
+def steps_built(dtype: type) -> bool:
+    """Whether :func:`step_functions`' steps are compiled in this process or on disk."""
+    steps = _STEPS.get(np.dtype(dtype).type)
+    if steps is not None and all(step.signatures for step in steps):
+        return True
+    return all(kernel_cache.has(_step_key(name, dtype)) for name in _STEP_NAMES)
+
+
+def _draw() -> Callable[..., None]:
+    """``draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)``: sample ``s`` of
+    the BRDF's (3-D) and the map's (2-D) uniforms of the block, ``(d, nb)`` each: the
+    pixels' scrambled Sobol' points (``scrambled``, :func:`_variate_steps`) or the i.i.d.
+    ``points`` of the NumPy path."""
+
     @kernel_tools.inline_jit()
     def draw(s: int, start: int, nb: int, pixels: np.ndarray, sequences: tuple, keys: tuple,
-             u_b: np.ndarray, u_l: np.ndarray) -> None:  # fmt: skip
+             scrambled: Any, u_b: np.ndarray, u_l: np.ndarray) -> None:  # fmt: skip
         points_b, digits_b, points_l, digits_l = sequences
         if digits_b.shape[0] > 0:
             scrambled(digits_b, keys[0], s, nb, u_b)
@@ -253,16 +351,16 @@ def _variates(dtype: type) -> tuple[Callable[..., None], Callable[..., None]]:
             for k in range(2):
                 u_l[k, j] = points_l[p, s, k]
 
-    return block_keys, draw
+    return draw
 
 
-def _brdf_sampling(sample_fn: Callable[..., None], dtype: type) -> Callable[..., None]:
-    """``sample_brdf(params, data, nb, u_b, wo_buf, u_buf, brdf)``: the BRDF's ``sample``
-    kernel on the block's uniforms (rounded to the dtype), into ``brdf = (wi, weight, pdf,
-    delta)``."""
+def _brdf_sampling(dtype: type) -> Callable[..., None]:
+    """``sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)``: the BRDF's
+    ``sample`` kernel on the block's uniforms (rounded to the dtype), into ``brdf = (wi,
+    weight, pdf, delta)``."""
 
     @kernel_tools.inline_jit()
-    def sample_brdf(params: np.ndarray, data: tuple, nb: int, u_b: np.ndarray,
+    def sample_brdf(params: np.ndarray, data: tuple, sample_fn: Any, nb: int, u_b: np.ndarray,
                     wo_buf: np.ndarray, u_buf: np.ndarray, brdf: tuple) -> None:  # fmt: skip
         wi_buf, wt_buf, pdf_buf, delta_buf = brdf
         for j in range(nb):
@@ -361,20 +459,19 @@ def _map_sampling(env: Any, dtype: type) -> Callable[..., None]:
     return sample_map
 
 
-def _brdf_at_map_samples(
-    eval_fn: Callable[..., None], pdf_fn: Callable[..., None], dtype: type, brdf_channels: int
-) -> Callable[..., None]:
-    """``evaluate(params, data, nb, cos_l, wil_buf, wo_buf, compact, f_buf, pbl_buf)``: the
-    BRDF's ``eval`` and ``pdf`` kernels at the map's samples above the surface, compacted
+def _brdf_at_map_samples(dtype: type, brdf_channels: int) -> Callable[..., None]:
+    """``evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
+    pbl_buf)``: the BRDF's ``eval`` and ``pdf`` kernels at the map's samples above the
+    surface, compacted
     into ``compact = (above, wi, wo, f, pdf)`` (about half of them: below it f = 0 and
     p_b = 0, and the term, times cos θ = 0, is 0), then spread back to ``f_buf`` and
     ``pbl_buf`` with zeros elsewhere."""
     zero = dtype(0)
 
     @kernel_tools.inline_jit()
-    def evaluate(params: np.ndarray, data: tuple, nb: int, cos_l: np.ndarray,
-                 wil_buf: np.ndarray, wo_buf: np.ndarray, compact: tuple, f_buf: np.ndarray,
-                 pbl_buf: np.ndarray) -> None:  # fmt: skip
+    def evaluate(params: np.ndarray, data: tuple, eval_fn: Any, pdf_fn: Any, nb: int,
+                 cos_l: np.ndarray, wil_buf: np.ndarray, wo_buf: np.ndarray, compact: tuple,
+                 f_buf: np.ndarray, pbl_buf: np.ndarray) -> None:  # fmt: skip
         above, wic_buf, woc_buf, fc_buf, pbc_buf = compact
         live = 0
         for j in range(nb):
@@ -574,7 +671,7 @@ def _tile_loop(
     brdf_channels: int,
     map_channels: int,
     load_block: Callable[..., None],
-    variates: tuple[Callable[..., None], Callable[..., None]],
+    draw: Callable[..., None],
     sample_brdf: Callable[..., None],
     locate: Callable[..., None],
     sample_map: Callable[..., None],
@@ -585,7 +682,6 @@ def _tile_loop(
     """The tile kernel: its scratch buffers (a few per block, along the block), then per
     block of :data:`BLOCK` pixels and per sample the steps in turn, and each pixel's mean and
     sum of squared deviations."""
-    block_keys, draw = variates
     accumulate, flush = finish
     T, B, CB = dtype, BLOCK, BLOCK * brdf_channels
     channels = max(brdf_channels, map_channels)
@@ -597,7 +693,8 @@ def _tile_loop(
               digits_l: np.ndarray, seeds: np.ndarray, image: np.ndarray, rot: np.ndarray,
               scale: Any, marginal: np.ndarray, conditional: np.ndarray, density: np.ndarray,
               row_guide: np.ndarray, col_guide: np.ndarray, power: bool, control: np.ndarray,
-              mean: np.ndarray, m2: np.ndarray, data: tuple) -> None:  # fmt: skip
+              mean: np.ndarray, m2: np.ndarray, data: tuple, sample_fn: Any, eval_fn: Any,
+              pdf_fn: Any, block_keys: Any, scrambled: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
         view = (image.reshape(-1), density, r, image.shape[0], image.shape[1], image.shape[2])
@@ -633,17 +730,18 @@ def _tile_loop(
         for start in range(0, pixels.shape[0], B):
             nb = min(B, pixels.shape[0] - start)
             if digits_b.shape[0] > 0:
-                block_keys(seeds, 0, pixels, start, nb, keys[0])
-                block_keys(seeds, 1, pixels, start, nb, keys[1])
+                for stream in range(2):  # a variable: one compile, not one per literal
+                    block_keys(seeds, stream, pixels, start, nb, keys[stream])
             load_block(pixels, start, nb, wo, frame, control, wo_buf, frames, controls, mean_b,
                        m2_b)  # fmt: skip
             for s in range(samples):
-                draw(s, start, nb, pixels, sequences, keys, u_b, u_l)
-                sample_brdf(params, data, nb, u_b, wo_buf, u_buf, brdf)
+                draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)
+                sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)
                 locate(nb, brdf[0], frames, view, sin_b, cells_b, weights_b, density_b)
                 sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l,
                            wil_buf, cos_l)  # fmt: skip
-                evaluate(params, data, nb, cos_l, wil_buf, wo_buf, compact, f_buf, pbl_buf)
+                evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
+                         pbl_buf)  # fmt: skip
                 read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)
                 accumulate(nb, s, start, power, brdf, light, (f_buf, pbl_buf), controls,
                            radiance_b, radiance_l, frames, wil_buf, mean_b, m2_b, mean,

@@ -22,7 +22,9 @@ image equals :func:`~brdfkit.render.shade`'s to rounding, and with float32 to fl
 precision away from the rare samples whose texel flips. :func:`compiled_shader` decides
 where the compiled path applies; :func:`kernels_built` whether it costs no compilation,
 :func:`pending_kernels` what a render would build first and :func:`build_kernels` builds it
-(timed, for :func:`build_estimate`: the command line announces a build in one line).
+(timed, for :func:`build_estimate`: the command line announces a build in one line), the tile
+kernel compiled by a worker process on another core meanwhile
+(:mod:`brdfkit.compiled.worker`).
 
 References
 ----------
@@ -33,6 +35,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 import weakref
@@ -47,11 +50,19 @@ from brdfkit.brdf.base import BRDF
 from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import kernel_tools
+from brdfkit.compiled import worker as compiled_worker
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap, compiled_lookups
 from brdfkit.measured import table_kernels
 from brdfkit.params import check_choice
-from brdfkit.render._reflection_kernels import BLOCK, tile_kernel, tile_kernel_built
+from brdfkit.render._reflection_kernels import (
+    BLOCK,
+    brdf_functions,
+    step_functions,
+    steps_built,
+    tile_kernel,
+    tile_kernel_built,
+)
 from brdfkit.render.reflection_equation import (
     FLOOR_DIRECTIONS,
     Estimate,
@@ -70,6 +81,9 @@ HEURISTICS = ("power", "balance")
 METHODS = ("auto", "mis")
 
 
+_METHODS = (("sample", 3), ("eval", 0), ("pdf", 0))
+"""The BRDF kernels the tile kernel calls: method and width of its uniforms."""
+
 _BRDF_KERNELS: weakref.WeakKeyDictionary[
     BRDF, dict[np.dtype, tuple[compiled.CompiledBRDF, tuple[Any, ...]]]
 ] = weakref.WeakKeyDictionary()
@@ -86,10 +100,7 @@ def _compiled(model: BRDF, dtype: np.dtype) -> tuple[compiled.CompiledBRDF, tupl
         compiled_model = compiled.compile(model, dtype)
         per_dtype[dtype] = (
             compiled_model,
-            tuple(
-                compiled_model.kernel(method, width).function
-                for method, width in (("sample", 3), ("eval", 0), ("pdf", 0))
-            ),
+            tuple(compiled_model.kernel(method, width).function for method, width in _METHODS),
         )
     return per_dtype[dtype]
 
@@ -194,13 +205,11 @@ class EnvironmentShader:
                 self._rest, functions, self._data = table, table.functions, table.data
             else:
                 self._rest, functions = _compiled(self.rest, self.dtype)
-            self._kernel = tile_kernel(
-                *functions,
-                self.dtype.type,
-                self.rest.channels,
-                self.env.channels,
+            self._kernel = tile_kernel(self.dtype.type, self.rest.channels, self.env.channels)
+            self._functions = (
+                *brdf_functions(functions, self.dtype.type, self.rest.channels, self._data),
+                *step_functions(self.dtype.type),
             )
-            self._functions = functions
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS
         lookups = compiled_lookups(self.dtype, kernel_tools)
         self._tables = lookups.tables(self.env.compensated)
@@ -335,7 +344,7 @@ class EnvironmentShader:
             kernel(
                 self._rest.parameters, pixels[lo:hi], wo_flat, frame_flat, *brdf_uniforms,
                 *map_uniforms, seeds, *self._tables, power, control, found_mean[lo:hi],
-                found_m2[lo:hi], self._data,
+                found_m2[lo:hi], self._data, *self._functions,
             )  # fmt: skip
 
         kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
@@ -396,9 +405,8 @@ class EnvironmentShader:
         3)``, in the kernels' dtype."""
         if self._recorder is None:
             self._recorder = tile_kernel(
-                *self._functions, self.dtype.type, self.rest.channels, self.env.channels,
-                record=True,
-            )  # fmt: skip
+                self.dtype.type, self.rest.channels, self.env.channels, record=True
+            )
         pixels, count = prepared.pixels, max(chunk[0].shape[1], chunk[1].shape[0])
         terms = np.empty((pixels.size, count, 2, self.channels), self.dtype)
         directions = np.empty((pixels.size, count, 2, 3), self.dtype)
@@ -409,7 +417,7 @@ class EnvironmentShader:
             self._recorder(
                 self._rest.parameters, pixels[lo:hi], prepared.wo, prepared.frame, *chunk,
                 seeds, *self._tables, self.heuristic == "power", prepared.control,
-                terms[lo:hi], directions[lo:hi], self._data,
+                terms[lo:hi], directions[lo:hi], self._data, *self._functions,
             )  # fmt: skip
 
         kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
@@ -533,20 +541,24 @@ def kernels_built(
     map of ``map_channels`` channels (``None``: 1 or 3); with ``shadows`` the recording tile
     kernel of the shadowed path."""
     dtype = np.dtype(dtype)
+    return (
+        _brdf_kernels_built(model, dtype)
+        and steps_built(dtype.type)
+        and tile_kernel_built(dtype.type, model.channels, map_channels, shadows)
+    )
+
+
+def _brdf_kernels_built(model: BRDF, dtype: np.dtype) -> bool:
+    """Whether the BRDF kernels the tile kernel calls for ``model`` exist in this process (a
+    table's, :func:`brdfkit.measured.table_kernels`) or are built or on disk (a compiled
+    model's source and machine code: making them costs a load)."""
     table = table_kernels(model, dtype)
-    entry = _BRDF_KERNELS.get(model, {}).get(dtype)
     if table is not None:
-        kernels = table.functions
-    elif entry is not None:
-        kernels = entry[1]
-    else:
-        compiled_model = compiled.compile(model, dtype)
-        methods = (("sample", 3), ("eval", 0), ("pdf", 0))
-        if not all(compiled_model.cached(method, width) for method, width in methods):
-            return False
-        # built, or their source and machine code on disk: making them now costs a load
-        kernels = tuple(compiled_model.kernel(method, width).function for method, width in methods)
-    return tile_kernel_built(kernels, dtype.type, model.channels, map_channels, shadows)
+        return table.built()
+    if dtype in _BRDF_KERNELS.get(model, {}):
+        return True
+    compiled_model = compiled.compile(model, dtype)
+    return all(compiled_model.cached(method, width) for method, width in _METHODS)
 
 
 def pending_kernels(
@@ -577,15 +589,55 @@ def build_kernels(
 ) -> float:
     """Build (or load) the compiled shader's kernels for ``brdf`` under ``lights`` now
     (:meth:`EnvironmentShader.build`), record the seconds taken for :func:`build_estimate`
-    and return them (0 where the compiled path does not apply)."""
+    and return them (0 where the compiled path does not apply).
+
+    Where the tile kernel is neither built nor on disk, a worker process compiles it into the
+    disk cache (:func:`_tile_worker`) while this one builds the BRDF's kernels, the tile
+    kernel's steps and the map's tables; this process then loads it (or, where the worker
+    failed, compiles it itself). The worker is ended when this returns or raises."""
     start = time.perf_counter()
-    plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
-    if plan is None:
-        return 0.0
-    plan[0].build()
+    with _tile_worker(brdf, lights, method, np.dtype(dtype)) as worker:
+        plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
+        if plan is None:
+            return 0.0
+        shader = plan[0]
+        prepared = shader.prepare(np.array([[0.0, 0.0, 1.0]]))  # the floor's, the map's kernels
+        if worker is not None:
+            worker.wait()  # the tile kernel's machine code on disk (else compiled here)
+        shader.shade(prepared, samples=1)
     seconds = time.perf_counter() - start
     kernel_cache.store_record(_TIMINGS, _BUILD_KEY, {"seconds": seconds})
     return seconds
+
+
+def _tile_worker(
+    brdf: BRDF, lights: Sequence[Light], method: str, dtype: np.dtype
+) -> contextlib.AbstractContextManager[Any]:
+    """A worker process compiling the tile kernel that shading ``brdf`` under ``lights`` calls
+    into the disk cache (:func:`brdfkit.compiled.worker.start`), while this process builds
+    the BRDF's kernels and the map's tables; a context giving ``None`` where that kernel is
+    built or on disk already, the cache is off, or the BRDF is a table's (its kernels take
+    arrays: the tile kernel is compiled here)."""
+    maps = [lt for lt in lights if isinstance(lt, EnvironmentMap)]
+    rest = shading_parts(brdf, method)[2] if method in METHODS else None
+    if len(maps) != 1 or rest is None or _is_table(rest, dtype):
+        return contextlib.nullcontext()
+    options = (dtype.type, rest.channels, maps[0].channels, False)
+    if tile_kernel_built(*options):
+        return contextlib.nullcontext()
+    worker = compiled_worker.start(
+        "brdfkit.render._reflection_kernels", "build_tile_kernel", dtype.name, *options[1:]
+    )
+    return contextlib.nullcontext() if worker is None else worker
+
+
+def _is_table(model: BRDF, dtype: np.dtype) -> bool:
+    """Whether ``model`` is shaded by a table's kernels (:func:`brdfkit.measured.table_kernels`;
+    ``False`` without numba, where nothing is compiled)."""
+    try:
+        return table_kernels(model, dtype) is not None
+    except ImportError:
+        return False
 
 
 _TIMINGS = "timings"
