@@ -12,13 +12,10 @@ per (object, material, method), then the table; records to ``benchmarks/results/
 
 from __future__ import annotations
 
-import argparse
 import functools
 import json
-import os
-from pathlib import Path
 
-from bench_ps_materials import ANALYTIC, MEASURED, solve_all, table
+from bench_ps_materials import ANALYTIC, MEASURED, render_arguments, solve_all, table
 from brdfkit.vision import bivariate_stereo, photometric_stereo
 
 METHODS = {
@@ -30,15 +27,7 @@ METHODS = {
 
 def main() -> None:
     """Render every (object, material), run the three, print JSON lines and the table."""
-    default = os.environ.get(
-        "BRDFKIT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
-    )
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path(default))
-    parser.add_argument("--objects", nargs="+", default=["bear", "cat", "pot1"])
-    parser.add_argument("--step", type=int, default=4)
-    parser.add_argument("--noise", type=float, default=0.005)
-    args = parser.parse_args()
+    args = render_arguments(__doc__.splitlines()[0]).parse_args()
     materials = list(ANALYTIC) + list(MEASURED)
     records = solve_all(args.data, args.objects, args.step, args.noise, materials, METHODS)
     from _machine import header, results_path

@@ -85,16 +85,23 @@ def render(brdf, normals, mask, lights, lit, noise, rng) -> datasets.Photometric
     )
 
 
-def main() -> None:
-    """Render every (object, material), run every method, print JSON lines and the table."""
+def render_arguments(description: str) -> argparse.ArgumentParser:
+    """A parser with the renders' options (``--data``, ``--objects``, ``--step``,
+    ``--noise``), shared with ``bench_bipolynomial.py``."""
     default = os.environ.get(
         "BRDFKIT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"
     )
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--data", type=Path, default=Path(default))
     parser.add_argument("--objects", nargs="+", default=["bear", "cat", "pot1"])
     parser.add_argument("--step", type=int, default=4)
     parser.add_argument("--noise", type=float, default=0.005)
+    return parser
+
+
+def main() -> None:
+    """Render every (object, material), run every method, print JSON lines and the table."""
+    parser = render_arguments(__doc__.splitlines()[0])
     parser.add_argument("--methods", nargs="+", default=list(METHODS))
     parser.add_argument("--materials", nargs="+", default=list(ANALYTIC) + list(MEASURED))
     parser.add_argument("--out", type=Path, default=None)
