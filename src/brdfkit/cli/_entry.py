@@ -59,11 +59,20 @@ def guard_the_start() -> None:
 
 def main() -> None:
     """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
-    from brdfkit.cli._app import app, stop_on_interrupt
+    from brdfkit.cli._app import (
+        Interrupted,
+        _exit_unwound,
+        _report_interrupted,
+        app,
+        stop_on_interrupt,
+    )
 
     stop_on_interrupt()
     try:
         app()
+    except Interrupted:  # while typer builds the commands, before the group's handling
+        _report_interrupted()
+        _exit_unwound()
     finally:  # the process ends: nothing left to collect but at its exit, which this spares
         gc.freeze()
 
