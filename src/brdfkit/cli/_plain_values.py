@@ -1,8 +1,9 @@
 """Command-line values that need no pydantic: strings, paths, and plainly written numbers.
 
-typer (from 0.20) converts every parameter value, a command's defaults included, through a
-pydantic ``TypeAdapter``; the first conversion of a process imports pydantic (~0.1 s, more
-than a render's tile kernels take to load) and builds an adapter per parameter. Most values a
+typer (0.29, the release tested) converts every parameter value, a command's defaults
+included, through a pydantic ``TypeAdapter``: the first conversion of a process imports
+pydantic and builds an adapter per parameter, ~0.1 s of every command (a warm ``brdfkit
+render`` spent 0.08-0.1 s there, more than loading its tile kernel). Most values a
 command receives are already what the command takes: a string for ``str``, a path for
 ``Path``, a number written in decimal digits for ``int`` or ``float``. :func:`plain_values`
 gives a command's parameters a converter that returns those at once, exactly as typer's
