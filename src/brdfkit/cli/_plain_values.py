@@ -11,9 +11,9 @@ adapter would (``tests/cli/test_plain_values.py`` compares the two on every para
 command), and hands every other value to typer's own converter, built on first use: its
 result and its error message are typer's.
 
-Everything here that knows typer's internals sits in this module: where a typer release no
-longer has them (no ``get_runtime_param`` on its parameters), :func:`plain_values` leaves the
-command as it is, which converts as before, slower.
+Everything here that knows typer's internals sits in this module, and it acts only with the
+typer releases it is tested with (:data:`TESTED_TYPER`): with any other, :func:`plain_values`
+leaves the command as it is, which converts as before, slower.
 """
 
 from __future__ import annotations
@@ -28,6 +28,17 @@ those go to typer, which accepts some of them)."""
 _DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 """A float as a user types it: decimal digits, a point, an exponent (``float()`` and
 pydantic round it alike; ``inf``, ``nan`` and underscores go to typer)."""
+
+
+TESTED_TYPER = ("0.29",)
+"""The typer releases (major.minor) whose internals this module is tested with."""
+
+
+def engaged() -> bool:
+    """Whether the installed typer is one of :data:`TESTED_TYPER`."""
+    import typer
+
+    return ".".join(typer.__version__.split(".")[:2]) in TESTED_TYPER
 
 
 class _Unconverted(Exception):
@@ -105,7 +116,10 @@ class _PlainConverter:
 def plain_values(params: list[Any]) -> None:
     """Give each typer parameter of ``params`` (a command's, ``Command.get_params``) the
     plain converter (see the module's docstring). Parameters converted already, and any where
-    this typer has no such internals, are left as they are."""
+    this typer has no such internals, are left as they are; all of them where this typer is
+    not one it is tested with (:func:`engaged`)."""
+    if not engaged():
+        return
     for param in params:
         descriptor = getattr(param, "type_descriptor", None)
         if descriptor is None or getattr(param, "_runtime_param", False) is not None:
@@ -124,4 +138,4 @@ def _typer_converter(descriptor: Any) -> Any:
     return build
 
 
-__all__ = ["plain_values"]
+__all__ = ["TESTED_TYPER", "engaged", "plain_values"]
