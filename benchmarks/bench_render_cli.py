@@ -250,8 +250,12 @@ def main() -> None:
     print(
         f"warm medians: brdfkit {w['brdfkit_median']:.2f} s, Mitsuba {w['mitsuba_median']:.2f} s, "
         f"ratio {w['ratio_median']:.2f}; CPU brdfkit {w['brdfkit_cpu_median']:.2f} s, Mitsuba "
-        f"{w['mitsuba_cpu_median']:.2f} s; first render median {statistics.median(first):.2f} s, "
-        f"at most {max(first):.2f} s"
+        f"{w['mitsuba_cpu_median']:.2f} s"
+        + (
+            f"; first render median {statistics.median(first):.2f} s, at most {max(first):.2f} s"
+            if first
+            else ""
+        )
         + (f" (baseline median {statistics.median(baseline):.2f} s)" if baseline else "")
         + f"; twin mean ratio {ratio:.4f}"
     )
