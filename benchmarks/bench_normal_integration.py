@@ -2,8 +2,8 @@
 integration (BiNI, Cao et al. ECCV 2022) run from its public code in the same run.
 
 For each object of ``../shared/data/normal_integration/diligent`` (perspective, its ``K``):
-brdfkit's default ``brdfkit integrate`` method (bilateral integration with the continuity
-prior, ``bilateral_continuity``), brdfkit's masked least squares and
+brdfkit's default ``brdfkit integrate`` method (bilateral integration with each piece's scale
+from least squares, ``bilateral_pieces``), brdfkit's masked least squares and
 the peer's ``bilateral_normal_integration`` with the settings of its own DiLiGenT evaluation
 (``k = 2``, ``max_iter = 100``, ``tol = 1e-4``; its file is imported from ``--peer``, the
 folder of a checkout of github.com/xucao-42/bilateral_normal_integration, never copied here).
@@ -21,10 +21,11 @@ median ratio; the pieces are the connected parts of the mask once neighbours who
 differ by more than ``JUMP_MM`` are parted.
 
 ``--variants`` adds rows for bilateral integration with other settings, all through its public
-options: the authors' method alone (``continuity = 0``), then with the sigmoid's sharpness
-``k = 1`` and ``k = 4`` either side of their 2, with the conjugate-gradient tolerance 10 %
-either side of their 1e-3 (how much their result hangs on where the inexact solves stop), and
-the continuity prior at 0.1 % and 10 % either side of the default 1 %.
+options: the authors' method alone, then with the sigmoid's sharpness ``k = 1`` and ``k = 4``
+either side of their 2, with the conjugate-gradient tolerance 10 % either side of their 1e-3
+(how much their result hangs on where the inexact solves stop), the piece cut at 0.5 % and 2 %
+either side of the default 1 %, and the continuity prior (the previous default) at 0.1 %, 1 %
+and 10 %.
 
     python benchmarks/bench_normal_integration.py --peer PATH [--data ../shared/data]
         [--objects bear cat ...] [--variants]
@@ -61,7 +62,10 @@ VARIANTS = {
     "bilateral_k4": {"k": 4.0},
     "bilateral_solver_tolerance_0.0009": {"solver_tolerance": 9e-4},
     "bilateral_solver_tolerance_0.0011": {"solver_tolerance": 1.1e-3},
+    "pieces_0.005": {"pieces": 5e-3},
+    "pieces_0.02": {"pieces": 2e-2},
     "continuity_0.001": {"continuity": 1e-3},
+    "continuity_0.01": {"continuity": 1e-2},
     "continuity_0.1": {"continuity": 0.1},
 }
 """The options of ``bilateral_integration`` in each ``--variants`` row."""

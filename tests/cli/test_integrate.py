@@ -13,7 +13,7 @@ from brdfkit.cli import app
 from brdfkit.cli.integrate import _METHODS
 from brdfkit.io import read_image, write_image
 from brdfkit.vision import datasets
-from brdfkit.vision.bilateral_integration import CONTINUITY, bilateral_integration
+from brdfkit.vision.bilateral_integration import PIECES, bilateral_integration
 from brdfkit.vision.depth_from_normals import METHODS
 
 runner = CliRunner()
@@ -47,14 +47,14 @@ def test_writes_depth_exr_and_mesh_from_a_folder(folder, tmp_path):
     assert result.exit_code == 0, result.output
     summary = json.loads(result.stdout)
     assert summary["projection"] == "perspective"
-    assert summary["method"] == "bilateral_continuity"
+    assert summary["method"] == "bilateral_pieces"
     depth = np.load(out / "depth.npy")
     mask = datasets.read_mask(folder / "mask.png")
     assert np.isnan(depth[~mask]).all() and np.isfinite(depth[mask]).all()
     assert summary["pixels"] == mask.sum()
     normals = datasets.read_normal_map(folder / "normal_map.png")
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-    expected = bilateral_integration(normals, mask, CAMERA, continuity=CONTINUITY).depth
+    expected = bilateral_integration(normals, mask, CAMERA, pieces=PIECES).depth
     assert np.allclose(depth, expected, equal_nan=True)
     exr = read_image(out / "depth.exr")[..., 0]
     assert np.allclose(exr, depth.astype(np.float32), equal_nan=True)

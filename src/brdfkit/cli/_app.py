@@ -31,6 +31,7 @@ from rich.text import Text
 from typer.core import TyperGroup
 
 import brdfkit
+from brdfkit.cli._plain_values import plain_values
 
 BAD_INPUT = 2
 """Exit status for bad input (usage errors included, as click does)."""
@@ -96,6 +97,18 @@ class _Group(TyperGroup):
         if standalone_mode:
             sys.exit(code)
         return code
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        plain_values(self.get_params(ctx))
+        return super().parse_args(ctx, args)
+
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        """The subcommand ``cmd_name``; it converts its values without pydantic where they
+        are plain (:func:`~brdfkit.cli._plain_values.plain_values`)."""
+        command = super().get_command(ctx, cmd_name)
+        if command is not None:
+            plain_values(command.get_params(ctx))
+        return command
 
 
 def _exit_unwound() -> NoReturn:

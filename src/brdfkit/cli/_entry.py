@@ -8,11 +8,18 @@ module of brdfkit's but the root package's): from then on either signal prints t
 :func:`main` puts the command's own handling in place
 (:func:`brdfkit.cli._app.stop_on_interrupt`: workers stopped, temporaries removed).
 
-This module imports nothing but :mod:`os`, :mod:`signal` and :mod:`sys`.
+When the command has ended, :func:`main` freezes the garbage collector's objects
+(:func:`gc.freeze`): the interpreter's exit then does not search the ~90,000 objects a render
+leaves (modules, numba's types) for reference cycles, several times over (~0.1 s). Objects
+are still released as their counts drop, ``atexit`` handlers run (the compile worker is
+ended), and every output was written and closed before.
+
+This module imports nothing but :mod:`gc`, :mod:`os`, :mod:`signal` and :mod:`sys`.
 """
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import sys
@@ -52,10 +59,22 @@ def guard_the_start() -> None:
 
 def main() -> None:
     """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
-    from brdfkit.cli._app import app, stop_on_interrupt
+    from brdfkit.cli._app import (
+        Interrupted,
+        _exit_unwound,
+        _report_interrupted,
+        app,
+        stop_on_interrupt,
+    )
 
     stop_on_interrupt()
-    app()
+    try:
+        app()
+    except Interrupted:  # while typer builds the commands, before the group's handling
+        _report_interrupted()
+        _exit_unwound()
+    finally:  # the process ends: nothing left to collect but at its exit, which this spares
+        gc.freeze()
 
 
 __all__ = ["INTERRUPTED", "guard_the_start", "is_console_script", "main"]

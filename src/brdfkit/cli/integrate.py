@@ -12,6 +12,7 @@ from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
 _METHODS = (
+    "bilateral_pieces",
     "bilateral_continuity",
     "bilateral",
     "least_squares",
@@ -55,15 +56,16 @@ def integrate_command(
     normals: _Normals,
     mask: _Mask = None,
     camera: _Camera = None,
-    method: _Method = "bilateral_continuity",
+    method: _Method = "bilateral_pieces",
     output: _Output = Path("integrate"),
     as_json: _Json = False,
 ) -> None:
     """Integrate a normal map into depth, keeping depth discontinuities.
 
-    The default, bilateral_continuity, is bilateral normal integration (Cao et al. 2022) with a
-    weak pull towards the least-squares surface where the normals leave the relative depth of
-    two parts open; bilateral is the authors' method alone.
+    The default, bilateral_pieces, is bilateral normal integration (Cao et al. 2022) with the
+    relative scale of the pieces its weights part (which the normals leave open) taken from the
+    least-squares surface; bilateral_continuity pulls weakly towards that surface instead;
+    bilateral is the authors' method alone.
 
     Normal maps are encoded as n = 2 v / v_max - 1 per channel, red = x (right), green = y
     (up), blue = z (towards the camera). A folder may hold mask.png and K.txt, which --mask and
