@@ -358,21 +358,45 @@ def _ms(x: float | None) -> str:
     return "not reached" if x is None else f"{x:.0f}"
 
 
+def _explore_latency(workloads: dict) -> str:
+    return rows(
+        ["workload", "median ms", "p95 ms", "preview share", "click median ms", "click p95 ms",
+         "server views ms", "page draw ms", "render_sphere ms"],
+        [[name, f"{w['median_ms']:.1f}", f"{w['p95_ms']:.1f}", f"{w.get('preview_share', 0):.2f}",
+          _ms(w.get("click_median_ms")), _ms(w.get("click_p95_ms")),
+          f"{w['server_views_median_ms']:.1f}", f"{w['page_draw_median_ms']:.1f}",
+          f"{w['render_sphere_median_ms']:.1f}"] for name, w in workloads.items()],
+        "lrrrrrrrr",
+    )  # fmt: skip
+
+
+def _explore_other(compositor: str, workloads: dict) -> str:
+    lit = workloads["lambertian+ggx"]["lit"]
+    clicks = ", ".join(
+        f"{name} {_ms(w.get('click_median_ms'))} / {_ms(w.get('click_p95_ms'))}"
+        for name, w in workloads.items()
+    )
+    gpu = workloads["lambertian+ggx"].get("gpu_process_cpu_ms_per_click")
+    return (
+        f"The same run with Chromium's `{compositor}` compositor: clicks (median / p95 ms) "
+        f"{clicks}; the sphere's slider with the lit view refining "
+        f"{lit['slider_median_ms_lit_on']:.1f} / {lit['slider_p95_ms_lit_on']:.1f} ms (off "
+        f"{lit['slider_median_ms_lit_off']:.1f} / {lit['slider_p95_ms_lit_off']:.1f})"
+        + (f"; its GPU process {gpu:.0f} ms of CPU per click." if gpu is not None else ".")
+    )
+
+
 def explore(r: dict) -> str:
     out = []
     if "workloads" in r:
+        compositor = r.get("compositor", "swiftshader")
+        gpu = next(iter(r["workloads"].values())).get("gpu_process_cpu_ms_per_click")
         out.append(
-            rows(
-                ["workload", "median ms", "p95 ms", "preview share", "click median ms",
-                 "click p95 ms", "server views ms", "page draw ms", "render_sphere ms"],
-                [[name, f"{w['median_ms']:.1f}", f"{w['p95_ms']:.1f}",
-                  f"{w.get('preview_share', 0):.2f}", _ms(w.get("click_median_ms")),
-                  _ms(w.get("click_p95_ms")),
-                  f"{w['server_views_median_ms']:.1f}", f"{w['page_draw_median_ms']:.1f}",
-                  f"{w['render_sphere_median_ms']:.1f}"] for name, w in r["workloads"].items()],
-                "lrrrrrrrr",
-            )
-        )  # fmt: skip
+            f"Chromium's `{compositor}` compositor"
+            + (f" (its GPU process: {gpu:.0f} ms of CPU per click)" if gpu is not None else "")
+            + ":\n\n"
+            + _explore_latency(r["workloads"])
+        )
         env = next((w["envmap"] for w in r["workloads"].values() if "envmap" in w), None)
         if env:
             noise1 = "not reached" if env["noise1"] is None else f"{env['noise1'] / 1e3:.2f}"
@@ -405,6 +429,8 @@ def explore(r: dict) -> str:
                     "rrrrr",
                 )
             )  # fmt: skip
+        for compositor, workloads in r.get("other_compositors", {}).items():
+            out.append(_explore_other(compositor, workloads))
     if "runs" in r:
         out.append(
             "Environment map, in-process (`--session`):\n\n"
