@@ -48,7 +48,7 @@ from brdfkit.compiled import cache as kernel_cache
 from brdfkit.interop import mitsuba as ms
 from brdfkit.interop.mitsuba_export import to_mitsuba_dict
 from brdfkit.light import EnvironmentMap
-from brdfkit.light.environment import clear_table_cache
+from brdfkit.light.environment import clear_table_cache, wait_for_table_store
 from brdfkit.render import interior_mask, render_sphere
 from brdfkit.render.compiled_shading import compiled_shader
 
@@ -79,7 +79,8 @@ def timed(render: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
 @contextlib.contextmanager
 def forgotten_tables(check: bool = True) -> Iterator[None]:
     """The maps' tables forgotten in the process and on disk: ``$BRDFKIT_CACHE_DIR`` is a new
-    empty folder (removed afterwards) while the block runs. The kernels stay compiled in
+    empty folder (removed afterwards) while the block runs; the tables' disk copies, written
+    in the background, are waited for inside the block. The kernels stay compiled in
     memory; with ``check``, a render that compiled or loaded one from disk raises."""
     clear_table_cache()
     before = {name: kernel_cache.STATS[name] for name in ("hits", "misses", "record_misses")}
@@ -88,6 +89,7 @@ def forgotten_tables(check: bool = True) -> Iterator[None]:
         os.environ[kernel_cache.ENV] = folder
         try:
             yield
+            wait_for_table_store()
         finally:
             if previous is None:
                 del os.environ[kernel_cache.ENV]
