@@ -299,3 +299,15 @@ def test_tables_are_written_off_the_callers_thread_where_the_store_pointed(
     assert writers and threading.current_thread() not in writers
     assert len(_stored_tables(table_dir)) == 1
     assert list(elsewhere.rglob("*.npz")) == []
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf, -1e-30])
+def test_a_map_holding_a_value_that_is_not_radiance_is_refused(bad):
+    """One NaN, infinite or negative value among the pixels is refused (a file's, naming
+    the file: ``tests/test_faults.py``)."""
+    from brdfkit.errors import ParameterError
+
+    image = np.ones((4, 8, 3), np.float32)
+    image[2, 5, 1] = bad
+    with pytest.raises(ParameterError, match="finite, non-negative"):
+        EnvironmentMap(image)

@@ -74,6 +74,13 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
     return (peak + floor) * sin_theta
 
 
+def _holds_radiance(image: np.ndarray) -> bool:
+    """Whether every value of ``image`` is finite and non-negative, by two reductions and no
+    temporary arrays (a map's pixels are megabytes): its minimum is NaN where a value is, and
+    NaN ≥ 0 is false; its maximum is infinite where a value is."""
+    return bool(image.min() >= 0) and bool(image.max() < np.inf)
+
+
 def _neighbourhood_maximum(values: np.ndarray) -> np.ndarray:
     """The maximum over each texel's 3×3 neighbourhood of a lat-long map's ``values``
     ``(H, W)``: rows clamped at the poles, columns wrapping around. SciPy's
@@ -146,7 +153,7 @@ class EnvironmentMap(Light):
             raise ParameterError(
                 f"image must be an (H, W, C) lat-long array with H, W >= 2; got {shape}"
             )
-        if not np.all(np.isfinite(img)) or np.any(img < 0):
+        if not _holds_radiance(img):
             raise ParameterError("image must hold finite, non-negative radiance values")
         STRENGTH.check("scale", self.scale)
         rot = np.eye(3) if self.rotation is None else check_number("rotation", self.rotation)
@@ -219,7 +226,7 @@ class EnvironmentMap(Light):
             from brdfkit.io import srgb_decode
 
             image = srgb_decode(image)
-        if not np.all(np.isfinite(image) & (image >= 0)):
+        if not _holds_radiance(image):
             raise FormatError(path, "holds NaN, infinite or negative values; a map holds radiance")
         return cls(image[..., :3], scale=scale, rotation=rotation)
 

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 import time
 import weakref
 from collections.abc import Callable, Sequence
@@ -210,9 +211,16 @@ class EnvironmentShader:
                 *brdf_functions(functions, self.dtype.type, self.rest.channels, self._data),
                 *step_functions(self.dtype.type),
             )
-        # the map's arrays for the kernel, its sampling as the NumPy path's MIS
+        # the map's arrays for the kernel, its sampling as the NumPy path's MIS, built on a
+        # helper thread while the caller traces its G-buffer and prepares its first tile
         lookups = compiled_lookups(self.dtype, kernel_tools)
-        self._tables = lookups.tables(self.env.compensated)
+        self._map_tables = _in_background(lookups.tables, self.env.compensated)
+
+    @property
+    def _tables(self) -> tuple[Any, ...]:
+        """The map's arrays for the kernel (:meth:`MapLookups.tables
+        <brdfkit.light._environment_kernels.MapLookups.tables>`), waited for."""
+        return self._map_tables.result()
 
     def __call__(
         self,
@@ -422,6 +430,24 @@ class EnvironmentShader:
 
         kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
         return terms, directions
+
+
+_HELPER: list[Any] = []
+"""The one helper thread (an executor) that builds maps' tables for new shaders."""
+_HELPER_LOCK = threading.Lock()
+
+
+def _in_background(function: Callable[..., Any], *args: Any) -> Any:
+    """The future of ``function(*args)`` on the helper thread: a map's sampling tables are
+    NumPy and numba work that mostly runs without the GIL, so they are built on the second
+    core while this thread traces the G-buffer and prepares the first tile (per-pixel work
+    that needs no table). An error is raised where the result is asked for."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _HELPER_LOCK:
+        if not _HELPER:
+            _HELPER.append(ThreadPoolExecutor(1, thread_name_prefix="brdfkit-map-tables"))
+    return _HELPER[0].submit(function, *args)
 
 
 SHADOW_SAMPLES = 16

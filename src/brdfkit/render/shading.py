@@ -171,16 +171,7 @@ def _shade(
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels)) if want_stderr else None
-    if cache is not None and ("plan", compiled) in cache:
-        plan = cache["plan", compiled]
-    else:
-        # with shadows every lobe is sampled by MIS, as reflected_radiance does
-        shadowed = visibility is not None and method == "auto"
-        plan = _compiled_plan(
-            brdf, light_list, "mis" if shadowed else method, compiled, visibility is not None
-        )
-        if cache is not None:
-            cache["plan", compiled] = plan
+    plan = _cached_plan(cache, brdf, light_list, method, compiled, visibility is not None)
     rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
     if plan is not None and sequence == "sobol":
         # the kernel's memory does not grow with the samples, nor do a pixel's samples
@@ -265,6 +256,25 @@ progress report comes soon."""
 
 COMPILED = (True, False, "float64")
 """Values of :func:`shade`'s ``compiled``."""
+
+
+def _cached_plan(
+    cache: dict[Any, Any] | None,
+    brdf: BRDF,
+    lights: list[Light],
+    method: str,
+    compiled: bool | str,
+    shadows: bool,
+) -> tuple[Any, list[Light]] | None:
+    """:func:`_compiled_plan` for :func:`_shade`, kept in its ``cache`` (if any); with
+    ``shadows`` every lobe is sampled by MIS, as :func:`reflected_radiance` does."""
+    if cache is not None and ("plan", compiled) in cache:
+        return cache["plan", compiled]
+    shadowed = shadows and method == "auto"
+    plan = _compiled_plan(brdf, lights, "mis" if shadowed else method, compiled, shadows)
+    if cache is not None:
+        cache["plan", compiled] = plan
+    return plan
 
 
 def _compiled_plan(
@@ -366,7 +376,11 @@ def _recent_work(
     )  # fmt: skip
     entry = _RECENT.get("sphere")
     if entry is None or entry[0] != key:
-        entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), {})
+        # the plan first: a new map's tables are built on a helper thread meanwhile
+        # (compiled_shading.EnvironmentShader), while this one traces the G-buffer
+        cache: dict[Any, Any] = {}
+        _cached_plan(cache, brdf, list(light_list), options["method"], options["compiled"], False)
+        entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), cache)
         _RECENT["sphere"] = entry
     return entry[2], entry[3]
 
