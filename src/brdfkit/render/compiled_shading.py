@@ -214,7 +214,7 @@ class EnvironmentShader:
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS, built on a
         # helper thread while the caller traces its G-buffer and prepares its first tile
         lookups = compiled_lookups(self.dtype, kernel_tools)
-        self._map_tables = _in_background(lookups.tables, self.env.compensated)
+        self._map_tables = _in_background(lambda: lookups.tables(self.env.compensated))
 
     @property
     def _tables(self) -> tuple[Any, ...]:
@@ -437,8 +437,8 @@ _HELPER: list[Any] = []
 _HELPER_LOCK = threading.Lock()
 
 
-def _in_background(function: Callable[..., Any], *args: Any) -> Any:
-    """The future of ``function(*args)`` on the helper thread: a map's sampling tables are
+def _in_background(function: Callable[[], Any]) -> Any:
+    """The future of ``function()`` on the helper thread: a map's sampling tables are
     NumPy and numba work that mostly runs without the GIL, so they are built on the second
     core while this thread traces the G-buffer and prepares the first tile (per-pixel work
     that needs no table). An error is raised where the result is asked for."""
@@ -447,7 +447,7 @@ def _in_background(function: Callable[..., Any], *args: Any) -> Any:
     with _HELPER_LOCK:
         if not _HELPER:
             _HELPER.append(ThreadPoolExecutor(1, thread_name_prefix="brdfkit-map-tables"))
-    return _HELPER[0].submit(function, *args)
+    return _HELPER[0].submit(function)
 
 
 SHADOW_SAMPLES = 16
