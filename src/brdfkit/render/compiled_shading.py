@@ -26,6 +26,12 @@ where the compiled path applies; :func:`kernels_built` whether it costs no compi
 kernel compiled by a worker process on another core meanwhile
 (:mod:`brdfkit.compiled.worker`).
 
+A new map's set-up runs on both cores: its sampling tables (the pixels' digest, the weights,
+the CDFs and their guide tables) are built on a helper thread from the shader's construction
+on, while the caller traces its G-buffer, and :func:`~brdfkit.render.shade` prepares each
+next tile (frames, the floor k, k·E(n)) on that thread while the kernel shades the tile
+before; the work and its results are the same as on one thread.
+
 References
 ----------
 .. [1] E. Veach, L. Guibas, "Optimally combining sampling techniques for Monte Carlo
@@ -271,10 +277,15 @@ class EnvironmentShader:
         n = math.prod(batch)
         keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
         control = np.zeros((n, self.rest.channels), self.dtype)
-        if self.control:
-            control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
-            k = control.reshape(*batch, self.rest.channels).astype(np.float64)
-            value = value + diffuse_envmap_radiance(k * math.pi, self.env, frame, wo_local)
+        if self.control:  # k·E(n) of the pixels shaded (the others' k is 0)
+            kept_wo = wo_local.reshape(n, 3)[keep]
+            control[keep] = k = self._floor(kept_wo)
+            kept_frame = tuple(np.broadcast_to(v, (*batch, 3)).reshape(n, 3)[keep] for v in frame)
+            floor = diffuse_envmap_radiance(
+                k.astype(np.float64) * math.pi, self.env, kept_frame, kept_wo
+            )
+            value = np.ascontiguousarray(value)  # (*batch, channels): flat, a view of it
+            value.reshape(n, self.channels)[keep] += floor
         t = self.dtype
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
         frame_flat = np.ascontiguousarray(
