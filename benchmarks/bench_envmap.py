@@ -14,8 +14,9 @@ interleaved, ``--repeats`` times with fresh seeds:
   forgotten first, in the process (:func:`~brdfkit.light.environment.clear_table_cache`)
   and on disk (an empty table store of its own, ``$BRDFKIT_CACHE_DIR`` pointing at a new
   temporary folder for that render: the lookups miss and the tables are stored, as for a
-  map never seen on the machine); Mitsuba loads its scene (the ``envmap`` plugin reads the
-  same file) and renders it;
+  map never seen on the machine; the time includes waiting for their disk copies, which
+  brdfkit writes in the background); Mitsuba loads its scene (the ``envmap`` plugin reads
+  the same file) and renders it;
 - **again**: brdfkit's new scene of a map read before in the process (its tables found by
   content).
 
