@@ -14,8 +14,9 @@ interleaved, ``--repeats`` times with fresh seeds:
   forgotten first, in the process (:func:`~brdfkit.light.environment.clear_table_cache`)
   and on disk (an empty table store of its own, ``$BRDFKIT_CACHE_DIR`` pointing at a new
   temporary folder for that render: the lookups miss and the tables are stored, as for a
-  map never seen on the machine); Mitsuba loads its scene (the ``envmap`` plugin reads the
-  same file) and renders it;
+  map never seen on the machine; the time includes waiting for their disk copies, which
+  brdfkit writes in the background); Mitsuba loads its scene (the ``envmap`` plugin reads
+  the same file) and renders it;
 - **again**: brdfkit's new scene of a map read before in the process (its tables found by
   content).
 
@@ -48,7 +49,7 @@ from brdfkit.compiled import cache as kernel_cache
 from brdfkit.interop import mitsuba as ms
 from brdfkit.interop.mitsuba_export import to_mitsuba_dict
 from brdfkit.light import EnvironmentMap
-from brdfkit.light.environment import clear_table_cache
+from brdfkit.light.environment import clear_table_cache, wait_for_table_store
 from brdfkit.render import interior_mask, render_sphere
 from brdfkit.render.compiled_shading import compiled_shader
 
@@ -79,7 +80,8 @@ def timed(render: Callable[[], np.ndarray]) -> tuple[float, np.ndarray]:
 @contextlib.contextmanager
 def forgotten_tables(check: bool = True) -> Iterator[None]:
     """The maps' tables forgotten in the process and on disk: ``$BRDFKIT_CACHE_DIR`` is a new
-    empty folder (removed afterwards) while the block runs. The kernels stay compiled in
+    empty folder (removed afterwards) while the block runs; the tables' disk copies, written
+    in the background, are waited for inside the block. The kernels stay compiled in
     memory; with ``check``, a render that compiled or loaded one from disk raises."""
     clear_table_cache()
     before = {name: kernel_cache.STATS[name] for name in ("hits", "misses", "record_misses")}
@@ -88,6 +90,7 @@ def forgotten_tables(check: bool = True) -> Iterator[None]:
         os.environ[kernel_cache.ENV] = folder
         try:
             yield
+            wait_for_table_store()
         finally:
             if previous is None:
                 del os.environ[kernel_cache.ENV]

@@ -2,6 +2,7 @@
 caches that share tables between maps of equal pixels, in memory and on disk."""
 
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from brdfkit.light.environment import (
     IRRADIANCE_CELLS,
     IRRADIANCE_GRID,
     clear_table_cache,
+    wait_for_table_store,
 )
 
 
@@ -117,10 +119,12 @@ def table_dir(tmp_path, monkeypatch):
     monkeypatch.setenv(cache.ENV, str(tmp_path))
     clear_table_cache()
     yield tmp_path
+    wait_for_table_store()
     clear_table_cache()
 
 
 def _stored_tables(folder):
+    wait_for_table_store()  # the tables are written in the background
     return sorted(folder.rglob("irradiance/*.npz"))
 
 
@@ -164,6 +168,7 @@ def test_a_partial_table_on_disk_is_completed_and_stored_again(table_dir):
         assert 0 < stored["built"].sum() < IRRADIANCE_GRID[1]
     clear_table_cache()
     whole = EnvironmentMap(image).irradiance_table
+    wait_for_table_store()
     with np.load(path) as stored:
         assert stored["built"].all()
         np.testing.assert_array_equal(stored["table"], whole)
@@ -205,6 +210,7 @@ def test_a_bad_table_on_disk_is_built_again_and_replaced(table_dir, damage):
     damage(path)
     clear_table_cache()
     np.testing.assert_array_equal(EnvironmentMap(image).irradiance(normal), first)
+    wait_for_table_store()
     with np.load(path) as stored:
         np.testing.assert_array_equal(stored["built"], built)
         np.testing.assert_array_equal(stored["table"], table)
@@ -235,6 +241,7 @@ def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
         return env._distribution.density.copy()
 
     first = density(EnvironmentMap(image))
+    wait_for_table_store()
     (path,) = sorted(table_dir.rglob(f"{name}/*.npz"))
     clear_table_cache()
     monkeypatch.setattr(environment, "_sampling_weights", None)  # reading only
@@ -245,6 +252,7 @@ def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
         np.savez(path, weights=bad)
         clear_table_cache()
         np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+        wait_for_table_store()
         with np.load(path) as stored:
             assert stored["weights"].shape == image.shape[:2]
             assert (stored["weights"] >= 0).all()
@@ -259,3 +267,47 @@ def test_the_neighbourhood_maximum_is_scipys_maximum_filter(shape):
     values = np.random.default_rng(17).random(shape) ** 3
     expected = maximum_filter(values, size=3, mode=("nearest", "wrap"))
     np.testing.assert_array_equal(environment._neighbourhood_maximum(values), expected)
+
+
+def test_tables_are_written_off_the_callers_thread_where_the_store_pointed(
+    table_dir, tmp_path_factory, monkeypatch
+):
+    """A new map's tables are written by the store's writer thread, not by the thread that
+    builds them (its first image does not wait for the disk), into the folder the store
+    pointed at when they were built, even if it points elsewhere before the write."""
+    store = environment.use_table_store(None)
+    writers = []
+
+    def recording_writer(kind, key):
+        write = store.writer(kind, key)
+
+        def recorded(arrays):
+            writers.append(threading.current_thread())
+            write(arrays)
+
+        return recorded
+
+    environment.use_table_store(environment.TableStore(store.load, recording_writer))
+    try:
+        image = np.random.default_rng(17).random((12, 24, 3)).astype(np.float32)
+        EnvironmentMap(image).irradiance(np.array([[0.0, 0.0, 1.0]]))
+        elsewhere = tmp_path_factory.mktemp("elsewhere")
+        monkeypatch.setenv(cache.ENV, str(elsewhere))
+        wait_for_table_store()
+    finally:
+        environment.use_table_store(store)
+    assert writers and threading.current_thread() not in writers
+    assert len(_stored_tables(table_dir)) == 1
+    assert list(elsewhere.rglob("*.npz")) == []
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf, -1e-30])
+def test_a_map_holding_a_value_that_is_not_radiance_is_refused(bad):
+    """One NaN, infinite or negative value among the pixels is refused (a file's, naming
+    the file: ``tests/test_faults.py``)."""
+    from brdfkit.errors import ParameterError
+
+    image = np.ones((4, 8, 3), np.float32)
+    image[2, 5, 1] = bad
+    with pytest.raises(ParameterError, match="finite, non-negative"):
+        EnvironmentMap(image)

@@ -376,3 +376,47 @@ def test_a_build_starts_a_worker_only_for_a_tile_kernel_it_lacks(monkeypatch):
         ("brdfkit.render._reflection_kernels", "build_tile_kernel", "float64", 3, 1, False)
     ]
     assert compiled_shading._tile_worker(Lambertian(0.5), [env], "auto", np.dtype("f4"))
+
+
+def test_a_new_maps_set_up_runs_on_the_helper_thread_with_the_same_image(monkeypatch):
+    """A new map's sampling tables and every tile's set-up after the first are made on the
+    helper thread (while the G-buffer is traced and the tile before is shaded), and the image
+    equals the one made with all of it on the calling thread, to the bit."""
+    import concurrent.futures
+    import threading
+
+    from brdfkit.light import environment
+    from brdfkit.render import compiled_shading
+
+    pytest.importorskip("numba")
+    options = {"resolution": 24, "samples": 4, "seed": 7, "max_evaluations": 2000}
+    threads: dict[str, set[threading.Thread]] = {"weights": set(), "prepare": set()}
+
+    def recorded(name, function):
+        def call(*args, **kwargs):
+            threads[name].add(threading.current_thread())
+            return function(*args, **kwargs)
+
+        return call
+
+    monkeypatch.setattr(
+        environment, "_sampling_weights", recorded("weights", environment._sampling_weights)
+    )
+    monkeypatch.setattr(
+        EnvironmentShader, "prepare", recorded("prepare", EnvironmentShader.prepare)
+    )
+    helped = render_sphere(GOLD, _map(seed=21), **options)
+    main = threading.current_thread()
+    assert threads["weights"] and main not in threads["weights"]
+    assert main in threads["prepare"] and len(threads["prepare"]) == 2
+
+    def on_this_thread(function):
+        future = concurrent.futures.Future()
+        future.set_result(function())
+        return future
+
+    monkeypatch.setattr(compiled_shading, "_in_background", on_this_thread)
+    threads["prepare"].clear()
+    alone = render_sphere(GOLD, _map(seed=21), **options)
+    assert threads["prepare"] == {main}
+    np.testing.assert_array_equal(helped, alone)

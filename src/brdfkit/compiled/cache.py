@@ -267,13 +267,22 @@ def load_arrays(kind: str, cache_key: str) -> dict[str, Any] | None:
 def store_arrays(kind: str, cache_key: str, arrays: dict[str, Any]) -> None:
     """Store NumPy ``arrays`` (an ``.npz`` file) under ``kind``/``cache_key``, atomically;
     errors are counted, never raised."""
+    writer = array_writer(kind, cache_key)
+    if writer is not None:
+        writer(arrays)
+
+
+def array_writer(kind: str, cache_key: str) -> Callable[[dict[str, Any]], None] | None:
+    """:func:`store_arrays` for ``kind``/``cache_key`` with its file fixed now (in the cache
+    folder of this moment), to call later; ``None`` where the cache is off."""
+    path = _array_path(kind, cache_key)
+    return None if path is None else functools.partial(_write_arrays, path)
+
+
+def _write_arrays(path: Path, arrays: dict[str, Any]) -> None:
     import numpy as np
 
     from brdfkit.io import atomic_write
-
-    path = _array_path(kind, cache_key)
-    if path is None:
-        return
 
     def write(tmp: Path) -> None:
         with tmp.open("wb") as handle:
@@ -285,13 +294,14 @@ def store_arrays(kind: str, cache_key: str, arrays: dict[str, Any]) -> None:
         STATS["errors"] += 1
 
 
-use_table_store(TableStore(load_arrays, store_arrays))
+use_table_store(TableStore(load_arrays, array_writer))
 
 
 __all__ = [
     "ENV",
     "STALE_DAYS",
     "STATS",
+    "array_writer",
     "directory",
     "enable",
     "has",

@@ -337,34 +337,42 @@ def clamped_sums(tools: Any) -> Callable[..., None]:
     in float32). Its machine code is kept on disk (``tools.cached_jit``)."""
     margin, pi = 1e-9, math.pi
 
-    @tools.jit()
-    def walk(turns: np.ndarray, at: int, value: float, right: bool) -> int:
-        """np.searchsorted(turns, value, side) for a value at or above that of ``at``."""
-        while at < turns.shape[0] and (turns[at] < value or (right and turns[at] == value)):
-            at += 1
-        return at
-
-    @tools.jit()
-    def arc(turns: np.ndarray, at: np.ndarray, phi: float, width: float,
-            cols: int) -> tuple[int, int]:  # fmt: skip
-        """``_arc_indices``' [lo, hi) of one node, ``at`` the walks' places (lo, hi, centre)."""
+    @tools.inline_jit()
+    def arc(turns: np.ndarray, at: tuple, phi: float, width: float,
+            cols: int) -> tuple[int, int, tuple]:  # fmt: skip
+        """``_arc_indices``' [lo, hi) of one node and the walks' new places ``at`` (lo, hi,
+        centre): each ``np.searchsorted(turns, value, side)`` walked on from its place for
+        the node before, φ increasing."""
+        lo, hi, centre = at
         if width >= pi:
-            return cols, 2 * cols
+            return cols, 2 * cols, at
         if width < 0:
-            at[2] = walk(turns, at[2], phi, False)
-            return at[2], at[2]
-        at[0] = walk(turns, at[0], phi - width - margin, False)
-        at[1] = walk(turns, at[1], phi + width + margin, True)
-        return at[0], min(at[1], at[0] + cols)
+            while centre < turns.shape[0] and turns[centre] < phi:
+                centre += 1
+            return centre, centre, (lo, hi, centre)
+        value = phi - width - margin
+        while lo < turns.shape[0] and turns[lo] < value:
+            lo += 1
+        value = phi + width + margin
+        while hi < turns.shape[0] and turns[hi] <= value:
+            hi += 1
+        return lo, min(hi, lo + cols), (lo, hi, centre)
 
-    @tools.jit()
+    @tools.inline_jit()
     def clamp_cells(vectors: np.ndarray, start: int, stop: int, nx: float, ny: float,
-                    nz: float, out: np.ndarray) -> None:  # fmt: skip
+                    nz: float, out: np.ndarray, node: int) -> None:  # fmt: skip
+        """Σ max(n·v_c, 0) over the cells ``start`` … ``stop − 1`` (wrapping) into ``out[node]``,
+        each vector's sum kept in a register (the same additions in the same order)."""
         cols, k3 = vectors.shape
-        for c in range(start, stop):
-            v = vectors[c % cols]
-            for q in range(0, k3, 3):
-                out[q // 3] += max(v[q] * nx + v[q + 1] * ny + v[q + 2] * nz, 0.0)
+        for q in range(0, k3, 3):
+            total = out[node, q // 3]
+            for c in range(start, stop):
+                cell = c
+                while cell >= cols:
+                    cell -= cols
+                dot = vectors[cell, q] * nx + vectors[cell, q + 1] * ny + vectors[cell, q + 2] * nz
+                total += max(dot, 0.0)
+            out[node, q // 3] = total
 
     @tools.cached_jit("environment-clamped-sums")
     def sums(prefix: np.ndarray, vectors: np.ndarray, turns: np.ndarray, theta: np.ndarray,
@@ -381,19 +389,20 @@ def clamped_sums(tools: Any) -> Callable[..., None]:
                 normals[j, 2] = np.cos(theta[i])
             above[:] = 0.0
             for r in range(rows):
-                at_in, at_out = np.zeros(3, np.int64), np.zeros(3, np.int64)
+                row_prefix, row_vectors = prefix[r], vectors[r]
+                at_in, at_out = (0, 0, 0), (0, 0, 0)
                 for j in range(count):
                     nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
-                    lo_in, hi_in = arc(turns, at_in, phi[j], inner[r, i], cols)
-                    lo_out, hi_out = arc(turns, at_out, phi[j], outer[r, i], cols)
+                    lo_in, hi_in, at_in = arc(turns, at_in, phi[j], inner[r, i], cols)
+                    lo_out, hi_out, at_out = arc(turns, at_out, phi[j], outer[r, i], cols)
                     if hi_out - lo_out >= cols:
                         lo_out, hi_out = lo_in, lo_in + cols
                     for q in range(k3):
-                        above[j, q] += prefix[r, hi_in, q] - prefix[r, lo_in, q]
+                        above[j, q] += row_prefix[hi_in, q] - row_prefix[lo_in, q]
                     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out)
-                    node = out[i * count + j]
-                    clamp_cells(vectors[r], lo_out, lo_in, nx, ny, nz, node)
-                    clamp_cells(vectors[r], hi_in, hi_out, nx, ny, nz, node)
+                    node = i * count + j
+                    clamp_cells(row_vectors, lo_out, lo_in, nx, ny, nz, out, node)
+                    clamp_cells(row_vectors, hi_in, hi_out, nx, ny, nz, out, node)
             for j in range(count):
                 for q in range(0, k3, 3):
                     dot = above[j, q] * normals[j, 0] + above[j, q + 1] * normals[j, 1]

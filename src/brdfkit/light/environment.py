@@ -74,6 +74,13 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
     return (peak + floor) * sin_theta
 
 
+def _holds_radiance(image: np.ndarray) -> bool:
+    """Whether every value of ``image`` is finite and non-negative, by two reductions and no
+    temporary arrays (a map's pixels are megabytes): its minimum is NaN where a value is, and
+    NaN ≥ 0 is false; its maximum is infinite where a value is."""
+    return bool(image.min() >= 0) and bool(image.max() < np.inf)
+
+
 def _neighbourhood_maximum(values: np.ndarray) -> np.ndarray:
     """The maximum over each texel's 3×3 neighbourhood of a lat-long map's ``values``
     ``(H, W)``: rows clamped at the poles, columns wrapping around. SciPy's
@@ -146,7 +153,7 @@ class EnvironmentMap(Light):
             raise ParameterError(
                 f"image must be an (H, W, C) lat-long array with H, W >= 2; got {shape}"
             )
-        if not np.all(np.isfinite(img)) or np.any(img < 0):
+        if not _holds_radiance(img):
             raise ParameterError("image must hold finite, non-negative radiance values")
         STRENGTH.check("scale", self.scale)
         rot = np.eye(3) if self.rotation is None else check_number("rotation", self.rotation)
@@ -219,7 +226,7 @@ class EnvironmentMap(Light):
             from brdfkit.io import srgb_decode
 
             image = srgb_decode(image)
-        if not np.all(np.isfinite(image) & (image >= 0)):
+        if not _holds_radiance(image):
             raise FormatError(path, "holds NaN, infinite or negative values; a map holds radiance")
         return cls(image[..., :3], scale=scale, rotation=rotation)
 
@@ -346,8 +353,7 @@ class EnvironmentMap(Light):
         ):
             return weights
         weights = _sampling_weights(self.image, compensate)
-        if _STORE:
-            _STORE[0].save(name, key, {"weights": weights})
+        _store_later(name, key, {"weights": weights})  # read only from here on
         return weights
 
     @functools.cached_property
@@ -414,12 +420,14 @@ def _content_table(key: tuple[Any, ...], name: str, build: Callable[[], Any]) ->
 @dataclass(frozen=True)
 class TableStore:
     """A second level of the maps' table cache, on disk: ``load(kind, key)`` gives the arrays
-    stored under ``key`` (a dict of names to NumPy arrays) or ``None``, ``save(kind, key,
-    arrays)`` stores them; neither raises. What ``load`` gives is checked before it is used
-    (shape, type, finite values): a bad entry is built again, never trusted."""
+    stored under ``key`` (a dict of names to NumPy arrays) or ``None``; ``writer(kind, key)``
+    gives a function that stores such arrays there (its place fixed when asked, the write
+    made later, atomically), or ``None`` where nothing is stored; none of them raises. What
+    ``load`` gives is checked before it is used (shape, type, finite values): a bad entry is
+    built again, never trusted."""
 
     load: Callable[[str, str], dict[str, np.ndarray] | None]
-    save: Callable[[str, str, dict[str, np.ndarray]], None]
+    writer: Callable[[str, str], Callable[[dict[str, np.ndarray]], None] | None]
 
 
 TABLE_FORMAT = 1
@@ -428,10 +436,52 @@ TABLE_FORMAT = 1
 _STORE: list[TableStore] = []
 
 
+_WRITER: list[Any] = []
+"""The table store's writer thread (a one-thread executor: tables are written in the order
+asked), made when first needed."""
+_PENDING: list[Any] = []
+"""The futures of the writes not yet seen done."""
+_PENDING_LOCK = threading.Lock()
+
+
+def _store_later(kind: str, key: str, arrays: dict[str, np.ndarray]) -> None:
+    """Store ``arrays`` under ``kind``/``key`` in the table store (if any), where it points
+    now, on the store's writer thread, so that a new map's first image does not wait for its
+    tables' disk copy; ``arrays`` must not change afterwards. Each entry is written
+    atomically (whole or absent), and the writer is a non-daemon thread: the interpreter
+    finishes the pending writes before it exits (:func:`wait_for_table_store` waits for
+    them now)."""
+    write = _STORE[0].writer(kind, key) if _STORE else None
+    if write is None:
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _PENDING_LOCK:
+        if not _WRITER:
+            _WRITER.append(ThreadPoolExecutor(1, thread_name_prefix="brdfkit-table-store"))
+        _PENDING[:] = [future for future in _PENDING if not future.done()]
+        _PENDING.append(_WRITER[0].submit(write, arrays))
+
+
+def wait_for_table_store() -> None:
+    """Wait until the table store has written every table asked of it so far (the disk
+    copies :func:`use_table_store` describes are made in the background).
+
+    Examples
+    --------
+    >>> wait_for_table_store()
+    """
+    with _PENDING_LOCK:
+        pending = list(_PENDING)
+    for future in pending:
+        future.result()
+
+
 def use_table_store(store: TableStore | None) -> TableStore | None:
     """Keep the maps' irradiance tables and sampling weights in ``store`` too (``None``: in
     memory only); returns the store used until now. :mod:`brdfkit.compiled.cache` gives its
-    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``).
+    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``). Tables are
+    stored in the background, in order (:func:`wait_for_table_store`).
 
     Examples
     --------
@@ -511,9 +561,8 @@ class _IrradianceNodes:
                 sums = _node_sums(*self._cells, theta, phi).reshape(rows, missing.size, -1)
                 self._table[:, missing] = math.pi * sums[..., 1:] / sums[..., :1]
                 self._built[missing] = True
-                if _STORE:
-                    arrays = {"table": self._table, "built": self._built}
-                    _STORE[0].save("irradiance", self._key, arrays)
+                arrays = {"table": self._table.copy(), "built": self._built.copy()}
+                _store_later("irradiance", self._key, arrays)
         return self._table
 
 
@@ -824,4 +873,5 @@ __all__ = [
     "clear_table_cache",
     "compiled_lookups",
     "use_table_store",
+    "wait_for_table_store",
 ]

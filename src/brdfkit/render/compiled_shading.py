@@ -26,6 +26,12 @@ where the compiled path applies; :func:`kernels_built` whether it costs no compi
 kernel compiled by a worker process on another core meanwhile
 (:mod:`brdfkit.compiled.worker`).
 
+A new map's set-up runs on both cores: its sampling tables (the pixels' digest, the weights,
+the CDFs and their guide tables) are built on a helper thread from the shader's construction
+on, while the caller traces its G-buffer, and :func:`~brdfkit.render.shade` prepares each
+next tile (frames, the floor k, k·E(n)) on that thread while the kernel shades the tile
+before; the work and its results are the same as on one thread.
+
 References
 ----------
 .. [1] E. Veach, L. Guibas, "Optimally combining sampling techniques for Monte Carlo
@@ -37,6 +43,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 import time
 import weakref
 from collections.abc import Callable, Sequence
@@ -210,9 +217,16 @@ class EnvironmentShader:
                 *brdf_functions(functions, self.dtype.type, self.rest.channels, self._data),
                 *step_functions(self.dtype.type),
             )
-        # the map's arrays for the kernel, its sampling as the NumPy path's MIS
+        # the map's arrays for the kernel, its sampling as the NumPy path's MIS, built on a
+        # helper thread while the caller traces its G-buffer and prepares its first tile
         lookups = compiled_lookups(self.dtype, kernel_tools)
-        self._tables = lookups.tables(self.env.compensated)
+        self._map_tables = _in_background(lambda: lookups.tables(self.env.compensated))
+
+    @property
+    def _tables(self) -> tuple[Any, ...]:
+        """The map's arrays for the kernel (:meth:`MapLookups.tables
+        <brdfkit.light._environment_kernels.MapLookups.tables>`), waited for."""
+        return self._map_tables.result()
 
     def __call__(
         self,
@@ -263,10 +277,15 @@ class EnvironmentShader:
         n = math.prod(batch)
         keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
         control = np.zeros((n, self.rest.channels), self.dtype)
-        if self.control:
-            control[keep] = self._floor(wo_local.reshape(n, 3)[keep])
-            k = control.reshape(*batch, self.rest.channels).astype(np.float64)
-            value = value + diffuse_envmap_radiance(k * math.pi, self.env, frame, wo_local)
+        if self.control:  # k·E(n) of the pixels shaded (the others' k is 0)
+            kept_wo = wo_local.reshape(n, 3)[keep]
+            control[keep] = k = self._floor(kept_wo)
+            kept_frame = tuple(np.broadcast_to(v, (*batch, 3)).reshape(n, 3)[keep] for v in frame)
+            floor = diffuse_envmap_radiance(
+                k.astype(np.float64) * math.pi, self.env, kept_frame, kept_wo
+            )
+            value = np.ascontiguousarray(value)  # (*batch, channels): flat, a view of it
+            value.reshape(n, self.channels)[keep] += floor
         t = self.dtype
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
         frame_flat = np.ascontiguousarray(
@@ -422,6 +441,24 @@ class EnvironmentShader:
 
         kernel_tools.run_tasks(run, range(len(bounds) - 1), kernel_tools.threads())
         return terms, directions
+
+
+_HELPER: list[Any] = []
+"""The one helper thread (an executor) that builds maps' tables for new shaders."""
+_HELPER_LOCK = threading.Lock()
+
+
+def _in_background(function: Callable[[], Any]) -> Any:
+    """The future of ``function()`` on the helper thread: a map's sampling tables are
+    NumPy and numba work that mostly runs without the GIL, so they are built on the second
+    core while this thread traces the G-buffer and prepares the first tile (per-pixel work
+    that needs no table). An error is raised where the result is asked for."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with _HELPER_LOCK:
+        if not _HELPER:
+            _HELPER.append(ThreadPoolExecutor(1, thread_name_prefix="brdfkit-map-tables"))
+    return _HELPER[0].submit(function)
 
 
 SHADOW_SAMPLES = 16

@@ -171,21 +171,44 @@ def _shade(
     channels = max([brdf.channels] + [lt.channels for lt in light_list])
     image = np.full((height, width, channels), background, dtype=np.float64)
     stderr = np.zeros((height, width, channels)) if want_stderr else None
-    if cache is not None and ("plan", compiled) in cache:
-        plan = cache["plan", compiled]
-    else:
-        # with shadows every lobe is sampled by MIS, as reflected_radiance does
-        shadowed = visibility is not None and method == "auto"
-        plan = _compiled_plan(
-            brdf, light_list, "mis" if shadowed else method, compiled, visibility is not None
-        )
-        if cache is not None:
-            cache["plan", compiled] = plan
+    plan = _cached_plan(cache, brdf, light_list, method, compiled, visibility is not None)
     rows_per_tile = _rows_per_tile(samples, method, width, max_evaluations)
     if plan is not None and sequence == "sobol":
         # the kernel's memory does not grow with the samples, nor do a pixel's samples
         # depend on the tiles: the same tiles whatever the samples (cache keys of passes)
         rows_per_tile = _rows_per_tile(COMPILED_TILE_SAMPLES, method, width, max_evaluations)
+    tiles = [
+        slice(r0, min(r0 + rows_per_tile, height))
+        for r0 in range(0, height, rows_per_tile)
+        if np.any(g.mask[r0 : r0 + rows_per_tile])
+    ]
+
+    def tile_key(rows: slice) -> tuple[Any, ...]:
+        return ("tile", compiled, first_row + rows.start, first_row + rows.stop)
+
+    def prepare_tile(rows: slice, seen: Visibility | None) -> tuple[Any, Any]:
+        """The tile's sample-independent work (:meth:`EnvironmentShader.prepare
+        <brdfkit.render.compiled_shading.EnvironmentShader.prepare>`, the delta lights),
+        kept in ``cache``."""
+        shader, others = plan
+        key = tile_key(rows)
+        if cache is not None and key in cache:
+            return cache[key]
+        prepared = shader.prepare(
+            g.wo[rows], g.normals[rows], g.points[rows], g.tangents[rows], mask=g.mask[rows]
+        )
+        exact = None
+        if others:  # delta lights: exact, no samples
+            exact = reflected_radiance(
+                slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
+                normal=g.normals[rows], point=g.points[rows], tangent=g.tangents[rows],
+                visibility=seen,
+            ).value  # fmt: skip
+        if cache is not None:
+            cache[key] = prepared, exact
+        return prepared, exact
+
+    ahead: dict[int, Any] = {}  # the next tile's prepare, on the helper thread
     for r0 in range(0, height, rows_per_tile):
         rows = slice(r0, min(r0 + rows_per_tile, height))
         m = g.mask[rows]
@@ -198,23 +221,15 @@ def _shade(
                 tile_seed = seed + first_row + r0
             seen = None if visibility is None else visibility(rows)
             if plan is not None:
-                shader, others = plan
-                key = ("tile", compiled, first_row + rows.start, first_row + rows.stop)
-                if cache is not None and key in cache:
-                    prepared, exact = cache[key]
+                shader = plan[0]
+                if r0 in ahead:
+                    prepared, exact = ahead.pop(r0).result()
                 else:
-                    prepared = shader.prepare(
-                        g.wo[rows], g.normals[rows], g.points[rows], g.tangents[rows], mask=m
-                    )
-                    exact = None
-                    if others:  # delta lights: exact, no samples
-                        exact = reflected_radiance(
-                            slice_brdf(brdf, (height, width), rows), others, g.wo[rows],
-                            normal=g.normals[rows], point=g.points[rows],
-                            tangent=g.tangents[rows], visibility=seen,
-                        ).value  # fmt: skip
-                    if cache is not None:
-                        cache[key] = prepared, exact
+                    prepared, exact = prepare_tile(rows, seen)
+                following = [t for t in tiles if t.start > r0][:1]
+                new = following and (cache is None or tile_key(following[0]) not in cache)
+                if new and visibility is None:
+                    ahead[following[0].start] = _prepare_ahead(prepare_tile, following[0])
                 estimate = shader.shade(
                     prepared,
                     samples=samples,
@@ -249,6 +264,15 @@ def _shade(
     return image, stderr
 
 
+def _prepare_ahead(prepare_tile: Callable[[slice, None], Any], rows: slice) -> Any:
+    """The future of ``prepare_tile(rows, None)`` on the compiled shader's helper thread: the
+    next tile's per-pixel set-up (frames, the control variate's floor, the irradiance) runs
+    on the second core while this tile's kernel runs, instead of after it on one core."""
+    from brdfkit.render.compiled_shading import _in_background
+
+    return _in_background(lambda: prepare_tile(rows, None))
+
+
 def _rows_per_tile(samples: int, method: str, width: int, max_evaluations: int) -> int:
     """Rows of a tile of at most ``max_evaluations`` BRDF evaluations (at least one row)."""
     per_pixel = max(samples, 1) * (2 if method in ("auto", "mis") else 1)
@@ -265,6 +289,25 @@ progress report comes soon."""
 
 COMPILED = (True, False, "float64")
 """Values of :func:`shade`'s ``compiled``."""
+
+
+def _cached_plan(
+    cache: dict[Any, Any] | None,
+    brdf: BRDF,
+    lights: list[Light],
+    method: str,
+    compiled: bool | str,
+    shadows: bool,
+) -> tuple[Any, list[Light]] | None:
+    """:func:`_compiled_plan` for :func:`_shade`, kept in its ``cache`` (if any); with
+    ``shadows`` every lobe is sampled by MIS, as :func:`reflected_radiance` does."""
+    if cache is not None and ("plan", compiled) in cache:
+        return cache["plan", compiled]
+    shadowed = shadows and method == "auto"
+    plan = _compiled_plan(brdf, lights, "mis" if shadowed else method, compiled, shadows)
+    if cache is not None:
+        cache["plan", compiled] = plan
+    return plan
 
 
 def _compiled_plan(
@@ -366,7 +409,11 @@ def _recent_work(
     )  # fmt: skip
     entry = _RECENT.get("sphere")
     if entry is None or entry[0] != key:
-        entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), {})
+        # the plan first: a new map's tables are built on a helper thread meanwhile
+        # (compiled_shading.EnvironmentShader), while this one traces the G-buffer
+        cache: dict[Any, Any] = {}
+        _cached_plan(cache, brdf, list(light_list), options["method"], options["compiled"], False)
+        entry = (key, (brdf, light_list, camera), gbuffer(Sphere(), camera, shape), cache)
         _RECENT["sphere"] = entry
     return entry[2], entry[3]
 
