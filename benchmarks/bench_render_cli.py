@@ -181,6 +181,8 @@ def main() -> None:
                     announced.append(stderr.strip())
                 print(f"first render (empty kernel cache){' baseline' * turn}: {seconds:.2f} s")
         warm = folder / "cold0"  # filled by the first cold run
+        if not args.cold:  # no cold run: fill it now, untimed
+            run(brdfkit_command("-o", "untimed.exr"), folder, warm)
         run(mitsuba, folder)  # Mitsuba's own caches (LLVM kernels) warm too
         ours, theirs, our_cpu, their_cpu, base, base_cpu = [], [], [], [], [], []
         for _ in range(args.repeats):
