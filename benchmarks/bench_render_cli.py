@@ -1,7 +1,8 @@
 """The command line as a user meets it: ``brdfkit render`` against Mitsuba 3's whole process.
 
 ``brdfkit render -b "ggx(alpha=0.3, material='Au')"`` with its defaults (a 256² sphere, 64 spp,
-the bundled map, ``render.png``) as a fresh process, against Mitsuba's own command line
+the bundled map), writing an EXR (``-o warm.exr``, as Mitsuba's command writes one), as a fresh
+process, against Mitsuba's own command line
 (``mitsuba -m VARIANT -o out.exr scene.xml``: import, load, render, write) on the twin scene:
 the unit sphere seen by brdfkit's orthographic camera, ``roughconductor`` GGX α = 0.3 gold
 (:func:`brdfkit.interop.to_mitsuba_xml`, Mitsuba's separable masking the nearest), the bundled
