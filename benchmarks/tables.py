@@ -776,9 +776,9 @@ def render_cli(r: dict) -> str:
         load = f"{load}; before the first runs {min(loads):.1f}–{max(loads):.1f}"
     return (
         f'`brdfkit render -b "{r["spec"]}"` with its defaults ({r["resolution"]}², '
-        f"{r['spp']} spp, the bundled map; an EXR written) and Mitsuba's twin scene, each a fresh process, "
-        f"{len(w['brdfkit_seconds'])} interleaved runs; wall seconds, and the median CPU seconds "
-        "of each process (all threads):\n\n"
+        f"{r['spp']} spp, the bundled map; an EXR written) and Mitsuba's twin scene, each a "
+        f"fresh process, {len(w['brdfkit_seconds'])} interleaved runs; wall seconds, and the "
+        "median CPU seconds of each process (all threads):\n\n"
         + rows(["process", "median s", "range s", "CPU s"], body, "lrrr")
         + f"\n\nMedian ratio brdfkit ÷ Mitsuba, pair by pair: **{w['ratio_median']:.2f}** "
         f"(goal ≤ 1.5). The twin's images: mean ratio {r['twin_mean_ratio']:.4f}. "
