@@ -25,11 +25,11 @@ error / mean over the sphere, estimated without bias from the two replicates:
 after the server's warm-up (which builds the compiled kernels of the shown BRDF).
 
 The lit object (the bundled shader ball under the map, with shadows, 128², refined to 64 spp
-on the server's NumPy path): the sphere's slider latency is measured again with the lit
-view on and restarted before every other move (so that its passes run while the slider
-moves), interleaved with moves where it is off; and the orbit latency, from a drag on the lit
-image (``pointermove``) to the first pass of the new camera drawn in the page, with the
-server's seconds for that pass and for 64 spp.
+on the server's compiled path, shadow rays through Embree): the sphere's slider latency is
+measured again with the lit view on and restarted before every other move (so that its
+passes run while the slider moves), interleaved with moves where it is off; and the orbit
+latency, from a drag on the lit image (``pointermove``) to the first pass of the new camera
+drawn in the page, with the server's seconds for that pass and for 64 spp.
 
 The sphere's latency is from the slider's ``input`` event until the page has drawn the reply
 holding every view (sphere, polar, θv/θh/θd curves, lobe, slice); ``server views ms`` is the

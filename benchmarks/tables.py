@@ -413,8 +413,8 @@ def explore(r: dict) -> str:
         if lit:
             load = r.get("load_average_before")
             out.append(
-                "Lit object (shader ball, 128², NumPy path; the sphere's slider with the lit "
-                "view refining vs off, interleaved"
+                "Lit object (shader ball, 128², shadow rays through Embree; the sphere's slider "
+                "with the lit view refining vs off, interleaved"
                 + (f"; load average {load[0]:.1f} on the machine" if load else "")
                 + "):\n\n"
                 + rows(
