@@ -226,10 +226,10 @@ def _shade(
                     prepared, exact = ahead.pop(r0).result()
                 else:
                     prepared, exact = prepare_tile(rows, seen)
-                following = [t for t in tiles if t.start > r0][:1]
-                new = following and (cache is None or tile_key(following[0]) not in cache)
+                following = next((t for t in tiles if t.start > r0), None)
+                new = following is not None and (cache is None or tile_key(following) not in cache)
                 if new and visibility is None:
-                    ahead[following[0].start] = _prepare_ahead(prepare_tile, following[0])
+                    ahead[following.start] = _prepare_ahead(prepare_tile, following)
                 estimate = shader.shade(
                     prepared,
                     samples=samples,
