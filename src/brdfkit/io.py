@@ -449,11 +449,17 @@ def _expand_runs(stored: np.ndarray, markers: np.ndarray, runs: np.ndarray) -> n
 
 
 def _rgbe_to_float(rgbe: np.ndarray) -> np.ndarray:
-    """float32 RGB (H, W, 3) of RGBE bytes: (r, g, b) · 2^(e − 136), 0 where e = 0 (exact:
-    an 8-bit mantissa times a power of two is a float32)."""
+    """float32 RGB (H, W, 3), C-contiguous, of RGBE bytes: (r, g, b) · 2^(e − 136), 0 where
+    e = 0 (exact: an 8-bit mantissa times a power of two is a float32). Channel by channel:
+    run-length encoded scanlines expand to planes (a channel's bytes side by side), read in
+    place."""
     scales = np.ldexp(np.float32(1), np.arange(256) - _RGBE_BIAS).astype(np.float32)
     scales[0] = 0
-    return rgbe[..., :3] * scales[rgbe[..., 3:]]
+    exponent = scales[rgbe[..., 3]]
+    rgb = np.empty((*rgbe.shape[:-1], 3), np.float32)
+    for channel in range(3):
+        np.multiply(rgbe[..., channel], exponent, out=rgb[..., channel])
+    return rgb
 
 
 def _float_to_rgbe(rgb: np.ndarray) -> np.ndarray:

@@ -68,10 +68,15 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
         lum = image.mean(axis=2)
     peak = _neighbourhood_maximum(lum)
     floor = 1e-3 * max(peak.mean(), 1e-12)
+    # in place where the types allow: a map's weights are megabytes, and fresh memory is slow
+    # to touch (float64 luminance of RGB; a grey map's is float32, its weights float64)
+    wide = lum.dtype == sin_theta.dtype
     if compensate:
-        mean = float(np.sum(lum * sin_theta) / (np.sum(sin_theta) * lum.shape[1]))
-        peak = np.maximum(peak - mean, 0.0)
-    return (peak + floor) * sin_theta
+        weighted = np.multiply(lum, sin_theta, out=lum if wide else None)
+        mean = float(np.sum(weighted) / (np.sum(sin_theta) * lum.shape[1]))
+        np.maximum(np.subtract(peak, mean, out=peak), 0.0, out=peak)
+    peak += floor
+    return np.multiply(peak, sin_theta, out=peak if wide else None)
 
 
 def _holds_radiance(image: np.ndarray) -> bool:

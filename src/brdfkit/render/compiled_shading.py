@@ -58,6 +58,7 @@ from brdfkit.brdf.one_sided import one_sided_view
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import kernel_tools
 from brdfkit.compiled import worker as compiled_worker
+from brdfkit.compiled.thread_pool import BLOCK as BLOCK_EVALUATIONS
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap, compiled_lookups
 from brdfkit.measured import table_kernels
@@ -335,11 +336,19 @@ class EnvironmentShader:
 
     def _floor(self, wo_local: np.ndarray) -> np.ndarray:
         """:func:`~brdfkit.render.diffuse_floor` of the sampled part by its compiled
-        ``eval``, ``(n, C)``."""
+        ``eval``, ``(n, C)``, on the calling thread: in batches of at most
+        :data:`~brdfkit.compiled.thread_pool.BLOCK` evaluations, which the kernel runs where
+        it is called, so that the next tile's preparation (:func:`~brdfkit.render.shade`'s
+        helper thread) never waits for the kernels' threads, busy with the tile before."""
         directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
-        f = self._rest.eval(directions, wo_local[:, None, :].astype(self.dtype))
-        median = np.partition(f, FLOOR_DIRECTIONS // 2, axis=-2)[:, FLOOR_DIRECTIONS // 2]
-        return np.maximum(median, 0)
+        wo = wo_local.astype(self.dtype)[:, None, :]
+        floor = np.empty((wo.shape[0], self.rest.channels), self.dtype)
+        step = max(1, BLOCK_EVALUATIONS // FLOOR_DIRECTIONS)
+        for lo in range(0, wo.shape[0], step):
+            f = self._rest.eval(directions, wo[lo : lo + step])
+            median = np.partition(f, FLOOR_DIRECTIONS // 2, axis=-2)[:, FLOOR_DIRECTIONS // 2]
+            np.maximum(median, 0, out=floor[lo : lo + step])
+        return floor
 
     def _monte_carlo(
         self, prepared: Prepared, samples: int, seed: Any, sequence: str, first_sample: int
