@@ -673,8 +673,10 @@ class Distribution2D:
         f = np.asarray(to_numpy(image), dtype=np.float64)  # read only: no copy needed
         if f.ndim != 2 or f.size == 0:
             raise ValueError(f"image must be a non-empty 2D array (H, W); got shape {f.shape}")
-        check_param("image", f, 0.0)
-        if not np.any(f > 0):
+        low, high = f.min(), f.max()  # NaN in either where f holds one
+        if not (low >= 0 and high < np.inf):
+            check_param("image", f, 0.0)  # raises, naming the offending value
+        if not high > 0:
             raise ValueError("image must have a positive value somewhere; got all zeros")
         height, width = f.shape
         self.shape: tuple[int, int] = (height, width)

@@ -62,8 +62,12 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
 
     height = image.shape[0]
     sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
-    if image.shape[2] == 3:
-        lum = image @ np.array(REC709_WEIGHTS)
+    if image.shape[2] == 3:  # image @ weights, by blocks of rows: the float64 copy of the
+        # pixels that the product makes is one block's, not the map's (the same products)
+        weights, lum = np.array(REC709_WEIGHTS), np.empty(image.shape[:2])
+        step = max(1, _LUMINANCE_BLOCK // image.shape[1])
+        for start in range(0, height, step):
+            np.matmul(image[start : start + step], weights, out=lum[start : start + step])
     else:
         lum = image.mean(axis=2)
     peak = _neighbourhood_maximum(lum)
@@ -77,6 +81,10 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
         np.maximum(np.subtract(peak, mean, out=peak), 0.0, out=peak)
     peak += floor
     return np.multiply(peak, sin_theta, out=peak if wide else None)
+
+
+_LUMINANCE_BLOCK = 1 << 15
+"""Pixels per block of :func:`_sampling_weights`' luminance."""
 
 
 def _holds_radiance(image: np.ndarray) -> bool:
@@ -575,8 +583,10 @@ def _node_columns(col: np.ndarray, cols: int) -> np.ndarray:
     """The node columns a bilinear lookup at fractional columns ``col`` reads (the one at or
     below, and the next, wrapping), unique."""
     col = np.nan_to_num(np.asarray(col, dtype=np.float64).ravel(), nan=0.0, posinf=0.0)
-    left = np.unique(np.clip(np.floor(col), 0, cols - 1).astype(np.int64))
-    return np.union1d(left, (left + 1) % cols)
+    read = np.zeros(cols, bool)  # marked, not sorted: a tile's normals are thousands
+    read[np.clip(np.floor(col), 0, cols - 1).astype(np.int64)] = True
+    read |= np.roll(read, 1)  # and the next column, wrapping
+    return np.flatnonzero(read)
 
 
 def _pixel_centres(count: int, span: float) -> np.ndarray:
