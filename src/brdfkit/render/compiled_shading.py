@@ -205,6 +205,7 @@ class EnvironmentShader:
         self.channels = max(brdf.channels, self.env.channels)
         self._kernel: Callable[..., None] | None = None
         self._recorder: Callable[..., None] | None = None  # with shadows, built when asked
+        self._floor_block: np.ndarray | None = None  # the floor's directions, made when asked
         # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
@@ -340,14 +341,17 @@ class EnvironmentShader:
         :data:`~brdfkit.compiled.thread_pool.BLOCK` evaluations, which the kernel runs where
         it is called, so that the next tile's preparation (:func:`~brdfkit.render.shade`'s
         helper thread) never waits for the kernels' threads, busy with the tile before."""
-        directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
+        step = max(1, BLOCK_EVALUATIONS // FLOOR_DIRECTIONS)
+        if self._floor_block is None:  # the directions, laid out as the kernel reads them
+            directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
+            self._floor_block = np.tile(directions, (step, 1, 1))
         wo = wo_local.astype(self.dtype)[:, None, :]
         floor = np.empty((wo.shape[0], self.rest.channels), self.dtype)
-        step = max(1, BLOCK_EVALUATIONS // FLOOR_DIRECTIONS)
         for lo in range(0, wo.shape[0], step):
-            f = self._rest.eval(directions, wo[lo : lo + step])
-            median = np.partition(f, FLOOR_DIRECTIONS // 2, axis=-2)[:, FLOOR_DIRECTIONS // 2]
-            np.maximum(median, 0, out=floor[lo : lo + step])
+            batch = wo[lo : lo + step]
+            f = self._rest.eval(self._floor_block[: batch.shape[0]], batch)
+            f.partition(FLOOR_DIRECTIONS // 2, axis=-2)  # in place: f is this call's own
+            np.maximum(f[:, FLOOR_DIRECTIONS // 2], 0, out=floor[lo : lo + step])
         return floor
 
     def _monte_carlo(
