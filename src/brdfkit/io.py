@@ -376,6 +376,11 @@ def _rgbe_pixels(data: bytes, width: int, height: int, start: int) -> np.ndarray
     return planes.transpose(0, 2, 1)
 
 
+_RGBE_RUN_LENGTHS = [c - _RGBE_MAX_RUN if c > _RGBE_MAX_RUN else c for c in range(256)]
+"""The pixels a run with count byte c stands for: c − 128 copies of one byte, or c literals."""
+_RGBE_RUN_STRIDES = [2 if c > _RGBE_MAX_RUN else 1 + c for c in range(256)]
+"""The bytes a run with count byte c takes in the file: the count and one byte, or c + 1."""
+
 _RGBE_BLOCK_BYTES = 1 << 16
 """Run-length scanlines are expanded this many bytes at a time: ``np.repeat``'s counts become
 an array of indices eight times as large, small enough here to be reused from block to
@@ -390,6 +395,7 @@ def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int]
     markers: list[int] = []
     runs: list[int] = []
     add_run = runs.append
+    lengths, strides = _RGBE_RUN_LENGTHS, _RGBE_RUN_STRIDES
     for row in rows:
         if data[at : at + 4] != marker:
             raise ValueError(f"scanline {row} does not begin with {list(marker)}")
@@ -399,12 +405,8 @@ def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int]
         while left > 0:
             count = data[at]
             add_run(at)
-            if count > _RGBE_MAX_RUN:
-                left -= count - _RGBE_MAX_RUN
-                at += 2
-            else:
-                left -= count
-                at += 1 + count
+            left -= lengths[count]
+            at += strides[count]
         if left:
             raise ValueError(f"scanline {row} runs past its width {width}")
     if at > len(data):
