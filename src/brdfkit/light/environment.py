@@ -355,7 +355,7 @@ class EnvironmentMap(Light):
         (finite, non-negative, one per pixel), else made and stored."""
         name = "compensated" if compensate else "weights"
         key = self._table_key(name)
-        stored = _STORE[0].load(name, key) if _STORE else None
+        stored = _load_table(name, key)
         weights = None if stored is None else stored.get("weights")
         if (
             isinstance(weights, np.ndarray)
@@ -449,6 +449,22 @@ TABLE_FORMAT = 1
 _STORE: list[TableStore] = []
 
 
+_LOAD_LOCK = threading.Lock()
+
+
+def _load_table(kind: str, key: str) -> dict[str, np.ndarray] | None:
+    """The table store's arrays under ``kind``/``key`` (or ``None``), one load at a time: a
+    new map's sampling weights are looked up on a helper thread while its irradiance table
+    is looked up on the caller's, and reading an ``.npz`` parses each array's header with
+    :func:`ast.literal_eval`, whose AST constructor keeps its recursion depth per
+    interpreter in CPython 3.11: two threads parsing at once can fail with ``SystemError:
+    AST constructor recursion depth mismatch`` (seen here; python/cpython#106905)."""
+    if not _STORE:
+        return None
+    with _LOAD_LOCK:
+        return _STORE[0].load(kind, key)
+
+
 _WRITER: list[Any] = []
 """The table store's writer thread (a one-thread executor: tables are written in the order
 asked), made when first needed."""
@@ -539,7 +555,7 @@ class _IrradianceNodes:
         self._lock = threading.Lock()
         self._cells: tuple[np.ndarray, _CellBounds] | None = None
         self._key = key
-        stored = _STORE[0].load("irradiance", key) if _STORE else None
+        stored = _load_table("irradiance", key)
         if stored is not None and self._valid(stored):
             self._table[...] = stored["table"]
             self._built[...] = stored["built"]
