@@ -225,6 +225,48 @@ def test_hdr_run_length_scanlines_decode_run_by_run(tmp_path):
     )
 
 
+def _rle_scanlines(rgbe: np.ndarray) -> bytes:
+    """Run-length encoded scanlines of RGBE bytes ``(H, W, 4)``: a run for each stretch of 2
+    to 127 equal bytes, literals of one byte between them."""
+    height, width = rgbe.shape[:2]
+    body = bytearray()
+    for row in range(height):
+        body += bytes([2, 2, width >> 8, width & 0xFF])
+        for channel in range(4):
+            plane, i = rgbe[row, :, channel].tolist(), 0
+            while i < width:
+                j = i
+                while j < width and j - i < 127 and plane[j] == plane[i]:
+                    j += 1
+                if j - i >= 2:
+                    body += bytes([128 + j - i, plane[i]])
+                else:
+                    body += bytes([1, plane[i]])
+                    j = i + 1
+                i = j
+    return b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (height, width) + bytes(body)
+
+
+@pytest.mark.parametrize("rows_per_block", [1, 3, None])
+def test_hdr_run_length_blocks_of_rows_decode_the_same_contiguous_image(
+    tmp_path, monkeypatch, rows_per_block
+):
+    """Run-length scanlines are expanded a block of rows at a time into one C-contiguous
+    image (no copy needed by a map): the same pixels whatever the block."""
+    rng = np.random.default_rng(29)
+    rgbe = rng.integers(0, 256, (7, 40, 4)).astype(np.uint8)
+    rgbe[2:5, 5:30] = rgbe[2, 5]  # stretches of equal bytes: runs
+    path = tmp_path / "blocks.hdr"
+    path.write_bytes(_rle_scanlines(rgbe))
+    if rows_per_block is not None:
+        monkeypatch.setattr(io, "_RGBE_BLOCK_BYTES", rows_per_block * 4 * rgbe.shape[1])
+    image = io.read_image(path)
+    scale = np.ldexp(np.float32(1), rgbe[..., 3:].astype(int) - 136).astype(np.float32)
+    expected = np.where(rgbe[..., 3:] > 0, rgbe[..., :3] * scale, 0.0)
+    assert image.flags.c_contiguous and image.dtype == np.float32
+    np.testing.assert_array_equal(image, expected)
+
+
 @pytest.mark.parametrize(
     ("channel_runs", "message"),
     [

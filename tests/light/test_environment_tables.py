@@ -311,3 +311,46 @@ def test_a_map_holding_a_value_that_is_not_radiance_is_refused(bad):
     image[2, 5, 1] = bad
     with pytest.raises(ParameterError, match="finite, non-negative"):
         EnvironmentMap(image)
+
+
+def test_the_node_columns_are_those_each_lookup_reads():
+    """The irradiance table's columns a lookup needs are, for each fractional column, the
+    one at or below it and the next (wrapping), sorted and unique; NaN and infinity read
+    column 0 (as the lookup's arithmetic does), and a column past the table the last."""
+    rng = np.random.default_rng(23)
+    for cols in (2, 7, 192):
+        col = rng.uniform(-3.0, cols + 3.0, 50)
+        col[:3] = np.nan, np.inf, -np.inf
+        clean = np.nan_to_num(col, nan=0.0, posinf=0.0)
+        left = np.clip(np.floor(clean), 0, cols - 1).astype(np.int64)
+        expected = np.union1d(left, (left + 1) % cols)
+        np.testing.assert_array_equal(environment._node_columns(col, cols), expected)
+
+
+def test_the_table_store_is_read_one_entry_at_a_time():
+    """Threads looking tables up in the store (a new map's weights on a helper thread, its
+    irradiance on the caller's) read it one at a time: reading an ``.npz`` parses its
+    headers with ``ast.literal_eval``, which CPython 3.11 can fail on two threads at once."""
+    lock, active, most = threading.Lock(), [0], [0]
+
+    def load(kind, key):
+        with lock:
+            active[0] += 1
+            most[0] = max(most[0], active[0])
+        threading.Event().wait(0.01)
+        with lock:
+            active[0] -= 1
+
+    previous = environment.use_table_store(environment.TableStore(load, lambda kind, key: None))
+    try:
+        threads = [
+            threading.Thread(target=environment._load_table, args=("irradiance", str(i)))
+            for i in range(4)
+        ]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        environment.use_table_store(previous)
+    assert most[0] == 1

@@ -134,6 +134,17 @@ def test_mask_skips_pixels_without_changing_the_others():
     assert np.all(masked.value[~g.mask] == 0)
 
 
+def test_the_floor_in_batches_equals_the_numpy_floor():
+    """The control variate's k (the median of f over the floor's fixed directions), taken
+    in batches that the kernel runs on the calling thread, equals the NumPy path's
+    :func:`~brdfkit.render.diffuse_floor` on every pixel, across the batches' bounds."""
+    from brdfkit.render import diffuse_floor
+
+    shader = EnvironmentShader(GOLD, _map(), dtype=np.float64)
+    wo = sampling.square_to_uniform_hemisphere(np.random.default_rng(5).random((5000, 2)))
+    np.testing.assert_allclose(shader._floor(wo), diffuse_floor(shader.rest, wo), rtol=1e-12)
+
+
 def test_unsupported_inputs_are_refused():
     env = _map()
     with pytest.raises(ValueError, match="one EnvironmentMap"):
