@@ -19,10 +19,12 @@ This module imports nothing but :mod:`gc`, :mod:`os`, :mod:`signal` and :mod:`sy
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import signal
 import sys
+from collections.abc import Iterator
 
 INTERRUPTED = 130
 """Exit status of a command ended by Ctrl-C or SIGTERM (128 + SIGINT, as shells report it)."""
@@ -57,8 +59,34 @@ def guard_the_start() -> None:
             signal.signal(number, _interrupted_while_starting)
 
 
+_OWN_PROCESS: list[bool] = []
+"""Holds ``True`` once :func:`main` runs: the process is the command's own (not a library's
+caller, nor a test calling the application)."""
+
+
+@contextlib.contextmanager
+def start_up() -> Iterator[None]:
+    """Run a command's set-up (imports, kernels loaded, scene built) with the cyclic garbage
+    collector paused; then, in the command's own process (:func:`main`), freeze the objects
+    that exist (:func:`gc.freeze`), and resume the collector (where it was running).
+
+    Elsewhere (a test calling the application in its own process) nothing is frozen: the
+    objects made meanwhile are collected as usual once the collector resumes."""
+    if not gc.isenabled():
+        yield
+        return
+    gc.disable()
+    try:
+        yield
+    finally:
+        if _OWN_PROCESS:
+            gc.freeze()
+        gc.enable()
+
+
 def main() -> None:
     """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
+    _OWN_PROCESS.append(True)
     from brdfkit.cli._app import (
         Interrupted,
         _exit_unwound,
@@ -77,4 +105,4 @@ def main() -> None:
         gc.freeze()
 
 
-__all__ = ["INTERRUPTED", "guard_the_start", "is_console_script", "main"]
+__all__ = ["INTERRUPTED", "guard_the_start", "is_console_script", "main", "start_up"]
