@@ -87,6 +87,7 @@ def start_up() -> Iterator[None]:
 def main() -> None:
     """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
     _OWN_PROCESS.append(True)
+    from brdfkit.cli import load_commands
     from brdfkit.cli._app import (
         Interrupted,
         _exit_unwound,
@@ -97,6 +98,7 @@ def main() -> None:
 
     stop_on_interrupt()
     try:
+        load_commands(sys.argv[1:])
         app()
     except Interrupted:  # while typer builds the commands, before the group's handling
         _report_interrupted()
