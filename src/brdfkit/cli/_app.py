@@ -18,11 +18,16 @@ ends itself.
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import os
+import pkgutil
 import signal
 import sys
 import threading
 import warnings
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 import typer
@@ -246,6 +251,37 @@ def _root(
     ),
 ) -> None:
     """brdfkit: radiometry, reflectance, light, rendering and physics-based vision."""
+
+
+_COMMAND_MODULES = sorted(
+    module.name
+    for module in pkgutil.iter_modules([str(Path(__file__).parent)])
+    if not module.name.startswith("_")
+)
+"""The modules of :mod:`brdfkit.cli` that each register a command on :data:`app`."""
+
+
+def load_commands(words: Sequence[str] | None = None) -> None:
+    """Register the commands on :data:`app` by importing their modules: where ``words`` (a
+    command line's arguments) start with a command's name (``render``, ``solid-angle``),
+    that command's module alone, else (and where that module registers no command of that
+    name) every module. Importing a module again does nothing."""
+    first = str(words[0]) if words else ""
+    module = first.replace("-", "_")
+    if module in _COMMAND_MODULES:
+        importlib.import_module(f"brdfkit.cli.{module}")
+    if first not in {command.name for command in app.registered_commands}:
+        for name in _COMMAND_MODULES:
+            importlib.import_module(f"brdfkit.cli.{name}")
+    for command in app.registered_commands:
+        if command.help is None and command.callback is not None:
+            command.help = _reflowed(inspect.getdoc(command.callback) or "")
+
+
+def _reflowed(doc: str) -> str:
+    """A docstring with each paragraph on one line, for the help formatter to wrap to the
+    terminal (it keeps single line breaks, which left hard-wrapped fragments)."""
+    return "\n\n".join(" ".join(paragraph.split()) for paragraph in doc.split("\n\n"))
 
 
 MODEL_HELP = (

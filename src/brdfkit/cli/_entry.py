@@ -87,12 +87,12 @@ def start_up() -> Iterator[None]:
 def main() -> None:
     """Entry point of the ``brdfkit`` console script (``[project.scripts]``)."""
     _OWN_PROCESS.append(True)
-    from brdfkit.cli import load_commands
     from brdfkit.cli._app import (
         Interrupted,
         _exit_unwound,
         _report_interrupted,
         app,
+        load_commands,
         stop_on_interrupt,
     )
 
