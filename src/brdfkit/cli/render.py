@@ -185,9 +185,9 @@ def render_command(
 def _blas_on_one_thread() -> None:
     """Have OpenBLAS (NumPy's BLAS) start one thread rather than one per core, unless the
     user chose (``OPENBLAS_NUM_THREADS``) or NumPy is imported already. A render's BLAS
-    products are small (frames, 3×3 rotations: OpenBLAS runs them on one thread anyway, the
-    same values) and its work runs on the kernels' own threads, while OpenBLAS starting its
-    threads is ~60 ms of NumPy's import on a two-core machine."""
+    products are small (frames, 3×3 rotations; its images are the same bit for bit) and its
+    work runs on the kernels' own threads, while OpenBLAS starting its threads is ~60 ms of
+    NumPy's import on a two-core machine."""
     if "numpy" not in sys.modules:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
