@@ -12,7 +12,8 @@ The compiled back end needs a few things numba offers no public API for:
 - numba's per-function disk cache keyed by a string instead of a source file
   (:func:`install_keyed_cache`: numba's cache classes subclassed, the dispatcher's cache
   replaced; a load from it initialises numba's runtime only, not numba's whole compiler
-  context);
+  context), and numba's runtime initialised with its LLVM functions' machine code kept in
+  that cache (:func:`initialize_runtime`: numba compiles them in every process);
 - compiling without numba's reference-counting runtime (:func:`no_runtime_options`);
 - a compiled function as a first-class function value (:func:`first_class`: numba's
   wrapper-address protocol over the compile result), which a kernel calls through a pointer,

@@ -10,7 +10,8 @@ keep a loop branch-free and vectorised (:mod:`brdfkit.compiled._numba` builds th
 may take compiled functions as arguments (:func:`first_class_function`, of the type
 :func:`function_type`) and so be compiled once for all functions of one signature; its
 signature, given ahead of its first call, is made of :func:`array_type`, :func:`scalar_type`
-and :func:`type_of`. numba is imported on first use.
+and :func:`type_of`; :func:`compile_for` compiles (or loads) a function for the types of
+given arguments. numba is imported on first use.
 
 References
 ----------
