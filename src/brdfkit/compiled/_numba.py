@@ -411,19 +411,31 @@ def initialize_runtime(target_context: Any, folder: Path) -> None:
             _nrt_python.memsys_enable_stats()
         for name, address in helpers.items():
             llvm.add_symbol(name if name.startswith("_") else f"NRT_{name}", address)
-        codegen = target_context.codegen()
-        machine = hashlib.sha256(repr(codegen.magic_tuple()).encode()).hexdigest()[:16]
-        path = folder / f"runtime-{machine}.pickle"
         try:
-            library = codegen.unserialize_library(pickle.loads(path.read_bytes()))
-        except _UNREADABLE:  # not there yet, or unreadable: compiled, then written
-            module, library = create_module(target_context)
-            library.enable_object_caching()
-            library.add_ir_module(module)
-            library.finalize()
-            _write_atomically(path, pickle.dumps(library.serialize_using_object_code()))
+            library = _runtime_library(target_context, create_module, folder)
+        except AttributeError as error:  # numba's libraries have changed
+            warn_once("the runtime's cache", "the runtime compiles in every process", error)
+            rtsys.initialize(target_context)
+            return
         rtsys._library = library
         rtsys._init = True
+
+
+def _runtime_library(target_context: Any, create_module: Callable[..., Any], folder: Path) -> Any:
+    """The library of numba's runtime functions: loaded from ``folder``, or compiled (with
+    its machine code kept) and written there."""
+    codegen = target_context.codegen()
+    machine = hashlib.sha256(repr(codegen.magic_tuple()).encode()).hexdigest()[:16]
+    path = folder / f"runtime-{machine}.pickle"
+    try:
+        return codegen.unserialize_library(pickle.loads(path.read_bytes()))
+    except _UNREADABLE:  # not there yet, or unreadable: compiled, then written
+        module, library = create_module(target_context)
+        library.enable_object_caching()
+        library.add_ir_module(module)
+        library.finalize()
+        _write_atomically(path, pickle.dumps(library.serialize_using_object_code()))
+        return library
 
 
 def _write_atomically(path: Path, data: bytes) -> None:
