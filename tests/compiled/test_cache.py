@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import subprocess
 import sys
 import textwrap
@@ -151,7 +152,13 @@ _RENDER = textwrap.dedent(
     env = EnvironmentMap(np.random.default_rng(0).random((8, 16, 3)) + 0.1)
     ggx = MODELS["ggx"](alpha=0.3, material="Au")
     image = render_sphere(ggx, env, 12, samples=4, compiled=True)
-    print(json.dumps({"stats": dict(kernel_cache.STATS), "f": image.tolist()}))
+    from numba.core import entrypoints
+    from brdfkit.render._reflection_kernels import tile_kernel
+    print(json.dumps({
+        "stats": dict(kernel_cache.STATS), "f": image.tolist(),
+        "extensions_scanned": entrypoints._already_initialized,
+        "tile_signatures": len(tile_kernel(np.float32, 3, 3).signatures),
+    }))
     """
 )
 
@@ -160,10 +167,20 @@ _RENDER = textwrap.dedent(
 def test_a_second_process_loads_the_tile_kernel_and_renders_the_same_image(tmp_path):
     cold = _run(tmp_path / "cache", _RENDER)
     assert cold["stats"].get("misses", 0) >= 4  # sample, eval, pdf and the tile kernel
+    runtime = list((tmp_path / "cache").glob("*/numba/runtime-*.pickle"))
+    assert len(runtime) == 1  # numba's runtime functions, compiled once for this machine
     warm = _run(tmp_path / "cache", _RENDER)
     assert warm["stats"].get("misses", 0) == 0 and warm["stats"].get("hits", 0) >= 4
     assert warm["stats"].get("errors", 0) == 0
+    # every kernel loaded for its calls' types: no call had numba type its arguments first
+    # (which scans every installed package for numba extensions), nor add a signature
+    assert warm["extensions_scanned"] is False and warm["tile_signatures"] == 1
     np.testing.assert_array_equal(warm["f"], cold["f"])
+    runtime[0].write_bytes(b"\x80\x04not a pickle")  # unreadable: compiled again, replaced
+    again = _run(tmp_path / "cache", _RENDER)
+    assert again["stats"].get("misses", 0) == 0 and again["stats"].get("errors", 0) == 0
+    np.testing.assert_array_equal(again["f"], cold["f"])
+    assert pickle.loads(runtime[0].read_bytes())[1] == "object"  # machine code written again
 
 
 def test_the_version_reads_numbas_version_without_importing_numba():

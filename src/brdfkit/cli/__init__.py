@@ -1,8 +1,12 @@
 """The ``brdfkit`` command.
 
-Each subcommand lives in its own module of this package and registers itself on :data:`app`;
-importing the package imports them all. Modules import heavy dependencies (matplotlib, torch)
-inside their command functions, so that ``brdfkit --help`` stays fast.
+Each subcommand lives in its own module of this package and registers itself on :data:`app`
+when imported (:func:`~brdfkit.cli._app.load_commands`). ``brdfkit.cli.app`` is the
+application with every command; the console script (:func:`main`) imports the module of the
+command it runs alone (``brdfkit render …``: ``brdfkit.cli.render``), and every module for
+anything else (``--help``, no command, a name that is no command's). Modules import heavy
+dependencies (matplotlib, torch) inside their command functions, so that ``brdfkit --help``
+stays fast.
 """
 
 from __future__ import annotations
@@ -11,25 +15,17 @@ from brdfkit.cli._entry import guard_the_start, main
 
 guard_the_start()  # first: a Ctrl-C while the commands load is answered as in a command
 
-import importlib  # noqa: E402  (after the guard: these imports take a second or two)
-import inspect  # noqa: E402
-import pkgutil  # noqa: E402
-
-from brdfkit.cli._app import app  # noqa: E402
+from typing import Any  # noqa: E402
 
 
-def _reflowed(doc: str) -> str:
-    """A docstring with each paragraph on one line, for the help formatter to wrap to the
-    terminal (it keeps single line breaks, which left hard-wrapped fragments)."""
-    return "\n\n".join(" ".join(paragraph.split()) for paragraph in doc.split("\n\n"))
+def __getattr__(name: str) -> Any:
+    """``app``: the application with every command registered."""
+    if name == "app":
+        from brdfkit.cli._app import app, load_commands
 
-
-for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-    if not _module.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_module.name}")
-for _command in app.registered_commands:
-    if _command.help is None and _command.callback is not None:
-        _command.help = _reflowed(inspect.getdoc(_command.callback) or "")
+        load_commands()
+        return app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = ["app", "main"]

@@ -18,11 +18,16 @@ ends itself.
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import os
+import pkgutil
 import signal
 import sys
 import threading
 import warnings
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 import typer
@@ -52,10 +57,32 @@ status = Console(stderr=True, markup=False, highlight=False)
 
 def progress(*columns: Any) -> Any:
     """A transient progress bar on stderr (``rich.progress.Progress`` with ``columns``), shown
-    only on a terminal: a pipe or a log file gets neither the bar nor the blank line it leaves."""
+    only on a terminal: a pipe or a log file gets neither the bar nor the blank line it leaves
+    (:class:`_NoProgress`, which spares importing the bar's machinery, ~15 ms)."""
+    if not status.is_terminal:
+        return _NoProgress()
     from rich.progress import Progress
 
-    return Progress(*columns, console=status, transient=True, disable=not status.is_terminal)
+    return Progress(*columns, console=status, transient=True)
+
+
+class _NoProgress:
+    """The progress bar off a terminal: a context taking the bar's calls, showing nothing."""
+
+    def __enter__(self) -> _NoProgress:
+        return self
+
+    def __exit__(self, *exception: object) -> None:
+        return None
+
+    def add_task(self, description: str, **fields: Any) -> int:
+        return 0
+
+    def update(self, task: int, **fields: Any) -> None:
+        return None
+
+    def refresh(self) -> None:
+        return None
 
 
 def shown(text: Any) -> str:
@@ -224,6 +251,37 @@ def _root(
     ),
 ) -> None:
     """brdfkit: radiometry, reflectance, light, rendering and physics-based vision."""
+
+
+_COMMAND_MODULES = sorted(
+    module.name
+    for module in pkgutil.iter_modules([str(Path(__file__).parent)])
+    if not module.name.startswith("_")
+)
+"""The modules of :mod:`brdfkit.cli` that each register a command on :data:`app`."""
+
+
+def load_commands(words: Sequence[str] | None = None) -> None:
+    """Register the commands on :data:`app` by importing their modules: where ``words`` (a
+    command line's arguments) start with a command's name (``render``, ``solid-angle``),
+    that command's module alone, else (and where that module registers no command of that
+    name) every module. Importing a module again does nothing."""
+    first = str(words[0]) if words else ""
+    module = first.replace("-", "_")
+    if module in _COMMAND_MODULES:
+        importlib.import_module(f"brdfkit.cli.{module}")
+    if first not in {command.name for command in app.registered_commands}:
+        for name in _COMMAND_MODULES:
+            importlib.import_module(f"brdfkit.cli.{name}")
+    for command in app.registered_commands:
+        if command.help is None and command.callback is not None:
+            command.help = _reflowed(inspect.getdoc(command.callback) or "")
+
+
+def _reflowed(doc: str) -> str:
+    """A docstring with each paragraph on one line, for the help formatter to wrap to the
+    terminal (it keeps single line breaks, which left hard-wrapped fragments)."""
+    return "\n\n".join(" ".join(paragraph.split()) for paragraph in doc.split("\n\n"))
 
 
 MODEL_HELP = (

@@ -4,6 +4,8 @@ light (:func:`brdfkit.render.shading.shade` of a G-buffer; meshes with shadows,
 
 from __future__ import annotations
 
+import os
+import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,6 +25,7 @@ from brdfkit.cli._app import (
     shown,
     status,
 )
+from brdfkit.cli._entry import start_up
 from brdfkit.cli._output import light_files, output_file
 
 _BYTES_PER_PIXEL = 300
@@ -142,29 +145,30 @@ def render_command(
     supersample: _Supersample = 1,
 ) -> None:
     """Render what a surface looks like (direct lighting, linear radiance)."""
-    from brdfkit._array import check_param
-    from brdfkit.light.spec import parse_light
-    from brdfkit.render.shading import shade
+    _blas_on_one_thread()
+    with start_up():
+        from brdfkit._array import check_param
+        from brdfkit.light.spec import parse_light
+        from brdfkit.render.shading import shade
 
-    output = output_file(
-        output,
-        inputs=(_shape_file(shape), mask, *light_files(light)),
-        suffixes=(".png", ".hdr", ".exr"),
-    )
-    check_param("--exposure", exposure, -64.0, 64.0)
-    model = load_model(brdf)
-    lights = [parse_light(spec) for spec in light]
-    if _is_mesh(shape):
+        output = output_file(
+            output,
+            inputs=(_shape_file(shape), mask, *light_files(light)),
+            suffixes=(".png", ".hdr", ".exr"),
+        )
+        check_param("--exposure", exposure, -64.0, 64.0)
+        model = load_model(brdf)
+        lights = [parse_light(spec) for spec in light]
+        mesh = _is_mesh(shape)
+        if not mesh:
+            if (look_at, fov, size, supersample) != (None, None, None, 1):
+                fail("--look-at, --fov, --size and --supersample apply to mesh files only")
+            g = _scene(shape, mask, resolution, model, lights)
+    if mesh:
         camera = _MeshCamera(look_at, fov, _image_size(size, resolution), supersample)
         image = _render_mesh(Path(shape), model, lights, camera, samples)
         _write(output, image, exposure, model_label(model, brdf))
         return
-    if (look_at, fov, size, supersample) != (None, None, None, 1):
-        fail("--look-at, --fov, --size and --supersample apply to mesh files only")
-    kernels = _in_background(lambda: _build_kernels(model, lights))
-    g = _gbuffer(shape, mask, resolution)
-    _prepare_maps(model, lights)
-    kernels()
     height = g.shape[0]
     with progress() as bar:
         task = bar.add_task(f"rendering {g.shape[1]}×{height}", total=height)
@@ -176,6 +180,27 @@ def render_command(
             progress=lambda done, total: bar.update(task, completed=done),
         )
     _write(output, image, exposure, model_label(model, brdf))
+
+
+def _blas_on_one_thread() -> None:
+    """Have OpenBLAS (NumPy's BLAS) start one thread rather than one per core, unless the
+    user chose (``OPENBLAS_NUM_THREADS``) or NumPy is imported already. A render's BLAS
+    products are small (frames, 3×3 rotations; its images are the same bit for bit) and its
+    work runs on the kernels' own threads, while OpenBLAS starting its threads is ~60 ms of
+    NumPy's import on a two-core machine."""
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def _scene(shape: str, mask: Path | None, resolution: int, model: Any, lights: list[Any]) -> Any:
+    """The G-buffer of ``shape`` (:func:`_gbuffer`), traced and the maps' tables computed while
+    the shading kernels load (or compile) on a thread of their own, which has ended when
+    this returns."""
+    kernels = _in_background(lambda: _build_kernels(model, lights))
+    g = _gbuffer(shape, mask, resolution)
+    _prepare_maps(model, lights)
+    kernels()
+    return g
 
 
 def _in_background(work: Callable[[], None]) -> Callable[[], None]:

@@ -12,7 +12,8 @@ The compiled back end needs a few things numba offers no public API for:
 - numba's per-function disk cache keyed by a string instead of a source file
   (:func:`install_keyed_cache`: numba's cache classes subclassed, the dispatcher's cache
   replaced; a load from it initialises numba's runtime only, not numba's whole compiler
-  context);
+  context), and numba's runtime initialised with its LLVM functions' machine code kept in
+  that cache (:func:`initialize_runtime`: numba compiles them in every process);
 - compiling without numba's reference-counting runtime (:func:`no_runtime_options`);
 - a compiled function as a first-class function value (:func:`first_class`: numba's
   wrapper-address protocol over the compile result), which a kernel calls through a pointer,
@@ -43,9 +44,13 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import hashlib
+import os
 import pickle
 import sys
+import tempfile
 import threading
 import warnings
 from collections.abc import Callable
@@ -374,6 +379,82 @@ def install_keyed_cache(
     return True
 
 
+def initialize_runtime(target_context: Any, folder: Path) -> None:
+    """Initialise numba's runtime (NRT) as ``rtsys.initialize`` does, with the machine code
+    of its LLVM functions (reference counts, memory-info accessors) kept in ``folder``: numba
+    compiles them again in every process (25–60 ms, most of a process that only loads its
+    kernels), here a process loads them (~2 ms) once one has compiled them on this machine
+    (the file names the CPU and its features; the folder, numba's version). Written
+    atomically (temporary and rename); an unreadable file is compiled again and replaced.
+
+    Where numba's runtime has changed, ``rtsys.initialize`` itself runs and a warning says
+    so."""
+    try:
+        from numba.core import config
+        from numba.core.compiler_lock import global_compiler_lock
+        from numba.core.runtime import _nrt_python, nrtdynmod, rtsys
+
+        helpers = _nrt_python.c_helpers
+        create_module = nrtdynmod.create_nrt_module
+    except (ImportError, AttributeError) as error:
+        warn_once("the runtime's cache", "the runtime compiles in every process", error)
+        from numba.core.runtime import rtsys
+
+        rtsys.initialize(target_context)
+        return
+    import llvmlite.binding as llvm
+
+    with global_compiler_lock:
+        if rtsys._init:
+            return
+        if config.NRT_STATS:
+            _nrt_python.memsys_enable_stats()
+        for name, address in helpers.items():
+            llvm.add_symbol(name if name.startswith("_") else f"NRT_{name}", address)
+        try:
+            library = _runtime_library(target_context, create_module, folder)
+        except AttributeError as error:  # numba's libraries have changed
+            warn_once("the runtime's cache", "the runtime compiles in every process", error)
+            rtsys.initialize(target_context)
+            return
+        rtsys._library = library
+        rtsys._init = True
+
+
+def _runtime_library(target_context: Any, create_module: Callable[..., Any], folder: Path) -> Any:
+    """The library of numba's runtime functions: loaded from ``folder``, or compiled (with
+    its machine code kept) and written there."""
+    codegen = target_context.codegen()
+    machine = hashlib.sha256(repr(codegen.magic_tuple()).encode()).hexdigest()[:16]
+    path = folder / f"runtime-{machine}.pickle"
+    try:
+        return codegen.unserialize_library(pickle.loads(path.read_bytes()))
+    except _UNREADABLE:  # not there yet, or unreadable: compiled, then written
+        module, library = create_module(target_context)
+        library.enable_object_caching()
+        library.add_ir_module(module)
+        library.finalize()
+        _write_atomically(path, pickle.dumps(library.serialize_using_object_code()))
+        return library
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    """``data`` into ``path`` through a temporary file of its own in that folder, renamed over
+    ``path`` once complete; nothing where the folder cannot be written."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        descriptor, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    except OSError:
+        return
+    try:
+        with os.fdopen(descriptor, "wb") as file:
+            file.write(data)
+        os.replace(temporary, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+
+
 @functools.cache
 def _keyed_cache_class() -> type:
     """numba's per-function cache, keyed by our key and stored in our folder (a subclass of
@@ -384,7 +465,6 @@ def _keyed_cache_class() -> type:
         IndexDataCacheFile,
         _CacheLocator,
     )
-    from numba.core.runtime import rtsys
 
     class Locator(_CacheLocator):
         def __init__(self, path: Path) -> None:
@@ -437,7 +517,7 @@ def _keyed_cache_class() -> type:
             # after a miss refreshes the context itself). Loaded code calls numba's runtime
             # (the wrapper's array arguments), so that is initialised here.
             try:
-                rtsys.initialize(target_context)
+                initialize_runtime(target_context, Path(self._cache_path).parent)
                 with self._guard_against_spurious_io_errors():
                     data = self._load_overload(sig, target_context)
             except _UNREADABLE:  # a corrupt entry: compile, then overwrite it
@@ -464,6 +544,7 @@ __all__ = [
     "compile_interleaved",
     "first_class",
     "function_type",
+    "initialize_runtime",
     "install_keyed_cache",
     "intrinsics",
     "no_runtime_options",

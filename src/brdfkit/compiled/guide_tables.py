@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from brdfkit.compiled.jit import exact_jit
+from brdfkit.compiled.jit import compile_for, exact_jit
 
 
 def guide_table(cdf: np.ndarray, count: int, buckets: int, rows: int = 1) -> np.ndarray:
@@ -40,6 +40,7 @@ def guide_table(cdf: np.ndarray, count: int, buckets: int, rows: int = 1) -> np.
     """
     nodes = np.ascontiguousarray(np.asarray(cdf, np.float64).reshape(rows, -1)[:, : count + 1])
     guide = np.empty((rows, buckets), np.uint16 if count <= 2**16 else np.int32)
+    compile_for(_guide_rows(), nodes, guide)
     _guide_rows()(nodes, guide)
     return guide.ravel()
 

@@ -10,7 +10,8 @@ keep a loop branch-free and vectorised (:mod:`brdfkit.compiled._numba` builds th
 may take compiled functions as arguments (:func:`first_class_function`, of the type
 :func:`function_type`) and so be compiled once for all functions of one signature; its
 signature, given ahead of its first call, is made of :func:`array_type`, :func:`scalar_type`
-and :func:`type_of`. numba is imported on first use.
+and :func:`type_of`; :func:`compile_for` compiles (or loads) a function for the types of
+given arguments. numba is imported on first use.
 
 References
 ----------
@@ -140,6 +141,19 @@ def type_of(value: Any) -> Any:
     return numba.typeof(value)
 
 
+def compile_for(dispatcher: Any, *arguments: Any) -> None:
+    """Compile the numba function ``dispatcher`` for the types of ``arguments`` now, or load
+    its machine code (from this process or the disk cache), so that calling it with them
+    runs that code at once.
+
+    What numba's own first call of a function does, less one step: before looking at the
+    arguments, that call loads every installed package's numba extensions (it reads the
+    entry points of every installed distribution: 15–35 ms of a process's start-up), which
+    machine code loaded from the disk does not need, and which compiling code does itself.
+    """
+    dispatcher.compile(tuple(type_of(a) for a in arguments))
+
+
 def function_type(argument_types: tuple[Any, ...]) -> Any:
     """numba's type of a compiled function of ``argument_types`` returning nothing, as an
     argument of a kernel (:func:`first_class_function`)."""
@@ -157,6 +171,7 @@ def first_class_function(dispatcher: Any, argument_types: tuple[Any, ...]) -> An
 __all__ = [
     "FASTMATH",
     "array_type",
+    "compile_for",
     "exact_jit",
     "first_class_function",
     "function_type",

@@ -29,7 +29,7 @@ import numpy as np
 from brdfkit.compiled import _numba
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled.codegen import Generated, Port, by_component_source, generate
-from brdfkit.compiled.jit import FASTMATH, vector_bits
+from brdfkit.compiled.jit import FASTMATH, compile_for, vector_bits
 from brdfkit.compiled.output_pool import OUTPUTS
 from brdfkit.compiled.scalar_functions import generated_code_functions
 from brdfkit.compiled.thread_pool import run_blocks
@@ -262,7 +262,8 @@ def compile_traced(
 
 def _warm(generated: Generated, dtype: np.dtype) -> Kernel:
     """The kernel of ``generated``, compiled now (numba compiles on first call) rather than
-    in the user's timing, or loaded from the disk cache."""
+    in the user's timing, or loaded from the disk cache: for the flat buffers its calls pass
+    (:func:`~brdfkit.compiled.jit.compile_for`), then called once on one element."""
     start = time.perf_counter()
     function = numba_kernel(generated.source, generated.constants)
     kernel = Kernel(
@@ -273,6 +274,8 @@ def _warm(generated: Generated, dtype: np.dtype) -> Kernel:
         np.zeros(generated.parameters, dtype),
         generated.constants,
     )
+    ports = [*generated.inputs, *generated.outputs]
+    compile_for(function, kernel.parameters, *(np.zeros(1, p.dtype) for p in ports), 1)
     kernel(*[np.zeros((1, p.width) if p.width else (1,), p.dtype) for p in generated.inputs])
     kernel.compile_seconds = time.perf_counter() - start
     return kernel

@@ -87,10 +87,15 @@ def tile_kernel(
     brdf_channels: int,
     map_channels: int,
     record: bool = False,
+    load: bool = False,
 ) -> Callable[..., None]:
     """The kernel shading a set of pixels in ``dtype`` for any BRDF of ``brdf_channels``
     channels, built once per set of arguments, its machine code kept on disk
-    (:mod:`brdfkit.compiled.cache`).
+    (:mod:`brdfkit.compiled.cache`). With ``load`` (a caller about to shade with a BRDF
+    without data arrays: a compiled model) its machine code for those calls
+    (:func:`tile_signature`) is loaded now where the disk holds it, so that the first call
+    runs it at once (a call numba has to type first loads every installed package's numba
+    extensions beforehand, and the threads of the first tasks would wait for the load).
 
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
@@ -109,7 +114,10 @@ def tile_kernel(
         kernel = _new_tile_kernel(*key)
         kernel_cache.enable(kernel, _tile_disk_key(*key))
         _TILE_KERNELS[key] = kernel
-    return _TILE_KERNELS[key]
+    kernel = _TILE_KERNELS[key]
+    if load and not kernel.signatures and kernel_cache.has(_tile_disk_key(*key)):
+        kernel.compile(tile_signature(*key))
+    return kernel
 
 
 def brdf_functions(

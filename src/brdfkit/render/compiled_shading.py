@@ -214,7 +214,9 @@ class EnvironmentShader:
                 self._rest, functions, self._data = table, table.functions, table.data
             else:
                 self._rest, functions = _compiled(self.rest, self.dtype)
-            self._kernel = tile_kernel(self.dtype.type, self.rest.channels, self.env.channels)
+            self._kernel = tile_kernel(
+                self.dtype.type, self.rest.channels, self.env.channels, load=not self._data
+            )
             self._functions = (
                 *brdf_functions(functions, self.dtype.type, self.rest.channels, self._data),
                 *step_functions(self.dtype.type),
