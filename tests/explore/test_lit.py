@@ -17,7 +17,7 @@ from brdfkit.explore.protocol import Entry, Message, ProtocolError, parse_messag
 from brdfkit.explore.session import Session
 from brdfkit.explore.views import (
     LIT_RESOLUTION,
-    PROGRESSIVE_TILE_EVALUATIONS,
+    LIT_TILE_EVALUATIONS,
     ViewState,
     orbit_camera,
 )
@@ -61,7 +61,7 @@ def test_the_passes_are_the_librarys_progressive_render(session):
     expected = list(
         progressive(
             g, parse(SPEC), light, max_samples=4, visibility=scene.visibility(g),
-            max_evaluations=PROGRESSIVE_TILE_EVALUATIONS,
+            max_evaluations=LIT_TILE_EVALUATIONS,
         )
     )  # fmt: skip
     assert image.shape == (LIT_RESOLUTION, LIT_RESOLUTION, 3) and image.dtype == np.float32

@@ -20,7 +20,8 @@ from brdfkit.render import (
     reflected_radiance,
     shade,
 )
-from brdfkit.render.mesh import MeshScene, render_mesh, torus_over_plane
+from brdfkit.render._mesh_kernels import shadow_rays as compiled_shadow_rays
+from brdfkit.render.mesh import MeshScene, render_mesh, shadow_rays, torus_over_plane
 from brdfkit.render.mitsuba_frame import (
     MITSUBA_ENVMAP_ROTATION,
     RotatedLight,
@@ -121,6 +122,44 @@ def test_cast_shadow_is_the_occluders_projection():
     in_shadow = (x > -1) & (x < 0) & (np.abs(y) < 0.5)
     assert np.all(image[in_shadow] == 0.0)
     assert np.allclose(image[~in_shadow], 0.5, rtol=1e-12)  # no shadow acne
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_the_compiled_shadow_rays_are_the_readable_ones_bit_for_bit(dtype):
+    """Per point a pixel's samples (the compiled shader's layout): the compiled loop writes
+    the rays of :func:`shadow_rays`, in its order, to the last bit; grazing directions
+    (n·ω = 0, no offset), finite and infinite distances, and zero distances (no ray)."""
+    rng = np.random.default_rng(3)
+    points, normals = rng.normal(size=(2, 40, 3))
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    wi = rng.normal(size=(40, 6, 3)).astype(dtype)
+    wi[0, 0] = np.cross(normals[0], [0.0, 0.0, 1.0])  # grazing
+    distance = rng.choice([0.0, np.inf, 2.5, 1e-9], size=(40, 6))
+    expected = shadow_rays(points[:, None], normals[:, None], wi, distance, 1e-4)
+    origins, directions = np.empty((2, 240, 3), np.float32)
+    far, index = np.empty(240, np.float32), np.empty(240, np.int64)
+    written = compiled_shadow_rays()(
+        points, normals, wi, distance, 1e-4, origins, directions, far, index
+    )
+    assert written == np.count_nonzero(distance > 0)
+    got = origins[:written], directions[:written], far[:written], index[:written]
+    for a, b in zip(got, expected, strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_shadow_rays_in_small_batches_wait_before_each_and_see_the_same():
+    """``before_batch`` is called once per batch of rays, and the answer is the same."""
+    scene = MeshScene.from_trimesh(torus_over_plane(sections=12))
+    rng = np.random.default_rng(5)
+    points = rng.uniform(-1, 1, size=(60, 1, 3)) + np.array([0.0, 0.3, 0.0])
+    normals = np.broadcast_to([0.0, 1.0, 0.0], points.shape)
+    wi = rng.normal(size=(60, 500, 3))
+    wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
+    distance = np.full((60, 500), np.inf)
+    calls = []
+    waited = scene.unoccluded(points, normals, wi, distance, lambda: calls.append(1))
+    assert np.array_equal(waited, scene.unoccluded(points, normals, wi, distance))
+    assert len(calls) >= 30000 // 8192 + 1 and 0 < waited.mean() < 1
 
 
 def test_point_lights_are_shadowed_only_by_what_lies_before_them():

@@ -410,7 +410,7 @@ class EnvironmentShader:
             count = min(SHADOW_SAMPLES, samples - first)
             chunk = [_sample_chunk(u, first, count) for u in (*brdf_uniforms, *map_uniforms)]
             terms, directions = self._record(prepared, chunk, seeds)
-            wi, distance = np.zeros((n, count, 2, 3)), np.zeros((n, count, 2))
+            wi, distance = np.zeros((n, count, 2, 3), self.dtype), np.zeros((n, count, 2))
             wi[pixels] = directions
             distance[pixels] = np.where(np.any(terms != 0, axis=-1), np.inf, 0.0)
             seen = visibility(

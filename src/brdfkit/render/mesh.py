@@ -69,6 +69,10 @@ RAY_EPSILON = 1500 * 2.0**-24
 _RAY_BATCH = 1 << 20
 """Rays per call of the ray engine (bounds its float32 copies)."""
 
+_YIELDING_BATCH = 1 << 13
+"""Rays per call of the ray engine when a caller waits between batches
+(:meth:`MeshScene.unoccluded`'s ``before_batch``): about a millisecond of one core."""
+
 
 @dataclass(frozen=True, eq=False)
 class MeshGBuffer(GBuffer):
@@ -192,7 +196,7 @@ class MeshScene:
         :class:`~brdfkit.errors.ParameterError` naming the ``mesh`` extra without it)."""
         return _ray_engine(self.vertices, self.faces)
 
-    @property
+    @functools.cached_property
     def epsilon(self) -> float:
         """The offset of spawned rays (the mesh's largest coordinate, relative)."""
         return float((1 + np.abs(self.vertices).max()) * RAY_EPSILON)
@@ -223,26 +227,29 @@ class MeshScene:
         )  # fmt: skip
 
     def unoccluded(
-        self, points: np.ndarray, normals: np.ndarray, wi: np.ndarray, distance: np.ndarray
+        self,
+        points: np.ndarray,
+        normals: np.ndarray,
+        wi: np.ndarray,
+        distance: np.ndarray,
+        before_batch: Callable[[], None] | None = None,
     ) -> np.ndarray:
         """Whether the segments from ``points`` (geometric ``normals``) along ``wi`` up to
-        ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True)."""
+        ``distance`` meet no triangle, ``(...,)`` bool; a zero distance needs no ray (True).
+        With ``before_batch`` the rays go in small batches, each after a call of
+        ``before_batch()`` (which may block: a progressive view yields the cores there)."""
         shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
-        distance = np.broadcast_to(distance, shape[:-1])
-        active = np.flatnonzero(distance > 0)  # only these rays are cast
-        points, normals, wi = (_gather(a, shape, active) for a in (points, normals, wi))
-        eps = self.epsilon
-        side = np.sign(np.sum(normals * wi, axis=-1))[:, None]
-        origins = points + (eps * side) * normals
-        far = np.maximum(distance.reshape(-1)[active] - 2 * eps, 0.0)
+        origins, directions, far, index = _rays_of(points, normals, wi, distance, self.epsilon)
         visible = np.ones(shape[:-1], dtype=bool)
-        visible.reshape(-1)[active] = ~self.rays.occluded(origins, wi, far)
+        visible.reshape(-1)[index] = ~self.rays.occluded(origins, directions, far, before_batch)
         return visible
 
-    def visibility(self, g: MeshGBuffer) -> Callable[[slice], Visibility]:
+    def visibility(
+        self, g: MeshGBuffer, before_batch: Callable[[], None] | None = None
+    ) -> Callable[[slice], Visibility]:
         """:func:`~brdfkit.render.shade`'s ``visibility``: for the image's rows of ``g``, the
         visibility factor by shadow rays against this mesh (pixels outside ``g.mask`` need
-        none)."""
+        none); ``before_batch`` as in :meth:`unoccluded`."""
 
         def of_rows(rows: slice) -> Visibility:
             normals, mask = g.geometric_normals[rows], g.mask[rows]
@@ -252,7 +259,7 @@ class MeshScene:
                 n = normals.reshape(normals.shape[:-1] + (1,) * extra + (3,))
                 m = mask.reshape(mask.shape + (1,) * extra)
                 d = np.where(m, distance, 0.0)
-                return self.unoccluded(np.asarray(points), n, np.asarray(wi), d)
+                return self.unoccluded(np.asarray(points), n, np.asarray(wi), d, before_batch)
 
             return visible
 
@@ -397,13 +404,23 @@ class _EmbreeRays:
             v.append(hits["v"].astype(float))
         return np.concatenate(face), np.concatenate(u), np.concatenate(v)
 
-    def occluded(self, origins: np.ndarray, directions: np.ndarray, far: np.ndarray):
+    def occluded(
+        self,
+        origins: np.ndarray,
+        directions: np.ndarray,
+        far: np.ndarray,
+        before_batch: Callable[[], None] | None = None,
+    ):
         """Whether each ray meets a triangle before ``far``: batches of rays on the cores
-        this process may use (Embree's queries run without the GIL)."""
-        bounds = np.linspace(0, len(far), _ray_tasks(len(far)) + 1).astype(int)
-        far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32)
+        this process may use (Embree's queries run without the GIL); with ``before_batch``,
+        batches of at most :data:`_YIELDING_BATCH` rays, each after ``before_batch()``."""
+        most = _RAY_BATCH if before_batch is None else _YIELDING_BATCH
+        bounds = np.linspace(0, len(far), _ray_tasks(len(far), most) + 1).astype(int)
+        far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32, copy=False)
 
         def query(task: int) -> np.ndarray:
+            if before_batch is not None:
+                before_batch()
             part = slice(bounds[task], bounds[task + 1])
             o, d = (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
             return self.scene.run(o, d, dists=far[part].copy(), query="OCCLUDED") >= 0
@@ -411,6 +428,68 @@ class _EmbreeRays:
         if len(bounds) == 2:
             return query(0)
         return np.concatenate(list(_ray_pool().map(query, range(len(bounds) - 1))))
+
+
+def shadow_rays(
+    points: np.ndarray, normals: np.ndarray, wi: np.ndarray, distance: np.ndarray, eps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Embree's rays for the segments from ``points`` (geometric ``normals``) along ``wi`` up
+    to ``distance`` (broadcast together; a zero distance needs no ray): origins offset by
+    ``eps`` along the normal on the side of the direction, directions and far ends
+    ``max(distance - 2 eps, 0)``, as float32 ``(n, 3)``, ``(n, 3)``, ``(n,)``, and each ray's
+    flat index in the batch. The readable version of the compiled loop
+    (:func:`brdfkit.render._mesh_kernels.shadow_rays`)."""
+    shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
+    distance = np.broadcast_to(distance, shape[:-1])
+    active = np.flatnonzero(distance > 0)  # only these rays are cast
+    points, normals, wi = (_gather(a, shape, active) for a in (points, normals, wi))
+    side = np.sign(np.sum(normals * wi, axis=-1))[:, None]
+    origins = points + (eps * side) * normals
+    far = np.maximum(distance.reshape(-1)[active] - 2 * eps, 0.0)
+    far = np.minimum(far, np.finfo(np.float32).max)
+    return (*(a.astype(np.float32) for a in (origins, wi, far)), active)
+
+
+def _rays_of(
+    points: np.ndarray, normals: np.ndarray, wi: np.ndarray, distance: np.ndarray, eps: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`shadow_rays`, by its compiled loop where every point carries the same number of
+    segments (points and normals given along leading axes of the batch, the directions and
+    distances in full: a pixel's samples), which needs no array the size of the batch but
+    its rays."""
+    points, normals, wi = np.asarray(points), np.asarray(normals), np.asarray(wi)
+    shape = np.broadcast_shapes(points.shape, normals.shape, wi.shape)
+    lead = _leading(points.shape[:-1])
+    if (
+        normals.shape != points.shape
+        or len(points.shape) != len(shape)
+        or wi.shape != shape
+        or np.shape(distance) != shape[:-1]
+        or points.shape[:-1] != shape[:lead] + (1,) * (len(shape) - 1 - lead)
+    ):
+        return shadow_rays(points, normals, wi, distance, eps)
+    from brdfkit.render._mesh_kernels import shadow_rays as compiled_rays
+
+    count, per_point = math.prod(shape[:lead]), math.prod(shape[lead:-1])
+    total = count * per_point
+    origins, directions = np.empty((total, 3), np.float32), np.empty((total, 3), np.float32)
+    far, index = np.empty(total, np.float32), np.empty(total, np.int64)
+    written = compiled_rays()(
+        np.ascontiguousarray(points.reshape(count, 3), dtype=np.float64),
+        np.ascontiguousarray(normals.reshape(count, 3), dtype=np.float64),
+        np.ascontiguousarray(wi.reshape(count, per_point, 3)),
+        np.ascontiguousarray(np.asarray(distance).reshape(count, per_point)),
+        float(eps), origins, directions, far, index,
+    )  # fmt: skip
+    return origins[:written], directions[:written], far[:written], index[:written]
+
+
+def _leading(shape: tuple[int, ...]) -> int:
+    """How many axes of ``shape`` come before its trailing ones of length 1."""
+    lead = len(shape)
+    while lead > 0 and shape[lead - 1] == 1:
+        lead -= 1
+    return lead
 
 
 def _gather(a: np.ndarray, shape: tuple[int, ...], flat: np.ndarray) -> np.ndarray:
@@ -430,11 +509,11 @@ def _gather(a: np.ndarray, shape: tuple[int, ...], flat: np.ndarray) -> np.ndarr
     return a.reshape(*lead, 3)[tuple(i if n > 1 else 0 for i, n in zip(index, lead, strict=True))]
 
 
-def _ray_tasks(count: int) -> int:
+def _ray_tasks(count: int, most: int = _RAY_BATCH) -> int:
     """Batches of shadow rays: one per core (at least ``_RAY_BATCH`` / 16 rays each), and
-    at most ``_RAY_BATCH`` rays each."""
+    at most ``most`` rays each."""
     cores = len(os.sched_getaffinity(0))
-    return max(min(cores, -(-count // (_RAY_BATCH // 16))), -(-count // _RAY_BATCH), 1)
+    return max(min(cores, -(-count // (_RAY_BATCH // 16))), -(-count // most), 1)
 
 
 @functools.cache
@@ -456,5 +535,6 @@ __all__ = [
     "MeshGBuffer",
     "MeshScene",
     "render_mesh",
+    "shadow_rays",
     "torus_over_plane",
 ]
