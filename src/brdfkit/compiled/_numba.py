@@ -47,10 +47,8 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import os
 import pickle
 import sys
-import tempfile
 import threading
 import warnings
 from collections.abc import Callable
@@ -434,25 +432,12 @@ def _runtime_library(target_context: Any, create_module: Callable[..., Any], fol
         library.enable_object_caching()
         library.add_ir_module(module)
         library.finalize()
-        _write_atomically(path, pickle.dumps(library.serialize_using_object_code()))
+        from brdfkit.errors import OutputError
+        from brdfkit.io import atomic_write_bytes
+
+        with contextlib.suppress(OutputError):  # a folder it cannot write: compiled each time
+            atomic_write_bytes(path, pickle.dumps(library.serialize_using_object_code()))
         return library
-
-
-def _write_atomically(path: Path, data: bytes) -> None:
-    """``data`` into ``path`` through a temporary file of its own in that folder, renamed over
-    ``path`` once complete; nothing where the folder cannot be written."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        descriptor, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    except OSError:
-        return
-    try:
-        with os.fdopen(descriptor, "wb") as file:
-            file.write(data)
-        os.replace(temporary, path)
-    except OSError:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
 
 
 @functools.cache
