@@ -285,8 +285,8 @@ tiles to float32 rounding (the compiled kernels' per-tile sums)."""
 
 LIT_TILE_EVALUATIONS = PROGRESSIVE_TILE_EVALUATIONS // 4
 """BRDF evaluations per tile of the lit object's passes: each evaluation also casts two
-shadow rays, about four times the work of an evaluation without them, so its tiles take
-as long as the environment-lit sphere's."""
+shadow rays, about three times the work of an evaluation without them, so its tiles take
+a little less time than the environment-lit sphere's."""
 
 
 def tile_progress(between_tiles: Callable[[], None] | None) -> Callable[[int, int], None] | None:
