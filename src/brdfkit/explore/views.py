@@ -378,7 +378,7 @@ def lit_passes(
     (:meth:`~brdfkit.render.mesh.MeshScene.visibility`), refined progressively
     (:func:`brdfkit.render.progressive`, default seed and Sobol' replicates: the same passes as
     that call in any process, to float32 rounding), stopping when ``cancel`` is set;
-    ``between_tiles()`` after each tile (:func:`tile_progress`) and before each batch of its
+    ``between_tiles()`` after each tile (:func:`tile_progress`) and before each round of its
     shadow rays (:meth:`~brdfkit.render.mesh.MeshScene.unoccluded`), so that a tile under way
     yields the cores within a millisecond or two.
 

@@ -413,21 +413,27 @@ class _EmbreeRays:
     ):
         """Whether each ray meets a triangle before ``far``: batches of rays on the cores
         this process may use (Embree's queries run without the GIL); with ``before_batch``,
-        batches of at most :data:`_YIELDING_BATCH` rays, each after ``before_batch()``."""
+        rounds of one batch of at most :data:`_YIELDING_BATCH` rays per core, each round
+        after ``before_batch()`` in the calling thread (the pool's threads never wait)."""
         most = _RAY_BATCH if before_batch is None else _YIELDING_BATCH
         bounds = np.linspace(0, len(far), _ray_tasks(len(far), most) + 1).astype(int)
         far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32, copy=False)
 
         def query(task: int) -> np.ndarray:
-            if before_batch is not None:
-                before_batch()
             part = slice(bounds[task], bounds[task + 1])
             o, d = (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
             return self.scene.run(o, d, dists=far[part].copy(), query="OCCLUDED") >= 0
 
-        if len(bounds) == 2:
+        tasks = len(bounds) - 1
+        if before_batch is None and tasks == 1:
             return query(0)
-        return np.concatenate(list(_ray_pool().map(query, range(len(bounds) - 1))))
+        step = tasks if before_batch is None else len(os.sched_getaffinity(0))
+        answers = []
+        for first in range(0, tasks, step):
+            if before_batch is not None:
+                before_batch()
+            answers += _ray_pool().map(query, range(first, min(first + step, tasks)))
+        return np.concatenate(answers)
 
 
 def shadow_rays(
