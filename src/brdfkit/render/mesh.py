@@ -411,17 +411,17 @@ class _EmbreeRays:
         far: np.ndarray,
         before_batch: Callable[[], None] | None = None,
     ):
-        """Whether each ray meets a triangle before ``far``: batches of rays on the cores
-        this process may use (Embree's queries run without the GIL); with ``before_batch``,
+        """Whether each ray (float32, as :func:`shadow_rays` makes them: ``far`` clipped to
+        float32's range) meets a triangle before ``far``: batches of rays on the cores this
+        process may use (Embree's queries run without the GIL); with ``before_batch``,
         rounds of one batch of at most :data:`_YIELDING_BATCH` rays per core, each round
         after ``before_batch()`` in the calling thread (the pool's threads never wait)."""
         most = _RAY_BATCH if before_batch is None else _YIELDING_BATCH
         bounds = np.linspace(0, len(far), _ray_tasks(len(far), most) + 1).astype(int)
-        far = np.minimum(far, np.finfo(np.float32).max).astype(np.float32, copy=False)
 
         def query(task: int) -> np.ndarray:
             part = slice(bounds[task], bounds[task + 1])
-            o, d = (np.ascontiguousarray(a[part], dtype=np.float32) for a in (origins, directions))
+            o, d = (np.ascontiguousarray(a[part]) for a in (origins, directions))
             return self.scene.run(o, d, dists=far[part].copy(), query="OCCLUDED") >= 0
 
         tasks = len(bounds) - 1
