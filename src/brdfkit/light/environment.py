@@ -575,9 +575,9 @@ class _IrradianceNodes:
 
     def columns(self, needed: np.ndarray) -> np.ndarray:
         """The table, ``(97, 192, C)`` float32, with (at least) the node columns ``needed``
-        built; the others are not to be read."""
+        (increasing, each once) built; the others are not to be read."""
         with self._lock:
-            missing = np.setdiff1d(needed, np.flatnonzero(self._built))
+            missing = needed[~self._built[needed]]
             if missing.size:
                 if self._cells is None:
                     shape = self._image.shape[:2]
