@@ -261,3 +261,50 @@ def test_a_first_class_function_argument_compiles_its_caller_once():
         apply(kernel_tools.first_class_function(function, arguments), a)
     np.testing.assert_array_equal(a, [-0.0, -2.0, -4.0])
     assert [tuple(s) for s in apply.signatures] == [(_numba.function_type(arguments), array)]
+
+
+def _imported_after_numba(folder: Path) -> dict:
+    """In a new process in ``folder``: numba imported by ``numba_module``; which of SciPy and
+    PyYAML that imported, numba's BOUNDSCHECK setting, and whether SciPy imports after."""
+    code = textwrap.dedent(
+        """
+        import json, sys
+        from brdfkit.compiled._numba import numba_module
+        numba = numba_module()
+        seen = {name: name in sys.modules for name in ("scipy", "yaml")}
+        import scipy
+        seen["boundscheck"] = numba.core.config.BOUNDSCHECK
+        seen["scipy_after"] = scipy.__name__
+        print(json.dumps(seen))
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=folder, capture_output=True, text=True, check=True
+    )
+    return json.loads(done.stdout)
+
+
+def test_numba_module_imports_numba_without_scipy_or_yaml(tmp_path):
+    seen = _imported_after_numba(tmp_path)
+    assert seen == {"scipy": False, "yaml": False, "boundscheck": None, "scipy_after": "scipy"}
+
+
+def test_numba_module_keeps_a_numba_config_file(tmp_path):
+    pytest.importorskip("yaml")
+    (tmp_path / _numba.NUMBA_CONFIG_FILE).write_text("boundscheck: 1\n")
+    seen = _imported_after_numba(tmp_path)
+    assert seen["yaml"] and seen["boundscheck"] == 1
+
+
+def test_the_skipping_finder_answers_its_own_thread_only():
+    import threading
+
+    finder = _numba._SkipForThisThread(frozenset({"scipy"}), threading.get_ident())
+    with pytest.raises(ModuleNotFoundError, match="scipy"):
+        finder.find_spec("scipy")
+    assert finder.find_spec("numpy") is None
+    answers = []
+    other = threading.Thread(target=lambda: answers.append(finder.find_spec("scipy")))
+    other.start()
+    other.join()
+    assert answers == [None]

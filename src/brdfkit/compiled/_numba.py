@@ -31,7 +31,8 @@ fails when any hook stops working.
 Tested with numba 0.68.1 and llvmlite 0.50.0; ``pyproject.toml`` allows numba from 0.60 (the
 project's oldest supported release) to below 0.69 (the first minor release not yet tested).
 numba is imported only when a hook is used, so that reading :func:`toolchain` (the kernel
-cache's version) costs no import.
+cache's version) costs no import, and the first time from :func:`numba_module`, which spares
+its import two optional packages brdfkit does not need it to read (SciPy, PyYAML).
 
 References
 ----------
@@ -54,6 +55,7 @@ import warnings
 from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 TESTED = "numba 0.68.1, llvmlite 0.50.0"
@@ -67,6 +69,49 @@ def toolchain() -> str:
     """The installed numba and llvmlite versions, read from their packages' metadata (no
     import: the kernel cache's version needs them in processes that never compile)."""
     return f"numba {metadata.version('numba')}, llvmlite {metadata.version('llvmlite')}"
+
+
+# --------------------------------------------------------------------------- the import
+NUMBA_CONFIG_FILE = ".numba_config.yaml"
+"""The file in the working folder that numba's import reads its settings from (with PyYAML)."""
+
+_UNUSED_BY_IMPORT = frozenset({"scipy", "yaml"})
+_IMPORT_LOCK = threading.Lock()
+
+
+class _SkipForThisThread:
+    """A finder of modules that says the packages ``names`` are not installed, to the thread
+    ``thread`` only (every other thread imports them as usual)."""
+
+    def __init__(self, names: frozenset[str], thread: int) -> None:
+        self.names, self.thread = names, thread
+
+    def find_spec(self, name: str, path: object = None, target: object = None) -> None:
+        if name in self.names and threading.get_ident() == self.thread:
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+
+def numba_module() -> ModuleType:
+    """numba, imported the first time without two packages its own import reads and brdfkit
+    never needs it to: SciPy (whose version numba checks, ~20 ms) and PyYAML (which reads a
+    :data:`NUMBA_CONFIG_FILE`; left alone where the working folder has one). Neither is
+    imported by numba's import then, for that thread alone; numba imports SciPy itself when
+    it compiles a function that needs it, and any later ``import scipy`` imports it as usual.
+
+    Every module of brdfkit that uses numba has it from here, so that the first use, from
+    whichever module, imports it so.
+    """
+    with _IMPORT_LOCK:  # one first import; a later call finds numba imported
+        skipped = _UNUSED_BY_IMPORT - sys.modules.keys()
+        if Path(NUMBA_CONFIG_FILE).is_file():
+            skipped -= {"yaml"}
+        finder = _SkipForThisThread(skipped, threading.get_ident())
+        sys.meta_path.insert(0, finder)
+        try:
+            import numba
+        finally:
+            sys.meta_path.remove(finder)
+    return numba
 
 
 def warn_once(hook: str, consequence: str, error: BaseException) -> None:
@@ -525,6 +570,7 @@ def _keyed_cache_class() -> type:
 
 
 __all__ = [
+    "NUMBA_CONFIG_FILE",
     "TESTED",
     "compile_interleaved",
     "first_class",
@@ -533,6 +579,7 @@ __all__ = [
     "install_keyed_cache",
     "intrinsics",
     "no_runtime_options",
+    "numba_module",
     "prefetch",
     "toolchain",
     "vector_width_hint",

@@ -188,7 +188,7 @@ def _count(event: str) -> None:
 
 def njit(py_func: Callable[..., Any], cache_key: str, **options: Any) -> Any:
     """``numba.njit(**options)(py_func)`` with the disk cache of ``cache_key``."""
-    import numba
+    numba = _numba.numba_module()
 
     dispatcher = numba.njit(**options)(py_func)
     enable(dispatcher, cache_key)

@@ -38,7 +38,7 @@ def jit() -> Callable[[Any], Any]:
     floating-point flags of the function calling it (numba's flags inheritance: a helper of
     a :func:`vector_jit` loop is compiled with its fast-math flags, of an :func:`exact_jit`
     one without, and inlined there)."""
-    import numba
+    numba = _numba.numba_module()
 
     return numba.njit(nogil=True, error_model="numpy")
 
@@ -48,7 +48,7 @@ def inline_jit() -> Callable[[Any], Any]:
     code inlined into its caller's by numba (``inline="always"``), so that the step's loops
     are optimised where the caller's arrays are known not to overlap (a loop over arrays
     that might overlap needs run-time checks, which can keep LLVM from vectorising it)."""
-    import numba
+    numba = _numba.numba_module()
 
     return numba.njit(nogil=True, error_model="numpy", inline="always")
 
@@ -57,7 +57,7 @@ def exact_jit() -> Callable[[Any], Any]:
     """numba's decorator for functions that must round as written wherever they are called
     from: no fast-math flags (reassociation would undo argument reductions and Newton
     steps), NumPy's error model, no GIL."""
-    import numba
+    numba = _numba.numba_module()
 
     return numba.njit(fastmath=False, error_model="numpy", nogil=True)
 
@@ -66,7 +66,7 @@ def vector_jit() -> Callable[[Any], Any]:
     """numba's decorator for loops LLVM should vectorise: the :data:`FASTMATH` flags, NumPy's
     error model, no GIL. A function so compiled calls ``prefer_vector_width()``
     (:func:`vector_width_hint`) to have its loops use :func:`vector_bits` wide vectors."""
-    import numba
+    numba = _numba.numba_module()
 
     return numba.njit(nogil=True, error_model="numpy", fastmath=set(FASTMATH))
 
@@ -120,7 +120,7 @@ def without_runtime() -> dict[str, Any]:
 def array_type(dtype: Any, ndim: int) -> Any:
     """numba's type of a writable, C-contiguous NumPy array of ``dtype`` and ``ndim`` axes
     (what ``numba.typeof`` gives such an array)."""
-    import numba
+    numba = _numba.numba_module()
     import numpy as np
 
     return numba.types.Array(numba.from_dtype(np.dtype(dtype)), ndim, "C")
@@ -128,7 +128,7 @@ def array_type(dtype: Any, ndim: int) -> Any:
 
 def scalar_type(dtype: Any) -> Any:
     """numba's type of a NumPy scalar of ``dtype`` (``bool``: Python's and NumPy's booleans)."""
-    import numba
+    numba = _numba.numba_module()
     import numpy as np
 
     return numba.from_dtype(np.dtype(dtype))
@@ -136,7 +136,7 @@ def scalar_type(dtype: Any) -> Any:
 
 def type_of(value: Any) -> Any:
     """numba's type of ``value`` as a kernel's argument (``numba.typeof``)."""
-    import numba
+    numba = _numba.numba_module()
 
     return numba.typeof(value)
 

@@ -307,7 +307,7 @@ def numba_kernel(source: str, constants: dict[str, np.generic]) -> Callable[...,
     """The numba function of a generated kernel ``source`` reading ``constants`` as globals:
     compiled with the :data:`~brdfkit.compiled.jit.FASTMATH` flags, :data:`INTERLEAVE` and
     the disk cache, or fetched from this process's kernels."""
-    import numba
+    numba = _numba.numba_module()
 
     bits = vector_bits()
     key = _kernel_key(source, constants)
