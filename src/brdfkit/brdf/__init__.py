@@ -1,22 +1,33 @@
 """Reflectance models: one module per family, all following the protocol of :mod:`.base`.
 
-Importing this package imports every model module in it, which registers each model with the
-spec parser and re-exports the names in each module's ``__all__`` here
-(``from brdfkit.brdf import Lambertian``).
+Each model module registers its models with the spec parser and exports the names in its
+``__all__``, which this package re-exports (``from brdfkit.brdf import Lambertian``).
+Importing the package imports no model module: a module is imported the first time one of
+its names is asked for here or a spec names one of its models, and all of them when
+:data:`MODELS` is listed (:mod:`._index` says which module holds what).
 """
 
 import importlib
-import pkgutil
+from typing import Any
 
+from brdfkit.brdf._index import MODULES
 from brdfkit.brdf.base import BRDF, MODELS, Sample, Scaled, Sum
 from brdfkit.brdf.spec import parse
 
-__all__ = ["BRDF", "MODELS", "Sample", "Scaled", "Sum", "parse"]
+_MODULE_OF = {name: module for module, names in MODULES.items() for name in names}
 
-for _module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-    if _module.name.startswith("_") or _module.name in ("base", "spec"):
-        continue
-    _mod = importlib.import_module(f"{__name__}.{_module.name}")
-    for _name in getattr(_mod, "__all__", ()):
-        globals()[_name] = getattr(_mod, _name)
-        __all__.append(_name)
+__all__ = ["BRDF", "MODELS", "Sample", "Scaled", "Sum", "parse", *_MODULE_OF]
+
+
+def __getattr__(name: str) -> Any:
+    """A model module's name, its module imported (once) on first use."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, MutableMapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -35,6 +36,7 @@ from brdfkit._array import (
     to_numpy,
 )
 from brdfkit._checks import check_count, check_memory
+from brdfkit.brdf._index import SPEC_NAMES
 from brdfkit.errors import ParameterError
 from brdfkit.params import (
     UNPHYSICAL_MAX,
@@ -48,7 +50,52 @@ from brdfkit.params import (
     parameter_domains,
 )
 
-MODELS: dict[str, type[BRDF]] = {}
+
+class Registry(MutableMapping[str, "type[BRDF]"]):
+    """Model classes by their spec name, each model's module imported the first time its
+    name is looked up (:data:`brdfkit.brdf._index.SPEC_NAMES` says which), and every one
+    of them when the registry is listed: a process that renders one model imports that
+    model's module and not the other two dozen."""
+
+    def __init__(self) -> None:
+        self._models: dict[str, type[BRDF]] = {}
+
+    def __getitem__(self, name: str) -> type[BRDF]:
+        if name not in self._models:
+            module = SPEC_NAMES.get(name)
+            if module is not None:
+                importlib.import_module(f"brdfkit.brdf.{module}")
+        return self._models[name]
+
+    def __setitem__(self, name: str, cls: type[BRDF]) -> None:
+        self._models[name] = cls
+
+    def __delitem__(self, name: str) -> None:
+        del self._models[name]
+
+    def __iter__(self) -> Iterator[str]:
+        self._import_all()
+        return iter(self._models)
+
+    def __len__(self) -> int:
+        self._import_all()
+        return len(self._models)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({dict(self)!r})"
+
+    def add(self, name: str, cls: type[BRDF]) -> None:
+        """Register ``cls`` under ``name``, refusing a name another class holds."""
+        if self._models.get(name, cls) is not cls:
+            raise ValueError(f"model name {name!r} is registered twice")
+        self._models[name] = cls
+
+    def _import_all(self) -> None:
+        for module in sorted(set(SPEC_NAMES.values())):
+            importlib.import_module(f"brdfkit.brdf.{module}")
+
+
+MODELS = Registry()
 """Registered model classes by their spec name (``"lambertian"``, ``"ggx"``, …)."""
 
 
@@ -56,9 +103,7 @@ def register(name: str) -> Callable[[type[BRDF]], type[BRDF]]:
     """Class decorator: make a model known to the spec parser and the CLI under ``name``."""
 
     def decorate(cls: type[BRDF]) -> type[BRDF]:
-        if name in MODELS and MODELS[name] is not cls:
-            raise ValueError(f"model name {name!r} is registered twice")
-        MODELS[name] = cls
+        MODELS.add(name, cls)
         cls.spec_name = name
         return cls
 
@@ -780,6 +825,7 @@ __all__ = [
     "MODELS",
     "ROUGHNESS",
     "SCALE",
+    "Registry",
     "Sample",
     "Scaled",
     "Sum",
