@@ -263,6 +263,23 @@ def test_a_first_class_function_argument_compiles_its_caller_once():
     assert [tuple(s) for s in apply.signatures] == [(_numba.function_type(arguments), array)]
 
 
+def test_a_first_class_function_is_typed_once_as_numba_types_it():
+    from numba.core.types import FunctionType
+    from numba.core.types.function_type import CompileResultWAP
+    from numba.core.typing.typeof import typeof
+
+    arguments = (kernel_tools.array_type(np.float64, 1),)
+
+    @numba.njit
+    def clear(a):
+        a[:] = 0.0
+
+    value = kernel_tools.first_class_function(clear, arguments)
+    assert isinstance(value, CompileResultWAP)
+    assert typeof(value) is value.numba_type
+    assert typeof(value) == FunctionType(value.signature()) == _numba.function_type(arguments)
+
+
 def _imported_after_numba(folder: Path) -> dict:
     """In a new process in ``folder``: numba imported by ``numba_module``; which of SciPy and
     PyYAML that imported, numba's BOUNDSCHECK setting, and whether SciPy imports after."""

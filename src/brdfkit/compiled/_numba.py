@@ -302,17 +302,36 @@ def first_class(dispatcher: Any, argument_types: tuple[Any, ...]) -> Any:
         be built without it).
     """
     try:
-        # numba's typeof and data model of these values, which a process that loads its
-        # kernels from the disk cache (no compiler context) has not imported yet
-        import numba.experimental.function_type  # noqa: F401
-        from numba.core.types.function_type import CompileResultWAP
+        value_class = _first_class_value()
     except ImportError as error:
         raise RuntimeError(
             f"brdfkit.compiled needs numba's first-class functions; {toolchain()} (tested "
             f"with {TESTED}) lacks them: {error}"
         ) from error
     dispatcher.compile(argument_types)
-    return CompileResultWAP(dispatcher.overloads[tuple(argument_types)])
+    return value_class(dispatcher.overloads[tuple(argument_types)])
+
+
+@functools.cache
+def _first_class_value() -> type:
+    """numba's first-class function value (``CompileResultWAP``) that keeps its numba type:
+    numba's ``typeof`` builds a new ``FunctionType`` of the value at every call of a kernel
+    taking it (~20 µs a function argument, with the GIL held); this one is typed once, to
+    the same type (``typeof_impl.register``, numba's extension API for typing values)."""
+    # numba's typeof and data model of these values, which a process that loads its
+    # kernels from the disk cache (no compiler context) has not imported yet
+    import numba.experimental.function_type  # noqa: F401
+    from numba.core.types import FunctionType
+    from numba.core.types.function_type import CompileResultWAP
+    from numba.core.typing.typeof import typeof_impl
+
+    class TypedCompileResult(CompileResultWAP):
+        def __init__(self, compile_result: Any) -> None:
+            super().__init__(compile_result)
+            self.numba_type = FunctionType(compile_result.signature)
+
+    typeof_impl.register(TypedCompileResult)(lambda value, context: value.numba_type)
+    return TypedCompileResult
 
 
 # --------------------------------------------------------------------------- speed hooks
