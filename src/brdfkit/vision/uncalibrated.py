@@ -77,11 +77,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit.errors import ParameterError
+from brdfkit.geometry import half_vector
 from brdfkit.vision import photometric_stereo
 from brdfkit.vision.photometric_stereo import PhotometricStereoResult, _gray, _prepare
 
-Cue = Literal["diffuse_maxima", "entropy"]
-CUES: tuple[str, ...] = ("diffuse_maxima", "entropy")
+Cue = Literal["specular", "diffuse_maxima", "entropy"]
+CUES: tuple[str, ...] = ("specular", "diffuse_maxima", "entropy")
 """The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
 
 
@@ -95,13 +96,14 @@ class UncalibratedResult:
     light_intensities : (N,) relative intensities, median 1 (the overall scale is unknowable).
     result : the calibrated solve with those lights (normals, albedo, mask).
     gbr : ``(mu, nu, lambda)`` of the GBR transformation the cue chose, applied after the
-        integrability step.
+        integrability step; ``None`` for the specular cue, which resolves the whole linear
+        ambiguity without integrability.
     """
 
     light_directions: np.ndarray
     light_intensities: np.ndarray
     result: PhotometricStereoResult
-    gbr: tuple[float, float, float]
+    gbr: tuple[float, float, float] | None
 
 
 def gbr_matrix(mu: float, nu: float, lam: float) -> np.ndarray:
@@ -384,6 +386,234 @@ def resolve_gbr_entropy(
     return float(mu), float(nu), float(np.exp(log_lam))
 
 
+@dataclass(frozen=True)
+class LambertianFactor:
+    """Output of :func:`robust_factorize`: ``M ≈ L B`` on the inlying observations.
+
+    Attributes
+    ----------
+    lights : (N, 3) the factor ``L``.
+    pseudo_normals : (3, P) the factor ``B`` (zero where not ``known``).
+    known : (P,) pixels with at least 6 inlying observations.
+    residual : (N, P) ``M - L B`` where the observation is usable (not in shadow), else 0.
+    noise : robust scale (1.4826 MAD) of the inlying residuals.
+    """
+
+    lights: np.ndarray
+    pseudo_normals: np.ndarray
+    known: np.ndarray
+    residual: np.ndarray
+    noise: float
+
+
+def robust_factorize(
+    gray: np.ndarray, usable: np.ndarray, *, threshold: float = 2.0, iterations: int = 30
+) -> LambertianFactor:
+    """Rank-3 factorisation of ``(N, P)`` images with shadows and highlights left out.
+
+    Alternating least squares on the observations that are ``usable`` (not in shadow) and
+    inlying: each pixel's ``b`` from its inlying observations, then each light's ``l`` from
+    its inlying pixels. An observation is an outlier when its residual ``m - l.b`` exceeds
+    ``threshold`` times the robust scale of the residuals: one-sided, since a specular lobe
+    only adds to the Lambertian part, so the fit settles on the lower envelope. Starts from
+    :func:`factorize` of ``M`` with the unusable observations zeroed and each image clipped at
+    its 90th percentile, the brighter observations left out of the first round (so that the
+    first fit is not drawn to the highlights). An image with fewer than 6 inlying pixels gets
+    its light from all its usable ones.
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994 (the factorisation); the alternation is that of
+    low-rank matrix completion (e.g. Buchanan & Fitzgibbon, CVPR 2005).
+    """
+    bright = np.nanpercentile(np.where(usable, gray, np.nan), 90, axis=1, keepdims=True)
+    weight = (usable & (gray <= bright)).astype(np.float64)
+    lights, b = factorize(np.minimum(gray, bright) * usable)
+    for _ in range(iterations):
+        gram = np.einsum("kp,ki,kj->pij", weight, lights, lights)
+        moment = np.einsum("kp,ki->pi", weight * gray, lights)
+        known = (weight.sum(0) >= 6) & (np.linalg.det(gram) > 1e-9 * np.trace(gram, 0, 1, 2) ** 3)
+        b = np.zeros((3, gray.shape[1]))
+        b[:, known] = np.linalg.solve(gram[known], moment[known][..., None])[..., 0].T
+        per_light = np.where(weight.sum(1, keepdims=True) >= 6, weight, usable * known)
+        gram = np.einsum("kp,ip,jp->kij", per_light, b, b)
+        moment = np.einsum("kp,ip->ki", per_light * gray, b)
+        lights = (np.linalg.pinv(gram) @ moment[..., None])[..., 0]
+        residual = gray - lights @ b
+        noise = 1.4826 * float(np.median(np.abs(residual[usable & known])))
+        weight = (usable & (residual <= threshold * noise)).astype(np.float64)
+    return LambertianFactor(lights, b * known, known, np.where(usable, residual, 0.0), noise)
+
+
+def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
+    """``A_0`` with ``A = R A_0`` (``R`` orthogonal) when every light has the same intensity.
+
+    The true lights are ``l_k = A^{-T} l̂_k``; equal intensities ``|l_k| = 1`` give
+    ``l̂_k^T C l̂_k = 1`` with ``C = A^{-1} A^{-T}`` symmetric: 6 unknowns, linear least
+    squares over the ``N`` lights (Hayakawa 1994, §4). ``C = W W^T`` fixes ``A_0 = W^{-1}``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``C`` is not positive definite (the intensities are far from equal).
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994, §4.
+    """
+    x, y, z = lights_hat.T
+    rows = np.stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z], axis=1)
+    c = np.linalg.lstsq(rows, np.ones(len(lights_hat)), rcond=None)[0]
+    metric = np.array([[c[0], c[3], c[4]], [c[3], c[1], c[5]], [c[4], c[5], c[2]]])
+    eigenvalues, vectors = np.linalg.eigh(metric)
+    if eigenvalues[0] <= 1e-9 * eigenvalues[-1]:
+        raise ParameterError(
+            "the specular cue needs lights of equal intensity (or images divided by them); "
+            "these images admit none"
+        )
+    return np.linalg.inv(vectors * np.sqrt(eigenvalues))
+
+
+def specular_highlights(
+    factor: LambertianFactor, gray: np.ndarray, *, contrast: float = 0.1
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(b, l̂_k)`` (rows, ``b`` unit) at the specular peak of each image ``k``.
+
+    The peak is the pixel of largest residual over the Lambertian fit (with its neighbours
+    within 10 % of it, averaged by residual); an image has one when that residual exceeds
+    ``contrast`` times the image's 99th percentile and 10 times the noise.
+    """
+    b = factor.pseudo_normals / np.maximum(np.linalg.norm(factor.pseudo_normals, axis=0), 1e-300)
+    level = np.percentile(gray, 99, axis=1)
+    b_rows, l_rows = [], []
+    for k, residual in enumerate(np.where(factor.known, factor.residual, 0.0)):
+        peak = residual.max()
+        if peak < max(contrast * level[k], 10 * factor.noise):
+            continue
+        near = residual >= 0.9 * peak
+        centre = b[:, near] @ residual[near]
+        b_rows.append(centre / np.linalg.norm(centre))
+        l_rows.append(factor.lights[k])
+    return np.reshape(b_rows, (-1, 3)), np.reshape(l_rows, (-1, 3))
+
+
+def _specular_residual(a: np.ndarray, b: np.ndarray, lights_hat: np.ndarray) -> np.ndarray:
+    """``n - h`` (flattened) with ``n = A b / |A b|`` and ``h`` the half vector of
+    ``A^{-T} l̂`` and the view ``(0, 0, 1)``."""
+    n = b @ a.T
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    light = lights_hat @ np.linalg.inv(a)
+    light /= np.linalg.norm(light, axis=1, keepdims=True)
+    return (n - half_vector(light, np.array([0.0, 0.0, 1.0]))).ravel()
+
+
+def _tilt(x: np.ndarray) -> np.ndarray:
+    """The rotation by ``|x|`` about the axis ``(x_0, x_1, 0)``."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec([x[0], x[1], 0.0]).as_matrix()
+
+
+def resolve_tilt_specular(
+    a_0: np.ndarray, b: np.ndarray, lights_hat: np.ndarray, *, scale: float = 0.02
+) -> np.ndarray:
+    """``T A_0`` with the tilt ``T`` that puts the normals of the specular peaks on the half
+    vectors of their lights and the view (Drbohlav & Šára 2002).
+
+    At image ``k``'s specular peak ``n = h_k = (l_k + v) / |l_k + v|``, ``v = (0, 0, 1)``;
+    with ``n ∝ A b`` and ``l_k ∝ A^{-T} l̂_k`` and ``A = R A_0``
+    (:func:`equal_intensity_metric`), a rotation about ``v`` leaves every such equation as it
+    is, so the peaks fix the two angles of the tilt ``T`` (a rotation about an axis in the
+    image plane): a grid over tilts up to 80°, then robust least squares (soft-L1 of
+    ``scale``, about 1°) from the five best.
+
+    References
+    ----------
+    O. Drbohlav, R. Šára, "Specularities reduce ambiguity of uncalibrated photometric
+    stereo", ECCV 2002; A. S. Georghiades, ICCV 2003.
+    """
+    from scipy.optimize import least_squares
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        return _specular_residual(_tilt(x) @ a_0, b, lights_hat)
+
+    grid = [
+        angle * np.array([np.cos(azimuth), np.sin(azimuth)])
+        for angle in np.radians(np.arange(0, 81, 8))
+        for azimuth in np.radians(np.arange(0, 360, 15))
+    ]
+    costs = [float(np.median(residual(x).reshape(-1, 3) ** 2 @ np.ones(3))) for x in grid]
+    starts = [grid[i] for i in np.argsort(costs)[:5]]
+    fits = [least_squares(residual, x, loss="soft_l1", f_scale=scale) for x in starts]
+    return _tilt(min(fits, key=lambda fit: fit.cost).x) @ a_0
+
+
+def rim_rotation(normals: np.ndarray, mask: np.ndarray, known: np.ndarray, width: int = 3):
+    """The rotation ``phi`` about the view that best turns the normals within ``width`` pixels
+    of the mask's edge to the contour's outward direction, and how well (0-1).
+
+    At an occluding contour the normal is perpendicular to the view and points out of the
+    silhouette. ``phi`` is the circular mean of (outward azimuth - normal azimuth) weighted by
+    ``|n_xy|``; the concentration is the length of that mean (1: every rim normal agrees).
+    """
+    from scipy import ndimage
+
+    distance = ndimage.distance_transform_edt(mask)
+    rim = known & (distance <= width)
+    grad_row, grad_col = np.gradient(ndimage.gaussian_filter(distance, 1.0))
+    outward = np.arctan2(grad_row[rim], -grad_col[rim])  # x right, y up: y is minus the row
+    n = normals[rim]
+    weight = np.hypot(n[:, 0], n[:, 1])
+    mean = np.sum(weight * np.exp(1j * (outward - np.arctan2(n[:, 1], n[:, 0]))))
+    return float(np.angle(mean)), float(abs(mean) / max(weight.sum(), 1e-300))
+
+
+def resolve_specular(
+    gray: np.ndarray, mask: np.ndarray, *, shadow_threshold: float = 0.05
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lights ``(N, 3)`` (direction times relative intensity) and the known pixels, from the
+    specular cue: no integrability, no GBR.
+
+    :func:`robust_factorize` (shadows and highlights left out), the metric of equal
+    intensities (:func:`equal_intensity_metric`, up to a rotation ``R``), the tilt of ``R``
+    from the specular peaks (:func:`resolve_tilt_specular`), and its rotation about the view
+    from the occluding contour (:func:`rim_rotation`), which also picks between ``A`` and its
+    mirror image ``diag(-1, 1, 1) A`` (both explain the images and the peaks).
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 3 images with a specular peak (a matte object: use another cue).
+    """
+    level = np.percentile(gray, 99, axis=1, keepdims=True)
+    factor = robust_factorize(gray, gray > shadow_threshold * level)
+    b, lights_hat = specular_highlights(factor, gray)
+    if len(b) < 3:
+        raise ParameterError(
+            f"found specular highlights in {len(b)} images; the specular cue needs at least 3 "
+            "(a glossy object); for a matte one use the entropy or diffuse_maxima cue"
+        )
+    a_0 = equal_intensity_metric(factor.lights)
+    known = np.zeros(mask.shape, bool)
+    known.flat[np.flatnonzero(mask)[factor.known]] = True
+    best = None
+    for mirror in (np.eye(3), np.diag([-1.0, 1.0, 1.0])):
+        a = resolve_tilt_specular(mirror @ a_0, b, lights_hat)
+        pseudo = a @ factor.pseudo_normals[:, factor.known]
+        a *= np.sign(np.median(pseudo[2]))  # b -> -b, l -> -l: normals face the camera
+        normals = np.zeros((*mask.shape, 3))
+        normals[known] = (pseudo / np.linalg.norm(pseudo, axis=0)).T * np.sign(np.median(pseudo[2]))
+        phi, agreement = rim_rotation(normals, mask, known)
+        if best is None or agreement > best[0]:
+            best = (agreement, _rotation_z(phi) @ a)
+    return factor.lights @ np.linalg.inv(best[1]), known
+
+
+def _rotation_z(phi: float) -> np.ndarray:
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def _outward_sign(normals: np.ndarray, mask: np.ndarray, width: int = 6) -> float:
     """``+1`` when the normals within ``width`` pixels of the mask's edge point outwards on
     average (x right, y up), ``-1`` otherwise: the convex reading of the bas-relief sign."""
@@ -450,6 +680,25 @@ def uncalibrated(
     placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
     observations, _, mask = _prepare(images, placeholder, mask)
     gray = _gray(observations)
+    if cue == "specular":
+        lights, gbr = resolve_specular(gray, mask, shadow_threshold=shadow_threshold)[0], None
+    else:
+        lights, gbr = _integrable_lights(gray, mask, cue, shadow_threshold, sigma)
+    intensity = np.linalg.norm(lights, axis=1)
+    directions = lights / intensity[:, None]
+    intensity = intensity / np.median(intensity)
+    shape = (-1,) + (1,) * (images.ndim - 1)
+    scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
+    result = photometric_stereo.METHODS[method](scaled, directions, mask)
+    return UncalibratedResult(directions, intensity, result, gbr)
+
+
+def _integrable_lights(
+    gray: np.ndarray, mask: np.ndarray, cue: str, shadow_threshold: float, sigma: float
+) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """Lights ``(N, 3)`` (direction times relative intensity) and the GBR from the fully lit
+    pixels: factorisation, integrability, the GBR from ``cue``, the convex sign."""
+    n_lights = len(gray)
     lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
     if lit.sum() < 10:
         raise ParameterError(
@@ -480,11 +729,4 @@ def uncalibrated(
     if _outward_sign(np.einsum("ij,hwj->hwi", k, b0_map), lit_map) < 0:
         mu, nu, lam = -mu, -nu, -lam  # the concave reading: K -> diag(-1, -1, 1) K
         k = gbr_matrix(mu, nu, lam)
-    lights = lights0 @ np.linalg.inv(k)  # rows of K^{-T} l
-    intensity = np.linalg.norm(lights, axis=1)
-    directions = lights / intensity[:, None]
-    intensity = intensity / np.median(intensity)
-    shape = (-1,) + (1,) * (images.ndim - 1)
-    scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
-    result = photometric_stereo.METHODS[method](scaled, directions, mask)
-    return UncalibratedResult(directions, intensity, result, (mu, nu, lam))
+    return lights0 @ np.linalg.inv(k), (mu, nu, lam)  # rows of K^{-T} l
