@@ -81,8 +81,8 @@ from brdfkit.geometry import half_vector
 from brdfkit.vision import photometric_stereo
 from brdfkit.vision.photometric_stereo import PhotometricStereoResult, _gray, _prepare
 
-Cue = Literal["specular", "diffuse_maxima", "entropy"]
-CUES: tuple[str, ...] = ("specular", "diffuse_maxima", "entropy")
+Cue = Literal["auto", "specular", "diffuse_maxima", "entropy"]
+CUES: tuple[str, ...] = ("auto", "specular", "diffuse_maxima", "entropy")
 """The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
 
 
@@ -98,12 +98,14 @@ class UncalibratedResult:
     gbr : ``(mu, nu, lambda)`` of the GBR transformation the cue chose, applied after the
         integrability step; ``None`` for the specular cue, which resolves the whole linear
         ambiguity without integrability.
+    cue : the cue that resolved the ambiguity (``"auto"`` resolved to one of the others).
     """
 
     light_directions: np.ndarray
     light_intensities: np.ndarray
     result: PhotometricStereoResult
     gbr: tuple[float, float, float] | None
+    cue: str
 
 
 def gbr_matrix(mu: float, nu: float, lam: float) -> np.ndarray:
@@ -430,19 +432,24 @@ def robust_factorize(
     weight = (usable & (gray <= bright)).astype(np.float64)
     lights, b = factorize(np.minimum(gray, bright) * usable)
     for _ in range(iterations):
-        gram = np.einsum("kp,ki,kj->pij", weight, lights, lights)
-        moment = np.einsum("kp,ki->pi", weight * gray, lights)
+        gram = (weight.T @ _outer_rows(lights)).reshape(-1, 3, 3)
+        moment = (weight * gray).T @ lights
         known = (weight.sum(0) >= 6) & (np.linalg.det(gram) > 1e-9 * np.trace(gram, 0, 1, 2) ** 3)
         b = np.zeros((3, gray.shape[1]))
         b[:, known] = np.linalg.solve(gram[known], moment[known][..., None])[..., 0].T
         per_light = np.where(weight.sum(1, keepdims=True) >= 6, weight, usable * known)
-        gram = np.einsum("kp,ip,jp->kij", per_light, b, b)
-        moment = np.einsum("kp,ip->ki", per_light * gray, b)
+        gram = (per_light @ _outer_rows(b.T)).reshape(-1, 3, 3)
+        moment = (per_light * gray) @ b.T
         lights = (np.linalg.pinv(gram) @ moment[..., None])[..., 0]
         residual = gray - lights @ b
         noise = 1.4826 * float(np.median(np.abs(residual[usable & known])))
         weight = (usable & (residual <= threshold * noise)).astype(np.float64)
     return LambertianFactor(lights, b * known, known, np.where(usable, residual, 0.0), noise)
+
+
+def _outer_rows(rows: np.ndarray) -> np.ndarray:
+    """``(M, 9)``: each row's outer product with itself, flattened."""
+    return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 9)
 
 
 def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
@@ -524,8 +531,8 @@ def resolve_tilt_specular(
     with ``n ∝ A b`` and ``l_k ∝ A^{-T} l̂_k`` and ``A = R A_0``
     (:func:`equal_intensity_metric`), a rotation about ``v`` leaves every such equation as it
     is, so the peaks fix the two angles of the tilt ``T`` (a rotation about an axis in the
-    image plane): a grid over tilts up to 80°, then robust least squares (soft-L1 of
-    ``scale``, about 1°) from the five best.
+    image plane): a grid over tilts up to 80° (10° by 20°), then robust least squares
+    (soft-L1 of ``scale``, about 1°) from the three best.
 
     References
     ----------
@@ -539,11 +546,11 @@ def resolve_tilt_specular(
 
     grid = [
         angle * np.array([np.cos(azimuth), np.sin(azimuth)])
-        for angle in np.radians(np.arange(0, 81, 8))
-        for azimuth in np.radians(np.arange(0, 360, 15))
+        for angle in np.radians(np.arange(0, 81, 10))
+        for azimuth in np.radians(np.arange(0, 360, 20))
     ]
     costs = [float(np.median(residual(x).reshape(-1, 3) ** 2 @ np.ones(3))) for x in grid]
-    starts = [grid[i] for i in np.argsort(costs)[:5]]
+    starts = [grid[i] for i in np.argsort(costs)[:3]]
     fits = [least_squares(residual, x, loss="soft_l1", f_scale=scale) for x in starts]
     return _tilt(min(fits, key=lambda fit: fit.cost).x) @ a_0
 
@@ -569,44 +576,42 @@ def rim_rotation(normals: np.ndarray, mask: np.ndarray, known: np.ndarray, width
 
 
 def resolve_specular(
-    gray: np.ndarray, mask: np.ndarray, *, shadow_threshold: float = 0.05
-) -> tuple[np.ndarray, np.ndarray]:
-    """Lights ``(N, 3)`` (direction times relative intensity) and the known pixels, from the
-    specular cue: no integrability, no GBR.
+    factor: LambertianFactor, b: np.ndarray, lights_hat: np.ndarray, mask: np.ndarray
+) -> np.ndarray:
+    """``A`` (3, 3) with lights ``A^{-T} l̂`` and pseudo-normals ``A b̂``, from the specular
+    peaks: no integrability, no GBR.
 
-    :func:`robust_factorize` (shadows and highlights left out), the metric of equal
-    intensities (:func:`equal_intensity_metric`, up to a rotation ``R``), the tilt of ``R``
-    from the specular peaks (:func:`resolve_tilt_specular`), and its rotation about the view
-    from the occluding contour (:func:`rim_rotation`), which also picks between ``A`` and its
-    mirror image ``diag(-1, 1, 1) A`` (both explain the images and the peaks).
+    The metric of equal intensities (:func:`equal_intensity_metric`) gives ``A`` up to a
+    rotation ``R``; the specular peaks ``(b, l̂)`` (:func:`specular_highlights`) fix its tilt
+    (:func:`resolve_tilt_specular`); the occluding contour its rotation about the view
+    (:func:`rim_rotation`), and which of ``A`` and its mirror image ``diag(-1, 1, 1) A``
+    (both explain the images and the peaks) turns the rim normals outwards more consistently.
 
-    Raises
-    ------
-    brdfkit.errors.ParameterError
-        Fewer than 3 images with a specular peak (a matte object: use another cue).
+    Parameters
+    ----------
+    factor : :func:`robust_factorize` of the object's pixels.
+    b, lights_hat : the specular peaks' pseudo-normals and lights (rows).
+    mask : (H, W) the object, whose pixels ``factor`` holds in row-major order.
+
+    References
+    ----------
+    O. Drbohlav, R. Šára, ECCV 2002; H. Hayakawa, JOSA A 11(11), 1994.
     """
-    level = np.percentile(gray, 99, axis=1, keepdims=True)
-    factor = robust_factorize(gray, gray > shadow_threshold * level)
-    b, lights_hat = specular_highlights(factor, gray)
-    if len(b) < 3:
-        raise ParameterError(
-            f"found specular highlights in {len(b)} images; the specular cue needs at least 3 "
-            "(a glossy object); for a matte one use the entropy or diffuse_maxima cue"
-        )
     a_0 = equal_intensity_metric(factor.lights)
     known = np.zeros(mask.shape, bool)
     known.flat[np.flatnonzero(mask)[factor.known]] = True
-    best = None
+    best = (-1.0, a_0)
     for mirror in (np.eye(3), np.diag([-1.0, 1.0, 1.0])):
         a = resolve_tilt_specular(mirror @ a_0, b, lights_hat)
         pseudo = a @ factor.pseudo_normals[:, factor.known]
         a *= np.sign(np.median(pseudo[2]))  # b -> -b, l -> -l: normals face the camera
         normals = np.zeros((*mask.shape, 3))
-        normals[known] = (pseudo / np.linalg.norm(pseudo, axis=0)).T * np.sign(np.median(pseudo[2]))
+        normals[known] = (a @ factor.pseudo_normals[:, factor.known]).T
+        normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-300)
         phi, agreement = rim_rotation(normals, mask, known)
-        if best is None or agreement > best[0]:
+        if agreement > best[0]:
             best = (agreement, _rotation_z(phi) @ a)
-    return factor.lights @ np.linalg.inv(best[1]), known
+    return best[1]
 
 
 def _rotation_z(phi: float) -> np.ndarray:
@@ -631,7 +636,7 @@ def uncalibrated(
     images: ArrayLike,
     mask: ArrayLike | None = None,
     *,
-    cue: Cue = "diffuse_maxima",
+    cue: Cue = "auto",
     method: str = "least_squares",
     shadow_threshold: float = 0.05,
     sigma: float = 1.0,
@@ -680,8 +685,19 @@ def uncalibrated(
     placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
     observations, _, mask = _prepare(images, placeholder, mask)
     gray = _gray(observations)
+    if cue in ("auto", "specular"):
+        level = np.percentile(gray, 99, axis=1, keepdims=True)
+        factor = robust_factorize(gray, gray > shadow_threshold * level)
+        b, lights_hat = specular_highlights(factor, gray)
+        if cue == "specular" and len(b) < 3:
+            raise ParameterError(
+                f"found specular highlights in {len(b)} images; the specular cue needs at "
+                "least 3 (a glossy object); for a matte one use the entropy or diffuse_maxima cue"
+            )
+        cue = "specular" if len(b) >= 3 else "entropy"
     if cue == "specular":
-        lights, gbr = resolve_specular(gray, mask, shadow_threshold=shadow_threshold)[0], None
+        lights = factor.lights @ np.linalg.inv(resolve_specular(factor, b, lights_hat, mask))
+        gbr = None
     else:
         lights, gbr = _integrable_lights(gray, mask, cue, shadow_threshold, sigma)
     intensity = np.linalg.norm(lights, axis=1)
@@ -690,7 +706,7 @@ def uncalibrated(
     shape = (-1,) + (1,) * (images.ndim - 1)
     scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
     result = photometric_stereo.METHODS[method](scaled, directions, mask)
-    return UncalibratedResult(directions, intensity, result, gbr)
+    return UncalibratedResult(directions, intensity, result, gbr, cue)
 
 
 def _integrable_lights(
