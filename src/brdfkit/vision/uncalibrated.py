@@ -423,12 +423,24 @@ def robust_factorize(
     first fit is not drawn to the highlights). An image with fewer than 6 inlying pixels gets
     its light from all its usable ones.
 
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 10 pixels usable in 6 or more images.
+
     References
     ----------
     H. Hayakawa, JOSA A 11(11), 1994 (the factorisation); the alternation is that of
     low-rank matrix completion (e.g. Buchanan & Fitzgibbon, CVPR 2005).
     """
-    bright = np.nanpercentile(np.where(usable, gray, np.nan), 90, axis=1, keepdims=True)
+    lit_enough = int(np.count_nonzero(usable.sum(0) >= 6))
+    if lit_enough < 10:
+        raise ParameterError(
+            f"only {lit_enough} pixels are lit in 6 or more images; the factorisation needs at "
+            "least 10 (lower shadow_threshold, or use a larger mask)"
+        )
+    bright = np.array([[np.percentile(row[lit], 90) if lit.any() else 0.0]
+                       for row, lit in zip(gray, usable, strict=True)])  # fmt: skip
     weight = (usable & (gray <= bright)).astype(np.float64)
     lights, b = factorize(np.minimum(gray, bright) * usable)
     for _ in range(iterations):
