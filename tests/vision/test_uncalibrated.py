@@ -177,6 +177,9 @@ def test_real_gray_sphere_against_chrome_calibration(shared_data):
     # half resolution give 11-14° light errors (see the module docstring).
     assert np.median(errors) < 5.0
     assert found["mean"] < 1.5 * calibrated["mean"]
+    # The default ("auto") finds no specular highlight on this matte sphere: entropy.
+    half = datasets.load_psm(psm / "gray", step=2)
+    assert unc.uncalibrated(half.images, half.mask, sigma=0.5).cue == "entropy"
 
 
 def test_cli_uncalibrated_writes_the_estimated_lights(tmp_path):

@@ -85,6 +85,11 @@ Cue = Literal["auto", "specular", "diffuse_maxima", "entropy"]
 CUES: tuple[str, ...] = ("auto", "specular", "diffuse_maxima", "entropy")
 """The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
 
+SPECULAR_CONSISTENCY = 20.0
+"""Degrees: the ``"auto"`` cue takes the specular cue's lights when the median angle between
+its peaks' normals and their half vectors is at most this (2-16° on the glossy renders of
+``benchmarks/bench_uncalibrated.py``, 42° on the matte psm gray sphere's faint peaks)."""
+
 
 @dataclass(frozen=True)
 class UncalibratedResult:
@@ -415,7 +420,8 @@ def robust_factorize(
 
     Alternating least squares on the observations that are ``usable`` (not in shadow) and
     inlying: each pixel's ``b`` from its inlying observations, then each light's ``l`` from
-    its inlying pixels. An observation is an outlier when its residual ``m - l.b`` exceeds
+    its inlying pixels, until the inliers no longer change (at most ``iterations`` rounds).
+    An observation is an outlier when its residual ``m - l.b`` exceeds
     ``threshold`` times the robust scale of the residuals: one-sided, since a specular lobe
     only adds to the Lambertian part, so the fit settles on the lower envelope. Starts from
     :func:`factorize` of ``M`` with the unusable observations zeroed and each image clipped at
@@ -455,7 +461,10 @@ def robust_factorize(
         lights = (np.linalg.pinv(gram) @ moment[..., None])[..., 0]
         residual = gray - lights @ b
         noise = 1.4826 * float(np.median(np.abs(residual[usable & known])))
-        weight = (usable & (residual <= threshold * noise)).astype(np.float64)
+        inliers = usable & (residual <= threshold * noise)
+        if np.array_equal(inliers, weight > 0):
+            break
+        weight = inliers.astype(np.float64)
     return LambertianFactor(lights, b * known, known, np.where(usable, residual, 0.0), noise)
 
 
@@ -494,7 +503,7 @@ def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
 
 
 def specular_highlights(
-    factor: LambertianFactor, gray: np.ndarray, *, contrast: float = 0.1
+    factor: LambertianFactor, gray: np.ndarray, *, contrast: float = 0.2
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``(b, l̂_k)`` (rows, ``b`` unit) at the specular peak of each image ``k``.
 
@@ -697,20 +706,11 @@ def uncalibrated(
     placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
     observations, _, mask = _prepare(images, placeholder, mask)
     gray = _gray(observations)
+    lights, gbr = None, None
     if cue in ("auto", "specular"):
-        level = np.percentile(gray, 99, axis=1, keepdims=True)
-        factor = robust_factorize(gray, gray > shadow_threshold * level)
-        b, lights_hat = specular_highlights(factor, gray)
-        if cue == "specular" and len(b) < 3:
-            raise ParameterError(
-                f"found specular highlights in {len(b)} images; the specular cue needs at "
-                "least 3 (a glossy object); for a matte one use the entropy or diffuse_maxima cue"
-            )
-        cue = "specular" if len(b) >= 3 else "entropy"
-    if cue == "specular":
-        lights = factor.lights @ np.linalg.inv(resolve_specular(factor, b, lights_hat, mask))
-        gbr = None
-    else:
+        lights = _specular_lights(gray, mask, shadow_threshold, required=cue == "specular")
+        cue = "specular" if lights is not None else "entropy"
+    if lights is None:
         lights, gbr = _integrable_lights(gray, mask, cue, shadow_threshold, sigma)
     intensity = np.linalg.norm(lights, axis=1)
     directions = lights / intensity[:, None]
@@ -758,3 +758,32 @@ def _integrable_lights(
         mu, nu, lam = -mu, -nu, -lam  # the concave reading: K -> diag(-1, -1, 1) K
         k = gbr_matrix(mu, nu, lam)
     return lights0 @ np.linalg.inv(k), (mu, nu, lam)  # rows of K^{-T} l
+
+
+def _specular_lights(
+    gray: np.ndarray, mask: np.ndarray, shadow_threshold: float, *, required: bool
+) -> np.ndarray | None:
+    """Lights ``(N, 3)`` (direction times relative intensity) from the specular cue; when not
+    ``required``, ``None`` where the images do not support it: fewer than 3 specular peaks,
+    intensities that cannot be equal, or peaks that the fitted lights leave more than
+    :data:`SPECULAR_CONSISTENCY` degrees (median) from their half vectors."""
+    level = np.percentile(gray, 99, axis=1, keepdims=True)
+    factor = robust_factorize(gray, gray > shadow_threshold * level)
+    b, lights_hat = specular_highlights(factor, gray)
+    if len(b) < 3:
+        if not required:
+            return None
+        raise ParameterError(
+            f"found specular highlights in {len(b)} images; the specular cue needs at least 3 "
+            "(a glossy object); for a matte one use the entropy or diffuse_maxima cue"
+        )
+    try:
+        a = resolve_specular(factor, b, lights_hat, mask)
+    except ParameterError:
+        if required:
+            raise
+        return None  # "auto": intensities far from equal, which the entropy cue does not need
+    residual = np.linalg.norm(_specular_residual(a, b, lights_hat).reshape(-1, 3), axis=1)
+    if not required and np.degrees(2 * np.arcsin(np.median(residual) / 2)) > SPECULAR_CONSISTENCY:
+        return None
+    return factor.lights @ np.linalg.inv(a)
