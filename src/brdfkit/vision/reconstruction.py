@@ -199,17 +199,19 @@ def _solve(
     from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
 
     progress(method, 0, None)
+    extra = {}
+    if method not in _WITHOUT_PROGRESS:
+        extra["callback"] = lambda done, total: progress(method, done, total)
     if not uncalibrated:
-        extra = {}
-        if method not in _WITHOUT_PROGRESS:
-            extra["callback"] = lambda done, total: progress(method, done, total)
         result = SOLVERS[method](data.images, data.light_directions, data.mask, **extra)
         return data, result, None, None
-    estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, method=method, sigma=sigma)
+    estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, sigma=sigma)
     cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
     light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    scaled = data.images / estimate.light_intensities.reshape(-1, 1, 1, 1)
+    result = SOLVERS[method](scaled, estimate.light_directions, data.mask, **extra)
     data = replace(data, light_directions=estimate.light_directions)
-    return data, estimate.result, light_error, estimate.cue
+    return data, result, light_error, estimate.cue
 
 
 def reconstruct(
@@ -235,9 +237,10 @@ def reconstruct(
     camera : ``(3, 3)`` intrinsics ``K`` for perspective integration
         (:func:`read_intrinsics`; ``least_squares`` integration only); orthographic when
         ``None``.
-    uncalibrated : estimate the lights from the images (Hayakawa's factorisation,
-        integrability, the GBR from ``gbr_cue``), then solve with ``method`` under them; the
-        data set's lights are only compared with the estimate.
+    uncalibrated : estimate the lights from the images
+        (:func:`~brdfkit.vision.uncalibrated.uncalibrated`, the ambiguity resolved by
+        ``gbr_cue``), then solve with ``method`` under them; the data set's lights are only
+        compared with the estimate.
     gbr_cue : a cue of :data:`brdfkit.vision.uncalibrated.CUES` (``"auto"``: the specular
         cue where the images show highlights, else entropy).
     sigma : smoothing in pixels of ``data`` before the integrability derivatives
