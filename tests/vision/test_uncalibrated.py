@@ -124,7 +124,8 @@ def test_specular_cue_is_refused_without_highlights_and_auto_falls_back():
 def test_robust_factorization_leaves_highlights_out():
     images, mask, _, lights = _glossy_gbr_sphere()
     gray = images[:, mask].mean(axis=-1)
-    factor = unc.robust_factorize(gray, gray > 0.05 * np.percentile(gray, 99, axis=1)[:, None])
+    lit = gray > 0.05 * np.percentile(gray, 99, axis=1)[:, None]
+    factor = unc.robust_factorize(gray, lit)
 
     # The factor is the true lights up to a linear map: the best one leaves 0.015° (measured)
     # of the robust factor, 0.57° of the plain rank-3 SVD of the same images.
@@ -134,7 +135,8 @@ def test_robust_factorization_leaves_highlights_out():
 
     assert best_linear_error(factor.lights) < 0.1
     assert best_linear_error(unc.factorize(gray)[0]) > 0.3
-    assert factor.known.all() and factor.residual.max() > 50 * factor.noise
+    assert factor.known.all() and factor.residual[lit].max() > 50 * factor.noise
+    assert len(unc.specular_highlights(factor, gray, lit)[0]) == len(lights)
 
 
 def test_convex_sign_is_chosen():

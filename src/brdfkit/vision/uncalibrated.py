@@ -440,7 +440,7 @@ class LambertianFactor:
     lights : (N, 3) the factor ``L``.
     pseudo_normals : (3, P) the factor ``B`` (zero where not ``known``).
     known : (P,) pixels with at least 6 inlying observations.
-    residual : (N, P) ``M - L B`` where the observation is usable (not in shadow), else 0.
+    residual : (N, P) ``M - L B``.
     noise : robust scale (1.4826 MAD) of the inlying residuals.
     """
 
@@ -456,7 +456,8 @@ def robust_factorize(
 ) -> LambertianFactor:
     """Rank-3 factorisation of ``(N, P)`` images with shadows and highlights left out.
 
-    Alternating least squares on the observations that are ``usable`` (not in shadow) and
+    Alternating least squares on the observations that are ``usable`` (neither in shadow nor
+    saturated) and
     inlying: each pixel's ``b`` from its inlying observations, then each light's ``l`` from
     its inlying pixels, until the inliers no longer change (at most ``iterations`` rounds).
     An observation is an outlier when its residual ``m - l.b`` exceeds
@@ -503,7 +504,7 @@ def robust_factorize(
         if np.array_equal(inliers, weight > 0):
             break
         weight = inliers.astype(np.float64)
-    return LambertianFactor(lights, b * known, known, np.where(usable, residual, 0.0), noise)
+    return LambertianFactor(lights, b * known, known, residual, noise)
 
 
 def _outer_rows(rows: np.ndarray) -> np.ndarray:
@@ -541,18 +542,19 @@ def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
 
 
 def specular_highlights(
-    factor: LambertianFactor, gray: np.ndarray, *, contrast: float = 0.2
+    factor: LambertianFactor, gray: np.ndarray, lit: np.ndarray, *, contrast: float = 0.2
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``(b, l̂_k)`` (rows, ``b`` unit) at the specular peak of each image ``k``.
 
-    The peak is the pixel of largest residual over the Lambertian fit (with its neighbours
+    The peak is the ``lit`` observation (``(N, P)``: not in shadow; saturated ones included)
+    of largest residual over the Lambertian fit (with its neighbours
     within 10 % of it, averaged by residual); an image has one when that residual exceeds
     ``contrast`` times the image's 99th percentile and 10 times the noise.
     """
     b = factor.pseudo_normals / np.maximum(np.linalg.norm(factor.pseudo_normals, axis=0), 1e-300)
     level = np.percentile(gray, 99, axis=1)
     b_rows, l_rows = [], []
-    for k, residual in enumerate(np.where(factor.known, factor.residual, 0.0)):
+    for k, residual in enumerate(np.where(factor.known & lit, factor.residual, 0.0)):
         peak = residual.max()
         if peak < max(contrast * level[k], 10 * factor.noise):
             continue
@@ -827,9 +829,10 @@ def _specular_lights(
     ``required``, ``None`` where the images do not support it: fewer than 3 specular peaks,
     intensities that cannot be equal, or peaks that the fitted lights leave more than
     :data:`SPECULAR_CONSISTENCY` degrees (median) from their half vectors."""
-    level = np.percentile(gray, 99, axis=1, keepdims=True)
-    factor = robust_factorize(gray, gray > shadow_threshold * level)
-    b, lights_hat = specular_highlights(factor, gray)
+    lit = gray > shadow_threshold * np.percentile(gray, 99, axis=1, keepdims=True)
+    saturated = gray >= 0.98 * gray.max(axis=1, keepdims=True)
+    factor = robust_factorize(gray, lit & ~saturated)
+    b, lights_hat = specular_highlights(factor, gray, lit)
     if len(b) < 3:
         if not required:
             return None
