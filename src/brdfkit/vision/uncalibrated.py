@@ -73,9 +73,9 @@ not robust.
 
 Measured on the DiLiGenT-layout renders of ``benchmarks/bench_uncalibrated.py`` (real DiLiGenT
 normals of bear, cat and pot1, every 8th pixel, 96 lights; median light error, mean over the
-objects): the specular cue gives ggx 0.05 0.30°, ggx 0.1 1.49°, ggx 0.3 3.13°, the Cornell
-acryl_blue, krylon_blue and garnet_red paints 2.8°, 2.7° and 5.7°, the RGL felt 2.6°, the
-cayman car paint 20°; shared bivariate under these lights comes within 0.1-2° of itself
+objects): the specular cue gives ggx 0.05 0.30°, ggx 0.1 1.38°, ggx 0.3 3.14°, the Cornell
+acryl_blue, krylon_blue and garnet_red paints 3.0°, 2.7° and 5.7°, the RGL felt 2.5°, the
+cayman car paint 21°; shared bivariate under these lights comes within 0.1-2° of itself
 under the true ones (better on two paints). On these renders the integrability step fails
 outright (the measured normal maps are far from integrable: their curl is 30-50 % of their
 derivatives), and so do the entropy and diffuse-maxima cues; the specular cue refuses cat
