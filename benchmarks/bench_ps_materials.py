@@ -24,7 +24,7 @@ import argparse
 import json
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -121,20 +121,13 @@ def main() -> None:
     print(table(records, args.methods, args.materials))
 
 
-def solve_all(
-    data_dir: Path,
-    objects: list[str],
-    step: int,
-    noise: float,
-    materials: list[str],
-    methods: dict[str, Callable[..., Any]],
-) -> list[dict[str, Any]]:
-    """Render every (object, material) and run every method on it: one record (and one JSON
-    line printed) per (object, material, method), in that order; the noise from one seeded
-    generator, so that every caller renders the same stacks."""
+def stacks(
+    data_dir: Path, objects: list[str], step: int, noise: float, materials: list[str]
+) -> Iterator[tuple[str, str, datasets.PhotometricStereoData]]:
+    """``(object, material, data)`` for every (object, material), in that order: the noise
+    from one seeded generator, so that every caller renders the same stacks."""
     rng = np.random.default_rng(0)
     lights = datasets.diligent_like_lights()
-    records = []
     for name in objects:
         gt = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
         normals, mask, depth = (a[::step, ::step] for a in (gt.normals, gt.mask, gt.depth))
@@ -145,23 +138,37 @@ def solve_all(
                 brdf = parse(ANALYTIC[material])
             else:
                 brdf = read(data_dir / "measured" / MEASURED[material])
-            data = render(brdf, normals, mask, lights, lit, noise, rng)
-            for method, solve in methods.items():
-                start = time.perf_counter()
-                result = solve(data.images, data.light_directions, data.mask)
-                seconds = time.perf_counter() - start
-                errors = angular_error(result.normals, data.normals, data.mask)
-                record = {
-                    "object": name,
-                    "material": material,
-                    "method": method,
-                    "pixels": int(mask.sum()),
-                    "mean_deg": round(errors["mean"], 3),
-                    "median_deg": round(errors["median"], 3),
-                    "seconds": round(seconds, 3),
-                }
-                records.append(record)
-                print(json.dumps(record), flush=True)
+            yield name, material, render(brdf, normals, mask, lights, lit, noise, rng)
+
+
+def solve_all(
+    data_dir: Path,
+    objects: list[str],
+    step: int,
+    noise: float,
+    materials: list[str],
+    methods: dict[str, Callable[..., Any]],
+) -> list[dict[str, Any]]:
+    """Run every method on every stack of :func:`stacks`: one record (and one JSON line
+    printed) per (object, material, method), in that order."""
+    records = []
+    for name, material, data in stacks(data_dir, objects, step, noise, materials):
+        for method, solve in methods.items():
+            start = time.perf_counter()
+            result = solve(data.images, data.light_directions, data.mask)
+            seconds = time.perf_counter() - start
+            errors = angular_error(result.normals, data.normals, data.mask)
+            record = {
+                "object": name,
+                "material": material,
+                "method": method,
+                "pixels": int(data.mask.sum()),
+                "mean_deg": round(errors["mean"], 3),
+                "median_deg": round(errors["median"], 3),
+                "seconds": round(seconds, 3),
+            }
+            records.append(record)
+            print(json.dumps(record), flush=True)
     return records
 
 

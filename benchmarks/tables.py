@@ -608,6 +608,66 @@ def ps_materials(r: dict) -> str:
     )  # fmt: skip
 
 
+def _uncalibrated_cell(records: list[dict], key: Any) -> str:
+    """Mean of ``key(record)`` over the records that did not fail; ``—`` when all failed, and
+    how many failed otherwise."""
+    values = [key(x) for x in records if "failed" not in x]
+    failed = len(records) - len(values)
+    if not values:
+        return "failed"
+    return f"{mean(values):.2f}" + (f" ({failed} failed)" if failed else "")
+
+
+def uncalibrated(r: dict) -> str:
+    cues, records = r["cues"], r["records"]
+    materials = list(dict.fromkeys(x["material"] for x in records))
+
+    def where(material: str, cue: str) -> list[dict]:
+        return [x for x in records if (x["material"], x["cue"]) == (material, cue)]
+
+    lights = [
+        [m, *(_uncalibrated_cell(where(m, c), lambda x: x["lights_median_deg"]) for c in cues)]
+        for m in materials
+    ]
+    columns = [("calibrated", "sparse_regression"), ("auto", "sparse_regression")]
+    columns += [("calibrated", "shared_bivariate")] + [(c, "shared_bivariate") for c in cues]
+    normals = [
+        [m, *(_uncalibrated_cell(where(m, c), lambda x, s=s: x["normals_mean_deg"][s])
+              for c, s in columns)]
+        for m in materials
+    ]  # fmt: skip
+    names = {"sparse_regression": "SR", "shared_bivariate": "SB"}
+    psm_objects = list(dict.fromkeys(x["psm"] for x in r["psm"]))
+    psm = [
+        [o, *(_uncalibrated_cell([x for x in r["psm"] if (x["psm"], x["cue"]) == (o, c)],
+                                 lambda x: x["lights_median_deg"]) for c in cues)]
+        for o in psm_objects
+    ]  # fmt: skip
+    gray = {x["cue"]: x for x in r["psm"] if x["psm"] == "gray" and "failed" not in x}
+    gray_normals = ", ".join(
+        f"{c} {x['normals_mean_deg']['least_squares']:.2f}" for c, x in gray.items()
+    )
+    used = sorted({(x["material"], x["cue_used"]) for x in records if x["cue"] == "auto"
+                   and "cue_used" in x})  # fmt: skip
+    auto = "; ".join(f"{m}: {c}" for m, c in used)
+    objects = f"{', '.join(r['objects'])} (every {r['step']}th pixel)"
+    return (
+        f"(a) Renders over {objects}: the lights' median angular error (°), mean over the "
+        "objects:\n\n"
+        + rows(["material", *cues], lights, "l" + "r" * len(cues))
+        + "\n\nThe normals' mean angular error (°) of sparse regression (SR, the default of "
+        "`brdfkit ps`) and shared bivariate (SB) with the true (calibrated) or the estimated "
+        "lights:\n\n"
+        + rows(["material", *(f"{c} {names[s]}" for c, s in columns)], normals,
+               "l" + "r" * len(columns))
+        + f"\n\n`auto` chose: {auto}.\n\n"
+        "(b) psm photographs (12 lights, 8-bit): the lights' median angular error (°) against "
+        "the chrome sphere's:\n\n"
+        + rows(["object", *cues], psm, "l" + "r" * len(cues))
+        + f"\n\nThe gray sphere's normals (least squares, mean °): {gray_normals}."
+    )  # fmt: skip
+
+
 def relighting(r: dict) -> str:
     means = r["means"]
     order = ("lambertian", "svbrdf_1", "svbrdf_2", "svbrdf_cv")
@@ -1022,6 +1082,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "photometric_stereo": photometric_stereo,
     "ps_materials": ps_materials,
     "bipolynomial": ps_materials,
+    "uncalibrated": uncalibrated,
     "vision_accuracy": vision_accuracy,
     "normal_integration": normal_integration,
     "sfs": sfs,

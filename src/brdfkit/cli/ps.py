@@ -77,7 +77,10 @@ _Uncalibrated = Annotated[
 _GbrCue = Annotated[
     str,
     typer.Option(
-        "--gbr-cue", metavar="CUE", help="With --uncalibrated: entropy or diffuse_maxima."
+        "--gbr-cue",
+        metavar="CUE",
+        help="With --uncalibrated: auto (specular where the images show highlights, else "
+        "entropy), specular, entropy or diffuse_maxima.",
     ),
 ]
 _Chunks = Annotated[
@@ -110,14 +113,15 @@ def ps_command(
     output: _Output = Path("ps"),
     as_json: _Json = False,
     uncalibrated: _Uncalibrated = False,
-    gbr_cue: _GbrCue = "entropy",
+    gbr_cue: _GbrCue = "auto",
     chunks: _Chunks = None,
 ) -> None:
     """Normals, albedo and depth from images under known lights; errors when ground truth exists.
 
-    With --uncalibrated the lights are estimated from the images (Hayakawa factorisation,
-    integrability, the GBR from --gbr-cue) and compared with the known ones (--chrome's or the
-    data set's): lights.txt then holds the estimate.
+    With --uncalibrated the lights are estimated from the images (Hayakawa factorisation, the
+    ambiguity resolved by --gbr-cue: the specular highlights, or integrability and a GBR cue)
+    and compared with the known ones (--chrome's or the data set's): lights.txt then holds the
+    estimate.
 
     Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
     depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);

@@ -193,21 +193,25 @@ def _solve(
     gbr_cue: str,
     sigma: float,
     progress: Progress,
-) -> tuple[PhotometricStereoData, PhotometricStereoResult, np.ndarray | None]:
-    """The normals and albedo; with ``uncalibrated``, the data set with the estimated lights and
-    their angles in degrees to the given ones."""
+) -> tuple[PhotometricStereoData, PhotometricStereoResult, np.ndarray | None, str | None]:
+    """The normals and albedo; with ``uncalibrated``, the data set with the estimated lights,
+    their angles in degrees to the given ones and the GBR cue used."""
     from brdfkit.vision.uncalibrated import uncalibrated as solve_uncalibrated
 
     progress(method, 0, None)
+    extra = {}
+    if method not in _WITHOUT_PROGRESS:
+        extra["callback"] = lambda done, total: progress(method, done, total)
     if not uncalibrated:
-        extra = {}
-        if method not in _WITHOUT_PROGRESS:
-            extra["callback"] = lambda done, total: progress(method, done, total)
-        return data, SOLVERS[method](data.images, data.light_directions, data.mask, **extra), None
-    estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, method=method, sigma=sigma)
+        result = SOLVERS[method](data.images, data.light_directions, data.mask, **extra)
+        return data, result, None, None
+    estimate = solve_uncalibrated(data.images, data.mask, cue=gbr_cue, sigma=sigma)
     cosine = np.sum(estimate.light_directions * data.light_directions, axis=1)
     light_error = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
-    return replace(data, light_directions=estimate.light_directions), estimate.result, light_error
+    scaled = data.images / estimate.light_intensities.reshape(-1, 1, 1, 1)
+    result = SOLVERS[method](scaled, estimate.light_directions, data.mask, **extra)
+    data = replace(data, light_directions=estimate.light_directions)
+    return data, result, light_error, estimate.cue
 
 
 def reconstruct(
@@ -217,7 +221,7 @@ def reconstruct(
     integration: str = "least_squares",
     camera: np.ndarray | None = None,
     uncalibrated: bool = False,
-    gbr_cue: str = "entropy",
+    gbr_cue: str = "auto",
     sigma: float = 1.0,
     progress: Progress | None = None,
 ) -> Reconstruction:
@@ -233,10 +237,12 @@ def reconstruct(
     camera : ``(3, 3)`` intrinsics ``K`` for perspective integration
         (:func:`read_intrinsics`; ``least_squares`` integration only); orthographic when
         ``None``.
-    uncalibrated : estimate the lights from the images (Hayakawa's factorisation,
-        integrability, the GBR from ``gbr_cue``), then solve with ``method`` under them; the
-        data set's lights are only compared with the estimate.
-    gbr_cue : a cue of :data:`brdfkit.vision.uncalibrated.CUES`.
+    uncalibrated : estimate the lights from the images
+        (:func:`~brdfkit.vision.uncalibrated.uncalibrated`, the ambiguity resolved by
+        ``gbr_cue``), then solve with ``method`` under them; the data set's lights are only
+        compared with the estimate.
+    gbr_cue : a cue of :data:`brdfkit.vision.uncalibrated.CUES` (``"auto"``: the specular
+        cue where the images show highlights, else entropy).
     sigma : smoothing in pixels of ``data`` before the integrability derivatives
         (``uncalibrated`` only).
     progress : ``progress(stage, done, total)`` as the work advances (:data:`Progress`).
@@ -266,7 +272,7 @@ def reconstruct(
     """
     _check_choices(method, integration, camera)
     report = progress if progress is not None else (lambda stage, done, total: None)
-    data, result, light_error = _solve(data, method, uncalibrated, gbr_cue, sigma, report)
+    data, result, light_error, cue = _solve(data, method, uncalibrated, gbr_cue, sigma, report)
     report(f"integrating ({integration})", 0, None)
     integrator = integration_methods.METHODS[integration]
     perspective = () if camera is None else (camera,)
@@ -284,5 +290,5 @@ def reconstruct(
         }
     return Reconstruction(
         data, method, integration, result, depth, mesh, light_error,
-        gbr_cue if uncalibrated else None, **errors,
+        cue, **errors,
     )  # fmt: skip

@@ -30,6 +30,25 @@ pseudo-normals ``b = rho n``). The pipeline:
    convex/concave ambiguity, which no image cue resolves) is chosen so that the normals next
    to the mask's occluding contour point outwards.
 
+4. **Specular highlights** (Drbohlav & Šára 2002; Georghiades 2003), the cue for glossy
+   objects, which needs no integrability. The rank-3 factor is fitted robustly first
+   (:func:`robust_factorize`: alternating least squares on the observations that shadows and
+   highlights leave alone; a specular lobe only adds to the Lambertian part, so outliers are
+   one-sided). With lights of equal intensity (DiLiGenT's images are divided by theirs)
+   ``|A^{-T} l̂_k| = 1`` is linear in ``C = A^{-1} A^{-T}`` (Hayakawa 1994), which fixes ``A``
+   up to a rotation ``R``. Where image ``k``'s specular lobe peaks, the normal is the half
+   vector of the light and the orthographic view ``v = (0, 0, 1)``:
+
+   ``A b / |A b| = h_k = (l_k + v) / |l_k + v|``, ``l_k = A^{-T} l̂_k / |A^{-T} l̂_k|``,
+
+   which a rotation about ``v`` leaves unchanged: the peaks fix the two tilt angles of ``R``
+   (robust least squares over dozens of peaks, one per image). The rotation about the view,
+   and the mirror image that explains the images and the peaks equally well, follow from the
+   occluding contour, where the normal is horizontal and points out of the silhouette.
+   ``"auto"`` (the default) takes this cue where at least 3 images show a highlight and the
+   fitted lights put the peaks within :data:`SPECULAR_CONSISTENCY` of their half vectors,
+   else the entropy cue.
+
 Finally the recovered lights (direction and relative intensity) go to a calibrated solver of
 :mod:`brdfkit.vision.photometric_stereo`, which estimates the normals at every pixel, shadowed
 ones included.
@@ -52,6 +71,20 @@ depending on these choices, while the rank-3 factorisation itself admits lights 
 (the best general linear map): the factorisation is sound, integrability on real 8-bit data is
 not robust.
 
+Measured on the DiLiGenT-layout renders of ``benchmarks/bench_uncalibrated.py`` (real DiLiGenT
+normals of bear, cat and pot1, every 8th pixel, 96 lights; median light error, mean over the
+objects): the specular cue gives ggx 0.05 0.30°, ggx 0.1 1.38°, ggx 0.3 3.14°, the Cornell
+acryl_blue, krylon_blue and garnet_red paints 3.0°, 2.7° and 5.7°, the RGL felt 2.5°, the
+cayman car paint 21°; shared bivariate under these lights comes within 0.1-2° of itself
+under the true ones (better on two paints). On these renders the integrability step fails
+outright (the measured normal maps are far from integrable: their curl is 30-50 % of their
+derivatives), and so do the entropy and diffuse-maxima cues; the specular cue refuses cat
+under ggx 0.05 and acryl_blue (its factor admits no equal intensities at 694 pixels). Its
+limits: lights of equal (or known) intensity, a visible occluding contour, and peaks where the
+lobe peaks at the half vector (a broad lobe's peak shifts towards the light, hence ggx 0.3's
+3°). On the psm photographs (lights of unequal intensity) ``"auto"`` finds no consistent
+highlights and takes the entropy cue.
+
 References
 ----------
 .. [1] H. Hayakawa, "Photometric stereo under a light source with arbitrary motion", JOSA A
@@ -66,6 +99,10 @@ References
    photometric stereo via diffuse maxima", CVPR 2012).
 .. [5] N. G. Alldrin, S. P. Mallick, D. J. Kriegman, "Resolving the generalized bas-relief
    ambiguity by entropy minimization", CVPR 2007.
+.. [6] O. Drbohlav, R. Šára, "Specularities reduce ambiguity of uncalibrated photometric
+   stereo", ECCV 2002, 46-60.
+.. [7] A. S. Georghiades, "Incorporating the Torrance and Sparrow model of reflectance in
+   uncalibrated photometric stereo", ICCV 2003, 816-823.
 """
 
 from __future__ import annotations
@@ -77,12 +114,19 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit.errors import ParameterError
+from brdfkit.geometry import half_vector
 from brdfkit.vision import photometric_stereo
 from brdfkit.vision.photometric_stereo import PhotometricStereoResult, _gray, _prepare
 
-Cue = Literal["diffuse_maxima", "entropy"]
-CUES: tuple[str, ...] = ("diffuse_maxima", "entropy")
+Cue = Literal["auto", "specular", "diffuse_maxima", "entropy"]
+CUES: tuple[str, ...] = ("auto", "specular", "diffuse_maxima", "entropy")
 """The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
+
+SPECULAR_CONSISTENCY = 20.0
+"""Degrees: the ``"auto"`` cue takes the specular cue's lights when the median angle between
+its peaks' normals and their half vectors is at most this. On the glossy renders of
+``benchmarks/bench_uncalibrated.py`` it is 1.8-16° where the lights come out within 10°, and
+20-29° on the car paint (cayman), whose lights come out 12-31° off."""
 
 
 @dataclass(frozen=True)
@@ -95,13 +139,16 @@ class UncalibratedResult:
     light_intensities : (N,) relative intensities, median 1 (the overall scale is unknowable).
     result : the calibrated solve with those lights (normals, albedo, mask).
     gbr : ``(mu, nu, lambda)`` of the GBR transformation the cue chose, applied after the
-        integrability step.
+        integrability step; ``None`` for the specular cue, which resolves the whole linear
+        ambiguity without integrability.
+    cue : the cue that resolved the ambiguity (``"auto"`` resolved to one of the others).
     """
 
     light_directions: np.ndarray
     light_intensities: np.ndarray
     result: PhotometricStereoResult
-    gbr: tuple[float, float, float]
+    gbr: tuple[float, float, float] | None
+    cue: str
 
 
 def gbr_matrix(mu: float, nu: float, lam: float) -> np.ndarray:
@@ -384,6 +431,255 @@ def resolve_gbr_entropy(
     return float(mu), float(nu), float(np.exp(log_lam))
 
 
+@dataclass(frozen=True)
+class LambertianFactor:
+    """Output of :func:`robust_factorize`: ``M ≈ L B`` on the inlying observations.
+
+    Attributes
+    ----------
+    lights : (N, 3) the factor ``L``.
+    pseudo_normals : (3, P) the factor ``B`` (zero where not ``known``).
+    known : (P,) pixels with at least 6 inlying observations.
+    residual : (N, P) ``M - L B``.
+    noise : robust scale (1.4826 MAD) of the inlying residuals.
+    """
+
+    lights: np.ndarray
+    pseudo_normals: np.ndarray
+    known: np.ndarray
+    residual: np.ndarray
+    noise: float
+
+
+def robust_factorize(
+    gray: np.ndarray, usable: np.ndarray, *, threshold: float = 2.0, iterations: int = 30
+) -> LambertianFactor:
+    """Rank-3 factorisation of ``(N, P)`` images with shadows and highlights left out.
+
+    Alternating least squares on the observations that are ``usable`` (neither in shadow nor
+    saturated) and
+    inlying: each pixel's ``b`` from its inlying observations, then each light's ``l`` from
+    its inlying pixels, until the inliers no longer change (at most ``iterations`` rounds).
+    An observation is an outlier when its residual ``m - l.b`` exceeds
+    ``threshold`` times the robust scale of the residuals: one-sided, since a specular lobe
+    only adds to the Lambertian part, so the fit settles on the lower envelope. Starts from
+    :func:`factorize` of ``M`` with the unusable observations zeroed and each image clipped at
+    its 90th percentile, the brighter observations left out of the first round (so that the
+    first fit is not drawn to the highlights). An image with fewer than 6 inlying pixels gets
+    its light from all its usable ones.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 10 pixels usable in 6 or more images.
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994 (the factorisation); the alternation is that of
+    low-rank matrix completion (e.g. Buchanan & Fitzgibbon, CVPR 2005).
+    """
+    lit_enough = int(np.count_nonzero(usable.sum(0) >= 6))
+    if lit_enough < 10:
+        raise ParameterError(
+            f"only {lit_enough} pixels are lit in 6 or more images; the factorisation needs at "
+            "least 10 (lower shadow_threshold, or use a larger mask)"
+        )
+    bright = np.array([[np.percentile(row[lit], 90) if lit.any() else 0.0]
+                       for row, lit in zip(gray, usable, strict=True)])  # fmt: skip
+    weight = (usable & (gray <= bright)).astype(np.float64)
+    lights, b = factorize(np.minimum(gray, bright) * usable)
+    for _ in range(iterations):
+        gram = (weight.T @ _outer_rows(lights)).reshape(-1, 3, 3)
+        moment = (weight * gray).T @ lights
+        known = (weight.sum(0) >= 6) & (np.linalg.det(gram) > 1e-9 * np.trace(gram, 0, 1, 2) ** 3)
+        b = np.zeros((3, gray.shape[1]))
+        b[:, known] = np.linalg.solve(gram[known], moment[known][..., None])[..., 0].T
+        per_light = np.where(weight.sum(1, keepdims=True) >= 6, weight, usable * known)
+        gram = (per_light @ _outer_rows(b.T)).reshape(-1, 3, 3)
+        moment = (per_light * gray) @ b.T
+        lights = (np.linalg.pinv(gram) @ moment[..., None])[..., 0]
+        residual = gray - lights @ b
+        noise = 1.4826 * float(np.median(np.abs(residual[usable & known])))
+        inliers = usable & (residual <= threshold * noise)
+        if np.array_equal(inliers, weight > 0):
+            break
+        weight = inliers.astype(np.float64)
+    return LambertianFactor(lights, b * known, known, residual, noise)
+
+
+def _outer_rows(rows: np.ndarray) -> np.ndarray:
+    """``(M, 9)``: each row's outer product with itself, flattened."""
+    return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 9)
+
+
+def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
+    """``A_0`` with ``A = R A_0`` (``R`` orthogonal) when every light has the same intensity.
+
+    The true lights are ``l_k = A^{-T} l̂_k``; equal intensities ``|l_k| = 1`` give
+    ``l̂_k^T C l̂_k = 1`` with ``C = A^{-1} A^{-T}`` symmetric: 6 unknowns, linear least
+    squares over the ``N`` lights (Hayakawa 1994, §4). ``C = W W^T`` fixes ``A_0 = W^{-1}``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``C`` is not positive definite (the intensities are far from equal).
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994, §4.
+    """
+    x, y, z = lights_hat.T
+    rows = np.stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z], axis=1)
+    c = np.linalg.lstsq(rows, np.ones(len(lights_hat)), rcond=None)[0]
+    metric = np.array([[c[0], c[3], c[4]], [c[3], c[1], c[5]], [c[4], c[5], c[2]]])
+    eigenvalues, vectors = np.linalg.eigh(metric)
+    if eigenvalues[0] <= 1e-9 * eigenvalues[-1]:
+        raise ParameterError(
+            "the specular cue needs lights of equal intensity (or images divided by them); "
+            "these images admit none"
+        )
+    return np.linalg.inv(vectors * np.sqrt(eigenvalues))
+
+
+def specular_highlights(
+    factor: LambertianFactor, gray: np.ndarray, lit: np.ndarray, *, contrast: float = 0.2
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(b, l̂_k)`` (rows, ``b`` unit) at the specular peak of each image ``k``.
+
+    The peak is the ``lit`` observation (``(N, P)``: not in shadow; saturated ones included)
+    of largest residual over the Lambertian fit (with its neighbours
+    within 10 % of it, averaged by residual); an image has one when that residual exceeds
+    ``contrast`` times the image's 99th percentile and 10 times the noise.
+    """
+    b = factor.pseudo_normals / np.maximum(np.linalg.norm(factor.pseudo_normals, axis=0), 1e-300)
+    level = np.percentile(gray, 99, axis=1)
+    b_rows, l_rows = [], []
+    for k, residual in enumerate(np.where(factor.known & lit, factor.residual, 0.0)):
+        peak = residual.max()
+        if peak < max(contrast * level[k], 10 * factor.noise):
+            continue
+        near = residual >= 0.9 * peak
+        centre = b[:, near] @ residual[near]
+        b_rows.append(centre / np.linalg.norm(centre))
+        l_rows.append(factor.lights[k])
+    return np.reshape(b_rows, (-1, 3)), np.reshape(l_rows, (-1, 3))
+
+
+def _specular_residual(a: np.ndarray, b: np.ndarray, lights_hat: np.ndarray) -> np.ndarray:
+    """``n - h`` (flattened) with ``n = A b / |A b|`` and ``h`` the half vector of
+    ``A^{-T} l̂`` and the view ``(0, 0, 1)``."""
+    n = b @ a.T
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    light = lights_hat @ np.linalg.inv(a)
+    light /= np.linalg.norm(light, axis=1, keepdims=True)
+    return (n - half_vector(light, np.array([0.0, 0.0, 1.0]))).ravel()
+
+
+def _tilt(x: np.ndarray) -> np.ndarray:
+    """The rotation by ``|x|`` about the axis ``(x_0, x_1, 0)``."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec([x[0], x[1], 0.0]).as_matrix()
+
+
+def resolve_tilt_specular(
+    a_0: np.ndarray, b: np.ndarray, lights_hat: np.ndarray, *, scale: float = 0.02
+) -> np.ndarray:
+    """``T A_0`` with the tilt ``T`` that puts the normals of the specular peaks on the half
+    vectors of their lights and the view (Drbohlav & Šára 2002).
+
+    At image ``k``'s specular peak ``n = h_k = (l_k + v) / |l_k + v|``, ``v = (0, 0, 1)``;
+    with ``n ∝ A b`` and ``l_k ∝ A^{-T} l̂_k`` and ``A = R A_0``
+    (:func:`equal_intensity_metric`), a rotation about ``v`` leaves every such equation as it
+    is, so the peaks fix the two angles of the tilt ``T`` (a rotation about an axis in the
+    image plane): a grid over tilts up to 80° (10° by 20°), then robust least squares
+    (soft-L1 of ``scale``, about 1°) from the three best.
+
+    References
+    ----------
+    O. Drbohlav, R. Šára, "Specularities reduce ambiguity of uncalibrated photometric
+    stereo", ECCV 2002; A. S. Georghiades, ICCV 2003.
+    """
+    from scipy.optimize import least_squares
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        return _specular_residual(_tilt(x) @ a_0, b, lights_hat)
+
+    grid = [
+        angle * np.array([np.cos(azimuth), np.sin(azimuth)])
+        for angle in np.radians(np.arange(0, 81, 10))
+        for azimuth in np.radians(np.arange(0, 360, 20))
+    ]
+    costs = [float(np.median(residual(x).reshape(-1, 3) ** 2 @ np.ones(3))) for x in grid]
+    starts = [grid[i] for i in np.argsort(costs)[:3]]
+    fits = [least_squares(residual, x, loss="soft_l1", f_scale=scale) for x in starts]
+    return _tilt(min(fits, key=lambda fit: fit.cost).x) @ a_0
+
+
+def rim_rotation(normals: np.ndarray, mask: np.ndarray, known: np.ndarray, width: int = 3):
+    """The rotation ``phi`` about the view that best turns the normals within ``width`` pixels
+    of the mask's edge to the contour's outward direction, and how well (0-1).
+
+    At an occluding contour the normal is perpendicular to the view and points out of the
+    silhouette. ``phi`` is the circular mean of (outward azimuth - normal azimuth) weighted by
+    ``|n_xy|``; the concentration is the length of that mean (1: every rim normal agrees).
+    """
+    from scipy import ndimage
+
+    distance = ndimage.distance_transform_edt(mask)
+    rim = known & (distance <= width)
+    grad_row, grad_col = np.gradient(ndimage.gaussian_filter(distance, 1.0))
+    outward = np.arctan2(grad_row[rim], -grad_col[rim])  # x right, y up: y is minus the row
+    n = normals[rim]
+    weight = np.hypot(n[:, 0], n[:, 1])
+    mean = np.sum(weight * np.exp(1j * (outward - np.arctan2(n[:, 1], n[:, 0]))))
+    return float(np.angle(mean)), float(abs(mean) / max(weight.sum(), 1e-300))
+
+
+def resolve_specular(
+    factor: LambertianFactor, b: np.ndarray, lights_hat: np.ndarray, mask: np.ndarray
+) -> np.ndarray:
+    """``A`` (3, 3) with lights ``A^{-T} l̂`` and pseudo-normals ``A b̂``, from the specular
+    peaks: no integrability, no GBR.
+
+    The metric of equal intensities (:func:`equal_intensity_metric`) gives ``A`` up to a
+    rotation ``R``; the specular peaks ``(b, l̂)`` (:func:`specular_highlights`) fix its tilt
+    (:func:`resolve_tilt_specular`); the occluding contour its rotation about the view
+    (:func:`rim_rotation`), and which of ``A`` and its mirror image ``diag(-1, 1, 1) A``
+    (both explain the images and the peaks) turns the rim normals outwards more consistently.
+
+    Parameters
+    ----------
+    factor : :func:`robust_factorize` of the object's pixels.
+    b, lights_hat : the specular peaks' pseudo-normals and lights (rows).
+    mask : (H, W) the object, whose pixels ``factor`` holds in row-major order.
+
+    References
+    ----------
+    O. Drbohlav, R. Šára, ECCV 2002; H. Hayakawa, JOSA A 11(11), 1994.
+    """
+    a_0 = equal_intensity_metric(factor.lights)
+    known = np.zeros(mask.shape, bool)
+    known.flat[np.flatnonzero(mask)[factor.known]] = True
+    best = (-1.0, a_0)
+    for mirror in (np.eye(3), np.diag([-1.0, 1.0, 1.0])):
+        a = resolve_tilt_specular(mirror @ a_0, b, lights_hat)
+        pseudo = a @ factor.pseudo_normals[:, factor.known]
+        a *= np.sign(np.median(pseudo[2]))  # b -> -b, l -> -l: normals face the camera
+        normals = np.zeros((*mask.shape, 3))
+        normals[known] = (a @ factor.pseudo_normals[:, factor.known]).T
+        normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-300)
+        phi, agreement = rim_rotation(normals, mask, known)
+        if agreement > best[0]:
+            best = (agreement, _rotation_z(phi) @ a)
+    return best[1]
+
+
+def _rotation_z(phi: float) -> np.ndarray:
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def _outward_sign(normals: np.ndarray, mask: np.ndarray, width: int = 6) -> float:
     """``+1`` when the normals within ``width`` pixels of the mask's edge point outwards on
     average (x right, y up), ``-1`` otherwise: the convex reading of the bas-relief sign."""
@@ -401,26 +697,30 @@ def uncalibrated(
     images: ArrayLike,
     mask: ArrayLike | None = None,
     *,
-    cue: Cue = "diffuse_maxima",
+    cue: Cue = "auto",
     method: str = "least_squares",
     shadow_threshold: float = 0.05,
     sigma: float = 1.0,
 ) -> UncalibratedResult:
-    """Uncalibrated Lambertian photometric stereo: lights, then normals and albedo.
+    """Uncalibrated photometric stereo: lights, then normals and albedo.
 
-    Factorisation of the fully lit pixels (:func:`factorize`), integrability
+    With ``cue="specular"``: the robust factorisation (:func:`robust_factorize`), the metric
+    of equal intensities and the specular peaks (:func:`resolve_specular`). With the GBR cues:
+    factorisation of the fully lit pixels (:func:`factorize`), integrability
     (:func:`integrability_transform`), the GBR from ``cue``
-    (:func:`resolve_gbr_diffuse_maxima` or :func:`resolve_gbr_entropy`), the convex sign, and
-    the calibrated ``method`` of :data:`brdfkit.vision.photometric_stereo.METHODS` run with
-    the lights found (the images divided by the relative intensities).
+    (:func:`resolve_gbr_diffuse_maxima` or :func:`resolve_gbr_entropy`) and the convex sign.
+    Then the calibrated ``method`` of :data:`brdfkit.vision.photometric_stereo.METHODS` run
+    with the lights found (the images divided by the relative intensities).
 
     Parameters
     ----------
     images : (N, H, W) or (N, H, W, C) linear images, N >= 3 lights of unknown direction and
         intensity.
     mask : (H, W) bool, the object; all pixels when omitted.
-    cue : ``"diffuse_maxima"`` (closed form, any albedo that is locally uniform) or
-        ``"entropy"`` (objects of few albedos).
+    cue : ``"specular"`` (glossy objects, lights of equal intensity), ``"diffuse_maxima"``
+        (closed form, any albedo that is locally uniform), ``"entropy"`` (objects of few
+        albedos) or ``"auto"``: specular where the highlights are consistent, else entropy
+        (the cue used is :attr:`UncalibratedResult.cue`).
     method : the calibrated solver for the final normals.
     shadow_threshold : see :func:`lit_everywhere`.
     sigma : smoothing (pixels) before the integrability derivatives
@@ -438,7 +738,25 @@ def uncalibrated(
     References
     ----------
     See the module: Hayakawa 1994; Yuille & Snow 1997; Belhumeur et al. 1999; Papadhimitri &
-    Favaro 2014; Alldrin et al. 2007.
+    Favaro 2014; Alldrin et al. 2007; Drbohlav & Šára 2002; Georghiades 2003.
+
+    Examples
+    --------
+    A glossy sphere under 20 lights of unknown direction: the highlights fix them.
+
+    >>> import numpy as np
+    >>> from brdfkit.vision import datasets, photometric_stereo
+    >>> normals, mask = photometric_stereo.sphere_normals((40, 40), (19.5, 19.5), 18.0)
+    >>> lights = datasets.diligent_like_lights(5, 4, np.radians(40))
+    >>> data = datasets.render_synthetic(
+    ...     normals, mask, lights, albedo=0.5, specular=0.3, shininess=400
+    ... )
+    >>> estimate = uncalibrated(data.images, mask)
+    >>> estimate.cue
+    'specular'
+    >>> cosine = np.sum(estimate.light_directions * lights, axis=1).clip(-1.0, 1.0)
+    >>> bool(np.degrees(np.arccos(cosine)).max() < 0.5)
+    True
     """
     if cue not in CUES:
         raise ParameterError(f"cue must be one of {', '.join(CUES)}; got {cue!r}")
@@ -450,6 +768,27 @@ def uncalibrated(
     placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
     observations, _, mask = _prepare(images, placeholder, mask)
     gray = _gray(observations)
+    lights, gbr = None, None
+    if cue in ("auto", "specular"):
+        lights = _specular_lights(gray, mask, shadow_threshold, required=cue == "specular")
+        cue = "specular" if lights is not None else "entropy"
+    if lights is None:
+        lights, gbr = _integrable_lights(gray, mask, cue, shadow_threshold, sigma)
+    intensity = np.linalg.norm(lights, axis=1)
+    directions = lights / intensity[:, None]
+    intensity = intensity / np.median(intensity)
+    shape = (-1,) + (1,) * (images.ndim - 1)
+    scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
+    result = photometric_stereo.METHODS[method](scaled, directions, mask)
+    return UncalibratedResult(directions, intensity, result, gbr, cue)
+
+
+def _integrable_lights(
+    gray: np.ndarray, mask: np.ndarray, cue: str, shadow_threshold: float, sigma: float
+) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """Lights ``(N, 3)`` (direction times relative intensity) and the GBR from the fully lit
+    pixels: factorisation, integrability, the GBR from ``cue``, the convex sign."""
+    n_lights = len(gray)
     lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
     if lit.sum() < 10:
         raise ParameterError(
@@ -480,11 +819,34 @@ def uncalibrated(
     if _outward_sign(np.einsum("ij,hwj->hwi", k, b0_map), lit_map) < 0:
         mu, nu, lam = -mu, -nu, -lam  # the concave reading: K -> diag(-1, -1, 1) K
         k = gbr_matrix(mu, nu, lam)
-    lights = lights0 @ np.linalg.inv(k)  # rows of K^{-T} l
-    intensity = np.linalg.norm(lights, axis=1)
-    directions = lights / intensity[:, None]
-    intensity = intensity / np.median(intensity)
-    shape = (-1,) + (1,) * (images.ndim - 1)
-    scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
-    result = photometric_stereo.METHODS[method](scaled, directions, mask)
-    return UncalibratedResult(directions, intensity, result, (mu, nu, lam))
+    return lights0 @ np.linalg.inv(k), (mu, nu, lam)  # rows of K^{-T} l
+
+
+def _specular_lights(
+    gray: np.ndarray, mask: np.ndarray, shadow_threshold: float, *, required: bool
+) -> np.ndarray | None:
+    """Lights ``(N, 3)`` (direction times relative intensity) from the specular cue; when not
+    ``required``, ``None`` where the images do not support it: fewer than 3 specular peaks,
+    intensities that cannot be equal, or peaks that the fitted lights leave more than
+    :data:`SPECULAR_CONSISTENCY` degrees (median) from their half vectors."""
+    lit = gray > shadow_threshold * np.percentile(gray, 99, axis=1, keepdims=True)
+    saturated = gray >= 0.98 * gray.max(axis=1, keepdims=True)
+    factor = robust_factorize(gray, lit & ~saturated)
+    b, lights_hat = specular_highlights(factor, gray, lit)
+    if len(b) < 3:
+        if not required:
+            return None
+        raise ParameterError(
+            f"found specular highlights in {len(b)} images; the specular cue needs at least 3 "
+            "(a glossy object); for a matte one use the entropy or diffuse_maxima cue"
+        )
+    try:
+        a = resolve_specular(factor, b, lights_hat, mask)
+    except ParameterError:
+        if required:
+            raise
+        return None  # "auto": intensities far from equal, which the entropy cue does not need
+    residual = np.linalg.norm(_specular_residual(a, b, lights_hat).reshape(-1, 3), axis=1)
+    if not required and np.degrees(2 * np.arcsin(np.median(residual) / 2)) > SPECULAR_CONSISTENCY:
+        return None
+    return factor.lights @ np.linalg.inv(a)
