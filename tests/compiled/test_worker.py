@@ -13,6 +13,7 @@ import pytest
 
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import worker
+from brdfkit.render import compiled_shading
 
 
 @pytest.fixture(autouse=True)
@@ -25,6 +26,25 @@ def test_a_worker_runs_its_call_and_reports_success():
         assert job.wait()
     with worker.start("math", "sqrt", -1.0) as job:  # raises in the worker
         assert not job.wait()
+
+
+def test_the_tile_kernels_worker_compiles_without_the_packages_marked_absent():
+    """numba's first compile checks for SciPy's BLAS: without SciPy it still compiles, and an
+    import of a package marked absent fails in the worker."""
+    code = textwrap.dedent(
+        """
+        import numba
+        assert numba.njit(lambda x: x + 1)(1) == 2
+        try:
+            import scipy
+        except ImportError:
+            pass
+        else:
+            raise SystemExit(1)
+        """
+    )
+    with worker.start("builtins", "exec", code, absent=compiled_shading._NOT_FOR_KERNELS) as job:
+        assert job.wait()
 
 
 def test_leaving_the_context_ends_a_running_worker():

@@ -375,7 +375,7 @@ def test_a_build_starts_a_worker_only_for_a_tile_kernel_it_lacks(monkeypatch):
     from brdfkit.render import compiled_shading
 
     started = []
-    monkeypatch.setattr(worker, "start", lambda *a: started.append(a))
+    monkeypatch.setattr(worker, "start", lambda *a, **options: started.append((a, options)))
     built = {(np.float32, 3, 3, False)}
     monkeypatch.setattr(compiled_shading, "tile_kernel_built", lambda *a: a in built)
     env, grey = _map(), EnvironmentMap(np.ones((8, 16, 1)))
@@ -383,9 +383,8 @@ def test_a_build_starts_a_worker_only_for_a_tile_kernel_it_lacks(monkeypatch):
         assert found is None and started == []
     with compiled_shading._tile_worker(GOLD, [grey], "auto", np.dtype(np.float64)):
         pass
-    assert started == [
-        ("brdfkit.render._reflection_kernels", "build_tile_kernel", "float64", 3, 1, False)
-    ]
+    call = ("brdfkit.render._reflection_kernels", "build_tile_kernel", "float64", 3, 1, False)
+    assert started == [(call, {"absent": ("scipy",)})]
     assert compiled_shading._tile_worker(Lambertian(0.5), [env], "auto", np.dtype("f4"))
 
 

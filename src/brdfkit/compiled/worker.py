@@ -92,11 +92,15 @@ def _stop_running() -> None:
         worker.stop()
 
 
-def start(module: str, function: str, *arguments: Any) -> Worker | None:
+def start(
+    module: str, function: str, *arguments: Any, absent: tuple[str, ...] = ()
+) -> Worker | None:
     """Start a process calling ``module.function(*arguments)`` (Python literals) with this
-    process's brdfkit and kernel cache folder; ``None`` (nothing started) where the cache is
-    off or cannot be written, the machine is busy (:data:`BUSY_LOAD`) or the process cannot
-    be started."""
+    process's brdfkit and kernel cache folder, the top-level packages ``absent`` marked as
+    not installed there (an import of one raises :class:`ImportError`: for optional packages
+    the call does not need but its imports would load); ``None`` (nothing started) where the
+    cache is off or cannot be written, the machine is busy (:data:`BUSY_LOAD`) or the process
+    cannot be started."""
     folder = kernel_cache.root()
     if folder is None or kernel_cache.directory() is None or _busy():
         return None
@@ -109,6 +113,7 @@ def start(module: str, function: str, *arguments: Any) -> Worker | None:
     }
     call = f"{function}(*{arguments!r})"
     statement = (
+        f"import sys; sys.modules.update(dict.fromkeys({absent!r})); "
         f"from brdfkit.compiled.worker import serve; serve({os.getpid()}); "
         f"from {module} import {function}; {call}"
     )

@@ -246,8 +246,9 @@ def _texel_sampler(tools: Any) -> Callable[..., None]:
                       height: int, width: int, nb: int, rows: np.ndarray, cols: np.ndarray,
                       base: np.ndarray) -> None:  # fmt: skip
         row_buckets, col_buckets = row_guide.shape[0], col_guide.shape[0] // height
+        first = np.int64(0)  # not a literal 0: both searches compile to one function
         for j in range(nb):
-            row = guided_interval(marginal, 0, row_guide, 0, row_buckets, b[j], height)
+            row = guided_interval(marginal, first, row_guide, first, row_buckets, b[j], height)
             rows[j], base[j] = row, row * (width + 1)
         for j in range(nb):
             start = rows[j] * col_buckets

@@ -591,12 +591,14 @@ def kernels_built(
     structure: any model that differs from it in parameter values only, or for the object)
     or in the disk cache (:mod:`brdfkit.compiled.cache`: loading them compiles nothing), for a
     map of ``map_channels`` channels (``None``: 1 or 3); with ``shadows`` the recording tile
-    kernel of the shadowed path."""
+    kernel of the shadowed path. The tile kernel is looked for first: where it is missing
+    (a first build) the answer needs no trace of the model, and :func:`build_kernels` starts
+    its worker sooner."""
     dtype = np.dtype(dtype)
     return (
-        _brdf_kernels_built(model, dtype)
+        tile_kernel_built(dtype.type, model.channels, map_channels, shadows)
         and steps_built(dtype.type)
-        and tile_kernel_built(dtype.type, model.channels, map_channels, shadows)
+        and _brdf_kernels_built(model, dtype)
     )
 
 
@@ -678,9 +680,19 @@ def _tile_worker(
     if tile_kernel_built(*options):
         return contextlib.nullcontext()
     worker = compiled_worker.start(
-        "brdfkit.render._reflection_kernels", "build_tile_kernel", dtype.name, *options[1:]
+        "brdfkit.render._reflection_kernels",
+        "build_tile_kernel",
+        dtype.name,
+        *options[1:],
+        absent=_NOT_FOR_KERNELS,
     )
     return contextlib.nullcontext() if worker is None else worker
+
+
+_NOT_FOR_KERNELS = ("scipy",)
+"""Packages the tile kernel's worker goes without: numba imports SciPy's BLAS at its first
+compile only to learn whether ``np.dot`` and the like can be compiled (about a fifth of a
+second of the worker's start, before its compile), which the tile kernel never calls."""
 
 
 def _is_table(model: BRDF, dtype: np.dtype) -> bool:
