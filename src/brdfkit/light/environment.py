@@ -798,13 +798,14 @@ def _node_sums(
 
     tools = _KERNEL_TOOLS[0]
     kernel = clamped_sums(tools)
-    vectors, prefix = _turn_prefix(moments)
+    prefix = _turn_prefix(moments)[1]
+    components = np.ascontiguousarray(moments.transpose(0, 1, 3, 2))  # (rows, cols, 3, K)
     turns, inner, outer = _arcs(bounds, theta)
     out = np.zeros((theta.size * phi.size, moments.shape[2]))
     blocks = np.linspace(0, theta.size, min(theta.size, 4 * tools.threads()) + 1).astype(int)
 
     def block(b: int) -> None:
-        kernel(prefix, vectors, turns, theta, phi, inner, outer, blocks[b], blocks[b + 1], out)
+        kernel(prefix, components, turns, theta, phi, inner, outer, blocks[b], blocks[b + 1], out)
 
     tools.run_tasks(block, range(blocks.size - 1), tools.threads())
     return out
