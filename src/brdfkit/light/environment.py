@@ -349,6 +349,23 @@ class EnvironmentMap(Light):
         table = asarray(nodes, xp, like=normals)
         return _bilinear(table, y * (rows - 1), x * cols) * self.scale
 
+    def prepare_irradiance(self) -> None:
+        """Make the part of :attr:`irradiance_table` that needs no normals now: the pixels'
+        moments per cell, where no column of the table is built yet (one read from the
+        table store has some, and may never need them). The compiled renderer runs it on a
+        helper thread while the caller traces its G-buffer, before the first tile's
+        lookups ask for columns; the table is the same.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> env = EnvironmentMap(np.ones((8, 16, 3)))
+        >>> env.prepare_irradiance()
+        >>> env.irradiance(np.array([0.0, 0.0, 1.0])).round(6).tolist()  # πL, L = 1
+        [3.141593, 3.141593, 3.141593]
+        """
+        self._irradiance_nodes.cells()
+
     @functools.cached_property
     def _irradiance_nodes(self) -> _IrradianceNodes:
         """The map's :class:`_IrradianceNodes`, shared by maps of equal pixels."""
@@ -588,6 +605,21 @@ class _IrradianceNodes:
             and bool(np.isfinite(table[:, built]).all())
         )
 
+    def cells(self) -> None:
+        """Group the pixels into the cells' moments (:func:`_cell_moments`) now, unless they
+        are grouped or some column is built already (a table from the store, whose columns
+        may be all its lookups read)."""
+        with self._lock:
+            if self._cells is None and not self._built.any():
+                self._make_cells()
+
+    def _make_cells(self) -> None:
+        """The cells' moments and bounds, the lock held; the pixels are let go."""
+        shape = self._image.shape[:2]
+        moments = _cell_moments(self._image, IRRADIANCE_CELLS)
+        self._cells = moments, _cell_bounds(shape, IRRADIANCE_CELLS)
+        self._image = None  # the moments are all the table needs
+
     def columns(self, needed: np.ndarray) -> np.ndarray:
         """The table, ``(97, 192, C)`` float32, with (at least) the node columns ``needed``
         (increasing, each once) built; the others are not to be read."""
@@ -595,10 +627,7 @@ class _IrradianceNodes:
             missing = needed[~self._built[needed]]
             if missing.size:
                 if self._cells is None:
-                    shape = self._image.shape[:2]
-                    moments = _cell_moments(self._image, IRRADIANCE_CELLS)
-                    self._cells = moments, _cell_bounds(shape, IRRADIANCE_CELLS)
-                    self._image = None  # the moments are all the table needs
+                    self._make_cells()
                 rows, cols = IRRADIANCE_GRID
                 theta = np.linspace(0.0, math.pi, rows)
                 phi = missing * (2 * math.pi / cols)

@@ -222,9 +222,17 @@ class EnvironmentShader:
                 *step_functions(self.dtype.type),
             )
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS, built on a
-        # helper thread while the caller traces its G-buffer and prepares its first tile
+        # helper thread while the caller traces its G-buffer and prepares its first tile;
+        # first the irradiance table's cells, which that tile's floor needs sooner
         lookups = compiled_lookups(self.dtype, kernel_tools)
-        self._map_tables = _in_background(lambda: lookups.tables(self.env.compensated))
+        env, irradiance = self.env, self.rho is not None or self.control
+
+        def build_tables() -> tuple[Any, ...]:
+            if irradiance:
+                env.prepare_irradiance()
+            return lookups.tables(env.compensated)
+
+        self._map_tables = _in_background(build_tables)
 
     @property
     def _tables(self) -> tuple[Any, ...]:
