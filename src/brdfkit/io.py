@@ -49,6 +49,7 @@ import io as _io
 import os
 import sys
 import tempfile
+from array import array
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -364,15 +365,16 @@ def _rgbe_pixels(data: bytes, width: int, height: int, start: int) -> np.ndarray
             raise ValueError(f"{len(data) - start} bytes of pixels; {size} expected")
         return np.frombuffer(data, np.uint8, size, start).reshape(height, width, 4)
     stored = np.frombuffer(data, np.uint8)
+    markers, runs = _rgbe_runs(data, width, height, start)
+    _check_runs(stored, markers, runs, width)
     rows_at_once = max(1, _RGBE_BLOCK_BYTES // (4 * width))
+    firsts = range(0, height, rows_at_once)
+    bounds = [*np.searchsorted(runs, markers[::rows_at_once]).tolist(), runs.size]
     planes = np.empty((height, 4, width), np.uint8)
-    at = start
-    for first_row in range(0, height, rows_at_once):
-        rows = range(first_row, min(height, first_row + rows_at_once))
-        markers, runs, at = _rgbe_runs(data, width, rows, at)
-        markers, runs = np.array(markers), np.array(runs)
-        _check_runs(stored, markers, runs, width, rows)
-        planes[rows.start : rows.stop] = _expand_runs(stored, markers, runs).reshape(-1, 4, width)
+    for block, first_row in enumerate(firsts):
+        rows = slice(first_row, min(height, first_row + rows_at_once))
+        block_runs = runs[bounds[block] : bounds[block + 1]]
+        planes[rows] = _expand_runs(stored, markers[rows], block_runs).reshape(-1, 4, width)
     return planes.transpose(0, 2, 1)
 
 
@@ -387,19 +389,19 @@ an array of indices eight times as large, small enough here to be reused from bl
 block rather than touched fresh (slow on first touch) for a whole map."""
 
 
-def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int], list[int], int]:
-    """The offsets of ``rows``' scanline markers and of their runs' count bytes, the rows
-    beginning at ``at``, and the offset after them: the one sequential pass over the file.
-    A row's runs must fill its four channels exactly (:func:`_check_runs`)."""
+def _rgbe_runs(data: bytes, width: int, height: int, at: int) -> tuple[np.ndarray, np.ndarray]:
+    """The offsets of the ``height`` scanline markers and of their runs' count bytes, the
+    first row beginning at ``at`` (int64 arrays, gathered in C-level ``array`` buffers: a list
+    of 50,000 Python ints costs more to convert than to fill): the one sequential pass over
+    the file. A row's runs must fill its four channels exactly (:func:`_check_runs`)."""
     marker = bytes([2, 2, width >> 8, width & 0xFF])
-    markers: list[int] = []
-    runs: list[int] = []
-    add_run = runs.append
+    markers, runs = array("q"), array("q")
+    add_marker, add_run = markers.append, runs.append
     lengths, strides = _RGBE_RUN_LENGTHS, _RGBE_RUN_STRIDES
-    for row in rows:
+    for row in range(height):
         if data[at : at + 4] != marker:
             raise ValueError(f"scanline {row} does not begin with {list(marker)}")
-        markers.append(at)
+        add_marker(at)
         at += 4
         left = 4 * width
         while left > 0:
@@ -410,27 +412,27 @@ def _rgbe_runs(data: bytes, width: int, rows: range, at: int) -> tuple[list[int]
         if left:
             raise ValueError(f"scanline {row} runs past its width {width}")
     if at > len(data):
-        raise ValueError(f"the last run of scanline {rows[-1]} runs past the file's end")
-    return markers, runs, at
+        raise ValueError(f"the last run of scanline {height - 1} runs past the file's end")
+    return np.frombuffer(markers, np.int64), np.frombuffer(runs, np.int64)
 
 
-def _check_runs(
-    stored: np.ndarray, markers: np.ndarray, runs: np.ndarray, width: int, rows: range
-) -> None:
-    """Raise ``ValueError`` unless every run of ``rows`` (whose four channels' runs fill
-    them, as :func:`_rgbe_runs` made sure) has a length and lies within one channel: the
-    runs' ends, counted from the first row's start, meet every multiple of ``width``."""
+def _check_runs(stored: np.ndarray, markers: np.ndarray, runs: np.ndarray, width: int) -> None:
+    """Raise ``ValueError`` unless every run (whose rows' four channels' runs fill them, as
+    :func:`_rgbe_runs` made sure) has a length and lies within one channel: the runs' ends,
+    counted from the first row's start, meet every multiple of ``width`` (found by bisection:
+    the ends increase)."""
     counts = stored[runs].astype(np.int64)
     lengths = np.where(counts > _RGBE_MAX_RUN, counts - _RGBE_MAX_RUN, counts)
     empty = np.flatnonzero(lengths == 0)
     if empty.size:
-        row = rows[np.searchsorted(markers, runs[empty[0]], side="right") - 1]
+        row = np.searchsorted(markers, runs[empty[0]], side="right") - 1
         raise ValueError(f"scanline {row} has a run of length 0")
     ends = np.cumsum(lengths)
     channels = np.arange(width, ends[-1] + 1, width)
-    across = channels[~np.isin(channels, ends, assume_unique=True)]
-    if across.size:
-        raise ValueError(f"scanline {rows[across[0] // (4 * width)]} has a run across channels")
+    met = ends[np.minimum(np.searchsorted(ends, channels), ends.size - 1)] == channels
+    if not met.all():
+        row = np.flatnonzero(~met)[0] // 4
+        raise ValueError(f"scanline {row} has a run across channels")
 
 
 def _expand_runs(stored: np.ndarray, markers: np.ndarray, runs: np.ndarray) -> np.ndarray:

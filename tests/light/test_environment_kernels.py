@@ -219,19 +219,19 @@ def test_map_tables_and_guides_are_built_once_per_map():
     assert tables[0].dtype == np.float32 and tables[2] == np.float32(env.scale)
 
 
-@pytest.mark.parametrize("shape", [(40, 100), (20, 30)])
-def test_clamped_sums_kernel_equals_the_numpy_sums(shape):
+@pytest.mark.parametrize(("shape", "channels"), [((40, 100), 3), ((20, 30), 3), ((20, 30), 1)])
+def test_clamped_sums_kernel_equals_the_numpy_sums(shape, channels):
     """The irradiance table's sums over cells (``environment._clamped_sums``) by the numba
     kernel, on every node column and on scattered ones (a partial table), every sixth node
-    row with both poles, with a one-texel sun and with more cells than pixels: equal to the
-    rounding of the NumPy code's float32 clamped terms (each errs by about ε₃₂·|v_c|; the
-    kernel's are float64)."""
+    row with both poles, with a one-texel sun and with more cells than pixels, for colour
+    and grey maps (four and two vectors per cell): equal to the rounding of the NumPy code's
+    float32 clamped terms (each errs by about ε₃₂·|v_c|; the kernel's are float64)."""
     from brdfkit.light import environment as env_module
     from brdfkit.light.environment import IRRADIANCE_CELLS, IRRADIANCE_GRID
 
     rng = np.random.default_rng(9)
-    image = rng.random((*shape, 3)).astype(np.float32)
-    image[shape[0] // 4, shape[1] // 3] = [3e4, 2e4, 1e4]
+    image = rng.random((*shape, channels)).astype(np.float32)
+    image[shape[0] // 4, shape[1] // 3] = [3e4, 2e4, 1e4][:channels]
     moments = env_module._cell_moments(image, IRRADIANCE_CELLS)
     bounds = env_module._cell_bounds(shape, IRRADIANCE_CELLS)
     rows, cols = IRRADIANCE_GRID

@@ -147,6 +147,33 @@ def test_a_new_process_reads_the_irradiance_table_from_disk_bit_equal(table_dir,
     assert _stored_tables(table_dir) == [path]
 
 
+def test_cells_grouped_ahead_give_the_same_irradiance_and_none_over_a_stored_table(
+    table_dir, monkeypatch
+):
+    """prepare_irradiance groups a never-seen map's pixels into the cells before any lookup
+    (which then groups none) for the same values; over a table read from disk, whose built
+    columns may be all the lookups read, it groups nothing."""
+    image = np.random.default_rng(13).random((12, 24, 3)).astype(np.float32)
+    normals = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [-0.6, 0.0, -0.8]])
+    expected = EnvironmentMap(image).irradiance(normals)
+    for path in _stored_tables(table_dir):
+        path.unlink()  # never seen again
+    clear_table_cache()
+    ahead = EnvironmentMap(image.copy())
+    ahead.prepare_irradiance()
+
+    def refuse(*args):
+        raise AssertionError("the pixels were grouped into cells again")
+
+    monkeypatch.setattr(environment, "_cell_moments", refuse)
+    np.testing.assert_array_equal(ahead.irradiance(normals), expected)
+    assert len(_stored_tables(table_dir)) == 1
+    clear_table_cache()
+    stored = EnvironmentMap(image.copy())
+    stored.prepare_irradiance()
+    np.testing.assert_array_equal(stored.irradiance(normals), expected)
+
+
 def test_the_table_key_names_the_pixels(table_dir):
     image = np.random.default_rng(12).random((12, 24, 3)).astype(np.float32)
     other = image.copy()

@@ -325,13 +325,15 @@ def cell_moments(tools: Any) -> Callable[..., None]:
 @functools.cache
 def clamped_sums(tools: Any) -> Callable[..., None]:
     r"""``environment._clamped_sums`` (the irradiance table's sums over cells) as the numba
-    ``sums(prefix, vectors, turns, theta, phi, inner, outer, first, last, out)``: for the
+    ``sums(prefix, components, turns, theta, phi, inner, outer, first, last, out)``: for the
     node rows ``first`` … ``last − 1`` of ``theta`` × ``phi`` (``phi`` increasing),
     :math:`\sum_c \max(n\cdot v_c, 0)` of each of the cells' ``K`` vectors into ``out``
     ``(nodes, K)`` (zeros on entry). Per cell row r, the cells of the arc :math:`|\varphi_c -
     \varphi_n| <` ``inner[r, i]`` (wholly above the horizon) are summed from the prefix sums
-    ``prefix[r]`` ``(3 cols + 1, 3K)`` of three turns of the row's ``vectors`` ``(rows, cols,
-    3K)``, and the cells between it and the arc of ``outer[r, i]`` are clamped one by one;
+    ``prefix[r]`` ``(3 cols + 1, 3K)`` of three turns of the row's vectors, and the cells
+    between it and the arc of ``outer[r, i]`` are clamped one by one, read from
+    ``components`` ``(rows, cols, 3, K)`` (each cell's x, y and z of its K vectors side by
+    side: one read per cell for all K sums);
     ``turns``: three turns of the cell columns' azimuths. The arcs' ends are
     ``_arc_indices``' searches, found by walking ``turns`` along the increasing φ of a
     node row instead of bisecting for each node. float64 throughout (the NumPy code clamps
@@ -360,26 +362,28 @@ def clamped_sums(tools: Any) -> Callable[..., None]:
         return lo, min(hi, lo + cols), (lo, hi, centre)
 
     @tools.inline_jit()
-    def clamp_cells(vectors: np.ndarray, start: int, stop: int, nx: float, ny: float,
+    def clamp_cells(components: np.ndarray, start: int, stop: int, nx: float, ny: float,
                     nz: float, out: np.ndarray, node: int) -> None:  # fmt: skip
-        """Σ max(n·v_c, 0) over the cells ``start`` … ``stop − 1`` (wrapping) into ``out[node]``,
-        each vector's sum kept in a register (the same additions in the same order)."""
-        cols, k3 = vectors.shape
-        for q in range(0, k3, 3):
-            total = out[node, q // 3]
-            for c in range(start, stop):
-                cell = c
-                while cell >= cols:
-                    cell -= cols
-                dot = vectors[cell, q] * nx + vectors[cell, q + 1] * ny + vectors[cell, q + 2] * nz
-                total += max(dot, 0.0)
-            out[node, q // 3] = total
+        """Σ max(n·v_c, 0) over the cells ``start`` … ``stop − 1`` (wrapping) into ``out[node]``
+        for each of the K vectors, cell after cell (each vector's sum gets the same additions
+        in the same order as one vector at a time; a cell's components are read once)."""
+        cols, _, k = components.shape
+        total = out[node]
+        for c in range(start, stop):
+            cell = c
+            while cell >= cols:
+                cell -= cols
+            v = components[cell]
+            for q in range(k):
+                dot = v[0, q] * nx + v[1, q] * ny + v[2, q] * nz
+                total[q] += max(dot, 0.0)
 
     @tools.cached_jit("environment-clamped-sums")
-    def sums(prefix: np.ndarray, vectors: np.ndarray, turns: np.ndarray, theta: np.ndarray,
+    def sums(prefix: np.ndarray, components: np.ndarray, turns: np.ndarray, theta: np.ndarray,
              phi: np.ndarray, inner: np.ndarray, outer: np.ndarray, first: int, last: int,
              out: np.ndarray) -> None:  # fmt: skip
-        rows, cols, k3 = vectors.shape
+        rows, cols, _, k = components.shape
+        k3 = 3 * k
         count = phi.shape[0]
         normals = np.empty((count, 3))
         above = np.empty((count, k3))
@@ -390,7 +394,7 @@ def clamped_sums(tools: Any) -> Callable[..., None]:
                 normals[j, 2] = np.cos(theta[i])
             above[:] = 0.0
             for r in range(rows):
-                row_prefix, row_vectors = prefix[r], vectors[r]
+                row_prefix, row_components = prefix[r], components[r]
                 at_in, at_out = (0, 0, 0), (0, 0, 0)
                 for j in range(count):
                     nx, ny, nz = normals[j, 0], normals[j, 1], normals[j, 2]
@@ -402,8 +406,8 @@ def clamped_sums(tools: Any) -> Callable[..., None]:
                         above[j, q] += row_prefix[hi_in, q] - row_prefix[lo_in, q]
                     # the cells in between: [lo_out, lo_in) and [hi_in, hi_out)
                     node = i * count + j
-                    clamp_cells(row_vectors, lo_out, lo_in, nx, ny, nz, out, node)
-                    clamp_cells(row_vectors, hi_in, hi_out, nx, ny, nz, out, node)
+                    clamp_cells(row_components, lo_out, lo_in, nx, ny, nz, out, node)
+                    clamp_cells(row_components, hi_in, hi_out, nx, ny, nz, out, node)
             for j in range(count):
                 for q in range(0, k3, 3):
                     dot = above[j, q] * normals[j, 0] + above[j, q + 1] * normals[j, 1]

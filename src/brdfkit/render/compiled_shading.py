@@ -222,9 +222,17 @@ class EnvironmentShader:
                 *step_functions(self.dtype.type),
             )
         # the map's arrays for the kernel, its sampling as the NumPy path's MIS, built on a
-        # helper thread while the caller traces its G-buffer and prepares its first tile
+        # helper thread while the caller traces its G-buffer and prepares its first tile;
+        # first the irradiance table's cells, which that tile's floor needs sooner
         lookups = compiled_lookups(self.dtype, kernel_tools)
-        self._map_tables = _in_background(lambda: lookups.tables(self.env.compensated))
+        env, irradiance = self.env, self.rho is not None or self.control
+
+        def build_tables() -> tuple[Any, ...]:
+            if irradiance:
+                env.prepare_irradiance()
+            return lookups.tables(env.compensated)
+
+        self._map_tables = _in_background(build_tables)
 
     @property
     def _tables(self) -> tuple[Any, ...]:
@@ -280,22 +288,24 @@ class EnvironmentShader:
             return Prepared(batch, value)
         n = math.prod(batch)
         keep = np.ones(n, bool) if mask is None else np.asarray(mask, bool).reshape(n)
+        # the frames (n, 3, 3): tangent, bitangent, normal of each query
+        frames = np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1)
         control = np.zeros((n, self.rest.channels), self.dtype)
         if self.control:  # k·E(n) of the pixels shaded (the others' k is 0)
             kept_wo = wo_local.reshape(n, 3)[keep]
             control[keep] = k = self._floor(kept_wo)
-            kept_frame = tuple(np.broadcast_to(v, (*batch, 3)).reshape(n, 3)[keep] for v in frame)
+            kept_frames = frames[keep]  # one gather of the three vectors
             floor = diffuse_envmap_radiance(
-                k.astype(np.float64) * math.pi, self.env, kept_frame, kept_wo
+                k.astype(np.float64) * math.pi,
+                self.env,
+                (kept_frames[:, 0], kept_frames[:, 1], kept_frames[:, 2]),
+                kept_wo,
             )
             value = np.ascontiguousarray(value)  # (*batch, channels): flat, a view of it
             value.reshape(n, self.channels)[keep] += floor
         t = self.dtype
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
-        frame_flat = np.ascontiguousarray(
-            np.stack([np.broadcast_to(v, (*batch, 3)).reshape(n, 3) for v in frame], axis=1),
-            dtype=t,
-        )
+        frame_flat = frames.astype(t)
         return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control, point)
 
     def shade(
@@ -347,11 +357,16 @@ class EnvironmentShader:
         if self._floor_block is None:  # the directions, laid out as the kernel reads them
             directions = _floor_directions(FLOOR_DIRECTIONS).astype(self.dtype)
             self._floor_block = np.tile(directions, (step, 1, 1))
-        wo = wo_local.astype(self.dtype)[:, None, :]
+        wo = wo_local.astype(self.dtype)
         floor = np.empty((wo.shape[0], self.rest.channels), self.dtype)
         for lo in range(0, wo.shape[0], step):
             batch = wo[lo : lo + step]
-            f = self._rest.eval(self._floor_block[: batch.shape[0]], batch)
+            # each wo once per direction, laid out as the directions: the kernel's call
+            # would copy a broadcast view so, element by element (several times slower)
+            repeated = np.repeat(batch, FLOOR_DIRECTIONS, axis=0)
+            f = self._rest.eval(
+                self._floor_block[: batch.shape[0]], repeated.reshape(-1, FLOOR_DIRECTIONS, 3)
+            )
             f.partition(FLOOR_DIRECTIONS // 2, axis=-2)  # in place: f is this call's own
             np.maximum(f[:, FLOOR_DIRECTIONS // 2], 0, out=floor[lo : lo + step])
         return floor

@@ -23,7 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brdfkit._array import to_numpy
+from brdfkit._array import dot, norm, to_numpy
 
 FRONT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Camera-to-world rotation of the default view: columns are the camera's x, y, z in the world."""
@@ -124,9 +124,9 @@ class Camera:
 # --------------------------------------------------------------------------- shapes
 def _tangent_from(normals: np.ndarray, axis: np.ndarray) -> np.ndarray:
     t = np.cross(axis, normals)
-    small = np.linalg.norm(t, axis=-1) < 1e-9
+    small = norm(t) < 1e-9
     t[small] = np.cross([1.0, 0.0, 0.0], normals[small]) if np.any(small) else t[small]
-    return t / np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-12)
+    return t / np.maximum(norm(t, keepdims=True), 1e-12)
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,8 +139,8 @@ class Sphere:
     def intersect(self, origins: np.ndarray, directions: np.ndarray):
         c = np.asarray(self.center, dtype=float)
         oc = origins - c
-        b = np.sum(oc * directions, axis=-1)
-        disc = b * b - (np.sum(oc * oc, axis=-1) - self.radius**2)
+        b = dot(oc, directions)
+        disc = b * b - (dot(oc, oc) - self.radius**2)
         hit = disc >= 0
         t = -b - np.sqrt(np.where(hit, disc, 0))
         hit &= t > 0
@@ -229,7 +229,9 @@ def gbuffer(
     # Pixels that miss get a harmless camera-facing frame: they are never shown.
     facing = -directions
     normals = np.where(hit[..., None], normals, facing)
-    tangents = np.where(hit[..., None], tangents, _tangent_from(facing, np.array([0.0, 0.0, 1.0])))
+    tangents = np.where(hit[..., None], tangents, facing)
+    missed = ~hit  # their tangents made for them alone
+    tangents[missed] = _tangent_from(facing[missed], np.array([0.0, 0.0, 1.0]))
     points = np.where(hit[..., None], points, 0.0)
     return GBuffer(points, normals, tangents, facing, hit)
 
