@@ -111,7 +111,7 @@ def channel():
     # of CPython 3.11's ast module that no user of the server meets)
 
     session = Session()
-    session.warm_up = lambda specs: session.warmed.set()  # no kernels built ahead: not tested here
+    session.warm_up = lambda specs, files=(): session.warmed.set()  # no kernels built ahead
     server = ExplorerServer(session, []).start()
     records: list[logging.LogRecord] = []
     handler = logging.Handler(logging.ERROR)
