@@ -305,7 +305,7 @@ class EnvironmentShader:
             value.reshape(n, self.channels)[keep] += floor
         t = self.dtype
         wo_flat = np.ascontiguousarray(wo_local.reshape(n, 3), dtype=t)
-        frame_flat = frames.astype(t)
+        frame_flat = frames.astype(t, copy=False)  # frames is this call's own
         return Prepared(batch, value, np.flatnonzero(keep), wo_flat, frame_flat, control, point)
 
     def shade(
