@@ -53,6 +53,15 @@ def inline_jit() -> Callable[[Any], Any]:
     return numba.njit(nogil=True, error_model="numpy", inline="always")
 
 
+def step_jit() -> Callable[[Any], Any]:
+    """numba's decorator for a step of a kernel compiled on its own and called through its
+    address (:func:`first_class_function`, once per block of pixels): :func:`jit`'s options
+    without numba's runtime (:func:`without_runtime`), so that a call passes its arrays on
+    without updating their reference counts. The step may not allocate."""
+    numba = _numba.numba_module()
+    return numba.njit(nogil=True, error_model="numpy", **without_runtime())
+
+
 def exact_jit() -> Callable[[Any], Any]:
     """numba's decorator for functions that must round as written wherever they are called
     from: no fast-math flags (reassociation would undo argument reductions and Newton
@@ -180,6 +189,7 @@ __all__ = [
     "prefetch",
     "scalar_type",
     "select",
+    "step_jit",
     "type_of",
     "vector_bits",
     "vector_jit",

@@ -8,7 +8,8 @@ Those modules build their functions from this toolkit only:
 
 - decorators: :func:`exact_jit` (rounds as written), :func:`vector_jit` (the
   :data:`FASTMATH` flags of vectorised loops), :func:`jit` (a helper with its caller's
-  flags), :func:`inline_jit` (a step inlined into its caller), :func:`without_runtime`
+  flags), :func:`inline_jit` (a step inlined into its caller), :func:`step_jit` (a step
+  called through its address), :func:`without_runtime`
   (options for code that passes arrays on without reference counting), :func:`cached_jit`
   (:func:`exact_jit` with its machine code kept on disk);
 - intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
@@ -53,6 +54,7 @@ from brdfkit.compiled.jit import (
     prefetch,
     scalar_type,
     select,
+    step_jit,
     type_of,
     vector_bits,
     vector_jit,
@@ -93,6 +95,7 @@ __all__ = [
     "run_tasks",
     "scalar_type",
     "select",
+    "step_jit",
     "threads",
     "trigonometry",
     "type_of",

@@ -100,7 +100,7 @@ def tile_kernel(
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
     col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn, block_keys,
-    scrambled)``, the BRDF's kernels and two block-level steps passed as
+    scrambled, locate)``, the BRDF's kernels and three block-level steps passed as
     first-class functions (:func:`brdf_functions`, :func:`step_functions`; compiled on their
     own and called through their addresses, so the tile kernel is the same for every BRDF and
     compiled once per machine, and compiled in another process while this one builds those),
@@ -158,7 +158,7 @@ def tile_signature(
     t, f64, u32 = np.dtype(dtype), np.float64, np.uint32
     outputs = (array(t, 4), array(t, 4)) if record else (array(f64, 2), array(f64, 2))
     brdf = _brdf_argument_types(t.type, ())
-    functions = tuple(map(kernel_tools.function_type, (*brdf, *_step_types())))
+    functions = tuple(map(kernel_tools.function_type, (*brdf, *_step_types(t.type))))
     return (
         array(t, 1), array(np.int64, 1), array(t, 2), array(t, 3),  # parameters … frame
         array(f64, 3), array(u32, 2), array(f64, 3), array(u32, 2), array(np.uint64, 1),
@@ -212,10 +212,8 @@ def _new_tile_kernel(
         _block_loader(brdf_channels, max(brdf_channels, map_channels)),
         _draw(),
         _brdf_sampling(dtype),
-        _map_at_brdf_samples(env),
         _map_sampling(env, dtype),
         _brdf_at_map_samples(dtype, brdf_channels),
-        _radiance_reads(env, dtype),
         (_recording if record else _accumulation)(env, dtype, brdf_channels, map_channels),
     )
 
@@ -265,7 +263,7 @@ def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
     key_slot = jit(sampling.key_slot)
     unit_interval = 2.0**-sampling.SOBOL_BITS
 
-    @jit
+    @kernel_tools.step_jit()
     def block_keys(seeds: np.ndarray, stream: int, pixels: np.ndarray, start: int, nb: int,
                    out: np.ndarray) -> None:  # fmt: skip
         d = out.shape[1]
@@ -275,7 +273,7 @@ def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
                 for k in range(d):
                     out[i, k, j] = key_hash(seed, key_slot(stream, i * d + k))
 
-    @jit
+    @kernel_tools.step_jit()
     def scrambled(digits: np.ndarray, keys: np.ndarray, s: int, nb: int,
                   out: np.ndarray) -> None:  # fmt: skip
         for k in range(digits.shape[1]):
@@ -290,29 +288,32 @@ def _variate_steps() -> tuple[Callable[..., None], Callable[..., None]]:
 _STEPS: dict[type, tuple[Callable[..., None], ...]] = {}
 
 
-def step_functions(dtype: type) -> tuple[Any, Any]:
-    """The tile kernel's block-level steps of its Sobol' variates (``block_keys``,
-    ``scrambled``: :func:`_variate_steps`) compiled on their own (their machine code on disk)
-    as the first-class functions :func:`tile_kernel` takes last: the process that builds the
-    BRDF's kernels builds these too, while a worker compiles the rest of the tile kernel
-    (:func:`build_tile_kernel`), so that the two processes take about equal shares of a first
-    build. Each is called once per block and sample at most. (The map's texel search, also
-    called once per block, stays in the tile kernel: called through its address it made the
-    kernel 5–10 % slower.)"""
+def step_functions(dtype: type) -> tuple[Any, ...]:
+    """The tile kernel's block-level steps compiled on their own (their machine code on
+    disk) as the first-class functions :func:`tile_kernel` takes last: the Sobol' variates'
+    ``block_keys`` and ``scrambled`` (:func:`_variate_steps`) and the map at the BRDF's
+    samples, ``locate`` (:func:`_map_at_brdf_samples`). The process that builds the BRDF's
+    kernels builds these too, while a worker compiles the rest of the tile kernel
+    (:func:`build_tile_kernel`), so that the two processes take about equal shares of a
+    first build. Each is called once per block and sample at most; called through its
+    address, ``locate`` makes the kernel about 4 % slower (its own loops are as vectorised;
+    the map's sampling, the other step of this size, made it 10–15 % slower and stays in the
+    tile kernel)."""
     dtype = np.dtype(dtype).type
     if dtype not in _STEPS:
-        steps = _variate_steps()
+        env = compiled_lookups(dtype, kernel_tools)
+        steps = (*_variate_steps(), _map_at_brdf_samples(env), _radiance_reads(env, dtype))
         for name, step in zip(_STEP_NAMES, steps, strict=True):
             if not step.signatures:  # not yet compiled in this process: from disk
                 kernel_cache.enable(step, _step_key(name, dtype))
         _STEPS[dtype] = steps
     return tuple(
         kernel_tools.first_class_function(step, arguments)
-        for step, arguments in zip(_STEPS[dtype], _step_types(), strict=True)
+        for step, arguments in zip(_STEPS[dtype], _step_types(dtype), strict=True)
     )
 
 
-_STEP_NAMES = ("block keys", "scrambled digits")
+_STEP_NAMES = ("block keys", "scrambled digits", "map lookup", "radiance reads")
 
 
 def _step_key(name: str, dtype: type) -> str:
@@ -320,14 +321,21 @@ def _step_key(name: str, dtype: type) -> str:
     return kernel_cache.key("tile step", name, np.dtype(dtype).str)
 
 
-def _step_types() -> tuple[tuple[Any, ...], ...]:
-    """The numba argument types of :func:`step_functions`' steps as the tile kernel calls
-    them."""
+def _step_types(dtype: type) -> tuple[tuple[Any, ...], ...]:
+    """The numba argument types of :func:`step_functions`' steps in ``dtype`` as the tile
+    kernel calls them."""
     array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
+    t, t2 = array(dtype, 1), array(dtype, 2)
     keys = array(np.uint64, 3)
     block_keys = (array(np.uint64, 1), n, array(np.int64, 1), n, n, keys)
     scrambled = (array(np.uint32, 2), keys, n, n, array(np.float64, 2))
-    return block_keys, scrambled
+    locate = (n, t, t2, t, array(np.float64, 1), t2, n, n, n, t, array(np.int64, 2), t2,
+              array(np.int64, 1))  # fmt: skip
+    mc = array(dtype, 2)
+    i2, t1 = array(np.int64, 2), array(dtype, 1)
+    read = (n, t1, array(np.float64, 1), kernel_tools.scalar_type(dtype), i2, t2,
+            array(np.int64, 1), i2, t2, mc, mc, t1)  # fmt: skip
+    return block_keys, scrambled, locate, read
 
 
 def steps_built(dtype: type) -> bool:
@@ -380,21 +388,23 @@ def _brdf_sampling(dtype: type) -> Callable[..., None]:
 
 
 def _map_at_brdf_samples(env: Any) -> Callable[..., None]:
-    """``locate(nb, wi_buf, frames, view, sin_b, cells_b, weights_b, density_b)``: the BRDF's
-    sampled directions in the world (the block's frames), unit, then their map coordinates'
-    sin θ, bilinear cells (``env.texel_cell``) and pdf texels (``env.pdf_texel``); then the
-    texels' rows and the pdf's texel prefetched. ``view = (texels, density, r, height,
-    width, nc)``: the flat image and density, the rotation's 9 entries and the map's
-    shape."""
+    """``locate(nb, wi_buf, frames, texels, density, rot, height, width, nc, sin_b, cells_b,
+    weights_b, density_b)``: the BRDF's sampled directions in the world (the block's frames),
+    unit, then their map coordinates' sin θ, bilinear cells (``env.texel_cell``) and pdf
+    texels (``env.pdf_texel``); then the texels' rows and the pdf's texel prefetched.
+    ``texels`` the flat image, ``rot`` the map's rotation. A block-level step
+    (:func:`step_functions`)."""
     prefetch = kernel_tools.prefetch()
     unit, map_coordinates = env.unit, env.map_coordinates
     texel_cell, pdf_texel = env.texel_cell, env.pdf_texel
 
-    @kernel_tools.inline_jit()
-    def locate(nb: int, wi_buf: np.ndarray, frames: np.ndarray, view: tuple, sin_b: np.ndarray,
-               cells_b: np.ndarray, weights_b: np.ndarray,
+    @kernel_tools.step_jit()
+    def locate(nb: int, wi_buf: np.ndarray, frames: np.ndarray, texels: np.ndarray,
+               density: np.ndarray, rot: np.ndarray, height: int, width: int, nc: int,
+               sin_b: np.ndarray, cells_b: np.ndarray, weights_b: np.ndarray,
                density_b: np.ndarray) -> None:  # fmt: skip
-        texels, density, r, height, width, nc = view
+        r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
+             rot[2, 1], rot[2, 2])  # fmt: skip
         for j in range(nb):
             v0, v1, v2 = wi_buf[j * 3], wi_buf[j * 3 + 1], wi_buf[j * 3 + 2]
             wx = v0 * frames[0, j] + v1 * frames[3, j] + v2 * frames[6, j]
@@ -505,18 +515,19 @@ def _brdf_at_map_samples(dtype: type, brdf_channels: int) -> Callable[..., None]
 
 
 def _radiance_reads(env: Any, dtype: type) -> Callable[..., None]:
-    """``read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)``: the texel reads: the
-    map's bilinear radiance at the BRDF's samples (at their directions' coordinates) and at
-    its own (at the sampled coordinates: the NumPy path converts them to a direction and
-    back, equal to rounding), and the map's pdf texel at the BRDF's samples. ``cells =
-    (cells_b, weights_b, density_b, cells_l, weights_l)``."""
+    """``read(nb, texels, density, scale, cells_b, weights_b, density_b, cells_l, weights_l,
+    radiance_b, radiance_l, p_texel)``: the texel reads: the map's bilinear radiance at the
+    BRDF's samples (at their directions' coordinates) and at its own (at the sampled
+    coordinates: the NumPy path converts them to a direction and back, equal to rounding),
+    and the map's pdf texel at the BRDF's samples. ``texels`` the flat image. A block-level
+    step (:func:`step_functions`)."""
     bilinear = env.bilinear
 
-    @kernel_tools.inline_jit()
-    def read(nb: int, view: tuple, scale: Any, cells: tuple, radiance_b: np.ndarray,
-             radiance_l: np.ndarray, p_texel: np.ndarray) -> None:  # fmt: skip
-        texels, density, _, _, _, _ = view
-        cells_b, weights_b, density_b, cells_l, weights_l = cells
+    @kernel_tools.step_jit()
+    def read(nb: int, texels: np.ndarray, density: np.ndarray, scale: Any, cells_b: np.ndarray,
+             weights_b: np.ndarray, density_b: np.ndarray, cells_l: np.ndarray,
+             weights_l: np.ndarray, radiance_b: np.ndarray, radiance_l: np.ndarray,
+             p_texel: np.ndarray) -> None:  # fmt: skip
         for j in range(nb):
             bilinear(texels, cells_b, weights_b, j, scale, radiance_b)
             p_texel[j] = dtype(density[max(density_b[j], 0)])
@@ -681,10 +692,8 @@ def _tile_loop(
     load_block: Callable[..., None],
     draw: Callable[..., None],
     sample_brdf: Callable[..., None],
-    locate: Callable[..., None],
     sample_map: Callable[..., None],
     evaluate: Callable[..., None],
-    read: Callable[..., None],
     finish: tuple[Callable[..., None], Callable[..., None]],
 ) -> Callable[..., None]:
     """The tile kernel: its scratch buffers (a few per block, along the block), then per
@@ -702,7 +711,8 @@ def _tile_loop(
               scale: Any, marginal: np.ndarray, conditional: np.ndarray, density: np.ndarray,
               row_guide: np.ndarray, col_guide: np.ndarray, power: bool, control: np.ndarray,
               mean: np.ndarray, m2: np.ndarray, data: tuple, sample_fn: Any, eval_fn: Any,
-              pdf_fn: Any, block_keys: Any, scrambled: Any) -> None:  # fmt: skip
+              pdf_fn: Any, block_keys: Any, scrambled: Any, locate: Any,
+              read: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
         view = (image.reshape(-1), density, r, image.shape[0], image.shape[1], image.shape[2])
@@ -734,7 +744,6 @@ def _tile_loop(
         p_texel = np.empty(B, T)
         mean_b, m2_b = np.empty((channels, B), f64), np.empty((channels, B), f64)
         light = (pdf_l, cos_l, density_b, p_texel, sin_b)
-        cells = (cells_b, weights_b, density_b, cells_l, weights_l)
         for start in range(0, pixels.shape[0], B):
             nb = min(B, pixels.shape[0] - start)
             if digits_b.shape[0] > 0:
@@ -745,12 +754,14 @@ def _tile_loop(
             for s in range(samples):
                 draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)
                 sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)
-                locate(nb, brdf[0], frames, view, sin_b, cells_b, weights_b, density_b)
+                locate(nb, brdf[0], frames, view[0], density, rot, view[3], view[4], view[5],
+                       sin_b, cells_b, weights_b, density_b)  # fmt: skip
                 sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l,
                            wil_buf, cos_l)  # fmt: skip
                 evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
                          pbl_buf)  # fmt: skip
-                read(nb, view, scale, cells, radiance_b, radiance_l, p_texel)
+                read(nb, view[0], density, scale, cells_b, weights_b, density_b, cells_l,
+                     weights_l, radiance_b, radiance_l, p_texel)  # fmt: skip
                 accumulate(nb, s, start, power, brdf, light, (f_buf, pbl_buf), controls,
                            radiance_b, radiance_l, frames, wil_buf, mean_b, m2_b, mean,
                            m2)  # fmt: skip
