@@ -100,7 +100,7 @@ def tile_kernel(
     It is called as ``kernel(parameters, pixels, wo, frame, points_b, digits_b, points_l,
     digits_l, seeds, image, rotation, scale, marginal, conditional, density, row_guide,
     col_guide, power, control, mean, m2, data, sample_fn, eval_fn, pdf_fn, block_keys,
-    scrambled, locate)``, the BRDF's kernels and three block-level steps passed as
+    scrambled, locate, read)``, the BRDF's kernels and four block-level steps passed as
     first-class functions (:func:`brdf_functions`, :func:`step_functions`; compiled on their
     own and called through their addresses, so the tile kernel is the same for every BRDF and
     compiled once per machine, and compiled in another process while this one builds those),
@@ -291,14 +291,14 @@ _STEPS: dict[type, tuple[Callable[..., None], ...]] = {}
 def step_functions(dtype: type) -> tuple[Any, ...]:
     """The tile kernel's block-level steps compiled on their own (their machine code on
     disk) as the first-class functions :func:`tile_kernel` takes last: the Sobol' variates'
-    ``block_keys`` and ``scrambled`` (:func:`_variate_steps`) and the map at the BRDF's
-    samples, ``locate`` (:func:`_map_at_brdf_samples`). The process that builds the BRDF's
-    kernels builds these too, while a worker compiles the rest of the tile kernel
-    (:func:`build_tile_kernel`), so that the two processes take about equal shares of a
-    first build. Each is called once per block and sample at most; called through its
-    address, ``locate`` makes the kernel about 4 % slower (its own loops are as vectorised;
-    the map's sampling, the other step of this size, made it 10–15 % slower and stays in the
-    tile kernel)."""
+    ``block_keys`` and ``scrambled`` (:func:`_variate_steps`), the map at the BRDF's
+    samples, ``locate`` (:func:`_map_at_brdf_samples`), and the texel reads, ``read``
+    (:func:`_radiance_reads`). The process that builds the BRDF's kernels builds these too,
+    while a worker compiles the rest of the tile kernel (:func:`build_tile_kernel`), so that
+    the two processes take about equal shares of a first build. Each is called once per
+    block and sample at most; called through their addresses, ``locate`` and ``read`` make
+    the kernel about 2 % slower (the map's sampling, the other step of their size, made it
+    10–15 % slower and stays in the tile kernel)."""
     dtype = np.dtype(dtype).type
     if dtype not in _STEPS:
         env = compiled_lookups(dtype, kernel_tools)
