@@ -325,3 +325,45 @@ def test_the_skipping_finder_answers_its_own_thread_only():
     other.start()
     other.join()
     assert answers == [None]
+
+
+def _first_compile(before: str = "") -> dict:
+    """In a new process: ``before``, then numba from ``numba_module`` compiles a function;
+    whether SciPy's linear algebra was imported then, and after ``np.correlate`` (which reads
+    numba's BLAS flag) and ``np.dot`` (which needs BLAS) compiled and ran."""
+    code = textwrap.dedent(
+        f"""
+        import json, sys
+        import numpy as np
+        {before}
+        from brdfkit.compiled._numba import numba_module
+        numba = numba_module()
+        seen = {{"linalg": "scipy.linalg" in sys.modules}}
+        seen["one"] = numba.njit(lambda x: x + 1)(1.0)
+        seen["after_first"] = "scipy.linalg" in sys.modules
+        from numba.np import arraymath
+        seen["flag"] = type(arraymath._HAVE_BLAS).__name__
+        a, b = np.arange(6.0), np.array([1.0, -2.0, 0.5])
+        seen["correlate"] = bool(np.array_equal(
+            numba.njit(lambda a, b: np.correlate(a, b))(a, b), np.correlate(a, b)))
+        seen["after_correlate"] = "scipy.linalg" in sys.modules
+        seen["dot"] = float(numba.njit(lambda a: np.dot(a, a))(a))
+        print(json.dumps(seen))
+        """
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return json.loads(done.stdout)
+
+
+def test_the_first_compile_leaves_scipy_linalg_until_a_function_needs_it():
+    seen = _first_compile()
+    assert seen == {
+        "linalg": False, "one": 2.0, "after_first": False, "flag": "_BlasCheck",
+        "correlate": True, "after_correlate": True, "dot": 55.0,
+    }  # fmt: skip
+
+
+def test_the_first_compile_keeps_numbas_blas_flag_where_scipy_linalg_is_imported():
+    seen = _first_compile("import scipy.linalg")
+    assert seen["linalg"] and seen["flag"] == "bool" and seen["correlate"]
+    assert seen["dot"] == 55.0

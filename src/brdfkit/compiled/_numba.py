@@ -32,7 +32,9 @@ Tested with numba 0.68.1 and llvmlite 0.50.0; ``pyproject.toml`` allows numba fr
 project's oldest supported release) to below 0.69 (the first minor release not yet tested).
 numba is imported only when a hook is used, so that reading :func:`toolchain` (the kernel
 cache's version) costs no import, and the first time from :func:`numba_module`, which spares
-its import two optional packages brdfkit does not need it to read (SciPy, PyYAML).
+its import two optional packages brdfkit does not need it to read (SciPy, PyYAML), and the
+process's first compile SciPy's linear algebra (:func:`_defer_blas_check`: numba's flag that
+says whether BLAS is there, checked when a compile first reads it).
 
 References
 ----------
@@ -98,6 +100,9 @@ def numba_module() -> ModuleType:
     imported by numba's import then, for that thread alone; numba imports SciPy itself when
     it compiles a function that needs it, and any later ``import scipy`` imports it as usual.
 
+    The first compile of the process is made not to import SciPy's BLAS either
+    (:func:`_defer_blas_check`).
+
     Every module of brdfkit that uses numba has it from here, so that the first use, from
     whichever module, imports it so.
     """
@@ -111,7 +116,62 @@ def numba_module() -> ModuleType:
             import numba
         finally:
             sys.meta_path.remove(finder)
+        _defer_blas_check()
     return numba
+
+
+_BLAS = frozenset({"scipy", "scipy.linalg"})
+
+
+class _BlasCheck:
+    """numba's ``arraymath._HAVE_BLAS`` (whether SciPy's BLAS is there), asked only when a
+    compile reads it: ``check()`` once, at the first truth test."""
+
+    def __init__(self, check: Any) -> None:
+        self._check, self._value = check, None
+
+    def __bool__(self) -> bool:
+        if self._value is None:
+            self._value = bool(self._check())
+        return self._value
+
+
+@functools.cache
+def _defer_blas_check() -> None:
+    """Have the process's first compile import numba's array functions without SciPy's BLAS.
+
+    numba's first compile imports ``numba.np.arraymath``, whose import checks for BLAS by
+    importing ``scipy.linalg`` (a third of a second, before the first compile can start),
+    for a flag that only ``np.convolve`` and ``np.correlate`` read. A listener of numba's
+    ``numba:compile`` event imports that module at the first compile with SciPy's linear
+    algebra hidden from that thread, and puts in the flag's place a :class:`_BlasCheck`,
+    which checks when the flag is first read; later compiles find the module imported.
+    ``np.dot`` and ``np.linalg`` import SciPy themselves when compiled, as before.
+    """
+    try:
+        from numba.core import event
+    except ImportError as error:
+        warn_once("the deferred BLAS check", "the first compile imports SciPy", error)
+        return
+
+    class FirstCompile(event.Listener):
+        def on_start(self, _: Any) -> None:
+            skipped = _BLAS - sys.modules.keys()
+            if "numba.np.arraymath" in sys.modules or not skipped:
+                return
+            finder = _SkipForThisThread(skipped, threading.get_ident())
+            sys.meta_path.insert(0, finder)
+            try:
+                from numba.np import arraymath
+            finally:
+                sys.meta_path.remove(finder)
+            if arraymath._HAVE_BLAS is False:
+                arraymath._HAVE_BLAS = _BlasCheck(arraymath._check_blas)
+
+        def on_end(self, _: Any) -> None:
+            return
+
+    event.register("numba:compile", FirstCompile())
 
 
 def warn_once(hook: str, consequence: str, error: BaseException) -> None:
