@@ -367,3 +367,15 @@ def test_the_first_compile_keeps_numbas_blas_flag_where_scipy_linalg_is_imported
     seen = _first_compile("import scipy.linalg")
     assert seen["linalg"] and seen["flag"] == "bool" and seen["correlate"]
     assert seen["dot"] == 55.0
+
+
+def test_a_hook_called_first_imports_numba_through_numba_module():
+    # a hook importing numba's submodules itself would import numba beside numba_module
+    # (another thread's import could then be handed a partly initialised module); numba's
+    # own import, not numba_module's, would also import SciPy
+    code = (
+        "import sys; from brdfkit.compiled import _numba; _numba.intrinsics(); "
+        "print('numba' in sys.modules, 'scipy' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "False"]

@@ -120,6 +120,20 @@ def numba_module() -> ModuleType:
     return numba
 
 
+def _numba_first(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function``, run after :func:`numba_module` has imported numba: the hooks import
+    numba's submodules directly, and a thread doing so while another thread imports numba
+    (numba's modules import one another circularly) can be handed a partly initialised
+    module."""
+
+    @functools.wraps(function)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        numba_module()
+        return function(*args, **kwargs)
+
+    return run
+
+
 _BLAS = frozenset({"scipy", "scipy.linalg"})
 
 
@@ -191,6 +205,7 @@ def warn_once(hook: str, consequence: str, error: BaseException) -> None:
 
 # --------------------------------------------------------------------------- intrinsics
 @functools.cache
+@_numba_first
 def intrinsics() -> dict[str, Any]:
     """numba intrinsics of single LLVM instructions, by the names the generated kernels use:
     ``_select(c, a, b)`` (``select``), ``_and``, ``_or``, ``_xor``, ``_not`` (bitwise on
@@ -299,6 +314,7 @@ def _declare(builder: Any, name: str, t: Any, arity: int) -> Any:
 
 
 @functools.cache
+@_numba_first
 def prefetch() -> Callable[..., None]:
     """The numba intrinsic ``prefetch(array, i)``: LLVM's ``llvm.prefetch`` (read, keep in all
     cache levels) of element ``i`` of a C-contiguous ``array``; a hint, no effect on values.
@@ -340,6 +356,7 @@ def prefetch() -> Callable[..., None]:
     return prefetch_element
 
 
+@_numba_first
 def function_type(argument_types: tuple[Any, ...]) -> Any:
     """numba's type of a first-class function of ``argument_types`` returning nothing (the
     type :func:`first_class`'s values have)."""
@@ -348,6 +365,7 @@ def function_type(argument_types: tuple[Any, ...]) -> Any:
     return types.FunctionType(types.none(*argument_types))
 
 
+@_numba_first
 def first_class(dispatcher: Any, argument_types: tuple[Any, ...]) -> Any:
     """``dispatcher`` compiled for ``argument_types`` (or loaded: from this process or its
     disk cache) as a first-class function value: numba types it as
@@ -396,6 +414,7 @@ def _first_class_value() -> type:
 
 # --------------------------------------------------------------------------- speed hooks
 @functools.cache
+@_numba_first
 def vector_width_hint(bits: int) -> Any:
     """A numba intrinsic ``prefer_vector_width()`` that marks the function calling it
     ``"prefer-vector-width"="bits"`` (what clang's ``-mprefer-vector-width`` does): the SIMD
@@ -427,6 +446,7 @@ def vector_width_hint(bits: int) -> Any:
     return prefer_vector_width
 
 
+@_numba_first
 def compile_interleaved(dispatcher: Any, interleave: int) -> None:
     """Have numba compile ``dispatcher`` (each signature, also when another function calls
     it) with LLVM's ``-force-vector-interleave=interleave``: set under numba's compiler lock,
@@ -458,6 +478,7 @@ def compile_interleaved(dispatcher: Any, interleave: int) -> None:
     dispatcher.compile = compile_with_interleave
 
 
+@_numba_first
 def no_runtime_options() -> dict[str, Any]:
     """``numba.njit`` options that compile a function without numba's runtime (no reference
     counting of the arrays it passes on: atomic updates of counts that threads share).
@@ -480,6 +501,7 @@ _UNREADABLE = (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError,
 """What reading a corrupt or truncated cache entry raises (pickle's and numba's rebuild)."""
 
 
+@_numba_first
 def install_keyed_cache(
     dispatcher: Any, cache_key: str, path: Path, count: Callable[[str], None]
 ) -> bool:
@@ -501,6 +523,7 @@ def install_keyed_cache(
     return True
 
 
+@_numba_first
 def initialize_runtime(target_context: Any, folder: Path) -> None:
     """Initialise numba's runtime (NRT) as ``rtsys.initialize`` does, with the machine code
     of its LLVM functions (reference counts, memory-info accessors) kept in ``folder``: numba

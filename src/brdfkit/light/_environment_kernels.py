@@ -122,7 +122,7 @@ def lookups(dtype: type, tools: Any) -> MapLookups:
         bilinear,
         pdf_texel,
         solid_angle_pdf,
-        _texel_sampler(tools),
+        texel_sampler(tools),
         *_sample_geometry(dtype, tools),
     )
 
@@ -228,7 +228,7 @@ def _map_pdf(dtype: type, tools: Any) -> tuple[Callable[..., Any], Callable[...,
     return pdf_texel, solid_angle_pdf
 
 
-def _texel_sampler(tools: Any) -> Callable[..., None]:
+def texel_sampler(tools: Any) -> Callable[..., None]:
     """:meth:`~brdfkit.sampling.Distribution2D.sample`'s texels: the numba
     ``sample_texels(a, b, marginal, conditional, row_guide, col_guide, height, width, nb,
     rows, cols, base)`` for ``nb`` float64 variates ``a`` (column) and ``b`` (row) already
@@ -240,7 +240,7 @@ def _texel_sampler(tools: Any) -> Callable[..., None]:
     guided_interval = tools.guided_search()
     prefetch = tools.prefetch()
 
-    @tools.exact_jit()
+    @tools.cached_jit("environment-texel-search")
     def sample_texels(a: np.ndarray, b: np.ndarray, marginal: np.ndarray,
                       conditional: np.ndarray, row_guide: np.ndarray, col_guide: np.ndarray,
                       height: int, width: int, nb: int, rows: np.ndarray, cols: np.ndarray,

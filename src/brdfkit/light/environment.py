@@ -898,6 +898,16 @@ def compiled_lookups(dtype: Any, tools: Any) -> Any:
     return _environment_kernels.lookups(np.dtype(dtype).type, tools)
 
 
+def compiled_texel_search(tools: Any) -> Any:
+    """The map's texel search of :func:`compiled_lookups` (``sample_texels``, the same for
+    every dtype: float64 variates) built from ``tools`` alone, without handing them to the
+    table builds as :func:`compiled_lookups` does: for compiling it ahead of a kernel that
+    calls it."""
+    from brdfkit.light import _environment_kernels
+
+    return _environment_kernels.texel_sampler(tools)
+
+
 def _solid_angle_pdf(pdf_uv: Array, theta: Array) -> Array:
     """p_ω = p_uv / (2π² sin θ) of a lat-long map; 0 at the poles (sin θ ≤ 0 after rounding)."""
     return safe_div(pdf_uv, 2 * math.pi**2 * clamp(namespace(theta).sin(theta), 0.0))
@@ -948,6 +958,7 @@ __all__ = [
     "TableStore",
     "clear_table_cache",
     "compiled_lookups",
+    "compiled_texel_search",
     "use_table_store",
     "wait_for_table_store",
 ]

@@ -74,7 +74,7 @@ import numpy as np
 from brdfkit import sampling
 from brdfkit.compiled import cache as kernel_cache
 from brdfkit.compiled import kernel_tools
-from brdfkit.light.environment import compiled_lookups
+from brdfkit.light.environment import compiled_lookups, compiled_texel_search
 
 BLOCK = 256
 """Pixels per call of the BRDF kernels inside the tile kernel (their vectorised batch)."""
@@ -175,6 +175,19 @@ def build_tile_kernel(dtype: str, brdf_channels: int, map_channels: int, record:
     tile_kernel(np.dtype(dtype).type, brdf_channels, map_channels, record).compile(
         tile_signature(np.dtype(dtype).type, brdf_channels, map_channels, record)
     )
+
+
+def build_tile_helpers() -> None:
+    """Compile (or load) into the disk cache the largest helper of the tile kernel that a
+    worker compiling it (:func:`build_tile_kernel`) would otherwise compile itself: the
+    map's texel search (``sample_texels``, about a twelfth of the worker's compile). The
+    process that starts the worker compiles it first, in the seconds the worker takes to
+    reach it; the worker then loads it (or, where it gets there first, compiles it as
+    before)."""
+    array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
+    f64, i64, guide = array(np.float64, 1), array(np.int64, 1), array(np.uint16, 1)
+    search = compiled_texel_search(kernel_tools)
+    search.compile((f64, f64, f64, f64, guide, guide, n, n, n, i64, i64, i64))
 
 
 def tile_kernel_built(

@@ -66,6 +66,7 @@ from brdfkit.params import check_choice
 from brdfkit.render._reflection_kernels import (
     BLOCK,
     brdf_functions,
+    build_tile_helpers,
     step_functions,
     steps_built,
     tile_kernel,
@@ -666,6 +667,8 @@ def build_kernels(
     failed, compiles it itself). The worker is ended when this returns or raises."""
     start = time.perf_counter()
     with _tile_worker(brdf, lights, method, np.dtype(dtype)) as worker:
+        if worker is not None:
+            build_tile_helpers()
         plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
         if plan is None:
             return 0.0
