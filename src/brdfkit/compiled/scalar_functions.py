@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from brdfkit.compiled import cache
 from brdfkit.compiled.jit import exact_jit, select
 
 ERFINV_NEWTON_STEPS = 3
@@ -85,6 +86,8 @@ def sin_cos32() -> tuple[Callable[[Any], Any], Callable[[Any], Any]]:
         value = choose(octant == f32(2), sine, cosine)
         return choose(upper != (octant > f32(1)), -value, value)
 
+    for name, function in (("sin32", sin32), ("cos32", cos32)):
+        cache.enable(function, cache.key("hand-written", name))
     return sin32, cos32
 
 

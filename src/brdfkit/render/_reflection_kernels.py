@@ -177,17 +177,22 @@ def build_tile_kernel(dtype: str, brdf_channels: int, map_channels: int, record:
     )
 
 
-def build_tile_helpers() -> None:
-    """Compile (or load) into the disk cache the largest helper of the tile kernel that a
-    worker compiling it (:func:`build_tile_kernel`) would otherwise compile itself: the
-    map's texel search (``sample_texels``, about a twelfth of the worker's compile). The
-    process that starts the worker compiles it first, in the seconds the worker takes to
-    reach it; the worker then loads it (or, where it gets there first, compiles it as
+def build_tile_helpers(dtype: type) -> None:
+    """Compile (or load) into the disk cache the largest helpers of the tile kernel in
+    ``dtype`` that a worker compiling it (:func:`build_tile_kernel`) would otherwise compile
+    itself: the map's texel search (``sample_texels``) and, in float32, the sine and cosine
+    of the map's sampled directions (together about a sixth of the worker's compile). The
+    process that starts the worker compiles them first, in the seconds the worker takes to
+    reach them; the worker then loads them (or, where it gets there first, compiles them as
     before)."""
     array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
     f64, i64, guide = array(np.float64, 1), array(np.int64, 1), array(np.uint16, 1)
     search = compiled_texel_search(kernel_tools)
     search.compile((f64, f64, f64, f64, guide, guide, n, n, n, i64, i64, i64))
+    _, sin, cos = kernel_tools.trigonometry(dtype)
+    for function in (sin, cos):
+        if kernel_cache.key_of(function) is not None:  # kept on disk: float32's
+            function.compile((kernel_tools.scalar_type(dtype),))
 
 
 def tile_kernel_built(

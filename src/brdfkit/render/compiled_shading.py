@@ -668,7 +668,7 @@ def build_kernels(
     start = time.perf_counter()
     with _tile_worker(brdf, lights, method, np.dtype(dtype)) as worker:
         if worker is not None:
-            build_tile_helpers()
+            build_tile_helpers(np.dtype(dtype).type)
         plan = compiled_shader(brdf, lights, method=method, dtype=dtype)
         if plan is None:
             return 0.0
