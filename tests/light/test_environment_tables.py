@@ -286,6 +286,23 @@ def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
 
 
 @pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
+def test_the_texel_mean_is_the_bilinear_lookups_mean_over_the_texel(shape):
+    """The sampling weights' texel mean equals the bilinear lookup (rows clamped, columns
+    wrapping) averaged over each texel by the midpoint rule on 4 × 4 points, exact for
+    its four bilinear quarters, on the smallest maps too."""
+    height, width = shape
+    values = np.random.default_rng(19).random(shape) ** 3
+    k = 4
+    offsets = (np.arange(k) + 0.5) / k - 0.5  # in texels, from each centre
+    row = (np.arange(height)[:, None] + offsets).reshape(-1, 1)
+    col = (np.arange(width)[:, None] + offsets).reshape(1, -1)
+    row, col = np.broadcast_arrays(row, col)
+    lookup = environment._bilinear(values[..., None], row, col)[..., 0]
+    expected = lookup.reshape(height, k, width, k).mean(axis=(1, 3))
+    np.testing.assert_allclose(environment._texel_mean(values), expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
 def test_the_neighbourhood_maximum_is_scipys_maximum_filter(shape):
     """The sampling weights' 3×3 maximum (rows clamped, columns wrapping) equals SciPy's
     ``maximum_filter`` with those modes, to the bit, on the smallest maps too."""

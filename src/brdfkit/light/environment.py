@@ -52,37 +52,62 @@ from brdfkit.params import check_number
 def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray:
     """Texel weights (H, W) of an environment map's light sampling: luminance·sin θ.
 
-    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood, so the neighbourhood's
-    maximum is sampled (L/pdf stays bounded next to a bright sun), plus a floor of 10⁻³ of
-    its mean so that every direction the lookup can light has a positive density. With
-    ``compensate`` the map's sin θ-weighted mean luminance is subtracted first, clipped at
-    zero (:attr:`EnvironmentMap.compensated`).
+    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood. The luminance sampled is
+    the mean of two texel values: the lookup's mean over the texel (:func:`_texel_mean`,
+    proportional to the power the texel sends) and the neighbourhood's maximum (which keeps
+    L/pdf within twice its bound next to a bright sun), a defensive mixture [1]_; plus a
+    floor of 10⁻³ of its mean so that every direction the lookup can light has a positive
+    density. With ``compensate`` the map's sin θ-weighted mean luminance is subtracted
+    first, clipped at zero (:attr:`EnvironmentMap.compensated`).
+
+    References
+    ----------
+    .. [1] T. Hesterberg, "Weighted average importance sampling and defensive mixture
+           distributions", *Technometrics* 37(2), 1995.
     """
     from brdfkit.io import REC709_WEIGHTS
 
     height = image.shape[0]
     sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
+    lum = np.empty(image.shape[:2])
     if image.shape[2] == 3:  # image @ weights, by blocks of rows: the float64 copy of the
         # pixels that the product makes is one block's, not the map's (the same products)
-        weights, lum = np.array(REC709_WEIGHTS), np.empty(image.shape[:2])
+        weights = np.array(REC709_WEIGHTS)
         step = max(1, _LUMINANCE_BLOCK // image.shape[1])
         for start in range(0, height, step):
             np.matmul(image[start : start + step], weights, out=lum[start : start + step])
     else:
-        lum = image.mean(axis=2)
-    # in place where the types allow: a map's weights are megabytes, and fresh memory is slow
-    # to touch (float64 luminance of RGB; a grey map's is float32, its weights float64)
-    wide = lum.dtype == sin_theta.dtype
-    rows = _row_maximum(lum)
-    if compensate:  # the luminance's weighted mean, before its memory takes the maxima
-        weighted = np.multiply(lum, sin_theta, out=lum if wide else None)
-        mean = float(np.sum(weighted) / (np.sum(sin_theta) * lum.shape[1]))
-    peak = _column_maximum(rows, out=lum)  # the 3×3 maximum (_neighbourhood_maximum)
+        np.mean(image, axis=2, dtype=np.float64, out=lum)
+    if compensate:  # the luminance's mean over the sphere
+        mean = float(lum.sum(axis=1) @ sin_theta[:, 0]) / (float(np.sum(sin_theta)) * lum.shape[1])
+    # in place where it can be: a map's weights are megabytes, and fresh memory is slow to touch
+    peak = _texel_mean(lum)
+    peak += _column_maximum(_row_maximum(lum), out=lum)  # the 3×3 maximum
+    peak *= 0.5
     floor = 1e-3 * max(peak.mean(), 1e-12)
     if compensate:
         np.maximum(np.subtract(peak, mean, out=peak), 0.0, out=peak)
     peak += floor
-    return np.multiply(peak, sin_theta, out=peak if wide else None)
+    return np.multiply(peak, sin_theta, out=peak)
+
+
+def _texel_mean(values: np.ndarray) -> np.ndarray:
+    """The mean over each texel of the bilinear interpolation of a lat-long map's texel
+    ``values`` ``(H, W)`` (rows clamped at the poles, columns wrapping around), a new array:
+    along each axis the interpolant between neighbouring centres averages to
+    ``(v[i-1] + 6 v[i] + v[i+1]) / 8`` over texel i."""
+    rows = values * 6.0
+    rows[1:] += values[:-1]  # the row above (the pole's own)
+    rows[:1] += values[:1]
+    rows[:-1] += values[1:]  # the row below
+    rows[-1:] += values[-1:]
+    out = rows * 6.0
+    out[:, 1:] += rows[:, :-1]  # the column before, wrapping
+    out[:, :1] += rows[:, -1:]
+    out[:, :-1] += rows[:, 1:]  # the column after, wrapping
+    out[:, -1:] += rows[:, :1]
+    out *= 1 / 64
+    return out
 
 
 _LUMINANCE_BLOCK = 1 << 15
@@ -133,9 +158,10 @@ class EnvironmentMap(Light):
     The map follows :func:`brdfkit.light.spherical_harmonics.latlong_directions`: row 0 at +z (θ =
     0), column 0 starting at φ = 0 (+x) with φ growing towards +y. ``rotation`` (a 3×3 matrix)
     takes map directions to world directions. Importance sampling draws pixels from a
-    piecewise-constant distribution proportional to luminance·sin θ (the 3×3 maximum, since the
-    bilinear lookup mixes neighbours, plus a small floor so that every direction the bilinear
-    lookup can light has a positive density), with solid-angle pdf
+    piecewise-constant distribution proportional to luminance·sin θ (the mean of the bilinear
+    lookup's mean over the texel and its 3×3 maximum, since the lookup mixes neighbours, plus a
+    small floor so that every direction the bilinear lookup can light has a positive density;
+    :func:`_sampling_weights`), with solid-angle pdf
     :math:`p_\omega = p_{uv} / (2\pi^2 \sin\theta)`.
 
     Parameters
@@ -475,8 +501,9 @@ class TableStore:
     writer: Callable[[str, str], Callable[[dict[str, np.ndarray]], None] | None]
 
 
-TABLE_FORMAT = 1
-"""Version of the irradiance table's layout on disk, part of its key."""
+TABLE_FORMAT = 2
+"""Version of the tables on disk (the irradiance table's layout, the sampling weights'
+formula), part of their keys."""
 
 _STORE: list[TableStore] = []
 
