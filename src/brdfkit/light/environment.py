@@ -80,9 +80,12 @@ def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray
         np.mean(image, axis=2, dtype=np.float64, out=lum)
     if compensate:  # the luminance's mean over the sphere
         mean = float(lum.sum(axis=1) @ sin_theta[:, 0]) / (float(np.sum(sin_theta)) * lum.shape[1])
-    # in place where it can be: a map's weights are megabytes, and fresh memory is slow to touch
-    peak = _texel_mean(lum)
-    peak += _column_maximum(_row_maximum(lum), out=lum)  # the 3×3 maximum
+    # the two filters' row passes, then their column passes into the memory the row passes
+    # are done with: a map's weights are megabytes, and fresh memory is slow to touch
+    tent, maxima = _tent_rows(lum), _row_maximum(lum)
+    _column_maximum(maxima, out=lum)  # the 3×3 maximum (_neighbourhood_maximum)
+    peak = _tent_columns(tent, out=maxima)  # the texel mean (_texel_mean)
+    peak += lum
     peak *= 0.5
     floor = 1e-3 * max(peak.mean(), 1e-12)
     if compensate:
@@ -96,12 +99,25 @@ def _texel_mean(values: np.ndarray) -> np.ndarray:
     ``values`` ``(H, W)`` (rows clamped at the poles, columns wrapping around), a new array:
     along each axis the interpolant between neighbouring centres averages to
     ``(v[i-1] + 6 v[i] + v[i+1]) / 8`` over texel i."""
+    return _tent_columns(_tent_rows(values), out=np.empty_like(values))
+
+
+def _tent_rows(values: np.ndarray) -> np.ndarray:
+    """``v[i-1] + 6 v[i] + v[i+1]`` of each texel of ``values`` ``(H, W)`` and those above and
+    below it (rows clamped at the poles), a new array: :func:`_texel_mean`'s first step."""
     rows = values * 6.0
     rows[1:] += values[:-1]  # the row above (the pole's own)
     rows[:1] += values[:1]
     rows[:-1] += values[1:]  # the row below
     rows[-1:] += values[-1:]
-    out = rows * 6.0
+    return rows
+
+
+def _tent_columns(rows: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``(r[j-1] + 6 r[j] + r[j+1]) / 64`` of each texel of ``rows`` ``(H, W)`` and those
+    before and after it (columns wrapping around), into ``out`` (not ``rows``):
+    :func:`_texel_mean`'s second step."""
+    np.multiply(rows, 6.0, out=out)
     out[:, 1:] += rows[:, :-1]  # the column before, wrapping
     out[:, :1] += rows[:, -1:]
     out[:, :-1] += rows[:, 1:]  # the column after, wrapping
