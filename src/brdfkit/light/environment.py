@@ -5,9 +5,10 @@ luminance·sin θ, and tabulates the irradiance of the normals for the diffuse p
 Its tables are made when first used and only as far as used (a map only looked up builds no
 sampling distribution; the irradiance table is built by the columns that lookups read), and are
 shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
-map. The irradiance table and the sampling weights have a second level of cache on disk
-(:func:`use_table_store`), so that a new process reading the same map does not build them
-again.
+map. The irradiance table has a second level of cache on disk (:func:`use_table_store`), so
+that a new process reading the same map does not build it again; the sampling weights are
+made again (writing a map's megabytes of them cost its first image more than reading them
+saves a later process).
 
 References
 ----------
@@ -246,7 +247,7 @@ class EnvironmentMap(Light):
         return _content_table(
             self._pixels_key,
             "distribution",
-            lambda: Distribution2D(self._stored_weights(compensate=False)),
+            lambda: Distribution2D(_sampling_weights(self.image)),
         )
 
     @functools.cached_property
@@ -278,7 +279,7 @@ class EnvironmentMap(Light):
         distribution = _content_table(
             self._pixels_key,
             "compensated",
-            lambda: Distribution2D(self._stored_weights(compensate=True)),
+            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
         )
         view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
@@ -424,25 +425,6 @@ class EnvironmentMap(Light):
         parts = (TABLE_FORMAT, name, shape, self.image.dtype.str, IRRADIANCE_CELLS, IRRADIANCE_GRID)
         return hashlib.sha256(digest + repr(parts).encode()).hexdigest()
 
-    def _stored_weights(self, compensate: bool) -> np.ndarray:
-        """:func:`_sampling_weights` of the pixels, read from the table store where they are
-        (finite, non-negative, one per pixel), else made and stored."""
-        name = "compensated" if compensate else "weights"
-        key = self._table_key(name)
-        stored = _load_table(name, key)
-        weights = None if stored is None else stored.get("weights")
-        if (
-            isinstance(weights, np.ndarray)
-            and weights.dtype == np.float64
-            and weights.shape == self.image.shape[:2]
-            and bool((weights >= 0).all())  # False for NaN too
-            and bool(np.isfinite(weights).all())
-        ):
-            return weights
-        weights = _sampling_weights(self.image, compensate)
-        _store_later(name, key, {"weights": weights})  # read only from here on
-        return weights
-
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
         r"""E at map-frame normals on a lat-long node grid, ``(97, 192, C)`` float32.
@@ -517,9 +499,8 @@ class TableStore:
     writer: Callable[[str, str], Callable[[dict[str, np.ndarray]], None] | None]
 
 
-TABLE_FORMAT = 2
-"""Version of the tables on disk (the irradiance table's layout, the sampling weights'
-formula), part of their keys."""
+TABLE_FORMAT = 1
+"""Version of the irradiance table's layout on disk, part of its key."""
 
 _STORE: list[TableStore] = []
 
@@ -529,11 +510,12 @@ _LOAD_LOCK = threading.Lock()
 
 def _load_table(kind: str, key: str) -> dict[str, np.ndarray] | None:
     """The table store's arrays under ``kind``/``key`` (or ``None``), one load at a time: a
-    new map's sampling weights are looked up on a helper thread while its irradiance table
-    is looked up on the caller's, and reading an ``.npz`` parses each array's header with
-    :func:`ast.literal_eval`, whose AST constructor keeps its recursion depth per
-    interpreter in CPython 3.11: two threads parsing at once can fail with ``SystemError:
-    AST constructor recursion depth mismatch`` (seen here; python/cpython#106905)."""
+    new map's irradiance table may be looked up on a helper thread and on the caller's at
+    once (:meth:`EnvironmentMap.prepare_irradiance` and a first lookup), and reading an
+    ``.npz`` parses each array's header with :func:`ast.literal_eval`, whose AST constructor
+    keeps its recursion depth per interpreter in CPython 3.11: two threads parsing at once
+    can fail with ``SystemError: AST constructor recursion depth mismatch`` (seen here;
+    python/cpython#106905)."""
     if not _STORE:
         return None
     with _LOAD_LOCK:
@@ -582,10 +564,10 @@ def wait_for_table_store() -> None:
 
 
 def use_table_store(store: TableStore | None) -> TableStore | None:
-    """Keep the maps' irradiance tables and sampling weights in ``store`` too (``None``: in
-    memory only); returns the store used until now. :mod:`brdfkit.compiled.cache` gives its
-    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``). Tables are
-    stored in the background, in order (:func:`wait_for_table_store`).
+    """Keep the maps' irradiance tables in ``store`` too (``None``: in memory only); returns
+    the store used until now. :mod:`brdfkit.compiled.cache` gives its own when imported (the
+    kernel cache's folder, ``$BRDFKIT_CACHE_DIR``). Tables are stored in the background, in
+    order (:func:`wait_for_table_store`).
 
     Examples
     --------
