@@ -254,35 +254,47 @@ def test_an_empty_cache_dir_keeps_the_tables_in_memory_only(tmp_path, monkeypatc
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("compensated", [False, True])
-def test_the_sampling_weights_are_read_from_disk_and_a_bad_entry_is_made_again(
-    table_dir, monkeypatch, compensated
-):
-    """A new process samples the map as the first did (equal densities) with the weights read
-    back; weights of another shape or negative are made again."""
-    image = np.random.default_rng(16).random((12, 24, 3)).astype(np.float32)
-    name = "compensated" if compensated else "weights"
+def test_only_the_irradiance_table_goes_to_the_store(table_dir):
+    """A map's sampling distributions (plain and compensated) are made from its pixels, not
+    looked up in the store nor written to it; its irradiance table is both."""
+    store = environment.use_table_store(None)
+    asked = []
 
-    def density(env):
-        env = env.compensated if compensated else env
-        return env._distribution.density.copy()
+    def load(kind, key):
+        asked.append(("load", kind))
+        return store.load(kind, key)
 
-    first = density(EnvironmentMap(image))
-    wait_for_table_store()
-    (path,) = sorted(table_dir.rglob(f"{name}/*.npz"))
-    clear_table_cache()
-    monkeypatch.setattr(environment, "_sampling_weights", None)  # reading only
-    np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
-    monkeypatch.undo()
-    monkeypatch.setenv(cache.ENV, str(table_dir))
-    for bad in (np.ones((3, 4)), -np.ones(image.shape[:2])):
-        np.savez(path, weights=bad)
-        clear_table_cache()
-        np.testing.assert_array_equal(density(EnvironmentMap(image)), first)
+    def writer(kind, key):
+        asked.append(("write", kind))
+        return store.writer(kind, key)
+
+    environment.use_table_store(environment.TableStore(load, writer))
+    try:
+        env = EnvironmentMap(np.random.default_rng(16).random((12, 24, 3)).astype(np.float32))
+        env.pdf(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+        env.compensated.pdf(np.zeros(3), np.array([0.0, 0.0, 1.0]))
+        env.irradiance(np.array([0.0, 0.0, 1.0]))
         wait_for_table_store()
-        with np.load(path) as stored:
-            assert stored["weights"].shape == image.shape[:2]
-            assert (stored["weights"] >= 0).all()
+    finally:
+        environment.use_table_store(store)
+    assert set(asked) == {("load", "irradiance"), ("write", "irradiance")}
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
+def test_the_texel_mean_is_the_bilinear_lookups_mean_over_the_texel(shape):
+    """The sampling weights' texel mean equals the bilinear lookup (rows clamped, columns
+    wrapping) averaged over each texel by the midpoint rule on 4 × 4 points, exact for
+    its four bilinear quarters, on the smallest maps too."""
+    height, width = shape
+    values = np.random.default_rng(19).random(shape) ** 3
+    k = 4
+    offsets = (np.arange(k) + 0.5) / k - 0.5  # in texels, from each centre
+    row = (np.arange(height)[:, None] + offsets).reshape(-1, 1)
+    col = (np.arange(width)[:, None] + offsets).reshape(1, -1)
+    row, col = np.broadcast_arrays(row, col)
+    lookup = environment._bilinear(values[..., None], row, col)[..., 0]
+    expected = lookup.reshape(height, k, width, k).mean(axis=(1, 3))
+    np.testing.assert_allclose(environment._texel_mean(values), expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize("shape", [(2, 2), (5, 3), (17, 40)])
@@ -355,8 +367,8 @@ def test_the_node_columns_are_those_each_lookup_reads():
 
 
 def test_the_table_store_is_read_one_entry_at_a_time():
-    """Threads looking tables up in the store (a new map's weights on a helper thread, its
-    irradiance on the caller's) read it one at a time: reading an ``.npz`` parses its
+    """Threads looking tables up in the store (a new map's irradiance table on a helper
+    thread and on the caller's) read it one at a time: reading an ``.npz`` parses its
     headers with ``ast.literal_eval``, which CPython 3.11 can fail on two threads at once."""
     lock, active, most = threading.Lock(), [0], [0]
 

@@ -136,8 +136,9 @@ def test_environment_map_sampling_pdf_and_lookup(compensated):
 
 
 def test_compensated_map_samples_what_is_brighter_than_the_mean():
-    """Karlík et al. 2019: density ∝ max(L − L̄, 0)·sin θ plus the floor; same radiance."""
-    from scipy.ndimage import maximum_filter
+    """Karlík et al. 2019: density ∝ max(L − L̄, 0)·sin θ plus the floor; same radiance (L
+    of a texel: the mean of its bilinear lookup's mean and its 3×3 maximum)."""
+    from scipy.ndimage import correlate1d, maximum_filter
 
     from brdfkit.light.spherical_harmonics import latlong_directions
 
@@ -156,7 +157,9 @@ def test_compensated_map_samples_what_is_brighter_than_the_mean():
     lum = image @ np.array([0.2126, 0.7152, 0.0722])
     sin_theta = np.sin((np.arange(h) + 0.5) * math.pi / h)[:, None]
     mean = np.sum(lum * sin_theta) / (np.sum(sin_theta) * w)
-    peak = maximum_filter(lum, size=3, mode=("nearest", "wrap"))
+    tent = [1 / 8, 3 / 4, 1 / 8]  # the bilinear lookup's mean over a texel, axis by axis
+    texel_mean = correlate1d(correlate1d(lum, tent, 0, mode="nearest"), tent, 1, mode="wrap")
+    peak = (maximum_filter(lum, size=3, mode=("nearest", "wrap")) + texel_mean) / 2
     dim, bright = peak < mean, peak > 2 * mean
     assert dim.any() and bright.any()
     # texels darker than the mean keep only the floor; the bright ones gain density

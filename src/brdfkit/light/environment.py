@@ -5,9 +5,10 @@ luminance·sin θ, and tabulates the irradiance of the normals for the diffuse p
 Its tables are made when first used and only as far as used (a map only looked up builds no
 sampling distribution; the irradiance table is built by the columns that lookups read), and are
 shared by maps of equal pixels (keyed by their digest): the same file read again is not a new
-map. The irradiance table and the sampling weights have a second level of cache on disk
-(:func:`use_table_store`), so that a new process reading the same map does not build them
-again.
+map. The irradiance table has a second level of cache on disk (:func:`use_table_store`), so
+that a new process reading the same map does not build it again; the sampling weights are
+made again (writing a map's megabytes of them cost its first image more than reading them
+saves a later process).
 
 References
 ----------
@@ -52,37 +53,78 @@ from brdfkit.params import check_number
 def _sampling_weights(image: np.ndarray, compensate: bool = False) -> np.ndarray:
     """Texel weights (H, W) of an environment map's light sampling: luminance·sin θ.
 
-    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood, so the neighbourhood's
-    maximum is sampled (L/pdf stays bounded next to a bright sun), plus a floor of 10⁻³ of
-    its mean so that every direction the lookup can light has a positive density. With
-    ``compensate`` the map's sin θ-weighted mean luminance is subtracted first, clipped at
-    zero (:attr:`EnvironmentMap.compensated`).
+    A bilinear lookup inside a pixel mixes its 3×3 neighbourhood. The luminance sampled is
+    the mean of two texel values: the lookup's mean over the texel (:func:`_texel_mean`,
+    proportional to the power the texel sends) and the neighbourhood's maximum (which keeps
+    L/pdf within twice its bound next to a bright sun), a defensive mixture [1]_; plus a
+    floor of 10⁻³ of its mean so that every direction the lookup can light has a positive
+    density. With ``compensate`` the map's sin θ-weighted mean luminance is subtracted
+    first, clipped at zero (:attr:`EnvironmentMap.compensated`).
+
+    References
+    ----------
+    .. [1] T. Hesterberg, "Weighted average importance sampling and defensive mixture
+           distributions", *Technometrics* 37(2), 1995.
     """
     from brdfkit.io import REC709_WEIGHTS
 
     height = image.shape[0]
     sin_theta = np.sin((np.arange(height) + 0.5) * math.pi / height)[:, None]
+    lum = np.empty(image.shape[:2])
     if image.shape[2] == 3:  # image @ weights, by blocks of rows: the float64 copy of the
         # pixels that the product makes is one block's, not the map's (the same products)
-        weights, lum = np.array(REC709_WEIGHTS), np.empty(image.shape[:2])
+        weights = np.array(REC709_WEIGHTS)
         step = max(1, _LUMINANCE_BLOCK // image.shape[1])
         for start in range(0, height, step):
             np.matmul(image[start : start + step], weights, out=lum[start : start + step])
     else:
-        lum = image.mean(axis=2)
-    # in place where the types allow: a map's weights are megabytes, and fresh memory is slow
-    # to touch (float64 luminance of RGB; a grey map's is float32, its weights float64)
-    wide = lum.dtype == sin_theta.dtype
-    rows = _row_maximum(lum)
-    if compensate:  # the luminance's weighted mean, before its memory takes the maxima
-        weighted = np.multiply(lum, sin_theta, out=lum if wide else None)
-        mean = float(np.sum(weighted) / (np.sum(sin_theta) * lum.shape[1]))
-    peak = _column_maximum(rows, out=lum)  # the 3×3 maximum (_neighbourhood_maximum)
+        np.mean(image, axis=2, dtype=np.float64, out=lum)
+    if compensate:  # the luminance's mean over the sphere
+        mean = float(lum.sum(axis=1) @ sin_theta[:, 0]) / (float(np.sum(sin_theta)) * lum.shape[1])
+    # the two filters' row passes, then their column passes into the memory the row passes
+    # are done with: a map's weights are megabytes, and fresh memory is slow to touch
+    tent, maxima = _tent_rows(lum), _row_maximum(lum)
+    _column_maximum(maxima, out=lum)  # the 3×3 maximum (_neighbourhood_maximum)
+    peak = _tent_columns(tent, out=maxima)  # the texel mean (_texel_mean)
+    peak += lum
+    peak *= 0.5
     floor = 1e-3 * max(peak.mean(), 1e-12)
     if compensate:
         np.maximum(np.subtract(peak, mean, out=peak), 0.0, out=peak)
     peak += floor
-    return np.multiply(peak, sin_theta, out=peak if wide else None)
+    return np.multiply(peak, sin_theta, out=peak)
+
+
+def _texel_mean(values: np.ndarray) -> np.ndarray:
+    """The mean over each texel of the bilinear interpolation of a lat-long map's texel
+    ``values`` ``(H, W)`` (rows clamped at the poles, columns wrapping around), a new array:
+    along each axis the interpolant between neighbouring centres averages to
+    ``(v[i-1] + 6 v[i] + v[i+1]) / 8`` over texel i."""
+    return _tent_columns(_tent_rows(values), out=np.empty_like(values))
+
+
+def _tent_rows(values: np.ndarray) -> np.ndarray:
+    """``v[i-1] + 6 v[i] + v[i+1]`` of each texel of ``values`` ``(H, W)`` and those above and
+    below it (rows clamped at the poles), a new array: :func:`_texel_mean`'s first step."""
+    rows = values * 6.0
+    rows[1:] += values[:-1]  # the row above (the pole's own)
+    rows[:1] += values[:1]
+    rows[:-1] += values[1:]  # the row below
+    rows[-1:] += values[-1:]
+    return rows
+
+
+def _tent_columns(rows: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``(r[j-1] + 6 r[j] + r[j+1]) / 64`` of each texel of ``rows`` ``(H, W)`` and those
+    before and after it (columns wrapping around), into ``out`` (not ``rows``):
+    :func:`_texel_mean`'s second step."""
+    np.multiply(rows, 6.0, out=out)
+    out[:, 1:] += rows[:, :-1]  # the column before, wrapping
+    out[:, :1] += rows[:, -1:]
+    out[:, :-1] += rows[:, 1:]  # the column after, wrapping
+    out[:, -1:] += rows[:, :1]
+    out *= 1 / 64
+    return out
 
 
 _LUMINANCE_BLOCK = 1 << 15
@@ -133,9 +175,10 @@ class EnvironmentMap(Light):
     The map follows :func:`brdfkit.light.spherical_harmonics.latlong_directions`: row 0 at +z (θ =
     0), column 0 starting at φ = 0 (+x) with φ growing towards +y. ``rotation`` (a 3×3 matrix)
     takes map directions to world directions. Importance sampling draws pixels from a
-    piecewise-constant distribution proportional to luminance·sin θ (the 3×3 maximum, since the
-    bilinear lookup mixes neighbours, plus a small floor so that every direction the bilinear
-    lookup can light has a positive density), with solid-angle pdf
+    piecewise-constant distribution proportional to luminance·sin θ (the mean of the bilinear
+    lookup's mean over the texel and its 3×3 maximum, since the lookup mixes neighbours, plus a
+    small floor so that every direction the bilinear lookup can light has a positive density;
+    :func:`_sampling_weights`), with solid-angle pdf
     :math:`p_\omega = p_{uv} / (2\pi^2 \sin\theta)`.
 
     Parameters
@@ -204,7 +247,7 @@ class EnvironmentMap(Light):
         return _content_table(
             self._pixels_key,
             "distribution",
-            lambda: Distribution2D(self._stored_weights(compensate=False)),
+            lambda: Distribution2D(_sampling_weights(self.image)),
         )
 
     @functools.cached_property
@@ -236,7 +279,7 @@ class EnvironmentMap(Light):
         distribution = _content_table(
             self._pixels_key,
             "compensated",
-            lambda: Distribution2D(self._stored_weights(compensate=True)),
+            lambda: Distribution2D(_sampling_weights(self.image, compensate=True)),
         )
         view.__dict__["_distribution"] = distribution
         view.__dict__["compensated"] = view
@@ -382,25 +425,6 @@ class EnvironmentMap(Light):
         parts = (TABLE_FORMAT, name, shape, self.image.dtype.str, IRRADIANCE_CELLS, IRRADIANCE_GRID)
         return hashlib.sha256(digest + repr(parts).encode()).hexdigest()
 
-    def _stored_weights(self, compensate: bool) -> np.ndarray:
-        """:func:`_sampling_weights` of the pixels, read from the table store where they are
-        (finite, non-negative, one per pixel), else made and stored."""
-        name = "compensated" if compensate else "weights"
-        key = self._table_key(name)
-        stored = _load_table(name, key)
-        weights = None if stored is None else stored.get("weights")
-        if (
-            isinstance(weights, np.ndarray)
-            and weights.dtype == np.float64
-            and weights.shape == self.image.shape[:2]
-            and bool((weights >= 0).all())  # False for NaN too
-            and bool(np.isfinite(weights).all())
-        ):
-            return weights
-        weights = _sampling_weights(self.image, compensate)
-        _store_later(name, key, {"weights": weights})  # read only from here on
-        return weights
-
     @functools.cached_property
     def irradiance_table(self) -> np.ndarray:
         r"""E at map-frame normals on a lat-long node grid, ``(97, 192, C)`` float32.
@@ -486,11 +510,12 @@ _LOAD_LOCK = threading.Lock()
 
 def _load_table(kind: str, key: str) -> dict[str, np.ndarray] | None:
     """The table store's arrays under ``kind``/``key`` (or ``None``), one load at a time: a
-    new map's sampling weights are looked up on a helper thread while its irradiance table
-    is looked up on the caller's, and reading an ``.npz`` parses each array's header with
-    :func:`ast.literal_eval`, whose AST constructor keeps its recursion depth per
-    interpreter in CPython 3.11: two threads parsing at once can fail with ``SystemError:
-    AST constructor recursion depth mismatch`` (seen here; python/cpython#106905)."""
+    new map's irradiance table may be looked up on a helper thread and on the caller's at
+    once (:meth:`EnvironmentMap.prepare_irradiance` and a first lookup), and reading an
+    ``.npz`` parses each array's header with :func:`ast.literal_eval`, whose AST constructor
+    keeps its recursion depth per interpreter in CPython 3.11: two threads parsing at once
+    can fail with ``SystemError: AST constructor recursion depth mismatch`` (seen here;
+    python/cpython#106905)."""
     if not _STORE:
         return None
     with _LOAD_LOCK:
@@ -539,10 +564,10 @@ def wait_for_table_store() -> None:
 
 
 def use_table_store(store: TableStore | None) -> TableStore | None:
-    """Keep the maps' irradiance tables and sampling weights in ``store`` too (``None``: in
-    memory only); returns the store used until now. :mod:`brdfkit.compiled.cache` gives its
-    own when imported (the kernel cache's folder, ``$BRDFKIT_CACHE_DIR``). Tables are
-    stored in the background, in order (:func:`wait_for_table_store`).
+    """Keep the maps' irradiance tables in ``store`` too (``None``: in memory only); returns
+    the store used until now. :mod:`brdfkit.compiled.cache` gives its own when imported (the
+    kernel cache's folder, ``$BRDFKIT_CACHE_DIR``). Tables are stored in the background, in
+    order (:func:`wait_for_table_store`).
 
     Examples
     --------
