@@ -733,7 +733,8 @@ def _tile_loop(
               read: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
-        view = (image.reshape(-1), density, r, image.shape[0], image.shape[1], image.shape[2])
+        texels, (height, width, nc) = image.reshape(-1), image.shape
+        view = (texels, density, r, height, width, nc)
         cdfs = (marginal, conditional, row_guide, col_guide)
         sequences = (points_b, digits_b, points_l, digits_l)
         samples = max(points_b.shape[1], digits_b.shape[0])
@@ -772,13 +773,13 @@ def _tile_loop(
             for s in range(samples):
                 draw(s, start, nb, pixels, sequences, keys, scrambled, u_b, u_l)
                 sample_brdf(params, data, sample_fn, nb, u_b, wo_buf, u_buf, brdf)
-                locate(nb, brdf[0], frames, view[0], density, rot, view[3], view[4], view[5],
-                       sin_b, cells_b, weights_b, density_b)  # fmt: skip
+                locate(nb, brdf[0], frames, texels, density, rot, height, width, nc, sin_b,
+                       cells_b, weights_b, density_b)  # fmt: skip
                 sample_map(nb, u_l, view, cdfs, frames, scratch, cells_l, weights_l, pdf_l,
                            wil_buf, cos_l)  # fmt: skip
                 evaluate(params, data, eval_fn, pdf_fn, nb, cos_l, wil_buf, wo_buf, compact, f_buf,
                          pbl_buf)  # fmt: skip
-                read(nb, view[0], density, scale, cells_b, weights_b, density_b, cells_l,
+                read(nb, texels, density, scale, cells_b, weights_b, density_b, cells_l,
                      weights_l, radiance_b, radiance_l, p_texel)  # fmt: skip
                 accumulate(nb, s, start, power, brdf, light, (f_buf, pbl_buf), controls,
                            radiance_b, radiance_l, frames, wil_buf, mean_b, m2_b, mean,

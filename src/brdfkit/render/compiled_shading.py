@@ -662,8 +662,9 @@ def build_kernels(
     and return them (0 where the compiled path does not apply).
 
     Where the tile kernel is neither built nor on disk, a worker process compiles it into the
-    disk cache (:func:`_tile_worker`) while this one builds the BRDF's kernels, the tile
-    kernel's steps and the map's tables; this process then loads it (or, where the worker
+    disk cache (:func:`_tile_worker`) while this one builds the helpers the worker will load
+    (:func:`~brdfkit.render._reflection_kernels.build_tile_helpers`), the BRDF's kernels,
+    the tile kernel's steps and the map's tables; this process then loads it (or, where the worker
     failed, compiles it itself). The worker is ended when this returns or raises."""
     start = time.perf_counter()
     with _tile_worker(brdf, lights, method, np.dtype(dtype)) as worker:
