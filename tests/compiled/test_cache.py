@@ -188,8 +188,51 @@ def test_the_version_reads_numbas_version_without_importing_numba():
     cost each of them ~0.3 s."""
     code = (
         "import sys; from brdfkit.compiled import cache as kernel_cache; kernel_cache.version(); "
-        "print('numba' in sys.modules)"
+        "print('numba' in sys.modules, 'importlib.metadata' in sys.modules)"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "False"
+    assert result.stdout.strip() == "False False"
+
+
+def test_the_version_hashes_the_kernels_sources_and_not_the_applications():
+    package = Path(kernel_cache.__file__).parents[1]
+    expected = sorted(
+        path.relative_to(package).as_posix()
+        for path in package.rglob("*.py")
+        if path.relative_to(package).parts[0] not in kernel_cache._APPLICATION
+    )
+    found = kernel_cache._kernel_sources(package)
+    assert found == expected
+    assert "compiled/cache.py" in found and "brdf/microfacet.py" in found
+    assert not any(p.startswith(("cli/", "explore/")) or p == "plot.py" for p in found)
+
+
+def test_the_version_is_computed_once_by_threads_asking_at_once(monkeypatch):
+    """A render's kernels and its map's tables ask for it at the same moment."""
+    import threading
+
+    calls = []
+    sources = kernel_cache._kernel_sources
+
+    def slow_sources(package):
+        calls.append(threading.get_ident())
+        time.sleep(0.05)
+        return sources(package)
+
+    kernel_cache._version.cache_clear()
+    monkeypatch.setattr(kernel_cache, "_kernel_sources", slow_sources)
+    try:
+        found = []
+        threads = [
+            threading.Thread(target=lambda: found.append(kernel_cache.version())) for _ in range(4)
+        ]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        kernel_cache._version.cache_clear()
+    assert len(calls) == 1
+    assert len(found) == 4 and len(set(found)) == 1
+    assert found[0] == kernel_cache.version()

@@ -236,6 +236,15 @@ def test_toolchain_names_the_installed_versions():
     assert _numba.toolchain() == f"numba {numba.__version__}, llvmlite {llvmlite.__version__}"
 
 
+@pytest.mark.parametrize("package", ["numba", "llvmlite", "numpy", "brdfkit"])
+def test_an_installed_version_is_the_one_in_the_packages_metadata(package):
+    """Read from the ``.dist-info`` folder's name where there is one beside the package, from
+    ``importlib.metadata`` elsewhere (this checkout's brdfkit: an editable install)."""
+    from importlib import metadata
+
+    assert _numba.installed_version(package) == metadata.version(package)
+
+
 def test_a_first_class_function_argument_compiles_its_caller_once():
     """Two compiled functions of one signature passed to a kernel: one specialisation of the
     kernel, each function's own code called through its address."""

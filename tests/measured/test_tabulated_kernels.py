@@ -195,3 +195,28 @@ def test_broadcast_eval_in_chunks_equals_one_kernel_call(table):
         *kernels.data,
     )  # fmt: skip
     assert np.array_equal(f.reshape(-1), expected)
+
+
+def test_a_render_without_tables_does_not_import_the_measured_package():
+    """The shading kernels ask whether a model is tabulated; where no table's class was ever
+    imported none can be, and the answer costs no import of :mod:`brdfkit.measured`."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np\n"
+        "from brdfkit.brdf import parse\n"
+        "from brdfkit.render.compiled_shading import _table_kernels\n"
+        "print(_table_kernels(parse('ggx(alpha=0.3)'), np.float32),"
+        " 'brdfkit.measured' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["None", "False"]
+
+
+def test_a_tabulated_model_is_still_found_by_the_shading_kernels(table):
+    from brdfkit.render.compiled_shading import _table_kernels
+
+    assert _table_kernels(table, np.float64) is table_kernels(table, np.float64)
+    assert _table_kernels(COPPER, np.float64) is None

@@ -50,12 +50,12 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import importlib.util
 import pickle
 import sys
 import threading
 import warnings
 from collections.abc import Callable
-from importlib import metadata
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -70,7 +70,24 @@ _WARNED_LOCK = threading.Lock()
 def toolchain() -> str:
     """The installed numba and llvmlite versions, read from their packages' metadata (no
     import: the kernel cache's version needs them in processes that never compile)."""
-    return f"numba {metadata.version('numba')}, llvmlite {metadata.version('llvmlite')}"
+    return f"numba {installed_version('numba')}, llvmlite {installed_version('llvmlite')}"
+
+
+def installed_version(package: str) -> str:
+    """The version of the installed ``package``, from the name of the one ``.dist-info``
+    folder of that name beside it (``numba-0.68.1.dist-info``: what ``importlib.metadata``
+    reads first, without importing it and the e-mail parser it loads, ~15 ms of a render's
+    start-up); from ``importlib.metadata`` where the folder is not there or not alone (an
+    egg, a source checkout, two installs)."""
+    spec = importlib.util.find_spec(package)
+    if spec is not None and spec.submodule_search_locations:
+        folder = Path(next(iter(spec.submodule_search_locations))).parent
+        found = list(folder.glob(f"{package}-*.dist-info"))
+        if len(found) == 1:
+            return found[0].name[len(package) + 1 : -len(".dist-info")]
+    from importlib import metadata
+
+    return metadata.version(package)
 
 
 # --------------------------------------------------------------------------- the import

@@ -74,22 +74,43 @@ _APPLICATION = frozenset(
 reaches, left out of :func:`version` so that editing them keeps the cache."""
 
 
-@functools.cache
 def version() -> str:
     """A hash of everything the cached kernels depend on besides their key: the source of
     every module of brdfkit but those of :data:`_APPLICATION` (the models, the tracer, the
     hand-written kernels), the numba toolchain's versions and Python's. The versions are read
     from the installed packages' metadata, so that a process asking for the cache's version
-    (the atlas's workers) does not import numba."""
+    (the atlas's workers) does not import numba. Computed once per process, by the first
+    thread to ask (a render's kernels and its maps' tables ask at once)."""
+    with _VERSION_LOCK:
+        return _version()
+
+
+_VERSION_LOCK = threading.Lock()
+
+
+@functools.cache
+def _version() -> str:
     digest = hashlib.sha256(f"{_numba.toolchain()}|{sys.version}".encode())
     package = Path(__file__).parents[1]
-    for path in sorted(package.rglob("*.py")):
-        relative = path.relative_to(package)
-        if relative.parts[0] in _APPLICATION:
-            continue
-        digest.update(str(relative).encode())
-        digest.update(path.read_bytes())
+    for relative in _kernel_sources(package):
+        digest.update(relative.encode())
+        digest.update((package / relative).read_bytes())
     return digest.hexdigest()[:20]
+
+
+def _kernel_sources(package: Path) -> list[str]:
+    """The paths (relative, ``/``-separated, sorted) of the modules under ``package`` that
+    kernels may depend on: every ``.py`` file but those under :data:`_APPLICATION`, whose
+    folders are not walked."""
+    found = []
+    for folder, subfolders, files in os.walk(package):
+        relative = Path(folder).relative_to(package).as_posix()
+        if relative == ".":
+            subfolders[:] = [d for d in subfolders if d not in _APPLICATION]
+            found += [f for f in files if f.endswith(".py") and f not in _APPLICATION]
+        else:
+            found += [f"{relative}/{f}" for f in files if f.endswith(".py")]
+    return sorted(found)
 
 
 def root() -> Path | None:

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import sys
 import threading
 import time
 import weakref
@@ -61,7 +62,6 @@ from brdfkit.compiled import worker as compiled_worker
 from brdfkit.compiled.thread_pool import BLOCK as BLOCK_EVALUATIONS
 from brdfkit.light.base import Light
 from brdfkit.light.environment import EnvironmentMap, compiled_lookups
-from brdfkit.measured import table_kernels
 from brdfkit.params import check_choice
 from brdfkit.render._reflection_kernels import (
     BLOCK,
@@ -210,7 +210,7 @@ class EnvironmentShader:
         # the BRDF's kernels' trailing arguments (a table's arrays: brdfkit.measured)
         self._data: tuple[Any, ...] = ()
         if self.rest is not None:
-            table = table_kernels(self.rest, self.dtype)
+            table = _table_kernels(self.rest, self.dtype)
             if table is not None:
                 self._rest, functions, self._data = table, table.functions, table.data
             else:
@@ -622,7 +622,7 @@ def _brdf_kernels_built(model: BRDF, dtype: np.dtype) -> bool:
     """Whether the BRDF kernels the tile kernel calls for ``model`` exist in this process (a
     table's, :func:`brdfkit.measured.table_kernels`) or are built or on disk (a compiled
     model's source and machine code: making them costs a load)."""
-    table = table_kernels(model, dtype)
+    table = _table_kernels(model, dtype)
     if table is not None:
         return table.built()
     if dtype in _BRDF_KERNELS.get(model, {}):
@@ -718,9 +718,20 @@ def _is_table(model: BRDF, dtype: np.dtype) -> bool:
     """Whether ``model`` is shaded by a table's kernels (:func:`brdfkit.measured.table_kernels`;
     ``False`` without numba, where nothing is compiled)."""
     try:
-        return table_kernels(model, dtype) is not None
+        return _table_kernels(model, dtype) is not None
     except ImportError:
         return False
+
+
+def _table_kernels(model: BRDF, dtype: np.dtype) -> Any:
+    """:func:`brdfkit.measured.table_kernels` of ``model``, without importing
+    :mod:`brdfkit.measured` (~6 ms of a render's start-up) where it is not imported yet: no
+    tabulated BRDF can exist then."""
+    if "brdfkit.measured.tabulated" not in sys.modules:
+        return None
+    from brdfkit.measured import table_kernels
+
+    return table_kernels(model, dtype)
 
 
 _TIMINGS = "timings"
