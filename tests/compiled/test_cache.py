@@ -144,6 +144,7 @@ def test_a_second_process_neither_traces_nor_compiles(tmp_path):
 _RENDER = textwrap.dedent(
     """
     import json
+    import sys
     import numpy as np
     from brdfkit.compiled import cache as kernel_cache
     from brdfkit.brdf import MODELS
@@ -158,6 +159,7 @@ _RENDER = textwrap.dedent(
         "stats": dict(kernel_cache.STATS), "f": image.tolist(),
         "extensions_scanned": entrypoints._already_initialized,
         "tile_signatures": len(tile_kernel(np.float32, 3, 3).signatures),
+        "array_module": "numba.np.arrayobj" in sys.modules,
     }))
     """
 )
@@ -175,6 +177,9 @@ def test_a_second_process_loads_the_tile_kernel_and_renders_the_same_image(tmp_p
     # every kernel loaded for its calls' types: no call had numba type its arguments first
     # (which scans every installed package for numba extensions), nor add a signature
     assert warm["extensions_scanned"] is False and warm["tile_signatures"] == 1
+    # the scratch buffers are allocated in place (kernel_tools.empty): loading the machine
+    # code rebuilds no environment of numba's array functions, so imports none of them
+    assert warm["array_module"] is False
     np.testing.assert_array_equal(warm["f"], cold["f"])
     runtime[0].write_bytes(b"\x80\x04not a pickle")  # unreadable: compiled again, replaced
     again = _run(tmp_path / "cache", _RENDER)

@@ -134,3 +134,72 @@ def test_run_tasks_runs_every_item_once_on_the_pool():
     seen = []
     kernel_tools.run_tasks(seen.append, range(50), 3)
     assert sorted(seen) == list(range(50))
+
+
+def test_empty_allocates_as_numpy_empty_in_the_calling_function():
+    """Shape, dtype, C strides and alignment as ``np.empty``'s, with no function compiled for
+    the allocation (whose environment a loading process would rebuild by importing
+    ``numba.np.arrayobj``)."""
+    empty = kernel_tools.empty()
+    n = 5
+
+    @numba.njit
+    def make(m):
+        a = empty(m, np.float32)
+        b = empty((3, m), np.float64)
+        c = empty((2, 3, n), np.uint64)
+        d = empty(n, np.bool_)
+        a[:] = 1.5
+        return a, b, c, d
+
+    found = make(7)
+    expected = np.empty(7, np.float32), np.empty((3, 7)), np.empty((2, 3, 5), np.uint64)
+    for array, like in zip(found, (*expected, np.empty(5, np.bool_)), strict=True):
+        assert (array.shape, array.dtype, array.strides) == (like.shape, like.dtype, like.strides)
+        assert array.flags.c_contiguous and array.flags.writeable
+        assert array.ctypes.data % array.dtype.alignment == 0
+    np.testing.assert_array_equal(found[0], np.full(7, 1.5, np.float32))
+    llvm = make.inspect_llvm(make.signatures[0])
+    assert "NumbaEnv5numba2np8arrayobj" not in llvm  # no function of numba's array module
+    assert "NRT_MemInfo_alloc_aligned" in llvm
+
+
+def test_empty_refuses_what_numpy_refuses():
+    empty = kernel_tools.empty()
+
+    @numba.njit
+    def make(m):
+        return empty((2, m), np.float64)
+
+    with pytest.raises(ValueError, match="negative dimensions"):
+        make(-1)
+    with pytest.raises(ValueError, match="array is too big"):
+        make(2**62)
+
+    @numba.njit
+    def from_text(m):
+        return empty(m, "f8")
+
+    with pytest.raises(numba.TypingError):  # a NumPy scalar type only
+        from_text(3)
+
+
+def test_flat_is_the_flat_view_of_a_c_array():
+    flat = kernel_tools.flat()
+
+    @numba.njit
+    def view(a):
+        v = flat(a)
+        v[1] = -1.0
+        return v
+
+    a = np.arange(24.0).reshape(2, 3, 4)
+    v = view(a)
+    assert v.shape == (24,) and a[0, 0, 1] == -1.0  # a view: written through
+    np.testing.assert_array_equal(v, a.reshape(-1))
+    del a  # the view holds the memory it shares
+    assert v[23] == 23.0 and v.base is not None
+    llvm = view.inspect_llvm(view.signatures[0])
+    assert "NumbaEnv5numba2np8arrayobj" not in llvm
+    with pytest.raises(numba.TypingError):  # a strided view has no flat view
+        view(np.arange(24.0).reshape(4, 6)[:, ::2])

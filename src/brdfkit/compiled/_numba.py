@@ -374,6 +374,148 @@ def prefetch() -> Callable[..., None]:
 
 
 @_numba_first
+@functools.cache
+@_numba_first
+def array_intrinsics() -> dict[str, Any]:
+    """numba intrinsics that make arrays inside the calling function:
+
+    - ``empty(shape, dtype)``: ``np.empty(shape, dtype)`` (``shape`` an integer or a tuple of
+      integers, ``dtype`` a NumPy scalar type; C order): numba's checks of the shape, its
+      size computation with overflow checks, its alignment and its runtime's allocation;
+    - ``flat(array)``: the 1-D view of a C-contiguous ``array`` (``array.reshape(-1)``),
+      sharing its memory (a borrowed reference, counted as numba counts a view).
+
+    numba compiles ``np.empty``'s allocation and ``reshape``'s shape check as functions of
+    their own, whose environments (kept with the caller's machine code on disk) name
+    ``numba.np.arrayobj``: a process that only loads the code then imports that module to
+    rebuild them (~25 ms of a warm render's start-up). Lowered in place, these have no
+    function and no environment; numba's lowering helpers (:func:`_array_helpers`) are
+    imported when they are compiled.
+
+    Raises
+    ------
+    RuntimeError
+        Where numba's intrinsic API or its array helpers have changed.
+    """
+    try:
+        from llvmlite import ir
+        from numba.core import cgutils, types
+        from numba.core.imputils import impl_ret_borrowed
+        from numba.extending import intrinsic
+    except ImportError as error:
+        raise RuntimeError(
+            f"brdfkit.compiled needs numba's intrinsic API; {toolchain()} (tested with "
+            f"{TESTED}) lacks it: {error}"
+        ) from error
+
+    def dimensions(shape: Any) -> int | None:
+        if isinstance(shape, types.Integer):
+            return 1
+        if isinstance(shape, types.BaseTuple) and all(
+            isinstance(t, types.Integer) for t in shape.types
+        ):
+            return len(shape.types)
+        return None
+
+    TOO_BIG = (
+        "array is too big; `arr.size * arr.dtype.itemsize` is larger than the maximum "
+        "possible size."
+    )
+
+    def checked_product(builder: Any, values: list[Any], overflow: Any) -> tuple[Any, Any]:
+        product = values[0]
+        for value in values[1:]:
+            both = builder.smul_with_overflow(product, value)
+            product = builder.extract_value(both, 0)
+            overflow = builder.or_(overflow, builder.extract_value(both, 1))
+        return product, overflow
+
+    @intrinsic
+    def empty(typingctx: Any, shape: Any, dtype: Any) -> Any:
+        ndim = dimensions(shape)
+        if not ndim or not isinstance(dtype, types.NumberClass):
+            return None
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            parse_shape, make_array, populate_array = _array_helpers()
+            array_type, shapes = parse_shape(context, builder, signature, args)
+            intp, data_type = types.intp, context.get_data_type(array_type.dtype)
+            itemsize = context.get_constant(intp, context.get_abi_sizeof(data_type))
+            one, no = context.get_constant(intp, 1), ir.Constant(ir.IntType(1), 0)
+            length, overflow = checked_product(builder, [one, *shapes], no)
+            size, overflow = checked_product(builder, [length, itemsize], overflow)
+            with builder.if_then(overflow, likely=False):
+                context.call_conv.return_user_exc(builder, ValueError, (TOO_BIG,))
+            strides = [itemsize]
+            for extent in reversed(shapes[1:]):
+                strides.append(builder.mul(strides[-1], extent))
+            alignment = context.get_preferred_array_alignment(array_type.dtype)
+            meminfo = context.nrt.meminfo_alloc_aligned(
+                builder, size, context.get_constant(types.uint32, alignment)
+            )
+            data = context.nrt.meminfo_data(builder, meminfo)
+            array, index = make_array(array_type)(context, builder), context.get_value_type(intp)
+            populate_array(
+                array,
+                data=builder.bitcast(data, data_type.as_pointer()),
+                shape=cgutils.pack_array(builder, shapes, ty=index),
+                strides=cgutils.pack_array(builder, strides[::-1], ty=index),
+                itemsize=itemsize,
+                meminfo=meminfo,
+            )
+            return array._getvalue()
+
+        return types.Array(dtype.instance_type, ndim, "C")(shape, dtype), codegen
+
+    @intrinsic
+    def flat(typingctx: Any, array: Any) -> Any:
+        if not isinstance(array, types.Array) or array.layout != "C":
+            return None
+        view_type = array.copy(ndim=1)
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            _, make_array, populate_array = _array_helpers()
+            source = make_array(array)(context, builder, args[0])
+            view = make_array(view_type)(context, builder)
+            intp = context.get_value_type(types.intp)
+            populate_array(
+                view,
+                data=source.data,
+                shape=cgutils.pack_array(builder, [source.nitems], ty=intp),
+                strides=cgutils.pack_array(builder, [source.itemsize], ty=intp),
+                itemsize=source.itemsize,
+                meminfo=source.meminfo,
+                parent=source.parent,
+            )
+            return impl_ret_borrowed(context, builder, view_type, view._getvalue())
+
+        return view_type(array), codegen
+
+    return {"empty": empty, "flat": flat}
+
+
+@functools.cache
+def _array_helpers() -> tuple[Callable[..., Any], ...]:
+    """numba's lowering helpers of arrays (``numba.np.arrayobj``: its parsing of a shape, its
+    array structure and the filling of one), imported when an intrinsic of
+    :func:`array_intrinsics` is compiled, not when its machine code is loaded.
+
+    Raises
+    ------
+    RuntimeError
+        Where numba's array helpers have changed.
+    """
+    try:
+        from numba.np import arrayobj
+
+        return arrayobj._parse_empty_args, arrayobj.make_array, arrayobj.populate_array
+    except (ImportError, AttributeError) as error:
+        raise RuntimeError(
+            f"brdfkit.compiled needs numba's array helpers; {toolchain()} (tested with "
+            f"{TESTED}) lacks them: {error}"
+        ) from error
+
+
 def function_type(argument_types: tuple[Any, ...]) -> Any:
     """numba's type of a first-class function of ``argument_types`` returning nothing (the
     type :func:`first_class`'s values have)."""
@@ -691,6 +833,7 @@ def _keyed_cache_class() -> type:
 __all__ = [
     "NUMBA_CONFIG_FILE",
     "TESTED",
+    "array_intrinsics",
     "compile_interleaved",
     "first_class",
     "function_type",

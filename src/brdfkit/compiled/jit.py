@@ -111,6 +111,20 @@ def select() -> Callable[[Any, Any, Any], Any]:
     return _numba.intrinsics()["_select"]
 
 
+def empty() -> Callable[[Any, Any], Any]:
+    """The numba intrinsic ``empty(shape, dtype)``: ``np.empty(shape, dtype)`` (an integer or
+    a tuple of integers, a NumPy scalar type) lowered into the calling function, so that its
+    machine code, loaded from the disk cache, needs no module of numba's array functions
+    imported (:func:`brdfkit.compiled._numba.array_intrinsics`)."""
+    return _numba.array_intrinsics()["empty"]
+
+
+def flat() -> Callable[[Any], Any]:
+    """The numba intrinsic ``flat(array)``: ``array.reshape(-1)`` of a C-contiguous array (a
+    view), lowered into the calling function as :func:`empty` is."""
+    return _numba.array_intrinsics()["flat"]
+
+
 def prefetch() -> Callable[[Any, int], None]:
     """The numba intrinsic ``prefetch(array, i)``: LLVM's ``llvm.prefetch`` of element ``i``
     of a C-contiguous ``array`` (read, keep in all cache levels); a hint, no effect on values.
@@ -181,8 +195,10 @@ __all__ = [
     "FASTMATH",
     "array_type",
     "compile_for",
+    "empty",
     "exact_jit",
     "first_class_function",
+    "flat",
     "function_type",
     "inline_jit",
     "jit",

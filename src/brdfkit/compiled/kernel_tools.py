@@ -13,7 +13,9 @@ Those modules build their functions from this toolkit only:
   (options for code that passes arrays on without reference counting), :func:`cached_jit`
   (:func:`exact_jit` with its machine code kept on disk);
 - intrinsics: :func:`select` (a branch-free choice), :func:`prefetch` (a cache hint),
-  :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function);
+  :func:`vector_width_hint` (:func:`vector_bits` wide vectors for one function),
+  :func:`empty` and :func:`flat` (``np.empty`` and ``reshape(-1)`` lowered in place: their
+  cached machine code loads without numba's array module);
 - functions as arguments: :func:`first_class_function` (a compiled function as a value of
   type :func:`function_type`: a kernel taking it is compiled once per signature, not per
   function), with :func:`array_type`, :func:`scalar_type` and :func:`type_of` for a kernel's
@@ -46,8 +48,10 @@ from brdfkit.compiled.guide_tables import guide_table, guided_search
 from brdfkit.compiled.jit import (
     FASTMATH,
     array_type,
+    empty,
     exact_jit,
     first_class_function,
+    flat,
     function_type,
     inline_jit,
     jit,
@@ -84,8 +88,10 @@ __all__ = [
     "FASTMATH",
     "array_type",
     "cached_jit",
+    "empty",
     "exact_jit",
     "first_class_function",
+    "flat",
     "function_type",
     "guide_table",
     "guided_search",

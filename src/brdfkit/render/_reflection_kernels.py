@@ -721,6 +721,7 @@ def _tile_loop(
     T, B, CB = dtype, BLOCK, BLOCK * brdf_channels
     channels = max(brdf_channels, map_channels)
     f64, i64 = np.float64, np.int64
+    empty, flat = kernel_tools.empty(), kernel_tools.flat()
 
     @kernel_tools.jit()
     def shade(params: np.ndarray, pixels: np.ndarray, wo: np.ndarray, frame: np.ndarray,
@@ -733,35 +734,35 @@ def _tile_loop(
               read: Any) -> None:  # fmt: skip
         r = (rot[0, 0], rot[0, 1], rot[0, 2], rot[1, 0], rot[1, 1], rot[1, 2], rot[2, 0],
              rot[2, 1], rot[2, 2])  # fmt: skip
-        texels, (height, width, nc) = image.reshape(-1), image.shape
+        texels, (height, width, nc) = flat(image), image.shape
         view = (texels, density, r, height, width, nc)
         cdfs = (marginal, conditional, row_guide, col_guide)
         sequences = (points_b, digits_b, points_l, digits_l)
         samples = max(points_b.shape[1], digits_b.shape[0])
         # the block's viewing directions, frames, control variates and uniforms
-        wo_buf, frames = np.empty(B * 3, T), np.empty((9, B), T)
-        controls = np.empty((brdf_channels, B), T)
-        keys = (np.empty((2, 3, B), np.uint64), np.empty((2, 2, B), np.uint64))
-        u_b, u_l, u_buf = np.empty((3, B), f64), np.empty((2, B), f64), np.empty(B * 3, T)
+        wo_buf, frames = empty(B * 3, T), empty((9, B), T)
+        controls = empty((brdf_channels, B), T)
+        keys = (empty((2, 3, B), np.uint64), empty((2, 2, B), np.uint64))
+        u_b, u_l, u_buf = empty((3, B), f64), empty((2, B), f64), empty(B * 3, T)
         # the BRDF's samples (wi, weight, pdf, delta), and the map there: sin θ, cells, pdf
-        brdf = (np.empty(B * 3, T), np.empty(CB, T), np.empty(B, T), np.empty(B, np.bool_))
-        sin_b, density_b = np.empty(B, T), np.empty(B, i64)
-        cells_b, weights_b = np.empty((4, B), i64), np.empty((2, B), T)
+        brdf = (empty(B * 3, T), empty(CB, T), empty(B, T), empty(B, np.bool_))
+        sin_b, density_b = empty(B, T), empty(B, i64)
+        cells_b, weights_b = empty((4, B), i64), empty((2, B), T)
         # the map's samples: variates, texels, CDF nodes, density; cells, pdf, direction
-        searched = (np.empty(B, f64), np.empty(B, f64), np.empty(B, i64), np.empty(B, i64),
-                    np.empty(B, i64))  # fmt: skip
-        nodes = (np.empty(B, f64), np.empty(B, f64), np.empty(B, f64), np.empty(B, f64))
-        scratch = (*searched, *nodes, np.empty(B, T))
-        cells_l, weights_l = np.empty((4, B), i64), np.empty((2, B), T)
-        pdf_l, wil_buf, cos_l = np.empty(B, T), np.empty(B * 3, T), np.empty(B, T)
+        searched = (empty(B, f64), empty(B, f64), empty(B, i64), empty(B, i64),
+                    empty(B, i64))  # fmt: skip
+        nodes = (empty(B, f64), empty(B, f64), empty(B, f64), empty(B, f64))
+        scratch = (*searched, *nodes, empty(B, T))
+        cells_l, weights_l = empty((4, B), i64), empty((2, B), T)
+        pdf_l, wil_buf, cos_l = empty(B, T), empty(B * 3, T), empty(B, T)
         # the BRDF at the map's samples above the surface, compacted, then spread out
-        compact = (np.empty(B, i64), np.empty(B * 3, T), np.empty(B * 3, T), np.empty(CB, T),
-                   np.empty(B, T))  # fmt: skip
-        f_buf, pbl_buf = np.empty(CB, T), np.empty(B, T)
+        compact = (empty(B, i64), empty(B * 3, T), empty(B * 3, T), empty(CB, T),
+                   empty(B, T))  # fmt: skip
+        f_buf, pbl_buf = empty(CB, T), empty(B, T)
         # the radiance at both, the map's pdf texel at the BRDF's; the running statistics
-        radiance_b, radiance_l = np.empty((map_channels, B), T), np.empty((map_channels, B), T)
-        p_texel = np.empty(B, T)
-        mean_b, m2_b = np.empty((channels, B), f64), np.empty((channels, B), f64)
+        radiance_b, radiance_l = empty((map_channels, B), T), empty((map_channels, B), T)
+        p_texel = empty(B, T)
+        mean_b, m2_b = empty((channels, B), f64), empty((channels, B), f64)
         light = (pdf_l, cos_l, density_b, p_texel, sin_b)
         for start in range(0, pixels.shape[0], B):
             nb = min(B, pixels.shape[0] - start)
