@@ -378,6 +378,60 @@ def test_the_first_compile_keeps_numbas_blas_flag_where_scipy_linalg_is_imported
     assert seen["dot"] == 55.0
 
 
+_ARRAYS = {
+    "float32 C": np.zeros((3, 4), np.float32),
+    "float64 F": np.asfortranarray(np.zeros((3, 4))),
+    "strided": np.arange(20.0)[::2],
+    "one element": np.zeros((1, 1), np.int64),
+    "zero-d": np.array(1.5),
+    "empty": np.zeros((0, 3), np.uint8),
+    "read-only": np.frombuffer(b"\x00" * 16, np.float32),
+    "bool": np.zeros(5, np.bool_),
+    "complex": np.zeros(2, np.complex64),
+    "datetime": np.zeros(2, "datetime64[ns]"),
+    "record": np.zeros(2, [("a", np.float32), ("b", np.int16)]),
+    "big-endian": np.zeros(3, ">f8"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(_ARRAYS))
+def test_arrays_are_typed_as_numbas_own_function_types_them(name):
+    """The ``np.ndarray`` typing registered by ``numba_module`` (no ``numpy.ma`` import)
+    against numba's own function: the same type, or the same error, for every kind of array."""
+    from numba.core.typing import typeof as numba_typeof
+
+    _numba.numba_module()
+    value = _ARRAYS[name]
+    registered = numba_typeof.typeof_impl.dispatch(np.ndarray)
+    assert registered is not numba_typeof._typeof_ndarray  # the hook is installed
+    try:
+        expected = numba_typeof._typeof_ndarray(value, None)
+    except Exception as error:
+        with pytest.raises(type(error), match="Unsupported array dtype"):
+            registered(value, None)
+    else:
+        assert registered(value, None) == expected
+        assert numba.typeof(value) == expected
+
+
+def test_a_masked_array_is_still_refused():
+    _numba.numba_module()
+    with pytest.raises(numba.core.errors.NumbaTypeError, match="MaskedArray"):
+        numba.typeof(np.ma.masked_array([1.0, 2.0], mask=[False, True]))
+
+
+def test_calling_a_compiled_function_on_arrays_leaves_numpy_ma_unimported():
+    code = (
+        "import sys, numpy as np\n"
+        "from brdfkit.compiled._numba import numba_module\n"
+        "numba = numba_module()\n"
+        "total = numba.njit(lambda a, b: a.sum() + b[0, 0])(np.arange(4.0), np.ones((2, 2)))\n"
+        "print(total, 'numpy.ma' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["7.0", "False"]
+
+
 def test_a_hook_called_first_imports_numba_through_numba_module():
     # a hook importing numba's submodules itself would import numba beside numba_module
     # (another thread's import could then be handed a partly initialised module); numba's

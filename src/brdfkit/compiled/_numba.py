@@ -118,7 +118,8 @@ def numba_module() -> ModuleType:
     it compiles a function that needs it, and any later ``import scipy`` imports it as usual.
 
     The first compile of the process is made not to import SciPy's BLAS either
-    (:func:`_defer_blas_check`).
+    (:func:`_defer_blas_check`), nor the first typing of an array NumPy's masked arrays
+    (:func:`_type_arrays_without_masked_arrays`).
 
     Every module of brdfkit that uses numba has it from here, so that the first use, from
     whichever module, imports it so.
@@ -134,6 +135,7 @@ def numba_module() -> ModuleType:
         finally:
             sys.meta_path.remove(finder)
         _defer_blas_check()
+        _type_arrays_without_masked_arrays()
     return numba
 
 
@@ -203,6 +205,44 @@ def _defer_blas_check() -> None:
             return
 
     event.register("numba:compile", FirstCompile())
+
+
+@functools.cache
+def _type_arrays_without_masked_arrays() -> None:
+    """Have ``numba.typeof`` type a plain NumPy array without importing ``numpy.ma``.
+
+    numba's type of an ``np.ndarray`` (what a compiled function's first call with each kind
+    of array asks) first refuses masked arrays by ``isinstance(value, np.ma.MaskedArray)``,
+    and NumPy imports ``numpy.ma`` (11-17 ms, in every process that loads its kernels) to
+    answer. A value whose type is ``np.ndarray`` itself is no masked array: this registers, for
+    ``np.ndarray``, numba's own function with that test answered so for such values, and
+    numba's function unchanged for subclasses (masked arrays among them). Installed on the
+    numba version these hooks are tested with only (:data:`TESTED`); elsewhere numba types
+    arrays as it does."""
+    try:
+        import numpy as np
+        from numba.core import errors, types
+        from numba.core.typing.typeof import typeof_impl
+        from numba.np import numpy_support
+
+        numba_version = sys.modules["numba"].__version__
+        original = typeof_impl.dispatch(np.ndarray)
+    except (ImportError, AttributeError, KeyError):
+        return
+    if f"numba {numba_version}," not in TESTED or original.__name__ != "_typeof_ndarray":
+        return
+
+    def typeof_ndarray(value: Any, context: Any) -> Any:
+        if type(value) is not np.ndarray:
+            return original(value, context)
+        try:
+            dtype = numpy_support.from_dtype(value.dtype)
+        except errors.NumbaNotImplementedError:
+            raise errors.NumbaValueError(f"Unsupported array dtype: {value.dtype}") from None
+        layout = numpy_support.map_layout(value)
+        return types.Array(dtype, value.ndim, layout, readonly=not value.flags.writeable)
+
+    typeof_impl.register(np.ndarray, typeof_ndarray)
 
 
 def warn_once(hook: str, consequence: str, error: BaseException) -> None:
