@@ -63,6 +63,7 @@ STATS: collections.Counter[str] = collections.Counter()
 read or written: the kernel was then compiled in memory), since the process started."""
 
 _LOCK = threading.Lock()
+_VERSION_LOCK = threading.Lock()
 _USABLE: dict[Path, bool] = {}
 _KEYS: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
 
@@ -83,9 +84,6 @@ def version() -> str:
     thread to ask (a render's kernels and its maps' tables ask at once)."""
     with _VERSION_LOCK:
         return _version()
-
-
-_VERSION_LOCK = threading.Lock()
 
 
 @functools.cache
