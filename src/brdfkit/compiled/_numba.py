@@ -413,7 +413,6 @@ def prefetch() -> Callable[..., None]:
     return prefetch_element
 
 
-@_numba_first
 @functools.cache
 @_numba_first
 def array_intrinsics() -> dict[str, Any]:
@@ -457,7 +456,7 @@ def array_intrinsics() -> dict[str, Any]:
             return len(shape.types)
         return None
 
-    TOO_BIG = (
+    too_big = (
         "array is too big; `arr.size * arr.dtype.itemsize` is larger than the maximum "
         "possible size."
     )
@@ -485,7 +484,7 @@ def array_intrinsics() -> dict[str, Any]:
             length, overflow = checked_product(builder, [one, *shapes], no)
             size, overflow = checked_product(builder, [length, itemsize], overflow)
             with builder.if_then(overflow, likely=False):
-                context.call_conv.return_user_exc(builder, ValueError, (TOO_BIG,))
+                context.call_conv.return_user_exc(builder, ValueError, (too_big,))
             strides = [itemsize]
             for extent in reversed(shapes[1:]):
                 strides.append(builder.mul(strides[-1], extent))

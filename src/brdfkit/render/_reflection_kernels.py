@@ -344,15 +344,12 @@ def _step_types(dtype: type) -> tuple[tuple[Any, ...], ...]:
     kernel calls them."""
     array, n = kernel_tools.array_type, kernel_tools.scalar_type(np.int64)
     t, t2 = array(dtype, 1), array(dtype, 2)
+    i1, i2, f1 = array(np.int64, 1), array(np.int64, 2), array(np.float64, 1)
     keys = array(np.uint64, 3)
-    block_keys = (array(np.uint64, 1), n, array(np.int64, 1), n, n, keys)
+    block_keys = (array(np.uint64, 1), n, i1, n, n, keys)
     scrambled = (array(np.uint32, 2), keys, n, n, array(np.float64, 2))
-    locate = (n, t, t2, t, array(np.float64, 1), t2, n, n, n, t, array(np.int64, 2), t2,
-              array(np.int64, 1))  # fmt: skip
-    mc = array(dtype, 2)
-    i2, t1 = array(np.int64, 2), array(dtype, 1)
-    read = (n, t1, array(np.float64, 1), kernel_tools.scalar_type(dtype), i2, t2,
-            array(np.int64, 1), i2, t2, mc, mc, t1)  # fmt: skip
+    locate = (n, t, t2, t, f1, t2, n, n, n, t, i2, t2, i1)
+    read = (n, t, f1, kernel_tools.scalar_type(dtype), i2, t2, i1, i2, t2, t2, t2, t)
     return block_keys, scrambled, locate, read
 
 
