@@ -70,6 +70,35 @@ def test_cast_shadows_of_a_wall():
     assert datasets.cast_shadows(height, np.array([[0.0, 0.0, 1.0]])).all()
 
 
+def test_horizon_excess_of_a_wall_is_its_rise_above_each_ray():
+    height = np.zeros((5, 9))
+    height[:, 6] = 3.0
+    towards_right = np.array([[1.0, 0.0, 1.0]])  # 45°: the ray rises one unit per pixel
+    excess = datasets.horizon_excess(height, towards_right).reshape(5, 9)
+    # The highest of the wall (3 - distance) and of the ground one pixel on (0 - 1); the
+    # last column has nothing towards the light.
+    expected = [-1.0, -1.0, -1.0, 0.0, 1.0, 2.0, -4.0, -1.0, -np.inf]
+    np.testing.assert_allclose(excess, [expected] * 5)
+    assert np.all(datasets.horizon_excess(height, [[0.0, 0.0, 1.0]]) == -np.inf)  # the zenith
+    for bias in (0.0, 0.5, 1.0, 2.5):
+        np.testing.assert_array_equal(
+            datasets.cast_shadows(height, towards_right, bias=bias)[0], excess <= bias
+        )
+
+
+def test_cast_shadows_light_what_has_no_surface_and_march_only_over_it():
+    height = np.full((7, 12), np.nan)
+    height[2:5, 6:9] = 0.0
+    height[2:5, 9] = 4.0  # a wall on the surface's right edge
+    lit = datasets.cast_shadows(height, [[1.0, 0.0, 1.0]])[0]
+    assert lit[~np.isfinite(height)].all()  # left of the surface, in the wall's line: lit
+    np.testing.assert_array_equal(lit[2:5, 6:10], [[False, False, False, True]] * 3)
+    excess = datasets.horizon_excess(height, [[1.0, 0.0, 1.0]])
+    assert excess.shape == (1, 12)  # one value per surface pixel, row-major
+    with pytest.raises(ValueError, match="no finite value"):
+        datasets.horizon_excess(np.full((3, 3), np.nan), [[1.0, 0.0, 1.0]])
+
+
 def test_bad_files_are_named(tmp_path):
     data = _small()
     folder = tmp_path / "ballPNG"

@@ -867,19 +867,21 @@ def diligent_like_lights(
     return lights / np.linalg.norm(lights, axis=1, keepdims=True)
 
 
-def cast_shadows(
-    height: ArrayLike, light_directions: ArrayLike, pixel_size: float = 1.0, *, bias: float = 0.0
+def horizon_excess(
+    height: ArrayLike, light_directions: ArrayLike, pixel_size: float = 1.0
 ) -> np.ndarray:
-    """Which pixels of a height field each distant light reaches (cast shadows only).
+    """How far the height field rises above each surface pixel's ray to each distant light.
 
-    A pixel ``p`` is shadowed when, marching from it towards the light across the image one
-    pixel at a time, the height field rises above the ray: ``h(q) > h(p) + b + |q - p| s
-    tan(elevation)`` at the pixel ``q`` nearest ``p + t d``, ``t = 1, 2, ...``, with ``d`` the
-    light's image-plane direction (rows go down: ``d = (l_x, -l_y) / |..|``), ``|q - p|`` the
-    distance to that pixel (a diagonal step is longer than 1), ``s = pixel_size`` and
-    ``b = bias`` (0: exact heights; > 0 the shadow-mapping bias of a height field known only so
-    well, e.g. one integrated from measured normals). Vectorised over pixels; loops over lights
-    and march steps only.
+    Marching from a pixel ``p`` towards the light across the image one pixel at a time, the
+    excess is ``max_t h(q_t) - h(p) - |q_t - p| s tan(elevation)`` over the pixels ``q_t``
+    nearest ``p + t d``, ``t = 1, 2, ...``, with ``d`` the light's image-plane direction (rows
+    go down: ``d = (l_x, -l_y) / |..|``), ``|q_t - p|`` the distance to that pixel (a diagonal
+    step is longer than 1) and ``s = pixel_size``: the light reaches ``p`` past occluders of
+    heights known to within ``b`` exactly when the excess is at most ``b`` (the horizon map of
+    Max [1]_, one march for every bias). ``-inf`` where no surface lies along the ray, and for
+    lights at the zenith or below the horizon. Vectorised over the surface's pixels; loops over
+    lights and march steps only, which stop where the surface's heights can no longer rise
+    above the ray.
 
     Parameters
     ----------
@@ -887,12 +889,11 @@ def cast_shadows(
         is no surface (never occludes).
     light_directions : (N, 3) directions towards the lights.
     pixel_size : footprint of a pixel on the surface (orthographic approximation).
-    bias : height an occluder must rise above the ray to block it, >= 0 (units of ``height``;
-        infinity: nothing is shadowed).
 
     Returns
     -------
-    (N, H, W) bool, True where the light is not blocked.
+    (N, P) excess at the ``P`` surface pixels (the finite heights, in row-major order:
+    ``height[np.isfinite(height)]``'s).
 
     Raises
     ------
@@ -902,8 +903,8 @@ def cast_shadows(
 
     References
     ----------
-    N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer 4(2),
-    1988.
+    .. [1] N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer
+       4(2), 1988.
     """
     height = as_float_array("height", height, finite=False)
     lights = as_float_array("light_directions", light_directions)
@@ -914,31 +915,73 @@ def cast_shadows(
         )
     if not pixel_size > 0:
         raise ParameterError(f"pixel_size must be positive, got {pixel_size}")
-    if not bias >= 0:
-        raise ParameterError(f"bias must be >= 0, got {bias}")
     surface = np.isfinite(height)
     if not surface.any():
         raise ParameterError("height has no finite value")
-    h = np.where(surface, height, -np.inf)
-    span = height[surface].max() - height[surface].min()
-    rows, columns = np.indices(height.shape)
-    lit = np.ones((len(lights), *height.shape), dtype=bool)
+    rows, columns = np.nonzero(surface)
+    top, left = rows.min(), columns.min()  # no occluder lies outside the surface's box
+    box = np.where(surface, height, -np.inf)[top : rows.max() + 1, left : columns.max() + 1]
+    rows, columns = rows - top, columns - left
+    h = box[rows, columns]
+    span = h.max() - h.min()
+    excess = np.full((len(lights), len(h)), -np.inf)
     for k, (l_x, l_y, l_z) in enumerate(lights):
         planar = np.hypot(l_x, l_y)
-        if planar < 1e-12 or l_z <= 0 or bias == np.inf:
+        if planar < 1e-12 or l_z <= 0:
             continue
         rise = pixel_size * l_z / planar
         d_col, d_row = l_x / planar, -l_y / planar
-        # No occluder lies beyond the image: its extent bounds the march as well.
-        for t in range(1, int(min(max(span - bias, 0.0) / rise, sum(height.shape))) + 3):
-            r = np.rint(rows + t * d_row).astype(int)
-            c = np.rint(columns + t * d_col).astype(int)
-            inside = (r >= 0) & (r < height.shape[0]) & (c >= 0) & (c < height.shape[1])
+        for t in range(1, int(min(span / rise, sum(box.shape))) + 3):
+            r = np.rint(rows + t * d_row).astype(np.intp)
+            c = np.rint(columns + t * d_col).astype(np.intp)
+            inside = (r >= 0) & (r < box.shape[0]) & (c >= 0) & (c < box.shape[1])
             occluder = np.where(
-                inside, h[r.clip(0, height.shape[0] - 1), c.clip(0, height.shape[1] - 1)], -np.inf
+                inside, box[r.clip(0, box.shape[0] - 1), c.clip(0, box.shape[1] - 1)], -np.inf
             )
             distance = np.hypot(r - rows, c - columns)
-            lit[k] &= ~(occluder > h + bias + distance * rise)
+            np.maximum(excess[k], occluder - h - distance * rise, out=excess[k])
+    return excess
+
+
+def cast_shadows(
+    height: ArrayLike, light_directions: ArrayLike, pixel_size: float = 1.0, *, bias: float = 0.0
+) -> np.ndarray:
+    """Which pixels of a height field each distant light reaches (cast shadows only).
+
+    A pixel ``p`` is shadowed when, marching from it towards the light, the height field rises
+    above the ray by more than ``b = bias``: :func:`horizon_excess` ``> b`` (0: exact heights;
+    > 0 the shadow-mapping bias of a height field known only so well, e.g. one integrated from
+    measured normals).
+
+    Parameters
+    ----------
+    height : (H, W) height towards the camera, in the units of ``pixel_size``; NaN where there
+        is no surface (never occludes, and is lit).
+    light_directions : (N, 3) directions towards the lights.
+    pixel_size : footprint of a pixel on the surface (orthographic approximation).
+    bias : height an occluder must rise above the ray to block it, >= 0 (units of ``height``;
+        infinity: nothing is shadowed).
+
+    Returns
+    -------
+    (N, H, W) bool, True where the light is not blocked (everywhere off the surface).
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        As :func:`horizon_excess`, or a negative ``bias``.
+
+    References
+    ----------
+    N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer 4(2),
+    1988.
+    """
+    if not bias >= 0:
+        raise ParameterError(f"bias must be >= 0, got {bias}")
+    excess = horizon_excess(height, light_directions, pixel_size)
+    surface = np.isfinite(np.asarray(height, dtype=np.float64))
+    lit = np.ones((len(excess), *surface.shape), dtype=bool)
+    lit[:, surface] = excess <= bias
     return lit
 
 

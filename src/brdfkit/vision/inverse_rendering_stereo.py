@@ -77,7 +77,7 @@ from brdfkit.brdf import GGXConductor
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal
 from brdfkit.vision.bivariate_stereo import shared_bivariate
-from brdfkit.vision.datasets import cast_shadows as march_shadows
+from brdfkit.vision.datasets import horizon_excess
 from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import (
     Callback,
@@ -461,11 +461,11 @@ def _cast(
     normals: np.ndarray, mask: np.ndarray, lights: np.ndarray, biases: tuple[float, ...]
 ) -> list[np.ndarray]:
     """Cast-shadow visibilities ``(P, N)`` (0/1) of the surface integrated from ``normals``, one
-    per bias (:func:`~brdfkit.vision.svbrdf.shadow_visibility`, the depth integrated once)."""
+    per bias (:func:`~brdfkit.vision.svbrdf.shadow_visibility`; the depth integrated and its
+    horizons marched once)."""
     height = -least_squares_integration(_normal_map(normals, mask), mask)
-    return [
-        march_shadows(height, lights, bias=bias)[:, mask].T.astype(np.float64) for bias in biases
-    ]
+    excess = horizon_excess(np.where(mask, height, np.nan), lights).T
+    return [(excess <= bias).astype(np.float64) for bias in biases]
 
 
 def _select_bias(problem: _Problem, normals: np.ndarray, mask: np.ndarray) -> float:
