@@ -9,6 +9,7 @@ import pytest
 
 from brdfkit.brdf.spec import parse
 from brdfkit.errors import ParameterError
+from brdfkit.geometry import frame_from_normal
 from brdfkit.vision import datasets
 from brdfkit.vision.bivariate_stereo import shared_bivariate
 from brdfkit.vision.inverse_rendering_stereo import METHODS, inverse_rendering
@@ -104,3 +105,21 @@ def test_a_ps_method():
 
     assert SOLVERS["inverse_rendering"] is METHODS["inverse_rendering"] is inverse_rendering
     assert "inverse_rendering" in _METHODS
+
+
+def test_the_rendered_lobes_are_the_models_own_eval():
+    from brdfkit.brdf import GGXConductor
+    from brdfkit.vision.inverse_rendering_stereo import _design
+
+    normals, inside = sphere_normals((12, 12), centre=(5.5, 5.5), radius=5.0)
+    lights = datasets.diligent_like_lights()
+    pixels = normals[inside]
+    visibility = np.ones((len(pixels), len(lights)))
+    lobes = (GGXConductor(alpha=0.05), GGXConductor(alpha=0.4))
+    columns = _design(pixels, lights, lobes, visibility)
+    for j, lobe in enumerate(lobes):
+        for p in (0, len(pixels) // 2, len(pixels) - 1):
+            frame = np.stack(frame_from_normal(pixels[p : p + 1]), axis=0)[:, 0]  # rows s, t, n
+            wi, wo = lights @ frame.T, np.broadcast_to(frame[:, 2], (len(lights), 3))
+            expected = np.nan_to_num(lobe.eval(wi, wo)[..., 0]) * np.clip(wi[:, 2], 0, None)
+            np.testing.assert_allclose(columns[p, :, 1 + j], expected, rtol=1e-12, atol=1e-300)
