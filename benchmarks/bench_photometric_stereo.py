@@ -3,9 +3,11 @@
 Renders the real DiLiGenT bear ground-truth normals (40 670 mask pixels; Lambertian +
 Blinn-Phong, attached and cast shadows, noise; the real DiLiGenT images are not available here)
 and times every calibrated method of ``brdfkit ps`` (the registries of
-:mod:`brdfkit.vision.photometric_stereo`, :mod:`~brdfkit.vision.bivariate_stereo` and
-:mod:`~brdfkit.vision.consensus`), least squares on every pixel of the stack and on the object
-mask, the others on the mask. The target is < 2 s per method on 2 cores. Prints one JSON
+:mod:`brdfkit.vision.photometric_stereo`, :mod:`~brdfkit.vision.bivariate_stereo`,
+:mod:`~brdfkit.vision.consensus` and :mod:`~brdfkit.vision.inverse_rendering_stereo`), least
+squares on every pixel of the stack and on the object mask, the others on the mask. The target
+is < 2 s per method on 2 cores; inverse rendering, which renders the stack some hundred times
+and marches its cast shadows, is to take a minute at most. Prints one JSON
 record per line (and writes them all to ``benchmarks/results/photometric_stereo.json``):
 method, pixels, wall seconds (best of ``--repeat``), the CPU seconds of that run (all threads;
 more than the wall time when BLAS runs in parallel), iterations, the mean / median angular
@@ -28,10 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
-from brdfkit.vision import bivariate_stereo, consensus, datasets, photometric_stereo
+from brdfkit.vision import (
+    bivariate_stereo,
+    consensus,
+    datasets,
+    inverse_rendering_stereo,
+    photometric_stereo,
+)
 from brdfkit.vision.metrics import angular_error
 
 METHODS = {**photometric_stereo.METHODS, **bivariate_stereo.METHODS, **consensus.METHODS}
+METHODS |= inverse_rendering_stereo.METHODS
 
 
 def main() -> None:
