@@ -877,8 +877,8 @@ def horizon_excess(
     nearest ``p + t d``, ``t = 1, 2, ...``, with ``d`` the light's image-plane direction (rows
     go down: ``d = (l_x, -l_y) / |..|``), ``|q_t - p|`` the distance to that pixel (a diagonal
     step is longer than 1) and ``s = pixel_size``: the light reaches ``p`` past occluders of
-    heights known to within ``b`` exactly when the excess is at most ``b`` (the horizon map of
-    Max [1]_, one march for every bias). ``-inf`` where no surface lies along the ray, and for
+    heights known to within ``b`` exactly when the excess is at most ``b`` (Max's horizon map,
+    one march for every bias). ``-inf`` where no surface lies along the ray, and for
     lights at the zenith or below the horizon. Vectorised over the surface's pixels; loops over
     lights and march steps only, which stop where the surface's heights can no longer rise
     above the ray.
@@ -903,8 +903,8 @@ def horizon_excess(
 
     References
     ----------
-    .. [1] N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer
-       4(2), 1988.
+    N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer 4(2),
+    1988.
     """
     height = as_float_array("height", height, finite=False)
     lights = as_float_array("light_directions", light_directions)
