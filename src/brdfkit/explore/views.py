@@ -377,10 +377,10 @@ def lit_passes(
     frame, :func:`~brdfkit.render.mitsuba_frame.mitsuba_oriented`) with shadows
     (:meth:`~brdfkit.render.mesh.MeshScene.visibility`), refined progressively
     (:func:`brdfkit.render.progressive`, default seed and Sobol' replicates: the same passes as
-    that call in any process, to float32 rounding), stopping when ``cancel`` is set;
-    ``between_tiles()`` after each tile (:func:`tile_progress`) and before each round of its
-    shadow rays (:meth:`~brdfkit.render.mesh.MeshScene.unoccluded`), so that a tile under way
-    yields the cores within a millisecond or two.
+    that call with the same tiles in any process; other tiles round the float32 sums otherwise),
+    stopping when ``cancel`` is set; ``between_tiles()`` after each tile (:func:`tile_progress`)
+    and before each round of its shadow rays (:meth:`~brdfkit.render.mesh.MeshScene.unoccluded`),
+    so that a tile under way yields the cores within a millisecond or two.
 
     Examples
     --------
