@@ -71,7 +71,8 @@ _Uncalibrated = Annotated[
     bool,
     typer.Option(
         "--uncalibrated",
-        help="Estimate the lights from the images (the given lights are only compared).",
+        help="Estimate the lights from the images (the given lights are only compared; a "
+        "DiLiGenT folder's light_intensities.txt still divides its images as they are read).",
     ),
 ]
 _GbrCue = Annotated[
@@ -121,7 +122,8 @@ def ps_command(
     With --uncalibrated the lights are estimated from the images (Hayakawa factorisation, the
     ambiguity resolved by --gbr-cue: the specular highlights, or integrability and a GBR cue)
     and compared with the known ones (--chrome's or the data set's): lights.txt then holds the
-    estimate.
+    estimate. The images are read as for every method, a DiLiGenT folder's divided by its
+    light_intensities.txt; the relative intensities estimated are those left over.
 
     Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
     depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);
