@@ -969,17 +969,30 @@ def cast_shadows(
     Raises
     ------
     brdfkit.errors.ParameterError
-        As :func:`horizon_excess`, or a negative ``bias``.
+        As :func:`horizon_excess` and :func:`lit_within`.
 
     References
     ----------
     N. L. Max, "Horizon mapping: shadows for bump-mapped surfaces", The Visual Computer 4(2),
     1988.
     """
+    excess = horizon_excess(height, light_directions, pixel_size)
+    return lit_within(excess, np.isfinite(np.asarray(height, dtype=np.float64)), bias)
+
+
+def lit_within(excess: np.ndarray, surface: np.ndarray, bias: float) -> np.ndarray:
+    """The lights' visibility ``(N, H, W)`` where occluders are known to within ``bias``: True
+    where :func:`horizon_excess`'s ``excess`` ``(N, P)`` is at most ``bias``, and everywhere
+    off ``surface`` ``(H, W)`` (its ``P`` pixels in row-major order). One march of
+    :func:`horizon_excess` serves every bias.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        A negative ``bias``.
+    """
     if not bias >= 0:
         raise ParameterError(f"bias must be >= 0, got {bias}")
-    excess = horizon_excess(height, light_directions, pixel_size)
-    surface = np.isfinite(np.asarray(height, dtype=np.float64))
     lit = np.ones((len(excess), *surface.shape), dtype=bool)
     lit[:, surface] = excess <= bias
     return lit

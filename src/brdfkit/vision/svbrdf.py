@@ -57,7 +57,7 @@ from brdfkit.brdf.lambertian import Lambertian
 from brdfkit.brdf.ward import WARD_ALPHA, Ward
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal, to_local
-from brdfkit.vision.datasets import cast_shadows, horizon_excess
+from brdfkit.vision.datasets import cast_shadows, horizon_excess, lit_within
 from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import _prepare, trimmed_least_squares
 
@@ -525,8 +525,6 @@ def select_shadow_bias(
     excess = horizon_excess(np.where(mask, height, np.nan), lights)  # one march for every bias
     scores = {}
     for bias in candidates:
-        visibility = np.ones((len(lights), *mask.shape), dtype=bool)
-        visibility[:, mask] = excess <= bias
-        predicted = fit.relight(lights, visibility=visibility)[:, mask]
+        predicted = fit.relight(lights, visibility=lit_within(excess, mask, bias))[:, mask]
         scores[bias] = float(np.sqrt(np.mean((predicted - observations) ** 2)))
     return min(scores, key=scores.get), scores
