@@ -87,7 +87,8 @@ _GbrCue = Annotated[
         "--gbr-cue",
         metavar="CUE",
         help="With --uncalibrated: auto (specular where the images show highlights, else "
-        "entropy), specular, entropy or diffuse_maxima.",
+        "entropy), specular, equal_intensity (lights of equal or known intensity), entropy "
+        "or diffuse_maxima.",
     ),
 ]
 _Chunks = Annotated[

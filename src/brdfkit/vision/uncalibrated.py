@@ -6,7 +6,10 @@ pseudo-normals ``b = rho n``). The pipeline:
 
 1. **Factorisation** (Hayakawa 1994): the SVD ``M = U S V^T`` of the pixels that no light
    leaves in shadow, truncated to rank 3, gives ``L = U_3 S_3^{1/2} A^{-1}`` and
-   ``B = A S_3^{1/2} V_3^T`` up to an unknown invertible ``A`` (9 unknowns).
+   ``B = A S_3^{1/2} V_3^T`` up to an unknown invertible ``A`` (9 unknowns). Where those
+   pixels are under half the mask (lights over a wide cone, cast shadows) they lie in
+   scattered patches with too few neighbours for step 2, and the factor comes instead from
+   every pixel's unshadowed observations (:func:`robust_factorize`, below).
 2. **Integrability** (Yuille & Snow 1997; Belhumeur, Kriegman & Yuille 1999): a surface
    ``z(x, y)`` has ``b_1 / b_3 = -z_x``, ``b_2 / b_3 = -z_y`` and so
    ``d_y(b_1 / b_3) = d_x(b_2 / b_3)``, i.e. ``b_3 d_y b_1 - b_1 d_y b_3 = b_3 d_x b_2 -
@@ -25,8 +28,11 @@ pseudo-normals ``b = rho n``). The pipeline:
    & Favaro): where the (locally uniform-albedo) shading of image ``k`` peaks, the normal points
    at the light, ``K b ∥ K^{-T} l_k``, i.e. ``Q b ∥ l_k`` with ``Q = K^T K`` — linear in the
    four entries of ``Q = [[q_1, 0, q_2], [0, q_1, q_3], [q_2, q_3, q_4]]``, solved in closed
-   form; or **minimum entropy of the albedo distribution** (Alldrin, Mallick & Kriegman 2007):
-   the GBR that makes the albedo histogram most concentrated. The sign of ``lambda`` (the
+   form; **equal light intensities** (Hayakawa 1994, §4): ``|K^{-T} l_k|`` the same for every
+   light is linear in ``K^{-1} K^{-T}``, closed form again, whatever the albedo
+   (:func:`resolve_gbr_equal_intensity`); or **minimum entropy of the albedo distribution**
+   (Alldrin, Mallick & Kriegman 2007): the GBR that makes the albedo histogram most
+   concentrated. The sign of ``lambda`` (the
    convex/concave ambiguity, which no image cue resolves) is chosen so that the normals next
    to the mask's occluding contour point outwards.
 
@@ -76,14 +82,19 @@ normals of bear, cat and pot1, every 8th pixel, 96 lights; median light error, m
 objects): the specular cue gives ggx 0.05 0.30°, ggx 0.1 1.38°, ggx 0.3 3.14°, the Cornell
 acryl_blue, krylon_blue and garnet_red paints 3.0°, 2.7° and 5.7°, the RGL felt 2.5°, the
 cayman car paint 21°; shared bivariate under these lights comes within 0.1-2° of itself
-under the true ones (better on two paints). On these renders the integrability step fails
-outright (the measured normal maps are far from integrable: their curl is 30-50 % of their
-derivatives), and so do the entropy and diffuse-maxima cues; the specular cue refuses cat
-under ggx 0.05 and acryl_blue (its factor admits no equal intensities at 694 pixels). Its
-limits: lights of equal (or known) intensity, a visible occluding contour, and peaks where the
-lobe peaks at the half vector (a broad lobe's peak shifts towards the light, hence ggx 0.3's
-3°). On the psm photographs (lights of unequal intensity) ``"auto"`` finds no consistent
-highlights and takes the entropy cue.
+under the true ones (better on two paints). The specular cue refuses cat under ggx 0.05 and
+acryl_blue (its factor admits no equal intensities at 694 pixels). Its limits: lights of
+equal (or known) intensity, a visible occluding contour, and peaks where the lobe peaks at
+the half vector (a broad lobe's peak shifts towards the light, hence ggx 0.3's 3°). Under
+these wide lights 5-8 % of the pixels are lit and unsaturated in every image, so the GBR cues
+integrate the robust factor: on the matte bear and cat the lights come out 1.4° and 3.0° off
+(entropy), 1.4° and 3.1° (equal intensities), 7.6° and 5.0° (diffuse maxima); on the
+glossy materials equal intensities give 1.1-11° and the entropy of the albedo, which the
+highlights' residue spreads, 1.9-21° (equal intensities better on 13 of 16). On pot1
+integrability fails (its best GBR, fitted to the true lights, is 20° off at every 4th
+pixel): entropy returns lights 140° off and equal intensities refuses (the lights it finds
+spread by 48 %). On the psm photographs (lights of unequal intensity) ``"auto"`` finds no
+consistent highlights and takes the entropy cue.
 
 References
 ----------
@@ -118,9 +129,22 @@ from brdfkit.geometry import half_vector
 from brdfkit.vision import photometric_stereo
 from brdfkit.vision.photometric_stereo import PhotometricStereoResult, _gray, _prepare
 
-Cue = Literal["auto", "specular", "diffuse_maxima", "entropy"]
-CUES: tuple[str, ...] = ("auto", "specular", "diffuse_maxima", "entropy")
+Cue = Literal["auto", "specular", "equal_intensity", "diffuse_maxima", "entropy"]
+CUES: tuple[str, ...] = ("auto", "specular", "equal_intensity", "diffuse_maxima", "entropy")
 """The GBR cues (the ``--gbr-cue`` choices of ``brdfkit ps --uncalibrated``)."""
+
+LIT_EVERYWHERE_SHARE = 0.5
+"""The GBR cues factorise the pixels that every light reaches (:func:`factorize`) when they
+are at least this share of the mask; otherwise (lights over a wide cone, cast shadows: 4 % of
+the DiLiGenT bear under its 96 lights, in scattered patches that leave the integrability
+derivatives no neighbours) every pixel with enough unshadowed observations
+(:func:`robust_factorize`)."""
+
+EQUAL_INTENSITY_SPREAD = 0.2
+"""The ``"equal_intensity"`` cue refuses when the intensities its GBR leaves spread by more
+than this (1.4826 median absolute deviation over the median). On the renders of
+``benchmarks/bench_uncalibrated.py`` they spread by 0.6-7 % where integrability holds (bear,
+cat) and by 46-51 % where it fails (pot1, whose lights come out 65-76° off)."""
 
 SPECULAR_CONSISTENCY = 20.0
 """Degrees: the ``"auto"`` cue takes the specular cue's lights when the median angle between
@@ -373,6 +397,78 @@ def resolve_gbr_diffuse_maxima(
     return mu, nu, lam
 
 
+def resolve_gbr_equal_intensity(lights: np.ndarray) -> tuple[float, float, float]:
+    r"""GBR ``(mu, nu, lambda)`` that gives every light the same intensity.
+
+    The true lights are :math:`l_k = K^{-T} l_k^0` (``l^0`` the integrable family's lights), so
+    :math:`|l_k|^2 = l_k^{0T} C\, l_k^0` with :math:`C = K^{-1} K^{-T}`. Equal intensities
+    make :math:`l^{0T} C l^0` constant: linear least squares in the six entries of the
+    symmetric ``C`` (Hayakawa 1994, §4), solved in closed form. A GBR gives
+
+    .. math:: C \propto \begin{pmatrix} (1 + \mu^2)/\lambda^2 & \mu\nu/\lambda^2 &
+              \mu/\lambda \\ \mu\nu/\lambda^2 & (1 + \nu^2)/\lambda^2 & \nu/\lambda \\
+              \mu/\lambda & \nu/\lambda & 1 \end{pmatrix},
+
+    so, with ``C`` scaled to :math:`C_{33} = 1`: :math:`\mu/\lambda = C_{13}`,
+    :math:`\nu/\lambda = C_{23}` and :math:`1/\lambda^2` the mean of
+    :math:`C_{11} - C_{13}^2` and :math:`C_{22} - C_{23}^2`. ``lambda`` is returned positive.
+    It needs lights of equal (or known, the images divided by them) intensity, as DiLiGenT's
+    ``light_intensities.txt`` gives, and no assumption on the albedo.
+
+    Parameters
+    ----------
+    lights : (N, 3) lights ``l^0`` of the integrable family (``M = L B``), N >= 6.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 6 lights; no GBR makes the intensities equal (``1/lambda^2 <= 0``), or
+        the closest leaves them more than :data:`EQUAL_INTENSITY_SPREAD` apart: the lights
+        are not of equal intensity, or ``lights`` is no GBR of the true ones (integrability
+        failed).
+
+    References
+    ----------
+    H. Hayakawa, JOSA A 11(11), 1994, §4 (equal intensities fix the linear ambiguity up to a
+    rotation); P. N. Belhumeur, D. J. Kriegman, A. L. Yuille, IJCV 35(1), 1999 (the GBR
+    family left by integrability).
+
+    Examples
+    --------
+    Lights of equal intensity seen through a GBR come back:
+
+    >>> import numpy as np
+    >>> from brdfkit.vision import datasets
+    >>> lights = datasets.diligent_like_lights(4, 3, np.radians(40))
+    >>> seen = lights @ gbr_matrix(0.3, -0.2, 1.5)  # rows of l^0 = K^T l
+    >>> np.round(resolve_gbr_equal_intensity(seen), 6).tolist()
+    [0.3, -0.2, 1.5]
+    """
+    if len(lights) < 6:
+        raise ParameterError(
+            f"the equal_intensity cue needs at least 6 lights (6 unknowns); got {len(lights)}"
+        )
+    c = _unit_quadric(lights)
+    mu_over_lam, nu_over_lam = c[4] / c[2], c[5] / c[2]
+    inverse_lam2 = (c[0] / c[2] - mu_over_lam**2 + c[1] / c[2] - nu_over_lam**2) / 2
+    if c[2] <= 0 or inverse_lam2 <= 0:
+        raise ParameterError(
+            "no GBR transformation gives these lights equal intensities: the equal_intensity "
+            "cue needs lights of equal intensity (or images divided by them)"
+        )
+    lam = 1.0 / np.sqrt(inverse_lam2)
+    mu, nu = lam * mu_over_lam, lam * nu_over_lam
+    intensity = np.linalg.norm(lights @ np.linalg.inv(gbr_matrix(mu, nu, lam)), axis=1)
+    spread = 1.4826 * np.median(np.abs(intensity / np.median(intensity) - 1.0))
+    if spread > EQUAL_INTENSITY_SPREAD:
+        raise ParameterError(
+            f"the closest GBR leaves the lights' intensities {spread:.0%} apart (robust spread; "
+            f"at most {EQUAL_INTENSITY_SPREAD:.0%} expected): integrability failed on these "
+            "images, or the lights are not of equal intensity; try another cue"
+        )
+    return float(mu), float(nu), float(lam)
+
+
 def _albedo_entropy(rho: np.ndarray, bins: int, bandwidth: float) -> float:
     """Entropy of the density of ``rho / mean(rho)`` on ``[0, 3]``: linear binning into
     ``bins`` bins, then a Gaussian kernel of ``bandwidth`` (a Parzen estimate that varies
@@ -507,6 +603,14 @@ def robust_factorize(
     return LambertianFactor(lights, b * known, known, residual, noise)
 
 
+def _unit_quadric(lights: np.ndarray) -> np.ndarray:
+    """``(C_11, C_22, C_33, C_12, C_13, C_23)`` of the symmetric ``C`` with ``l^T C l = 1`` for
+    every row ``l`` of ``lights``, in the least-squares sense (Hayakawa 1994, §4)."""
+    x, y, z = lights.T
+    rows = np.stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z], axis=1)
+    return np.linalg.lstsq(rows, np.ones(len(lights)), rcond=None)[0]
+
+
 def _outer_rows(rows: np.ndarray) -> np.ndarray:
     """``(M, 9)``: each row's outer product with itself, flattened."""
     return (rows[:, :, None] * rows[:, None, :]).reshape(len(rows), 9)
@@ -528,9 +632,7 @@ def equal_intensity_metric(lights_hat: np.ndarray) -> np.ndarray:
     ----------
     H. Hayakawa, JOSA A 11(11), 1994, §4.
     """
-    x, y, z = lights_hat.T
-    rows = np.stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z], axis=1)
-    c = np.linalg.lstsq(rows, np.ones(len(lights_hat)), rcond=None)[0]
+    c = _unit_quadric(lights_hat)
     metric = np.array([[c[0], c[3], c[4]], [c[3], c[1], c[5]], [c[4], c[5], c[2]]])
     eigenvalues, vectors = np.linalg.eigh(metric)
     if eigenvalues[0] <= 1e-9 * eigenvalues[-1]:
@@ -706,9 +808,11 @@ def uncalibrated(
 
     With ``cue="specular"``: the robust factorisation (:func:`robust_factorize`), the metric
     of equal intensities and the specular peaks (:func:`resolve_specular`). With the GBR cues:
-    factorisation of the fully lit pixels (:func:`factorize`), integrability
+    factorisation of the fully lit pixels (:func:`factorize`; :func:`robust_factorize` of
+    all where they are under :data:`LIT_EVERYWHERE_SHARE` of the mask), integrability
     (:func:`integrability_transform`), the GBR from ``cue``
-    (:func:`resolve_gbr_diffuse_maxima` or :func:`resolve_gbr_entropy`) and the convex sign.
+    (:func:`resolve_gbr_equal_intensity`, :func:`resolve_gbr_diffuse_maxima` or
+    :func:`resolve_gbr_entropy`) and the convex sign.
     Then the calibrated ``method`` of :data:`brdfkit.vision.photometric_stereo.METHODS` run
     with the lights found (the images divided by the relative intensities).
 
@@ -717,10 +821,11 @@ def uncalibrated(
     images : (N, H, W) or (N, H, W, C) linear images, N >= 3 lights of unknown direction and
         intensity.
     mask : (H, W) bool, the object; all pixels when omitted.
-    cue : ``"specular"`` (glossy objects, lights of equal intensity), ``"diffuse_maxima"``
-        (closed form, any albedo that is locally uniform), ``"entropy"`` (objects of few
-        albedos) or ``"auto"``: specular where the highlights are consistent, else entropy
-        (the cue used is :attr:`UncalibratedResult.cue`).
+    cue : ``"specular"`` (glossy objects, lights of equal intensity), ``"equal_intensity"``
+        (lights of equal or known intensity, any albedo), ``"diffuse_maxima"`` (closed
+        form, any albedo that is locally uniform), ``"entropy"`` (objects of few albedos) or
+        ``"auto"``: specular where the highlights are consistent, else entropy (the cue used
+        is :attr:`UncalibratedResult.cue`).
     method : the calibrated solver for the final normals.
     shadow_threshold : see :func:`lit_everywhere`.
     sigma : smoothing (pixels) before the integrability derivatives
@@ -786,16 +891,17 @@ def uncalibrated(
 def _integrable_lights(
     gray: np.ndarray, mask: np.ndarray, cue: str, shadow_threshold: float, sigma: float
 ) -> tuple[np.ndarray, tuple[float, float, float]]:
-    """Lights ``(N, 3)`` (direction times relative intensity) and the GBR from the fully lit
-    pixels: factorisation, integrability, the GBR from ``cue``, the convex sign."""
+    """Lights ``(N, 3)`` (direction times relative intensity) and the GBR: factorisation (of
+    the fully lit pixels, or robust), integrability, the GBR from ``cue``, the convex sign."""
     n_lights = len(gray)
     lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
-    if lit.sum() < 10:
-        raise ParameterError(
-            f"only {int(lit.sum())} pixels are lit in every image; the factorisation needs "
-            "at least 10 (lower shadow_threshold, or use a larger mask)"
-        )
-    lights_hat, b_hat = factorize(gray[:, lit])
+    if lit.mean() >= LIT_EVERYWHERE_SHARE and lit.sum() >= 10:
+        lights_hat, b_hat = factorize(gray[:, lit])
+    else:
+        shadowed, saturated = _unusable(gray, shadow_threshold)
+        factor = robust_factorize(gray, ~shadowed & ~saturated)
+        lit = factor.known
+        lights_hat, b_hat = factor.lights, factor.pseudo_normals[:, lit]
     height, width = mask.shape
     lit_map = np.zeros((height, width), bool)
     lit_map.flat[np.flatnonzero(mask)[lit]] = True
@@ -809,7 +915,9 @@ def _integrable_lights(
     lights0 = lights_hat @ np.linalg.inv(a)
     b0_map = np.zeros((height, width, 3))
     b0_map[lit_map] = b0.T
-    if cue == "diffuse_maxima":
+    if cue == "equal_intensity":
+        mu, nu, lam = resolve_gbr_equal_intensity(lights0)
+    elif cue == "diffuse_maxima":
         gray_maps = np.zeros((n_lights, height, width))
         gray_maps[:, mask] = gray
         mu, nu, lam = resolve_gbr_diffuse_maxima(gray_maps, b0_map, lights0, lit_map)
@@ -829,8 +937,8 @@ def _specular_lights(
     ``required``, ``None`` where the images do not support it: fewer than 3 specular peaks,
     intensities that cannot be equal, or peaks that the fitted lights leave more than
     :data:`SPECULAR_CONSISTENCY` degrees (median) from their half vectors."""
-    lit = gray > shadow_threshold * np.percentile(gray, 99, axis=1, keepdims=True)
-    saturated = gray >= 0.98 * gray.max(axis=1, keepdims=True)
+    shadowed, saturated = _unusable(gray, shadow_threshold)
+    lit = ~shadowed
     factor = robust_factorize(gray, lit & ~saturated)
     b, lights_hat = specular_highlights(factor, gray, lit)
     if len(b) < 3:
@@ -850,3 +958,10 @@ def _specular_lights(
     if not required and np.degrees(2 * np.arcsin(np.median(residual) / 2)) > SPECULAR_CONSISTENCY:
         return None
     return factor.lights @ np.linalg.inv(a)
+
+
+def _unusable(gray: np.ndarray, shadow_threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(shadowed, saturated)`` observations of ``(N, P)`` images: below ``shadow_threshold``
+    times the image's 99th percentile; at or above 98 % of the image's maximum."""
+    level = np.percentile(gray, 99, axis=1, keepdims=True)
+    return gray <= shadow_threshold * level, gray >= 0.98 * gray.max(axis=1, keepdims=True)
