@@ -896,17 +896,10 @@ def _integrable_lights(
     """Lights ``(N, 3)`` (direction times relative intensity) and the GBR: factorisation (of
     the fully lit pixels, or robust), integrability, the GBR from ``cue``, the convex sign."""
     n_lights = len(gray)
-    lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
-    if lit.mean() >= LIT_EVERYWHERE_SHARE and lit.sum() >= 10:
-        lights_hat, b_hat = factorize(gray[:, lit])
-    else:
-        shadowed, saturated = _unusable(gray, shadow_threshold)
-        factor = robust_factorize(gray, ~shadowed & ~saturated)
-        lit = factor.known
-        lights_hat, b_hat = factor.lights, factor.pseudo_normals[:, lit]
+    lights_hat, b_hat, known = _integrable_factor(gray, shadow_threshold)
     height, width = mask.shape
     lit_map = np.zeros((height, width), bool)
-    lit_map.flat[np.flatnonzero(mask)[lit]] = True
+    lit_map.flat[np.flatnonzero(mask)[known]] = True
     e_map = np.zeros((height, width, 3))
     e_map[lit_map] = b_hat.T
     a = integrability_transform(e_map, lit_map, sigma=sigma)
@@ -930,6 +923,21 @@ def _integrable_lights(
         mu, nu, lam = -mu, -nu, -lam  # the concave reading: K -> diag(-1, -1, 1) K
         k = gbr_matrix(mu, nu, lam)
     return lights0 @ np.linalg.inv(k), (mu, nu, lam)  # rows of K^{-T} l
+
+
+def _integrable_factor(
+    gray: np.ndarray, shadow_threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(L, B, known)``: the rank-3 factor ``L (N, 3)``, ``B (3, K)`` of the ``K`` pixels
+    ``known`` ``(P,)`` that the GBR cues integrate: the SVD of the pixels lit in every image
+    where they are at least :data:`LIT_EVERYWHERE_SHARE` of the mask, else the robust
+    factorisation of every pixel's unshadowed, unsaturated observations."""
+    lit = lit_everywhere(gray, shadow_threshold=shadow_threshold)
+    if lit.mean() >= LIT_EVERYWHERE_SHARE and lit.sum() >= 10:
+        return (*factorize(gray[:, lit]), lit)
+    shadowed, saturated = _unusable(gray, shadow_threshold)
+    factor = robust_factorize(gray, ~shadowed & ~saturated)
+    return factor.lights, factor.pseudo_normals[:, factor.known], factor.known
 
 
 def _specular_lights(
