@@ -94,3 +94,32 @@ def test_orthographic_without_k_and_the_method_list(folder, tmp_path):
     depth = np.load(out / "depth.npy")
     assert np.nanmin(depth) == 0.0  # orthographic: nearest pixel at 0, pixel units
     assert set(_METHODS) == set(METHODS)
+
+
+@pytest.mark.parametrize("stored", ["png", "npy"])
+def test_without_a_mask_the_object_is_where_the_map_holds_normals(folder, tmp_path, stored):
+    """``brdfkit ps``'s outputs: zeros outside the object (``.npy``), mid-grey (``.png``)."""
+    mask = datasets.read_mask(folder / "mask.png")
+    source = folder / "normal_map.png"
+    if stored == "npy":
+        source = tmp_path / "normals.npy"
+        np.save(source, datasets.read_normal_map(folder / "normal_map.png") * mask[..., None])
+    masked, inferred = tmp_path / "masked", tmp_path / "inferred"
+    assert _invoke(source, "--mask", folder / "mask.png", "-o", masked).exit_code == 0
+    result = _invoke(source, "-o", inferred, "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["pixels"] == mask.sum()
+    depth = np.load(inferred / "depth.npy")
+    assert np.array_equal(np.isfinite(depth), mask)
+    assert np.allclose(depth, np.load(masked / "depth.npy"), equal_nan=True)
+
+
+def test_a_map_without_normals_and_no_mask_is_refused_naming_it(tmp_path):
+    empty = tmp_path / "empty.npy"
+    np.save(empty, np.zeros((6, 7, 3)))
+    out = tmp_path / "out"
+    result = _invoke(empty, "-o", out)
+    assert result.exit_code == 2
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and str(empty) in lines[0] and "give a mask" in lines[0]
+    assert not out.exists()

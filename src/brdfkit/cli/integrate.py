@@ -32,7 +32,12 @@ _Normals = Annotated[
 ]
 _Mask = Annotated[
     Path | None,
-    typer.Option("--mask", metavar="FILE", help="Object mask image (white = object)."),
+    typer.Option(
+        "--mask",
+        metavar="FILE",
+        help="Object mask image (white = object); without one, the pixels holding a normal "
+        "(unit length: a background of zeros, mid-grey, black or white is left out).",
+    ),
 ]
 _Camera = Annotated[
     Path | None,

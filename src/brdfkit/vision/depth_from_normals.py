@@ -6,7 +6,9 @@ and ``K.txt``. Its encoding, checked against that project's reader: the 8- or 16
 channels are ``n = 2 v / v_max - 1`` with red = x (right), green = y (up), blue = z (towards
 the camera), no axis flipped (the frame of :mod:`brdfkit.vision`). ``K.txt`` is the 3 × 3
 intrinsics matrix (OpenCV convention: pixels, ``c_x`` a column, ``c_y`` a row); without it
-the view is orthographic. The normals are renormalised inside the mask.
+the view is orthographic. Without a mask the object is the pixels that hold a normal
+(:func:`unit_normal_pixels`: a background of zeros, mid-grey, black or white is left out).
+The normals are renormalised inside the mask.
 
 Output: depth along the optical axis away from the camera, NaN outside the mask (orthographic:
 pixel units, nearest pixel 0; perspective: known up to scale, geometric mean 1 per connected
@@ -77,6 +79,20 @@ METHODS: dict[str, Callable[..., np.ndarray]] = {
 """The integrators by name (the ``--method`` choices of ``brdfkit integrate``)."""
 
 
+UNIT_LENGTH = (0.5, 1.5)
+"""Stored lengths of the vectors taken for normals when no mask is given: unit normals, as
+quantised (8-bit: within 1 %), are kept; the backgrounds normal maps are written with are
+not: zeros (``brdfkit ps``'s ``.npy``), mid-grey (its ``.png``: length under 1e-4), black
+or white (length √3)."""
+
+
+def unit_normal_pixels(values: np.ndarray) -> np.ndarray:
+    """``(H, W)`` bool: the pixels of a stored normal map ``(H, W, 3)`` whose vector's length
+    is within :data:`UNIT_LENGTH`, the object when no mask is given."""
+    length = np.linalg.norm(values, axis=-1)
+    return (length >= UNIT_LENGTH[0]) & (length <= UNIT_LENGTH[1])
+
+
 @dataclass(frozen=True)
 class NormalMap:
     """A normal map ready to integrate.
@@ -118,7 +134,8 @@ def read_normal_map_input(
     ----------
     normals : a normal-map image or ``.npy``, or a folder holding ``normal_map.png`` (and
         maybe ``mask.png``, ``K.txt``, used unless ``mask`` or ``camera`` is given).
-    mask : a mask image (white = object); every pixel when omitted and the folder has none.
+    mask : a mask image (white = object); when omitted and the folder has none, the pixels that
+        hold a normal (:func:`unit_normal_pixels`).
     camera : a text file of the 3 × 3 intrinsics ``K``; orthographic when omitted and the
         folder has none.
 
@@ -126,7 +143,8 @@ def read_normal_map_input(
     ------
     brdfkit.errors.FormatError
         Naming the file: missing or unreadable, a mask of another size or empty, a zero normal
-        inside the mask, or ``K`` not a finite 3 × 3 matrix with positive focal lengths.
+        inside the mask, no pixel holding a normal (without a mask), or ``K`` not a finite
+        3 × 3 matrix with positive focal lengths.
     """
     from brdfkit._array import normalize
     from brdfkit.vision.datasets import read_mask, read_normal_map
@@ -142,7 +160,12 @@ def read_normal_map_input(
         )
     values = read_normal_map(source)
     if mask is None:
-        pixels = np.ones(values.shape[:2], dtype=bool)
+        pixels = unit_normal_pixels(values)
+        if not pixels.any():
+            low, high = UNIT_LENGTH
+            raise FormatError(
+                source, f"no pixel holds a normal (a vector of length {low} to {high}); give a mask"
+            )
     else:
         pixels = read_mask(mask)
         if pixels.shape != values.shape[:2]:
