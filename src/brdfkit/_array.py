@@ -191,6 +191,18 @@ def norm(a: Array, *, keepdims: bool = False) -> Array:
     return xp.sqrt(dot(a, a, keepdims=keepdims))
 
 
+HOLDS_NORMAL = 0.5
+"""A stored normal map holds a normal where its vector is longer than this: unit normals
+(quantised, or not quite normalised) do; the backgrounds maps are written with, zeros or an
+encoded map's mid-grey (length under 1e-2 at 8 bits), do not."""
+
+
+def holds_normal(normals: Array) -> Array:
+    """``(...,)`` bool: where a normal map ``(..., 3)`` holds a normal (its vector longer than
+    :data:`HOLDS_NORMAL`), the object when no mask is given."""
+    return norm(normals) > HOLDS_NORMAL
+
+
 def normalize(a: Array) -> Array:
     """``a`` divided by its norm over the last axis (zero vectors stay zero, without NaN).
 

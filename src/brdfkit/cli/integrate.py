@@ -36,7 +36,7 @@ _Mask = Annotated[
         "--mask",
         metavar="FILE",
         help="Object mask image (white = object); without one, the pixels holding a normal "
-        "(unit length: a background of zeros, mid-grey, black or white is left out).",
+        "(longer than 1/2: a background of zeros or mid-grey is left out).",
     ),
 ]
 _Camera = Annotated[

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from brdfkit._array import holds_normal
 from brdfkit.errors import ParameterError
 
 MEASURED_SUFFIXES = (".binary", ".bsdf", ".brdf")
@@ -110,7 +111,7 @@ def shape_normals(spec: str) -> tuple[np.ndarray, np.ndarray]:
                 f"shape {spec!r}: mask.png is {mask.shape}, the map {normals.shape[:2]}"
             )
     else:
-        mask = np.linalg.norm(normals, axis=-1) > 0.5
+        mask = holds_normal(normals)
     length = np.linalg.norm(normals, axis=-1, keepdims=True)
     return np.where(mask[..., None], normals / np.where(length > 0, length, 1.0), 0.0), mask
 

@@ -23,7 +23,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from brdfkit._array import dot, norm, to_numpy
+from brdfkit._array import dot, holds_normal, norm, to_numpy
 
 FRONT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 """Camera-to-world rotation of the default view: columns are the camera's x, y, z in the world."""
@@ -257,7 +257,7 @@ def normal_map_gbuffer(
     if n.ndim != 3 or n.shape[2] != 3:
         raise ValueError(f"normals must have shape (H, W, 3); got {n.shape}")
     length = np.linalg.norm(n, axis=-1)
-    m = length > 0.5 if mask is None else np.asarray(to_numpy(mask)).astype(bool)
+    m = holds_normal(n) if mask is None else np.asarray(to_numpy(mask)).astype(bool)
     if m.shape != n.shape[:2]:
         raise ValueError(f"mask must have shape {n.shape[:2]}; got {m.shape}")
     n = np.where(m[..., None], n / np.maximum(length, 1e-12)[..., None], [0.0, 0.0, 1.0])

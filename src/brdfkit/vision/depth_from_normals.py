@@ -7,7 +7,7 @@ channels are ``n = 2 v / v_max - 1`` with red = x (right), green = y (up), blue 
 the camera), no axis flipped (the frame of :mod:`brdfkit.vision`). ``K.txt`` is the 3 × 3
 intrinsics matrix (OpenCV convention: pixels, ``c_x`` a column, ``c_y`` a row); without it
 the view is orthographic. Without a mask the object is the pixels that hold a normal
-(:func:`unit_normal_pixels`: a background of zeros, mid-grey, black or white is left out).
+(a vector longer than 1/2: zeros or mid-grey are the background).
 The normals are renormalised inside the mask.
 
 Output: depth along the optical axis away from the camera, NaN outside the mask (orthographic:
@@ -79,20 +79,6 @@ METHODS: dict[str, Callable[..., np.ndarray]] = {
 """The integrators by name (the ``--method`` choices of ``brdfkit integrate``)."""
 
 
-UNIT_LENGTH = (0.5, 1.5)
-"""Stored lengths of the vectors taken for normals when no mask is given: unit normals, as
-quantised (8-bit: within 1 %), are kept; the backgrounds normal maps are written with are
-not: zeros (``brdfkit ps``'s ``.npy``), mid-grey (its ``.png``: length under 1e-4), black
-or white (length √3)."""
-
-
-def unit_normal_pixels(values: np.ndarray) -> np.ndarray:
-    """``(H, W)`` bool: the pixels of a stored normal map ``(H, W, 3)`` whose vector's length
-    is within :data:`UNIT_LENGTH`, the object when no mask is given."""
-    length = np.linalg.norm(values, axis=-1)
-    return (length >= UNIT_LENGTH[0]) & (length <= UNIT_LENGTH[1])
-
-
 @dataclass(frozen=True)
 class NormalMap:
     """A normal map ready to integrate.
@@ -135,7 +121,7 @@ def read_normal_map_input(
     normals : a normal-map image or ``.npy``, or a folder holding ``normal_map.png`` (and
         maybe ``mask.png``, ``K.txt``, used unless ``mask`` or ``camera`` is given).
     mask : a mask image (white = object); when omitted and the folder has none, the pixels that
-        hold a normal (:func:`unit_normal_pixels`).
+        hold a normal (a vector longer than ½).
     camera : a text file of the 3 × 3 intrinsics ``K``; orthographic when omitted and the
         folder has none.
 
@@ -146,7 +132,7 @@ def read_normal_map_input(
         inside the mask, no pixel holding a normal (without a mask), or ``K`` not a finite
         3 × 3 matrix with positive focal lengths.
     """
-    from brdfkit._array import normalize
+    from brdfkit._array import HOLDS_NORMAL, holds_normal, normalize
     from brdfkit.vision.datasets import read_mask, read_normal_map
 
     source = Path(normals)
@@ -160,12 +146,10 @@ def read_normal_map_input(
         )
     values = read_normal_map(source)
     if mask is None:
-        pixels = unit_normal_pixels(values)
+        pixels = holds_normal(values)
         if not pixels.any():
-            low, high = UNIT_LENGTH
-            raise FormatError(
-                source, f"no pixel holds a normal (a vector of length {low} to {high}); give a mask"
-            )
+            longer = f"a vector longer than {HOLDS_NORMAL}"
+            raise FormatError(source, f"no pixel holds a normal ({longer}); give a mask")
     else:
         pixels = read_mask(mask)
         if pixels.shape != values.shape[:2]:

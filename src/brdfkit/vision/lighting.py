@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from brdfkit._array import Array, asarray, check_finite, namespace, to_numpy
+from brdfkit._array import Array, asarray, check_finite, holds_normal, namespace, to_numpy
 from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import ParameterError
 from brdfkit.light.spherical_harmonics import lambertian_kernel, sh_basis
@@ -92,7 +92,7 @@ def _check_image_normals(
         )
     length = xp.sqrt(xp.sum(normals * normals, axis=-1))
     if mask is None:
-        mask = length > 0.5
+        mask = holds_normal(normals)
     else:
         mask = asarray(mask, xp)
         if tuple(mask.shape) != tuple(image.shape[:2]):
