@@ -98,6 +98,20 @@ def test_perspective_sphere_is_recovered_up_to_scale():
     )
 
 
+def test_perspective_parts_each_have_a_geometric_mean_of_one():
+    """A mask in two parts (the sphere cut by a gap): each part is up to its own scale, so
+    each is given a geometric mean of 1, and each keeps the sphere's shape."""
+    camera = np.array([[150.0, 0.0, 41.0], [0.0, 160.0, 28.0], [0.0, 0.0, 1.0]])
+    depth, normals, mask = _perspective_sphere(camera)
+    mask[:, 40:43] = False
+    estimate = least_squares_integration(normals, mask, camera)
+    for part in (np.s_[:, :40], np.s_[:, 43:]):
+        inside = mask[part]
+        assert np.exp(np.mean(np.log(estimate[part][inside]))) == pytest.approx(1.0, rel=1e-12)
+        ratio = estimate[part][inside] / depth[part][inside]
+        assert np.std(ratio) / np.mean(ratio) < 1e-3
+
+
 def test_perspective_gradients_of_a_fronto_parallel_plane_vanish():
     camera = np.array([[100.0, 0.0, 10.0], [0.0, 100.0, 8.0], [0.0, 0.0, 1.0]])
     normals = np.zeros((16, 20, 3))

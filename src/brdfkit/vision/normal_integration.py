@@ -329,7 +329,7 @@ def least_squares_integration(
         np.minimum.at(nearest, component, solution)
         depth = solution - nearest[component]
     else:
-        solution -= np.bincount(component, solution) / np.bincount(component)
+        solution -= (np.bincount(component, solution) / np.bincount(component))[component]
         depth = np.exp(solution)
     out = np.full(mask.shape, np.nan)
     out[mask] = depth
@@ -341,4 +341,6 @@ METHODS: dict[str, Callable[..., np.ndarray]] = {
     "poisson_dct": poisson_dct,
     "frankot_chellappa": frankot_chellappa,
 }
-"""The integrators by name (the ``--integration`` choices of ``brdfkit ps``)."""
+"""The least-squares and Fourier integrators by name (with the bilateral ones,
+:data:`brdfkit.vision.depth_from_normals.METHODS`: the choices of ``brdfkit integrate`` and
+``brdfkit ps --integration``)."""
