@@ -940,6 +940,38 @@ def normal_integration(r: dict) -> str:
     )
 
 
+def ps_depth(r: dict) -> str:
+    integrations, s = r["integrations"], r["summary"]
+    solvers = list(s[f"{integrations[0]}_mean_made_mm"])
+    runs = {(o["object"], o["material"], o["solver"]): o for o in r["records"]}
+    body = []
+    for obj, material in dict.fromkeys((o["object"], o["material"]) for o in r["records"]):
+        cells = []
+        for solver in solvers:
+            o = runs[obj, material, solver]
+            cells += [f"{o['angular_error_deg']:.2f}",
+                      *(f"{o[f'{name}_made_mm']:.3f}" for name in integrations)]  # fmt: skip
+        truth = o["ground_truth_normals_made_mm"]
+        body.append([obj, material, *cells, *(f"{truth[name]:.3f}" for name in integrations)])
+    header = ["object", "material"]
+    for solver in [*solvers, "true normals"]:
+        if solver != "true normals":
+            header.append(f"{solver} °")
+        header += [f"{solver}, {name}" for name in integrations]
+    means = "; ".join(
+        f"{solver}: " + ", ".join(f"{name} {s[f'{name}_mean_made_mm'][solver]:.3f}"
+                                  for name in integrations)
+        for solver in solvers
+    )  # fmt: skip
+    return (
+        f"One pixel in {r['step']} along each axis, noise {r['noise']}: the normals' mean angular "
+        "error (°) and the depth's MADE (mm) by each integrator:\n\n"
+        f"{rows(header, body, 'll' + 'r' * (len(header) - 2))}\n\n"
+        f"bilateral_pieces below least squares in {s['bilateral_pieces_below_least_squares']} "
+        f"of {s['runs']} runs; mean MADE (mm) {means}."
+    )
+
+
 def brdf_explorer(r: dict) -> str:
     def opengl(x: dict) -> list[str]:
         if "opengl_error" not in x:
@@ -1085,6 +1117,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "uncalibrated": uncalibrated,
     "vision_accuracy": vision_accuracy,
     "normal_integration": normal_integration,
+    "ps_depth": ps_depth,
     "sfs": sfs,
     "relighting": relighting,
     "brdf_explorer": brdf_explorer,

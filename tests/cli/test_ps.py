@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 
 from brdfkit.cli import app
 from brdfkit.vision import datasets
-from brdfkit.vision.normal_integration import least_squares_integration
+from brdfkit.vision.bilateral_integration import PIECES, bilateral_integration
 from brdfkit.vision.photometric_stereo import (
     calibrate_lights_chrome_sphere,
     least_squares,
@@ -46,13 +46,28 @@ def test_outputs_match_the_library(ball, tmp_path):
     decoded = datasets.read_normal_map(out / "normals.png")
     np.testing.assert_allclose(decoded[data.mask], expected.normals[data.mask], atol=2e-5)
     depth = np.load(out / "depth.npy")
-    np.testing.assert_allclose(depth, least_squares_integration(expected.normals, data.mask))
+    expected_depth = bilateral_integration(expected.normals, data.mask, pieces=PIECES).depth
+    np.testing.assert_allclose(depth, expected_depth)
     error = np.load(out / "angular_error.npy")
     assert np.nanmax(error) < 0.05  # 16-bit Lambertian images: least squares is exact
     mesh = trimesh.load(out / "mesh.ply")
     assert len(mesh.vertices) == data.mask.sum()
     # Faces wind counter-clockwise seen from the camera: normals point towards +z.
     assert np.all(mesh.face_normals[:, 2] > 0)
+
+
+def test_perspective_by_default_with_a_camera(ball, tmp_path):
+    camera = np.array([[300.0, 0.0, 18.0], [0.0, 300.0, 15.0], [0.0, 0.0, 1.0]])
+    np.savetxt(tmp_path / "K.txt", camera)
+    out = tmp_path / "out"
+    result = _invoke(ball, "-m", "least_squares", "--camera", tmp_path / "K.txt", "-o", out)
+    assert result.exit_code == 0, result.output
+    normals = np.load(out / "normals.npy")
+    mask = datasets.load_diligent(ball).mask
+    expected = bilateral_integration(normals, mask, camera, pieces=PIECES).depth
+    np.testing.assert_allclose(np.load(out / "depth.npy"), expected)
+    refused = _invoke(ball, "--integration", "frankot_chellappa", "--camera", tmp_path / "K.txt")
+    assert refused.exit_code == 2 and "--camera needs --integration" in refused.output
 
 
 def test_psm_gray_with_chrome_calibration(shared_data, tmp_path):

@@ -33,7 +33,7 @@ def wanted(dataset: Path, chunks: int | None, step: int) -> bool:
     return step == 1 and exceeds_memory(dataset)
 
 
-def _check(method: str, integration: str, options: dict[str, Any]) -> None:
+def _check(method: str, integration: str | None, options: dict[str, Any]) -> None:
     """Exit naming the first option that the tiled path cannot honour."""
     from brdfkit.distributed import tiled
 
@@ -42,13 +42,13 @@ def _check(method: str, integration: str, options: dict[str, Any]) -> None:
             fail(f"{name} is not available out of core (--chunks or a stack beyond memory)")
     if method not in tiled.PER_PIXEL:
         fail(f"--method {method!r} couples pixels; out of core use {', '.join(tiled.PER_PIXEL)}")
-    if integration != "least_squares":
+    if integration not in (None, "least_squares"):
         fail(f"--integration {integration!r}: out of core the depth is tiled least squares")
 
 
 def run(
-    dataset: Path, method: str, integration: str, chunks: int | None, options: dict[str, Any],
-    output: Path, as_json: bool,
+    dataset: Path, method: str, integration: str | None, chunks: int | None,
+    options: dict[str, Any], output: Path, as_json: bool,
 ) -> None:  # fmt: skip
     """Solve and integrate tile by tile, write the outputs, print the measures."""
     from brdfkit.distributed import cluster, tiled

@@ -12,6 +12,7 @@ import typer
 from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 from brdfkit.cli._ps_data import load_with_lights
+from brdfkit.cli.integrate import _METHODS as _INTEGRATORS
 
 if TYPE_CHECKING:
     from rich.table import Table
@@ -22,7 +23,6 @@ _METHODS = ("least_squares", "trimmed", "sparse_regression", "robust_pca")
 _METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vision.bivariate
 _METHODS += ("consensus",)  # vision.consensus
 _METHODS += ("inverse_rendering",)  # vision.inverse_rendering_stereo
-_INTEGRATORS = ("least_squares", "poisson_dct", "frankot_chellappa")
 _OUTPUTS = (
     "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
     "mesh.ply", "angular_error.npy", "angular_error.png", "metrics.json",
@@ -52,15 +52,22 @@ _Chrome = Annotated[
     ),
 ]
 _Integration = Annotated[
-    str,
-    typer.Option("--integration", metavar="METHOD", help=f"One of: {', '.join(_INTEGRATORS)}."),
+    str | None,
+    typer.Option(
+        "--integration",
+        metavar="METHOD",
+        help=f"One of: {', '.join(_INTEGRATORS)}; by default {_INTEGRATORS[0]}, as brdfkit "
+        "integrate (out of core: least squares on tiles).",
+        show_default=False,
+    ),
 ]
 _Camera = Annotated[
     Path | None,
     typer.Option(
         "--camera",
         metavar="FILE",
-        help="K.txt (3x3 intrinsics): perspective integration (least_squares).",
+        help="K.txt (3x3 intrinsics): perspective integration (the bilateral methods or "
+        "least_squares).",
     ),
 ]
 _Step = Annotated[
@@ -115,7 +122,7 @@ def ps_command(
     dataset: _Dataset,
     method: _Method = "sparse_regression",
     chrome: _Chrome = None,
-    integration: _Integration = "least_squares",
+    integration: _Integration = None,
     camera: _Camera = None,
     step: _Step = 1,
     output: _Output = Path("ps"),
@@ -138,19 +145,23 @@ def ps_command(
     them). Frame: x right, y up, z towards the camera.
     """
     from brdfkit.cli import _ps_tiled
-    from brdfkit.vision.reconstruction import read_intrinsics, reconstruct
+    from brdfkit.vision.depth_from_normals import PERSPECTIVE_METHODS, read_intrinsics
+    from brdfkit.vision.reconstruction import DEFAULT_INTEGRATION, reconstruct
     from brdfkit.vision.uncalibrated import CUES
 
     _choice(method, _METHODS, "--method")
-    _choice(integration, _INTEGRATORS, "--integration")
+    if integration is not None:
+        _choice(integration, _INTEGRATORS, "--integration")
     _choice(gbr_cue, CUES, "--gbr-cue")
     if _ps_tiled.wanted(dataset, chunks, step):
         refused = {"--chrome": chrome, "--camera": camera, "--step": step != 1,
                    "--uncalibrated": uncalibrated}  # fmt: skip
         _ps_tiled.run(dataset, method, integration, chunks, refused, output, as_json)
         return
-    if camera is not None and integration != "least_squares":
-        fail(f"--camera needs --integration least_squares, got {integration!r}")
+    integration = integration or DEFAULT_INTEGRATION
+    if camera is not None and integration not in PERSPECTIVE_METHODS:
+        needed = " or ".join(PERSPECTIVE_METHODS)
+        fail(f"--camera needs --integration {needed} (perspective); got {integration!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(dataset, chrome, camera))
     intrinsics = None if camera is None else read_intrinsics(camera, step)
     with progress() as bar:
@@ -209,7 +220,8 @@ def _table(summary: dict[str, Any]) -> Table:
     """The measures of ``summary`` (what ``--json`` prints) as a table."""
     from rich.table import Table
 
-    table = Table(title=f"{summary['dataset']}: {summary['method']}, {summary['lights']} lights")
+    title = f"{summary['dataset']}: {summary['method']}, {summary['lights']} lights"
+    table = Table(title=f"{title}, depth by {summary['integration']}")
     table.add_column("measure")
     table.add_column("value", justify="right")
     table.add_row("pixels", f"{summary['pixels']}")

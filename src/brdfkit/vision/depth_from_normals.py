@@ -13,7 +13,7 @@ The normals are renormalised inside the mask.
 Output: depth along the optical axis away from the camera, NaN outside the mask (orthographic:
 pixel units, nearest pixel 0; perspective: known up to scale, geometric mean 1 per connected
 part of the mask), and a triangle mesh of the masked pixels
-(:func:`brdfkit.vision.reconstruction.depth_mesh`).
+(:func:`depth_mesh`).
 
 References
 ----------
@@ -79,6 +79,82 @@ METHODS: dict[str, Callable[..., np.ndarray]] = {
 """The integrators by name (the ``--method`` choices of ``brdfkit integrate``)."""
 
 
+def read_intrinsics(path: str | os.PathLike, step: int = 1) -> np.ndarray:
+    """The 3×3 camera matrix ``K`` in the text file ``path``, scaled to every ``step``-th pixel
+    (its first two rows divided by ``step``).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The file cannot be read, or does not hold a finite 3×3 matrix with ``K[2, 2] != 0``.
+    """
+    try:
+        matrix = np.loadtxt(path, ndmin=2, encoding="utf-8")
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise FormatError(path, f"not a 3×3 matrix of numbers ({error})") from None
+    if matrix.shape != (3, 3) or not np.isfinite(matrix).all() or matrix[2, 2] == 0:
+        raise FormatError(path, f"expected a finite 3×3 camera matrix; got shape {matrix.shape}")
+    return matrix * np.array([[1 / step], [1 / step], [1]])
+
+
+def depth_mesh(
+    depth: np.ndarray, mask: np.ndarray, camera: np.ndarray | None = None
+) -> trimesh.Trimesh:
+    """A triangle mesh of a depth map: one vertex per mask pixel, two triangles per 2×2 block of
+    mask pixels.
+
+    Vertices are in the camera frame (x right, y up, z towards the camera): orthographic
+    ``(u, -v, -z)`` in pixel units; perspective ``z K⁻¹ (u, v, 1)`` with y and z flipped from
+    OpenCV's frame. Triangles wind counter-clockwise seen from the camera, so that their normals
+    point towards +z.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> mesh = depth_mesh(np.zeros((3, 4)), np.ones((3, 4), bool))
+    >>> len(mesh.vertices), len(mesh.faces)
+    (12, 12)
+    >>> bool(np.all(mesh.face_normals[:, 2] > 0))
+    True
+    """
+    import trimesh
+
+    rows, columns = np.nonzero(mask)
+    z = depth[mask]
+    if camera is None:
+        vertices = np.stack([columns, -rows, -z], axis=1).astype(np.float64)
+    else:
+        rays = np.stack([columns, rows, np.ones_like(columns)], axis=1) @ np.linalg.inv(camera).T
+        vertices = rays * z[:, None] * np.array([1.0, -1.0, -1.0])
+    index = np.full(mask.shape, -1)
+    index[mask] = np.arange(len(z))
+    a, b = index[:-1, :-1], index[:-1, 1:]  # top left, top right
+    c, d = index[1:, :-1], index[1:, 1:]  # bottom left, bottom right
+    full = (a >= 0) & (b >= 0) & (c >= 0) & (d >= 0)
+    faces = np.concatenate(
+        [np.stack([a[full], c[full], b[full]], 1), np.stack([b[full], c[full], d[full]], 1)]
+    )
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+def check_method(method: str, camera: np.ndarray | None = None, name: str = "method") -> None:
+    """Refuse an integrator that is not in :data:`METHODS`, or one that is orthographic only
+    when intrinsics ``camera`` are given; ``name`` is the argument's, for the message.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Naming the argument, its value and the choices.
+    """
+    if method not in METHODS:
+        raise ParameterError(f"{name} must be one of {', '.join(METHODS)}; got {method!r}")
+    if camera is not None and method not in PERSPECTIVE_METHODS:
+        raise ParameterError(
+            f"{name} {method!r} is orthographic only; intrinsics K need one of "
+            f"{', '.join(PERSPECTIVE_METHODS)}"
+        )
+
+
 @dataclass(frozen=True)
 class NormalMap:
     """A normal map ready to integrate.
@@ -100,8 +176,6 @@ class NormalMap:
 def _read_camera(path: Path) -> np.ndarray:
     """``K`` from a text file, refused with the file's name unless a finite 3 × 3 matrix with
     positive focal lengths."""
-    from brdfkit.vision.reconstruction import read_intrinsics
-
     camera = read_intrinsics(path)
     try:
         return normal_integration.check_camera(camera)
@@ -185,8 +259,6 @@ class IntegratedSurface:
     @property
     def mesh(self) -> trimesh.Trimesh:
         """One vertex per mask pixel, two triangles per 2 × 2 block of mask pixels."""
-        from brdfkit.vision.reconstruction import depth_mesh
-
         return depth_mesh(self.depth, self.mask, self.camera)
 
     def summary(self) -> dict[str, Any]:
@@ -225,13 +297,7 @@ def integrate_normal_map(
     >>> integrate_normal_map(data).depth.round(6).tolist()
     [[0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5]]
     """
-    if method not in METHODS:
-        raise ParameterError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
-    if data.camera is not None and method not in PERSPECTIVE_METHODS:
-        raise ParameterError(
-            f"method {method!r} is orthographic only; intrinsics K need one of "
-            f"{', '.join(PERSPECTIVE_METHODS)}"
-        )
+    check_method(method, data.camera)
     arguments: dict[str, Any] = {} if data.camera is None else {"camera": data.camera}
     if method in BILATERAL_METHODS:
         arguments["callback"] = callback
@@ -257,7 +323,6 @@ def integrate_normal_file(
     brdfkit.errors.ParameterError
         An unknown method, or intrinsics with a method that is orthographic only.
     """
-    if method not in METHODS:
-        raise ParameterError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+    check_method(method)
     data = read_normal_map_input(normals, mask, camera)
     return integrate_normal_map(data, method, callback=callback)
