@@ -1,5 +1,6 @@
 """``brdfkit integrate``: the three files from a folder in the bilateral-integration layout,
-NaN outside the mask, the library's depth; bad input refused in one line, nothing written."""
+NaN outside the mask, the library's depth, a depth prior's units; bad input refused in one
+line, nothing written."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from brdfkit.cli import app
 from brdfkit.cli.integrate import _METHODS
 from brdfkit.io import read_image, write_image
 from brdfkit.vision import datasets
-from brdfkit.vision.bilateral_integration import PIECES, bilateral_integration
+from brdfkit.vision.bilateral_integration import PIECES, PRIOR_WEIGHT, bilateral_integration
 from brdfkit.vision.depth_from_normals import METHODS
 
 runner = CliRunner()
@@ -122,4 +123,49 @@ def test_a_map_without_normals_and_no_mask_is_refused_naming_it(tmp_path):
     assert result.exit_code == 2
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and str(empty) in lines[0] and "give a mask" in lines[0]
+    assert not out.exists()
+
+
+def test_a_depth_prior_sets_the_units_and_is_the_library_s(folder, tmp_path):
+    """Depth known at a few pixels, in mm: the depth comes out in mm, as the library gives it
+    (the piece step left to the prior), and the known depths are reported."""
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert _invoke(folder, "-o", first).exit_code == 0
+    relative = np.load(first / "depth.npy")  # geometric mean 1
+    prior = np.full(relative.shape, np.nan)
+    prior[6:10:2, 8:12:2] = 1500.0 * relative[6:10:2, 8:12:2]  # 4 depths, 1.5 m away
+    np.save(tmp_path / "prior.npy", prior)
+    result = _invoke(folder, "--prior", tmp_path / "prior.npy", "-o", second, "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["prior_depths"] == 4
+    depth = np.load(second / "depth.npy")
+    assert np.allclose(depth, 1500.0 * relative, rtol=1e-3, equal_nan=True)
+    mask = datasets.read_mask(folder / "mask.png")
+    normals = datasets.read_normal_map(folder / "normal_map.png")
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    expected = bilateral_integration(normals, mask, CAMERA, depth_prior=prior).depth
+    assert np.allclose(depth, expected, equal_nan=True)
+    write_image(tmp_path / "prior.exr", prior[..., None].astype(np.float32), nan_marks_missing=True)
+    again = _invoke(folder, "--prior", tmp_path / "prior.exr", "-o", second)
+    assert again.exit_code == 0, again.output
+    assert np.allclose(np.load(second / "depth.npy"), depth, rtol=1e-6, equal_nan=True)
+    assert PRIOR_WEIGHT == 0.01  # the default of --prior-weight, written out for --help
+
+
+@pytest.mark.parametrize(
+    ("prior", "options", "message"),
+    [
+        (np.full((16, 20), np.nan), (), "no depth is known inside the mask"),
+        (np.full((16, 20), -1.0), (), "must be positive"),
+        (np.ones((8, 8)), (), "the prior is (8, 8)"),
+        (np.ones((16, 20)), ("-m", "least_squares"), "a depth prior needs method one of"),
+    ],
+)
+def test_a_bad_prior_is_refused_in_one_line(folder, tmp_path, prior, options, message):
+    np.save(tmp_path / "prior.npy", prior)
+    out = tmp_path / "out"
+    result = _invoke(folder, "--prior", tmp_path / "prior.npy", *options, "-o", out)
+    assert result.exit_code == 2
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
     assert not out.exists()

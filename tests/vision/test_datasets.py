@@ -273,3 +273,18 @@ def test_normal_gt_mat_reader_matches_scipy_and_refuses_corrupt_files(tmp_path):
     path.write_bytes(bytes(data[:300]))
     with pytest.raises(FormatError, match="runs past the end"):
         datasets._read_mat_array(path, "Normal_gt")
+
+
+def test_read_depth_map_keeps_unknown_depths_and_refuses_what_is_no_depth(tmp_path):
+    from brdfkit.io import write_image
+
+    depth = np.array([[1.0, np.nan], [2.5, 3.0]])
+    write_image(tmp_path / "d.exr", depth[..., None].astype(np.float32), nan_marks_missing=True)
+    np.save(tmp_path / "d.npy", depth)
+    for name in ("d.exr", "d.npy"):
+        np.testing.assert_array_equal(datasets.read_depth_map(tmp_path / name), depth)
+    np.save(tmp_path / "rgb.npy", np.ones((2, 2, 3)))
+    write_image(tmp_path / "d.png", np.ones((2, 2, 1)), srgb=False)
+    for name, message in (("rgb.npy", r"shape \(H, W\)"), ("d.png", "must be .npy or a float")):
+        with pytest.raises(FormatError, match=message):
+            datasets.read_depth_map(tmp_path / name)

@@ -53,6 +53,24 @@ _Output = Annotated[
         "--output", "-o", metavar="FOLDER", help="Folder for depth.npy, depth.exr and mesh.ply."
     ),
 ]
+_Prior = Annotated[
+    Path | None,
+    typer.Option(
+        "--prior",
+        metavar="FILE",
+        help="Depth known in places (.npy or .exr, NaN where unknown; with K in any unit, the "
+        "result's, else in pixels), e.g. from a depth sensor: sets the scale (offset) the "
+        "normals leave open. Bilateral methods only.",
+    ),
+]
+_PriorWeight = Annotated[
+    float,
+    typer.Option(
+        "--prior-weight",
+        metavar="W",
+        help="Each known depth's weight (> 0) as a fraction of a typical normal equation's.",
+    ),
+]
 _Json = Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")]
 
 
@@ -62,6 +80,8 @@ def integrate_command(
     mask: _Mask = None,
     camera: _Camera = None,
     method: _Method = "bilateral_pieces",
+    prior: _Prior = None,
+    prior_weight: _PriorWeight = 0.01,
     output: _Output = Path("integrate"),
     as_json: _Json = False,
 ) -> None:
@@ -70,7 +90,8 @@ def integrate_command(
     The default, bilateral_pieces, is bilateral normal integration (Cao et al. 2022) with the
     relative scale of the pieces its weights part (which the normals leave open) taken from the
     least-squares surface; bilateral_continuity pulls weakly towards that surface instead;
-    bilateral is the authors' method alone.
+    bilateral is the authors' method alone. With --prior the known depths set that scale
+    instead, and the depth is in the prior's units.
 
     Normal maps are encoded as n = 2 v / v_max - 1 per channel, red = x (right), green = y
     (up), blue = z (towards the camera). A folder may hold mask.png and K.txt, which --mask and
@@ -84,11 +105,11 @@ def integrate_command(
 
     if method not in _METHODS:
         fail(f"--method must be one of {', '.join(_METHODS)}; got {method!r}")
-    folder = OutputFolder(output, _OUTPUTS, inputs=(normals, mask, camera))
+    folder = OutputFolder(output, _OUTPUTS, inputs=(normals, mask, camera, prior))
     with progress() as bar:
         task = bar.add_task(f"integrating ({method})", total=None)
         surface = integrate_normal_file(
-            normals, mask, camera, method,
+            normals, mask, camera, method, prior=prior, prior_weight=prior_weight,
             callback=lambda done, total: bar.update(task, completed=done, total=total),
         )  # fmt: skip
     mesh = surface.mesh
@@ -102,7 +123,8 @@ def integrate_command(
     if as_json:
         typer.echo(json.dumps(summary, indent=2, ensure_ascii=False, allow_nan=False))
         return
+    known = f", {surface.prior_depths} known depths" if prior is not None else ""
     console.print(
         f"wrote {shown(output)}/ ({summary['projection']} depth of {summary['pixels']} pixels, "
-        f"{method})"
+        f"{method}{known})"
     )

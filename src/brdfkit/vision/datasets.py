@@ -195,6 +195,31 @@ def read_normal_map(path: str | os.PathLike) -> np.ndarray:
     return normals
 
 
+def read_depth_map(path: str | os.PathLike) -> np.ndarray:
+    """Read a depth map: a ``.npy`` array or a float image (``.exr``, ``.hdr``), as ``(H, W)``,
+    NaN or infinity where the depth is unknown (as ``brdfkit integrate`` writes
+    ``depth.npy`` and ``depth.exr``).
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        The file is missing, truncated, pickled or not numeric, not of shape (H, W) (an image:
+        not one channel), or an integer image (whose codes carry no depth unit).
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".npy":
+        depth = _read_npy(path)
+    elif path.suffix.lower() in LINEAR_SUFFIXES:
+        depth = io.read_image(path).astype(np.float64)  # NaN kept: unknown depth
+    else:
+        raise FormatError(path, "a depth map must be .npy or a float image (.exr, .hdr)")
+    if depth.ndim == 3 and depth.shape[2] == 1:
+        depth = depth[..., 0]
+    if depth.ndim != 2 or 0 in depth.shape:
+        raise FormatError(path, f"a depth map must have shape (H, W); got {depth.shape}")
+    return depth
+
+
 def _read_npy(path: Path) -> np.ndarray:
     """A real-valued ``.npy`` array as float64, read memory-mapped (a header claiming more
     than the file holds is refused before anything is allocated) and never unpickled."""

@@ -33,7 +33,12 @@ import numpy as np
 
 from brdfkit.errors import FormatError, ParameterError
 from brdfkit.vision import normal_integration
-from brdfkit.vision.bilateral_integration import CONTINUITY, PIECES, bilateral_integration
+from brdfkit.vision.bilateral_integration import (
+    CONTINUITY,
+    PIECES,
+    PRIOR_WEIGHT,
+    bilateral_integration,
+)
 
 if TYPE_CHECKING:
     import trimesh
@@ -52,22 +57,22 @@ PERSPECTIVE_METHODS = (*BILATERAL_METHODS, "least_squares")
 """The methods that take intrinsics ``K``."""
 
 
-def _bilateral(normals, mask, camera=None, *, callback: Progress | None = None) -> np.ndarray:
-    return bilateral_integration(normals, mask, camera, callback=callback).depth
+def _bilateral(normals, mask, camera=None, **options: Any) -> np.ndarray:
+    return bilateral_integration(normals, mask, camera, **options).depth
 
 
 def _bilateral_pieces(
-    normals, mask, camera=None, *, callback: Progress | None = None
+    normals, mask, camera=None, *, depth_prior=None, **options: Any
 ) -> np.ndarray:
-    return bilateral_integration(normals, mask, camera, pieces=PIECES, callback=callback).depth
-
-
-def _bilateral_continuity(
-    normals, mask, camera=None, *, callback: Progress | None = None
-) -> np.ndarray:
+    """With a depth prior, the prior sets the scales that the piece step would."""
+    pieces = PIECES if depth_prior is None else 0.0
     return bilateral_integration(
-        normals, mask, camera, continuity=CONTINUITY, callback=callback
+        normals, mask, camera, pieces=pieces, depth_prior=depth_prior, **options
     ).depth
+
+
+def _bilateral_continuity(normals, mask, camera=None, **options: Any) -> np.ndarray:
+    return bilateral_integration(normals, mask, camera, continuity=CONTINUITY, **options).depth
 
 
 METHODS: dict[str, Callable[..., np.ndarray]] = {
@@ -137,9 +142,12 @@ def depth_mesh(
     return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
 
 
-def check_method(method: str, camera: np.ndarray | None = None, name: str = "method") -> None:
-    """Refuse an integrator that is not in :data:`METHODS`, or one that is orthographic only
-    when intrinsics ``camera`` are given; ``name`` is the argument's, for the message.
+def check_method(
+    method: str, camera: np.ndarray | None = None, name: str = "method", prior: bool = False
+) -> None:
+    """Refuse an integrator that is not in :data:`METHODS`, one that is orthographic only
+    when intrinsics ``camera`` are given, or one that takes no depth prior when ``prior``;
+    ``name`` is the argument's, for the message.
 
     Raises
     ------
@@ -152,6 +160,10 @@ def check_method(method: str, camera: np.ndarray | None = None, name: str = "met
         raise ParameterError(
             f"{name} {method!r} is orthographic only; intrinsics K need one of "
             f"{', '.join(PERSPECTIVE_METHODS)}"
+        )
+    if prior and method not in BILATERAL_METHODS:
+        raise ParameterError(
+            f"a depth prior needs {name} one of {', '.join(BILATERAL_METHODS)}; got {method!r}"
         )
 
 
@@ -249,12 +261,15 @@ class IntegratedSurface:
     mask : (H, W) bool.
     camera : (3, 3) intrinsics ``K`` or None (orthographic).
     method : the integrator's name (a key of :data:`METHODS`).
+    prior_depths : the depths a prior gave inside the mask (0: no prior; with one, ``depth`` is
+        in the prior's units).
     """
 
     depth: np.ndarray
     mask: np.ndarray
     camera: np.ndarray | None
     method: str
+    prior_depths: int = 0
 
     @property
     def mesh(self) -> trimesh.Trimesh:
@@ -272,20 +287,31 @@ class IntegratedSurface:
             "width": int(self.mask.shape[1]),
             "depth_min": float(inside.min()),
             "depth_max": float(inside.max()),
+            "prior_depths": self.prior_depths,
         }
 
 
 def integrate_normal_map(
-    data: NormalMap, method: str = DEFAULT_METHOD, *, callback: Progress | None = None
+    data: NormalMap,
+    method: str = DEFAULT_METHOD,
+    *,
+    depth_prior: np.ndarray | None = None,
+    prior_weight: float = PRIOR_WEIGHT,
+    callback: Progress | None = None,
 ) -> IntegratedSurface:
     """Integrate ``data`` into depth with ``method`` (a key of :data:`METHODS`).
 
-    ``callback(done, total)`` reports the iterations of the bilateral methods.
+    ``depth_prior`` (H, W), depth known in places and NaN elsewhere, goes to the bilateral
+    methods with ``prior_weight``
+    (:func:`~brdfkit.vision.bilateral_integration.bilateral_integration`); with it
+    ``bilateral_pieces`` leaves the pieces' scales to the prior. ``callback(done, total)``
+    reports the iterations of the bilateral methods.
 
     Raises
     ------
     brdfkit.errors.ParameterError
-        An unknown method, or intrinsics with a method that is orthographic only.
+        An unknown method, intrinsics with a method that is orthographic only, or a prior with
+        a method that takes none (or one it refuses).
 
     Examples
     --------
@@ -297,12 +323,16 @@ def integrate_normal_map(
     >>> integrate_normal_map(data).depth.round(6).tolist()
     [[0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5], [0.0, 0.5, 1.0, 1.5]]
     """
-    check_method(method, data.camera)
+    check_method(method, data.camera, prior=depth_prior is not None)
     arguments: dict[str, Any] = {} if data.camera is None else {"camera": data.camera}
     if method in BILATERAL_METHODS:
         arguments["callback"] = callback
+    known = 0
+    if depth_prior is not None:
+        arguments.update(depth_prior=depth_prior, prior_weight=prior_weight)
+        known = int(np.sum(np.isfinite(depth_prior) & data.mask))
     depth = METHODS[method](data.normals, data.mask, **arguments)
-    return IntegratedSurface(depth, data.mask, data.camera, method)
+    return IntegratedSurface(depth, data.mask, data.camera, method, known)
 
 
 def integrate_normal_file(
@@ -311,18 +341,48 @@ def integrate_normal_file(
     camera: str | os.PathLike | None = None,
     method: str = DEFAULT_METHOD,
     *,
+    prior: str | os.PathLike | None = None,
+    prior_weight: float = PRIOR_WEIGHT,
     callback: Progress | None = None,
 ) -> IntegratedSurface:
-    """:func:`read_normal_map_input` then :func:`integrate_normal_map`: the pipeline of
-    ``brdfkit integrate``.
+    """:func:`read_normal_map_input` (and :func:`read_depth_prior`) then
+    :func:`integrate_normal_map`: the pipeline of ``brdfkit integrate``.
 
     Raises
     ------
     brdfkit.errors.FormatError
-        A file that cannot be read (named).
+        A file that cannot be read, or a prior that does not fit the normal map (named).
     brdfkit.errors.ParameterError
-        An unknown method, or intrinsics with a method that is orthographic only.
+        An unknown method, intrinsics with a method that is orthographic only, or a prior with
+        a method that takes none.
     """
-    check_method(method)
+    check_method(method, prior=prior is not None)
     data = read_normal_map_input(normals, mask, camera)
-    return integrate_normal_map(data, method, callback=callback)
+    depth_prior = None if prior is None else read_depth_prior(prior, data)
+    return integrate_normal_map(
+        data, method, depth_prior=depth_prior, prior_weight=prior_weight, callback=callback
+    )
+
+
+def read_depth_prior(path: str | os.PathLike, data: NormalMap) -> np.ndarray:
+    """The depth map ``path`` (:func:`~brdfkit.vision.datasets.read_depth_map`) as a prior for
+    ``data``: NaN or infinity where unknown; in perspective, in any unit (the result's), else
+    in pixels.
+
+    Raises
+    ------
+    brdfkit.errors.FormatError
+        Naming the file: unreadable, of another size than the normal map, without a known
+        depth inside the mask, or (perspective) a depth that is not positive.
+    """
+    from brdfkit.vision.datasets import read_depth_map
+
+    prior = read_depth_map(path)
+    if prior.shape != data.mask.shape:
+        raise FormatError(path, f"the prior is {prior.shape}, the normal map {data.mask.shape}")
+    known = prior[data.mask & np.isfinite(prior)]
+    if known.size == 0:
+        raise FormatError(path, "no depth is known inside the mask (all NaN or infinite there)")
+    if data.camera is not None and known.min() <= 0:
+        raise FormatError(path, f"perspective depth must be positive; found {known.min():g}")
+    return prior
