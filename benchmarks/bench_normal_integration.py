@@ -24,8 +24,9 @@ differ by more than ``JUMP_MM`` are parted.
 options: the authors' method alone, then with the sigmoid's sharpness ``k = 1`` and ``k = 4``
 either side of their 2, with the conjugate-gradient tolerance 10 % either side of their 1e-3
 (how much their result hangs on where the inexact solves stop), the piece cut at 0.5 % and 2 %
-either side of the default 1 %, and the continuity prior (the previous default) at 0.1 %, 1 %
-and 10 %.
+either side of the default 1 %, the continuity prior (the previous default) at 0.1 %, 1 %
+and 10 %, and ``prior``: the default given the true depth at one pixel in 256 with 2 mm of
+noise (a depth sensor's) as ``--prior``.
 
     python benchmarks/bench_normal_integration.py --peer PATH [--data ../shared/data]
         [--objects bear cat ...] [--variants]
@@ -69,6 +70,10 @@ VARIANTS = {
     "continuity_0.1": {"continuity": 0.1},
 }
 """The options of ``bilateral_integration`` in each ``--variants`` row."""
+
+PRIOR_EVERY, PRIOR_NOISE_MM = 16, 2.0
+"""The ``prior`` variant: the true depth at one pixel in ``PRIOR_EVERY²`` with Gaussian noise
+of ``PRIOR_NOISE_MM``, as a depth sensor might give it, through ``--prior``."""
 
 
 def made(depth: np.ndarray, truth: np.ndarray) -> float:
@@ -133,13 +138,29 @@ def timed(call) -> tuple[np.ndarray, float]:
     return depth, time.perf_counter() - start
 
 
+def sensor_prior(data) -> np.ndarray:
+    """The ``prior`` variant's depths (:data:`PRIOR_EVERY`, :data:`PRIOR_NOISE_MM`), NaN
+    elsewhere; the same noise for every object (seed 0)."""
+    rng = np.random.default_rng(0)
+    prior = np.full(data.depth.shape, np.nan)
+    known = data.depth[::PRIOR_EVERY, ::PRIOR_EVERY]
+    prior[::PRIOR_EVERY, ::PRIOR_EVERY] = known + rng.normal(0.0, PRIOR_NOISE_MM, known.shape)
+    return np.where(data.mask, prior, np.nan)
+
+
 def variants(data) -> dict[str, tuple[np.ndarray, float]]:
-    """Depth and seconds of bilateral integration with each of :data:`VARIANTS`."""
-    return {
+    """Depth and seconds of bilateral integration with each of :data:`VARIANTS`, and of
+    ``brdfkit integrate``'s default with a sparse, noisy depth prior."""
+    runs = {
         name: timed(lambda o=options: bilateral_integration(
             data.normals, data.mask, data.camera, **o).depth)
         for name, options in VARIANTS.items()
     }  # fmt: skip
+    prior = sensor_prior(data)
+    runs["prior"] = timed(
+        lambda: METHODS[DEFAULT_METHOD](data.normals, data.mask, data.camera, depth_prior=prior)
+    )
+    return runs
 
 
 def run_object(folder: Path, peer, with_variants: bool = False) -> dict[str, float]:
