@@ -56,7 +56,7 @@ _Integration = Annotated[
     typer.Option(
         "--integration",
         metavar="METHOD",
-        help=f"One of: {', '.join(_INTEGRATORS)}; by default {_INTEGRATORS[0]}, as brdfkit "
+        help=f"One of: {', '.join(_INTEGRATORS)}; by default bilateral_pieces, as brdfkit "
         "integrate (out of core: least squares on tiles).",
         show_default=False,
     ),
