@@ -3,9 +3,9 @@
 On the DiLiGenT-layout renders of ``bench_ps_materials.py`` (the real DiLiGenT normals and
 depth of each object in ``../shared/data/normal_integration/diligent``, 96 DiLiGenT-like lights,
 cast shadows from the real depth, noise), the normals estimated by ``sparse_regression`` (the
-default of ``brdfkit ps``) and ``shared_bivariate`` are integrated in perspective (each
-object's ``K``) by ``least_squares`` and by ``bilateral_pieces`` (the default of ``brdfkit
-integrate`` and of ``brdfkit ps``), and scored against the real depth as
+default of ``brdfkit ps`` out of core) and ``shared_bivariate`` (its default) are integrated in
+perspective (each object's ``K``) by ``least_squares`` and by ``bilateral_pieces`` (the default
+of ``brdfkit integrate`` and of ``brdfkit ps``), and scored against the real depth as
 ``bench_normal_integration.py`` scores: MADE, the mean ``|s z - z_gt|`` in mm with ``s`` the
 median of ``z_gt / z``. The ground-truth normals' own integration is the floor. Every
 ``--step``-th pixel (default 2).

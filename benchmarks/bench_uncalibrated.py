@@ -5,7 +5,7 @@
 materials; the same stacks, seed and noise). Per (object, material) and cue of
 :data:`brdfkit.vision.uncalibrated.CUES`: the lights' angular error (median over the lights,
 °) against the rendered ones, and the normals' mean angular error (°) of a calibrated solver
-run with the estimated lights — ``sparse_regression`` (what ``brdfkit ps`` runs by default)
+run with the estimated lights — ``sparse_regression`` (what ``brdfkit ps`` runs out of core)
 and ``shared_bivariate`` (the best calibrated method on these renders at this cost) — beside
 the same solvers with the true lights. A cue that refuses the images (a matte object has no
 specular highlights) is recorded as failed, with its message.

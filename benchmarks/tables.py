@@ -656,8 +656,8 @@ def uncalibrated(r: dict) -> str:
         "objects:\n\n"
         + rows(["material", *cues], lights, "l" + "r" * len(cues))
         + "\n\nThe normals' mean angular error (°) of sparse regression (SR, the default of "
-        "`brdfkit ps`) and shared bivariate (SB) with the true (calibrated) or the estimated "
-        "lights:\n\n"
+        "`brdfkit ps` out of core) and shared bivariate (SB, its default) with the true "
+        "(calibrated) or the estimated lights:\n\n"
         + rows(["material", *(f"{c} {names[s]}" for c, s in columns)], normals,
                "l" + "r" * len(columns))
         + f"\n\n`auto` chose: {auto}.\n\n"

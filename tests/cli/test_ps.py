@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -9,6 +11,7 @@ from typer.testing import CliRunner
 from brdfkit.cli import app
 from brdfkit.vision import datasets
 from brdfkit.vision.bilateral_integration import PIECES, bilateral_integration
+from brdfkit.vision.bivariate_stereo import shared_bivariate
 from brdfkit.vision.photometric_stereo import (
     calibrate_lights_chrome_sphere,
     least_squares,
@@ -54,6 +57,16 @@ def test_outputs_match_the_library(ball, tmp_path):
     assert len(mesh.vertices) == data.mask.sum()
     # Faces wind counter-clockwise seen from the camera: normals point towards +z.
     assert np.all(mesh.face_normals[:, 2] > 0)
+
+
+def test_the_default_method_is_shared_bivariate(ball, tmp_path):
+    out = tmp_path / "out"
+    result = _invoke(ball, "-o", out, "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["method"] == "shared_bivariate"
+    data = datasets.load_diligent(ball)
+    expected = shared_bivariate(data.images, data.light_directions, data.mask)
+    np.testing.assert_allclose(np.load(out / "normals.npy"), expected.normals)
 
 
 def test_perspective_by_default_with_a_camera(ball, tmp_path):

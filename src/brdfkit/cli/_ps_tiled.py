@@ -15,6 +15,11 @@ import typer
 from brdfkit.cli._app import console, fail, progress, shown
 from brdfkit.cli._output import OutputFolder
 
+DEFAULT_METHOD = "sparse_regression"
+"""The method out of core unless ``--method`` names another: of the per-pixel methods
+(:data:`brdfkit.distributed.tiled.PER_PIXEL`), the one with the lowest error on the renders of
+``benchmarks/bench_ps_materials.py``."""
+
 OUTPUTS = ("normals.zarr", "albedo.zarr", "depth.zarr", "normals.png", "albedo.png",
            "lights.txt", "angular_error.png")  # fmt: skip
 
@@ -47,7 +52,7 @@ def _check(method: str, integration: str | None, options: dict[str, Any]) -> Non
 
 
 def run(
-    dataset: Path, method: str, integration: str | None, chunks: int | None,
+    dataset: Path, method: str | None, integration: str | None, chunks: int | None,
     options: dict[str, Any], output: Path, as_json: bool,
 ) -> None:  # fmt: skip
     """Solve and integrate tile by tile, write the outputs, print the measures."""
@@ -55,6 +60,7 @@ def run(
     from brdfkit.distributed.tiled_reconstruction import STORES, reconstruct_tiled
 
     cluster.require_dask()
+    method = method or DEFAULT_METHOD
     _check(method, integration, options)
     tile = chunks or tiled.DEFAULT_TILE
     folder = OutputFolder(output, OUTPUTS, inputs=(dataset,))

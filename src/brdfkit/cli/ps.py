@@ -36,13 +36,15 @@ _Dataset = Annotated[
     ),
 ]
 _Method = Annotated[
-    str,
+    str | None,
     typer.Option(
         "--method",
         "-m",
         metavar="METHOD",
-        help=f"One of: {', '.join(_METHODS)}. Glossy objects: inverse_rendering (about 30 s "
-        "for 96 images of 612 x 512); matte: shared_bivariate.",
+        help=f"One of: {', '.join(_METHODS)}; by default shared_bivariate (out of core: "
+        "sparse_regression). Glossy objects: inverse_rendering (about 30 s for 96 images of "
+        "612 x 512).",
+        show_default=False,
     ),
 ]
 _Chrome = Annotated[
@@ -120,7 +122,7 @@ def _choice(value: str, choices: tuple[str, ...], option: str) -> str:
 @app.command("ps")
 def ps_command(
     dataset: _Dataset,
-    method: _Method = "sparse_regression",
+    method: _Method = None,
     chrome: _Chrome = None,
     integration: _Integration = None,
     camera: _Camera = None,
@@ -146,10 +148,11 @@ def ps_command(
     """
     from brdfkit.cli import _ps_tiled
     from brdfkit.vision.depth_from_normals import PERSPECTIVE_METHODS, read_intrinsics
-    from brdfkit.vision.reconstruction import DEFAULT_INTEGRATION, reconstruct
+    from brdfkit.vision.reconstruction import DEFAULT_INTEGRATION, DEFAULT_METHOD, reconstruct
     from brdfkit.vision.uncalibrated import CUES
 
-    _choice(method, _METHODS, "--method")
+    if method is not None:
+        _choice(method, _METHODS, "--method")
     if integration is not None:
         _choice(integration, _INTEGRATORS, "--integration")
     _choice(gbr_cue, CUES, "--gbr-cue")
@@ -158,7 +161,7 @@ def ps_command(
                    "--uncalibrated": uncalibrated}  # fmt: skip
         _ps_tiled.run(dataset, method, integration, chunks, refused, output, as_json)
         return
-    integration = integration or DEFAULT_INTEGRATION
+    method, integration = method or DEFAULT_METHOD, integration or DEFAULT_INTEGRATION
     if camera is not None and integration not in PERSPECTIVE_METHODS:
         needed = " or ".join(PERSPECTIVE_METHODS)
         fail(f"--camera needs --integration {needed} (perspective); got {integration!r}")
