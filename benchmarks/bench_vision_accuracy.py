@@ -2,7 +2,7 @@
 
 1. The real psm gray sphere (12 images, ground truth from the mask's fitted circle), lights
    calibrated from the psm chrome sphere as ``brdfkit ps --chrome`` does: mean / median angular
-   error in degrees of every method in ``photometric_stereo.METHODS``.
+   error in degrees of every method of ``brdfkit ps`` (``reconstruction.SOLVERS``).
 2. The real DiLiGenT ground-truth normals of bear, cat, cow, goblet, harvest, pot1 and pot2
    integrated into depth by masked least squares (perspective, with the object's K, and
    orthographic), the DCT Poisson solver and Frankot-Chellappa: RMSE after fitting scale and
@@ -26,6 +26,7 @@ from brdfkit.io import data_path
 from brdfkit.vision import datasets, photometric_stereo
 from brdfkit.vision.metrics import angular_error, depth_error
 from brdfkit.vision.normal_integration import METHODS as INTEGRATORS
+from brdfkit.vision.reconstruction import SOLVERS
 
 OBJECTS = ("bear", "cat", "cow", "goblet", "harvest", "pot1", "pot2")
 """The DiLiGenT objects with ground-truth normals, depth and K in the shared data."""
@@ -46,7 +47,7 @@ def psm_gray_sphere(data: Path) -> dict[str, dict[str, float]]:
     lights = photometric_stereo.calibrate_lights_chrome_sphere(chrome.images, chrome.mask)
     gray = datasets.load_psm(psm / "gray", light_directions=lights)
     errors = {}
-    for name, solver in tqdm(photometric_stereo.METHODS.items(), desc="psm gray sphere"):
+    for name, solver in tqdm(SOLVERS.items(), desc="psm gray sphere"):
         result = solver(gray.images, gray.light_directions, gray.mask)
         error = angular_error(result.normals, gray.normals, gray.mask)
         errors[name] = {"mean": error["mean"], "median": error["median"]}

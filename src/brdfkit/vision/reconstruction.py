@@ -72,9 +72,9 @@ sparse regression (1.3 s against 0.8 s on a 96-image, 612 × 512 stack). On the 
 renders of ``benchmarks/bench_ps_materials.py`` (three objects, nine materials, measured
 paints among them) its mean error is 6.20° against sparse regression's 9.76°, lower on 7 of
 the 9 materials (not on the acryl_blue and cayman paints), and also under the lights that
-uncalibrated photometric stereo estimates (``benchmarks/bench_uncalibrated.py``, 7 of 9); from
-12 to 96 lights it stays below it on bear and pot1. On the real psm gray sphere (12 8-bit
-photographs) it is 0.5° worse (6.62° against 6.10°, ``benchmarks/bench_vision_accuracy.py``)."""
+uncalibrated photometric stereo estimates (``benchmarks/bench_uncalibrated.py``, 7 of 9). On
+the real psm gray sphere (12 8-bit photographs) it is 0.5° worse (6.62° against 6.10°,
+``benchmarks/bench_vision_accuracy.py``)."""
 
 DEFAULT_INTEGRATION = depth_from_normals.DEFAULT_METHOD
 """The integrator :func:`reconstruct` uses unless told otherwise, that of ``brdfkit
