@@ -1,4 +1,5 @@
-"""Fuzz the vision readers: DiLiGenT and psm folders with one file mutated, and normal maps.
+"""Fuzz the vision readers: DiLiGenT and psm folders with one file mutated, normal and depth
+maps.
 
 Each target builds a small valid data set once, then every case writes a byte-mutated copy of
 one of its files in place (text files with token mutations too), loads the folder through
@@ -131,3 +132,29 @@ def test_fuzz_normal_map(data):
     if normals is not None:
         assert normals.dtype == np.float64 and normals.ndim == 3 and normals.shape[2] == 3
         assert np.all(np.isfinite(normals))
+
+
+@functools.cache
+def _depth_maps() -> tuple[Path, dict[str, bytes]]:
+    """A float32 and a float64 ``.npy`` and an EXR of a small depth map, NaN outside a disc."""
+    from brdfkit.io import write_image
+
+    root = Path(tempfile.mkdtemp(prefix="fuzz_depth_map_"))
+    _, mask = sphere_normals((9, 11), (5.0, 4.0), 4.0)
+    depth = np.where(mask, 1500.0 + np.arange(99.0).reshape(9, 11), np.nan)
+    np.save(root / "f32.npy", depth.astype(np.float32))
+    np.save(root / "f64.npy", depth)
+    write_image(root / "map.exr", depth[..., None].astype(np.float32), nan_marks_missing=True)
+    return root, _snapshot(root)
+
+
+@fuzz_settings(ci_cases=500)
+@given(st.data())
+def test_fuzz_depth_map(data):
+    root, seeds = _depth_maps()
+    name = data.draw(st.sampled_from(sorted(seeds)))
+    path = root / f"case{Path(name).suffix}"
+    path.write_bytes(data.draw(mutated([seeds[name]])))
+    depth = run_case("depth_map", datasets.read_depth_map, path)
+    if depth is not None:
+        assert depth.dtype == np.float64 and depth.ndim == 2 and depth.size > 0
