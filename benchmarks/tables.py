@@ -1146,7 +1146,7 @@ def peers(results: Path = RESULTS) -> str:
     """One row per comparison with a peer, each from a results file; a row whose numbers a
     file lacks (a run without its peer) is left out."""
     body: list[list[str]] = []
-    for row in (_render_peer, _brdf_peers, _fit_peer, _ps_peer):
+    for row in (_render_peer, _brdf_peers, _fit_peer, _ps_peer, _integration_peer):
         try:
             body += row(results)
         except (OSError, KeyError, StopIteration, ValueError):
@@ -1217,6 +1217,18 @@ def _ps_peer(results: Path) -> list[list[str]]:
          "least squares (Woodham 1980, DiLiGenT's baseline)",
          f"{average[best]:.1f}° ({PS_NAMES.get(best, best)}) against "
          f"{average['least_squares']:.1f}°", "`python benchmarks/bench_ps_materials.py`"]
+    ]  # fmt: skip
+
+
+def _integration_peer(results: Path) -> list[list[str]]:
+    s = load("normal_integration", results)["summary"]
+    return [
+        [f"Normal integration, the real DiLiGenT ground-truth normals of {s['objects']} objects "
+         "(mean absolute depth error)", "BiNI (Cao et al. 2022), its public code",
+         f"{s['brdfkit_mean_made_mm']:.2f} mm against {s['bini_mean_made_mm']:.2f} mm "
+         f"(at most BiNI's on {s['brdfkit_made_at_most_bini']} of {s['objects']}), in "
+         f"{s['brdfkit_total_seconds']:.1f} s against {s['bini_total_seconds']:.1f} s",
+         "`python benchmarks/bench_normal_integration.py --peer PATH`"]
     ]  # fmt: skip
 
 
