@@ -304,8 +304,9 @@ def integrate_normal_map(
     ``depth_prior`` (H, W), depth known in places and NaN elsewhere, goes to the bilateral
     methods with ``prior_weight``
     (:func:`~brdfkit.vision.bilateral_integration.bilateral_integration`); with it
-    ``bilateral_pieces`` leaves the pieces' scales to the prior. ``callback(done, total)``
-    reports the iterations of the bilateral methods.
+    ``bilateral_pieces`` leaves the pieces' scales to the prior (a piece holding no known
+    depth keeps the scale the iterations give it). ``callback(done, total)`` reports the
+    iterations of the bilateral methods.
 
     Raises
     ------
