@@ -64,7 +64,7 @@ depths = {
         normals, mask, camera, pieces=PIECES
     ).depth,
     f"with {int(np.isfinite(prior).sum())} known depths\n(--prior)": bilateral_integration(
-        normals, mask, camera, depth_prior=prior
+        normals, mask, camera, depth_prior=prior, pieces=PIECES
     ).depth,
 }
 

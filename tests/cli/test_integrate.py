@@ -127,8 +127,8 @@ def test_a_map_without_normals_and_no_mask_is_refused_naming_it(tmp_path):
 
 
 def test_a_depth_prior_sets_the_units_and_is_the_library_s(folder, tmp_path):
-    """Depth known at a few pixels, in mm: the depth comes out in mm, as the library gives it
-    (the piece step left to the prior), and the known depths are reported."""
+    """Depth known at a few pixels, in mm: the depth comes out in mm, as the library gives it,
+    and the known depths are reported."""
     first, second = tmp_path / "first", tmp_path / "second"
     assert _invoke(folder, "-o", first).exit_code == 0
     relative = np.load(first / "depth.npy")  # geometric mean 1
@@ -143,7 +143,7 @@ def test_a_depth_prior_sets_the_units_and_is_the_library_s(folder, tmp_path):
     mask = datasets.read_mask(folder / "mask.png")
     normals = datasets.read_normal_map(folder / "normal_map.png")
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
-    expected = bilateral_integration(normals, mask, CAMERA, depth_prior=prior).depth
+    expected = bilateral_integration(normals, mask, CAMERA, depth_prior=prior, pieces=PIECES).depth
     assert np.allclose(depth, expected, equal_nan=True)
     write_image(tmp_path / "prior.exr", prior[..., None].astype(np.float32), nan_marks_missing=True)
     again = _invoke(folder, "--prior", tmp_path / "prior.exr", "-o", second)

@@ -90,8 +90,8 @@ def integrate_command(
     The default, bilateral_pieces, is bilateral normal integration (Cao et al. 2022) with the
     relative scale of the pieces its weights part (which the normals leave open) taken from the
     least-squares surface; bilateral_continuity pulls weakly towards that surface instead;
-    bilateral is the authors' method alone. With --prior the known depths set that scale
-    instead, and the depth is in the prior's units.
+    bilateral is the authors' method alone. With --prior the known depths set the scale of
+    the pieces they fall on, and the depth is in the prior's units.
 
     Normal maps are encoded as n = 2 v / v_max - 1 per channel, red = x (right), green = y
     (up), blue = z (towards the camera). A folder may hold mask.png and K.txt, which --mask and

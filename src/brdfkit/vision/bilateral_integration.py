@@ -69,7 +69,10 @@ free in it (perspective: a scale; orthographic: an offset),
 so that its mean (log-)depth is least squares' there. Inside a piece the result is the
 authors' up to that constant; where the weights part nothing (one piece) it is theirs.
 With :math:`\gamma_p = 1\,\%` (the continuity prior's fraction) an edge that holds its
-pixels together by under 1 % of a typical edge does not hold their relative depth.
+pixels together by under 1 % of a typical edge does not hold their relative depth. With a depth
+prior, a piece holding a known depth keeps the constant the prior gave it, and the others take
+least squares' moved onto the prior (:math:`z^{LS}` plus the mean of :math:`z_0 - z^{LS}` over
+the known pixels).
 
 References
 ----------
@@ -309,10 +312,11 @@ def _scaled_pieces(
     w_v: np.ndarray,
     reference: np.ndarray,
     cut: float,
+    fixed: np.ndarray | None = None,
 ) -> np.ndarray:
-    """``z`` with each piece's free constant moved so that its mean is the reference's there;
-    the pieces are the connected parts of the graph of edges whose coupling is at least
-    ``cut`` times the median coupling."""  # fmt: skip
+    """``z`` with each piece's free constant moved so that its mean is the reference's there,
+    but for the pieces holding a ``fixed`` pixel; the pieces are the connected parts of the
+    graph of edges whose coupling is at least ``cut`` times the median coupling."""  # fmt: skip
     import scipy.sparse
     from scipy.sparse.csgraph import connected_components
 
@@ -324,6 +328,8 @@ def _scaled_pieces(
     )
     piece = connected_components(graph, directed=False)[1]
     shift = np.bincount(piece, reference - z) / np.bincount(piece)
+    if fixed is not None:
+        shift[np.unique(piece[fixed])] = 0.0
     return z + shift[piece]
 
 
@@ -407,8 +413,8 @@ def bilateral_integration(
     pieces : ``γ_p`` >= 0; when > 0, after the iterations (the authors' method unchanged) the
         edges whose coupling is below ``γ_p`` times the median coupling are cut and each
         connected piece's free constant is set from the least-squares surface (module
-        docstring); :data:`PIECES` (1 %) is ``brdfkit integrate``'s default. Not with
-        ``depth_prior`` or ``continuity``.
+        docstring), but for the pieces where ``depth_prior`` knows a depth; :data:`PIECES`
+        (1 %) is ``brdfkit integrate``'s default. Not with ``continuity``.
     tolerance : stop when the energy changes by less than this fraction.
     max_iterations : most reweighting iterations.
     solver_tolerance : relative residual at which each linear solve stops.
@@ -511,10 +517,8 @@ def bilateral_integration(
         raise ParameterError(f"continuity must be a finite number >= 0, got {continuity}")
     if not (np.isfinite(pieces) and 0 <= pieces < 1):
         raise ParameterError(f"pieces must be in [0, 1), got {pieces}")
-    if pieces > 0 and (continuity > 0 or depth_prior is not None):
-        raise ParameterError(
-            "pieces sets the scales that continuity or depth_prior would set: give one of them"
-        )
+    if pieces > 0 and continuity > 0:
+        raise ParameterError("pieces sets the scales that continuity would set: give one of them")
     check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     z_prior = _check_prior(depth_prior, mask, camera)
     offset = 0.0
@@ -557,7 +561,11 @@ def bilateral_integration(
             break
     if pieces > 0:
         reference = _continuity_reference(normals, mask, camera, problem)[0]
-        z = _scaled_pieces(problem, z, w_u, w_v, reference, pieces)
+        known = None
+        if z_prior is not None:  # least squares moved onto the prior, which keeps its pieces
+            known = np.isfinite(z_prior)
+            reference += np.mean(z_prior[known] - reference[known])
+        z = _scaled_pieces(problem, z, w_u, w_v, reference, pieces, known)
     if z_prior is not None:
         depth = np.exp(z + offset) if camera is not None else z + offset
     else:

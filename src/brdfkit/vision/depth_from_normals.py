@@ -61,14 +61,8 @@ def _bilateral(normals, mask, camera=None, **options: Any) -> np.ndarray:
     return bilateral_integration(normals, mask, camera, **options).depth
 
 
-def _bilateral_pieces(
-    normals, mask, camera=None, *, depth_prior=None, **options: Any
-) -> np.ndarray:
-    """With a depth prior, the prior sets the scales that the piece step would."""
-    pieces = PIECES if depth_prior is None else 0.0
-    return bilateral_integration(
-        normals, mask, camera, pieces=pieces, depth_prior=depth_prior, **options
-    ).depth
+def _bilateral_pieces(normals, mask, camera=None, **options: Any) -> np.ndarray:
+    return bilateral_integration(normals, mask, camera, pieces=PIECES, **options).depth
 
 
 def _bilateral_continuity(normals, mask, camera=None, **options: Any) -> np.ndarray:
@@ -304,8 +298,8 @@ def integrate_normal_map(
     ``depth_prior`` (H, W), depth known in places and NaN elsewhere, goes to the bilateral
     methods with ``prior_weight``
     (:func:`~brdfkit.vision.bilateral_integration.bilateral_integration`); with it
-    ``bilateral_pieces`` leaves the pieces' scales to the prior (a piece holding no known
-    depth keeps the scale the iterations give it). ``callback(done, total)`` reports the
+    ``bilateral_pieces`` leaves the scale of each piece holding a known depth to the prior
+    (the others take least squares' moved onto it). ``callback(done, total)`` reports the
     iterations of the bilateral methods.
 
     Raises
