@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from brdfkit.cli import app
+from brdfkit.io import read_image
 from brdfkit.vision import datasets
 from brdfkit.vision.bilateral_integration import PIECES, bilateral_integration
 from brdfkit.vision.bivariate_stereo import shared_bivariate
@@ -49,6 +50,8 @@ def test_outputs_match_the_library(ball, tmp_path):
     decoded = datasets.read_normal_map(out / "normals.png")
     np.testing.assert_allclose(decoded[data.mask], expected.normals[data.mask], atol=2e-5)
     depth = np.load(out / "depth.npy")
+    exr = read_image(out / "depth.exr")[..., 0]
+    np.testing.assert_allclose(exr, depth.astype(np.float32), equal_nan=True)
     expected_depth = bilateral_integration(expected.normals, data.mask, pieces=PIECES).depth
     np.testing.assert_allclose(depth, expected_depth)
     error = np.load(out / "angular_error.npy")

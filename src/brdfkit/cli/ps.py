@@ -24,8 +24,8 @@ _METHODS += ("bipolynomial", "constrained_bivariate", "shared_bivariate")  # vis
 _METHODS += ("consensus",)  # vision.consensus
 _METHODS += ("inverse_rendering",)  # vision.inverse_rendering_stereo
 _OUTPUTS = (
-    "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "lights.txt",
-    "mesh.ply", "angular_error.npy", "angular_error.png", "metrics.json",
+    "normals.png", "normals.npy", "albedo.npy", "albedo.png", "depth.npy", "depth.exr",
+    "lights.txt", "mesh.ply", "angular_error.npy", "angular_error.png", "metrics.json",
 )  # fmt: skip
 
 _Dataset = Annotated[
@@ -142,9 +142,10 @@ def ps_command(
     light_intensities.txt; the relative intensities estimated are those left over.
 
     Writes normals.png (16-bit, n = 2 v / 65535 - 1) and normals.npy, albedo.png/.npy,
-    depth.npy, mesh.ply and, with ground truth, angular_error.npy/.png (0-45° as black-white);
-    lights.txt holds the light directions used; metrics.json the measures (as --json prints
-    them). Frame: x right, y up, z towards the camera.
+    depth.npy and depth.exr (NaN outside the mask), mesh.ply and, with ground truth,
+    angular_error.npy/.png (0-45° as black-white); lights.txt holds the light directions used;
+    metrics.json the measures (as --json prints them). Frame: x right, y up, z towards the
+    camera.
     """
     from brdfkit.cli import _ps_tiled
     from brdfkit.vision.depth_from_normals import PERSPECTIVE_METHODS, read_intrinsics
@@ -207,6 +208,9 @@ def _writes(surface: Reconstruction) -> dict[str, Any]:
         "albedo.npy": lambda path: np.save(path, result.albedo),
         "albedo.png": lambda path: write_image(path, albedo_shown),
         "depth.npy": lambda path: np.save(path, surface.depth),
+        "depth.exr": lambda path: write_image(
+            path, surface.depth.astype(np.float32), nan_marks_missing=True
+        ),
         "lights.txt": lambda path: np.savetxt(path, data.light_directions, fmt="%.8f"),
         "mesh.ply": lambda path: surface.mesh.export(path, file_type="ply"),
     }
