@@ -972,6 +972,23 @@ def ps_depth(r: dict) -> str:
     )
 
 
+def ps_cli(r: dict) -> str:
+    body = [
+        [o["object"], o["run"], " ".join(o["options"]) or "(none)",
+         f"{o['method']}, {o['integration']}", f"{o['angular_error_deg']:.2f}",
+         f"{100 * o['depth_relative_rmse']:.2f}",
+         "" if o["light_error_deg"] is None else f"{o['light_error_deg']:.2f}",
+         f"{o['wall_seconds']:.1f}", f"{o['cpu_seconds']:.1f}"]
+        for o in r["records"]
+    ]  # fmt: skip
+    header = ["object", "run", "options", "method, integration", "normals' error °",
+              "depth RMSE %", "lights' error °", "wall s", "CPU s"]  # fmt: skip
+    return (
+        f"`brdfkit ps FOLDER --json` on 96-image, 612 × 512 DiLiGenT folders ({r['material']}), "
+        f"each a fresh process, caches warm:\n\n{rows(header, body, 'llllrrrrr')}"
+    )
+
+
 def brdf_explorer(r: dict) -> str:
     def opengl(x: dict) -> list[str]:
         if "opengl_error" not in x:
@@ -1118,6 +1135,7 @@ TABLES: dict[str, Callable[[dict], str]] = {
     "vision_accuracy": vision_accuracy,
     "normal_integration": normal_integration,
     "ps_depth": ps_depth,
+    "ps_cli": ps_cli,
     "sfs": sfs,
     "relighting": relighting,
     "brdf_explorer": brdf_explorer,
