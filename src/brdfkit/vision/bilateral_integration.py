@@ -220,6 +220,11 @@ def _continuity_reference(
     return reference, np.pi**2 / problem.n * problem.typical
 
 
+def _moved_onto_prior(z: np.ndarray, z_prior: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """``z`` plus the constant that gives it the prior's mean over the ``known`` pixels."""
+    return z + np.mean(z_prior[known] - z[known])
+
+
 def _check_prior(
     depth_prior: ArrayLike | None, mask: np.ndarray, camera: np.ndarray | None
 ) -> np.ndarray | None:
@@ -521,7 +526,7 @@ def bilateral_integration(
         raise ParameterError("pieces sets the scales that continuity would set: give one of them")
     check_count("max_iterations", max_iterations, MAX_ITERATIONS)
     z_prior = _check_prior(depth_prior, mask, camera)
-    offset = 0.0
+    offset, known = 0.0, None
     if z_prior is not None:  # solved about the prior's mean, so that CG's tolerance is the shape's
         known = np.isfinite(z_prior)
         offset = float(np.mean(z_prior[known]))
@@ -534,8 +539,7 @@ def bilateral_integration(
         reference, stiffness = _continuity_reference(normals, mask, camera, problem)
         mu = continuity * stiffness
         if z_prior is not None:
-            known = np.isfinite(z_prior)
-            reference += np.mean(z_prior[known] - reference[known])
+            reference = _moved_onto_prior(reference, z_prior, known)
         z = reference.copy()
     w_u = w_v = np.full(problem.n, 0.5)
     energy = float(np.sum(problem.b[0] ** 2 + problem.b[1] ** 2))  # weights ½ at z = 0
@@ -546,7 +550,7 @@ def bilateral_integration(
         prior = np.zeros(problem.n)
         if z_prior is not None:
             lam = prior_weight * problem.typical
-            z += np.mean(z_prior[known] - z[known])
+            z = _moved_onto_prior(z, z_prior, known)
             rhs = rhs + lam * np.where(known, z_prior, 0.0)
             prior += lam * known
         if continuity > 0:
@@ -561,10 +565,8 @@ def bilateral_integration(
             break
     if pieces > 0:
         reference = _continuity_reference(normals, mask, camera, problem)[0]
-        known = None
         if z_prior is not None:  # least squares moved onto the prior, which keeps its pieces
-            known = np.isfinite(z_prior)
-            reference += np.mean(z_prior[known] - reference[known])
+            reference = _moved_onto_prior(reference, z_prior, known)
         z = _scaled_pieces(problem, z, w_u, w_v, reference, pieces, known)
     if z_prior is not None:
         depth = np.exp(z + offset) if camera is not None else z + offset
