@@ -121,14 +121,20 @@ def _normal_maps() -> tuple[Path, dict[str, bytes]]:
     return root, _snapshot(root)
 
 
+def _read_mutated(target: str, reader, files: tuple[Path, dict[str, bytes]], draw):
+    """``reader`` on a byte-mutated copy of one of ``files`` (a folder and its seeds) through
+    :func:`_fuzzing.run_case`: its result, or ``None`` for a documented error."""
+    root, seeds = files
+    name = draw(st.sampled_from(sorted(seeds)))
+    path = root / f"case{Path(name).suffix}"
+    path.write_bytes(draw(mutated([seeds[name]])))
+    return run_case(target, reader, path)
+
+
 @fuzz_settings(ci_cases=1500)
 @given(st.data())
 def test_fuzz_normal_map(data):
-    root, seeds = _normal_maps()
-    name = data.draw(st.sampled_from(sorted(seeds)))
-    path = root / f"case{Path(name).suffix}"
-    path.write_bytes(data.draw(mutated([seeds[name]])))
-    normals = run_case("normal_map", datasets.read_normal_map, path)
+    normals = _read_mutated("normal_map", datasets.read_normal_map, _normal_maps(), data.draw)
     if normals is not None:
         assert normals.dtype == np.float64 and normals.ndim == 3 and normals.shape[2] == 3
         assert np.all(np.isfinite(normals))
@@ -151,10 +157,6 @@ def _depth_maps() -> tuple[Path, dict[str, bytes]]:
 @fuzz_settings(ci_cases=500)
 @given(st.data())
 def test_fuzz_depth_map(data):
-    root, seeds = _depth_maps()
-    name = data.draw(st.sampled_from(sorted(seeds)))
-    path = root / f"case{Path(name).suffix}"
-    path.write_bytes(data.draw(mutated([seeds[name]])))
-    depth = run_case("depth_map", datasets.read_depth_map, path)
+    depth = _read_mutated("depth_map", datasets.read_depth_map, _depth_maps(), data.draw)
     if depth is not None:
         assert depth.dtype == np.float64 and depth.ndim == 2 and depth.size > 0
