@@ -31,8 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_ps_materials import ANALYTIC, render
-from brdfkit.brdf import parse
+from bench_ps_materials import material_brdf, render, shadowed_object
 from brdfkit.vision import datasets
 
 MATERIAL = "ggx 0.1"
@@ -49,13 +48,10 @@ RUNS = {
 
 def write_folder(data_dir: Path, name: str, out: Path) -> Path:
     """A DiLiGenT folder of ``name`` rendered under :data:`MATERIAL`."""
-    truth = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
     lights = datasets.diligent_like_lights()
-    pixel_size = np.nanmean(truth.depth) / truth.camera[0, 0]
-    depth = -np.where(truth.mask, truth.depth, np.nan)
-    lit = datasets.cast_shadows(depth, lights, pixel_size)
+    o = shadowed_object(data_dir, name, 1, lights)
     rng = np.random.default_rng(0)
-    data = render(parse(ANALYTIC[MATERIAL]), truth.normals, truth.mask, lights, lit, 0.005, rng)
+    data = render(material_brdf(data_dir, MATERIAL), o.normals, o.mask, lights, o.lit, 0.005, rng)
     data.images[:] = np.clip(data.images / data.images.max(), 0.0, 1.0)  # 16-bit range
     folder = out / f"{name}PNG"
     datasets.save_diligent(data, folder)

@@ -25,9 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_normal_integration import made
-from bench_ps_materials import ANALYTIC, MEASURED, render
-from brdfkit.brdf import parse
-from brdfkit.measured import read
+from bench_ps_materials import material_brdf, render, shadowed_object
 from brdfkit.vision import bivariate_stereo, datasets, photometric_stereo
 from brdfkit.vision.depth_from_normals import METHODS as INTEGRATORS
 from brdfkit.vision.metrics import angular_error
@@ -42,21 +40,14 @@ MATERIALS = ("matte", "ggx 0.1", "cornell krylon_blue")
 
 def run_object(folder: Path, args: argparse.Namespace, rng) -> list[dict]:
     """Render each material on one object, solve, integrate and score."""
-    truth = datasets.load_normal_integration(folder)
-    step = args.step
-    normals, mask, depth = (a[::step, ::step] for a in (truth.normals, truth.mask, truth.depth))
-    camera = truth.camera * np.array([[1 / step], [1 / step], [1]])
     lights = datasets.diligent_like_lights()
-    pixel_size = np.nanmean(depth) / truth.camera[0, 0] * step
-    lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
+    o = shadowed_object(args.data, folder.name, args.step, lights)
+    normals, mask, depth, camera = o.normals, o.mask, o.depth, o.camera
     floor = {name: made(INTEGRATORS[name](normals, mask, camera), depth) for name in INTEGRATIONS}
     records = []
     for material in args.materials:
-        if material in ANALYTIC:
-            brdf = parse(ANALYTIC[material])
-        else:
-            brdf = read(args.data / "measured" / MEASURED[material])
-        data = render(brdf, normals, mask, lights, lit, args.noise, rng)
+        brdf = material_brdf(args.data, material)
+        data = render(brdf, normals, mask, lights, o.lit, args.noise, rng)
         for solver, solve in SOLVERS.items():
             estimated = solve(data.images, lights, mask).normals
             record = {

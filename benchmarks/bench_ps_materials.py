@@ -25,6 +25,7 @@ import json
 import os
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -121,6 +122,36 @@ def main() -> None:
     print(table(records, args.methods, args.materials))
 
 
+@dataclass(frozen=True)
+class ShadowedObject:
+    """A real DiLiGenT object at every ``step``-th pixel: its normals, mask, depth (mm),
+    intrinsics ``K`` scaled to the step, and the cast shadows ``lit`` ``(N, H, W)`` of its
+    depth under the lights it was made for."""
+
+    normals: np.ndarray
+    mask: np.ndarray
+    depth: np.ndarray
+    camera: np.ndarray
+    lit: np.ndarray
+
+
+def shadowed_object(data_dir: Path, name: str, step: int, lights: np.ndarray) -> ShadowedObject:
+    """The object ``name`` of ``data_dir/normal_integration/diligent`` under ``lights``."""
+    gt = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
+    normals, mask, depth = (a[::step, ::step] for a in (gt.normals, gt.mask, gt.depth))
+    pixel_size = np.nanmean(depth) / gt.camera[0, 0] * step
+    lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
+    camera = gt.camera * np.array([[1 / step], [1 / step], [1]])
+    return ShadowedObject(normals, mask, depth, camera, lit)
+
+
+def material_brdf(data_dir: Path, material: str):
+    """The BRDF of a material of :data:`ANALYTIC` or :data:`MEASURED`."""
+    if material in ANALYTIC:
+        return parse(ANALYTIC[material])
+    return read(data_dir / "measured" / MEASURED[material])
+
+
 def stacks(
     data_dir: Path, objects: list[str], step: int, noise: float, materials: list[str]
 ) -> Iterator[tuple[str, str, datasets.PhotometricStereoData]]:
@@ -129,16 +160,10 @@ def stacks(
     rng = np.random.default_rng(0)
     lights = datasets.diligent_like_lights()
     for name in objects:
-        gt = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
-        normals, mask, depth = (a[::step, ::step] for a in (gt.normals, gt.mask, gt.depth))
-        pixel_size = np.nanmean(depth) / gt.camera[0, 0] * step
-        lit = datasets.cast_shadows(-np.where(mask, depth, np.nan), lights, pixel_size)
+        o = shadowed_object(data_dir, name, step, lights)
         for material in materials:
-            if material in ANALYTIC:
-                brdf = parse(ANALYTIC[material])
-            else:
-                brdf = read(data_dir / "measured" / MEASURED[material])
-            yield name, material, render(brdf, normals, mask, lights, lit, noise, rng)
+            brdf = material_brdf(data_dir, material)
+            yield name, material, render(brdf, o.normals, o.mask, lights, o.lit, noise, rng)
 
 
 def solve_all(
