@@ -49,8 +49,13 @@ pseudo-normals ``b = rho n``). The pipeline:
 
    which a rotation about ``v`` leaves unchanged: the peaks fix the two tilt angles of ``R``
    (robust least squares over dozens of peaks, one per image). The rotation about the view,
-   and the mirror image that explains the images and the peaks equally well, follow from the
-   occluding contour, where the normal is horizontal and points out of the silhouette.
+   and the mirror image that explains the images and the peaks equally well, follow from
+   integrability: turned about the view, or mirrored, a curved surface's normals are no
+   longer integrable (:func:`integrable_view_rotation`, over every pixel). The occluding
+   contour, where the normals point out of the silhouette, only tells the convex reading from
+   the depth-reversed one (a half turn, as integrable): the factor's normals at the rim itself
+   are the least reliable (a few grazing observations each; on a sphere of the Cornell
+   acrylic, whose rim departs from Lambert's law, they are turned 12° from the rest).
    ``"auto"`` (the default) takes this cue where at least 3 images show a highlight and the
    fitted lights put the peaks within :data:`SPECULAR_CONSISTENCY` of their half vectors,
    else the entropy cue.
@@ -79,13 +84,17 @@ not robust.
 
 Measured on the DiLiGenT-layout renders of ``benchmarks/bench_uncalibrated.py`` (real DiLiGenT
 normals of bear, cat and pot1, every 8th pixel, 96 lights; median light error, mean over the
-objects): the specular cue gives ggx 0.05 0.30°, ggx 0.1 1.38°, ggx 0.3 3.14°, the Cornell
-acryl_blue, krylon_blue and garnet_red paints 3.0°, 2.7° and 5.7°, the RGL felt 2.5°, the
-cayman car paint 21°; shared bivariate under these lights comes within 0.1-2° of itself
-under the true ones (better on two paints). The specular cue refuses cat under ggx 0.05 and
+objects): the specular cue gives ggx 0.05 0.28°, ggx 0.1 1.35°, ggx 0.3 3.17°, the Cornell
+acryl_blue, krylon_blue and garnet_red paints 3.0°, 2.7° and 5.6°, the RGL felt 2.3°, the
+cayman car paint 20°; shared bivariate under these lights comes within 2.1° of itself under
+the true ones but for garnet_red on cat (4.3°) and the car paint on bear (6°), and is better
+on the acrylic and krylon paints. On a sphere of the Cornell acrylic (40 px radius; tested)
+the lights come out 3.2° off, what the metric of equal intensities leaves; turned by the rim's
+normals instead they were 6.7° off. The specular cue refuses cat under ggx 0.05 and
 acryl_blue (its factor admits no equal intensities at 694 pixels). Its limits: lights of
-equal (or known) intensity, a visible occluding contour, and peaks where the lobe peaks at
-the half vector (a broad lobe's peak shifts towards the light, hence ggx 0.3's 3°). Under
+equal (or known) intensity, a curved surface (a plane's normals are integrable at every turn)
+with a visible occluding contour, and peaks where the lobe peaks at the half vector (a broad
+lobe's peak shifts towards the light, hence ggx 0.3's 3°). Under
 these wide lights 5-8 % of the pixels are lit and unsaturated in every image, so the GBR cues
 integrate the robust factor: on the matte bear and cat the lights come out 1.4° and 3.0° off
 (entropy), 1.4° and 3.1° (equal intensities), 7.6° and 5.0° (diffuse maxima); on the
@@ -269,15 +278,7 @@ def integrability_transform(
         weight = ndimage.gaussian_filter(v.astype(np.float64), sigma)
         e = ndimage.gaussian_filter(e, (sigma, sigma, 0)) / np.maximum(weight, 1e-12)[..., None]
         v = ndimage.binary_erosion(v, iterations=int(np.ceil(2 * sigma)))
-    both = v[1:-1, 1:-1] & v[1:-1, 2:] & v[1:-1, :-2] & v[2:, 1:-1] & v[:-2, 1:-1]
-    if both.sum() < 6:
-        raise ParameterError(
-            f"only {int(both.sum())} pixels have four lit neighbours; the integrability "
-            "constraint needs at least 6 (a larger, less shadowed mask)"
-        )
-    centre = e[1:-1, 1:-1][both]
-    e_x = (e[1:-1, 2:][both] - e[1:-1, :-2][both]) / 2
-    e_y = -(e[2:, 1:-1][both] - e[:-2, 1:-1][both]) / 2
+    centre, e_x, e_y = _central_differences(e, v)
     rows = np.concatenate([np.cross(centre, e_y), -np.cross(centre, e_x)], axis=1)
     rows /= np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-300)
     _, _, v_t = np.linalg.svd(rows.T @ rows)
@@ -287,6 +288,30 @@ def integrability_transform(
         raise ParameterError("the integrability constraint is degenerate on these images")
     a_3 /= np.linalg.norm(a_3)
     return np.stack([np.cross(c_1, a_3), np.cross(c_2, a_3), a_3])
+
+
+def _central_differences(
+    field: np.ndarray, valid: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(centre, d_x, d_y)`` ``(K, 3)`` of an ``(H, W, 3)`` field at the ``K`` pixels whose
+    four neighbours are ``valid``: central differences along a row (x) and up a column (y goes
+    up, so minus the difference down it).
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        Fewer than 6 such pixels.
+    """
+    v = valid
+    both = v[1:-1, 1:-1] & v[1:-1, 2:] & v[1:-1, :-2] & v[2:, 1:-1] & v[:-2, 1:-1]
+    if both.sum() < 6:
+        raise ParameterError(
+            f"only {int(both.sum())} pixels have four lit neighbours; the integrability "
+            "constraint needs at least 6 (a larger, less shadowed mask)"
+        )
+    d_x = (field[1:-1, 2:][both] - field[1:-1, :-2][both]) / 2
+    d_y = -(field[2:, 1:-1][both] - field[:-2, 1:-1][both]) / 2
+    return field[1:-1, 1:-1][both], d_x, d_y
 
 
 def _local_maxima(image: np.ndarray, mask: np.ndarray, radius: int, sigma: float) -> np.ndarray:
@@ -720,24 +745,42 @@ def resolve_tilt_specular(
     return _tilt(min(fits, key=lambda fit: fit.cost).x) @ a_0
 
 
-def rim_rotation(normals: np.ndarray, mask: np.ndarray, known: np.ndarray, width: int = 3):
-    """The rotation ``phi`` about the view that best turns the normals within ``width`` pixels
-    of the mask's edge to the contour's outward direction, and how well (0-1).
+def integrable_view_rotation(normals: np.ndarray, valid: np.ndarray) -> tuple[float, float]:
+    """The rotation ``phi`` about the view that makes a normal field most integrable, and how
+    much more integrable it is than the field turned a further 90° (0: wholly, 1: not at all).
 
-    At an occluding contour the normal is perpendicular to the view and points out of the
-    silhouette. ``phi`` is the circular mean of (outward azimuth - normal azimuth) weighted by
-    ``|n_xy|``; the concentration is the length of that mean (1: every rim normal agrees).
+    A surface's normals satisfy ``n_3 ∂_y n_1 - n_1 ∂_y n_3 = n_3 ∂_x n_2 - n_2 ∂_x n_3``
+    (module, step 2); turned by ``phi`` about the view (``n_1 + i n_2 → e^{i phi} (n_1 + i
+    n_2)``) the residual of that equation is ``cos(phi) C_1 - sin(phi) C_2`` with
+
+    ``C_1 = (n × ∂_y n)_2 + (n × ∂_x n)_1``, ``C_2 = (n × ∂_x n)_2 - (n × ∂_y n)_1``,
+
+    central differences at every pixel whose four neighbours are ``valid``. ``phi`` minimises
+    the sum of the residuals' magnitudes (robust to depth edges): a 1° grid over ``[0, π)``
+    (``phi + π`` is the depth-reversed field, as integrable) refined to 0.01°. A plane's field
+    is integrable at every ``phi``; a curved surface's only at its own.
+
+    References
+    ----------
+    A. Yuille, D. Snow, CVPR 1997 (the integrability constraint on pseudo-normals).
     """
-    from scipy import ndimage
+    from scipy.optimize import minimize_scalar
 
-    distance = ndimage.distance_transform_edt(mask)
-    rim = known & (distance <= width)
-    grad_row, grad_col = np.gradient(ndimage.gaussian_filter(distance, 1.0))
-    outward = np.arctan2(grad_row[rim], -grad_col[rim])  # x right, y up: y is minus the row
-    n = normals[rim]
-    weight = np.hypot(n[:, 0], n[:, 1])
-    mean = np.sum(weight * np.exp(1j * (outward - np.arctan2(n[:, 1], n[:, 0]))))
-    return float(np.angle(mean)), float(abs(mean) / max(weight.sum(), 1e-300))
+    centre, d_x, d_y = _central_differences(normals, valid)
+    along_y, along_x = np.cross(centre, d_y), np.cross(centre, d_x)
+    c_1 = along_y[:, 1] + along_x[:, 0]
+    c_2 = along_x[:, 1] - along_y[:, 0]
+
+    def cost(phi: float) -> float:
+        return float(np.sum(np.abs(np.cos(phi) * c_1 - np.sin(phi) * c_2)))
+
+    grid = np.radians(np.arange(180.0))
+    costs = np.array([cost(phi) for phi in grid])
+    best = grid[np.argmin(costs)]
+    step = np.radians(1.0)
+    phi = minimize_scalar(cost, bounds=(best - step, best + step), method="bounded",
+                          options={"xatol": np.radians(0.01)}).x  # fmt: skip
+    return float(phi), cost(phi) / max(cost(phi + np.pi / 2), 1e-300)
 
 
 def resolve_specular(
@@ -748,9 +791,11 @@ def resolve_specular(
 
     The metric of equal intensities (:func:`equal_intensity_metric`) gives ``A`` up to a
     rotation ``R``; the specular peaks ``(b, l̂)`` (:func:`specular_highlights`) fix its tilt
-    (:func:`resolve_tilt_specular`); the occluding contour its rotation about the view
-    (:func:`rim_rotation`), and which of ``A`` and its mirror image ``diag(-1, 1, 1) A``
-    (both explain the images and the peaks) turns the rim normals outwards more consistently.
+    (:func:`resolve_tilt_specular`); integrability its rotation about the view
+    (:func:`integrable_view_rotation`) and which of ``A`` and its mirror image
+    ``diag(-1, 1, 1) A`` (both explain the images and the peaks) it is: the one whose
+    normals are the more integrable. The occluding contour, where normals point out of the
+    silhouette, tells the convex reading from its depth reversal (a rotation by π).
 
     Parameters
     ----------
@@ -765,7 +810,7 @@ def resolve_specular(
     a_0 = equal_intensity_metric(factor.lights)
     known = np.zeros(mask.shape, bool)
     known.flat[np.flatnonzero(mask)[factor.known]] = True
-    best = (-1.0, a_0)
+    best = (np.inf, a_0)
     for mirror in (np.eye(3), np.diag([-1.0, 1.0, 1.0])):
         a = resolve_tilt_specular(mirror @ a_0, b, lights_hat)
         pseudo = a @ factor.pseudo_normals[:, factor.known]
@@ -773,9 +818,11 @@ def resolve_specular(
         normals = np.zeros((*mask.shape, 3))
         normals[known] = (a @ factor.pseudo_normals[:, factor.known]).T
         normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-300)
-        phi, agreement = rim_rotation(normals, mask, known)
-        if agreement > best[0]:
-            best = (agreement, _rotation_z(phi) @ a)
+        phi, non_integrability = integrable_view_rotation(normals, known)
+        if _outward_sign(normals @ _rotation_z(phi).T, known) < 0:
+            phi += np.pi  # the depth-reversed reading, as integrable: the convex one is kept
+        if non_integrability < best[0]:
+            best = (non_integrability, _rotation_z(phi) @ a)
     return best[1]
 
 
