@@ -1,9 +1,10 @@
 """Calibrated photometric stereo across real materials, DiLiGenT-style: error per method, material.
 
 DiLiGenT-layout image stacks are rendered from the real DiLiGenT ground-truth normals and depth
-(``../shared/data/normal_integration/diligent``: bear, cat, pot1, ...; every ``--step``-th pixel)
-under 96 DiLiGenT-like lights, with cast shadows from the real depth and Gaussian noise, for
-each material: the shared *measured* BRDFs (Cornell gonioreflectometer data, the RGL tensor
+(``../shared/data/normal_integration/diligent``: bear, cat, pot1, ...; every ``--step``-th pixel;
+or ``sphere``, a ball of DiLiGenT's size in its frame standing in for its ball) under 96
+DiLiGenT-like lights, with cast shadows from the real depth and Gaussian noise, for each
+material: the shared *measured* BRDFs (Cornell gonioreflectometer data, the RGL tensor
 file; read with :mod:`brdfkit.measured`) and analytic specs (matte, and GGX lobes from broad
 to sharp over a Lambertian base). The BRDF is evaluated in each pixel's local frame with the
 library's own ``eval`` (the view is (0, 0, 1), orthographic), ``I = f_r(l, v) cos θ_i V``,
@@ -135,8 +136,29 @@ class ShadowedObject:
     lit: np.ndarray
 
 
+SPHERE_RADIUS = 120.0
+"""Pixels: the ``sphere`` object's radius at full resolution (a ball like DiLiGenT's, about as
+many pixels as its bear)."""
+
+
+def sphere_object(step: int, lights: np.ndarray) -> ShadowedObject:
+    """A sphere in DiLiGenT's frame (612 × 512 pixels, bear's ``K``, 1.5 m away), every
+    ``step``-th pixel: orthographic normals, its depth (mm), no cast shadow (it is convex)."""
+    focal, distance = 3772.0, 1500.0
+    shape = (-(-512 // step), -(-612 // step))
+    radius = SPHERE_RADIUS / step
+    normals, mask = photometric_stereo.sphere_normals(shape, (306.0 / step, 256.0 / step), radius)
+    depth = np.where(mask, distance - normals[..., 2] * radius * step * distance / focal, np.nan)
+    camera = np.array([[focal / step, 0.0, 306.0 / step], [0.0, focal / step, 256.0 / step],
+                       [0.0, 0.0, 1.0]])  # fmt: skip
+    return ShadowedObject(normals, mask, depth, camera, np.ones((len(lights), *shape)))
+
+
 def shadowed_object(data_dir: Path, name: str, step: int, lights: np.ndarray) -> ShadowedObject:
-    """The object ``name`` of ``data_dir/normal_integration/diligent`` under ``lights``."""
+    """The object ``name`` of ``data_dir/normal_integration/diligent`` under ``lights``, or
+    the :func:`sphere_object` for ``"sphere"``."""
+    if name == "sphere":
+        return sphere_object(step, lights)
     gt = datasets.load_normal_integration(data_dir / "normal_integration" / "diligent" / name)
     normals, mask, depth = (a[::step, ::step] for a in (gt.normals, gt.mask, gt.depth))
     pixel_size = np.nanmean(depth) / gt.camera[0, 0] * step
