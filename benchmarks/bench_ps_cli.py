@@ -1,6 +1,7 @@
 """``brdfkit ps`` as a user meets it: a fresh process on a DiLiGenT folder, each default.
 
-For each object (``--objects``, default bear and cat) the real DiLiGenT ground-truth normals
+For each object (``--objects``, default bear and cat; ``sphere``, a ball of DiLiGenT's size,
+stands in for its ball) the real DiLiGenT ground-truth normals
 and depth of ``../shared/data/normal_integration/diligent`` are rendered under 96
 DiLiGenT-like lights with cast shadows and noise (``bench_ps_materials.render``: a Lambertian
 base and a GGX lobe of roughness 0.1) at full resolution, and written as a DiLiGenT folder
