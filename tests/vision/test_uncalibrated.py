@@ -138,19 +138,13 @@ def test_specular_cue_on_a_measured_acrylic_sphere(shared_data):
     Lambert's law, and the rim's normals turn the lights 6.7° off (median, measured);
     integrability turns them to within 3.2° (measured), what the metric of equal intensities
     leaves."""
-    from brdfkit.geometry import frame_from_normal, to_local
     from brdfkit.measured import read
+    from brdfkit.vision.synthesis import render_brdf
 
     brdf = read(shared_data / "measured" / "cornell" / "acryl_blue.brdf")
     normals, mask = sphere_normals((96, 96), (47.5, 47.5), 40.0)
     lights = datasets.diligent_like_lights()
-    frame = frame_from_normal(normals[mask])
-    view = to_local(np.broadcast_to([0.0, 0.0, 1.0], (int(mask.sum()), 3)), frame)
-    images = np.zeros((len(lights), *mask.shape))
-    for k, light in enumerate(lights):
-        wi = to_local(np.broadcast_to(light, view.shape), frame)
-        value = np.nan_to_num(np.asarray(brdf.eval(wi, view))).mean(axis=-1)
-        images[k][mask] = value * np.clip(wi[:, 2], 0.0, None)
+    images = render_brdf(normals, mask, lights, brdf).mean(axis=-1)
     images /= images.max()
     estimate = unc.uncalibrated(images, mask, cue="specular")
     assert estimate.cue == "specular"

@@ -814,9 +814,10 @@ def resolve_specular(
     for mirror in (np.eye(3), np.diag([-1.0, 1.0, 1.0])):
         a = resolve_tilt_specular(mirror @ a_0, b, lights_hat)
         pseudo = a @ factor.pseudo_normals[:, factor.known]
-        a *= np.sign(np.median(pseudo[2]))  # b -> -b, l -> -l: normals face the camera
+        facing = np.sign(np.median(pseudo[2]))  # b -> -b, l -> -l: normals face the camera
+        a *= facing
         normals = np.zeros((*mask.shape, 3))
-        normals[known] = (a @ factor.pseudo_normals[:, factor.known]).T
+        normals[known] = facing * pseudo.T
         normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-300)
         phi, non_integrability = integrable_view_rotation(normals, known)
         if _outward_sign(normals @ _rotation_z(phi).T, known) < 0:
