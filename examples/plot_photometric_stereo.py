@@ -10,8 +10,9 @@ shadows and noise. Lambertian least squares (Woodham 1980) is biased by the high
 regression (Ikehata et al. 2012) rejects them as outliers. The non-Lambertian methods model
 them instead: ST14's bi-polynomial reflectance of the dark observations (Shi et al. 2014), a
 shared bivariate ``(θ_h, θ_d)`` table (Alldrin & Zickler 2008's isotropy, one table for the
-object), and inverse rendering, which fits a Lambertian term plus GGX lobes jointly with the
-normals (in the manner of Taniai & Maehara 2018). The errors are computed as the DiLiGenT
+object), and inverse rendering, which fits a diffuse term (Burley's, its grazing factor shared
+by the object) plus GGX lobes jointly with the normals (in the manner of Taniai & Maehara
+2018). The errors are computed as the DiLiGenT
 benchmark does (:func:`~brdfkit.vision.metrics.angular_error_map`).
 
 This is the README's picture ``docs/images/photometric_stereo.png``: running this file as a

@@ -1,6 +1,6 @@
 """Inverse-rendering photometric stereo: exact where its microfacet lobe is the object's, better
 than least squares (and the shared bivariate table) on a glossy sphere, unbiased by cast
-shadows, bad parameters named, and a ``brdfkit ps`` method."""
+shadows, Burley's diffuse shape found, bad parameters named, and a ``brdfkit ps`` method."""
 
 from __future__ import annotations
 
@@ -89,6 +89,8 @@ def test_cast_shadows_do_not_bias_the_normals():
         ({"lobes": 0}, "lobes"),
         ({"roughness_grid": (0.1, 2.0)}, "roughness_grid"),
         ({"roughness_grid": ()}, "roughness_grid"),
+        ({"grazing_grid": (1.0, 5.0)}, "grazing_grid"),
+        ({"grazing_grid": ()}, "grazing_grid"),
         ({"shadow_bias": -1.0}, "shadow_bias"),
         ({"rounds": 0}, "rounds"),
     ],
@@ -116,10 +118,45 @@ def test_the_rendered_lobes_are_the_models_own_eval():
     pixels = normals[inside]
     visibility = np.ones((len(pixels), len(lights)))
     lobes = (GGXConductor(alpha=0.05), GGXConductor(alpha=0.4))
-    columns = _design(pixels, lights, lobes, visibility)
+    columns = _design(pixels, lights, lobes, visibility, 1.0)
+    np.testing.assert_allclose(columns[..., 0], np.clip(pixels @ lights.T, 0, None), rtol=1e-12)
     for j, lobe in enumerate(lobes):
         for p in (0, len(pixels) // 2, len(pixels) - 1):
             frame = np.stack(frame_from_normal(pixels[p : p + 1]), axis=0)[:, 0]  # rows s, t, n
             wi, wo = lights @ frame.T, np.broadcast_to(frame[:, 2], (len(lights), 3))
             expected = np.nan_to_num(lobe.eval(wi, wo)[..., 0]) * np.clip(wi[:, 2], 0, None)
             np.testing.assert_allclose(columns[p, :, 1 + j], expected, rtol=1e-12, atol=1e-300)
+
+
+def test_the_diffuse_term_is_burleys():
+    """The diffuse column is the principled BRDF's diffuse (Burley's, ``F_D90 = 0.5`` at zero
+    roughness) up to its factor for the view, which the pixel's albedo takes."""
+    from brdfkit.vision.inverse_rendering_stereo import _design
+
+    normals, inside = sphere_normals((12, 12), centre=(5.5, 5.5), radius=5.0)
+    lights = datasets.diligent_like_lights()
+    pixels = normals[inside]
+    column = _design(pixels, lights, (), np.ones((len(pixels), len(lights))), 0.5)[..., 0]
+    burley = parse("principled(base_color=1.0, roughness=0, specular=0)")
+    for p in (0, len(pixels) // 2, len(pixels) - 1):
+        frame = np.stack(frame_from_normal(pixels[p : p + 1]), axis=0)[:, 0]
+        wi, wo = lights @ frame.T, np.broadcast_to(frame[:, 2], (len(lights), 3))
+        rendered = burley.eval(wi, wo)[..., 0] * np.clip(wi[:, 2], 0, None)
+        view = rendered[wi[:, 2] > 0] / column[p][wi[:, 2] > 0]
+        np.testing.assert_allclose(view, view[0], rtol=1e-12)  # one factor for every light
+
+
+def test_the_diffuse_shape_is_found():
+    """A diffuse that darkens towards grazing incidence (Burley's at zero roughness) under a GGX
+    lobe, noise-free: with the grazing factor chosen the normals converge (measured: median
+    0.0003°), with Lambert's law they lean (median 1.69°)."""
+    normals, mask = sphere_normals((16, 16), (7.5, 7.5), 7.0)
+    lights = datasets.diligent_like_lights()
+    coated = parse("principled(base_color=0.5, roughness=0, specular=0) + 0.3 * ggx(alpha=0.1)")
+    images = render_brdf(normals, mask, lights, coated)
+    options = {"lobes": 1, "roughness_grid": (0.05, 0.1, 0.2), "iterations": 20,
+               "cast_shadows": False}  # fmt: skip
+    chosen = inverse_rendering(images, lights, mask, **options)
+    lambert = inverse_rendering(images, lights, mask, grazing_grid=(1.0,), **options)
+    assert angular_error(chosen.normals, normals, mask)["median"] < 0.01
+    assert angular_error(lambert.normals, normals, mask)["median"] > 1.0
