@@ -45,14 +45,15 @@ def test_glossy_sphere_beats_least_squares_and_the_shared_table(sphere):
 
 def test_exact_where_the_lobe_is_the_objects():
     """Noise-free images of a GGX lobe of a roughness on the grid: the rendering is the image
-    formation, so the normals converge to the truth (measured: median 0.0002°, mean 0.023°,
-    the worst 0.17° at the rim, where few lights reach)."""
+    formation, so the normals converge to the truth (measured: median 0.0002°, mean 0.008°,
+    the worst 0.14° at the rim, where few lights reach; four rim pixels start from ST14's
+    normals and take the most iterations, 0.73° after 60)."""
     normals, mask = sphere_normals((12, 12), (5.5, 5.5), 5.0)
     lights = datasets.diligent_like_lights()
     images = render_brdf(normals, mask, lights, parse(GLOSSY))
     result = inverse_rendering(
         images, lights, mask, lobes=1, roughness_grid=(0.05, 0.1, 0.2), rounds=1,
-        iterations=60, cast_shadows=False,
+        iterations=200, cast_shadows=False,
     )  # fmt: skip
     error = angular_error(result.normals, normals, mask)
     assert error["median"] < 0.002

@@ -47,8 +47,9 @@ over the normals, the weights, the roughnesses and the grazing factor:
 Each round recomputes the cast shadows from the current normals and (after the first, a plain
 least-squares round: a start's misfit is no outlier) the robust weights, then runs the normal
 search. The start is, per pixel, the best by this cost of
-:func:`~brdfkit.vision.bivariate_stereo.shared_bivariate`'s normals, trimmed least squares' and
-the half vector of the pixel's brightest light.
+:func:`~brdfkit.vision.bivariate_stereo.shared_bivariate`'s normals, trimmed least squares',
+ST14's (:func:`~brdfkit.vision.bivariate_stereo.bipolynomial`) and the half vector of the
+pixel's brightest light.
 
 Claims (tests in ``tests/vision/test_inverse_rendering_stereo.py``): where the object's lobe is
 a GGX lobe the rendering is exact and the normals come back to the noise level; on a glossy
@@ -56,16 +57,19 @@ sphere it beats least squares by a wide margin. Limits: an orthographic view, di
 isotropic lobes with a per-pixel weight (no Fresnel colour shift over ``θ_d``), one diffuse
 shape for the object; shadows only as good as the integrated depth.
 
-The grazing factor, measured on the renders of ``benchmarks/bench_ps_materials.py`` (bear,
-cat, pot1 and the sphere of DiLiGenT's size, every 8th pixel; mean error over the objects,
-Lambert's law → the factor chosen): the Cornell acryl_blue, krylon_blue and garnet_red paints
-5.03° → 3.87°, 3.29° → 2.01°, 4.56° → 4.13° (``F_D90`` 0 or 0.5: their diffuse darkens towards
-grazing incidence, as a coated base's does); GGX lobes over a Lambertian base and the matte
-render keep ``F_D90 = 1`` and their errors; the cayman car paint 17.15° → 17.14°; the RGL felt
-5.68° → 6.49°, worse: a cloth's brightening at grazing incidence (with the normals held at the
-truth its cost is least at ``F_D90 = 2``) is not what this shape captures, and the normals lean
-to a darker one (least cost at 0). The choice costs some 4 s of the minute of 96 images of
-612 × 512.
+Measured on the renders of ``benchmarks/bench_ps_materials.py`` (bear, cat, pot1 and the
+sphere of DiLiGenT's size, every 8th pixel; mean error over the objects): Lambert's law and
+three starts → the grazing factor → ST14's start as well. The Cornell acryl_blue, krylon_blue
+and garnet_red paints 5.03° → 3.87° → 3.86°, 3.29° → 2.01° → 1.69°, 4.56° → 4.13° → 2.54°
+(``F_D90`` below 1: their diffuse darkens towards grazing incidence, as a coated base's
+does); the cayman car paint 17.15° → 17.14° → 12.13° (every other start is some 27° off; from
+the true normals the fit reaches 7.6°); GGX lobes over a Lambertian base (α 0.3, 0.1, 0.05)
+0.89°, 0.55°, 0.43° (``F_D90 = 1`` kept) → 0.71°, 0.52°, 0.39°; matte 0.18° → 0.11°; the RGL
+felt 5.68° → 6.49° → 6.39°, worse: a cloth's brightening at grazing incidence (with the
+normals held at the truth its cost is least at ``F_D90 = 2``) is not what this shape captures,
+and the normals lean to a darker one (least cost at 0). The grazing factor costs some 3 s and
+ST14's start some 2 s of the 35 s of 96 images of 612 × 512
+(``benchmarks/bench_photometric_stereo.py``).
 
 References
 ----------
@@ -98,7 +102,7 @@ from brdfkit.brdf import GGXConductor
 from brdfkit.brdf.principled import schlick_weight
 from brdfkit.errors import ParameterError
 from brdfkit.geometry import frame_from_normal
-from brdfkit.vision.bivariate_stereo import shared_bivariate
+from brdfkit.vision.bivariate_stereo import bipolynomial, shared_bivariate
 from brdfkit.vision.datasets import horizon_excess
 from brdfkit.vision.normal_integration import least_squares_integration
 from brdfkit.vision.photometric_stereo import (
@@ -389,11 +393,13 @@ def _starts(
     images: ArrayLike, lights: np.ndarray, mask: np.ndarray, gray: np.ndarray
 ) -> list[np.ndarray]:
     """Candidate start normals ``(P, 3)`` of the mask's pixels: shared bivariate, trimmed least
-    squares, and the half vector of each pixel's brightest light (where a lobe peaks,
-    ``n = h``; it rescues pixels whose highlight pulls both linear starts off)."""
+    squares, ST14 (its elevation searched along the azimuth: no highlight pulls it sideways,
+    and it is the start that reaches the cayman car paint), and the half vector of each
+    pixel's brightest light (where a lobe peaks, ``n = h``; it rescues pixels whose highlight
+    pulls the others off)."""
     starts = [
         method(images, lights, mask).normals[mask]
-        for method in (shared_bivariate, trimmed_least_squares)
+        for method in (shared_bivariate, trimmed_least_squares, bipolynomial)
     ]
     half = lights[np.argmax(gray, axis=0)] + _VIEW
     return [*starts, half / np.linalg.norm(half, axis=1, keepdims=True)]
