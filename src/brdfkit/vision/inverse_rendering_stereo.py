@@ -396,11 +396,16 @@ def _starts(
     squares, ST14 (its elevation searched along the azimuth: no highlight pulls it sideways,
     and it is the start that reaches the cayman car paint), and the half vector of each
     pixel's brightest light (where a lobe peaks, ``n = h``; it rescues pixels whose highlight
-    pulls the others off)."""
+    pulls the others off). ST14 refuses too few images for its trims (under 6 at its
+    defaults; the other starts have checked the data already): then it is no candidate."""
     starts = [
         method(images, lights, mask).normals[mask]
-        for method in (shared_bivariate, trimmed_least_squares, bipolynomial)
+        for method in (shared_bivariate, trimmed_least_squares)
     ]
+    try:
+        starts.append(bipolynomial(images, lights, mask).normals[mask])
+    except ParameterError:
+        pass
     half = lights[np.argmax(gray, axis=0)] + _VIEW
     return [*starts, half / np.linalg.norm(half, axis=1, keepdims=True)]
 
