@@ -150,7 +150,8 @@ def test_the_diffuse_term_is_burleys():
 def test_the_diffuse_shape_is_found():
     """A diffuse that darkens towards grazing incidence (Burley's at zero roughness) under a GGX
     lobe, noise-free: with the grazing factor chosen the normals converge (measured: median
-    0.0003°), with Lambert's law they lean (median 1.69°)."""
+    0.0003°), with Lambert's law they lean (median 1.69°); a single factor given is used from
+    the first round."""
     normals, mask = sphere_normals((16, 16), (7.5, 7.5), 7.0)
     lights = datasets.diligent_like_lights()
     coated = parse("principled(base_color=0.5, roughness=0, specular=0) + 0.3 * ggx(alpha=0.1)")
@@ -159,8 +160,10 @@ def test_the_diffuse_shape_is_found():
                "cast_shadows": False}  # fmt: skip
     chosen = inverse_rendering(images, lights, mask, **options)
     lambert = inverse_rendering(images, lights, mask, grazing_grid=(1.0,), **options)
+    given = inverse_rendering(images, lights, mask, grazing_grid=(0.5,), rounds=1, **options)
     assert angular_error(chosen.normals, normals, mask)["median"] < 0.01
     assert angular_error(lambert.normals, normals, mask)["median"] > 1.0
+    assert angular_error(given.normals, normals, mask)["median"] < 0.01  # used from the start
 
 
 @pytest.mark.parametrize("count", [3, 5])

@@ -437,8 +437,9 @@ def inverse_rendering(
     images, light_directions, mask : as :func:`~brdfkit.vision.photometric_stereo.least_squares`.
     lobes : the most shared GGX lobes (1 … 4).
     roughness_grid : the roughnesses they are chosen from, each in [1e-3, 1] (1 … 64 of them).
-    grazing_grid : the grazing factors ``F_D90`` of the diffuse term it is chosen from, each in
-        [0, 4] (1 … 64 of them); ``(1.0,)`` keeps Lambert's law.
+    grazing_grid : the grazing factors ``F_D90`` of the diffuse term it is chosen from after
+        the first round, each in [0, 4] (1 … 64 of them); until then the one nearest 1
+        (Lambert's law); ``(1.0,)`` keeps Lambert's law, a single value that factor throughout.
     rounds : alternations of cast shadows, robust weights and normal search (1 …
         :data:`MAX_ROUNDS`).
     iterations : normal-search iterations per round (1 … :data:`MAX_ITERATIONS`).
@@ -511,6 +512,7 @@ def inverse_rendering(
 
     gray = _gray(observations)
     problem = _Problem(np.ascontiguousarray(gray.T), lights)
+    problem.grazing = min(grazing, key=lambda f: abs(f - 1.0))
     dark = gray < SHADOW_THRESHOLD * np.percentile(gray, 90, axis=0)
     problem.weights = np.ascontiguousarray(~dark.T, dtype=np.float64)
     observed = problem.weights.copy()
@@ -535,7 +537,8 @@ def inverse_rendering(
             problem.weights = observed * _cauchy_weights(residual, observed > 0)
         if round_ == 1:  # the lobes again and the diffuse shape, from the first round's normals
             _select_lobes(problem, normals, grid, lobes)
-            _select_grazing(problem, normals, grazing)
+            if len(grazing) > 1:
+                _select_grazing(problem, normals, grazing)
         normals, c, residual = _search(problem, normals, iterations, advance)
     rho = np.maximum(c[:, :1], 1e-12)  # a pixel without a diffuse term keeps its normal
     return _result((normals * rho).T, observations, mask, _trim_weights(gray, 0.25, 0.1))
