@@ -13,7 +13,7 @@ from brdfkit.geometry import frame_from_normal
 from brdfkit.vision import datasets
 from brdfkit.vision.bivariate_stereo import shared_bivariate
 from brdfkit.vision.inverse_rendering_stereo import METHODS, inverse_rendering
-from brdfkit.vision.metrics import angular_error
+from brdfkit.vision.metrics import angular_error, angular_error_map
 from brdfkit.vision.photometric_stereo import least_squares, sphere_normals
 from brdfkit.vision.synthesis import render_brdf
 
@@ -175,5 +175,5 @@ def test_fewer_images_than_st14_needs(count):
     images = render_brdf(normals, mask, lights, parse("lambertian(albedo=0.5)"))
     lit = np.all(normals[mask] @ lights.T > 0.05, axis=1)  # every image lights them
     fitted = inverse_rendering(images, lights, mask, rounds=1, cast_shadows=False)
-    error = np.degrees(np.arccos(np.clip(np.sum(fitted.normals[mask] * normals[mask], 1), -1, 1)))
+    error = angular_error_map(fitted.normals, normals, mask)[mask]
     assert np.median(error[lit]) < 0.01

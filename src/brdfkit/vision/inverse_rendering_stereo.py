@@ -35,9 +35,10 @@ over the normals, the weights, the roughnesses and the grazing factor:
   the rendering with the weights held, every pixel on its own, all at once in NumPy);
 - the roughnesses chosen from :data:`ROUGHNESS_GRID` by greedy forward selection on the cost,
   at the start and after the first round; ``F_D90`` from :data:`GRAZING_GRID` after the
-  first round (Lambert's law before), each candidate's cost taken once the normals have been
-  searched again with it (the normals lean to make up for a wrong diffuse shape: at fixed
-  normals the cost would keep the shape they were found with);
+  first round (the grid's value nearest 1 before: Lambert's law by default), each candidate's
+  cost taken once the normals have been searched again with it (the normals lean to make up
+  for a wrong diffuse shape: at fixed normals the cost would keep the shape they were found
+  with);
 - ``w`` zero for the observations darker than :data:`SHADOW_THRESHOLD` of the pixel's
   90th-percentile one (shadows, attached or cast by what the integrated shape misses: a
   rendering that puts light there would pull the normal towards a lobe-only fit), else Cauchy
@@ -127,7 +128,8 @@ SELECTION_ITERATIONS = 8
 """Normal-search iterations behind each candidate grazing factor (:func:`_searched_cost`)."""
 
 SELECTION_PIXELS = 2000
-"""Pixels (an even subsample of the mask) on which the shared roughnesses are chosen."""
+"""Pixels (an even subsample of the mask) on which the shared roughnesses and the grazing
+factor are chosen."""
 
 CAUCHY_SCALE = 2.385
 """Cauchy's constant: 95 % efficiency on Gaussian residuals (in units of their sigma)."""
