@@ -55,6 +55,24 @@ def check_count(name: str, value: Any, maximum: int, *, minimum: int = 1) -> int
     return int(value)
 
 
+def check_image_shape(shape: Any, maximum: int) -> tuple[int, int]:
+    """An image shape ``(H, W)`` of positive integers with at most ``maximum`` pixels.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        ``shape`` is not two positive integers.
+    brdfkit.errors.ResourceError
+        It has more than ``maximum`` pixels.
+    """
+    if not isinstance(shape, tuple | list) or len(shape) != 2:
+        raise ParameterError(f"shape must be (H, W); got {shape!r}")
+    height, width = (check_count(f"shape[{k}]", n, maximum) for k, n in enumerate(shape))
+    if height * width > maximum:
+        raise ResourceError(f"shape {tuple(shape)} has more than {maximum} pixels")
+    return height, width
+
+
 def available_memory() -> int | None:
     """Bytes of memory available to a new allocation (``MemAvailable`` on Linux), or ``None``."""
     try:

@@ -288,3 +288,42 @@ def test_read_depth_map_keeps_unknown_depths_and_refuses_what_is_no_depth(tmp_pa
     for name, message in (("rgb.npy", r"shape \(H, W\)"), ("d.png", "must be .npy or a float")):
         with pytest.raises(FormatError, match=message):
             datasets.read_depth_map(tmp_path / name)
+
+
+def test_perspective_sphere_depth_is_what_its_normals_integrate_to():
+    """The sphere's normals and depth agree in the frame of the integrators: least squares
+    in perspective returns its depth after one scale within 0.5 % of its relief on average
+    (the silhouette's grazing pixels left out of the score), and each pixel's point lies on
+    the sphere."""
+    from brdfkit.vision.normal_integration import least_squares_integration
+
+    camera = np.array([[500.0, 0, 30.0], [0, 520.0, 25.0], [0, 0, 1]])
+    ball = datasets.perspective_sphere((56, 64), camera, centre=(1.0, -0.5, -60.0), radius=4.0)
+    rows, columns = np.indices(ball.mask.shape)
+    rays = np.stack(
+        [(columns - 30.0) / 500.0, (25.0 - rows) / 520.0, -np.ones(ball.mask.shape)], axis=-1
+    )
+    points = ball.depth[ball.mask][:, None] * rays[ball.mask]
+    np.testing.assert_allclose(np.linalg.norm(points - [1.0, -0.5, -60.0], axis=1), 4.0)
+    depth = least_squares_integration(ball.normals, ball.mask, camera)
+    inner = ball.mask & (ball.normals[..., 2] > 0.5)
+    scale = np.median(ball.depth[inner] / depth[inner])
+    error = np.abs(scale * depth[inner] - ball.depth[inner])
+    assert error.mean() < 0.005 * np.ptp(ball.depth[inner])  # 0.23 %; 37 % with y flipped
+
+
+@pytest.mark.parametrize(
+    ("arguments", "error"),
+    [
+        (((8, 8), np.eye(3), (0.0, 0.0, 5.0), 1.0), ParameterError),  # behind the camera
+        (((8, 8), np.eye(3), (0.0, 0.0, -1.0), 2.0), ParameterError),  # around it
+        (((8, 8), np.eye(3), (0.0, -1.0), 1.0), ParameterError),
+        (((8, 8), np.eye(3), (0.0, 0.0, -5.0), 0.0), ParameterError),
+        (((8, 8), -np.eye(3), (0.0, 0.0, -5.0), 1.0), ParameterError),
+        (((8,), np.eye(3), (0.0, 0.0, -5.0), 1.0), ParameterError),
+        (((2**15, 2**15), np.eye(3), (0.0, 0.0, -5.0), 1.0), ResourceError),
+    ],
+)
+def test_perspective_sphere_refuses_what_is_no_sphere_before_a_camera(arguments, error):
+    with pytest.raises(error):
+        datasets.perspective_sphere(*arguments)

@@ -53,10 +53,11 @@ from numpy.typing import ArrayLike
 
 from brdfkit import io
 from brdfkit._array import check_param, normalize
-from brdfkit._checks import as_float_array, check_count, check_memory
+from brdfkit._checks import as_float_array, check_count, check_image_shape, check_memory
 from brdfkit.errors import FormatError, OutputError, ParameterError
 from brdfkit.vision.calibration import LINEAR_SUFFIXES
-from brdfkit.vision.photometric_stereo import fit_circle, sphere_normals
+from brdfkit.vision.normal_integration import check_camera
+from brdfkit.vision.photometric_stereo import MAX_PIXELS, fit_circle, sphere_normals
 
 MAX_STEP = 4096
 """Largest ``step`` (subsampling) the loaders accept."""
@@ -890,6 +891,85 @@ def diligent_like_lights(
     gx, gy = np.meshgrid(x * spacing, y * spacing)
     lights = np.stack([gx.ravel(), gy.ravel(), np.ones(gx.size)], axis=1)
     return lights / np.linalg.norm(lights, axis=1, keepdims=True)
+
+
+def perspective_sphere(
+    shape: tuple[int, int], camera: ArrayLike, centre: ArrayLike, radius: float
+) -> NormalIntegrationData:
+    r"""Exact normals and depth of a sphere seen through a pinhole camera: a ground truth for
+    perspective normal integration whose silhouette grazes.
+
+    Pixel ``(u, v)`` (column, row) looks along :math:`d = ((u - c_x) / f_x, (c_y - v) / f_y,
+    -1)` (x right, y up, z towards the camera); its depth is the nearest root ``t`` of
+    :math:`|t\,d - c| = r`, and its normal :math:`(t\,d - c) / r`.
+
+    Parameters
+    ----------
+    shape : (H, W) of the image.
+    camera : (3, 3) intrinsics ``K``.
+    centre : (3,) the sphere's centre in the camera frame, in front of it (``z < -radius``).
+    radius : > 0, in the units of ``centre`` (those of the depth).
+
+    Returns
+    -------
+    NormalIntegrationData
+        The pixels whose ray meets the sphere as the mask; depth along the optical axis (NaN
+        outside); ``name`` ``"sphere"``.
+
+    Raises
+    ------
+    brdfkit.errors.ParameterError
+        A bad ``shape``, ``camera`` (see
+        :func:`~brdfkit.vision.normal_integration.check_camera`), a centre that is not three
+        finite numbers, a radius that is not finite and positive, or a sphere not wholly in
+        front of the camera.
+    brdfkit.errors.ResourceError
+        More than :data:`~brdfkit.vision.photometric_stereo.MAX_PIXELS` pixels, or more than
+        the memory available holds.
+
+    References
+    ----------
+    R. Hartley, A. Zisserman, *Multiple View Geometry in Computer Vision*, 2nd ed., Cambridge
+    University Press 2004, §6.1 (the pinhole camera).
+
+    Examples
+    --------
+    A ball of 5 mm radius 100 mm away, 40 pixels in radius; its nearest point 95 mm away, and
+    every pixel's point on the sphere (a unit normal):
+
+    >>> import numpy as np
+    >>> camera = np.array([[800.0, 0, 47.5], [0, 800.0, 47.5], [0, 0, 1]])
+    >>> ball = perspective_sphere((96, 96), camera, centre=(0.0, 0.0, -100.0), radius=5.0)
+    >>> int(ball.mask.sum()), float(np.nanmin(ball.depth).round(2))
+    (5040, 95.0)
+    >>> bool(np.allclose(np.linalg.norm(ball.normals[ball.mask], axis=1), 1.0))
+    True
+    """
+    height, width = check_image_shape(shape, MAX_PIXELS)
+    camera = check_camera(camera)
+    centre = as_float_array("centre", centre)
+    if centre.shape != (3,):
+        raise ParameterError(f"centre must be three numbers (x, y, z), got shape {centre.shape}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ParameterError(f"radius must be a finite number > 0, got {radius}")
+    if not centre[2] + radius < 0:
+        raise ParameterError(
+            f"the sphere must lie in front of the camera (centre z + radius < 0), got centre "
+            f"z {centre[2]} and radius {radius}"
+        )
+    check_memory(f"a sphere of {height} x {width} pixels", 80 * height * width)
+    rows, columns = np.indices((height, width), dtype=np.float64)
+    rays = np.stack(
+        [(columns - camera[0, 2]) / camera[0, 0], (camera[1, 2] - rows) / camera[1, 1],
+         -np.ones((height, width))], axis=-1,
+    )  # fmt: skip
+    half_b, a = rays @ centre, np.sum(rays**2, axis=-1)
+    discriminant = half_b**2 - a * (centre @ centre - radius**2)
+    mask = discriminant > 0
+    depth = np.where(mask, (half_b - np.sqrt(np.where(mask, discriminant, 0.0))) / a, np.nan)
+    normals = (depth[..., None] * rays - centre) / radius
+    normals = np.where(mask[..., None], normals, 0.0)
+    return NormalIntegrationData(normals, mask, depth, camera, "sphere")
 
 
 def horizon_excess(

@@ -33,8 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
-from brdfkit._checks import as_float_array, check_count, check_memory
-from brdfkit.errors import ParameterError, ResourceError
+from brdfkit._checks import as_float_array, check_count, check_image_shape, check_memory
+from brdfkit.errors import ParameterError
 
 MAX_ITERATIONS = 100_000
 """Largest ``max_iterations`` of the iterative solvers."""
@@ -542,11 +542,9 @@ def sphere_normals(
     ([0.0, -0.0, 1.0], [0.0, 0.8, 0.6])
     """
     check_param("radius", radius, 0.0, lo_open=True)
-    if as_float_array("centre", centre).shape != (2,) or len(shape) != 2:
-        raise ParameterError(f"centre must be (c_x, c_y) and shape (H, W); got {centre}, {shape}")
-    height, width = (check_count(f"shape[{k}]", n, MAX_PIXELS) for k, n in enumerate(shape))
-    if height * width > MAX_PIXELS:
-        raise ResourceError(f"shape {shape} has more than MAX_PIXELS = {MAX_PIXELS} pixels")
+    if as_float_array("centre", centre).shape != (2,):
+        raise ParameterError(f"centre must be (c_x, c_y); got {centre}")
+    height, width = check_image_shape(shape, MAX_PIXELS)
     check_memory(f"sphere normals of shape {shape}", 6 * 8 * 3 * height * width)
     rows, columns = np.indices((height, width), dtype=np.float64)
     x = (columns - centre[0]) / radius
