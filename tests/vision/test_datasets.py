@@ -242,6 +242,24 @@ def test_read_normal_map_npy_and_png(tmp_path):
         datasets.write_normal_map(tmp_path / "x.png", bad)
 
 
+def test_a_16_bit_normal_map_is_decoded_exactly_and_read_for_integration_as_stored(tmp_path):
+    """Each 16-bit code ``v`` gives ``2 v / 65535 - 1`` in float64 to the last bit (no float32
+    step), and what ``brdfkit integrate`` reads keeps the stored length (not renormalised)."""
+    from brdfkit.vision.depth_from_normals import read_normal_map_input
+
+    normals, _ = sphere_normals((6, 7), (3.0, 2.5), 3.0)
+    normals[0, 0] = [0.0, 0.0, 1.0]
+    datasets.write_normal_map(tmp_path / "n.png", normals)
+    codes = np.round(65535 * (normals + 1) / 2)
+    decoded = datasets.read_normal_map(tmp_path / "n.png")
+    np.testing.assert_array_equal(decoded, 2.0 * codes / 65535 - 1.0)
+    assert decoded[0, 0, 2] == 1.0
+    stored = read_normal_map_input(tmp_path / "n.png")
+    inside = stored.mask
+    np.testing.assert_array_equal(stored.normals[inside], decoded[inside])
+    assert np.ptp(np.linalg.norm(stored.normals[inside], axis=-1)) > 1e-6
+
+
 def test_light_directions_with_extreme_components_are_normalised(tmp_path):
     # Found by fuzzing: a component of 1e308 overflowed the length, giving a zero direction.
     folder = _saved(tmp_path)

@@ -163,10 +163,11 @@ def read_normal_map(path: str | os.PathLike) -> np.ndarray:
     """Read a normal map: a ``.npy`` array or an image, as float64 ``(H, W, 3)``.
 
     ``.npy`` files hold the normals themselves (any real dtype; read without unpickling). Images
-    are read with :func:`brdfkit.io.read_image`: integer formats (PNG, TGA, TIFF, …, 8 or 16
-    bits) encode ``n = 2 v / v_max - 1`` per channel (as :func:`write_normal_map` writes them),
-    the float formats of :data:`brdfkit.vision.calibration.LINEAR_SUFFIXES` (``.exr``) hold the
-    normals as they are. The normals are returned as stored, not renormalised.
+    are read with :func:`brdfkit.io.read_image_codes`: integer formats (PNG, TGA, TIFF, …, 8
+    or 16 bits) encode ``n = 2 v / v_max - 1`` per channel (as :func:`write_normal_map` writes
+    them), decoded here from the codes in float64, exact to the last bit (no float32 step);
+    the float formats of :data:`brdfkit.vision.calibration.LINEAR_SUFFIXES` (``.exr``) hold
+    the normals as they are. The normals are returned as stored, not renormalised.
 
     Parameters
     ----------
@@ -180,15 +181,18 @@ def read_normal_map(path: str | os.PathLike) -> np.ndarray:
     ------
     brdfkit.errors.FormatError
         The file is missing, truncated, pickled, not numeric, not of shape (H, W, 3) or holds
-        NaN or infinity (:class:`brdfkit.io.ImageReadError` for an image that cannot be decoded).
+        NaN or infinity (:class:`brdfkit.io.ImageReadError` for an image that cannot be decoded,
+        or that holds floating-point values in a format other than ``.exr`` and ``.hdr``).
     """
     path = Path(path)
     if path.suffix.lower() == ".npy":
         normals = _read_npy(path)
+    elif path.suffix.lower() in LINEAR_SUFFIXES:
+        normals = read_image(path).astype(np.float64)
     else:
-        image = read_image(path)
-        encoded = path.suffix.lower() not in LINEAR_SUFFIXES
-        normals = 2.0 * image.astype(np.float64) - 1.0 if encoded else image.astype(np.float64)
+        codes = io.read_image_codes(path)
+        codes = codes[..., :-1] if codes.shape[2] in (2, 4) else codes  # no alpha
+        normals = 2.0 * codes / np.iinfo(codes.dtype).max - 1.0
     if normals.ndim != 3 or normals.shape[2] != 3 or 0 in normals.shape:
         raise FormatError(path, f"a normal map must have shape (H, W, 3); got {normals.shape}")
     if not np.all(np.isfinite(normals)):

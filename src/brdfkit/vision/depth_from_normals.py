@@ -167,7 +167,12 @@ class NormalMap:
 
     Attributes
     ----------
-    normals : (H, W, 3) unit normals inside the mask (x right, y up, z towards the camera).
+    normals : (H, W, 3) normals inside the mask (x right, y up, z towards the camera), zero
+        outside; as the file stores them, not renormalised: the integrators take each
+        normal's direction, and its length at most weights its equations (by ``1 ± 1e-4`` in a
+        16-bit map); bilateral integration, whose inexact solves carry such changes far, then
+        follows the authors' code exactly (DiLiGenT bear 0.33398 mm of mean
+        absolute depth error as theirs; 0.33392 from the renormalised normals).
     mask : (H, W) bool.
     camera : (3, 3) intrinsics ``K``, or None (orthographic).
     name : the file or folder it was read from.
@@ -212,7 +217,7 @@ def read_normal_map_input(
         inside the mask, no pixel holding a normal (without a mask), or ``K`` not a finite
         3 × 3 matrix with positive focal lengths.
     """
-    from brdfkit._array import HOLDS_NORMAL, holds_normal, normalize
+    from brdfkit._array import HOLDS_NORMAL, holds_normal
     from brdfkit.vision.datasets import read_mask, read_normal_map
 
     source = Path(normals)
@@ -240,9 +245,9 @@ def read_normal_map_input(
             raise FormatError(mask, "the mask has no pixels set")
     if np.any(np.linalg.norm(values[pixels], axis=-1) < 1e-6):
         raise FormatError(source, "a normal inside the mask is zero (no direction)")
-    unit = np.where(pixels[..., None], normalize(values), 0.0)
+    stored = np.where(pixels[..., None], values, 0.0)
     intrinsics = None if camera is None else _read_camera(Path(camera))
-    return NormalMap(unit, pixels, intrinsics, str(normals))
+    return NormalMap(stored, pixels, intrinsics, str(normals))
 
 
 @dataclass(frozen=True)
