@@ -7,11 +7,16 @@ from least squares, ``bilateral_pieces``), brdfkit's masked least squares and
 the peer's ``bilateral_normal_integration`` with the settings of its own DiLiGenT evaluation
 (``k = 2``, ``max_iter = 100``, ``tol = 1e-4``; its file is imported from ``--peer``, the
 folder of a checkout of github.com/xucao-42/bilateral_normal_integration, never copied here).
-Each method reads the files with its own reader, outside the timing. Scored as the peer's
+Each method reads the files with its own reader, outside the timing (brdfkit's the one of
+``brdfkit integrate``, ``read_normal_map_input``). Scored as the peer's
 ``evaluation_diligent.py`` scores: MADE, the mean ``|s z - z_gt|`` in mm with ``s`` the median
 of ``z_gt / z``. Wall seconds of the integration alone, brdfkit then the peer on each object
 (the same load on both), after each has compiled its kernels (the peer at import, brdfkit on a
 4 × 4 map). The peer needs pyvista, tqdm and OpenCV.
+
+Beside the real objects, both integrate a rendered ball (:func:`sphere`, not counted in the
+summary): its silhouette's grazing normals are what a ball's are and the seven objects'
+masks barely have.
 
 A second score separates the shape of each piece from what the normals cannot tell: in
 perspective, scaling part of a surface about the camera centre leaves its normals unchanged, so
@@ -42,13 +47,14 @@ import json
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from brdfkit.vision import datasets
 from brdfkit.vision.bilateral_integration import bilateral_integration
-from brdfkit.vision.depth_from_normals import DEFAULT_METHOD, METHODS
+from brdfkit.vision.depth_from_normals import DEFAULT_METHOD, METHODS, read_normal_map_input
 
 PEER_FILE = "bilateral_normal_integration_cpu.py"
 """The peer's fast CPU implementation (the one its evaluation imports)."""
@@ -70,6 +76,13 @@ VARIANTS = {
     "continuity_0.1": {"continuity": 0.1},
 }
 """The options of ``bilateral_integration`` in each ``--variants`` row."""
+
+TIE_MM = 1e-6
+"""MADEs closer than this are equal: the last bits of two implementations of one method."""
+
+SPHERE_RADIUS_PIXELS, SPHERE_DISTANCE_MM = 120.0, 1500.0
+"""The rendered ball beside the real objects: a sphere of DiLiGenT's ball's size in its camera
+(as ``bench_ps_materials.py``'s), exact normals and depth, its silhouette grazing."""
 
 PRIOR_EVERY, PRIOR_NOISE_MM = 16, 2.0
 """The ``prior`` variant: the true depth at one pixel in ``PRIOR_EVERY²`` with Gaussian noise
@@ -163,11 +176,20 @@ def variants(data) -> dict[str, tuple[np.ndarray, float]]:
     return runs
 
 
-def run_object(folder: Path, peer, with_variants: bool = False) -> dict[str, float]:
+def sphere(camera: np.ndarray) -> datasets.NormalIntegrationData:
+    """The rendered ball: :data:`SPHERE_RADIUS_PIXELS` in radius, :data:`SPHERE_DISTANCE_MM`
+    away on the optical axis of ``camera`` (DiLiGenT's), in a 612 × 512 image."""
+    radius = SPHERE_RADIUS_PIXELS * SPHERE_DISTANCE_MM / camera[0, 0]
+    return datasets.perspective_sphere((512, 612), camera, (0.0, 0.0, -SPHERE_DISTANCE_MM), radius)
+
+
+def run_object(
+    data: datasets.NormalIntegrationData, as_peer: tuple, peer, with_variants: bool = False
+) -> dict[str, float]:
     """MADE, piecewise MADE and seconds of brdfkit's default, its least squares, the peer (and
-    the variants) on one object."""
-    data = datasets.load_normal_integration(folder)
-    normals, mask, camera = read_as_peer(folder)
+    the variants) on one object; ``as_peer`` the normals, mask and ``K`` as the peer reads
+    them."""
+    normals, mask, camera = as_peer
     ours = timed(lambda: METHODS[DEFAULT_METHOD](data.normals, data.mask, data.camera))
     theirs = timed(lambda: peer(normals, mask, k=2, K=camera, max_iter=100, tol=1e-4)[0])
     squares = timed(lambda: METHODS["least_squares"](data.normals, data.mask, data.camera))
@@ -204,13 +226,23 @@ def main() -> None:
     METHODS[DEFAULT_METHOD](flat, None)  # compiles brdfkit's kernel or loads its cache
     objects = {}
     for name in names:
-        objects[name] = run_object(root / name, peer, args.variants)
+        data = replace(  # the normals as brdfkit integrate reads them
+            datasets.load_normal_integration(root / name),
+            normals=read_normal_map_input(root / name).normals,
+        )
+        objects[name] = run_object(data, read_as_peer(root / name), peer, args.variants)
         print(json.dumps({"object": name, **objects[name]}), flush=True)
+    ball = sphere(data.camera)
+    rendered = run_object(ball, (ball.normals, ball.mask, ball.camera), peer, args.variants)
+    print(json.dumps({"object": "sphere", **rendered}), flush=True)
     methods = [key.removesuffix("_seconds") for key in objects[names[0]] if "_seconds" in key]
     wins = sum(o["brdfkit_made_mm"] <= o["bini_made_mm"] for o in objects.values())
+    ties = sum(abs(o["brdfkit_made_mm"] - o["bini_made_mm"]) < TIE_MM for o in objects.values())
     summary = {
         "objects": len(objects),
         "brdfkit_made_at_most_bini": wins,
+        "made_equal_to_bini": ties,
+        "tie_mm": TIE_MM,
         "brdfkit_mean_made_mm": float(np.mean([o["brdfkit_made_mm"] for o in objects.values()])),
         "bini_mean_made_mm": float(np.mean([o["bini_made_mm"] for o in objects.values()])),
         "brdfkit_total_seconds": float(sum(o["brdfkit_seconds"] for o in objects.values())),
@@ -231,6 +263,11 @@ def main() -> None:
         "peer": {"file": PEER_FILE, "sha256": digest, "k": 2, "max_iter": 100, "tol": 1e-4},
         "objects": objects,
         "summary": summary,
+        "sphere": {
+            "radius_pixels": SPHERE_RADIUS_PIXELS,
+            "distance_mm": SPHERE_DISTANCE_MM,
+            **rendered,
+        },
     }
     write_results(__file__, record, packages=("pyvista", "opencv-python-headless"))
 

@@ -920,8 +920,20 @@ def normal_integration(r: dict) -> str:
               "least squares MADE mm", "brdfkit s", "BiNI s"]  # fmt: skip
     text = (
         f"{rows(header, body, 'lrrrrrr')}\n\nbrdfkit's MADE at most BiNI's on "
-        f"{s['brdfkit_made_at_most_bini']} of {s['objects']} objects."
+        f"{s['brdfkit_made_at_most_bini']} of {s['objects']} objects"
     )
+    if "made_equal_to_bini" in s:
+        text += f" (equal to within {s['tie_mm']:g} mm on {s['made_equal_to_bini']})"
+    text += "."
+    if "sphere" in r:
+        b = r["sphere"]
+        text += (
+            f" The rendered ball ({b['radius_pixels']:.0f} pixels in radius, "
+            f"{b['distance_mm']:.0f} mm away, {b['pixels']:,} pixels): brdfkit "
+            f"{b['brdfkit_made_mm']:.4f} mm in {b['brdfkit_seconds']:.2f} s, BiNI "
+            f"{b['bini_made_mm']:.4f} mm in {b['bini_seconds']:.2f} s, least squares "
+            f"{b['least_squares_made_mm']:.3f} mm."
+        )
     if "piecewise_made_mm_by_method" not in s:
         return text
     methods = list(s["made_mm_by_method"])
