@@ -95,6 +95,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -232,6 +233,20 @@ def _moved_onto_prior(z: np.ndarray, z_prior: np.ndarray, known: np.ndarray) -> 
     return z + np.mean(z_prior[known] - z[known])
 
 
+def _piece_reference(
+    normals: np.ndarray,
+    mask: np.ndarray,
+    camera: np.ndarray | None,
+    problem: _Problem,
+    z_prior: np.ndarray | None,
+    known: np.ndarray | None,
+) -> np.ndarray:
+    """What the pieces' constants are taken from: the least-squares surface, moved onto the
+    prior if there is one (whose pieces keep their own)."""
+    reference = _continuity_reference(normals, mask, camera, problem)[0]
+    return reference if z_prior is None else _moved_onto_prior(reference, z_prior, known)
+
+
 def _check_prior(
     depth_prior: ArrayLike | None, mask: np.ndarray, camera: np.ndarray | None
 ) -> np.ndarray | None:
@@ -346,11 +361,21 @@ def _pieces(problem: _Problem, coupling: np.ndarray, cut: float) -> np.ndarray:
 
 
 def _scaled_pieces(
-    z: np.ndarray, piece: np.ndarray, reference: np.ndarray, fixed: np.ndarray | None = None
+    problem: _Problem,
+    z: np.ndarray,
+    weights: tuple[np.ndarray, np.ndarray],
+    cut: float,
+    reference: Callable[[], np.ndarray],
+    fixed: np.ndarray | None = None,
 ) -> np.ndarray:
-    """``z`` with each piece's free constant moved so that its mean is the reference's there,
-    but for the pieces holding a ``fixed`` pixel."""
-    shift = np.bincount(piece, reference - z) / np.bincount(piece)
+    """``z`` with each piece's free constant moved so that its mean is the ``reference()``'s
+    there, but for the pieces holding a ``fixed`` pixel (:func:`_pieces`). Without ``fixed``
+    pixels and with one piece per part of the mask, ``z`` (each part's constant is its own)."""
+    piece = _pieces(problem, problem.coupling(*weights), cut)
+    if fixed is None and piece.max() + 1 == _mask_parts(problem.edges.index >= 0):
+        return z
+    target = reference()
+    shift = np.bincount(piece, target - z) / np.bincount(piece)
     if fixed is not None:
         shift[np.unique(piece[fixed])] = 0.0
     return z + shift[piece]
@@ -473,11 +498,9 @@ def bilateral_integration(
     perspective); a plane is recovered (exactly orthographic, to the finite differences' error
     in perspective); a prior sets the offset and units, and in perspective a sparse one sets
     the relative scale of parts the normals leave free; on DiLiGenT cow the mean absolute depth
-    error is the authors' (0.058 mm). On the seven DiLiGenT objects, given the normals their code
-    reads (the file's, not renormalised), its mean absolute depth error is theirs to 1e-9 mm,
-    about three times as fast (``benchmarks/bench_normal_integration.py``); renormalised normals
-    (a change of 1e-4 in length) move it by up to 1e-3 mm, as its inexact solves carry the
-    change.
+    error is the authors' (0.058 mm). On the seven DiLiGenT objects, from the normals their code
+    reads (not renormalised: a change of 1e-4 in length, carried by the inexact solves, moves
+    it by up to 1e-3 mm), it is theirs to 1e-9 mm, three times as fast (``benchmarks/``).
 
     Limit: scaling part of a surface about the camera centre leaves its normals unchanged, so
     the relative scale (orthographic: offset) of parts joined only across occluding contours is
@@ -594,12 +617,8 @@ def bilateral_integration(
         if abs(energy - previous) < tolerance * previous:
             break
     if pieces > 0:
-        piece = _pieces(problem, problem.coupling(w_u, w_v), pieces)
-        if z_prior is not None or piece.max() + 1 > _mask_parts(mask):  # else nothing to move
-            reference = _continuity_reference(normals, mask, camera, problem)[0]
-            if z_prior is not None:  # least squares moved onto the prior, which keeps its pieces
-                reference = _moved_onto_prior(reference, z_prior, known)
-            z = _scaled_pieces(z, piece, reference, known)
+        reference = partial(_piece_reference, normals, mask, camera, problem, z_prior, known)
+        z = _scaled_pieces(problem, z, (w_u, w_v), pieces, reference, known)
     if z_prior is not None:
         depth = np.exp(z + offset) if camera is not None else z + offset
     else:
