@@ -954,8 +954,7 @@ def perspective_sphere(
     centre = as_float_array("centre", centre)
     if centre.shape != (3,):
         raise ParameterError(f"centre must be three numbers (x, y, z), got shape {centre.shape}")
-    if not (np.isfinite(radius) and radius > 0):
-        raise ParameterError(f"radius must be a finite number > 0, got {radius}")
+    check_param("radius", radius, 0.0, lo_open=True)
     if not centre[2] + radius < 0:
         raise ParameterError(
             f"the sphere must lie in front of the camera (centre z + radius < 0), got centre "
