@@ -931,9 +931,11 @@ def normal_integration(r: dict) -> str:
             f" The rendered ball ({b['radius_pixels']:.0f} pixels in radius, "
             f"{b['distance_mm']:.0f} mm away, {b['pixels']:,} pixels): brdfkit "
             f"{b['brdfkit_made_mm']:.4f} mm in {b['brdfkit_seconds']:.2f} s, BiNI "
-            f"{b['bini_made_mm']:.4f} mm in {b['bini_seconds']:.2f} s, least squares "
-            f"{b['least_squares_made_mm']:.3f} mm."
+            f"{b['bini_made_mm']:.4f} mm in {b['bini_seconds']:.2f} s"
         )
+        if abs(b["brdfkit_made_mm"] - b["bini_made_mm"]) < s.get("tie_mm", 0.0):
+            text += f" (equal to within {s['tie_mm']:g} mm)"
+        text += f", least squares {b['least_squares_made_mm']:.3f} mm."
     if "piecewise_made_mm_by_method" not in s:
         return text
     methods = list(s["made_mm_by_method"])
