@@ -281,10 +281,25 @@ def test_piece_scales_leave_a_surface_without_cuts_exactly_as_the_authors_make_i
     np.testing.assert_allclose(pieced, plain.depth, rtol=0, atol=1e-12)
 
 
+def test_piece_scales_leave_a_sliver_with_its_neighbour():
+    """The plane one column wide beside the grazing cylinder: the weights part it together with
+    the cylinder's grazing column, a strip two pixels wide with no interior pixel, so it is no
+    part of the surface and keeps the authors' depth relative to the cylinder (taken as a
+    piece, least squares moved it by 2.2 pixels); a column more gives it an interior, and it
+    is moved."""
+    normals = _grazing_cylinder_before_a_plane()
+    for width, moved in ((13, False), (14, True)):
+        authors = bilateral_integration(normals[:, :width]).depth
+        pieced = bilateral_integration(normals[:, :width], pieces=PIECES).depth
+        shift = np.abs(pieced - authors - (pieced - authors)[0, 0])
+        assert (shift.max() > 0.1) == moved
+
+
 def test_piece_scales_leave_a_sphere_s_silhouette_pixels_with_the_sphere():
     """The grazing normals of a sphere's silhouette leave every edge of some of its outermost
-    pixels under the cut; a pixel is no piece, so they keep the authors' depth relative to
-    the sphere (before, each took least squares' and moved by up to 0.35 %)."""
+    pixels under the cut; a lone pixel is no part of the surface, so they keep the authors'
+    depth relative to the sphere (taken as pieces, each took least squares' and moved by up
+    to 0.35 %)."""
     camera = np.array([[800.0, 0, 47.5], [0, 800.0, 47.5], [0, 0, 1]])
     ball = perspective_sphere((96, 96), camera, centre=(0.0, 0.0, -100.0), radius=5.0)
     authors = bilateral_integration(ball.normals, ball.mask, camera).depth
