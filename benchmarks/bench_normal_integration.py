@@ -14,9 +14,9 @@ of ``z_gt / z``. Wall seconds of the integration alone, brdfkit then the peer on
 (the same load on both), after each has compiled its kernels (the peer at import, brdfkit on a
 4 × 4 map). The peer needs pyvista, tqdm and OpenCV.
 
-Beside the real objects, both integrate a rendered ball (:func:`sphere`, not counted in the
-summary): its silhouette's grazing normals are what a ball's are and the seven objects'
-masks barely have.
+Beside the real objects, not counted in the summary, both integrate scenes rendered in their
+camera (:data:`RENDERED`): a ball, whose silhouette's grazing normals the seven objects' masks
+barely have, and three overlapping spheres, whose occluding contours part the surface.
 
 A second score separates the shape of each piece from what the normals cannot tell: in
 perspective, scaling part of a surface about the camera centre leaves its normals unchanged, so
@@ -81,9 +81,16 @@ TIE_MM = 1e-6
 """MADEs closer than this are equal (and count as at most the peer's): a nanometre is the
 last bits of two implementations of one method, not a difference in the depth."""
 
-SPHERE_RADIUS_PIXELS, SPHERE_DISTANCE_MM = 120.0, 1500.0
-"""The rendered ball beside the real objects: a sphere of DiLiGenT's ball's size in its camera
-(as ``bench_ps_materials.py``'s), exact normals and depth, its silhouette grazing."""
+RENDERED = {
+    "ball": ((0.0, 0.0, -1500.0, 47.7),),
+    "three spheres": (
+        (0.0, 0.0, -1500.0, 40.0), (35.0, -20.0, -1470.0, 18.0), (-40.0, 25.0, -1550.0, 30.0),
+    ),
+}  # fmt: skip
+"""Scenes rendered beside the real objects in their camera, exact normals and depth, each
+sphere ``(x, y, z, radius)`` in mm in the camera frame: a ball of DiLiGenT's ball's size
+(about 120 pixels in radius, as ``bench_ps_materials.py``'s), whose silhouette grazes, and
+three overlapping spheres, whose occluding contours part pieces and slivers."""
 
 PRIOR_EVERY, PRIOR_NOISE_MM = 16, 2.0
 """The ``prior`` variant: the true depth at one pixel in ``PRIOR_EVERY²`` with Gaussian noise
@@ -177,11 +184,23 @@ def variants(data) -> dict[str, tuple[np.ndarray, float]]:
     return runs
 
 
-def sphere(camera: np.ndarray) -> datasets.NormalIntegrationData:
-    """The rendered ball: :data:`SPHERE_RADIUS_PIXELS` in radius, :data:`SPHERE_DISTANCE_MM`
-    away on the optical axis of ``camera`` (DiLiGenT's), in a 612 × 512 image."""
-    radius = SPHERE_RADIUS_PIXELS * SPHERE_DISTANCE_MM / camera[0, 0]
-    return datasets.perspective_sphere((512, 612), camera, (0.0, 0.0, -SPHERE_DISTANCE_MM), radius)
+def rendered(spheres: tuple, camera: np.ndarray) -> datasets.NormalIntegrationData:
+    """The nearest surface of ``spheres`` (see :data:`RENDERED`) seen through ``camera`` in a
+    612 × 512 image (:func:`brdfkit.vision.datasets.perspective_sphere` for each)."""
+    scene = None
+    for *centre, radius in spheres:
+        ball = datasets.perspective_sphere((512, 612), camera, centre, radius)
+        if scene is None:
+            scene = ball
+            continue
+        nearer = ball.mask & ~(scene.depth <= ball.depth)  # NaN (no surface yet) compares False
+        scene = replace(
+            scene,
+            normals=np.where(nearer[..., None], ball.normals, scene.normals),
+            mask=scene.mask | ball.mask,
+            depth=np.where(nearer, ball.depth, scene.depth),
+        )
+    return scene
 
 
 def run_object(
@@ -233,9 +252,12 @@ def main() -> None:
         )
         objects[name] = run_object(data, read_as_peer(root / name), peer, args.variants)
         print(json.dumps({"object": name, **objects[name]}), flush=True)
-    ball = sphere(data.camera)
-    rendered = run_object(ball, (ball.normals, ball.mask, ball.camera), peer, args.variants)
-    print(json.dumps({"object": "sphere", **rendered}), flush=True)
+    scenes = {}
+    for name, spheres in RENDERED.items():
+        scene = rendered(spheres, data.camera)
+        as_peer = (scene.normals, scene.mask, scene.camera)
+        scenes[name] = {"spheres": spheres, **run_object(scene, as_peer, peer, args.variants)}
+        print(json.dumps({"rendered": name, **scenes[name]}), flush=True)
     methods = [key.removesuffix("_seconds") for key in objects[names[0]] if "_seconds" in key]
     wins = sum(o["brdfkit_made_mm"] <= o["bini_made_mm"] + TIE_MM for o in objects.values())
     ties = sum(abs(o["brdfkit_made_mm"] - o["bini_made_mm"]) < TIE_MM for o in objects.values())
@@ -264,11 +286,7 @@ def main() -> None:
         "peer": {"file": PEER_FILE, "sha256": digest, "k": 2, "max_iter": 100, "tol": 1e-4},
         "objects": objects,
         "summary": summary,
-        "sphere": {
-            "radius_pixels": SPHERE_RADIUS_PIXELS,
-            "distance_mm": SPHERE_DISTANCE_MM,
-            **rendered,
-        },
+        "rendered": scenes,
     }
     write_results(__file__, record, packages=("pyvista", "opencv-python-headless"))
 

@@ -925,17 +925,17 @@ def normal_integration(r: dict) -> str:
     if "made_equal_to_bini" in s:
         text += f" (equal to within {s['tie_mm']:g} mm on {s['made_equal_to_bini']})"
     text += "."
-    if "sphere" in r:
-        b = r["sphere"]
-        text += (
-            f" The rendered ball ({b['radius_pixels']:.0f} pixels in radius, "
-            f"{b['distance_mm']:.0f} mm away, {b['pixels']:,} pixels): brdfkit "
-            f"{b['brdfkit_made_mm']:.4f} mm in {b['brdfkit_seconds']:.2f} s, BiNI "
-            f"{b['bini_made_mm']:.4f} mm in {b['bini_seconds']:.2f} s"
-        )
-        if abs(b["brdfkit_made_mm"] - b["bini_made_mm"]) < s.get("tie_mm", 0.0):
-            text += f" (equal to within {s['tie_mm']:g} mm)"
-        text += f", least squares {b['least_squares_made_mm']:.3f} mm."
+    scenes = []
+    for name, b in r.get("rendered", {}).items():
+        equal = abs(b["brdfkit_made_mm"] - b["bini_made_mm"]) < s.get("tie_mm", 0.0)
+        scenes.append(
+            f"{name} ({b['pixels']:,} pixels): brdfkit {b['brdfkit_made_mm']:.4f} mm in "
+            f"{b['brdfkit_seconds']:.2f} s, BiNI {b['bini_made_mm']:.4f} mm in "
+            f"{b['bini_seconds']:.2f} s" + (" (equal)" if equal else "")
+            + f", least squares {b['least_squares_made_mm']:.3f} mm"
+        )  # fmt: skip
+    if scenes:
+        text += " Rendered in DiLiGenT's camera (not counted): " + "; ".join(scenes) + "."
     if "piecewise_made_mm_by_method" not in s:
         return text
     methods = list(s["made_mm_by_method"])
