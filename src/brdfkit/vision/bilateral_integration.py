@@ -69,14 +69,15 @@ free in it (perspective: a scale; orthographic: an offset),
 so that its mean (log-)depth is least squares' there. Inside a piece the result is the
 authors' up to that constant; where the weights part nothing (one piece) it is theirs.
 A piece is a part of the surface: it holds an interior pixel, one whose four edges are all
-kept. The pixels of no such part (a silhouette pixel, whose grazing normal makes
-:math:`\tilde n_p` small, or a sliver one or two pixels wide along an occluding contour) join,
-layer by layer from the parts outwards, the piece of their most strongly coupled neighbour,
-and keep the authors' depth relative to it. Least squares' depth for them is no better: it
-carries a neighbour's slope onto them or smears the contour's step over them (rendered in
-DiLiGenT's camera, a sphere of its ball's size: mean absolute depth error 0.0160 mm with its
-silhouette pixels taken as pieces, the authors' 0.0133; three overlapping spheres: 0.0023 mm
-worse than theirs with slivers of 4 to 13 pixels taken as pieces, the same without).
+kept. What the cut parts without one (a silhouette pixel, whose grazing normal makes
+:math:`\tilde n_p` small, or a sliver one or two pixels wide along an occluding contour) joins
+as a whole, layer by layer from the pieces outwards, the piece it is most strongly coupled to
+across a cut, and keeps the authors' depth relative to it. Least squares' depth for it is
+no better: it carries a neighbour's slope onto it or smears the contour's step over it
+(rendered in DiLiGenT's camera, a sphere of its ball's size: mean absolute depth error
+0.0160 mm with its silhouette pixels taken as pieces, the authors' 0.0133; three overlapping
+spheres: 0.0023 mm worse than theirs with slivers of 4 to 13 pixels taken as pieces, the same
+without).
 With :math:`\gamma_p = 1\,\%` (the continuity prior's fraction) an edge that holds its
 pixels together by under 1 % of a typical edge does not hold their relative depth. With a depth
 prior, a piece holding a known depth keeps the constant the prior gave it, and the others take
@@ -335,10 +336,10 @@ class _Problem:
 
 
 def _pieces(problem: _Problem, coupling: np.ndarray, cut: float) -> np.ndarray:
-    """Piece label of each pixel: the connected parts of the graph of the edges whose coupling
-    is at least ``cut`` times the median that hold an interior pixel (all four of its edges
-    kept); every other pixel joins, layer by layer from those outwards, the piece of its most
-    strongly coupled neighbour that has one."""
+    """Piece label of each pixel. The connected parts of the graph of the edges whose coupling
+    is at least ``cut`` times the median are pieces where they hold an interior pixel (all four
+    of its edges kept); each other part (a lone pixel, a sliver) joins, layer by layer from the
+    pieces outwards, the piece of the neighbour it is most strongly coupled to across a cut."""
     import scipy.sparse
     from scipy.sparse.csgraph import connected_components
 
@@ -347,19 +348,23 @@ def _pieces(problem: _Problem, coupling: np.ndarray, cut: float) -> np.ndarray:
     graph = scipy.sparse.coo_matrix(
         (np.ones(int(kept.sum())), (e.p[kept], e.q[kept])), shape=(n, n)
     )
-    piece = connected_components(graph, directed=False)[1]
+    count, part = connected_components(graph, directed=False)
     interior = np.bincount(e.p[kept], minlength=n) + np.bincount(e.q[kept], minlength=n) == 4
-    placed = (np.bincount(piece, interior) > 0)[piece]
-    ends, others, strength = np.r_[e.p, e.q], np.r_[e.q, e.p], np.r_[coupling, coupling]
+    placed = np.bincount(part, interior, minlength=count) > 0
+    piece = np.arange(count)
+    p, q, c = e.p[~kept], e.q[~kept], coupling[~kept]  # the cuts, from either side
+    joining, joined, strength = part[np.r_[p, q]], part[np.r_[q, p]], np.r_[c, c]
     while True:
-        reaching = ~placed[ends] & placed[others]
+        waiting = ~placed[joining]
+        joining, joined, strength = joining[waiting], joined[waiting], strength[waiting]
+        reaching = placed[joined]
         if not reaching.any():
-            return np.unique(piece, return_inverse=True)[1]
-        end, other = ends[reaching], others[reaching]
-        order = np.lexsort((strength[reaching], end))  # by pixel, then coupling
-        strongest = order[np.r_[end[order][1:] != end[order][:-1], True]]
-        piece[end[strongest]] = piece[other[strongest]]
-        placed[end[strongest]] = True
+            return np.unique(piece[part], return_inverse=True)[1]
+        a, b = joining[reaching], joined[reaching]
+        order = np.lexsort((strength[reaching], a))  # by part, then coupling
+        strongest = order[np.r_[a[order][1:] != a[order][:-1], True]]
+        piece[a[strongest]] = piece[b[strongest]]
+        placed[a[strongest]] = True
 
 
 def _scaled_pieces(
