@@ -220,33 +220,24 @@ def _sigmoid(x: np.ndarray, k: float) -> np.ndarray:
     return scipy.special.expit(k * x)
 
 
-def _continuity_reference(
-    normals: np.ndarray, mask: np.ndarray, camera: np.ndarray | None, problem: _Problem
-) -> tuple[np.ndarray, float]:
-    """``z`` of the masked least-squares surface on the mask pixels, and ``μ / γ``."""
-    from brdfkit.vision.normal_integration import least_squares_integration
-
-    depth = least_squares_integration(normals, mask, camera)[mask]
-    reference = depth if camera is None else np.log(depth)
-    return reference, np.pi**2 / problem.n * problem.typical
-
-
 def _moved_onto_prior(z: np.ndarray, z_prior: np.ndarray, known: np.ndarray) -> np.ndarray:
     """``z`` plus the constant that gives it the prior's mean over the ``known`` pixels."""
     return z + np.mean(z_prior[known] - z[known])
 
 
-def _piece_reference(
+def _least_squares_reference(
     normals: np.ndarray,
     mask: np.ndarray,
     camera: np.ndarray | None,
-    problem: _Problem,
     z_prior: np.ndarray | None,
     known: np.ndarray | None,
 ) -> np.ndarray:
-    """What the pieces' constants are taken from: the least-squares surface, moved onto the
-    prior if there is one (whose pieces keep their own)."""
-    reference = _continuity_reference(normals, mask, camera, problem)[0]
+    """``z`` of the masked least-squares surface on the mask pixels, moved onto the prior if
+    there is one: what the continuity prior pulls towards and the pieces' constants come from."""
+    from brdfkit.vision.normal_integration import least_squares_integration
+
+    depth = least_squares_integration(normals, mask, camera)[mask]
+    reference = depth if camera is None else np.log(depth)
     return reference if z_prior is None else _moved_onto_prior(reference, z_prior, known)
 
 
@@ -595,11 +586,9 @@ def bilateral_integration(
     check_memory(f"bilateral integration of {pixels} pixels", BYTES_PER_PIXEL * pixels)
     problem = _Problem(normals, mask, camera)
     z = np.zeros(problem.n)
-    if continuity > 0:
-        reference, stiffness = _continuity_reference(normals, mask, camera, problem)
-        mu = continuity * stiffness
-        if z_prior is not None:
-            reference = _moved_onto_prior(reference, z_prior, known)
+    if continuity > 0:  # μ = γ π² / N median(ñ²) (module docstring)
+        reference = _least_squares_reference(normals, mask, camera, z_prior, known)
+        mu = continuity * np.pi**2 / problem.n * problem.typical
         z = reference.copy()
     w_u = w_v = np.full(problem.n, 0.5)
     energy = float(np.sum(problem.b[0] ** 2 + problem.b[1] ** 2))  # weights ½ at z = 0
@@ -624,7 +613,7 @@ def bilateral_integration(
         if abs(energy - previous) < tolerance * previous:
             break
     if pieces > 0:
-        reference = partial(_piece_reference, normals, mask, camera, problem, z_prior, known)
+        reference = partial(_least_squares_reference, normals, mask, camera, z_prior, known)
         z = _scaled_pieces(problem, z, (w_u, w_v), pieces, reference, known)
     if z_prior is not None:
         depth = np.exp(z + offset) if camera is not None else z + offset
