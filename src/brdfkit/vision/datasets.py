@@ -465,15 +465,16 @@ def _mat_elements(path: Path, data: bytes, order: str, base: int | None = None):
 
 
 def _mat_matrix(path: Path, payload: bytes, order: str) -> tuple[str, np.ndarray | None]:
-    """The name and, for a real numeric class, the array of a miMATRIX element."""
+    """The name and, for a real numeric class, the array of a miMATRIX element (its dimensions
+    miINT32, as the format says, or miUINT32, as some writers store them)."""
     parts = list(_mat_elements(path, payload, order))
-    if len(parts) < 3 or parts[0][0] != 6 or len(parts[0][1]) != 8 or parts[1][0] != 5:
+    if len(parts) < 3 or parts[0][0] != 6 or len(parts[0][1]) != 8 or parts[1][0] not in (5, 6):
         raise FormatError(path, "malformed miMATRIX element (flags, dimensions)")
     flags = int(np.frombuffer(parts[0][1], f"{order}u4", 1)[0])
     name = parts[2][1].decode("latin-1")
     if flags & 0xFF not in _MAT_NUMERIC_CLASSES:
         return name, None
-    shape = tuple(int(n) for n in np.frombuffer(parts[1][1], f"{order}i4"))
+    shape = tuple(int(n) for n in np.frombuffer(parts[1][1], f"{order}{_MAT_TYPES[parts[1][0]]}"))
     if len(parts) < 4 or len(shape) < 2 or min(shape) < 0 or parts[3][0] not in _MAT_TYPES:
         raise FormatError(path, "malformed numeric array", field=name)
     if flags & 0x800:
