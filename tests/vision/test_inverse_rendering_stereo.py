@@ -177,3 +177,20 @@ def test_fewer_images_than_st14_needs(count):
     fitted = inverse_rendering(images, lights, mask, rounds=1, cast_shadows=False)
     error = angular_error_map(fitted.normals, normals, mask)[mask]
     assert np.median(error[lit]) < 0.01
+
+
+def test_a_mask_wider_than_the_object(sphere):
+    """Pixels that no light reaches (here a ring of background inside the mask) get no normal
+    and no albedo, as every other method leaves them (it used to stop with a NaN normal), and
+    the object's normals are as good as with its own mask."""
+    normals, mask, lights, images = sphere
+    wide = sphere_normals((16, 16), (7.5, 7.5), 8.5)[1]
+    images = np.where(mask[:, :, None] if images.ndim == 4 else mask, images, 0.0)
+    fitted = inverse_rendering(images, lights, wide, rounds=1)
+    ring = wide & ~mask
+    assert ring.sum() > 10
+    assert np.all(fitted.normals[ring] == 0) and np.all(fitted.albedo[ring] == 0)
+    own = inverse_rendering(images, lights, mask, rounds=1)
+    error = angular_error(fitted.normals, normals, mask)["mean"]
+    assert error < 1.0
+    assert error < 1.2 * angular_error(own.normals, normals, mask)["mean"]

@@ -237,11 +237,13 @@ def _nonnegative_fit(
 
 def _moved(normals: np.ndarray, step: np.ndarray) -> np.ndarray:
     """``normalise(n + u t_1 + v t_2)`` for ``step = (u, v)`` ``(P, 2)`` or ``(2,)``, with
-    ``(t_1, t_2)`` the tangents of :func:`~brdfkit.geometry.frame_from_normal`."""
+    ``(t_1, t_2)`` the tangents of :func:`~brdfkit.geometry.frame_from_normal` (a start
+    without a normal, zero, moves into the frame's tangent plane, or stays zero)."""
     s, t, _ = frame_from_normal(normals)
     step = np.broadcast_to(step, (len(normals), 2))
     moved = normals + step[:, :1] * s + step[:, 1:] * t
-    return moved / np.linalg.norm(moved, axis=1, keepdims=True)
+    length = np.linalg.norm(moved, axis=1, keepdims=True)
+    return moved / np.where(length > 0, length, 1.0)
 
 
 class _Problem:
@@ -528,6 +530,8 @@ def inverse_rendering(
         problem.visibility = _cast(starts[0], mask, lights, (shadow_bias,))[0]
     costs = np.stack([problem.fit(start, everything)[2] for start in starts])
     normals = np.stack(starts)[np.argmin(costs, axis=0), everything]
+    unlit = ~np.any(gray > 0, axis=0)  # any normal explains them: facing the camera, flat
+    normals[unlit] = _VIEW
     advance()
     residual = problem.fit(normals, everything)[1]
     for round_ in range(rounds):
@@ -543,6 +547,7 @@ def inverse_rendering(
                 _select_grazing(problem, normals, grazing)
         normals, c, residual = _search(problem, normals, iterations, advance)
     rho = np.maximum(c[:, :1], 1e-12)  # a pixel without a diffuse term keeps its normal
+    rho[unlit] = 0.0  # no normal, as every method leaves a pixel no light reaches
     return _result((normals * rho).T, observations, mask, _trim_weights(gray, 0.25, 0.1))
 
 
