@@ -4,6 +4,7 @@ and the real psm gray sphere against its chrome-calibrated lights."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -194,8 +195,13 @@ def test_bad_input_is_named():
         unc.uncalibrated(images, mask, cue="brightness")
     with pytest.raises(ParameterError, match="method"):
         unc.uncalibrated(images, mask, method="magic")
+    one_pixel_each = np.zeros_like(images)  # every image lights one pixel of its own
+    rows, columns = np.nonzero(mask)
+    one_pixel_each[np.arange(len(images)), rows[: len(images)], columns[: len(images)]] = 1.0
     for cue in ("auto", "entropy"):
         with pytest.raises(ParameterError, match="lit in 6 or more images"):
+            unc.uncalibrated(one_pixel_each, mask, cue=cue)
+        with pytest.raises(ParameterError, match=r"images 1, 2, .* are black inside the mask"):
             unc.uncalibrated(np.zeros_like(images), mask, cue=cue)
     brighter_off_axis = LIGHTS / LIGHTS[:, 2:] ** 4  # no GBR makes these equal
     with pytest.raises(ParameterError, match="equal intensity"):
@@ -318,3 +324,26 @@ def test_cli_uncalibrated_on_a_glossy_object_uses_the_specular_cue(tmp_path):
     assert summary["gbr_cue"] == "specular" and summary["method"] == "trimmed"
     assert summary["light_error_deg"]["median"] < 0.5
     assert summary["angular_error_deg"]["mean"] < 2.0
+
+
+def test_cli_uncalibrated_names_a_black_image(tmp_path):
+    """A light that did not fire (a black image) leaves its direction unknowable: one line
+    naming the image, a non-zero exit, nothing written (it used to end on a NaN light)."""
+    from typer.testing import CliRunner
+
+    from brdfkit.cli import app
+
+    _, mask, normals, _, albedo = _render(40)
+    data = datasets.render_synthetic(normals, mask, LIGHTS, albedo=albedo[..., None])
+    images = data.images.copy()
+    images[4] = 0.0
+    datasets.save_diligent(replace(data, images=images), tmp_path / "spherePNG")
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, ["ps", str(tmp_path / "spherePNG"), "--uncalibrated",
+                                      "-o", str(out)])  # fmt: skip
+    assert result.exit_code != 0
+    assert "image 5 (counted from 1) is black inside the mask" in result.output
+    assert "Traceback" not in result.output
+    assert not out.exists()
+    calibrated = CliRunner().invoke(app, ["ps", str(tmp_path / "spherePNG"), "-o", str(out)])
+    assert calibrated.exit_code == 0, calibrated.output  # with its light given, no harm

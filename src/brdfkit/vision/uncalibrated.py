@@ -885,8 +885,8 @@ def uncalibrated(
     ------
     brdfkit.errors.ParameterError
         Bad images or mask (as :func:`~brdfkit.vision.photometric_stereo.least_squares`), an
-        unknown ``cue`` or ``method``, too few fully lit pixels, or images the cue cannot
-        resolve.
+        unknown ``cue`` or ``method``, an image black inside the mask (its light cannot be
+        estimated), too few fully lit pixels, or images the cue cannot resolve.
     brdfkit.errors.ResourceError
         The data would not fit in memory.
 
@@ -923,6 +923,7 @@ def uncalibrated(
     placeholder = np.tile([0.0, 0.0, 1.0], (max(n_lights, 1), 1))  # lights are what we seek
     observations, _, mask = _prepare(images, placeholder, mask)
     gray = _gray(observations)
+    _check_no_black_image(gray)
     lights, gbr = None, None
     if cue in ("auto", "specular"):
         lights = _specular_lights(gray, mask, shadow_threshold, required=cue == "specular")
@@ -936,6 +937,21 @@ def uncalibrated(
     scaled = np.asarray(images, dtype=np.float64) / intensity.reshape(shape)
     result = photometric_stereo.METHODS[method](scaled, directions, mask)
     return UncalibratedResult(directions, intensity, result, gbr, cue)
+
+
+def _check_no_black_image(gray: np.ndarray) -> None:
+    """Refuse ``(N, P)`` images of which some are black inside the mask: no light can be
+    estimated from them (a light that did not fire, a dark frame)."""
+    black = np.flatnonzero(~np.any(gray > 0, axis=1))
+    if black.size:
+        numbers = ", ".join(str(k + 1) for k in black[:10]) + (" ..." if black.size > 10 else "")
+        one = black.size == 1
+        raise ParameterError(
+            f"{'image' if one else 'images'} {numbers} (counted from 1) "
+            f"{'is' if one else 'are'} black inside the mask: no light can be estimated from "
+            f"{'it' if one else 'them'}; leave {'it' if one else 'them'} out, or give the "
+            "lights (calibrated photometric stereo)"
+        )
 
 
 def _integrable_lights(
