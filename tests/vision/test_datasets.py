@@ -370,3 +370,31 @@ def test_mat_reader_reads_what_matlab_itself_wrote():
                 np.testing.assert_array_equal(read, value.astype(np.float64), err_msg=path.name)
                 checked += 1
     assert checked >= 10
+
+
+def test_masks_read_alike_however_stored(tmp_path):
+    """0/255, 0/1 (8 and 16 bits), colour, a cut-out's alpha and an opaque alpha give the same
+    mask; an all-black mask has no pixel set (the 0/1 masks used to read as empty)."""
+    cv2 = pytest.importorskip("cv2")
+    from brdfkit.io import write_image
+
+    mask = np.zeros((6, 8), bool)
+    mask[1:4, 2:7] = True
+    stored = {
+        "255.png": mask.astype(np.uint8) * 255,
+        "one.png": mask.astype(np.uint8),
+        "one16.png": mask.astype(np.uint16),
+        "colour.png": np.dstack([mask.astype(np.uint8) * 200] * 3),
+        "cutout.png": np.dstack([np.full(mask.shape, 255, np.uint8)] * 3 + [mask * 255]),
+        "opaque.png": np.dstack([mask.astype(np.uint8) * 255] * 3 + [np.full(mask.shape, 255)]),
+    }
+    for name, codes in stored.items():
+        cv2.imwrite(str(tmp_path / name), codes.astype(codes.dtype))
+        np.testing.assert_array_equal(datasets.read_mask(tmp_path / name), mask, err_msg=name)
+    cv2.imwrite(str(tmp_path / "black.png"), np.zeros((6, 8), np.uint8))
+    assert not datasets.read_mask(tmp_path / "black.png").any()
+    write_image(
+        tmp_path / "nan.exr", np.full((6, 8, 1), np.nan, np.float32), nan_marks_missing=True
+    )
+    with pytest.raises(FormatError, match="NaN"):
+        datasets.read_mask(tmp_path / "nan.exr")

@@ -85,8 +85,9 @@ def lighting_command(
     import json
 
     from brdfkit._array import check_param
-    from brdfkit.io import atomic_write, read_image, write_image
+    from brdfkit.io import atomic_write, write_image
     from brdfkit.vision.calibration import read_linear_image
+    from brdfkit.vision.datasets import read_mask
     from brdfkit.vision.lighting import mirror_ball_to_latlong
 
     if method not in METHODS:
@@ -95,7 +96,7 @@ def lighting_command(
     output = output_file(output, inputs=(image, mask, normals), suffixes=suffixes)
     check_param("--albedo", albedo, 0.0, lo_open=True)
     picture = read_linear_image(image, encoding)
-    m = None if mask is None else read_image(mask)[..., 0] > 0.5
+    m = None if mask is None else read_mask(mask)
     if m is not None and m.shape != picture.shape[:2]:
         fail(f"--mask has shape {m.shape}, the image {picture.shape[:2]}: they must match")
     if method == "mirror-ball":

@@ -272,7 +272,6 @@ def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:
     """The G-buffer of a built-in shape at ``resolution``, or of the normal-map file ``shape``
     (``mask`` its mask image); refused before any work when it would not fit in memory."""
     from brdfkit._checks import check_memory
-    from brdfkit.io import read_image
     from brdfkit.render.scene import Cylinder, Plane, Sphere, gbuffer, normal_map_gbuffer
 
     shapes = {"sphere": Sphere(), "plane": Plane(), "cylinder": Cylinder()}
@@ -284,12 +283,12 @@ def _gbuffer(shape: str, mask: Path | None, resolution: int) -> Any:
     path = _shape_file(shape)
     if path is None:
         fail(f"shape must be one of {sorted(shapes)} or a normal-map file; got {shown(shape)!r}")
-    from brdfkit.vision.datasets import read_normal_map  # a file's reader only: vision is heavy
+    from brdfkit.vision.datasets import read_mask, read_normal_map  # readers only: vision is heavy
 
     normals = read_normal_map(path)
     height, width = normals.shape[:2]
     check_memory(f"rendering {width}×{height} pixels", _BYTES_PER_PIXEL * width * height)
-    m = None if mask is None else read_image(mask)[..., 0] > 0.5
+    m = None if mask is None else read_mask(mask)
     return normal_map_gbuffer(normals, m)
 
 

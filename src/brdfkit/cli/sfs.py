@@ -71,8 +71,9 @@ def sfs_command(
     """Recover depth and normals from one image (Horn's variational shape from shading)."""
     import numpy as np
 
-    from brdfkit.io import read_image, write_image
+    from brdfkit.io import write_image
     from brdfkit.vision.calibration import read_linear_image
+    from brdfkit.vision.datasets import read_mask
     from brdfkit.vision.shape_from_shading import shape_from_shading
 
     try:
@@ -81,7 +82,7 @@ def sfs_command(
         fail(f"--light must be three numbers X,Y,Z; got {light!r}")
     folder = OutputFolder(output, _OUTPUTS, inputs=(image, mask))
     picture = read_linear_image(image, encoding).mean(axis=-1)
-    m = np.ones(picture.shape, bool) if mask is None else read_image(mask)[..., 0] > 0.5
+    m = np.ones(picture.shape, bool) if mask is None else read_mask(mask)
     if m.shape != picture.shape:
         fail(f"--mask has shape {m.shape}, the image {picture.shape}: they must match")
     h, w = (picture.shape[0] // step) * step, (picture.shape[1] // step) * step

@@ -142,21 +142,35 @@ def read_image(path: str | Path) -> np.ndarray:
     brdfkit.errors.FormatError
         It holds NaN or infinity (a float format).
     """
-    image = io.read_image(path)
-    if not np.all(np.isfinite(image)):
-        raise FormatError(path, "the image holds NaN or infinity")
+    image = _read_finite(path)
     return image[..., :-1] if image.shape[2] in (2, 4) else image
 
 
+def _read_finite(path: str | Path) -> np.ndarray:
+    """:func:`brdfkit.io.read_image`, refusing NaN and infinity (a float format)."""
+    image = io.read_image(path)
+    if not np.all(np.isfinite(image)):
+        raise FormatError(path, "the image holds NaN or infinity")
+    return image
+
+
 def read_mask(path: str | Path) -> np.ndarray:
-    """Read a mask image as bool ``(H, W)``: pixels whose brightest channel exceeds one half.
+    """Read a mask image as bool ``(H, W)``: pixels whose brightest channel exceeds half the
+    image's brightest value, so that masks stored as 0 and 255, 0 and 1 or 0 and 65535 read
+    alike (an all-black mask has no pixel set). An alpha channel that varies is the mask (a
+    cut-out); an opaque one is ignored.
 
     Raises
     ------
     brdfkit.errors.FormatError
         As :func:`read_image`.
     """
-    return read_image(path).max(axis=2) > 0.5
+    image = _read_finite(path)
+    if image.shape[2] in (2, 4):
+        alpha = image[..., -1:]
+        image = alpha if alpha.min() < alpha.max() else image[..., :-1]
+    brightest = image.max(axis=2)
+    return brightest > 0.5 * brightest.max()
 
 
 def read_normal_map(path: str | os.PathLike) -> np.ndarray:
