@@ -51,3 +51,34 @@ def test_an_unknown_method_or_contradicting_times_exit_2(exposures, tmp_path):
     result = runner.invoke(app, ["hdr", *map(str, paths), "--times", same, "-o", str(out)])
     assert result.exit_code == 2 and "same exposure time" in result.output
     assert not out.exists()
+
+
+def test_exposure_times_from_exif(exposures, tmp_path):
+    """JPEGs that record their exposure times need no --times: the merge matches the one
+    with the times given; a photo without the tag is named and nothing is written."""
+    from PIL import Image
+
+    from brdfkit.vision.calibration import read_exposure_time
+
+    _, paths = exposures
+    jpegs = []
+    for k, (path, seconds) in enumerate(zip(paths, TIMES, strict=True)):
+        exif = Image.Exif()
+        exif.get_ifd(0x8769)[0x829A] = seconds
+        jpegs.append(tmp_path / f"e{k}.jpg")
+        Image.open(path).save(jpegs[-1], quality=100, exif=exif)
+        assert read_exposure_time(jpegs[-1]) == pytest.approx(seconds)
+    read, given = tmp_path / "read.exr", tmp_path / "given.exr"
+    result = runner.invoke(app, ["hdr", *map(str, jpegs), "-o", str(read)])
+    assert result.exit_code == 0, result.output
+    times = ",".join(map(str, TIMES))
+    assert (
+        runner.invoke(app, ["hdr", *map(str, jpegs), "-t", times, "-o", str(given)]).exit_code == 0
+    )
+    np.testing.assert_allclose(read_image(read), read_image(given), rtol=1e-6)
+    Image.open(paths[2]).save(jpegs[2], quality=100)  # no Exif
+    assert read_exposure_time(jpegs[2]) is None
+    out = tmp_path / "missing.exr"
+    result = runner.invoke(app, ["hdr", *map(str, jpegs), "-o", str(out)])
+    assert result.exit_code != 0 and "e2.jpg records no exposure time" in result.output
+    assert not out.exists()

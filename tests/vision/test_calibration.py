@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brdfkit.errors import ParameterError, ResourceError
-from brdfkit.io import read_image, srgb_encode, write_image
+from brdfkit.errors import FormatError, ParameterError, ResourceError
+from brdfkit.io import ImageNotFoundError, ImageReadError, read_image, srgb_encode, write_image
 from brdfkit.vision.calibration import (
     hat_weights,
     linearize,
     merge_hdr,
+    read_exposure_time,
     read_linear_image,
     recover_response,
 )
@@ -187,3 +188,24 @@ def test_bad_arguments_raise_documented_errors(call, error, match):
     images = np.random.default_rng(1).integers(0, 256, (3, 8, 8, 3)).astype(np.uint8)
     with pytest.raises(error, match=match):
         call(images, [1.0, 2.0, 4.0])
+
+
+def test_read_exposure_time_refuses_what_is_no_time(tmp_path):
+    from PIL import Image
+
+    first_ifd = tmp_path / "ifd0.jpg"
+    exif = Image.Exif()
+    exif[0x829A] = 0.5  # some writers put it in the first IFD
+    Image.new("RGB", (4, 4)).save(first_ifd, exif=exif)
+    assert read_exposure_time(first_ifd) == 0.5
+    zero = tmp_path / "zero.jpg"
+    exif = Image.Exif()
+    exif.get_ifd(0x8769)[0x829A] = 0.0
+    Image.new("RGB", (4, 4)).save(zero, exif=exif)
+    with pytest.raises(FormatError, match=r"zero\.jpg.*not a positive time"):
+        read_exposure_time(zero)
+    with pytest.raises(ImageNotFoundError, match="missing"):
+        read_exposure_time(tmp_path / "missing.jpg")
+    (tmp_path / "text.jpg").write_text("not a photo")
+    with pytest.raises(ImageReadError, match=r"text\.jpg"):
+        read_exposure_time(tmp_path / "text.jpg")

@@ -15,8 +15,14 @@ _Images = Annotated[
     list[Path], typer.Argument(metavar="IMAGE", help="8-bit exposures of a static scene.")
 ]
 _Times = Annotated[
-    str,
-    typer.Option("--times", "-t", metavar="T1,T2,...", help="Exposure times in seconds: t1,t2,..."),
+    str | None,
+    typer.Option(
+        "--times",
+        "-t",
+        metavar="T1,T2,...",
+        help="Exposure times in seconds: t1,t2,... (default: each photo's Exif ExposureTime).",
+        show_default=False,
+    ),
 ]
 _Output = Annotated[Path, typer.Option("--output", "-o", metavar="FILE", help=".exr or .hdr.")]
 _Response = Annotated[
@@ -63,7 +69,7 @@ _FallbackMask = Annotated[
 @app.command("hdr")
 def hdr_command(
     images: _Images,
-    times: _Times,
+    times: _Times = None,
     output: _Output = Path("merged.exr"),
     response: _Response = None,
     method: _Method = "debevec",
@@ -90,7 +96,7 @@ def hdr_command(
         )
     check_param("--smoothness", smoothness, 0.0)
     check_choice("--method", method, METHODS)
-    exposure_times = _exposure_times(times, len(images))
+    exposure_times = _exposure_times(times, images)
     stack = _read_stack(images)
     if method == "debevec":
         g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
@@ -114,8 +120,17 @@ def hdr_command(
     console.print(f"wrote {shown(output)} ({radiance.shape[1]}×{radiance.shape[0]}){note}")
 
 
-def _exposure_times(times: str, count: int) -> list[float]:
-    """The ``--times`` of ``count`` images, in seconds."""
+def _exposure_times(times: str | None, images: list[Path]) -> list[float]:
+    """The exposure time of each image in seconds: ``--times``, else each one's Exif."""
+    from brdfkit.vision.calibration import read_exposure_time
+
+    if times is None:
+        recorded = [read_exposure_time(path) for path in images]
+        for path, seconds in zip(images, recorded, strict=True):
+            if seconds is None:
+                fail(f"{shown(path)} records no exposure time (Exif); give --times T1,T2,...")
+        return recorded
+    count = len(images)
     try:
         exposure_times = [float(v) for v in times.split(",")]
     except ValueError:

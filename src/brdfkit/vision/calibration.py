@@ -36,8 +36,8 @@ from numpy.typing import ArrayLike
 
 from brdfkit._array import check_param
 from brdfkit._checks import as_float_array, check_count, check_memory
-from brdfkit.errors import ParameterError
-from brdfkit.io import read_image, srgb_decode
+from brdfkit.errors import FormatError, ParameterError
+from brdfkit.io import ImageNotFoundError, ImageReadError, read_image, srgb_decode
 
 __all__ = [
     "LEVELS",
@@ -46,6 +46,7 @@ __all__ = [
     "hat_weights",
     "linearize",
     "merge_hdr",
+    "read_exposure_time",
     "read_linear_image",
     "recover_response",
     "sample_pixels",
@@ -120,6 +121,64 @@ def read_linear_image(path: str | os.PathLike, encoding: Encoding | None = None)
             "encoding='linear' if it holds linear values, or give an .hdr/.exr file"
         )
     return linearize(image, encoding)
+
+
+_EXIF_IFD, _EXPOSURE_TIME = 0x8769, 0x829A
+"""The Exif sub-IFD's pointer tag and its ExposureTime tag (seconds, a rational)."""
+
+
+def read_exposure_time(path: str | os.PathLike) -> float | None:
+    """The exposure time (seconds) a photo's Exif metadata records, or ``None`` if it records
+    none (or the file has no Exif block).
+
+    Read with Pillow (a dependency of imageio): the ExposureTime tag of the Exif sub-IFD, or
+    of the first IFD where a writer put it there.
+
+    Raises
+    ------
+    brdfkit.io.ImageReadError
+        The file is missing or not an image Pillow can open.
+    brdfkit.errors.FormatError
+        The tag holds no positive, finite number of seconds.
+
+    References
+    ----------
+    CIPA DC-008-2019, *Exif Version 2.32*, §4.6.5 (ExposureTime, tag 33434).
+
+    Examples
+    --------
+    A JPEG that records 1/250 s:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from PIL import Image
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = Path(folder) / "shot.jpg"
+    ...     exif = Image.Exif()
+    ...     exif.get_ifd(0x8769)[0x829A] = 1 / 250
+    ...     Image.new("RGB", (4, 4)).save(path, exif=exif)
+    ...     read_exposure_time(path)
+    0.004
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as image:
+            exif = image.getexif()
+            value = exif.get_ifd(_EXIF_IFD).get(_EXPOSURE_TIME, exif.get(_EXPOSURE_TIME))
+    except FileNotFoundError as error:
+        raise ImageNotFoundError(path, "no such file") from error
+    except (OSError, UnidentifiedImageError) as error:
+        raise ImageReadError(path, f"cannot read it as an image ({error})") from error
+    if value is None:
+        return None
+    try:
+        seconds = float(value)
+    except (TypeError, ValueError, ZeroDivisionError):
+        seconds = float("nan")
+    if not (np.isfinite(seconds) and seconds > 0):
+        raise FormatError(path, f"its Exif ExposureTime is {value!r}, not a positive time")
+    return seconds
 
 
 def hat_weights(levels: int = 256) -> np.ndarray:
