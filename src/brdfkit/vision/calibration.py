@@ -131,8 +131,8 @@ def read_exposure_time(path: str | os.PathLike) -> float | None:
     """The exposure time (seconds) a photo's Exif metadata records, or ``None`` if it records
     none (or the file has no Exif block).
 
-    Read with Pillow (a dependency of imageio): the ExposureTime tag of the Exif sub-IFD, or
-    of the first IFD where a writer put it there.
+    Read with Pillow: the ExposureTime tag of the Exif sub-IFD, or of the first IFD where a
+    writer put it there.
 
     Raises
     ------
