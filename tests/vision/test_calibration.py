@@ -209,3 +209,26 @@ def test_read_exposure_time_refuses_what_is_no_time(tmp_path):
     (tmp_path / "text.jpg").write_text("not a photo")
     with pytest.raises(ImageReadError, match=r"text\.jpg"):
         read_exposure_time(tmp_path / "text.jpg")
+
+
+def test_the_merge_in_chunks_is_the_merge_at_once(monkeypatch):
+    """Chunks of rows (here one row at a time) give the same radiance and fallback mask as the
+    default chunks (here the whole image), and the callback counts the rows to the last."""
+    from brdfkit.vision import calibration
+
+    images, times, *_ = _stack_with_unexposable_pixels(np.random.default_rng(1))
+    g = recover_response(images, times)
+    whole, mask = merge_hdr(images, times, g, return_mask=True)
+    assert mask.any()  # some pixels fall back, in the first chunk and elsewhere
+    monkeypatch.setattr(calibration, "MERGE_CHUNK", 7)
+    rows = []
+
+    def count(done: int, total: int) -> None:
+        rows.append((done, total))
+
+    chunked, chunked_mask = merge_hdr(images, times, g, return_mask=True, callback=count)
+    np.testing.assert_array_equal(chunked, whole)
+    np.testing.assert_array_equal(chunked_mask, mask)
+    height = images.shape[1]
+    assert len(rows) > 1 and rows[-1] == (height, height)
+    assert [done for done, _ in rows] == sorted(done for done, _ in rows)

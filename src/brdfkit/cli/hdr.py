@@ -3,12 +3,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from brdfkit.cli._app import app, console, fail, shown
+from brdfkit.cli._app import app, console, fail, progress, shown
 from brdfkit.cli._output import output_file
 
 _Images = Annotated[
@@ -97,14 +98,24 @@ def hdr_command(
     check_param("--smoothness", smoothness, 0.0)
     check_choice("--method", method, METHODS)
     exposure_times = _exposure_times(times, images)
-    stack = _read_stack(images)
-    if method == "debevec":
-        g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
-    else:
-        calibrated = calibrate_response(stack, exposure_times, method, samples=samples, bootstrap=0)
-        g = calibrated.log_inverse()
-    radiance, fell_back = merge_hdr(stack, exposure_times, g, return_mask=True)
-    write_image(output, radiance)  # atomic
+    with progress() as bar:
+        task = bar.add_task("reading exposures", total=len(images))
+        stack = _read_stack(images, lambda done: bar.update(task, completed=done))
+        bar.update(task, description=f"recovering the response ({method})", total=None, completed=0)
+        if method == "debevec":
+            g = recover_response(stack, exposure_times, smoothness=smoothness, samples=samples)
+        else:
+            calibrated = calibrate_response(
+                stack, exposure_times, method, samples=samples, bootstrap=0
+            )
+            g = calibrated.log_inverse()
+        bar.update(task, description="merging", completed=0)
+        radiance, fell_back = merge_hdr(
+            stack, exposure_times, g, return_mask=True,
+            callback=lambda done, rows: bar.update(task, completed=done, total=rows),
+        )  # fmt: skip
+        bar.update(task, description=f"writing {shown(output)}", total=None, completed=0)
+        write_image(output, radiance)  # atomic
     if response is not None:
         header = "ln f^-1 per code (rows 0..255), per channel"
         atomic_write(response, lambda tmp: np.savetxt(tmp, g, delimiter=",", header=header))
@@ -140,8 +151,9 @@ def _exposure_times(times: str | None, images: list[Path]) -> list[float]:
     return exposure_times
 
 
-def _read_stack(images: list[Path]) -> list[Any]:
-    """The 8-bit codes of every exposure (RGB or grey), all of one size."""
+def _read_stack(images: list[Path], callback: Callable[[int], None]) -> list[Any]:
+    """The 8-bit codes of every exposure (RGB or grey), all of one size; ``callback(done)``
+    after each."""
     import numpy as np
 
     from brdfkit.io import read_image_codes
@@ -160,4 +172,5 @@ def _read_stack(images: list[Path]) -> list[Any]:
                 "sizes must match"
             )
         stack.append(codes)
+        callback(len(stack))
     return stack

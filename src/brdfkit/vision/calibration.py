@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Literal
 
 import numpy as np
@@ -474,6 +474,7 @@ def merge_hdr(
     response: ArrayLike,
     *,
     return_mask: bool = False,
+    callback: Callable[[int, int], None] | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     r"""Radiance map from an exposure stack and a log inverse response ``g`` (Debevec–Malik).
 
@@ -492,6 +493,8 @@ def merge_hdr(
     times : (P,) exposure times in seconds, finite and positive.
     response : (256, C) or (256,) finite log inverse response (:func:`recover_response`).
     return_mask : also return the fallback mask.
+    callback : ``callback(rows_done, rows)`` after each chunk of rows (:data:`MERGE_CHUNK`
+        values at a time: the memory stays a few bytes per value however many exposures).
 
     Returns
     -------
@@ -515,18 +518,55 @@ def merge_hdr(
     """
     stack, times = _check_stack(images, times)
     response = _check_response(response, stack.shape[-1])
-    # Peak: the float64 weights, log radiances and their product, one value per code.
-    check_memory(f"merging a {stack.shape} exposure stack", 3 * 8 * stack.size)
-    weights = hat_weights(LEVELS)[stack]
-    channel = np.arange(stack.shape[-1])
-    log_radiance = response[stack, channel] - np.log(times)[:, None, None, None]
-    total = weights.sum(axis=0)
-    merged = (weights * log_radiance).sum(axis=0) / np.where(total > 0, total, 1.0)
-    fallback = np.take_along_axis(log_radiance, _fallback_exposure(stack, times)[None], 0)[0]
-    log_merged = np.where(total > 0, merged, fallback)
-    if log_merged.max() >= np.log(np.finfo(np.float32).max):
-        raise ParameterError(
-            f"response is too large: the radiance exp({log_merged.max():.4g}) overflows float32"
-        )
-    radiance = np.exp(log_merged).astype(np.float32)
-    return (radiance, ~np.all(total > 0, axis=-1)) if return_mask else radiance
+    height, width, channels = stack.shape[1:]
+    # The radiance (float32), the fallback mask, and one chunk's six float64 sums and gathers.
+    values = height * width * channels
+    check_memory(f"merging a {stack.shape} exposure stack", 5 * values + 48 * MERGE_CHUNK)
+    weights = hat_weights(LEVELS)
+    weighted = weights[:, None] * response  # w(z) g(z) per code and channel
+    radiance = np.empty((height, width, channels), np.float32)
+    fell_back = np.zeros((height, width), bool)
+    rows = max(1, MERGE_CHUNK // (width * channels))
+    for top in range(0, height, rows):
+        chunk = stack[:, top : top + rows]
+        log_merged, lit = _merge_chunk(chunk, times, response, weights, weighted)
+        if log_merged.max() >= np.log(np.finfo(np.float32).max):
+            raise ParameterError(
+                f"response is too large: the radiance exp({log_merged.max():.4g}) overflows float32"
+            )
+        radiance[top : top + rows] = np.exp(log_merged)
+        fell_back[top : top + rows] = ~np.all(lit, axis=-1)
+        if callback is not None:
+            callback(min(top + rows, height), height)
+    return (radiance, fell_back) if return_mask else radiance
+
+
+MERGE_CHUNK = 1 << 22
+"""Values (pixels times channels) :func:`merge_hdr` merges at a time."""
+
+
+def _merge_chunk(
+    chunk: np.ndarray,
+    times: np.ndarray,
+    response: np.ndarray,
+    weights: np.ndarray,
+    weighted: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The log radiance of a ``(P, h, W, C)`` chunk of the stack (:func:`merge_hdr`'s
+    formula, its sums gathered from the tables ``w(z)`` and ``w(z) g(z)`` one exposure at a
+    time), and where some code was well exposed ``(h, W, C)``."""
+    channel = np.arange(chunk.shape[-1])
+    numerator = np.zeros(chunk.shape[1:])
+    total = np.zeros(chunk.shape[1:])
+    for codes, log_time in zip(chunk, np.log(times), strict=True):
+        w = weights[codes]
+        numerator += weighted[codes, channel] - w * log_time
+        total += w
+    lit = total > 0
+    log_merged = numerator / np.where(lit, total, 1.0)
+    if not lit.all():
+        dark = chunk[:, ~lit]  # (P, K): the codes of the values no exposure showed well
+        exposure = _fallback_exposure(dark, times)
+        codes = np.take_along_axis(dark, exposure[None], 0)[0]
+        log_merged[~lit] = response[codes, np.nonzero(~lit)[-1]] - np.log(times)[exposure]
+    return log_merged, lit
