@@ -468,6 +468,10 @@ def _fallback_exposure(stack: np.ndarray, times: np.ndarray) -> np.ndarray:
     return np.where(saturated.any(axis=0), order[saturated.argmax(axis=0)], order[-1])
 
 
+MERGE_CHUNK = 1 << 22
+"""Values (pixels times channels) :func:`merge_hdr` merges at a time."""
+
+
 def merge_hdr(
     images: Sequence[ArrayLike] | np.ndarray,
     times: ArrayLike,
@@ -539,10 +543,6 @@ def merge_hdr(
         if callback is not None:
             callback(min(top + rows, height), height)
     return (radiance, fell_back) if return_mask else radiance
-
-
-MERGE_CHUNK = 1 << 22
-"""Values (pixels times channels) :func:`merge_hdr` merges at a time."""
 
 
 def _merge_chunk(
