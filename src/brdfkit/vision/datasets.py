@@ -1002,9 +1002,10 @@ def horizon_excess(
     step is longer than 1) and ``s = pixel_size``: the light reaches ``p`` past occluders of
     heights known to within ``b`` exactly when the excess is at most ``b`` (Max's horizon map,
     one march for every bias). ``-inf`` where no surface lies along the ray, and for
-    lights at the zenith or below the horizon. Vectorised over the surface's pixels; loops over
-    lights and march steps only, which stop where the surface's heights can no longer rise
-    above the ray.
+    lights at the zenith or below the horizon. Marched by a compiled kernel, pixel by pixel and
+    the lights over the cores, each march stopping where nothing further along can change its
+    maximum (:mod:`brdfkit.vision._horizon_kernels`; the same numbers as the NumPy march of
+    :func:`horizon_excess_reference`).
 
     Parameters
     ----------
@@ -1041,11 +1042,35 @@ def horizon_excess(
     surface = np.isfinite(height)
     if not surface.any():
         raise ParameterError("height has no finite value")
+    from brdfkit.vision._horizon_kernels import horizon_excess_box
+
+    box, rows, columns, h = _surface_box(height, surface)
+    excess = np.empty((len(lights), len(h)))
+    horizon_excess_box(box, rows, columns, h, lights, float(pixel_size), excess)
+    return excess
+
+
+def _surface_box(
+    height: np.ndarray, surface: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The heights in the surface's bounding box (``-inf`` off the surface: no occluder lies
+    outside it), the surface pixels' rows and columns in the box and their heights."""
     rows, columns = np.nonzero(surface)
-    top, left = rows.min(), columns.min()  # no occluder lies outside the surface's box
+    top, left = rows.min(), columns.min()
     box = np.where(surface, height, -np.inf)[top : rows.max() + 1, left : columns.max() + 1]
     rows, columns = rows - top, columns - left
-    h = box[rows, columns]
+    return box, rows, columns, box[rows, columns]
+
+
+def horizon_excess_reference(
+    height: np.ndarray, light_directions: np.ndarray, pixel_size: float = 1.0
+) -> np.ndarray:
+    """:func:`horizon_excess` as its formula reads, in NumPy: every pixel of the surface marched
+    at once, one step at a time, to the step count the tallest possible occluder needs. The
+    readable version of the compiled march (:mod:`brdfkit.vision._horizon_kernels`), which the
+    tests hold equal to it; no checks (``height`` with a finite value, ``(N, 3)`` lights)."""
+    lights = np.asarray(light_directions, dtype=np.float64)
+    box, rows, columns, h = _surface_box(height, np.isfinite(height))
     span = h.max() - h.min()
     excess = np.full((len(lights), len(h)), -np.inf)
     for k, (l_x, l_y, l_z) in enumerate(lights):
