@@ -42,7 +42,7 @@ _Method = Annotated[
         "-m",
         metavar="METHOD",
         help=f"One of: {', '.join(_METHODS)}; by default shared_bivariate (out of core: "
-        "sparse_regression). Glossy objects: inverse_rendering (about 30 s for 96 images of "
+        "sparse_regression). Glossy objects: inverse_rendering (about 25 s for 96 images of "
         "612 x 512).",
         show_default=False,
     ),

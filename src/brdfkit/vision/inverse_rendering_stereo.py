@@ -69,7 +69,7 @@ the true normals the fit reaches 7.6°); GGX lobes over a Lambertian base (α 0.
 felt 5.68° → 6.49° → 6.39°, worse: a cloth's brightening at grazing incidence (with the
 normals held at the truth its cost is least at ``F_D90 = 2``) is not what this shape captures,
 and the normals lean to a darker one (least cost at 0). The grazing factor costs some 3 s and
-ST14's start some 2 s of the 30 s of 96 images of 612 × 512
+ST14's start some 2 s of the 23 s of 96 images of 612 × 512
 (``benchmarks/bench_photometric_stereo.py``).
 
 References
