@@ -83,6 +83,7 @@ __all__ = [
     "srgb_decode",
     "srgb_encode",
     "tonemap",
+    "without_alpha",
     "write_image",
 ]
 
@@ -166,6 +167,12 @@ def srgb_encode(linear: Array) -> Array:
     curve = (1 + _SRGB_A) * safe ** (1 / _SRGB_GAMMA) - _SRGB_A
     low = _SRGB_SLOPE * xp.maximum(linear, xp.zeros_like(linear))
     return xp.where(linear <= _SRGB_LINEAR_BREAK, low, curve)
+
+
+def without_alpha(image: np.ndarray) -> np.ndarray:
+    """The colour channels of an ``(H, W, C)`` image: the last channel dropped where ``C`` is 2
+    (grey and alpha) or 4 (RGBA), else the image itself."""
+    return image[..., :-1] if image.shape[-1] in (2, 4) else image
 
 
 def srgb_decode(encoded: Array) -> Array:

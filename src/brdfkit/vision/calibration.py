@@ -37,7 +37,13 @@ from numpy.typing import ArrayLike
 from brdfkit._array import check_param
 from brdfkit._checks import as_float_array, check_count, check_memory
 from brdfkit.errors import FormatError, ParameterError
-from brdfkit.io import ImageNotFoundError, ImageReadError, read_image, srgb_decode
+from brdfkit.io import (
+    ImageNotFoundError,
+    ImageReadError,
+    read_image,
+    srgb_decode,
+    without_alpha,
+)
 
 __all__ = [
     "LEVELS",
@@ -104,9 +110,7 @@ def read_linear_image(path: str | os.PathLike, encoding: Encoding | None = None)
     .. [1] IEC 61966-2-1:1999.
     """
     suffix = os.fspath(path).lower().rsplit(".", 1)[-1]
-    image = read_image(path)
-    if image.shape[-1] in (2, 4):
-        image = image[..., :-1]
+    image = without_alpha(read_image(path))
     if f".{suffix}" in LINEAR_SUFFIXES:
         if encoding == "srgb":
             raise ParameterError(

@@ -142,8 +142,7 @@ def read_image(path: str | Path) -> np.ndarray:
     brdfkit.errors.FormatError
         It holds NaN or infinity (a float format).
     """
-    image = _read_finite(path)
-    return image[..., :-1] if image.shape[2] in (2, 4) else image
+    return io.without_alpha(_read_finite(path))
 
 
 def _read_finite(path: str | Path) -> np.ndarray:
@@ -168,7 +167,7 @@ def read_mask(path: str | Path) -> np.ndarray:
     image = _read_finite(path)
     if image.shape[2] in (2, 4):
         alpha = image[..., -1:]
-        image = alpha if alpha.min() < alpha.max() else image[..., :-1]
+        image = alpha if alpha.min() < alpha.max() else io.without_alpha(image)
     brightest = image.max(axis=2)
     return brightest > 0.5 * brightest.max()
 
@@ -204,8 +203,7 @@ def read_normal_map(path: str | os.PathLike) -> np.ndarray:
     elif path.suffix.lower() in LINEAR_SUFFIXES:
         normals = read_image(path).astype(np.float64)
     else:
-        codes = io.read_image_codes(path)
-        codes = codes[..., :-1] if codes.shape[2] in (2, 4) else codes  # no alpha
+        codes = io.without_alpha(io.read_image_codes(path))
         normals = 2.0 * codes / np.iinfo(codes.dtype).max - 1.0
     if normals.ndim != 3 or normals.shape[2] != 3 or 0 in normals.shape:
         raise FormatError(path, f"a normal map must have shape (H, W, 3); got {normals.shape}")

@@ -945,12 +945,11 @@ def _check_no_black_image(gray: np.ndarray) -> None:
     black = np.flatnonzero(~np.any(gray > 0, axis=1))
     if black.size:
         numbers = ", ".join(str(k + 1) for k in black[:10]) + (" ..." if black.size > 10 else "")
-        one = black.size == 1
+        noun, verb, them = ("image", "is", "it") if black.size == 1 else ("images", "are", "them")
         raise ParameterError(
-            f"{'image' if one else 'images'} {numbers} (counted from 1) "
-            f"{'is' if one else 'are'} black inside the mask: no light can be estimated from "
-            f"{'it' if one else 'them'}; leave {'it' if one else 'them'} out, or give the "
-            "lights (calibrated photometric stereo)"
+            f"{noun} {numbers} (counted from 1) {verb} black inside the mask: no light can be "
+            f"estimated from {them}; leave {them} out, or give the lights (calibrated "
+            "photometric stereo)"
         )
 
 
