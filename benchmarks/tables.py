@@ -999,7 +999,8 @@ def ps_cli(r: dict) -> str:
               "depth RMSE %", "lights' error °", "wall s", "CPU s"]  # fmt: skip
     return (
         f"`brdfkit ps FOLDER --json` on 96-image, 612 × 512 DiLiGenT folders ({r['material']}), "
-        f"each a fresh process, caches warm:\n\n{rows(header, body, 'llllrrrrr')}"
+        f"each a fresh process, caches warm but in the run so named (a first run after "
+        f"installing):\n\n{rows(header, body, 'llllrrrrr')}"
     )
 
 
