@@ -690,8 +690,8 @@ def fit_pixels(
     """:func:`_fit` on every pixel (normals ``(P, 3)``, intensities and weights ``(P, N)``):
     residuals ``(P, N)`` and weights ``(P, K)`` into the output arrays, the active sets
     ``(P, K)`` updated in place (the start of the next fit); returns the costs ``(P,)``.
-    ``products`` ``(P, 6)``, if given, receives each fit's ``J^T J`` and ``J^T r`` as
-    :func:`lm_step` keeps them (its first iteration then needs no refit)."""
+    ``products`` ``(P, 6)``, if given and not empty, receives each fit's ``J^T J`` and
+    ``J^T r`` as :func:`lm_step` keeps them (its first iteration then needs no refit)."""
     n_pixels, n_lights = gray.shape
     k = coef.shape[1]
     cost = np.empty(n_pixels)
@@ -720,7 +720,7 @@ def _fit_block(
             nx, ny, nz, kept, g_kept, w_kept, m, lights, half, cos_d, column, fraction, kind,
             ints, fa, fb, warm, nonnegative, residual[p], coef[p], free[p], scratch,
         )  # fmt: skip
-        if products is not None:
+        if products is not None and len(products):
             _store_products(
                 products, p, nx, ny, nz, kept, w_kept, m, lights, half, cos_d, column,
                 fraction, kind, ints, fa, fb, residual[p], coef[p], free[p], scratch,

@@ -84,6 +84,12 @@ STEP_TOLERANCE = 1e-6
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
 
 
+NO_PRODUCTS = np.empty((0, 6))
+"""The ``products`` of a fit that keeps none: an empty array rather than ``None``, so that the
+kernels are compiled once for both uses (a ``None`` is a type of its own to numba, and each
+such signature costs seconds of compiling on a first run)."""
+
+
 @dataclass(frozen=True)
 class Basis:
     """A reflectance basis of ``size`` functions of ``(cos θ_i, cos θ_h, cos θ_d)``, cosine
@@ -181,6 +187,7 @@ def _fit(
         cost = _bivariate_stereo_kernels.fit_pixels(
             np.ascontiguousarray(normals, dtype=np.float64), gray, weights,
             *_kernel_inputs(lights, basis), nonnegative, residual, coefficients, free,
+            NO_PRODUCTS,
         )  # fmt: skip
     return residual, coefficients, cost
 
