@@ -506,3 +506,26 @@ def test_table_rows_equal_the_arccos_rows():
         same = bins[:, 0] == i  # a node's boundary may fall on either side by a bit
         assert same.mean() > 0.999
         np.testing.assert_allclose(fractions[same, 0], (u - i)[same], rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("method", ["constrained_bivariate", "bipolynomial"])
+def test_the_threads_share_the_pixels_without_changing_a_number(method):
+    """The fits and the normal search run in threads of their own (``_over_threads``), every
+    pixel on its own: one thread gives the same normals, bit for bit, as two. (Not so shared
+    bivariate: its table sums over the pixels, in an order the threads set.)"""
+    import numba
+
+    normals, mask = photometric_stereo.sphere_normals((40, 40), (19.5, 19.5), 19.0)
+    data = datasets.render_synthetic(
+        normals, mask, datasets.diligent_like_lights(), albedo=0.5, specular=0.5,
+        shininess=40.0, noise=0.002, rng=np.random.default_rng(2),
+    )  # fmt: skip
+    solve = bivariate_stereo.METHODS[method]
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        alone = solve(data.images, data.light_directions, data.mask).normals
+    finally:
+        numba.set_num_threads(threads)
+    shared = solve(data.images, data.light_directions, data.mask).normals
+    np.testing.assert_array_equal(alone, shared)

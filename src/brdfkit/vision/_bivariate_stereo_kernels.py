@@ -4,7 +4,8 @@ Variable projection: for a candidate normal, a pixel's reflectance weights are t
 (non-negative) least-squares fit of its lit observations to a ``K``-function basis, and the
 normal is found by Levenberg–Marquardt on the remaining residual. Each kernel does for one
 pixel what the NumPy formulation did for all at once (the tests keep that formulation as the
-reference), with the pixels split over the cores (``numba.prange``); per pixel:
+reference), with the pixels split over the cores (the fits and the normal search in threads
+of their own, :func:`_over_threads`; the lighter passes in ``numba.prange`` loops); per pixel:
 
 - only the observations of non-zero weight are visited (a shadowed or trimmed one adds nothing
   to the fit and its residual is 0);
@@ -47,6 +48,8 @@ References
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from brdfkit.compiled.kernel_tools import without_runtime
@@ -84,6 +87,45 @@ SCREEN_MARGIN = 1e-7
 """The margin of :func:`best_start`'s screening, relative to the pixel's ``sum w I^2``: above
 the fits' relative ridge of 1e-9 (the bounds hold for the ridge-free costs) and small against
 any cost the methods reach (noise at 1e-3 of the signal makes a cost of ~1e-6 of it)."""
+
+
+TASKS_PER_THREAD = 8
+"""Tasks of :func:`_over_threads` per thread: blocks of pixels interleaved, so that a region of
+costly pixels (highlights, pixels still searching) is shared out, taken as threads finish."""
+
+
+def _over_threads(kernel, n_pixels: int, *arguments) -> None:
+    """``kernel(task, tasks, *arguments)`` for every task, on ``numba.get_num_threads()``
+    threads: each task takes every ``tasks``-th block of :data:`BLOCK` pixels.
+
+    The per-pixel kernels run in Python threads rather than in numba's parallel loops: they
+    release the GIL (``nogil``) and compile as plain functions, where the parallel loops made
+    a first run of ``brdfkit ps`` (every 4th pixel) compile for 41 s rather than 30 (at the
+    same speed once compiled).
+    """
+    blocks = -(-n_pixels // BLOCK)
+    threads = max(1, min(numba.get_num_threads(), blocks))
+    tasks = min(blocks, threads * TASKS_PER_THREAD)
+    if threads == 1:
+        for task in range(tasks):
+            kernel(task, tasks, *arguments)
+        return
+    futures = [_pool(threads).submit(kernel, task, tasks, *arguments) for task in range(tasks)]
+    try:
+        for future in futures:
+            future.result()
+    except BaseException:  # an interrupt: the tasks not started are not run
+        for future in futures:
+            future.cancel()
+        raise
+
+
+@functools.cache
+def _pool(threads: int):
+    """A pool of ``threads`` worker threads, kept for the process (its threads wait idle)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    return ThreadPoolExecutor(max_workers=threads, thread_name_prefix="brdfkit-pixels")
 
 
 @_jit
@@ -682,27 +724,38 @@ def _products(
     return j00, j01, j11, g0, g1
 
 
-@_pjit
 def fit_pixels(
     normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
     warm, nonnegative, residual, coef, free, products=None,
-):  # pragma: no cover  # fmt: skip
+):  # fmt: skip
     """:func:`_fit` on every pixel (normals ``(P, 3)``, intensities and weights ``(P, N)``):
     residuals ``(P, N)`` and weights ``(P, K)`` into the output arrays, the active sets
     ``(P, K)`` updated in place (the start of the next fit); returns the costs ``(P,)``.
     ``products`` ``(P, 6)``, if given and not empty, receives each fit's ``J^T J`` and
     ``J^T r`` as :func:`lm_step` keeps them (its first iteration then needs no refit)."""
+    cost = np.empty(len(gray))
+    _over_threads(
+        _fit_tasks, len(gray), normals, gray, weights, lights, half, cos_d, column, fraction,
+        kind, ints, fa, fb, warm, nonnegative, residual, coef, free, products, cost,
+    )  # fmt: skip
+    return cost
+
+
+@_jit
+def _fit_tasks(
+    task, tasks, normals, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa,
+    fb, warm, nonnegative, residual, coef, free, products, cost,
+):  # pragma: no cover  # fmt: skip
+    """:func:`fit_pixels` on the blocks ``task``, ``task + tasks``, … (:func:`_over_threads`)."""
     n_pixels, n_lights = gray.shape
     k = coef.shape[1]
-    cost = np.empty(n_pixels)
-    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+    for block in range(task, (n_pixels + BLOCK - 1) // BLOCK, tasks):
         _fit_block(
             block * BLOCK, min((block + 1) * BLOCK, n_pixels), normals, gray, weights, lights,
             half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, residual, coef,
             free, products, cost, np.empty(n_lights, np.int64), np.empty(n_lights),
             np.empty(n_lights), _scratch(n_lights, k), _products_scratch(n_lights, k),
         )  # fmt: skip
-    return cost
 
 
 @_hot
@@ -849,11 +902,10 @@ def _try_start(
     return False
 
 
-@_pjit
 def best_start(
     starts, ring, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb,
     warm, nonnegative, normals, residual, cost, free, coefficients, screen=True, products=None,
-):  # pragma: no cover  # fmt: skip
+):  # fmt: skip
     """:func:`~brdfkit.vision.bivariate_stereo._best_start` per pixel: the candidate of least cost
     among ``starts`` ``(S, P, 3)`` (the first of equal costs), then among it and the 6 normals
     ``ring`` radians around it, into ``normals`` ``(P, 3)``, with its residual ``(P, N)``, cost
@@ -872,10 +924,23 @@ def best_start(
     :func:`lm_step` keeps them (from the winner's fit, kept aside: the search's first iteration
     needs no refit), and ``free`` the winner's active set.
     """
+    _over_threads(
+        _best_start_tasks, starts.shape[1], starts, np.cos(ring), np.sin(ring), gray, weights,
+        lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, normals,
+        residual, cost, free, coefficients, screen, products,
+    )  # fmt: skip
+
+
+@_jit
+def _best_start_tasks(
+    task, tasks, starts, cos_ring, sin_ring, gray, weights, lights, half, cos_d, column,
+    fraction, kind, ints, fa, fb, warm, nonnegative, normals, residual, cost, free,
+    coefficients, screen, products,
+):  # pragma: no cover  # fmt: skip
+    """:func:`best_start` on the blocks ``task``, ``task + tasks``, … (:func:`_over_threads`)."""
     n_pixels, n_lights = starts.shape[1], gray.shape[1]
     k = free.shape[1]
-    cos_ring, sin_ring = np.cos(ring), np.sin(ring)
-    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+    for block in range(task, (n_pixels + BLOCK - 1) // BLOCK, tasks):
         _best_start_block(
             block * BLOCK, min((block + 1) * BLOCK, n_pixels), starts, cos_ring, sin_ring, gray,
             weights, lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm,
@@ -947,11 +1012,10 @@ def _best_start_block(
             )  # fmt: skip
 
 
-@_pjit
 def lm_step(
     normals, damping, residual, cost, active, free, gray, weights, lights, half, cos_d, column,
     fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products=None, coefficients=None,
-):  # pragma: no cover  # fmt: skip
+):  # fmt: skip
     """One Levenberg–Marquardt iteration of :func:`~brdfkit.vision.bivariate_stereo._refine_normals`
     on every ``active`` pixel, in place on ``normals`` ``(P, 3)``, ``damping`` ``(P,)``,
     ``residual`` ``(P, N)``, ``cost`` ``(P,)``, ``active`` ``(P,)``, the active sets ``free``
@@ -962,17 +1026,29 @@ def lm_step(
     step ``-(J^T J + λ tr(J^T J)/2 I)^{-1} J^T r`` clipped to 0.2 per coordinate is kept if the
     cost falls (``λ`` / 3, else ``λ`` × 4, within [1e-7, 1e7]). A pixel whose step is below
     ``tolerance`` (both coordinates) stops: it is made inactive without trying the step.
-    (Pixels stop at different iterations: call it with a small ``numba.parallel_chunksize`` so
-    that the threads share the work.)
 
     ``products`` ``(P, 6)``, if given (zeros at the start), keeps each pixel's ``J^T J``,
     ``J^T r`` of its current normal and whether they hold: they are computed from the fit that
     accepted the normal (and kept through rejected steps), so that no iteration refits the
     current normal (the same numbers as the refit).
     """
+    _over_threads(
+        _lm_tasks, len(gray), normals, damping, residual, cost, active, free, gray, weights,
+        lights, half, cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, tolerance,
+        products, coefficients,
+    )  # fmt: skip
+
+
+@_jit
+def _lm_tasks(
+    task, tasks, normals, damping, residual, cost, active, free, gray, weights, lights, half,
+    cos_d, column, fraction, kind, ints, fa, fb, warm, nonnegative, tolerance, products,
+    coefficients,
+):  # pragma: no cover  # fmt: skip
+    """:func:`lm_step` on the blocks ``task``, ``task + tasks``, … (:func:`_over_threads`)."""
     n_pixels, n_lights = gray.shape
     k = free.shape[1]
-    for block in numba.prange((n_pixels + BLOCK - 1) // BLOCK):
+    for block in range(task, (n_pixels + BLOCK - 1) // BLOCK, tasks):
         _lm_block(
             block * BLOCK, min((block + 1) * BLOCK, n_pixels), normals, damping, residual, cost,
             active, free, gray, weights, lights, half, cos_d, column, fraction, kind, ints, fa,

@@ -74,11 +74,6 @@ MAX_ITERATIONS = 200
 BEST_START_RING = np.radians(12.0)
 """Radius of the ring of 6 normals tried around the best start (:func:`_refine_normals`)."""
 
-CHUNK = 2
-"""Blocks of :data:`~brdfkit.vision._bivariate_stereo_kernels.BLOCK` pixels a thread takes at a time
-from the per-pixel kernels (``numba.parallel_chunksize``), as they finish, rather than fixed
-equal shares: the pixels' costs differ (highlights, shadows, pixels that stopped)."""
-
 STEP_TOLERANCE = 1e-6
 """A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
@@ -174,7 +169,6 @@ def _fit(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_residuals` and the costs ``|residual|^2`` ``(P,)``; ``free`` ``(P, K)`` holds the
     active sets the non-negative fits start from, updated in place (by default all free)."""
-    import numba
 
     from brdfkit.vision import _bivariate_stereo_kernels
 
@@ -183,12 +177,10 @@ def _fit(
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
     residual = np.empty(gray.shape)
     coefficients = np.empty((len(gray), basis.size))
-    with numba.parallel_chunksize(CHUNK):
-        cost = _bivariate_stereo_kernels.fit_pixels(
-            np.ascontiguousarray(normals, dtype=np.float64), gray, weights,
-            *_kernel_inputs(lights, basis), nonnegative, residual, coefficients, free,
-            NO_PRODUCTS,
-        )  # fmt: skip
+    cost = _bivariate_stereo_kernels.fit_pixels(
+        np.ascontiguousarray(normals, dtype=np.float64), gray, weights,
+        *_kernel_inputs(lights, basis), nonnegative, residual, coefficients, free, NO_PRODUCTS,
+    )  # fmt: skip
     return residual, coefficients, cost
 
 
@@ -220,7 +212,6 @@ def _refine_normals(
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
     (``callback`` is called after each iteration run).
     """
-    import numba
 
     from brdfkit.vision import _bivariate_stereo_kernels
 
@@ -237,27 +228,24 @@ def _refine_normals(
             np.empty(len(gray)),
             np.empty((len(gray), basis.size)),
         )
-        with numba.parallel_chunksize(CHUNK):
-            _bivariate_stereo_kernels.best_start(
-                starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
-                cost, free, coefficients, True, products,
-            )  # fmt: skip
+        _bivariate_stereo_kernels.best_start(
+            starts, BEST_START_RING, gray, weights, *inputs, nonnegative, normals, residual,
+            cost, free, coefficients, True, products,
+        )  # fmt: skip
     else:
         normals = np.array(normals, dtype=np.float64, order="C")
         residual, coefficients = np.empty(gray.shape), np.empty((len(gray), basis.size))
-        with numba.parallel_chunksize(CHUNK):
-            cost = _bivariate_stereo_kernels.fit_pixels(
-                normals, gray, weights, *inputs, nonnegative, residual, coefficients, free,
-                products,
-            )  # fmt: skip
+        cost = _bivariate_stereo_kernels.fit_pixels(
+            normals, gray, weights, *inputs, nonnegative, residual, coefficients, free,
+            products,
+        )  # fmt: skip
     damping = np.full(len(normals), 1e-3)
     active = np.ones(len(normals), dtype=bool)
     for iteration in range(iterations):
-        with numba.parallel_chunksize(CHUNK):  # pixels stop at different iterations
-            _bivariate_stereo_kernels.lm_step(
-                normals, damping, residual, cost, active, free, gray, weights, *inputs,
-                nonnegative, STEP_TOLERANCE, products, coefficients,
-            )  # fmt: skip
+        _bivariate_stereo_kernels.lm_step(
+            normals, damping, residual, cost, active, free, gray, weights, *inputs,
+            nonnegative, STEP_TOLERANCE, products, coefficients,
+        )  # fmt: skip
         if callback is not None:
             callback(iteration + 1, iterations)
         if not active.any():
