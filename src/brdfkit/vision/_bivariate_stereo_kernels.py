@@ -49,6 +49,9 @@ References
 from __future__ import annotations
 
 import functools
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -96,7 +99,7 @@ DiLiGenT size 8 made each call 5 % slower than numba's parallel loops (a task's 
 dispatch, 130 calls in ST14's search), 1 and 2 as fast."""
 
 
-def _over_threads(kernel, n_pixels: int, *arguments) -> None:
+def _over_threads(kernel: Callable[..., None], n_pixels: int, *arguments: object) -> None:
     """``kernel(task, tasks, *arguments)`` for every task, on ``numba.get_num_threads()``
     threads: each task takes every ``tasks``-th block of :data:`BLOCK` pixels.
 
@@ -122,11 +125,14 @@ def _over_threads(kernel, n_pixels: int, *arguments) -> None:
         raise
 
 
-@functools.cache
-def _pool(threads: int):
-    """A pool of ``threads`` worker threads, kept for the process (its threads wait idle)."""
-    from concurrent.futures import ThreadPoolExecutor
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """A pool of ``threads`` worker threads, kept for the process (its threads wait idle); a
+    forked child, which has none of its parent's threads, makes its own."""
+    return _process_pool(threads, os.getpid())
 
+
+@functools.cache
+def _process_pool(threads: int, process: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(max_workers=threads, thread_name_prefix="brdfkit-pixels")
 
 

@@ -128,7 +128,7 @@ docstring)."""
 
 CONTOUR_FACING = 0.2
 """An edge is cut only at an occluding contour: where one of its two pixels' normals is within
-about 78° of perpendicular to its viewing ray, ``|n·r| < 0.2`` (see the module docstring)."""
+about 12° of perpendicular to its viewing ray, ``|n·r| < 0.2`` (see the module docstring)."""
 
 PRIOR_WEIGHT = 0.01
 """The depth prior's default ``β``: each known depth weighs 1 % of a typical equation, between

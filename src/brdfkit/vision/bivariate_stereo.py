@@ -78,7 +78,6 @@ STEP_TOLERANCE = 1e-6
 """A pixel's normal search stops when its Levenberg–Marquardt step is below this, in radians
 per tangent coordinate (2e-4°: far below any error the methods reach)."""
 
-
 NO_PRODUCTS = np.empty((0, 6))
 """The ``products`` of a fit that keeps none: an empty array rather than ``None``, so that the
 kernels are compiled once for both uses (a ``None`` is a type of its own to numba, and each
