@@ -168,7 +168,6 @@ def _fit(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_residuals` and the costs ``|residual|^2`` ``(P,)``; ``free`` ``(P, K)`` holds the
     active sets the non-negative fits start from, updated in place (by default all free)."""
-
     from brdfkit.vision import _bivariate_stereo_kernels
 
     if free is None:
@@ -211,7 +210,6 @@ def _refine_normals(
     :data:`STEP_TOLERANCE`; the search ends after ``iterations`` or when every pixel stopped
     (``callback`` is called after each iteration run).
     """
-
     from brdfkit.vision import _bivariate_stereo_kernels
 
     gray, weights = np.ascontiguousarray(gray), np.ascontiguousarray(weights)
